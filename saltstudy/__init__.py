@@ -1,0 +1,35 @@
+"""saltstudy: LES of a saltating sand bed two-way coupled with Lagrangian grains.
+
+A software reproduction of Dupont, Bergametti, Marticorena & Simoens (2013), *Modeling saltation
+intermittency*, J. Geophys. Res. Atmos. 118, doi:10.1002/jgrd.50528.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+__version__ = "0.1.0"
+
+
+def _source_key() -> str:
+    """Hash of the numerical sources: numba's on-disk cache is keyed by it (see _jit.py)."""
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256(__version__.encode())
+    for sub in ("_jit.py", "physics", "solver"):
+        p = here / sub
+        files = [p] if p.is_file() else sorted(p.rglob("*.py"))
+        for f in files:
+            h.update(f.name.encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
+SOURCE_KEY = _source_key()
+
+if "NUMBA_CACHE_DIR" not in os.environ:
+    _base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "saltstudy" / "numba"
+    os.environ["NUMBA_CACHE_DIR"] = str(_base / SOURCE_KEY)
+# numba's workqueue layer aborts when kernels are called from several threads (dask threads);
+# prefer OpenMP, then TBB.
+os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp tbb workqueue")

@@ -1,0 +1,500 @@
+"""Validated, frozen configuration models for cases, fidelities, studies and resolved scenes.
+
+A *case* (``cases/caseNN.toml``) fixes the physics of one run of Dupont et al. (2013, Table 2):
+wind, soil, splash constants, physics switches, Q and the seed. A *fidelity*
+(``workflows/fidelities/NAME.toml``) fixes only what costs: domain, grid, time-step policy,
+durations, sampling and the parcel-count knob. A *study* (``workflows/NAME.toml``) names which cases
+run at which fidelities. A :class:`Scene` is one case resolved against one fidelity: everything the
+solver needs, and nothing else.
+
+All lengths in m, times in s, velocities in m s^-1, densities in kg m^-3, angles in degrees.
+Defaults carry over the paper's values (sections 2.1-2.4, Appendix A); see ``data/dupont2013.toml``.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tomllib
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+__all__ = [
+    "Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Physics", "Particles",
+    "Case", "GridSpec", "TimeStepping", "SpinUp", "Sampling", "Outputs", "Fidelity", "SceneSpec",
+    "Study", "Scene", "RunSpec", "ConfigError", "content_hash", "project_root", "load_case",
+    "load_fidelity", "load_study", "resolve_scene", "case_path", "list_case_numbers", "deep_merge",
+    "PAPER_AREA_M2", "study_runs", "validate_model", "validate_file",
+]
+
+# Horizontal area of the paper's domain (20 m x 15 m, section 2.4): the initial release of 10 000
+# parcels is per this area.
+PAPER_AREA_M2 = 20.0 * 15.0
+
+
+class ConfigError(ValueError):
+    """A configuration file could not be read or is invalid. ``str()`` names file, field and reason."""
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid", validate_default=True)
+
+
+def content_hash(model: BaseModel | dict[str, Any], length: int = 16) -> str:
+    """Stable SHA-256 of a model's JSON dump (independent of PYTHONHASHSEED and key order)."""
+    data = model.model_dump(mode="json") if isinstance(model, BaseModel) else model
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:length]
+
+
+# --------------------------------------------------------------------------------------------
+# Case: the physics
+# --------------------------------------------------------------------------------------------
+class Air(_Frozen):
+    """Air properties (neutral, dry). Paper: Boussinesq fluid, section 2.1."""
+    rho: float = Field(1.2, gt=0, description="air density rho [kg m^-3]")
+    nu: float = Field(1.5e-5, gt=0, description="molecular kinematic viscosity nu [m^2 s^-1]")
+    g: float = Field(9.81, gt=0, description="gravity g [m s^-2]")
+    kappa: float = Field(0.40, gt=0, lt=1, description="von Karman constant (paper: 0.40)")
+
+
+class SoilMode(_Frozen):
+    """One lognormal mode of the soil mass-size distribution (paper eq. 5)."""
+    mass_fraction: float = Field(1.0, gt=0, le=1, description="m_j, mass fraction of the mode [-]")
+    mu: float = Field(2.0e-4, gt=0, lt=0.01, description="mu_j, mass median diameter [m]")
+    sigma: float = Field(1.2, gt=1.0, lt=5.0, description="sigma_j, geometric standard deviation [-] (> 1)")
+
+
+class Soil(_Frozen):
+    """Erodible bed: lognormal modes of the mass-size distribution and grain density."""
+    modes: tuple[SoilMode, ...] = Field((SoilMode(),), min_length=1)
+    rho_p: float = Field(2650.0, gt=0, description="grain density rho_p [kg m^-3] (quartz)")
+
+    @model_validator(mode="after")
+    def _fractions_sum_to_one(self) -> "Soil":
+        total = sum(m.mass_fraction for m in self.modes)
+        if abs(total - 1.0) > 1e-6:
+            raise ValueError(f"mass fractions of the soil modes must sum to 1 (got {total:g})")
+        return self
+
+    @property
+    def mean_diameter(self) -> float:
+        """<d_p> = sum_j m_j mu_j [m], the mean soil diameter of eq. 8."""
+        return sum(m.mass_fraction * m.mu for m in self.modes)
+
+
+class Splash(_Frozen):
+    """Splash constants, paper eqs. 6-9 (section 2.3)."""
+    p_reb_max: float = Field(0.95, gt=0, le=1, description="asymptotic rebound probability, eq. 6")
+    gamma_reb: float = Field(2.0, gt=0, description="gamma_reb [s m^-1], eq. 6")
+    reb_speed_mean: float = Field(0.6, gt=0, description="<v_reb>/v_imp, eq. 7")
+    reb_speed_std: float = Field(0.25, ge=0, description="sigma_reb/v_imp, eq. 7")
+    reb_angle_v_mean: float = Field(30.0, gt=0, lt=90, description="<alpha_vreb> [deg]")
+    reb_angle_v_std: float = Field(15.0, ge=0, description="sigma of alpha_vreb [deg]")
+    reb_angle_h_mean: float = Field(0.0, ge=-90, le=90, description="<alpha_hreb> [deg]")
+    reb_angle_h_std: float = Field(10.0, ge=0, description="sigma of alpha_hreb [deg]")
+    a_ej: float = Field(0.03, gt=0, description="a of eq. 8 (Kok & Renno 2009 range 0.01-0.05)")
+    ej_speed_mean: float = Field(0.08, gt=0, description="<v_ej>/v_imp, eq. 9 (Rice et al. 1995)")
+    ej_angle_v_mean: float = Field(60.0, gt=0, lt=90, description="<alpha_vej> [deg]")
+    ej_angle_v_std: float = Field(15.0, ge=0, description="sigma of alpha_vej [deg]")
+    ej_angle_h_mean: float = Field(0.0, ge=-90, le=90, description="<alpha_hej> [deg]")
+    ej_angle_h_std: float = Field(10.0, ge=0, description="sigma of alpha_hej [deg]")
+    impact_layer: float = Field(5.0e-4, gt=0, lt=0.01, description="impact layer depth [m] (0.5 mm)")
+
+
+class Threshold(_Frozen):
+    """Shao & Lu (2000) threshold constants as used by the paper (section 3.1)."""
+    A_N: float = Field(0.0123, gt=0)
+    gamma: float = Field(3.0e-4, ge=0, description="cohesion constant gamma [kg s^-2]")
+
+
+class Forcing(_Frozen):
+    """Drive: the flow is held at friction velocity ``u_star_s`` above the saltation layer."""
+    u_star_s: float = Field(..., gt=0, lt=5.0, description="target friction velocity u*s [m s^-1]")
+    z_ref: float = Field(2.0, gt=0, description="height where u* is read and held [m] (paper: 2 m)")
+    controller_timescale: float = Field(
+        20.0, gt=0, description="relaxation time of the driving-velocity controller [s]")
+
+
+class Surface(_Frozen):
+    """Rigid bed: log-law stress at the first level."""
+    z0: float = Field(1.0e-5, gt=0, lt=0.1, description="roughness length z0 [m] (paper: 10 um)")
+
+
+class Physics(_Frozen):
+    """Process switches. Defaults are the paper's choices; a switched-off process is not constructed."""
+    saltation: bool = Field(True, description="Lagrangian grains (off: flow only)")
+    two_way_coupling: bool = Field(True, description="grain drag acts back on the air (eq. 2)")
+    tke_particle_sink: bool = Field(True, description="SGS TKE sink by grain drag (eq. A1)")
+    aerodynamic_entrainment: bool = Field(False, description="lift-off by the wind (off in the paper)")
+    sgs_particle_velocity: bool = Field(False, description="stochastic SGS grain velocity (off in the paper)")
+    temperature: bool = Field(False, description="potential-temperature equation (neutral: not needed)")
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "Physics":
+        if self.temperature:
+            raise ValueError("temperature: a potential-temperature equation is not implemented; "
+                             "the scenes of this study are neutral")
+        if not self.saltation and (self.aerodynamic_entrainment or self.sgs_particle_velocity):
+            raise ValueError("aerodynamic_entrainment/sgs_particle_velocity need saltation = true")
+        return self
+
+
+class Particles(_Frozen):
+    """Computational parcels (each stands for Q real grains; paper section 2.1 and 2.4)."""
+    Q: float = Field(..., gt=0, description="real grains per computational parcel [-]")
+    n_initial: int = Field(10_000, gt=0, description="parcels released at activation, per 300 m^2")
+    release_depth: float = Field(0.3, gt=0, description="release layer depth above the bed [m]")
+
+
+class Case(_Frozen):
+    """One case of the study (one row of the paper's Table 2)."""
+    number: int = Field(..., ge=0, description="case number (Table 2)")
+    name: str = ""
+    description: str = ""
+    seed: int = Field(20130527, ge=0, description="random seed (flow perturbations and splash)")
+    air: Air = Air()
+    soil: Soil = Soil()
+    splash: Splash = Splash()
+    threshold: Threshold = Threshold()
+    forcing: Forcing
+    surface: Surface = Surface()
+    physics: Physics = Physics()
+    particles: Particles
+
+    @property
+    def label(self) -> str:
+        return self.name or f"case{self.number:02d}"
+
+
+# --------------------------------------------------------------------------------------------
+# Fidelity: the cost
+# --------------------------------------------------------------------------------------------
+class GridSpec(_Frozen):
+    """Domain and grid. Uniform in x, y; stretched cubically in the level index in z."""
+    Lx: float = Field(..., gt=0, description="domain length [m]")
+    Ly: float = Field(..., gt=0, description="domain width [m]")
+    Lz: float = Field(..., gt=0, description="domain height [m]")
+    nx: int = Field(..., ge=4)
+    ny: int = Field(..., ge=4)
+    nz: int = Field(..., ge=4)
+    dz_bottom: float = Field(0.01, gt=0, description="first level thickness [m]")
+    dz_top: float | None = Field(None, gt=0, description="top level thickness [m] (None: free)")
+    damping_depth: float = Field(3.0, ge=0, description="Rayleigh damping layer depth [m]")
+    damping_timescale: float = Field(5.0, gt=0, description="Rayleigh damping time at the lid [s]")
+
+    @model_validator(mode="after")
+    def _fits(self) -> "GridSpec":
+        if self.damping_depth >= self.Lz:
+            raise ValueError(f"damping_depth ({self.damping_depth} m) must be less than the domain "
+                             f"height Lz ({self.Lz} m)")
+        if self.dz_bottom * self.nz >= self.Lz:
+            raise ValueError(f"dz_bottom*nz ({self.dz_bottom * self.nz:g} m) must be below Lz "
+                             f"({self.Lz} m) for a grid stretched upwards")
+        if self.dz_top is not None and self.dz_top < self.dz_bottom:
+            raise ValueError("dz_top must not be smaller than dz_bottom")
+        return self
+
+    @property
+    def dx(self) -> float:
+        return self.Lx / self.nx
+
+    @property
+    def dy(self) -> float:
+        return self.Ly / self.ny
+
+    @property
+    def n_cells(self) -> int:
+        return self.nx * self.ny * self.nz
+
+
+class TimeStepping(_Frozen):
+    """Adaptive time step: Delta t = min(CFL limit, diffusion limit, dt_max)."""
+    scheme: Literal["rk3"] = "rk3"
+    cfl: float = Field(0.8, gt=0, le=1.5, description="advective Courant number")
+    diffusion_number: float = Field(0.4, gt=0, le=0.5, description="explicit diffusion limit")
+    dt_max: float = Field(0.05, gt=0, description="largest step [s]")
+    dt_fixed: float | None = Field(None, gt=0, description="fixed step [s] (None: adaptive)")
+
+
+class SpinUp(_Frozen):
+    """Flow-only spin-up. Stops once steady (see solver.spinup) or at ``t_max``."""
+    t_min: float = Field(..., ge=0, description="shortest spin-up [s]")
+    t_max: float = Field(..., gt=0, description="longest spin-up [s]")
+    window: float = Field(..., gt=0, description="averaging window of the steadiness test [s]")
+    tolerance: float = Field(0.03, gt=0, description="relative change of u* and resolved TKE "
+                                                    "between consecutive windows")
+
+    @model_validator(mode="after")
+    def _order(self) -> "SpinUp":
+        if self.t_min > self.t_max:
+            raise ValueError("t_min must not exceed t_max")
+        return self
+
+
+class Sampling(_Frozen):
+    """When statistics are taken, in seconds after saltation activation."""
+    start: float = Field(..., ge=0, description="first 3-D sample [s after activation]")
+    interval: float = Field(..., gt=0, description="time between 3-D samples [s]")
+    count: int = Field(..., ge=1, description="number of 3-D samples")
+    plane_interval: float = Field(0.1, gt=0, description="time between 2-D C_p, u(0.1 m) fields [s]")
+    series_interval: float = Field(0.05, gt=0, description="time between series records [s]")
+
+    @property
+    def end(self) -> float:
+        return self.start + (self.count - 1) * self.interval
+
+
+class Outputs(_Frozen):
+    """What a run writes beyond what analysis needs."""
+    full_snapshots: bool = Field(False, description="write full 3-D u, v, w, e at sampling times")
+    animation: bool = Field(False, description="keep every C_p plane for an animation")
+
+
+class Fidelity(_Frozen):
+    """Cost knobs only: the same physics at every fidelity."""
+    name: str
+    description: str = ""
+    grid: GridSpec
+    time: TimeStepping = TimeStepping()
+    spinup: SpinUp
+    saltation_duration: float = Field(..., gt=0, description="saltation run length [s]")
+    sampling: Sampling
+    q_multiplier: float = Field(1.0, gt=0, description="Q is multiplied by this (fewer parcels)")
+    checkpoint_interval_wall: float = Field(120.0, gt=0, description="wall-clock s between checkpoints")
+    outputs: Outputs = Outputs()
+
+    @model_validator(mode="after")
+    def _sampling_inside_run(self) -> "Fidelity":
+        if self.sampling.end > self.saltation_duration + 1e-9:
+            raise ValueError(f"sampling ends at {self.sampling.end:g} s, after the saltation run "
+                             f"({self.saltation_duration:g} s)")
+        return self
+
+
+# --------------------------------------------------------------------------------------------
+# Study
+# --------------------------------------------------------------------------------------------
+class SceneSpec(_Frozen):
+    """An extra run of a study: a case with overrides (e.g. an extreme scene)."""
+    label: str = Field(..., pattern=r"^[A-Za-z0-9_.\-]+$")
+    case: int = Field(..., ge=0)
+    fidelity: str | None = None
+    overrides: dict[str, Any] = Field(default_factory=dict)
+
+
+class Study(_Frozen):
+    """Which cases run at which fidelities."""
+    name: str = Field(..., pattern=r"^[A-Za-z0-9_.\-]+$")
+    description: str = ""
+    fidelity: str | None = Field(None, description="default fidelity of the study")
+    fidelities: tuple[str, ...] = Field((), description="a ladder: every case runs at each")
+    cases: tuple[int, ...] = ()
+    scenes: tuple[SceneSpec, ...] = ()
+    report: bool = True
+
+    @model_validator(mode="after")
+    def _nonempty(self) -> "Study":
+        if not self.cases and not self.scenes:
+            raise ValueError("a study needs at least one entry in cases or scenes")
+        if self.cases and not (self.fidelity or self.fidelities):
+            raise ValueError("fidelity: a study with cases needs a fidelity (or fidelities)")
+        for s in self.scenes:
+            if not (s.fidelity or self.fidelity):
+                raise ValueError(f"scenes.{s.label}.fidelity: no fidelity for this scene")
+        return self
+
+
+class Scene(_Frozen):
+    """One case resolved at one fidelity: everything one run needs."""
+    label: str
+    case: Case
+    fidelity: Fidelity
+
+    # Derived, cost-adjusted parcel settings.
+    @property
+    def Q(self) -> float:
+        """Real grains per parcel after the fidelity's ``q_multiplier``."""
+        return self.case.particles.Q * self.fidelity.q_multiplier
+
+    @property
+    def n_initial(self) -> int:
+        """Parcels released at activation: the paper's 10 000 per 300 m^2, at equal released mass."""
+        g = self.fidelity.grid
+        n = self.case.particles.n_initial * (g.Lx * g.Ly) / PAPER_AREA_M2 / self.fidelity.q_multiplier
+        return max(1, int(round(n)))
+
+    def spinup_slice(self) -> dict[str, Any]:
+        """What determines the particle-free spin-up (cases sharing it share one spin-up)."""
+        c, f = self.case, self.fidelity
+        return {
+            "air": c.air.model_dump(mode="json"),
+            "surface": c.surface.model_dump(mode="json"),
+            "forcing": c.forcing.model_dump(mode="json"),
+            "seed": c.seed,
+            "grid": f.grid.model_dump(mode="json"),
+            "time": f.time.model_dump(mode="json"),
+            "spinup": f.spinup.model_dump(mode="json"),
+        }
+
+
+class RunSpec(BaseModel):
+    """One run in a study: label and resolved scene."""
+    model_config = ConfigDict(frozen=True)
+    label: str
+    scene: Scene
+
+
+# --------------------------------------------------------------------------------------------
+# Loading
+# --------------------------------------------------------------------------------------------
+def project_root() -> Path:
+    """Directory holding ``cases/`` and ``workflows/``: $SALTSTUDY_HOME, else the checkout, else cwd."""
+    env = os.environ.get("SALTSTUDY_HOME")
+    if env:
+        return Path(env)
+    here = Path(__file__).resolve().parent.parent
+    if (here / "cases").is_dir():
+        return here
+    return Path.cwd()
+
+
+def deep_merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
+    """Recursive dict merge (update wins); lists and scalars are replaced."""
+    out = dict(base)
+    for k, v in update.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = deep_merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+def _format_errors(err: ValidationError, source: str) -> str:
+    lines = [f"{source}: invalid configuration"]
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
+        msg = e["msg"].removeprefix("Value error, ")
+        if e["type"] == "extra_forbidden":
+            msg = "unknown key (not a field of this section)"
+        lines.append(f"  {loc}: {msg}")
+    return "\n".join(lines)
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+
+
+def validate_model(cls: type[BaseModel], data: dict[str, Any], source: str) -> Any:
+    try:
+        return cls.model_validate(data)
+    except ValidationError as err:
+        raise ConfigError(_format_errors(err, source)) from None
+
+
+def case_path(number: int, root: Path | None = None) -> Path:
+    return (root or project_root()) / "cases" / f"case{number:02d}.toml"
+
+
+def list_case_numbers(root: Path | None = None) -> list[int]:
+    d = (root or project_root()) / "cases"
+    out = []
+    for p in sorted(d.glob("case*.toml")):
+        try:
+            out.append(int(p.stem[4:]))
+        except ValueError:
+            continue
+    return out
+
+
+def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
+              root: Path | None = None) -> Case:
+    """Load a case by number or path, apply ``overrides`` (deep-merged), validate."""
+    if isinstance(ref, int) or (isinstance(ref, str) and ref.isdigit()):
+        path = case_path(int(ref), root)
+        if not path.exists():
+            raise ConfigError(f"case {int(ref)}: unknown case (no {path})")
+    else:
+        path = Path(ref)
+    data = _read_toml(path)
+    if overrides:
+        data = deep_merge(data, overrides)
+    return validate_model(Case, data, str(path))
+
+
+def _named_file(kind: str, ref: str | Path, folder: Path) -> Path:
+    p = Path(ref)
+    if p.suffix == ".toml" or p.exists():
+        return p
+    candidate = folder / f"{ref}.toml"
+    if not candidate.exists():
+        known = sorted(x.stem for x in folder.glob("*.toml"))
+        raise ConfigError(f"{kind} '{ref}': unknown (known: {', '.join(known) or 'none'})")
+    return candidate
+
+
+def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
+    path = _named_file("fidelity", ref, (root or project_root()) / "workflows" / "fidelities")
+    data = _read_toml(path)
+    data.setdefault("name", path.stem)
+    return validate_model(Fidelity, data, str(path))
+
+
+def load_study(ref: str | Path, root: Path | None = None) -> Study:
+    path = _named_file("study", ref, (root or project_root()) / "workflows")
+    data = _read_toml(path)
+    data.setdefault("name", path.stem)
+    return validate_model(Study, data, str(path))
+
+
+def resolve_scene(case: Case, fidelity: Fidelity, label: str | None = None) -> Scene:
+    return Scene(label=label or case.label, case=case, fidelity=fidelity)
+
+
+def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
+    """Expand a study into its runs (each a resolved scene). Raises ConfigError on bad references."""
+    runs: list[RunSpec] = []
+    ladder = list(study.fidelities) or [study.fidelity]
+    fid_cache: dict[str, Fidelity] = {}
+
+    def fid(name: str) -> Fidelity:
+        if name not in fid_cache:
+            fid_cache[name] = load_fidelity(name, root)
+        return fid_cache[name]
+
+    for n in study.cases:
+        case = load_case(n, root=root)
+        for fname in ladder:
+            label = case.label if len(ladder) == 1 else f"{case.label}@{fname}"
+            runs.append(RunSpec(label=label, scene=resolve_scene(case, fid(fname), label)))
+    for s in study.scenes:
+        case = load_case(s.case, overrides=s.overrides, root=root)
+        case = case.model_validate({**case.model_dump(), "name": s.label})
+        runs.append(RunSpec(label=s.label, scene=resolve_scene(case, fid(s.fidelity or study.fidelity), s.label)))
+    labels = [r.label for r in runs]
+    dup = {x for x in labels if labels.count(x) > 1}
+    if dup:
+        raise ConfigError(f"study '{study.name}': duplicate run labels {sorted(dup)}")
+    return runs
+
+
+def validate_file(path: Path) -> str:
+    """Validate a case, fidelity or study file; return what it is. Raises ConfigError."""
+    data = _read_toml(path)
+    if "forcing" in data or "particles" in data or "number" in data:
+        load_case(path)
+        return "case"
+    if "grid" in data:
+        load_fidelity(path)
+        return "fidelity"
+    study = load_study(path)
+    study_runs(study)
+    return "study"

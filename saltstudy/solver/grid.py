@@ -1,0 +1,149 @@
+"""The staggered (Arakawa-C) grid: uniform in x and y, stretched in z, periodic in x and y.
+
+Layout (no ghost cells; periodic neighbours by modular index):
+
+========  ====================  ==========================  =====================
+field     shape                 position of ``[i, j, k]``    notes
+========  ====================  ==========================  =====================
+u         (nx, ny, nz)          (x_f[i], y_c[j], z_c[k])     x-face of cell i
+v         (nx, ny, nz)          (x_c[i], y_f[j], z_c[k])     y-face of cell j
+w         (nx, ny, nz + 1)      (x_c[i], y_c[j], z_f[k])     w[..., 0] = w[..., nz] = 0
+p, e      (nx, ny, nz)          (x_c[i], y_c[j], z_c[k])     cell centres
+========  ====================  ==========================  =====================
+
+``x_f[i] = i dx``, ``x_c[i] = (i + 1/2) dx`` (same in y); ``z_f[0] = 0`` (the bed),
+``z_f[nz] = Lz``; ``z_c[k] = (z_f[k] + z_f[k + 1]) / 2``. All arrays are float64, C-contiguous.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..config import GridSpec
+
+__all__ = ["Grid", "stretched_levels"]
+
+
+def stretched_levels(Lz: float, nz: int, dz_bottom: float, dz_top: float | None = None) -> np.ndarray:
+    """Face heights z_f (nz + 1 values, m) cubic in the level index k.
+
+    z_f(k) = a k + b k^2 + c k^3 with z_f(1) = dz_bottom and z_f(nz) = Lz; with ``dz_top`` also
+    the top thickness is matched (the paper: 1 cm at the bed, 0.23 m at the top of 12 m over 100
+    levels), otherwise b = 0. Raises ValueError when no monotonic grid fits.
+    """
+    n = float(nz)
+    if dz_top is None:
+        # a + c = dz_b ; a n + c n^3 = Lz
+        A = np.array([[1.0, 1.0], [n, n**3]])
+        a, c = np.linalg.solve(A, [dz_bottom, Lz])
+        b = 0.0
+    else:
+        A = np.array([
+            [1.0, 1.0, 1.0],
+            [n, n**2, n**3],
+            [1.0, 2 * n - 1, 3 * n**2 - 3 * n + 1],
+        ])
+        a, b, c = np.linalg.solve(A, [dz_bottom, Lz, dz_top])
+    k = np.arange(nz + 1, dtype=np.float64)
+    z_f = a * k + b * k**2 + c * k**3
+    z_f[0] = 0.0
+    z_f[-1] = Lz
+    if np.any(np.diff(z_f) <= 0):
+        raise ValueError(f"no monotonic cubic grid with nz={nz}, Lz={Lz}, dz_bottom={dz_bottom}, "
+                         f"dz_top={dz_top}")
+    return z_f
+
+
+@dataclass(frozen=True, eq=False)
+class Grid:
+    """Geometry of the staggered grid (see module docstring for the layout)."""
+
+    nx: int
+    ny: int
+    nz: int
+    Lx: float
+    Ly: float
+    z_f: np.ndarray = field(repr=False)
+
+    @classmethod
+    def from_spec(cls, spec: GridSpec) -> "Grid":
+        z_f = stretched_levels(spec.Lz, spec.nz, spec.dz_bottom, spec.dz_top)
+        return cls(spec.nx, spec.ny, spec.nz, spec.Lx, spec.Ly, z_f)
+
+    @classmethod
+    def uniform(cls, nx: int, ny: int, nz: int, Lx: float, Ly: float, Lz: float) -> "Grid":
+        return cls(nx, ny, nz, Lx, Ly, np.linspace(0.0, Lz, nz + 1))
+
+    def __post_init__(self) -> None:
+        z_f = np.ascontiguousarray(self.z_f, dtype=np.float64)
+        object.__setattr__(self, "z_f", z_f)
+        if z_f.shape != (self.nz + 1,) or z_f[0] != 0.0 or np.any(np.diff(z_f) <= 0):
+            raise ValueError("z_f must hold nz + 1 increasing heights starting at 0")
+
+    # ---- horizontal ----------------------------------------------------------------------
+    @property
+    def dx(self) -> float:
+        return self.Lx / self.nx
+
+    @property
+    def dy(self) -> float:
+        return self.Ly / self.ny
+
+    @property
+    def x_f(self) -> np.ndarray:
+        return np.arange(self.nx) * self.dx
+
+    @property
+    def x_c(self) -> np.ndarray:
+        return (np.arange(self.nx) + 0.5) * self.dx
+
+    @property
+    def y_f(self) -> np.ndarray:
+        return np.arange(self.ny) * self.dy
+
+    @property
+    def y_c(self) -> np.ndarray:
+        return (np.arange(self.ny) + 0.5) * self.dy
+
+    # ---- vertical ------------------------------------------------------------------------
+    @property
+    def Lz(self) -> float:
+        return float(self.z_f[-1])
+
+    @property
+    def z_c(self) -> np.ndarray:
+        """Cell-centre heights (nz,) [m]."""
+        return 0.5 * (self.z_f[1:] + self.z_f[:-1])
+
+    @property
+    def dz_c(self) -> np.ndarray:
+        """Cell thickness z_f[k+1] - z_f[k] (nz,) [m]."""
+        return np.diff(self.z_f)
+
+    @property
+    def dz_f(self) -> np.ndarray:
+        """Distance between the centres either side of face k (nz + 1,) [m]; end faces: half cells."""
+        zc = self.z_c
+        d = np.empty(self.nz + 1)
+        d[1:-1] = np.diff(zc)
+        d[0] = zc[0]
+        d[-1] = self.Lz - zc[-1]
+        return d
+
+    @property
+    def cell_volume(self) -> np.ndarray:
+        """Volume of each layer's cells (nz,) [m^3]."""
+        return self.dx * self.dy * self.dz_c
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return (self.nx, self.ny, self.nz)
+
+    @property
+    def n_cells(self) -> int:
+        return self.nx * self.ny * self.nz
+
+    def level_below(self, z: float) -> int:
+        """Index k of the cell centre at or just below height z (clamped to [0, nz - 1])."""
+        return int(np.clip(np.searchsorted(self.z_c, z, side="right") - 1, 0, self.nz - 1))
