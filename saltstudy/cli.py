@@ -1,0 +1,98 @@
+"""The ``saltstudy`` command line.
+
+Each area of the package adds its own commands through a ``register(app)`` function in its
+``cli_commands.py`` (workflow: run-all, run, status; analysis: analyse; report: figures; solver:
+bench). This module holds the commands that only need the configuration.
+"""
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+
+import typer
+
+from . import __version__
+from .config import (ConfigError, list_case_numbers, load_case, validate_file)
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="LES + Lagrangian saltation: reproduce Dupont et al. (2013).")
+cases_app = typer.Typer(no_args_is_help=True, help="The cases of the study (Table 2).")
+app.add_typer(cases_app, name="cases")
+
+
+def fail(message: str, code: int = 2) -> None:
+    """Print a clear error on stderr and exit (2: bad input)."""
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+@app.callback(invoke_without_command=True)
+def _main(version: bool = typer.Option(False, "--version", help="print the version and exit")) -> None:
+    if version:
+        typer.echo(__version__)
+        raise typer.Exit(0)
+
+
+@cases_app.command("list")
+def cases_list() -> None:
+    """A table of the cases: u*s, mu1, Q, and u*t from Shao & Lu (2000)."""
+    from .physics.threshold import threshold_friction_velocity
+
+    typer.echo(f"{'case':>4}  {'u*s [m/s]':>9}  {'mu1 [um]':>8}  {'sigma':>5}  {'Q':>7}  {'u*t [m/s]':>9}")
+    for n in list_case_numbers():
+        try:
+            c = load_case(n)
+        except ConfigError as exc:
+            fail(str(exc))
+        mode = c.soil.modes[0]
+        ut = threshold_friction_velocity(c.soil.mean_diameter, c.soil.rho_p, c.air.rho, c.air.g,
+                                         c.threshold.A_N, c.threshold.gamma)
+        mu = "+".join(f"{m.mu * 1e6:g}" for m in c.soil.modes)
+        typer.echo(f"{n:>4}  {c.forcing.u_star_s:>9.2f}  {mu:>8}  {mode.sigma:>5.2f}  "
+                   f"{c.particles.Q:>7g}  {ut:>9.3f}")
+
+
+@cases_app.command("show")
+def cases_show(number: int = typer.Argument(..., help="case number"),
+               as_json: bool = typer.Option(False, "--json", help="machine-readable JSON")) -> None:
+    """The fully resolved case (all defaults filled in)."""
+    try:
+        c = load_case(number)
+    except ConfigError as exc:
+        fail(str(exc))
+    data = c.model_dump(mode="json")
+    if as_json:
+        typer.echo(json.dumps(data, indent=2))
+        return
+
+    def show(d: dict, indent: int = 0) -> None:
+        for k, v in d.items():
+            if isinstance(v, dict):
+                typer.echo(" " * indent + f"{k}:")
+                show(v, indent + 2)
+            else:
+                typer.echo(" " * indent + f"{k} = {v}")
+
+    show(data)
+
+
+@app.command("validate")
+def validate(path: Path = typer.Argument(..., help="a case, fidelity or study TOML file")) -> None:
+    """Check a case, fidelity or study file; exit 2 with the field and reason if it is invalid."""
+    try:
+        kind = validate_file(path)
+    except ConfigError as exc:
+        fail(str(exc))
+    typer.echo(f"{path}: valid {kind}")
+
+
+for _area in ("saltstudy.workflow.cli_commands", "saltstudy.analysis.cli_commands",
+              "saltstudy.report.cli_commands", "saltstudy.solver.cli_commands"):
+    try:
+        _mod = importlib.import_module(_area)
+    except ModuleNotFoundError as _exc:  # an area not yet present in this checkout
+        if _exc.name != _area:
+            raise
+        continue
+    _mod.register(app)

@@ -1,0 +1,1 @@
+"""Pure physical laws: threshold, drag, splash, soil size distribution, semi-empirical laws."""

@@ -1,0 +1,48 @@
+"""The model state: the flow fields and clock that flow through the stepper."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .grid import Grid
+
+__all__ = ["FlowState", "SolverBlowUp"]
+
+
+class SolverBlowUp(RuntimeError):
+    """A non-finite or runaway value stopped the run. The message names step, time, field, place."""
+
+    def __init__(self, step: int, t: float, field: str, index: tuple[int, ...], value: float,
+                 reason: str = "non-finite value"):
+        self.step, self.t, self.field, self.index, self.value, self.reason = step, t, field, index, value, reason
+        super().__init__(f"solver blow-up at step {step}, t = {t:.6g} s: {reason} in field '{field}' "
+                         f"at index {tuple(int(i) for i in index)} (value {value!r})")
+
+
+@dataclass
+class FlowState:
+    """Prognostic flow fields on the staggered grid (see grid.py) and the clock.
+
+    u, v [m s^-1] at x-/y-faces; w [m s^-1] at z-faces; e [m^2 s^-2] SGS TKE and p [m^2 s^-2]
+    kinematic pressure at centres; u_drive [m s^-1] the base-state wind the top layer relaxes to;
+    tke_sink: None, or per-cell rates [s^-1] filled by the grain component (eq. A1).
+    """
+
+    grid: Grid
+    u: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    e: np.ndarray
+    p: np.ndarray
+    t: float = 0.0
+    step: int = 0
+    u_drive: float = 0.0
+    tke_sink: np.ndarray | None = None
+    extra: dict = field(default_factory=dict)
+
+    @classmethod
+    def zeros(cls, grid: Grid) -> "FlowState":
+        nx, ny, nz = grid.shape
+        return cls(grid=grid, u=np.zeros((nx, ny, nz)), v=np.zeros((nx, ny, nz)),
+                   w=np.zeros((nx, ny, nz + 1)), e=np.zeros((nx, ny, nz)), p=np.zeros((nx, ny, nz)))
