@@ -1,0 +1,167 @@
+"""The ten cases as validated schemas; bad input rejected with the field and the reason."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from saltstudy.cli import app
+from saltstudy.config import (Case, ConfigError, Fidelity, content_hash, list_case_numbers, load_case,
+                              load_fidelity, load_study, project_root, resolve_scene, study_runs)
+
+# Table 2 of Dupont et al. (2013): u*s [m/s], mu1 [um], Q. Reference values for the check only.
+TABLE2 = {1: (0.41, 200, 200), 2: (0.54, 200, 600), 3: (0.65, 200, 1000), 4: (0.75, 200, 1400),
+          5: (0.93, 200, 3000), 6: (1.10, 200, 4500), 7: (0.57, 90, 28000), 8: (0.53, 100, 15000),
+          9: (0.54, 300, 200), 10: (0.54, 400, 50)}
+
+runner = CliRunner()
+
+
+def test_ten_cases_match_table2():
+    assert list_case_numbers() == list(range(1, 11))
+    for n, (us, mu, Q) in TABLE2.items():
+        c = load_case(n)
+        assert c.forcing.u_star_s == pytest.approx(us)
+        assert c.soil.modes[0].mu == pytest.approx(mu * 1e-6)
+        assert c.soil.modes[0].sigma == pytest.approx(1.2)
+        assert c.particles.Q == pytest.approx(Q)
+        assert c.surface.z0 == pytest.approx(1e-5)
+
+
+def test_case_files_hold_only_differences():
+    # defaults are not repeated in the files: z0, sigma, splash constants come from the models
+    for p in (project_root() / "cases").glob("case*.toml"):
+        code = "\n".join(ln.split("#")[0] for ln in p.read_text().splitlines())
+        assert "z0" not in code and "sigma" not in code and "[splash]" not in code and "seed" not in code
+
+
+def test_cli_cases_list_shows_ten_rows():
+    res = runner.invoke(app, ["cases", "list"])
+    assert res.exit_code == 0, res.output
+    rows = [ln for ln in res.output.splitlines()[1:] if ln.strip()]
+    assert len(rows) == 10
+    for ln, (n, (us, mu, Q)) in zip(rows, TABLE2.items()):
+        f = ln.split()
+        assert int(f[0]) == n and float(f[1]) == pytest.approx(us) and float(f[2]) == mu
+        assert float(f[4]) == Q
+
+
+def test_cli_cases_show_json_parses():
+    res = runner.invoke(app, ["cases", "show", "7", "--json"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.output)
+    assert data["number"] == 7 and data["particles"]["Q"] == 28000
+    assert Case.model_validate(data) == load_case(7)
+
+
+def test_hash_is_stable_and_content_based():
+    a, b = load_case(2), load_case(2)
+    assert content_hash(a) == content_hash(b)
+    assert content_hash(a) != content_hash(load_case(9))
+    # the same content written in another key order hashes the same
+    assert content_hash(Case.model_validate(json.loads(json.dumps(a.model_dump(mode="json"))))) == content_hash(a)
+
+
+def test_models_are_frozen():
+    c = load_case(1)
+    with pytest.raises(Exception):
+        c.forcing.u_star_s = 2.0  # type: ignore[misc]
+
+
+def test_paper_fidelity_is_the_papers_setup():
+    f = load_fidelity("paper")
+    g = f.grid
+    assert (g.nx, g.ny, g.nz, g.Lx, g.Ly, g.Lz) == (200, 150, 100, 20.0, 15.0, 12.0)
+    assert g.dz_bottom == 0.01 and g.dz_top == 0.23 and g.damping_depth == 3.0
+    assert f.saltation_duration == 600.0 and f.sampling.start == 200.0 and f.sampling.interval == 20.0
+    assert f.sampling.end == 600.0 and f.q_multiplier == 1.0
+
+
+def test_scene_scales_release_with_area_and_q():
+    c = load_case(2)
+    paper = resolve_scene(c, load_fidelity("paper"))
+    assert paper.n_initial == 10_000 and paper.Q == 600
+    red = resolve_scene(c, load_fidelity("reduced"))
+    g = red.fidelity.grid
+    # released mass per unit area is the paper's at every fidelity
+    assert red.n_initial * red.Q / (g.Lx * g.Ly) == pytest.approx(10_000 * 600 / 300.0, rel=1e-3)
+
+
+@pytest.mark.parametrize("name", ["smoke", "reduced", "paper"])
+def test_studies_resolve(name):
+    runs = study_runs(load_study(name))
+    assert [r.scene.case.number for r in runs] == list(range(1, 11))
+    assert all(r.scene.fidelity.name == name for r in runs)
+
+
+def _write_case(tmp_path: Path, body: str) -> Path:
+    p = tmp_path / "bad.toml"
+    p.write_text(body)
+    return p
+
+
+GOOD = 'number = 99\n[forcing]\nu_star_s = 0.5\n[particles]\nQ = 100\n'
+
+
+@pytest.mark.parametrize("body, field, reason", [
+    ('number = 99\n[forcing]\nu_star_s = 0.5\n[particles]\nQ = 100\n[soil]\nmodes = [{ mu = -2e-4 }]\n',
+     "soil.modes.0.mu", "greater than 0"),
+    ('number = 99\n[forcing]\nu_star_s = 0.5\n[particles]\nQ = 100\n[soil]\nmodes = [{ mu = 2e-4, sigma = 1.0 }]\n',
+     "soil.modes.0.sigma", "greater than 1"),
+    ('number = 99\n[forcing]\nu_star_s = 0.5\n[particles]\nQ = 0\n', "particles.Q", "greater than 0"),
+    ('number = 99\n[forcing]\nu_star_s = 0.5\nwind_direction = 3\n[particles]\nQ = 100\n',
+     "forcing.wind_direction", "unknown key"),
+    ('number = 99\n[forcing]\nu_star_s = 0.5\n', "particles", "Field required"),
+])
+def test_bad_case_rejected_with_field_and_reason(tmp_path, body, field, reason):
+    p = _write_case(tmp_path, body)
+    with pytest.raises(ConfigError) as exc:
+        load_case(p)
+    assert field in str(exc.value) and reason in str(exc.value)
+    res = runner.invoke(app, ["validate", str(p)])
+    assert res.exit_code == 2
+    assert field in res.output and reason in res.output
+
+
+def test_domain_shallower_than_damping_layer_rejected(tmp_path):
+    src = (project_root() / "workflows" / "fidelities" / "smoke.toml").read_text()
+    p = tmp_path / "thin.toml"
+    p.write_text(src.replace("damping_depth = 1.0", "damping_depth = 3.5"))
+    res = runner.invoke(app, ["validate", str(p)])
+    assert res.exit_code == 2
+    assert "damping_depth" in res.output and "less than the domain height" in res.output
+
+
+def test_below_threshold_case_is_valid(tmp_path):
+    p = _write_case(tmp_path, GOOD.replace("0.5", "0.1"))
+    res = runner.invoke(app, ["validate", str(p)])
+    assert res.exit_code == 0, res.output
+    assert "valid case" in res.output
+
+
+def test_good_files_validate():
+    root = project_root()
+    for p in [*root.glob("cases/*.toml"), *root.glob("workflows/*.toml"), *root.glob("workflows/fidelities/*.toml")]:
+        res = runner.invoke(app, ["validate", str(p)])
+        assert res.exit_code == 0, (p, res.output)
+
+
+def test_bad_study_reference(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text('fidelity = "smoke"\ncases = [1, 42]\n')
+    res = runner.invoke(app, ["validate", str(p)])
+    assert res.exit_code == 2 and "case 42" in res.output
+    p.write_text('fidelity = "nonexistent"\ncases = [1]\n')
+    res = runner.invoke(app, ["validate", str(p)])
+    assert res.exit_code == 2 and "fidelity 'nonexistent'" in res.output
+
+
+def test_overrides_are_validated():
+    with pytest.raises(ConfigError) as exc:
+        load_case(2, overrides={"soil": {"modes": [{"mu": 2e-4, "sigma": 0.5}]}})
+    assert "sigma" in str(exc.value)
+    c = load_case(2, overrides={"forcing": {"u_star_s": 1.5}})
+    assert c.forcing.u_star_s == 1.5 and c.particles.Q == 600
