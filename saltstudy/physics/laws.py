@@ -1,0 +1,203 @@
+"""Semi-empirical saltation laws drawn in the paper's Fig. 3 (z0s) and Fig. 8 (G_tot), and the log law.
+
+Every law takes the saltation friction velocity ``u_star`` [m s^-1] (numpy-vectorised) and the
+threshold ``u_star_t`` [m s^-1] first, then keyword-only parameters; all take the same keywords
+within a family so a figure can draw them by iterating over :data:`Z0S_LAWS` / :data:`GTOT_LAWS`
+(``name -> Law(func, citation)``, a 2-tuple).
+
+* z0s laws: ``f(u_star, u_star_t, *, z0=1e-5, g=9.81) -> z0s [m]``
+* G_tot laws: ``f(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650, g=9.81, nu=1.5e-5) -> [kg m^-1 s^-1]``
+  (Bagnold and Lettau & Lettau also take the reference diameter ``D`` = 250e-6 m).
+
+Below threshold (u_star <= u_star_t) laws that carry a threshold factor return 0 (fluxes) or z0
+(roughness); Charnock and Bagnold have no threshold and are evaluated as printed.
+
+Dimensional consistency (checked by ``tests/test_physics_laws.py`` by rescaling the units of every
+input): all printed forms are consistent except Owen's terminal velocity, printed
+w_t = -1.66 sqrt(rho_p g d). With rho_p in kg m^-3 that has units sqrt(kg m^-3 m s^-2 m) =
+sqrt(kg m^-1 s^-2) = sqrt(Pa), not m s^-1. See :func:`owen_terminal_velocity` for the form used.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from .drag import terminal_velocity
+
+__all__ = [
+    "log_law_u", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s",
+    "bagnold1937_flux", "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux",
+    "lettau1978_flux", "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS",
+    "RAUPACH_A", "D_REF",
+]
+
+#: Reference diameter D of Bagnold (1937) and Lettau & Lettau (1978) [m]
+D_REF = 250e-6
+
+
+class Law(NamedTuple):
+    """A semi-empirical law: the callable and its citation (unpacks as ``func, citation``)."""
+    func: Callable
+    citation: str
+
+
+def _ratio(u_star, u_star_t):
+    u = np.asarray(u_star, dtype=float)
+    if np.any(u <= 0):
+        raise ValueError("u_star must be positive")
+    return u, u_star_t / u
+
+
+def _out(x):
+    return float(x) if np.ndim(x) == 0 else x
+
+
+def log_law_u(z, u_star, z0, kappa=0.40):
+    """Mean wind of the neutral log law u(z) = (u*/kappa) ln(z / z0) [m s^-1]; z, z0 [m], u* [m s^-1]."""
+    z = np.asarray(z, dtype=float)
+    return _out(u_star / kappa * np.log(z / z0))
+
+
+# --------------------------------------------------------------------------------------------
+# Fig. 3: saltation roughness length z0s [m]
+# --------------------------------------------------------------------------------------------
+def charnock_z0s(u_star, u_star_t=None, *, z0=1.0e-5, g=9.81, C_c=0.08):
+    """Charnock-type z0s = C_c u*s^2 / g [m] (Charnock 1955; Sherman & Farrell 2008).
+
+    C_c = 0.08 (Rasmussen et al. 1985), 0.24 (Farrell 1999), 0.02 (Owen 1964). Dimensions:
+    (m s^-1)^2 / (m s^-2) = m. No threshold; ``u_star_t`` and ``z0`` are ignored.
+    """
+    u = np.asarray(u_star, dtype=float)
+    return _out(C_c * u * u / g)
+
+
+#: A = b_r alpha^2 exp(-eta / G_r) with b_r = 8, alpha = 0.63, eta = 0.577216 (Euler's constant),
+#: G_r = 1 (Raupach 1991; Shao 2008) = 1.78275
+RAUPACH_A = 8.0 * 0.63 ** 2 * math.exp(-0.577216 / 1.0)
+
+
+def raupach1991_z0s(u_star, u_star_t, *, z0=1.0e-5, g=9.81, A=RAUPACH_A):
+    """Raupach (1991) z0s = (A u*s^2 / (2 g))^(1 - r) z0^r [m], r = u*t / u*s (Shao 2008).
+
+    Dimensions: m^(1-r) m^r = m. Equals z0 at threshold; z0 below it.
+    """
+    u, r = _ratio(u_star, u_star_t)
+    r = np.minimum(r, 1.0)
+    return _out((A * u * u / (2.0 * g)) ** (1.0 - r) * z0 ** r)
+
+
+def sherman1992_z0s(u_star, u_star_t, *, z0=1.0e-5, g=9.81, C_m=0.132):
+    """Sherman (1992) modified Charnock z0s = C_m (u*s - u*t)^2 / g + z0 [m]; z0 below threshold."""
+    u = np.asarray(u_star, dtype=float)
+    excess = np.maximum(u - u_star_t, 0.0)
+    return _out(C_m * excess * excess / g + z0)
+
+
+# --------------------------------------------------------------------------------------------
+# Fig. 8: total saltation flux G_tot [kg m^-1 s^-1]
+# --------------------------------------------------------------------------------------------
+def bagnold1937_flux(u_star, u_star_t=None, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
+                     D=D_REF, c=1.5):
+    """Bagnold (1937) G = c sqrt(d/D) rho u*^3 / g [kg m^-1 s^-1], c = 1.5, D = 250 um.
+
+    Dimensions: kg m^-3 (m s^-1)^3 / (m s^-2) = kg m^-1 s^-1; sqrt(d/D) is dimensionless (D is a
+    length and must be in the same unit as d). No threshold.
+    """
+    u = np.asarray(u_star, dtype=float)
+    return _out(c * np.sqrt(d / D) * rho * u ** 3 / g)
+
+
+def owen_terminal_velocity(d, rho_p, rho, g, nu=1.5e-5, form="consistent"):
+    """Terminal fall speed used in Owen's flux coefficient [m s^-1] (positive = downward speed).
+
+    The paper prints w_t = -1.66 sqrt(rho_p g d) (sign: z up). That is not a velocity
+    (units sqrt(Pa)). ``form``:
+
+    * ``"consistent"`` (default): |w_t| = 1.66 sqrt((rho_p / rho) g d), the density ratio
+      sigma_p = rho_p / rho in place of rho_p (Shao 2008 writes the ratio as sigma_p; we infer the
+      paper substituted rho_p for it -- inferred, not checked against the book). This is the
+      Newton-regime fall speed sqrt(4 (rho_p/rho) g d / (3 C_D)) with C_D = 4 / (3 * 1.66^2) = 0.48,
+      and differs from the printed expression evaluated in SI numbers only by sqrt(rho / 1 kg m^-3)
+      (1.095 for rho = 1.2), so it is the closest dimensionally valid reading of the curve drawn.
+      For d = 200 um it gives 3.46 m/s.
+    * ``"terminal"``: the fall speed of the paper's own drag law (eq. 4; :func:`terminal_velocity`),
+      1.48 m/s for d = 200 um (Re_t ~ 20, far from the Newton regime). This is what Owen (1964)
+      defines (c = 0.25 + w_f / (3 u*), w_f the grain's fall speed), physically the right number.
+    * ``"printed"``: 1.66 sqrt(rho_p g d) in SI numbers, as printed (3.79 for 200 um); dimensionally
+      inconsistent, kept only to show what the printed formula evaluates to.
+    """
+    d = np.asarray(d, dtype=float)
+    if form == "consistent":
+        return _out(1.66 * np.sqrt(rho_p / rho * g * d))
+    if form == "terminal":
+        return _out(terminal_velocity(d, rho_p, rho, nu, g))
+    if form == "printed":
+        return _out(1.66 * np.sqrt(rho_p * g * d))
+    raise ValueError(f"unknown form {form!r}: use 'consistent', 'terminal' or 'printed'")
+
+
+def owen1964_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
+                  w_t_form="consistent"):
+    """Owen (1964) G = c rho u*^3 (1 - u*t^2/u*^2) / g [kg m^-1 s^-1], c = 0.25 + |w_t| / (3 u*).
+
+    (The paper writes c = 0.25 - w_t/(3 u*) with w_t < 0.) |w_t| from :func:`owen_terminal_velocity`
+    with ``form = w_t_form`` (default: the dimensionally consistent 1.66 sqrt((rho_p/rho) g d)).
+    Zero at and below threshold.
+    """
+    u, r = _ratio(u_star, u_star_t)
+    wt = owen_terminal_velocity(d, rho_p, rho, g, nu, form=w_t_form)
+    c = 0.25 + wt / (3.0 * u)
+    return _out(np.where(r < 1.0, c * rho * u ** 3 * (1.0 - r * r) / g, 0.0))
+
+
+def kawamura_white_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
+                        c=2.61):
+    """Kawamura (1951) / White (1979) G = c rho u*^3 (1 + r)(1 - r^2) / g, r = u*t/u*, c = 2.61."""
+    u, r = _ratio(u_star, u_star_t)
+    return _out(np.where(r < 1.0, c * rho * u ** 3 * (1.0 + r) * (1.0 - r * r) / g, 0.0))
+
+
+def lettau1978_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
+                    D=D_REF, c=4.2):
+    """Lettau & Lettau (1978) G = c sqrt(d/D) rho u*^3 (1 - u*t/u*) / g, c = 4.2, D = 250 um."""
+    u, r = _ratio(u_star, u_star_t)
+    return _out(np.where(r < 1.0, c * np.sqrt(d / D) * rho * u ** 3 * (1.0 - r) / g, 0.0))
+
+
+def sorensen2004_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
+                      alpha=0.0, gamma=3.0, beta=3.9):
+    """Sorensen (2004) G = rho u*^3 (1 - r^2)(alpha + gamma r + beta r^2) / g, r = u*t/u*.
+
+    alpha = 0, gamma = 3.0, beta = 3.9 (as in Dupont et al. 2013, Fig. 8). Zero below threshold.
+    """
+    u, r = _ratio(u_star, u_star_t)
+    shape = (1.0 - r * r) * (alpha + gamma * r + beta * r * r)
+    return _out(np.where(r < 1.0, rho * u ** 3 * shape / g, 0.0))
+
+
+def _charnock(C_c):
+    def f(u_star, u_star_t=None, *, z0=1.0e-5, g=9.81):
+        return charnock_z0s(u_star, u_star_t, z0=z0, g=g, C_c=C_c)
+    f.__name__ = f"charnock_z0s_C{C_c:g}"
+    f.__doc__ = f"Charnock z0s = {C_c:g} u*s^2 / g [m]."
+    return f
+
+
+Z0S_LAWS: dict[str, Law] = {
+    "charnock_rasmussen1985": Law(_charnock(0.08), "Charnock, C_c = 0.08 (Rasmussen et al. 1985)"),
+    "charnock_farrell1999": Law(_charnock(0.24), "Charnock, C_c = 0.24 (Farrell 1999)"),
+    "charnock_owen1964": Law(_charnock(0.02), "Charnock, C_c = 0.02 (Owen 1964)"),
+    "raupach1991": Law(raupach1991_z0s, "Raupach (1991); Shao (2008)"),
+    "sherman1992": Law(sherman1992_z0s, "Sherman (1992), C_m = 0.132"),
+}
+
+GTOT_LAWS: dict[str, Law] = {
+    "bagnold1937": Law(bagnold1937_flux, "Bagnold (1937), c = 1.5, D = 250 um"),
+    "owen1964": Law(owen1964_flux, "Owen (1964), w_t = 1.66 sqrt((rho_p/rho) g d) "
+                                   "(dimensionally consistent form)"),
+    "kawamura_white": Law(kawamura_white_flux, "Kawamura (1951); White (1979), c = 2.61"),
+    "lettau1978": Law(lettau1978_flux, "Lettau & Lettau (1978), c = 4.2, D = 250 um"),
+    "sorensen2004": Law(sorensen2004_flux, "Sorensen (2004), alpha = 0, gamma = 3.0, beta = 3.9"),
+}
