@@ -1,0 +1,213 @@
+"""Grain momentum flux tau_p (eq. 10), saltation height z_m, mass flux G (eq. 11), G_tot, sigma_G.
+
+Inputs are the layer sums the workflow records at each 3-D sample time (``samples.nc``, all
+Q-weighted, summed over the grains whose centre lies in layer k, i.e. between ``z_w[k]`` and
+``z_w[k+1]``): ``pm = sum Q m_p``, ``pmu = sum Q m_p u_p``, ``pmw``, ``pmuw = sum Q m_p u_p w_p``.
+
+tau_p (paper eq. 10, section 3.2 [37])
+    ``tau_p(z) = < Q/(Lx Ly dz) sum_p m_p u'_p w'_p >`` where the primes are deviations from the
+    time-space mean grain velocity at that level. Taking the mass-weighted mean over all grains of
+    the level in all samples, ``U = P_u/P_m``, ``W = P_w/P_m`` (``P_*`` = sum over the samples of
+    the layer sums), the sum of ``m (u-U)(w-W)`` over all samples expands exactly to
+    ``P_uw - P_u P_w / P_m``; dividing by ``N_samples Lx Ly dz`` gives the time mean.
+    **Sign**: grains rising from the bed are slow (u' < 0, w' > 0) and descending grains fast,
+    so ``sum m u'w' < 0``: the grains carry streamwise momentum downwards. As in the paper's
+    Fig. 6 we report the downward flux as positive: ``tau_p = -(P_uw - P_u P_w/P_m)/(N Lx Ly dz)``
+    [Pa = kg m-1 s-2], comparable with ``rho u*s^2``.
+
+z_m (section 3.2 [37])
+    The height where tau_p, going up from the bed, first drops below 0.1 % of ``rho u*s^2``.
+    tau_p decays exponentially with height, so the crossing is interpolated linearly in
+    ``ln tau_p`` between the two levels that bracket it (linearly in tau_p if either value is not
+    positive). NaN if tau_p is below the threshold already at the lowest level (no resolved
+    saltation layer) or never drops below it.
+
+G, G_tot (eq. 11, section 3.2 [41]-[42])
+    ``G(z) = <pmu>/(Lx Ly dz)`` [kg m-2 s-1], the horizontal and time mean of eq. 11;
+    ``G_tot = sum_k G_k dz_k = <sum pmu>/(Lx Ly)`` [kg m-1 s-1].
+    ``z_m_flux995``: the height below which 99.5 % of G_tot lies; G is constant in each layer,
+    so the cumulative flux is piecewise linear in z and is inverted exactly.
+
+sigma_G (section 4.3 [55])
+    The paper: "the mean standard deviation sigma_G of the mean total saltation flux <G_tot>
+    has been estimated from the instantaneous flux such as sigma_G = sqrt(<G_tot'^2>)" (the prime is
+    lost in the typeset text; without it the expression is the RMS, not a standard deviation).
+    The quantity under the average is the *instantaneous total flux* G_tot(t), the domain-wide
+    flux whose mean is <G_tot>, and its variability is temporal (the paper introduces it next to
+    the temporal variation of the particle number, Fig. 1). So ``sigma_G`` = standard deviation
+    over the sampling window of the recorded series ``G_tot_series`` (many more, and evenly
+    spaced, values than the 3-D samples). The alternative reading, the spread of the *local*
+    column flux ``G_col(x, y, t)`` about its time-space mean, measures the spatial streamer
+    contrast at the grid scale rather than the variability of the total flux; it is stored as
+    ``sigma_G_local`` (see :func:`sigma_local`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["tau_p_profile", "mass_flux_profile", "total_flux", "first_drop_height", "z_m_from_tau",
+           "flux_height", "sigma_series", "sigma_local", "window_mask", "Z_M_FRACTION",
+           "FLUX_FRACTION", "decay_height", "pooled_mean_std"]
+
+#: tau_p threshold defining z_m, as a fraction of rho u*s^2 (paper: 0.1 %)
+Z_M_FRACTION = 1.0e-3
+#: fraction of G_tot below z_m_flux995
+FLUX_FRACTION = 0.995
+
+
+def _time_sum(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a, dtype=np.float64)
+    return np.nansum(a, axis=0) if a.ndim == 2 else a
+
+
+def tau_p_profile(pm: np.ndarray, pmu: np.ndarray, pmw: np.ndarray, pmuw: np.ndarray,
+                  dz: np.ndarray, Lx: float, Ly: float) -> np.ndarray:
+    """tau_p(z) [Pa], positive downward (module docstring). Arrays (time, z) or time-summed (z)."""
+    pm = np.asarray(pm, dtype=np.float64)
+    n_t = pm.shape[0] if pm.ndim == 2 else 1
+    Pm, Pu, Pw, Puw = (_time_sum(a) for a in (pm, pmu, pmw, pmuw))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean_part = np.where(Pm > 0, Pu * Pw / np.where(Pm > 0, Pm, 1.0), 0.0)
+    cov = Puw - mean_part
+    if n_t == 0:
+        return np.full(np.shape(dz), np.nan)
+    return -cov / (n_t * Lx * Ly * np.asarray(dz, dtype=np.float64))
+
+
+def mass_flux_profile(pmu: np.ndarray, dz: np.ndarray, Lx: float, Ly: float) -> np.ndarray:
+    """G(z) = <pmu>/(Lx Ly dz) [kg m-2 s-1] (eq. 11, horizontally and time averaged)."""
+    pmu = np.asarray(pmu, dtype=np.float64)
+    mean = np.nanmean(pmu, axis=0) if pmu.ndim == 2 and pmu.shape[0] > 0 else (
+        pmu if pmu.ndim == 1 else np.full(np.shape(dz), np.nan))
+    return mean / (Lx * Ly * np.asarray(dz, dtype=np.float64))
+
+
+def total_flux(G: np.ndarray, dz: np.ndarray) -> float:
+    """G_tot = sum_k G_k dz_k [kg m-1 s-1]."""
+    G = np.asarray(G, dtype=np.float64)
+    if not np.any(np.isfinite(G)):
+        return math.nan
+    return float(np.nansum(G * np.asarray(dz, dtype=np.float64)))
+
+
+def first_drop_height(z: np.ndarray, f: np.ndarray, threshold: float) -> float:
+    """Lowest height where ``f`` (on levels ``z``) falls below ``threshold``, interpolated.
+
+    Requires ``f(z[0]) >= threshold``; interpolation in ln f when both bracketing values are
+    positive (exact for an exponential profile), otherwise linear. NaN when undefined.
+    """
+    z = np.asarray(z, dtype=np.float64)
+    f = np.asarray(f, dtype=np.float64)
+    if not (math.isfinite(threshold) and threshold > 0) or f.size == 0 or not np.isfinite(f[0]):
+        return math.nan
+    if f[0] < threshold:
+        return math.nan
+    for k in range(1, f.size):
+        if not np.isfinite(f[k]):
+            continue
+        if f[k] < threshold:
+            f0, f1 = f[k - 1], f[k]
+            if f0 > 0 and f1 > 0:
+                s = (math.log(threshold) - math.log(f0)) / (math.log(f1) - math.log(f0))
+            else:
+                s = (threshold - f0) / (f1 - f0)
+            return float(z[k - 1] + s * (z[k] - z[k - 1]))
+    return math.nan
+
+
+def z_m_from_tau(z: np.ndarray, tau_p: np.ndarray, rho: float, u_star: float,
+                 fraction: float = Z_M_FRACTION) -> float:
+    """z_m: first height where tau_p < fraction * rho u*^2 (section 3.2 [37])."""
+    if not (math.isfinite(u_star) and u_star > 0):
+        return math.nan
+    return first_drop_height(z, tau_p, fraction * rho * u_star ** 2)
+
+
+def flux_height(z_w: np.ndarray, G: np.ndarray, fraction: float = FLUX_FRACTION) -> float:
+    """Height below which ``fraction`` of the vertically integrated flux lies.
+
+    G is the layer mean of layer k (between ``z_w[k]`` and ``z_w[k+1]``): the cumulative flux is
+    linear within a layer, so the height is found exactly. NaN when the total is not positive.
+    """
+    z_w = np.asarray(z_w, dtype=np.float64)
+    G = np.nan_to_num(np.asarray(G, dtype=np.float64))
+    cum = np.concatenate([[0.0], np.cumsum(G * np.diff(z_w))])
+    total = cum[-1]
+    if not (total > 0):
+        return math.nan
+    target = fraction * total
+    k = int(np.argmax(cum >= target))
+    if k == 0:
+        return float(z_w[0])
+    c0, c1 = cum[k - 1], cum[k]
+    s = (target - c0) / (c1 - c0) if c1 != c0 else 0.0
+    return float(z_w[k - 1] + s * (z_w[k] - z_w[k - 1]))
+
+
+def decay_height(z: np.ndarray, G: np.ndarray, z_top: float, min_points: int = 3) -> float:
+    """e-folding height H of ``G ~ exp(-z/H)``: regression of ln G on z for ``z <= z_top``, G > 0.
+
+    The paper (section 3.2 [41]) notes <G> decreases exponentially with height; H summarises the
+    slope. NaN with fewer than ``min_points`` usable levels or a non-decaying fit.
+    """
+    z = np.asarray(z, dtype=np.float64)
+    G = np.asarray(G, dtype=np.float64)
+    if not math.isfinite(z_top):
+        return math.nan
+    sel = (z <= z_top) & np.isfinite(G) & (G > 0)
+    if sel.sum() < min_points:
+        return math.nan
+    slope, _ = np.polyfit(z[sel], np.log(G[sel]), 1)
+    return float(-1.0 / slope) if slope < 0 else math.nan
+
+
+def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
+    """Boolean mask of ``t0 <= t <= t1`` (with a small tolerance)."""
+    t = np.asarray(t, dtype=np.float64)
+    eps = 1e-9 * max(1.0, abs(t1))
+    return (t >= t0 - eps) & (t <= t1 + eps)
+
+
+def sigma_series(t: np.ndarray, G_tot: np.ndarray, t0: float, t1: float) -> tuple[float, float]:
+    """(mean, standard deviation) of the instantaneous total flux over ``t0 <= t <= t1``.
+
+    The paper's sigma_G (module docstring). Population standard deviation (ddof=0); NaN if fewer
+    than two finite values lie in the window.
+    """
+    G_tot = np.asarray(G_tot, dtype=np.float64)
+    sel = window_mask(t, t0, t1) & np.isfinite(G_tot)
+    if sel.sum() < 2:
+        return (float(G_tot[sel].mean()) if sel.any() else math.nan), math.nan
+    return float(G_tot[sel].mean()), float(G_tot[sel].std())
+
+
+def sigma_local(G_col: np.ndarray) -> float:
+    """Standard deviation of the local column flux G_col(t, x, y) about its time-space mean."""
+    G_col = np.asarray(G_col, dtype=np.float64)
+    if G_col.size < 2 or not np.any(np.isfinite(G_col)):
+        return math.nan
+    return float(np.nanstd(G_col))
+
+
+def pooled_mean_std(chunks) -> tuple[float, float]:
+    """(mean, standard deviation) of all finite values of an iterable of arrays, combined chunk
+    by chunk (Chan et al.'s pairwise update), so a large record need not be in memory at once.
+    ``sigma_local`` of the G_col planes; NaN for fewer than two values."""
+    n, mean, m2 = 0, 0.0, 0.0
+    for c in chunks:
+        a = np.asarray(c, dtype=np.float64)
+        a = a[np.isfinite(a)]
+        if a.size == 0:
+            continue
+        nb, mb = a.size, float(a.mean())
+        m2b = float(((a - mb) ** 2).sum())
+        delta = mb - mean
+        tot = n + nb
+        mean += delta * nb / tot
+        m2 += m2b + delta * delta * n * nb / tot
+        n = tot
+    if n < 2:
+        return (mean if n else math.nan), math.nan
+    return mean, math.sqrt(m2 / n)

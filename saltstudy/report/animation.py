@@ -1,0 +1,101 @@
+"""A small GIF of C_p over time for one run.
+
+Source: a C_p plane stack (a variable with a time dimension and x, y) in the analysis archive if the
+analysis stored one, else the ``C_p`` planes of ``samples.nc`` if its path is given. Frames are
+subsampled to at most ``max_frames`` and large planes are coarsened, so the file stays small.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+
+from ..ncio import NC_LOCK
+
+__all__ = ["find_cp_stack", "make_animation"]
+
+_CANDIDATES = ("C_p_planes", "C_p_stack", "C_p_series", "C_p_movie", "C_p", "C_p_s")
+
+
+def _stack_of(ds: xr.Dataset) -> xr.DataArray | None:
+    names = list(_CANDIDATES) + [n for n in ds.data_vars if str(n).startswith("C_p") and n not in _CANDIDATES]
+    for n in names:
+        if n in ds.variables:
+            v = ds[n]
+            if v.ndim == 3 and {"x", "y"} <= set(v.dims):
+                return v
+    return None
+
+
+def find_cp_stack(analysis: str | Path | None, samples: str | Path | None = None,
+                  max_frames: int = 60) -> tuple[np.ndarray, np.ndarray, tuple[float, float], str] | None:
+    """(frames (t, x, y), times, (Lx, Ly), source) or None if no stack exists."""
+    for path, src in ((analysis, "analysis.nc"), (samples, "samples.nc")):
+        if not path or not Path(path).is_file():
+            continue
+        try:
+            with NC_LOCK:
+                with xr.open_dataset(path, engine="netcdf4") as ds:
+                    v = _stack_of(ds)
+                    if v is None:
+                        continue
+                    tdim = next(d for d in v.dims if d not in ("x", "y"))
+                    nt = v.sizes[tdim]
+                    idx = np.unique(np.linspace(0, nt - 1, min(nt, max_frames)).round().astype(int))
+                    sub = v.isel({tdim: idx}).transpose(tdim, "x", "y").load()
+                    t = ds[tdim].values[idx] if tdim in ds.coords else idx.astype(float)
+                    lx = float(ds.attrs.get("Lx", ds["x"].values[-1] * 2 if "x" in ds else 1.0))
+                    ly = float(ds.attrs.get("Ly", ds["y"].values[-1] * 2 if "y" in ds else 1.0))
+                    return np.asarray(sub.values, float), np.asarray(t, float), (lx, ly), f"{src}:{v.name}"
+        except Exception:
+            continue
+    return None
+
+
+def _coarsen(a: np.ndarray, max_px: int) -> np.ndarray:
+    f = max(1, int(math.ceil(max(a.shape[1:]) / max_px)))
+    if f == 1:
+        return a
+    nx, ny = (a.shape[1] // f) * f, (a.shape[2] // f) * f
+    return a[:, :nx, :ny].reshape(a.shape[0], nx // f, f, ny // f, f).mean(axis=(2, 4))
+
+
+def make_animation(out_path: str | Path, analysis: str | Path | None, samples: str | Path | None = None,
+                   title: str = "", max_frames: int = 30, max_px: int = 100, fps: int = 8) -> Path | None:
+    """Write a GIF of C_p / C_pmax; return its path, or None if no C_p stack or no pillow."""
+    try:
+        from matplotlib.animation import FuncAnimation, PillowWriter
+    except ImportError:  # pragma: no cover - matplotlib always has them
+        return None
+    found = find_cp_stack(analysis, samples, max_frames)
+    if found is None:
+        return None
+    frames, times, (lx, ly), src = found
+    frames = _coarsen(frames, max_px)
+    vmax = float(np.nanmax(frames)) or 1.0
+    fig = Figure(figsize=(5.0, 4.2 * ly / lx + 1.0), dpi=60)
+    ax = fig.add_axes((0.12, 0.14, 0.68, 0.76))
+    cax = fig.add_axes((0.83, 0.14, 0.03, 0.76))
+    im = ax.imshow(frames[0].T / vmax, origin="lower", extent=(0, lx, 0, ly), cmap="YlOrBr",
+                   vmin=0, vmax=1, aspect="equal")
+    fig.colorbar(im, cax=cax, label="C_p / C_p,max (whole movie)")
+    ax.set_xlabel("x [m] (wind →)")
+    ax.set_ylabel("y [m]")
+    ttl = ax.set_title(title)
+
+    def update(i):
+        im.set_data(frames[i].T / vmax)
+        ttl.set_text(f"{title}  t = {times[i]:.1f} s")
+        return im, ttl
+
+    anim = FuncAnimation(fig, update, frames=frames.shape[0], blit=False)
+    out_path = Path(out_path)
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        anim.save(out_path, writer=PillowWriter(fps=fps))
+    except Exception:
+        return None
+    return out_path

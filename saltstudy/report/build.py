@@ -1,0 +1,225 @@
+"""``build_report``: figures 1-13, Table 2 beside the paper, summary.json and index.html for a study.
+
+Writes into ``report_dir`` (normally ``reports/<study>/``)::
+
+    fig01.png fig01.pdf ... fig13.png fig13.pdf   the paper's figures from this study's archives
+    table2.md table2.html                          Table 2 + the text's numbers, computed vs paper
+    summary.json                                   every scalar in SI, wall times, machine
+    convergence.*                                  for a ladder (labels "caseNN@fidelity")
+    stability.*                                    for scenes / when failures are given
+    cp_animation.gif                               if a C_p plane stack exists
+    index.html                                     one self-contained page linking all of it
+"""
+from __future__ import annotations
+
+import html
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from .data import ReportContext, case_number_of, load_runs
+from .figures import CAPTIONS, error_figure, make_figures
+from .reference import PAPER_LABEL
+from .tables import results_html, table2_html, table2_markdown
+from .summary import write_summary
+
+__all__ = ["build_report"]
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1200px;
+margin:1.5em auto;padding:0 1em;color:#222;line-height:1.4}
+h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.8em}
+table{border-collapse:collapse;font-size:.85em;margin:.6em 0}
+th,td{border:1px solid #ccc;padding:.25em .5em;text-align:right}
+th{background:#f3f3f3}td:first-child{text-align:left}
+td.ref,th.ref{color:#777;background:#fafafa}td.missing{color:#b22;text-align:center;font-style:italic}
+td.bad{color:#b22;font-weight:bold}td.how{text-align:left;font-size:.9em;color:#555}
+figure{margin:1.2em 0}figure img{max-width:100%;border:1px solid #eee}
+figcaption{font-size:.9em;color:#444}.notes{color:#b22;font-size:.85em}
+pre{background:#f6f6f6;padding:.8em;overflow:auto;font-size:.8em;max-height:30em}
+.meta td{text-align:left}
+"""
+
+
+def _is_ladder(ctx: ReportContext) -> bool:
+    by_case: dict[int, int] = {}
+    for label, r in ctx.runs.items():
+        if "@" in label and case_number_of(label) is not None:
+            by_case[case_number_of(label)] = by_case.get(case_number_of(label), 0) + 1
+    return any(v >= 2 for v in by_case.values())
+
+
+def _has_scenes(ctx: ReportContext) -> bool:
+    return any(case_number_of(l) is None for l in ctx.runs)
+
+
+def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir: str | Path,
+                 meta: dict[str, Any] | None = None) -> Path:
+    """Build the report of ``study_name`` from ``runs`` (label -> analysis.nc path or None).
+
+    ``meta`` (all optional): ``fidelity`` (str), ``study_config`` (dict or JSON string),
+    ``package_version``, ``case_numbers`` / ``fidelities`` / ``wall_times`` (dicts per label),
+    ``order`` (ladder labels coarse -> fine), ``failures`` (label -> error message),
+    ``samples`` (label -> samples.nc path), ``animation_label`` (which run to animate),
+    ``reports`` (a list among "convergence", "stability" forcing those sections).
+    Returns the path of ``index.html``.
+    """
+    from .workflow_meta import enrich_meta
+    meta = enrich_meta(study_name, runs, meta)
+    report_dir = Path(report_dir)
+    report_dir.mkdir(parents=True, exist_ok=True)
+    ctx = ReportContext(study_name, load_runs(runs, meta), meta)
+
+    # ---- figures ------------------------------------------------------------------------------
+    results = make_figures(ctx)
+    fig_notes: dict[str, list[str]] = {}
+    formats = tuple(meta.get("figure_formats") or ("png", "pdf"))
+    dpi = float(meta.get("figure_dpi", 110))
+    for name, res in results.items():
+        fig_notes[name] = res.notes
+        try:
+            for ext in formats:
+                res.fig.savefig(report_dir / f"{name}.{ext}", dpi=dpi)
+        except Exception as exc:  # a figure that cannot be rendered is replaced by its error
+            fail = error_figure(name, exc)
+            for ext in formats:
+                fail.savefig(report_dir / f"{name}.{ext}", dpi=dpi)
+            fig_notes[name] = res.notes + [f"error: {type(exc).__name__}: {exc}"]
+
+    # ---- tables, summary ----------------------------------------------------------------------
+    (report_dir / "table2.md").write_text(table2_markdown(ctx), encoding="utf-8")
+    t2 = table2_html(ctx)
+    rs = results_html(ctx)
+    (report_dir / "table2.html").write_text(
+        _page(f"Table 2 — {study_name}", f"<h1>Table 2 — computed beside {PAPER_LABEL}</h1>{t2}"
+                                         f"<h2>Results stated in the text</h2>{rs}"), encoding="utf-8")
+    summary = write_summary(ctx, report_dir / "summary.json")
+
+    # ---- optional sections --------------------------------------------------------------------
+    wanted = set(meta.get("reports") or [])
+    sections: list[str] = []
+    if "convergence" in wanted or _is_ladder(ctx):
+        from .convergence import build_convergence_report
+        conv = build_convergence_report(ctx.runs, report_dir, order=meta.get("order"))
+        sections.append("<h2 id='convergence'>Error against run time</h2>"
+                        "<p>Relative error of each statistic against the finest rung and against the "
+                        f"paper, versus wall-clock time. Finest rung: <b>{html.escape(str(conv['result'].finest))}"
+                        "</b>.</p><figure><a href='convergence.pdf'><img src='convergence.png' "
+                        "alt='error against run time'></a></figure>" + conv["html"])
+    if "stability" in wanted or meta.get("failures") or meta.get("has_scenes") \
+            or (_has_scenes(ctx) and not _is_ladder(ctx)):
+        from .stability import build_stability_report
+        stab = build_stability_report(ctx.runs, report_dir, failures=meta.get("failures"),
+                                      samples=meta.get("samples"))
+        sections.append("<h2 id='stability'>Stability of the scenes</h2>" + stab["html"])
+
+    anim_html = ""
+    anim_label = meta.get("animation_label") or _pick_animation(ctx)
+    if anim_label:
+        from .animation import make_animation
+        r = ctx.runs.get(anim_label)
+        sp = (meta.get("samples") or {}).get(anim_label) or _samples_attr(r)
+        gif = make_animation(report_dir / "cp_animation.gif", r.path if r else None, sp,
+                             title=f"{anim_label}: C_p / C_p,max",
+                             max_frames=int(meta.get("animation_frames", 30)))
+        if gif is not None:
+            anim_html = (f"<h2 id='animation'>Animation of C_p ({html.escape(anim_label)})</h2>"
+                         "<figure><img src='cp_animation.gif' alt='C_p animation'></figure>")
+
+    # ---- index.html ---------------------------------------------------------------------------
+    index = report_dir / "index.html"
+    index.write_text(_index(ctx, summary, fig_notes, t2, rs, sections, anim_html), encoding="utf-8")
+    return index
+
+
+def _samples_attr(run) -> str | None:
+    """The samples.nc the analysis recorded it was made from (attribute ``samples_path``)."""
+    if run is None or run.ds is None:
+        return None
+    p = run.ds.attrs.get("samples_path")
+    return str(p) if p and Path(str(p)).is_file() else None
+
+
+def _pick_animation(ctx: ReportContext) -> str | None:
+    for n in (1, 2):
+        r = ctx.by_case(n)
+        if r is not None and r.ok:
+            return r.label
+    return next((l for l, r in ctx.runs.items() if r.ok), None)
+
+
+def _page(title: str, body: str) -> str:
+    return (f"<!DOCTYPE html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}"
+            f"</title><style>{_CSS}</style></head><body>{body}</body></html>\n")
+
+
+def _fmt_s(v: Any) -> str:
+    if not isinstance(v, (int, float)) or not math.isfinite(v):
+        return "—"
+    if v >= 3600:
+        return f"{v:.0f} s ({v / 3600:.2f} h)"
+    if v >= 60:
+        return f"{v:.0f} s ({v / 60:.1f} min)"
+    return f"{v:.1f} s"
+
+
+def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
+    e = html.escape
+    meta = ctx.meta
+    m = summary["machine"]
+    n_ok = sum(1 for r in ctx.runs.values() if r.ok)
+    parts = [f"<h1>saltstudy report — study <code>{e(ctx.study)}</code></h1>",
+             f"<p>A reproduction of Dupont, Bergametti, Marticorena &amp; Simoëns (2013), <i>Modeling "
+             f"saltation intermittency</i>, J. Geophys. Res. Atmos. 118. Computed values are drawn in "
+             f"colour; the paper's numbers, where it gives them, in grey and labelled "
+             f"“{PAPER_LABEL}”. {n_ok} of {len(ctx.runs)} runs have an analysis archive.</p>",
+             "<table class='meta'>",
+             f"<tr><th>study</th><td>{e(ctx.study)}</td></tr>",
+             f"<tr><th>fidelity</th><td>{e(str(summary['fidelity']))}</td></tr>",
+             f"<tr><th>package version</th><td>{e(str(summary['package_version']))}</td></tr>",
+             f"<tr><th>total wall time</th><td>{_fmt_s(summary['total_wall_time_s'])}</td></tr>",
+             f"<tr><th>machine</th><td>{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})</td></tr>",
+             "</table>",
+             "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
+             "<a href='#runs'>Runs and wall time</a> · <a href='#config'>Configuration</a> · "
+             "<a href='summary.json'>summary.json</a> · <a href='table2.md'>table2.md</a>"
+             + (" · <a href='#convergence'>Convergence</a>" if any("convergence" in s for s in sections) else "")
+             + (" · <a href='#stability'>Stability</a>" if any("stability" in s for s in sections) else "")
+             + "</p>",
+             f"<h2 id='tables'>Table 2 — computed beside {PAPER_LABEL}</h2>",
+             "<p>Per run: computed value, the paper's value (grey) and the relative difference "
+             "(computed − paper)/paper; red when larger than 25 %. The paper gives no per-case z0s, "
+             "z_m, G_tot or σG/G_tot (only figures).</p>", t2,
+             "<h3>Results stated in the paper's text</h3>", rs,
+             "<h2 id='figures'>Figures</h2>"]
+    for name, cap in CAPTIONS.items():
+        notes = fig_notes.get(name) or []
+        nh = f"<div class='notes'>{'<br>'.join(e(n) for n in notes)}</div>" if notes else ""
+        parts.append(f"<figure id='{name}'><a href='{name}.pdf'><img src='{name}.png' alt='{name}'></a>"
+                     f"<figcaption><b>{name.replace('fig', 'Figure ').replace(' 0', ' ')}.</b> {e(cap)} "
+                     f"(<a href='{name}.pdf'>PDF</a>)</figcaption>{nh}</figure>")
+    parts.extend(sections)
+    if anim_html:
+        parts.append(anim_html)
+    parts.append("<h2 id='runs'>Runs and wall time</h2><table><thead><tr><th>run</th><th>case</th>"
+                 "<th>fidelity</th><th>status</th><th>wall time</th><th>archive</th></tr></thead><tbody>")
+    for r in ctx.runs.values():
+        parts.append(f"<tr><td>{e(r.label)}</td><td>{'' if r.case is None else r.case}</td>"
+                     f"<td>{e(str(r.fidelity or '—'))}</td>"
+                     f"<td class='{'' if r.ok else 'bad'}'>{e(r.status)}</td><td>{_fmt_s(r.wall_time_s)}</td>"
+                     f"<td style='text-align:left'>{e(str(r.path) if r.path else '—')}</td></tr>")
+    parts.append("</tbody></table>")
+    cfg = meta.get("study_config")
+    if isinstance(cfg, str):
+        try:
+            cfg = json.loads(cfg)
+        except ValueError:
+            pass
+    parts.append("<h2 id='config'>Study configuration</h2>")
+    parts.append(f"<pre>{e(json.dumps(cfg, indent=2) if not isinstance(cfg, str) else cfg)}</pre>"
+                 if cfg is not None else "<p>not provided</p>")
+    parts.append("<p style='font-size:.8em;color:#777'>Fig. 2: u_ref is ⟨u⟩ at 2 m as in the paper, or, "
+                 "if the domain is too shallow, at half the undamped depth (where the solver holds u*); "
+                 "the height used is drawn on the figure.</p>")
+    return _page(f"saltstudy — {ctx.study}", "\n".join(parts))

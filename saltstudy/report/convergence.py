@@ -1,0 +1,239 @@
+"""Error against run time for a convergence ladder (one case at a ladder of fidelities).
+
+For each statistic (u*s, z0s, z_m, G_tot, sigma_G/G_tot, lambda_y, delta_y) and each rung:
+* the relative error against the *finest* rung (declared order's last, else the largest wall time),
+* the relative error against the paper (where the paper gives a value: Table 2 for u*s, lambda_y,
+  delta_y; the 10-20 % range for sigma_G/G_tot, where the error is the distance to the nearer bound
+  and 0 inside; the paper gives no per-case z0s, z_m or G_tot),
+plotted against the wall-clock time of the rung; and a table naming the cheapest rung within 10 % and
+within 25 % of the finest, per statistic.
+"""
+from __future__ import annotations
+
+import html
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .data import RunData, case_number_of, load_runs
+from .reference import PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
+from .tables import fmt
+
+__all__ = ["CONV_STATS", "ConvergenceResult", "convergence_analysis", "build_convergence_report"]
+
+#: statistic -> (label, paper Table 2 key or None)
+CONV_STATS: dict[str, tuple[str, str | None]] = {
+    "u_star_s": ("u*s", "u_star_s"), "z0s": ("z0s", None), "z_m": ("z_m", None),
+    "G_tot": ("G_tot", None), "sigma_G_over_G_tot": ("σG/G_tot", "range"),
+    "lambda_y": ("λy", "lambda_y_m"), "delta_y": ("δy", "delta_y_m"),
+}
+THRESHOLDS = (0.10, 0.25)
+
+
+@dataclass
+class ConvergenceResult:
+    rungs: list[dict[str, Any]]                # ordered coarse -> fine
+    finest: str | None
+    cheapest: dict[str, dict[str, str | None]]  # stat -> {"10%": label, "25%": label}
+    data: dict[str, np.ndarray]
+
+
+def _paper_error(stat: str, value: float, case: int | None) -> float:
+    key = CONV_STATS[stat][1]
+    if key is None or not math.isfinite(value):
+        return math.nan
+    if key == "range":
+        lo, hi = paper_results().get("fig13_sigmaG_over_Gtot", [math.nan, math.nan])
+        if lo <= value <= hi:
+            return 0.0
+        b = lo if value < lo else hi
+        return abs(value - b) / b
+    ref = paper_table2().get(case or -1, {}).get(key, math.nan)
+    return abs(value - ref) / abs(ref) if math.isfinite(ref) and ref != 0 else math.nan
+
+
+def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = None) -> ConvergenceResult:
+    present = [r for r in runs.values() if r.ok]
+    if order:
+        ranked = [runs[l] for l in order if l in runs]
+        ranked += [r for r in runs.values() if r.label not in order]
+    else:
+        ranked = sorted(runs.values(), key=lambda r: (not math.isfinite(r.wall_time_s),
+                                                      r.wall_time_s if math.isfinite(r.wall_time_s) else 0))
+    finest = None
+    if order:
+        finest = next((runs[l] for l in reversed(order) if l in runs and runs[l].ok), None)
+    if finest is None and present:
+        timed = [r for r in present if math.isfinite(r.wall_time_s)]
+        finest = max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
+    rungs = []
+    for r in ranked:
+        row: dict[str, Any] = {"label": r.label, "fidelity": r.fidelity, "status": r.status,
+                               "wall_time_s": r.wall_time_s, "values": {}, "err_finest": {},
+                               "err_paper": {}}
+        case = r.case if r.case is not None else case_number_of(r.label)
+        for s in CONV_STATS:
+            v = r.scalar(s)
+            f = finest.scalar(s) if finest is not None else math.nan
+            row["values"][s] = v
+            row["err_finest"][s] = (abs(v - f) / abs(f)) if math.isfinite(v) and math.isfinite(f) and f != 0 \
+                else math.nan
+            row["err_paper"][s] = _paper_error(s, v, case)
+        rungs.append(row)
+    cheapest: dict[str, dict[str, str | None]] = {}
+    for s in CONV_STATS:
+        cheapest[s] = {}
+        for th in THRESHOLDS:
+            ok = [row for row in rungs if row["status"] == "ok" and math.isfinite(row["err_finest"][s])
+                  and row["err_finest"][s] <= th]
+            ok.sort(key=lambda row: row["wall_time_s"] if math.isfinite(row["wall_time_s"]) else math.inf)
+            cheapest[s][f"{th:.0%}"] = ok[0]["label"] if ok else None
+    data = {"wall_time_s": np.array([row["wall_time_s"] for row in rungs], float)}
+    for s in CONV_STATS:
+        data[f"err_finest_{s}"] = np.array([row["err_finest"][s] for row in rungs], float)
+        data[f"err_paper_{s}"] = np.array([row["err_paper"][s] for row in rungs], float)
+    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data)
+
+
+def _rung_name(row: dict[str, Any]) -> str:
+    label = row["label"]
+    return label.split("@", 1)[1] if "@" in label else (row["fidelity"] or label)
+
+
+_STAT_COLORS = dict(zip(CONV_STATS, ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
+                                     "#8c564b", "#e377c2")))
+
+
+def _figure(res: ConvergenceResult) -> Figure:
+    fig = Figure(figsize=(11, 4.8), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2, sharex=True)
+    fig.suptitle("Error against wall-clock time, convergence ladder")
+    t = res.data["wall_time_s"]
+    labels = [row["label"] for row in res.rungs]
+    not_finest = np.array([l != res.finest for l in labels])
+    markers = "osD^v<>"
+    floor = 1e-4   # an error of exactly 0 (inside the paper's range) is drawn here, hollow, unjoined
+    for i, s in enumerate(CONV_STATS):
+        lab, col, mk = CONV_STATS[s][0], _STAT_COLORS[s], markers[i % len(markers)]
+        for ax, key, keep in ((ax1, "err_finest_", not_finest), (ax2, "err_paper_", np.ones_like(not_finest))):
+            e = res.data[key + s]
+            ok = np.isfinite(e) & np.isfinite(t) & keep
+            pos = ok & (e > 1e-9)      # below: round-off, shown as 0
+            zero = ok & (e <= 1e-9)
+            if pos.any():
+                order = np.argsort(t[pos])
+                ax.plot(t[pos][order], e[pos][order], marker=mk, color=col, lw=1.2, label=lab)
+            if zero.any():
+                ax.plot(t[zero], np.full(zero.sum(), floor), marker=mk, mfc="none", color=col, ls="none",
+                        label=None if pos.any() else f"{lab} (0)")
+    for ax in (ax1, ax2):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall-clock time of the run [s]")
+        ax.axhline(0.10, color="0.5", ls=":", lw=1)
+        ax.axhline(0.25, color="0.5", ls="--", lw=1)
+        ax.grid(alpha=0.3, which="both")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=8)
+    ax1.set_ylabel("|relative error| [-]   (10 % dotted, 25 % dashed)")
+    ax1.set_title(f"(a) against the finest rung ({res.finest})", loc="left", fontsize=9)
+    ax2.set_title(f"(b) against {PAPER_LABEL} (case 2; σG/G_tot: distance to 10–20 %)",
+                  loc="left", fontsize=9, color="0.3")
+    for row, tt in zip(res.rungs, t):
+        if math.isfinite(tt):
+            for ax in (ax1, ax2):
+                ax.axvline(tt, color="0.85", lw=0.8, zorder=0)
+                ax.annotate(_rung_name(row) + (" (finest)" if row["label"] == res.finest else ""),
+                            (tt, 1.0), xycoords=("data", "axes fraction"), textcoords="offset points",
+                            xytext=(2, -4), fontsize=7, rotation=90, va="top", color="0.4")
+    ax2.text(0.02, 0.02, f"hollow markers: error 0, drawn at {floor:g}", transform=ax2.transAxes,
+             fontsize=7, color=PAPER_COLOR)
+    return fig
+
+
+def _tables_md(res: ConvergenceResult) -> str:
+    lines = ["| rung | fidelity | status | wall time [s] | " +
+             " | ".join(f"{CONV_STATS[s][0]} (err. finest / paper)" for s in CONV_STATS) + " |",
+             "|" + "---|" * (4 + len(CONV_STATS))]
+    for row in res.rungs:
+        cells = [row["label"], str(row["fidelity"] or "—"), row["status"], fmt(row["wall_time_s"])]
+        for s in CONV_STATS:
+            ef, ep = row["err_finest"][s], row["err_paper"][s]
+            cells.append(f"{fmt(row['values'][s])} ({_p(ef)} / {_p(ep)})")
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", "Cheapest rung within 10 % / 25 % of the finest:", "",
+              "| statistic | within 10 % | within 25 % |", "|---|---|---|"]
+    for s in CONV_STATS:
+        c = res.cheapest[s]
+        lines.append(f"| {CONV_STATS[s][0]} | {c['10%'] or 'none'} | {c['25%'] or 'none'} |")
+    return "\n".join(lines)
+
+
+def _p(v: float) -> str:
+    return f"{v:.1%}" if math.isfinite(v) else "n/a"
+
+
+def _tables_html(res: ConvergenceResult) -> str:
+    e = html.escape
+    out = ["<table><thead><tr><th>rung</th><th>fidelity</th><th>status</th><th>wall time [s]</th>"]
+    out += [f"<th>{e(CONV_STATS[s][0])}<br><small>value (err. finest / paper)</small></th>" for s in CONV_STATS]
+    out.append("</tr></thead><tbody>")
+    for row in res.rungs:
+        out.append(f"<tr><td>{e(row['label'])}</td><td>{e(str(row['fidelity'] or '—'))}</td>"
+                   f"<td>{e(row['status'])}</td><td>{fmt(row['wall_time_s'])}</td>")
+        for s in CONV_STATS:
+            out.append(f"<td>{fmt(row['values'][s])} ({_p(row['err_finest'][s])} / "
+                       f"{_p(row['err_paper'][s])})</td>")
+        out.append("</tr>")
+    out.append("</tbody></table><h4>Cheapest rung within 10 % / 25 % of the finest</h4>"
+               "<table><thead><tr><th>statistic</th><th>within 10 %</th><th>within 25 %</th></tr>"
+               "</thead><tbody>")
+    for s in CONV_STATS:
+        c = res.cheapest[s]
+        out.append(f"<tr><td>{e(CONV_STATS[s][0])}</td><td>{e(c['10%'] or 'none')}</td>"
+                   f"<td>{e(c['25%'] or 'none')}</td></tr>")
+    out.append("</tbody></table>")
+    return "".join(out)
+
+
+def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunData], report_dir: Path,
+                             fidelities: dict[str, str] | None = None,
+                             wall_times: dict[str, float] | None = None,
+                             order: list[str] | None = None) -> dict[str, Any]:
+    """Write ``convergence.png/.pdf``, ``convergence.md`` and ``convergence.json`` in ``report_dir``.
+
+    ``runs``: label -> analysis path (or None), or already loaded :class:`RunData`. ``fidelities`` and
+    ``wall_times`` per label override the archives' attributes; ``order`` (coarse -> fine) declares
+    the ladder, else the rung with the largest wall time is the finest.
+    Returns {"result": ConvergenceResult, "html": str, "files": [...]}.
+    """
+    report_dir = Path(report_dir)
+    report_dir.mkdir(parents=True, exist_ok=True)
+    if runs and all(isinstance(v, RunData) for v in runs.values()):
+        loaded = dict(runs)  # type: ignore[arg-type]
+    else:
+        loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
+    res = convergence_analysis(loaded, order)
+    fig = _figure(res)
+    files = []
+    for ext in ("png", "pdf"):
+        p = report_dir / f"convergence.{ext}"
+        fig.savefig(p, dpi=130)
+        files.append(p)
+    md = ("# Error against run time\n\n" + f"Finest rung: {res.finest}.\n\n" + _tables_md(res) + "\n")
+    (report_dir / "convergence.md").write_text(md, encoding="utf-8")
+    payload = {"finest": res.finest, "cheapest": res.cheapest,
+               "rungs": [{**{k: v for k, v in row.items() if k not in ("values", "err_finest", "err_paper")},
+                          "wall_time_s": row["wall_time_s"] if math.isfinite(row["wall_time_s"]) else None,
+                          **{f"{k}": {s: (x if math.isfinite(x) else None) for s, x in row[k].items()}
+                             for k in ("values", "err_finest", "err_paper")}}
+                         for row in res.rungs]}
+    (report_dir / "convergence.json").write_text(json.dumps(payload, indent=2, allow_nan=False) + "\n",
+                                                  encoding="utf-8")
+    files += [report_dir / "convergence.md", report_dir / "convergence.json"]
+    return {"result": res, "html": _tables_html(res), "files": files}

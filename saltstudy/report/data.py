@@ -1,0 +1,269 @@
+"""Loading analysis archives for the report: one :class:`RunData` per run label.
+
+The report reads ``analysis.nc`` only (docs/ARCHITECTURE.md). A run whose archive is missing or
+unreadable becomes a :class:`RunData` with ``ds = None`` and a ``status`` saying why; figures draw it
+as missing, tables say so; nothing is invented.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+import xarray as xr
+
+from ..ncio import open_dataset
+
+__all__ = ["RunData", "ReportContext", "load_runs", "SCALAR_UNITS", "to_si", "case_number_of",
+           "is_plain_case_label"]
+
+#: units of the scalars of analysis.nc (used when the archive does not carry a ``units`` attribute)
+SCALAR_UNITS: dict[str, str] = {
+    "u_star_s": "m s-1", "z0s": "m", "u_star_0": "m s-1", "z0_0": "m", "z_m": "m",
+    "z_m_flux995": "m", "G_tot": "kg m-1 s-1", "sigma_G": "kg m-1 s-1", "sigma_G_over_G_tot": "1",
+    "lambda_x": "m", "lambda_y": "m", "delta_y": "m", "delta_y_u": "m", "u_star_t": "m s-1",
+    "tau_p_surface_fraction": "1", "R_cu_upper": "1", "n_parcels_mean": "1", "n_parcels_peak": "1",
+    "overshoot_ratio": "1", "t_equilibrium": "s", "streamer_lifetime": "s", "streamer_speed": "m s-1",
+    "E_splash_over_E_impact": "1", "fit_z_min": "m", "fit_z_max": "m", "wall_time_s": "s",
+}
+
+# non-SI units an archive might carry -> (factor to SI, SI unit)
+_TO_SI = {"um": (1e-6, "m"), "µm": (1e-6, "m"), "micron": (1e-6, "m"), "mm": (1e-3, "m"),
+          "cm": (1e-2, "m"), "km": (1e3, "m"), "min": (60.0, "s"), "h": (3600.0, "s"),
+          "ms": (1e-3, "s"), "g m-1 s-1": (1e-3, "kg m-1 s-1"), "%": (1e-2, "1"),
+          "percent": (1e-2, "1"), "-": (1.0, "1"), "": (1.0, "1"), "m/s": (1.0, "m s-1"),
+          "1": (1.0, "1")}
+
+_CASE_RE = re.compile(r"^case(\d+)(?:@(.+))?$")
+
+
+def to_si(value: float, units: str | None) -> tuple[float, str]:
+    """Convert ``value`` in ``units`` to SI (a small table of the units an archive may use)."""
+    if units is None:
+        return value, "1"
+    u = units.strip()
+    if u in _TO_SI:
+        f, si = _TO_SI[u]
+        return value * f, si
+    return value, u
+
+
+def is_plain_case_label(label: str) -> bool:
+    """``caseNN``: a case of Table 2 run as is (not a ladder rung, not a scene)."""
+    m = _CASE_RE.match(label)
+    return bool(m) and m.group(2) is None
+
+
+def case_number_of(label: str) -> int | None:
+    m = _CASE_RE.match(label)
+    return int(m.group(1)) if m else None
+
+
+def _finite(x: Any) -> bool:
+    try:
+        return math.isfinite(float(x))
+    except (TypeError, ValueError):
+        return False
+
+
+@dataclass
+class RunData:
+    """One run: its label, case number, archive and what was read from it."""
+    label: str
+    case: int | None
+    path: Path | None
+    ds: xr.Dataset | None = None
+    status: str = "ok"             # ok | no archive | unreadable: ...
+    fidelity: str | None = None
+    wall_time_s: float = math.nan
+    scene: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.ds is not None
+
+    @property
+    def plain_case(self) -> bool:
+        return is_plain_case_label(self.label)
+
+    # -- access ------------------------------------------------------------------------------
+    def scalar(self, name: str) -> float:
+        """A 0-d variable in SI units; NaN if absent or the run is missing."""
+        if self.ds is None or name not in self.ds.variables:
+            return math.nan
+        v = self.ds[name]
+        if v.ndim != 0:
+            return math.nan
+        try:
+            val = float(v.values)
+        except (TypeError, ValueError):
+            return math.nan
+        return to_si(val, v.attrs.get("units"))[0]
+
+    def attr(self, name: str, default: float = math.nan) -> float:
+        if self.ds is None:
+            return default
+        try:
+            return float(self.ds.attrs.get(name, default))
+        except (TypeError, ValueError):
+            return default
+
+    def has(self, *names: str) -> bool:
+        return self.ds is not None and all(n in self.ds.variables for n in names)
+
+    def var(self, name: str) -> xr.DataArray | None:
+        if self.ds is None or name not in self.ds.variables:
+            return None
+        return self.ds[name]
+
+    @property
+    def rho(self) -> float:
+        return self.attr("rho", 1.2)
+
+    @property
+    def mu1(self) -> float:
+        """Median diameter of the dominant soil mode [m] (from the archive's resolved scene)."""
+        modes = self.scene.get("case", {}).get("soil", {}).get("modes") or []
+        if modes:
+            dominant = max(modes, key=lambda m: m.get("mass_fraction", 1.0))
+            return float(dominant.get("mu", math.nan))
+        return math.nan
+
+    def z_ref(self) -> tuple[float, str]:
+        """Height where u_ref is read for Fig 2 and why.
+
+        The paper reads u_ref at 2 m. A smaller domain may not have 2 m below its damping layer:
+        we use z_ref = min(2 m, forcing.z_ref, (Lz - damping_depth)/2), the same effective height
+        at which the solver holds u* (docs/ARCHITECTURE.md, "Forcing").
+        """
+        grid = self.scene.get("fidelity", {}).get("grid", {})
+        lz = float(grid.get("Lz", self.attr("Lz", math.nan)))
+        damp = float(grid.get("damping_depth", 0.0))
+        zr = float(self.scene.get("case", {}).get("forcing", {}).get("z_ref", 2.0))
+        z = min(2.0, zr)
+        why = "2 m (paper)"
+        if _finite(lz) and 0.5 * (lz - damp) < z:
+            z = 0.5 * (lz - damp)
+            why = f"{z:.2g} m: highest height below half the undamped depth (domain {lz:g} m)"
+        return z, why
+
+
+@dataclass
+class ReportContext:
+    """All runs of a study, with the paper's case groupings resolved to runs."""
+    study: str
+    runs: dict[str, RunData]
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def by_case(self, n: int) -> RunData | None:
+        """The run that stands for case ``n`` in the paper's figures.
+
+        A plain ``caseNN`` label wins; otherwise (a convergence ladder) the rung with the largest
+        wall time among the archives present (the finest), else the last listed.
+        """
+        plain = [r for r in self.runs.values() if r.case == n and r.plain_case]
+        if plain:
+            return plain[0]
+        rungs = [r for r in self.runs.values() if r.case == n and case_number_of(r.label) == n]
+        if not rungs:
+            return None
+        present = [r for r in rungs if r.ok]
+        if present:
+            timed = [r for r in present if _finite(r.wall_time_s)]
+            return max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
+        return rungs[-1]
+
+    def missing_note(self, n: int) -> str | None:
+        """None if case ``n`` has data; else the reason to print on the figure."""
+        r = self.by_case(n)
+        if r is None:
+            return f"case {n}: not in study"
+        if not r.ok:
+            return f"case {n}: {r.status}"
+        return None
+
+    def present(self, cases: Iterable[int]) -> list[RunData]:
+        out = []
+        for n in cases:
+            r = self.by_case(n)
+            if r is not None and r.ok:
+                out.append(r)
+        return out
+
+    def scatter_runs(self) -> list[RunData]:
+        """Runs for the scatter figures (3, 4, 8, 13): every case (one per number) plus any
+        other run with an archive (scenes), labelled by their label."""
+        out: list[RunData] = []
+        seen: set[int] = set()
+        for r in self.runs.values():
+            if r.case is not None and case_number_of(r.label) is not None:
+                if r.case in seen:
+                    continue
+                rr = self.by_case(r.case)
+                seen.add(r.case)
+                if rr is not None and rr.ok:
+                    out.append(rr)
+            elif r.ok:
+                out.append(r)
+        return out
+
+
+def _load_one(label: str, path: Path | None, case_hint: int | None) -> RunData:
+    case = case_hint if case_hint is not None else case_number_of(label)
+    if path is None:
+        return RunData(label, case, None, status="no archive")
+    path = Path(path)
+    if not path.is_file():
+        return RunData(label, case, path, status="no archive")
+    try:
+        ds = open_dataset(path)
+    except Exception as exc:  # unreadable/corrupt: drawn as missing, reason kept
+        return RunData(label, case, path, status=f"unreadable ({type(exc).__name__})")
+    try:
+        scene = json.loads(ds.attrs.get("case_json", "{}") or "{}")
+    except (TypeError, ValueError):
+        scene = {}
+    if case is None:
+        c = ds.attrs.get("case_number", scene.get("case", {}).get("number"))
+        case = int(c) if c is not None and _finite(c) else None
+    fid = ds.attrs.get("fidelity") or scene.get("fidelity", {}).get("name")
+    try:
+        wall = float(ds.attrs.get("wall_time_s", math.nan))
+    except (TypeError, ValueError):
+        wall = math.nan
+    return RunData(label, case, path, ds=ds, fidelity=str(fid) if fid else None,
+                   wall_time_s=wall, scene=scene)
+
+
+def load_runs(runs: dict[str, str | Path | None], meta: dict[str, Any] | None = None
+              ) -> dict[str, RunData]:
+    """Read every archive (under the NetCDF lock). ``meta`` may give ``case_numbers``,
+    ``fidelities`` and ``wall_times`` per label; these win over the archives' attributes."""
+    meta = meta or {}
+    cases = meta.get("case_numbers") or {}
+    fids = meta.get("fidelities") or {}
+    walls = meta.get("wall_times") or {}
+    out: dict[str, RunData] = {}
+    for label, path in runs.items():
+        hint = cases.get(label)
+        r = _load_one(label, path, int(hint) if hint is not None else None)
+        if label in fids and fids[label]:
+            r.fidelity = str(fids[label])
+        if label in walls and _finite(walls[label]):
+            r.wall_time_s = float(walls[label])
+        out[label] = r
+    return out
+
+
+def profile(run: RunData, name: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """(z, values) of a profile on ``z``; None if absent."""
+    v = run.var(name)
+    if v is None or v.ndim != 1:
+        return None
+    dim = v.dims[0]
+    z = run.ds[dim].values if dim in run.ds.coords else np.arange(v.size, dtype=float)
+    return np.asarray(z, float), np.asarray(v.values, float)

@@ -1,0 +1,722 @@
+"""Figures 1-13 of Dupont et al. (2013), drawn from analysis archives.
+
+Each ``figNN(ctx)`` returns a :class:`FigureResult`: the matplotlib ``Figure`` (made without pyplot,
+so it is safe in worker threads and needs no display), the arrays it plotted (``data``), and the
+notes it printed (missing cases, undefined quantities). The paper's own numbers appear only as grey
+reference marks labelled "Dupont et al. 2013".
+
+Axes, normalisations and case groupings follow the paper's captions:
+  1 parcel count vs t (case 2)                    8 G_tot vs u*s/u*t with G_tot laws (200 um)
+  2 <u>/u_ref and <u'w'> vs z, with/without grains 9 C_p/C_pmax and u/u_max at 0.1 m, cases 1, 4, 6
+  3 z0s vs u*s/u*t with z0s laws                  10 spanwise spectra of C_p and u(0.1 m)
+  4 z_m vs u*s/u*t                                11 R_cu vs z/z_m
+  5 size distribution in air vs bed (90/200/400)  12 St vs z/z_m
+  6 tau_p/(rho u*s^2) vs z/z_m                    13 sigma_G/G_tot vs u*s/u*t
+  7 <G>/<G_tot> vs z/z_m
+Panels (a) of Figs 6, 7, 10-12 hold cases 1-6 (various u*s), panels (b) cases 2, 7-10 (various mu1).
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.figure import Figure
+
+from .data import ReportContext, RunData, profile
+from .laws import evaluate_law, load_laws
+from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
+
+__all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "figure_data_digest"]
+
+
+@dataclass
+class FigureResult:
+    fig: Figure
+    data: dict[str, np.ndarray] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+
+# ------------------------------------------------------------------------------------------------
+# helpers
+# ------------------------------------------------------------------------------------------------
+_WIND_COLORS = {n: c for n, c in zip(CASES_WIND, ("#1b9e77", "#66a61e", "#e6ab02", "#d95f02",
+                                                    "#e7298a", "#7570b3"))}
+_SOIL_COLORS = {2: "#66a61e", 7: "#a6761d", 8: "#e41a1c", 9: "#377eb8", 10: "#222222"}
+_MARKERS = {"200": "o", "other": "s", "scene": "^"}
+
+
+def _color(n: int | None, soil: bool = False) -> str:
+    if n is None:
+        return "0.3"
+    if soil and n in _SOIL_COLORS:
+        return _SOIL_COLORS[n]
+    return _WIND_COLORS.get(n, _SOIL_COLORS.get(n, "0.3"))
+
+
+def _fmt_um(d: float) -> str:
+    return f"{d * 1e6:.0f} µm" if math.isfinite(d) else "µ1 ?"
+
+
+def _case_label(r: RunData, soil: bool = False) -> str:
+    name = f"case {r.case}" if r.case is not None and r.plain_case else r.label
+    if soil:
+        return f"{name}, µ1 = {_fmt_um(r.mu1)}"
+    us = r.scalar("u_star_s")
+    return f"{name}, u*s = {us:.2f} m s⁻¹" if math.isfinite(us) else name
+
+
+def _new(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6), **kw) -> tuple[Figure, np.ndarray]:
+    fig = Figure(figsize=size, layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
+    return fig, axes
+
+
+def _plain_log(ax, axis: str = "x") -> None:
+    """Log axis with plain-number labels (0.5, 1, 2) and no minor labels."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+    a = ax.xaxis if axis == "x" else ax.yaxis
+    a.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    a.set_minor_formatter(NullFormatter())
+
+
+def _legend(ax, **kw) -> None:
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        ax.legend(**kw)
+
+
+def _notes(ax, notes: list[str], loc: str = "lower right") -> None:
+    if not notes:
+        return
+    x, ha = (0.98, "right") if "right" in loc else (0.02, "left")
+    y, va = (0.02, "bottom") if "lower" in loc else (0.98, "top")
+    ax.text(x, y, "\n".join(notes), transform=ax.transAxes, ha=ha, va=va, fontsize=7.5,
+            color="firebrick", bbox=dict(boxstyle="round", fc="white", ec="firebrick", alpha=0.85))
+
+
+def _empty(ax, message: str) -> None:
+    ax.text(0.5, 0.5, message, transform=ax.transAxes, ha="center", va="center", fontsize=11,
+            color="firebrick")
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def _ratio(r: RunData) -> float:
+    us, ut = r.scalar("u_star_s"), r.scalar("u_star_t")
+    return us / ut if math.isfinite(us) and math.isfinite(ut) and ut > 0 else math.nan
+
+
+def _is200(r: RunData) -> bool:
+    return math.isfinite(r.mu1) and abs(r.mu1 - 200e-6) < 1e-6
+
+
+def _paper_ratio(n: int) -> float:
+    row = paper_table2().get(n, {})
+    return row.get("u_star_s", math.nan) / row.get("u_star_t", math.nan)
+
+
+# ------------------------------------------------------------------------------------------------
+# Fig 1
+# ------------------------------------------------------------------------------------------------
+def fig01(ctx: ReportContext) -> FigureResult:
+    fig, axes = _new()
+    ax = axes[0, 0]
+    res = FigureResult(fig)
+    r = ctx.by_case(2)
+    ax.set_title("Fig. 1 — resolved parcels in the domain, case 2")
+    if r is None or not r.ok or not r.has("n_parcels"):
+        note = ctx.missing_note(2) or "case 2: no n_parcels series"
+        res.notes.append(note)
+        _empty(ax, note)
+        return res
+    n = r.var("n_parcels")
+    t = np.asarray(r.ds[n.dims[0]].values, float)
+    y = np.asarray(n.values, float)
+    ax.plot(t / 60.0, y, color="k", lw=1.2, label=f"{r.label} (this run)")
+    res.data.update(t=t, n_parcels=y)
+    nm = r.scalar("n_parcels_mean")
+    if math.isfinite(nm):
+        ax.axhline(nm, color="tab:blue", ls="--", lw=1, label=f"mean at equilibrium: {nm:.3g}")
+        res.data["n_parcels_mean"] = np.array([nm])
+    # paper: ~6e5 parcels in 20 m x 15 m at Q = 600; scale to this domain and this Q
+    ref = paper_results()
+    lx, ly, q = r.attr("Lx"), r.attr("Ly"), r.attr("Q")
+    q_paper = paper_table2().get(2, {}).get("Q", math.nan)
+    n_paper = ref.get("fig1_equilibrium_particles_case2", math.nan)
+    if all(math.isfinite(v) for v in (lx, ly, q, q_paper, n_paper)) and q > 0:
+        scaled = n_paper * (lx * ly / 300.0) * (q_paper / q)
+        ax.axhline(scaled, color=PAPER_COLOR, lw=3, alpha=0.6,
+                   label=f"{PAPER_LABEL}: ≈6×10⁵ in 300 m² at Q=600,\nscaled to {lx:g}×{ly:g} m², "
+                         f"Q={q:g}: {scaled:.3g}")
+    teq = ref.get("fig1_equilibrium_reached_after_s")
+    if teq:
+        ax.axvline(teq / 60.0, color=PAPER_COLOR, ls=":", lw=1.5,
+                   label=f"{PAPER_LABEL}: equilibrium after ≈{teq / 60:.1f} min")
+    ax.set_xlabel("time since saltation activation t [min]")
+    ax.set_ylabel("number of resolved parcels [-]")
+    ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
+    ax.set_xlim(left=0)
+    ax.set_ylim(bottom=0)
+    _legend(ax, fontsize=8, loc="best")
+    ax.grid(alpha=0.3)
+    return res
+
+
+# ------------------------------------------------------------------------------------------------
+# Fig 2
+# ------------------------------------------------------------------------------------------------
+def _interp_log(z: np.ndarray, v: np.ndarray, z0: float) -> float:
+    ok = np.isfinite(v) & (z > 0)
+    if ok.sum() < 2:
+        return math.nan
+    return float(np.interp(np.log(z0), np.log(z[ok]), v[ok]))
+
+
+def fig02(ctx: ReportContext) -> FigureResult:
+    fig, axes = _new(2, 1, size=(10, 4.8), sharey=True)
+    res = FigureResult(fig)
+    ax_u, ax_f = axes[0]
+    fig.suptitle("Fig. 2 — mean wind and momentum flux, case 2, with and without saltation")
+    r = ctx.by_case(2)
+    if r is None or not r.ok:
+        note = ctx.missing_note(2) or "case 2: no archive"
+        res.notes.append(note)
+        _empty(ax_u, note)
+        _empty(ax_f, note)
+        return res
+    zref, why = r.z_ref()
+    zm = r.scalar("z_m")
+    ztop = np.nan
+    styles = (("u_mean", "uw_flux", "with saltation", "k", "-"),
+              ("u_mean_spinup", "uw_flux_spinup", "without saltation (spin-up)", "tab:blue", "--"))
+    for uname, fname, lab, col, ls in styles:
+        pu = profile(r, uname)
+        if pu is not None:
+            z, u = pu
+            uref = _interp_log(z, u, zref)
+            if math.isfinite(uref) and uref != 0:
+                ax_u.plot(u / uref, z, color=col, ls=ls, lw=1.5, label=lab)
+                res.data[f"{uname}_norm"] = u / uref
+                res.data["z"] = z
+                ztop = np.nanmax(z)
+            else:
+                res.notes.append(f"{uname}: u_ref undefined")
+        else:
+            res.notes.append(f"{uname}: not in archive")
+        pf = profile(r, fname)
+        if pf is not None:
+            z, f = pf
+            ax_f.plot(f, z, color=col, ls=ls, lw=1.5, label=lab)
+            res.data[fname] = f
+        else:
+            res.notes.append(f"{fname}: not in archive")
+    for ax in (ax_u, ax_f):
+        if math.isfinite(zm) and zm > 0:
+            ax.axhspan(1e-6, zm, color="0.85", zorder=0,
+                       label=f"saltation layer (z < z_m = {zm:.2f} m)")
+        zlog = paper_results().get("fig2_log_layer_above_m")
+        if zlog:
+            ax.axhline(zlog, color=PAPER_COLOR, ls=":", lw=1.5,
+                       label=f"{PAPER_LABEL}: log law, constant stress above ≈{zlog:g} m")
+        ax.set_yscale("log")
+        ax.grid(alpha=0.3, which="both")
+    ax_u.axhline(zref, color="tab:red", lw=0.8, ls="-.", label=f"z_ref = {why}")
+    grid = r.scene.get("fidelity", {}).get("grid", {})
+    lz, damp = float(grid.get("Lz", r.attr("Lz"))), float(grid.get("damping_depth", 0.0))
+    if math.isfinite(lz) and damp > 0:
+        for ax in (ax_u, ax_f):
+            ax.axhspan(lz - damp, lz, facecolor="none", edgecolor="0.6", hatch="//", lw=0,
+                       label=f"Rayleigh damping layer (z > {lz - damp:g} m)")
+    zs = res.data.get("z")
+    if zs is not None:
+        ax_u.set_ylim(max(1e-3, 0.5 * float(np.nanmin(zs))), 1.2 * ztop)
+    ax_u.set_xlabel(r"$\langle u\rangle / u_{ref}$ [-]")
+    ax_u.set_ylabel("z [m]")
+    ax_u.set_title("(a)", loc="left")
+    ax_f.set_xlabel(r"$\langle u'w'\rangle$ (resolved + SGS) [m² s⁻²]")
+    ax_f.set_title("(b)", loc="left")
+    _legend(ax_u, fontsize=7.5, loc="best", framealpha=0.9)
+    _legend(ax_f, fontsize=7.5, loc="best", framealpha=0.9)
+    _notes(ax_f, res.notes)
+    res.data["u_ref_height"] = np.array([zref])
+    return res
+
+
+# ------------------------------------------------------------------------------------------------
+# scatter figures: 3, 4, 8, 13
+# ------------------------------------------------------------------------------------------------
+def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
+    """Computed ``var`` vs u*s/u*t for every run, dots; 200 um cases circles, others squares."""
+    xs, ys = [], []
+    others: dict[str, str] = {}
+    seen_groups: set[str] = set()
+    for r in ctx.scatter_runs():
+        x, y = _ratio(r), r.scalar(var)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            res.notes.append(f"{r.label}: {var} or u*s/u*t undefined")
+            continue
+        if r.case is not None and r.plain_case or (r.case is not None and "@" in r.label):
+            group = "200" if _is200(r) else "other"
+        else:
+            group = "scene"
+        col = _color(r.case, soil=not _is200(r))
+        lab = {"200": "this study, µ1 = 200 µm (cases 1–6)", "other": "this study, µ1 ≠ 200 µm (cases 7–10)",
+               "scene": "this study, other scenes"}[group]
+        ax.plot([x], [y], marker=_MARKERS[group], ls="none", ms=8, mfc=col, mec="k",
+                label=None if group in seen_groups else lab)
+        seen_groups.add(group)
+        tag = str(r.case) if group != "scene" else r.label
+        if group == "other":
+            others[tag] = _fmt_um(r.mu1)
+        ax.annotate(tag, (x, y), textcoords="offset points", xytext=(5, 4), fontsize=7.5)
+        xs.append(x)
+        ys.append(y)
+    res.data["x_ratio"] = np.array(xs)
+    res.data[var] = np.array(ys)
+    if others:
+        ax.text(0.99, 0.5, "µ1 ≠ 200 µm:\n" + "\n".join(f"case {k}: {v}" for k, v in others.items()),
+                transform=ax.transAxes, ha="right", va="center", fontsize=7.5,
+                bbox=dict(boxstyle="round", fc="white", ec="0.7", alpha=0.9))
+    for n in range(1, 11):
+        note = ctx.missing_note(n)
+        if note and ctx.by_case(n) is not None:
+            res.notes.append(note)
+    ax.set_xlabel(r"$u_{*s}/u_{*t}$ [-]")
+    ax.grid(alpha=0.3, which="both")
+
+
+def _law_range(res: FigureResult) -> np.ndarray:
+    xs = res.data.get("x_ratio", np.array([]))
+    hi = max(4.5, float(np.nanmax(xs)) * 1.1) if xs.size else 4.5
+    return np.linspace(1.0, hi, 200)
+
+
+def _ref_threshold(ctx: ReportContext) -> tuple[float, RunData | None]:
+    """u*t, and the run it came from, for the laws at mu1 = 200 um (case 2 first, then 1-6)."""
+    for n in (2, 1, 3, 4, 5, 6):
+        r = ctx.by_case(n)
+        if r is not None and r.ok and math.isfinite(r.scalar("u_star_t")):
+            return r.scalar("u_star_t"), r
+    for r in ctx.runs.values():
+        if r.ok and _is200(r) and math.isfinite(r.scalar("u_star_t")):
+            return r.scalar("u_star_t"), r
+    return math.nan, None
+
+
+def _draw_laws(ctx, ax, laws: dict, reason: str | None, res: FigureResult, d: float) -> None:
+    ut, src = _ref_threshold(ctx)
+    if reason:
+        res.notes.append("semi-empirical laws not drawn: physics.laws unavailable")
+        return
+    if not math.isfinite(ut) or src is None:
+        res.notes.append("semi-empirical laws not drawn: no u*t for µ1 = 200 µm")
+        return
+    ratio = _law_range(res)
+    q = dict(u_star_t=ut, d=d, rho=src.rho, rho_p=src.attr("rho_p", 2650.0), g=src.attr("g", 9.81),
+             z0=src.attr("z0", 1e-5), kappa=src.attr("kappa", 0.4), nu=src.attr("nu", 1.5e-5))
+    styles = ["-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1))]
+    colors = ["#1f77b4", "#9467bd", "#8c564b", "#d62728", "#17becf", "#bcbd22"]
+    for i, (name, entry) in enumerate(laws.items()):
+        fn, cite = (entry if isinstance(entry, tuple) else (entry, name))
+        try:
+            y = evaluate_law(fn, ratio * ut, **q)
+        except Exception as exc:
+            res.notes.append(f"law {name} not drawn ({type(exc).__name__})")
+            continue
+        ax.plot(ratio, y, color=colors[i % len(colors)], ls=styles[i % len(styles)], lw=1.2,
+                label=str(cite))
+        res.data[f"law_{name}"] = y
+
+
+def fig03(ctx: ReportContext) -> FigureResult:
+    fig, axes = _new(size=(7.2, 5.2))
+    ax = axes[0, 0]
+    res = FigureResult(fig)
+    _scatter(ctx, ax, "z0s", res)
+    z0s_laws, _, reason = load_laws()
+    _draw_laws(ctx, ax, z0s_laws, reason, res, d=200e-6)
+    if any(np.any(np.asarray(v) > 0) for v in res.data.values()):
+        ax.set_yscale("log")
+    ax.set_ylabel(r"saltation roughness length $z_{0s}$ [m]")
+    ax.set_title("Fig. 3 — z0s vs u*s/u*t (laws at µ1 = 200 µm, u*t of case 2)", fontsize=10)
+    _legend(ax, fontsize=7, loc="lower right")
+    _notes(ax, res.notes, "upper left")
+    return res
+
+
+def fig04(ctx: ReportContext) -> FigureResult:
+    fig, axes = _new()
+    ax = axes[0, 0]
+    res = FigureResult(fig)
+    _scatter(ctx, ax, "z_m", res)
+    rng = paper_results().get("fig4_zm_cases_1_to_6_m")
+    if rng:
+        xr_ = [_paper_ratio(1), _paper_ratio(6)]
+        ax.plot(xr_, rng, color=PAPER_COLOR, ls="--", lw=2, marker="D", ms=7, alpha=0.8,
+                label=f"{PAPER_LABEL}: z_m {rng[0]:g}–{rng[1]:g} m, linear, cases 1–6")
+    ax.set_ylabel(r"saltation height $z_m$ [m]")
+    ax.set_ylim(bottom=0)
+    ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s²)")
+    _legend(ax, fontsize=7.5, loc="upper left")
+    _notes(ax, res.notes, "lower right")
+    return res
+
+
+def fig08(ctx: ReportContext) -> FigureResult:
+    fig, axes = _new(size=(7.2, 5.2))
+    ax = axes[0, 0]
+    res = FigureResult(fig)
+    _scatter(ctx, ax, "G_tot", res)
+    _, gtot_laws, reason = load_laws()
+    _draw_laws(ctx, ax, gtot_laws, reason, res, d=200e-6)
+    ax.set_ylabel(r"total saltation flux $\langle G_{tot}\rangle$ [kg m⁻¹ s⁻¹]")
+    ax.set_ylim(bottom=0)
+    ax.set_title("Fig. 8 — G_tot vs u*s/u*t (laws at µ1 = 200 µm)", fontsize=10)
+    ax.plot([], [], ls="none", label=f"{PAPER_LABEL}: G_tot close to Bagnold (1937) at low u*s,\n"
+                                     "close to Sørensen (2004) at high u*s")
+    _legend(ax, fontsize=7, loc="upper left")
+    _notes(ax, res.notes, "upper right")
+    return res
+
+
+def fig13(ctx: ReportContext) -> FigureResult:
+    fig, axes = _new()
+    ax = axes[0, 0]
+    res = FigureResult(fig)
+    _scatter(ctx, ax, "sigma_G_over_G_tot", res)
+    band = paper_results().get("fig13_sigmaG_over_Gtot")
+    if band:
+        ax.axhspan(band[0], band[1], color=PAPER_COLOR, alpha=0.25, zorder=0,
+                   label=f"{PAPER_LABEL}: {band[0]:.0%}–{band[1]:.0%}")
+    ax.set_ylabel(r"$\sigma_G / \langle G_{tot}\rangle$ [-]")
+    ax.set_ylim(bottom=0)
+    ax.set_title("Fig. 13 — relative standard deviation of the saltation flux")
+    _legend(ax, fontsize=7.5, loc="upper right")
+    _notes(ax, res.notes, "lower right")
+    return res
+
+
+# ------------------------------------------------------------------------------------------------
+# Fig 5
+# ------------------------------------------------------------------------------------------------
+def fig05(ctx: ReportContext) -> FigureResult:
+    fig, axes = _new(3, 1, size=(13, 4.4))
+    res = FigureResult(fig)
+    fig.suptitle("Fig. 5 — grain-size distribution in the saltation layer (by height band) vs the bed")
+    panels = (("(a) µ1 = 90 µm", (7,)), ("(b) µ1 = 200 µm", (2, 1)), ("(c) µ1 = 400 µm", (10,)))
+    for ax, (title, cands) in zip(axes[0], panels):
+        r = next((ctx.by_case(n) for n in cands if ctx.by_case(n) is not None and ctx.by_case(n).ok), None)
+        if r is None or not r.has("psd_air", "psd_bed"):
+            note = ctx.missing_note(cands[0]) or f"case {cands[0]}: no size distribution"
+            res.notes.append(note)
+            ax.set_title(title, loc="left")
+            _empty(ax, note)
+            continue
+        ax.set_title(f"{title} — case {r.case}", loc="left")
+        d = np.asarray(r.ds["d_bin"].values, float) * 1e6
+        bed = np.asarray(r.ds["psd_bed"].values, float)
+        air = np.asarray(r.ds["psd_air"].values, float)
+        air_dims = r.ds["psd_air"].dims
+        if air_dims[0] == "d_bin":
+            air = air.T
+        zb = r.ds[r.ds["psd_air"].dims[0] if air_dims[0] != "d_bin" else air_dims[1]].values
+        edges = r.ds["z_band_edges"].values if "z_band_edges" in r.ds else None
+        cmap = colormaps["plasma"]
+        for i in range(air.shape[0]):
+            if edges is not None and len(edges) == air.shape[0] + 1:
+                lab = f"air, z = {edges[i] * 100:.0f}–{edges[i + 1] * 100:.0f} cm"
+            else:
+                lab = f"air, z ≈ {zb[i] * 100:.0f} cm"
+            ax.plot(d, air[i], color=cmap(i / max(1, air.shape[0])), lw=1.4, marker=".", label=lab)
+        ax.plot(d, bed, color="k", lw=2.5, label="bed (soil)")
+        res.data[f"psd_air_case{r.case}"] = air
+        res.data[f"psd_bed_case{r.case}"] = bed
+        ax.set_xscale("log")
+        ax.set_xlabel("grain diameter d [µm]")
+        ax.set_ylabel("mass fraction per size bin [-]")
+        ax.grid(alpha=0.3, which="both")
+        _legend(ax, fontsize=7)
+    return res
+
+
+# ------------------------------------------------------------------------------------------------
+# profile figures: 6, 7, 11, 12
+# ------------------------------------------------------------------------------------------------
+def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
+              norm: Callable[[RunData, np.ndarray], np.ndarray], xlog: bool,
+              decorate: Callable | None = None, ylim=(0.0, 1.5), xlog_span: float = 1e-4
+              ) -> FigureResult:
+    fig, axes = _new(2, 1, size=(11, 5.0), sharey=True)
+    res = FigureResult(fig)
+    fig.suptitle(title)
+    for ax, cases, soil, ptitle in ((axes[0, 0], CASES_WIND, False, "(a) cases 1–6: various u*s"),
+                                    (axes[0, 1], CASES_SOIL, True, "(b) cases 2, 7–10: various µ1")):
+        notes = []
+        for n in cases:
+            r = ctx.by_case(n)
+            note = ctx.missing_note(n)
+            if note:
+                notes.append(note)
+                continue
+            p = profile(r, var)
+            zm = r.scalar("z_m")
+            if p is None:
+                notes.append(f"case {n}: no {var}")
+                continue
+            if not (math.isfinite(zm) and zm > 0):
+                notes.append(f"case {n}: z_m undefined (no saltation?)")
+                continue
+            z, v = p
+            x = np.asarray(norm(r, v), float)
+            vis = z / zm <= ylim[1] * 1.05
+            z, x = z[vis], x[vis]
+            if xlog:
+                x = np.where(x > 0, x, np.nan)
+            ax.plot(x, z / zm, color=_color(n, soil), lw=1.6, marker=".", ms=3,
+                    label=_case_label(r, soil))
+            res.data[f"{ptitle[:3]}case{n}"] = np.asarray(x, float)
+        if decorate is not None:
+            decorate(ax, soil, res)
+        if xlog:
+            vals = np.concatenate([v for k, v in res.data.items() if k.startswith(ptitle[:3])] or [np.array([])])
+            vals = vals[np.isfinite(vals) & (vals > 0)]
+            if vals.size:  # a log axis without positive data cannot be drawn
+                ax.set_xscale("log")
+                hi = float(vals.max())
+                lo = max(float(vals.min()), hi * xlog_span)
+                ax.set_xlim(lo / 1.5, hi * 1.5)
+        ax.set_ylim(*ylim)
+        ax.set_xlabel(xlabel)
+        ax.set_title(ptitle, loc="left")
+        ax.grid(alpha=0.3, which="both")
+        _legend(ax, fontsize=7.5, loc="upper right")
+        _notes(ax, notes, "lower left")
+        res.notes.extend(notes)
+    axes[0, 0].set_ylabel(r"$z / z_m$ [-]")
+    return res
+
+
+def fig06(ctx: ReportContext) -> FigureResult:
+    def norm(r, v):
+        return v / (r.rho * r.scalar("u_star_s") ** 2)
+
+    def deco(ax, soil, res):
+        ax.axvline(1e-3, color="0.6", ls=":", lw=1, label="0.1 % (definition of z_m)")
+        val = paper_results().get("fig6_taup_surface_fraction_case6")
+        if val and not soil:
+            r6 = ctx.by_case(6)
+            y = 0.0
+            if r6 is not None and r6.ok and r6.has("z") and math.isfinite(r6.scalar("z_m")):
+                y = float(r6.ds["z"].values[0]) / r6.scalar("z_m")
+            ax.plot([val], [y], marker="*", ms=15, color=PAPER_COLOR, ls="none", clip_on=False,
+                    label=f"{PAPER_LABEL}: case 6 surface ≈ {val:g}")
+
+    return _profiles(ctx, "tau_p", "Fig. 6 — particle momentum flux τp / (ρ u*s²)",
+                     r"$\tau_p / (\rho u_{*s}^2)$ [-]", norm, True, deco)
+
+
+def fig07(ctx: ReportContext) -> FigureResult:
+    def norm(r, v):
+        return v / r.scalar("G_tot")
+
+    return _profiles(ctx, "G", "Fig. 7 — mean saltation flux ⟨G⟩ / ⟨G_tot⟩",
+                     r"$\langle G\rangle / \langle G_{tot}\rangle$ [m⁻¹]", norm, True)
+
+
+def fig11(ctx: ReportContext) -> FigureResult:
+    res_ = paper_results()
+
+    def deco(ax, soil, res):
+        ax.axvline(0.0, color="0.5", lw=0.8)
+        val = res_.get("fig11_Rcu_upper_layer")
+        if val is not None and not soil:
+            ax.plot([val, val], [0.6, 1.0], color=PAPER_COLOR, lw=6, alpha=0.6, solid_capstyle="butt",
+                    label=f"{PAPER_LABEL}: R_cu ≈ {val:g} for z ≥ 0.6 z_m (µ1 = 200 µm)")
+        pk = res_.get("fig11_Rcu_peak_height_over_zm")
+        if pk and not soil:
+            ax.axhspan(pk[0], pk[1], color=PAPER_COLOR, alpha=0.2, zorder=0,
+                       label=f"{PAPER_LABEL}: peak at {pk[0]:g}–{pk[1]:g} z_m (cases 1–4)")
+
+    return _profiles(ctx, "R_cu", "Fig. 11 — zero-lag correlation R_cu between C_p and u(z)",
+                     r"$R_{cu}$ [-]", lambda r, v: v, False, deco)
+
+
+def fig12(ctx: ReportContext) -> FigureResult:
+    h = paper_results().get("fig12_St_below_1_above_z_over_zm")
+
+    def deco(ax, soil, res):
+        ax.axvline(1.0, color="0.4", ls="--", lw=1, label="St = 1")
+        if h is not None:
+            ax.axhline(h, color=PAPER_COLOR, lw=4, alpha=0.5,
+                       label=f"{PAPER_LABEL}: St < 1 above ≈{h:g} z_m (µ1 ≥ 200 µm)")
+
+    return _profiles(ctx, "St", "Fig. 12 — Stokes number St = T_p / T_ε in the saltation layer",
+                     r"$St$ [-]", lambda r, v: v, True, deco, ylim=(0.0, 1.2))
+
+
+# ------------------------------------------------------------------------------------------------
+# Fig 9
+# ------------------------------------------------------------------------------------------------
+def fig09(ctx: ReportContext) -> FigureResult:
+    cases = (1, 4, 6)
+    # aspect from the first present run
+    ref = next((ctx.by_case(n) for n in cases if ctx.by_case(n) is not None and ctx.by_case(n).ok), None)
+    lx = ref.attr("Lx", 20.0) if ref else 20.0
+    ly = ref.attr("Ly", 15.0) if ref else 15.0
+    w = 11.0
+    h = 3 * (w / 2) * (ly / lx) * 0.95 + 1.0 if ref else 6.0
+    fig, axes = _new(2, 3, size=(w, min(max(h, 6.0), 14.0)))
+    res = FigureResult(fig)
+    fig.suptitle("Fig. 9 — snapshots: (a) C_p / C_pmax and (b) u / u_max at z = 0.1 m")
+    for row, n in enumerate(cases):
+        r = ctx.by_case(n)
+        for col, (var, lab, cmap) in enumerate((("C_p_snapshot", r"$C_p / C_{p,max}$", "YlOrBr"),
+                                                ("u_snapshot", r"$u / u_{max}$", "viridis"))):
+            ax = axes[row, col]
+            note = ctx.missing_note(n)
+            if note is None and not r.has(var):
+                note = f"case {n}: no {var}"
+            if note:
+                res.notes.append(note)
+                _empty(ax, note)
+                ax.set_title(f"({'ab'[col]}) case {n}", loc="left", fontsize=9)
+                continue
+            v = r.var(var)
+            arr = np.asarray(v.values, float)
+            if v.dims == ("y", "x"):
+                arr = arr.T
+            vmax = np.nanmax(np.abs(arr))
+            arr = arr / vmax if vmax > 0 else arr
+            x = np.asarray(r.ds["x"].values, float) if "x" in r.ds else np.arange(arr.shape[0])
+            y = np.asarray(r.ds["y"].values, float) if "y" in r.ds else np.arange(arr.shape[1])
+            dx = x[1] - x[0] if x.size > 1 else 1.0
+            dy = y[1] - y[0] if y.size > 1 else 1.0
+            im = ax.imshow(arr.T, origin="lower", cmap=cmap, aspect="equal",
+                           extent=(x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2),
+                           vmin=0.0 if col == 0 else None, vmax=1.0)
+            fig.colorbar(im, ax=ax, shrink=0.85, label=lab)
+            res.data[f"{var}_case{n}"] = arr
+            us = r.scalar("u_star_s")
+            ax.set_title(f"({'ab'[col]}) case {n}" + (f", u*s = {us:.2f} m s⁻¹" if math.isfinite(us) else ""),
+                         loc="left", fontsize=9)
+            ax.set_ylabel("y [m]")
+            if row == len(cases) - 1:
+                ax.set_xlabel("x [m] (wind →)")
+    return res
+
+
+# ------------------------------------------------------------------------------------------------
+# Fig 10
+# ------------------------------------------------------------------------------------------------
+def fig10(ctx: ReportContext) -> FigureResult:
+    fig, axes = _new(2, 2, size=(11, 8.5))
+    res = FigureResult(fig)
+    fig.suptitle("Fig. 10 — spanwise spectra of (a) C_p and (b) u at z = 0.1 m, averaged in x and t")
+    table = paper_table2()
+    for row, (cases, soil, rtitle) in enumerate(((CASES_WIND, False, "cases 1–6"),
+                                                 (CASES_SOIL, True, "cases 2, 7–10"))):
+        for col, (var, dvar, vlab) in enumerate((("S_c", "delta_y", "C_p"), ("S_u", "delta_y_u", "u"))):
+            ax = axes[row, col]
+            notes = []
+            for n in cases:
+                r = ctx.by_case(n)
+                note = ctx.missing_note(n)
+                if note is None and not r.has(var):
+                    note = f"case {n}: no {var}"
+                if note:
+                    notes.append(note)
+                    continue
+                v = r.var(var)
+                ky = np.asarray(r.ds[v.dims[0]].values, float)
+                s = np.asarray(v.values, float)
+                ok = (ky > 0) & np.isfinite(s)
+                ky, s = ky[ok], s[ok]
+                area = np.trapezoid(s, ky) if ky.size > 1 else np.nan
+                sn = s / area if area and math.isfinite(area) and area > 0 else s
+                c = _color(n, soil)
+                ax.plot(1.0 / ky, sn, color=c, lw=1.5, label=_case_label(r, soil))
+                res.data[f"{var}_case{n}"] = sn
+                dyv = r.scalar(dvar)
+                if math.isfinite(dyv):
+                    ax.axvline(dyv, color=c, lw=0.8, ls=":")
+            if col == 0:  # the paper's delta_y (from C_p spectra, Table 2) as grey triangles
+                pv = [(n, table.get(n, {}).get("delta_y_m", math.nan)) for n in cases]
+                pv = [(n, v) for n, v in pv if math.isfinite(v)]
+                if pv:
+                    ax.plot([v for _, v in pv], [0.0] * len(pv), marker="^", ms=9, ls="none",
+                            color=PAPER_COLOR, transform=ax.get_xaxis_transform(), clip_on=False,
+                            label=f"{PAPER_LABEL}: δy (Table 2)")
+            if any(k.startswith(var) for k in res.data if k.endswith(tuple(f"case{n}" for n in cases))):
+                ax.set_xscale("log")
+                ax.set_yscale("log")
+                _plain_log(ax, "x")
+            ax.set_xlabel(r"spanwise wavelength $1/k_y$ [m]")
+            ax.set_ylabel(f"$S_{{{vlab}}}(k_y) / \\int S_{{{vlab}}}\\,dk_y$ [m]")
+            ax.set_title(f"({'ab'[col]}) {vlab}, {rtitle}  (dotted: computed peak)", loc="left", fontsize=9)
+            ax.grid(alpha=0.3, which="both")
+            _legend(ax, fontsize=7, loc="lower right")
+            _notes(ax, notes, "upper left")
+            res.notes.extend(notes)
+    return res
+
+
+FIGURES: dict[str, Callable[[ReportContext], FigureResult]] = {
+    "fig01": fig01, "fig02": fig02, "fig03": fig03, "fig04": fig04, "fig05": fig05,
+    "fig06": fig06, "fig07": fig07, "fig08": fig08, "fig09": fig09, "fig10": fig10,
+    "fig11": fig11, "fig12": fig12, "fig13": fig13,
+}
+
+CAPTIONS = {
+    "fig01": "Number of resolved parcels in the domain vs time since activation, case 2.",
+    "fig02": "(a) ⟨u⟩/u_ref and (b) ⟨u′w′⟩ vs height, case 2, with and without saltation; grey: "
+             "saltation layer (z < z_m).",
+    "fig03": "Saltation roughness length z0s vs u*s/u*t (dots) with semi-empirical laws (lines).",
+    "fig04": "Saltation height z_m vs u*s/u*t.",
+    "fig05": "Grain-size distribution in the saltation layer vs the bed for µ1 = 90, 200, 400 µm.",
+    "fig06": "τp/(ρu*s²) vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
+    "fig07": "⟨G⟩/⟨G_tot⟩ vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
+    "fig08": "Total saltation flux G_tot vs u*s/u*t (dots) with semi-empirical laws for 200 µm (lines).",
+    "fig09": "Snapshots of C_p/C_pmax and u/u_max at z = 0.1 m for cases 1, 4, 6.",
+    "fig10": "Spanwise spectra of C_p and u(0.1 m), normalised by their integral: top cases 1–6, "
+             "bottom cases 2, 7–10.",
+    "fig11": "Zero-lag correlation R_cu between C_p and u(z) vs z/z_m.",
+    "fig12": "Stokes number St vs z/z_m.",
+    "fig13": "σ_G/⟨G_tot⟩ vs u*s/u*t.",
+}
+
+
+def error_figure(name: str, exc: BaseException) -> Figure:
+    fig, axes = _new()
+    _empty(axes[0, 0], f"{name}: could not be drawn\n{type(exc).__name__}: {exc}")
+    return fig
+
+
+def make_figures(ctx: ReportContext, names=None) -> dict[str, FigureResult]:
+    """Draw the figures (all, or ``names``). A figure function that raises is replaced by a figure
+    stating the error, so one bad archive never loses the whole report."""
+    out: dict[str, FigureResult] = {}
+    for name in names or FIGURES:
+        try:
+            out[name] = FIGURES[name](ctx)
+        except Exception as exc:  # report the failure on the figure itself
+            out[name] = FigureResult(error_figure(name, exc), notes=[f"error: {type(exc).__name__}: {exc}"])
+    return out
+
+
+def figure_data_digest(fig: Figure) -> str:
+    """SHA-256 of every data array drawn on ``fig`` (lines, collections, images), so a test can
+    tell whether the plotted data changed without comparing image bytes."""
+    h = hashlib.sha256()
+    for ax in fig.axes:
+        for ln in ax.get_lines():
+            h.update(np.ascontiguousarray(ln.get_xydata(), dtype=float).tobytes())
+        for c in ax.collections:
+            off = c.get_offsets()
+            h.update(np.ascontiguousarray(np.asarray(off, dtype=float)).tobytes())
+        for im in ax.get_images():
+            h.update(np.ascontiguousarray(np.asarray(im.get_array(), dtype=float)).tobytes())
+    return h.hexdigest()

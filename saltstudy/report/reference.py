@@ -1,0 +1,60 @@
+"""The paper's numbers (Dupont et al. 2013), used only to be placed *beside* computed values.
+
+Everything here is read from the package's copy ``saltstudy/data/dupont2013.toml``. Nothing in the
+report uses these numbers as an output: they appear as grey reference markers, bands and table
+columns labelled "Dupont et al. 2013".
+"""
+from __future__ import annotations
+
+import functools
+import math
+import tomllib
+from importlib import resources
+from typing import Any
+
+__all__ = ["paper", "paper_table2", "paper_results", "PAPER_LABEL", "PAPER_COLOR",
+           "CASES_WIND", "CASES_SOIL", "TABLE2_COLUMNS"]
+
+PAPER_LABEL = "Dupont et al. 2013"
+PAPER_COLOR = "0.55"
+
+#: the paper's groupings: (a) cases with various u*s, (b) various mu1 (Figs 6, 7, 10, 11, 12)
+CASES_WIND = (1, 2, 3, 4, 5, 6)
+CASES_SOIL = (2, 7, 8, 9, 10)
+
+#: Table 2 columns: (analysis.nc scalar, paper key in [[table2]] or None, label, unit)
+TABLE2_COLUMNS = (
+    ("u_star_s", "u_star_s", "u*s", "m s-1"),
+    ("u_star_t", "u_star_t", "u*t", "m s-1"),
+    ("lambda_x", "lambda_x_m", "λx", "m"),
+    ("lambda_y", "lambda_y_m", "λy", "m"),
+    ("delta_y", "delta_y_m", "δy", "m"),
+    ("z0s", None, "z0s", "m"),
+    ("z_m", None, "z_m", "m"),
+    ("G_tot", None, "G_tot", "kg m-1 s-1"),
+    ("sigma_G_over_G_tot", None, "σG/G_tot", "1"),
+)
+
+
+@functools.lru_cache(maxsize=1)
+def paper() -> dict[str, Any]:
+    """The whole reference file as a dict."""
+    text = resources.files("saltstudy").joinpath("data/dupont2013.toml").read_text(encoding="utf-8")
+    return tomllib.loads(text)
+
+
+def paper_table2() -> dict[int, dict[str, float]]:
+    """Table 2 by case number. A value the paper does not give ("-") is NaN."""
+    out: dict[int, dict[str, float]] = {}
+    for row in paper().get("table2", []):
+        r = {k: float(v) for k, v in row.items() if isinstance(v, (int, float))}
+        for _, key, _, _ in TABLE2_COLUMNS:
+            if key is not None:
+                r.setdefault(key, math.nan)
+        out[int(row["case"])] = r
+    return out
+
+
+def paper_results() -> dict[str, Any]:
+    """The [results] section (statements in the text, by figure)."""
+    return dict(paper().get("results", {}))

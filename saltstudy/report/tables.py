@@ -1,0 +1,237 @@
+"""Table 2 beside the paper, and the scalar results the paper's text states, computed vs paper.
+
+Every row holds the computed value (from analysis.nc), the paper's value (from the package's copy of
+the paper's numbers, reference only) and the relative difference (computed - paper) / paper. Missing
+archives are rows saying so; values the paper does not give are "—".
+"""
+from __future__ import annotations
+
+import html
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .data import ReportContext, RunData, profile
+from .reference import CASES_WIND, PAPER_LABEL, TABLE2_COLUMNS, paper_results, paper_table2
+
+__all__ = ["Cell", "table2_rows", "scalar_results", "table2_markdown", "table2_html",
+           "results_markdown", "results_html", "st_below_one_height", "fmt", "rel_diff"]
+
+
+def fmt(v: float | None, digits: int = 3) -> str:
+    if v is None or not isinstance(v, (int, float)) or not math.isfinite(v):
+        return "—"
+    if v != 0 and (abs(v) < 1e-2 or abs(v) >= 1e4):
+        return f"{v:.{digits - 1}e}"
+    return f"{v:.{digits}g}"
+
+
+def rel_diff(computed: float, ref: float) -> float:
+    if not (math.isfinite(computed) and math.isfinite(ref)) or ref == 0:
+        return math.nan
+    return (computed - ref) / ref
+
+
+def _pct(v: float) -> str:
+    return f"{v:+.0%}" if math.isfinite(v) else "—"
+
+
+@dataclass
+class Cell:
+    computed: float
+    paper: float
+    rel: float
+
+
+def table2_rows(ctx: ReportContext) -> list[dict]:
+    """One row per case 1-10 present in the study (and per other run), in case order."""
+    table = paper_table2()
+    rows = []
+    seen = set()
+    numbers = sorted({r.case for r in ctx.runs.values() if r.case is not None})
+    order: list[tuple[str, RunData | None, int | None]] = []
+    for n in numbers:
+        r = ctx.by_case(n)
+        order.append((f"case {n}" if r is None or r.plain_case else r.label, r, n))
+        if r is not None:
+            seen.add(r.label)
+    for r in ctx.runs.values():
+        if r.label not in seen and r.case is None:
+            order.append((r.label, r, None))
+    for name, r, n in order:
+        row = {"name": name, "case": n, "label": r.label if r else None,
+               "status": r.status if r is not None else "not in study", "cells": {}}
+        prow = table.get(n, {}) if (r is not None and (r.plain_case or "@" in r.label)) else {}
+        for var, pkey, _, _ in TABLE2_COLUMNS:
+            c = r.scalar(var) if r is not None else math.nan
+            p = prow.get(pkey, math.nan) if pkey else math.nan
+            row["cells"][var] = Cell(c, p, rel_diff(c, p))
+        rows.append(row)
+    return rows
+
+
+def st_below_one_height(run: RunData) -> float:
+    """Lowest z/z_m in (0, 1] above which St < 1 everywhere up to z_m; NaN if undefined."""
+    p = profile(run, "St")
+    zm = run.scalar("z_m")
+    if p is None or not (math.isfinite(zm) and zm > 0):
+        return math.nan
+    z, st = p
+    zeta = z / zm
+    inside = (zeta > 0) & (zeta <= 1.0) & np.isfinite(st)
+    if not inside.any():
+        return math.nan
+    zeta, st = zeta[inside], st[inside]
+    above = st >= 1.0
+    if not above.any():
+        return float(zeta[0])
+    last = int(np.nonzero(above)[0].max())
+    return float(zeta[last + 1]) if last + 1 < zeta.size else math.nan
+
+
+def scalar_results(ctx: ReportContext) -> list[dict]:
+    """The numbers the paper's text states, computed from this study's archives vs the paper."""
+    ref = paper_results()
+    rows: list[dict] = []
+
+    def add(name, computed, paper, unit, how, compare="value"):
+        if isinstance(paper, (list, tuple)):
+            pstr = f"{fmt(paper[0])}–{fmt(paper[1])}"
+        else:
+            pstr = fmt(paper)
+        if isinstance(computed, (list, tuple)):
+            cstr = f"{fmt(computed[0])}–{fmt(computed[1])}" if all(math.isfinite(c) for c in computed) else "—"
+            if isinstance(paper, (list, tuple)):
+                rel = (rel_diff(computed[0], paper[0]), rel_diff(computed[1], paper[1]))
+                rstr = f"{_pct(rel[0])} / {_pct(rel[1])}"
+            else:
+                rstr = "—"
+        else:
+            cstr = fmt(computed)
+            if isinstance(paper, (list, tuple)):
+                inside = math.isfinite(computed) and paper[0] <= computed <= paper[1]
+                rstr = ("inside range" if inside else "outside range") if math.isfinite(computed) else "—"
+            else:
+                rstr = _pct(rel_diff(computed, paper))
+        rows.append({"quantity": name, "computed": cstr, "paper": pstr, "difference": rstr,
+                     "unit": unit, "how": how,
+                     "computed_value": computed, "paper_value": paper})
+
+    zms = [ctx.by_case(n).scalar("z_m") for n in CASES_WIND
+           if ctx.by_case(n) is not None and ctx.by_case(n).ok]
+    zms = [z for z in zms if math.isfinite(z)]
+    z1 = ctx.by_case(1).scalar("z_m") if ctx.by_case(1) and ctx.by_case(1).ok else math.nan
+    z6 = ctx.by_case(6).scalar("z_m") if ctx.by_case(6) and ctx.by_case(6).ok else math.nan
+    add("z_m, case 1 – case 6", [z1, z6], ref.get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan]), "m",
+        f"z_m of case 1 and case 6 (cases 1–6 present with z_m: {len(zms)})")
+    sg = [r.scalar("sigma_G_over_G_tot") for r in ctx.scatter_runs()]
+    sg = [v for v in sg if math.isfinite(v)]
+    add("σG/G_tot, range over cases", [min(sg), max(sg)] if sg else [math.nan, math.nan],
+        ref.get("fig13_sigmaG_over_Gtot", [math.nan, math.nan]), "1",
+        f"min and max over the {len(sg)} runs with a value")
+    r6 = ctx.by_case(6)
+    add("τp surface fraction, case 6",
+        r6.scalar("tau_p_surface_fraction") if r6 is not None and r6.ok else math.nan,
+        ref.get("fig6_taup_surface_fraction_case6", math.nan), "1",
+        "τp at the lowest level / ρu*s² (analysis scalar tau_p_surface_fraction)")
+    rc = [(n, ctx.by_case(n).scalar("R_cu_upper")) for n in CASES_WIND
+          if ctx.by_case(n) is not None and ctx.by_case(n).ok]
+    rc = [(n, v) for n, v in rc if math.isfinite(v)]
+    add("R_cu in the upper layer (z ≥ 0.6 z_m), mean of cases 1–6",
+        float(np.mean([v for _, v in rc])) if rc else math.nan,
+        ref.get("fig11_Rcu_upper_layer", math.nan), "1",
+        "mean of R_cu_upper over cases " + (", ".join(str(n) for n, _ in rc) or "none")
+        + (f"; per case {', '.join(f'{v:.2f}' for _, v in rc)}" if rc else ""))
+    hs = []
+    for r in ctx.scatter_runs():
+        if math.isfinite(r.mu1) and r.mu1 >= 200e-6 - 1e-9:
+            h = st_below_one_height(r)
+            if math.isfinite(h):
+                hs.append((r, h))
+    add("height above which St < 1 (µ1 ≥ 200 µm), largest over cases",
+        max(h for _, h in hs) if hs else math.nan,
+        ref.get("fig12_St_below_1_above_z_over_zm", math.nan), "z/z_m",
+        "lowest z/z_m above which St < 1 up to z_m, computed from the St profile by the report; "
+        + ("per case " + ", ".join(f"{r.label}: {h:.2f}" for r, h in hs) if hs else "no profile"))
+    return rows
+
+
+# ------------------------------------------------------------------------------------------------
+# rendering
+# ------------------------------------------------------------------------------------------------
+def table2_markdown(ctx: ReportContext) -> str:
+    rows = table2_rows(ctx)
+    heads = ["run"]
+    for _, pkey, lab, unit in TABLE2_COLUMNS:
+        heads.append(f"{lab} [{unit}]")
+    lines = [f"# Table 2 — computed beside {PAPER_LABEL}", "",
+             f"Study `{ctx.study}`. Each cell: computed / paper (relative difference). "
+             "“—”: not given by the paper or undefined in the run.", "",
+             "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
+    for row in rows:
+        if row["status"] != "ok":
+            lines.append(f"| {row['name']} | " + " | ".join([f"*{row['status']}*"] + [""] * (len(heads) - 2)) + " |")
+            continue
+        cells = [row["name"]]
+        for var, pkey, _, _ in TABLE2_COLUMNS:
+            c = row["cells"][var]
+            s = fmt(c.computed)
+            if pkey:
+                s += f" / {fmt(c.paper)}"
+                if math.isfinite(c.rel):
+                    s += f" ({_pct(c.rel)})"
+            cells.append(s)
+        lines.append("| " + " | ".join(cells) + " |")
+    lines += ["", f"## Results stated in the text — computed vs {PAPER_LABEL}", "",
+              results_markdown(ctx)]
+    return "\n".join(lines) + "\n"
+
+
+def results_markdown(ctx: ReportContext) -> str:
+    lines = ["| quantity | computed | paper | difference | unit | how computed |",
+             "|---|---|---|---|---|---|"]
+    for r in scalar_results(ctx):
+        lines.append(f"| {r['quantity']} | {r['computed']} | {r['paper']} | {r['difference']} | "
+                     f"{r['unit']} | {r['how']} |")
+    return "\n".join(lines)
+
+
+def table2_html(ctx: ReportContext) -> str:
+    rows = table2_rows(ctx)
+    e = html.escape
+    out = ['<table class="t2"><thead><tr><th rowspan="2">run</th>']
+    for _, pkey, lab, unit in TABLE2_COLUMNS:
+        span = 3 if pkey else 1
+        out.append(f'<th colspan="{span}">{e(lab)} [{e(unit)}]</th>')
+    out.append("</tr><tr>")
+    for _, pkey, _, _ in TABLE2_COLUMNS:
+        out.append("<th>computed</th>" + ("<th class='ref'>paper</th><th>diff.</th>" if pkey else ""))
+    out.append("</tr></thead><tbody>")
+    ncols = sum(3 if p else 1 for _, p, _, _ in TABLE2_COLUMNS)
+    for row in rows:
+        out.append(f"<tr><td>{e(row['name'])}</td>")
+        if row["status"] != "ok":
+            out.append(f'<td class="missing" colspan="{ncols}">{e(row["status"])}</td></tr>')
+            continue
+        for var, pkey, _, _ in TABLE2_COLUMNS:
+            c = row["cells"][var]
+            out.append(f"<td>{fmt(c.computed)}</td>")
+            if pkey:
+                cls = "bad" if math.isfinite(c.rel) and abs(c.rel) > 0.25 else ""
+                out.append(f"<td class='ref'>{fmt(c.paper)}</td><td class='{cls}'>{_pct(c.rel)}</td>")
+        out.append("</tr>")
+    out.append("</tbody></table>")
+    return "".join(out)
+
+
+def results_html(ctx: ReportContext) -> str:
+    e = html.escape
+    out = ["<table><thead><tr><th>quantity</th><th>computed</th><th class='ref'>paper</th>"
+           "<th>difference</th><th>unit</th><th>how computed</th></tr></thead><tbody>"]
+    for r in scalar_results(ctx):
+        out.append(f"<tr><td>{e(r['quantity'])}</td><td>{e(r['computed'])}</td>"
+                   f"<td class='ref'>{e(r['paper'])}</td><td>{e(r['difference'])}</td>"
+                   f"<td>{e(r['unit'])}</td><td class='how'>{e(r['how'])}</td></tr>")
+    out.append("</tbody></table>")
+    return "".join(out)

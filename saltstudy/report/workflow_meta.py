@@ -1,0 +1,92 @@
+"""Fill the report's ``meta`` from the study configuration and the workflow's records.
+
+``build_report`` works from what it is given. When it is called by the workflow (or the CLI) with
+``meta["out_dir"]`` and ``meta["keys"]`` (label -> {"spinup", "saltation", "analysis"} cache keys),
+this module adds, where absent:
+
+* ``case_numbers``, ``fidelities``, ``study_config`` and ``fidelity``: from ``workflows/<study>.toml``
+  (saltstudy.config), if the study file exists;
+* ``failures``: label -> error of the first failed task of the run (its ``task.json``);
+* ``samples``: label -> ``samples.nc`` of the run, if present (stability report, animation).
+
+Paths come from :mod:`saltstudy.workflow.paths`, imported lazily; without it these are skipped.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+__all__ = ["enrich_meta", "study_meta"]
+
+
+def study_meta(study_name: str) -> dict[str, Any]:
+    """case_numbers, fidelities, study_config, fidelity, order from the study file ({} if none)."""
+    try:
+        from ..config import load_study, study_runs
+        study = load_study(study_name)
+        runs = study_runs(study)
+    except Exception:
+        return {}
+    ladder = list(study.fidelities) or ([study.fidelity] if study.fidelity else [])
+    order = []
+    if len(ladder) > 1:  # declared ladder order, coarse -> fine as listed in the study file
+        for fname in ladder:
+            order += [r.label for r in runs if r.label.endswith(f"@{fname}")]
+    return {
+        "case_numbers": {r.label: r.scene.case.number for r in runs},
+        "fidelities": {r.label: r.scene.fidelity.name for r in runs},
+        "study_config": study.model_dump(mode="json"),
+        "fidelity": study.fidelity or (", ".join(ladder) if ladder else None),
+        "order": order or None,
+        "has_scenes": bool(study.scenes),
+    }
+
+
+def _task_json(out_dir: Path, task: str, key: str) -> dict[str, Any]:
+    try:
+        from ..workflow.paths import task_dir
+        p = Path(task_dir(out_dir, task, key)) / "task.json"
+    except Exception:
+        p = Path(out_dir) / task / key / "task.json"
+    try:
+        return json.loads(p.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def enrich_meta(study_name: str, runs: dict[str, Any], meta: dict[str, Any] | None) -> dict[str, Any]:
+    meta = dict(meta or {})
+    for k, v in study_meta(study_name).items():
+        if meta.get(k) is None and v is not None:
+            meta[k] = v
+    out_dir, keys = meta.get("out_dir"), meta.get("keys")
+    if not out_dir or not isinstance(keys, dict):
+        return meta
+    out_dir = Path(out_dir)
+    failures = dict(meta.get("failures") or {})
+    samples = dict(meta.get("samples") or {})
+    for label, k in keys.items():
+        if not isinstance(k, dict):
+            continue
+        for task in ("spinup", "saltation", "analysis"):
+            key = k.get(task)
+            if not key:
+                continue
+            tj = _task_json(out_dir, task, key)
+            if tj.get("state") == "failed" and label not in failures:
+                failures[label] = f"{task}: {tj.get('error', 'failed')}"
+        skey = k.get("saltation")
+        if skey and label not in samples:
+            try:
+                from ..workflow.paths import output_path
+                p = Path(output_path(out_dir, "saltation", skey))
+            except Exception:
+                p = out_dir / "saltation" / skey / "samples.nc"
+            if p.is_file():
+                samples[label] = str(p)
+    if failures:
+        meta["failures"] = failures
+    if samples:
+        meta["samples"] = samples
+    return meta

@@ -1,0 +1,99 @@
+"""Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow.
+
+    python -m saltstudy.solver.bench_particles [--json] [--steps N] [--n 1e5 --n 1e6]
+    saltstudy bench particles ...          (registered by the solver's cli_commands via register_bench)
+
+The flow is a frozen synthetic log-law wind (u*s of case 2) with smooth periodic perturbations of
+30% u* in u, v, w; the parcels are spread in the lowest 0.3 m with random velocities, so they
+splash, sub-step and couple two-way as in a run. Timing excludes compilation (one warm-up step).
+"""
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import numpy as np
+
+__all__ = ["bench_particles", "register_bench"]
+
+
+def _frozen_flow(st, u_star: float, z0: float) -> None:
+    g = st.grid
+    kx, ky = 2 * math.pi / g.Lx, 2 * math.pi / g.Ly
+    X, Xc = g.x_f[:, None, None], g.x_c[:, None, None]
+    Y, Yf = g.y_c[None, :, None], g.y_f[None, :, None]
+    zc, zf = g.z_c[None, None, :], g.z_f[None, None, :]
+    a = 0.3 * u_star
+    st.u[...] = u_star / 0.4 * np.log(zc / z0) + a * np.sin(3 * kx * X) * np.cos(5 * ky * Y)
+    st.v[...] = a * np.sin(2 * kx * Xc) * np.sin(3 * ky * Yf) + 0.0 * zc
+    st.w[...] = a * np.cos(4 * kx * Xc) * np.sin(2 * ky * Y) * np.tanh(zf / 0.05)
+    st.w[..., 0] = st.w[..., -1] = 0.0
+    st.e[...] = 0.5 * u_star ** 2
+
+
+def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, dt: float = 0.005,
+                    case: int = 2, fidelity: str = "reduced") -> dict:
+    """Time ``steps`` component steps for each parcel count; print and return
+    {"threads": ..., "runs": [{"n_parcels", "ns_per_parcel_step", "n_end", "impacts_per_step"}]}."""
+    import numba
+
+    from ..config import load_case, load_fidelity, resolve_scene
+    from .grid import Grid
+    from .particles import Saltation
+    from .state import FlowState
+
+    scene = resolve_scene(load_case(case), load_fidelity(fidelity))
+    grid = Grid.from_spec(scene.fidelity.grid)
+    runs = []
+    for n in n_list:
+        n = int(n)
+        st = FlowState.zeros(grid)
+        _frozen_flow(st, scene.case.forcing.u_star_s, scene.case.surface.z0)
+        s = Saltation(grid, scene, capacity=2 * n)
+        rng = np.random.default_rng(1)
+        s.add_parcels(rng.uniform(0, grid.Lx, n), rng.uniform(0, grid.Ly, n),
+                      rng.uniform(1e-3, 0.3, n), u=rng.uniform(0, 4, n), v=rng.normal(0, 0.3, n),
+                      w=rng.normal(0, 1, n), d=None)
+        s.dynamics(st, dt)  # compile / warm up
+        times = []
+        imp = 0
+        for _ in range(steps):
+            n0 = max(s.n, 1)
+            t0 = time.perf_counter()
+            s.dynamics(st, dt)
+            times.append((time.perf_counter() - t0) / n0 * 1e9)
+            imp += s.last_step["n_impacts"]
+        runs.append({"n_parcels": n, "ns_per_parcel_step": float(np.median(times)),
+                     "n_end": int(s.n), "impacts_per_step": imp / steps})
+    out = {"threads": int(numba.get_num_threads()), "runs": runs}
+    if as_json:
+        print(json.dumps(out))
+    else:
+        print(f"grain component, {fidelity} grid {grid.shape}, {out['threads']} numba threads, "
+              f"median of {steps} steps, dt = {dt} s")
+        for r in runs:
+            print(f"  {r['n_parcels']:>9d} parcels: {r['ns_per_parcel_step']:8.1f} ns per parcel-step "
+                  f"({r['impacts_per_step']:.0f} impacts/step)")
+    return out
+
+
+def register_bench(bench_app) -> None:
+    """Add the ``particles`` command to the given typer sub-app (``saltstudy bench particles``)."""
+    import typer
+
+    @bench_app.command("particles")
+    def particles(n: list[float] = typer.Option([1e5, 1e6], "--n", help="parcel counts"),
+                  steps: int = typer.Option(20, "--steps", help="timed steps per count"),
+                  as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
+        """ns per parcel-step of the grain component on the reduced grid (frozen flow)."""
+        bench_particles(tuple(n), steps=steps, as_json=as_json)
+
+
+if __name__ == "__main__":
+    import sys
+
+    args = sys.argv[1:]
+    ns = [float(args[i + 1]) for i, a in enumerate(args) if a == "--n"] or [1e5, 1e6]
+    st = int(args[args.index("--steps") + 1]) if "--steps" in args else 20
+    bench_particles(ns, steps=st, as_json="--json" in args)

@@ -1,0 +1,90 @@
+"""Per-step health checks: finiteness of u, v, w, e and the advective Courant number.
+
+The kernels use the package's fastmath flags, which keep NaN/Inf semantics (see _jit.py), so
+``math.isfinite`` really tests. A failure raises ``SolverBlowUp`` naming the step, the time, the field
+and the (i, j, k) index of the first offending value.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from .._jit import jit, pjit
+from .state import SolverBlowUp
+
+__all__ = ["first_nonfinite", "max_courant", "check_state", "CFL_RUNAWAY"]
+
+#: Courant number beyond which RK3 with centred advection is unstable (sqrt 3, Wicker &
+#: Skamarock 2002): the run is stopped before it fills with NaN.
+CFL_RUNAWAY = math.sqrt(3.0)
+
+
+@pjit
+def _first_nonfinite_slab(a):
+    nx = a.shape[0]
+    first = np.full(nx, -1, dtype=np.int64)
+    for i in prange(nx):
+        flat = a[i].ravel()
+        for n in range(flat.size):
+            if not math.isfinite(flat[n]):
+                first[i] = n
+                break
+    return first
+
+
+def first_nonfinite(a: np.ndarray) -> tuple[int, ...] | None:
+    """Index of the first non-finite value of a 3-D array (x-slab order), or None."""
+    first = _first_nonfinite_slab(a)
+    bad = np.nonzero(first >= 0)[0]
+    if bad.size == 0:
+        return None
+    i = int(bad[0])
+    return (i,) + tuple(int(q) for q in np.unravel_index(int(first[i]), a.shape[1:]))
+
+
+@pjit
+def _courant(u, v, w, rdx, rdy, dzc):
+    """max over cells of (|u|/dx + |v|/dy + |w|/dz) (face values averaged to the centre) [s^-1]."""
+    nx, ny, nz = u.shape
+    part = np.zeros(nx)
+    for i in prange(nx):
+        ip = (i + 1) % nx
+        m = 0.0
+        for j in range(ny):
+            jp = (j + 1) % ny
+            for k in range(nz):
+                c = (0.5 * abs(u[i, j, k] + u[ip, j, k]) * rdx + 0.5 * abs(v[i, j, k] + v[i, jp, k]) * rdy
+                     + 0.5 * abs(w[i, j, k] + w[i, j, k + 1]) / dzc[k])
+                c = max(c, abs(u[i, j, k]) * rdx, abs(v[i, j, k]) * rdy, abs(w[i, j, k]) / dzc[k])
+                if c > m:
+                    m = c
+        part[i] = m
+    return part.max()
+
+
+def max_courant(grid, u, v, w) -> float:
+    """The advective rate max(|u|/dx + |v|/dy + |w|/dz) [s^-1]; times dt gives the Courant number."""
+    return float(_courant(u, v, w, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c))
+
+
+def check_state(state, courant_rate: float, dt: float) -> float:
+    """Raise SolverBlowUp on a non-finite u, v, w, e or a Courant number beyond CFL_RUNAWAY.
+
+    Returns the Courant number courant_rate dt.
+    """
+    for name in ("u", "v", "w", "e"):
+        a = getattr(state, name)
+        idx = first_nonfinite(a)
+        if idx is not None:
+            raise SolverBlowUp(state.step, state.t, name, idx, float(a[idx]))
+    cfl = courant_rate * dt
+    if not math.isfinite(cfl) or cfl > CFL_RUNAWAY:
+        g = state.grid
+        c = (np.abs(state.u) / g.dx + np.abs(state.v) / g.dy
+             + np.abs(state.w[..., :-1]) / g.dz_c)
+        idx = tuple(int(q) for q in np.unravel_index(int(np.argmax(c)), c.shape))
+        raise SolverBlowUp(state.step, state.t, "u", idx, float(state.u[idx]),
+                           reason=f"Courant number {cfl:.3g} beyond {CFL_RUNAWAY:.3g}")
+    return cfl

@@ -1,0 +1,141 @@
+"""Flow records the workflow writes into samples.nc / spinup.nc (see docs/ARCHITECTURE.md).
+
+Functions take a ``Model`` and return numpy arrays (no I/O). Stresses are kinematic [m^2 s^-2] with
+the sign of u'w' (negative for a drag on a positive wind); u* = sqrt(|total stress|).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from .._jit import pjit
+from .sgs import C_M, E_MIN, sgs_stress_uw_profile, strain_sq_at
+from .wall import surface_stress
+
+__all__ = ["flow_profiles", "flow_planes", "cell_centred_velocity", "u_star_at", "stress_profile",
+           "resolved_tke_volume_mean"]
+
+
+def _nu(model) -> np.ndarray:
+    st = model.stepper
+    return st.cml[None, None, :] * np.sqrt(np.maximum(model.state.e, 0.0)) + st.nu_mol
+
+
+def cell_centred_velocity(model):
+    """(u_c, v_c, w_c), each (nx, ny, nz) [m s^-1]: two-point means onto the cell centres."""
+    s = model.state
+    uc = 0.5 * (s.u + np.roll(s.u, -1, axis=0))
+    vc = 0.5 * (s.v + np.roll(s.v, -1, axis=1))
+    wc = 0.5 * (s.w[..., :-1] + s.w[..., 1:])
+    return uc, vc, wc
+
+
+def _resolved_uw(model) -> np.ndarray:
+    """<u'w'> resolved on the faces (nz+1,), with the advection scheme's face means."""
+    s = model.state
+    wx = 0.5 * (s.w + np.roll(s.w, 1, axis=0))[..., 1:-1]
+    uz = 0.5 * (s.u[..., 1:] + s.u[..., :-1])
+    out = np.zeros(s.grid.nz + 1)
+    out[1:-1] = (wx * uz).mean(axis=(0, 1)) - wx.mean(axis=(0, 1)) * uz.mean(axis=(0, 1))
+    return out
+
+
+def _sgs_uw(model) -> np.ndarray:
+    s, st = model.state, model.stepper
+    taux, _ = surface_stress(s.u, s.v, st.cd) if st.wall else (np.zeros(s.u.shape[:2]), None)
+    return sgs_stress_uw_profile(s.u, s.w, _nu(model), taux, s.grid.dz_f, 1.0 / s.grid.dx)
+
+
+def stress_profile(model) -> tuple[np.ndarray, np.ndarray]:
+    """(uw_res, uw_sgs) on the faces z_w (nz+1,) [m^2 s^-2]."""
+    return _resolved_uw(model), _sgs_uw(model)
+
+
+def _grain_stress(model, z: float) -> float:
+    total = 0.0
+    for c in model.components:
+        f = getattr(c, "stress_at", None)
+        if f is not None:
+            total += float(f(model.state, z))
+    return total
+
+
+def u_star_at(model, z: float) -> float:
+    """sqrt|resolved + SGS (+ grain, if a component reports it) u-w stress| at height z [m s^-1]."""
+    res, sgs = stress_profile(model)
+    tot = float(np.interp(z, model.state.grid.z_f, res + sgs)) + _grain_stress(model, z)
+    return math.sqrt(abs(tot))
+
+
+@pjit
+def _sgs_profiles(e, u, v, w, nu, rdx, rdy, dzc, dzf, rlog, ceps_l):
+    nx, ny, nz = e.shape
+    eps = np.zeros((nx, nz))
+    tr = np.zeros((nx, nz))
+    for i in prange(nx):
+        im = (i - 1) % nx
+        ip = (i + 1) % nx
+        for j in range(ny):
+            jm = (j - 1) % ny
+            jp = (j + 1) % ny
+            for k in range(nz):
+                ek = max(e[i, j, k], 0.0)
+                eps[i, k] += ceps_l[k] * ek * math.sqrt(ek)
+                tr[i, k] += nu[i, j, k] * strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1,
+                                                       k > 0, rdx, rdy, dzc, dzf, rlog)
+    return eps.sum(axis=0) / (nx * ny), tr.sum(axis=0) / (nx * ny)
+
+
+def flow_profiles(model) -> dict:
+    """Horizontal-mean profiles: z, z_w, u, v (centres), uw_res, uw_sgs (faces), tke_res, e_sgs,
+    eps_sgs, sgs_transfer (centres). Units: m s^-1, m^2 s^-2, m^2 s^-3."""
+    s, st, g = model.state, model.stepper, model.state.grid
+    uc, vc, wc = cell_centred_velocity(model)
+    um = uc.mean(axis=(0, 1))
+    vm = vc.mean(axis=(0, 1))
+    wm = wc.mean(axis=(0, 1))
+    tke = 0.5 * (((uc - um) ** 2).mean(axis=(0, 1)) + ((vc - vm) ** 2).mean(axis=(0, 1))
+                 + ((wc - wm) ** 2).mean(axis=(0, 1)))
+    res, sgs = stress_profile(model)
+    nu = _nu(model)
+    eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, g.dz_f,
+                                  st.rlog, st.ceps_l)
+    return {"z": g.z_c.copy(), "z_w": g.z_f.copy(), "u": s.u.mean(axis=(0, 1)), "v": s.v.mean(axis=(0, 1)),
+            "uw_res": res, "uw_sgs": sgs, "tke_res": tke, "e_sgs": s.e.mean(axis=(0, 1)),
+            "eps_sgs": eps, "sgs_transfer": transfer}
+
+
+def flow_planes(model, heights) -> dict:
+    """u_plane (nx, ny, len(heights)) [m s^-1]: u at the cell centres interpolated linearly in z;
+    below the first level z_1 the local log law u(z) = u(z_1) ln(z/z0)/ln(z_1/z0)."""
+    s, g = model.state, model.state.grid
+    heights = np.atleast_1d(np.asarray(heights, dtype=np.float64))
+    uc = 0.5 * (s.u + np.roll(s.u, -1, axis=0))
+    zc = g.z_c
+    z0 = model.stepper.z0
+    out = np.empty((g.nx, g.ny, heights.size))
+    for n, h in enumerate(heights):
+        if h <= zc[0]:
+            hh = max(h, z0)
+            out[..., n] = uc[..., 0] * math.log(hh / z0) / math.log(zc[0] / z0)
+        elif h >= zc[-1]:
+            out[..., n] = uc[..., -1]
+        else:
+            k = int(np.searchsorted(zc, h) - 1)
+            a = (h - zc[k]) / (zc[k + 1] - zc[k])
+            out[..., n] = (1 - a) * uc[..., k] + a * uc[..., k + 1]
+    return {"u_plane": out, "z_plane": heights}
+
+
+def resolved_tke_volume_mean(model) -> float:
+    """Volume-weighted mean of 1/2 <u_i'u_i'> over the free region below the damping layer [m^2 s^-2]."""
+    g = model.state.grid
+    uc, vc, wc = cell_centred_velocity(model)
+    tke = 0.5 * (uc.var(axis=(0, 1)) + vc.var(axis=(0, 1)) + wc.var(axis=(0, 1)))
+    free = g.z_c < g.Lz - model.damping_depth
+    if not free.any():
+        free[:] = True
+    wgt = g.dz_c * free
+    return float(np.sum(tke * wgt) / np.sum(wgt))

@@ -1,0 +1,255 @@
+"""Grid <-> parcel transfer on the staggered grid: trilinear weights, log-law extrapolation near the bed.
+
+The same weights serve interpolation (fluid velocity at a parcel, paper section 2.1: "first order
+trilinear interpolation") and deposition of the drag reaction (paper eq. 2), so the exchange
+conserves momentum to round-off (see :mod:`saltstudy.solver.coupling`).
+
+Layout (``grid.py``): ``u[i, j, k]`` at ``(x_f[i], y_c[j], z_c[k])``, ``v[i, j, k]`` at
+``(x_c[i], y_f[j], z_c[k])``, ``w[i, j, k]`` at ``(x_c[i], y_c[j], z_f[k])`` with ``w[..., 0] = 0``
+(the bed). Periodic in x and y by modular indices.
+
+Near the bed (paper section 2.1): below the first u, v level (``z < z_c[0]``) the horizontal fluid
+velocity is extrapolated from the *second* level with the log law::
+
+    u(z) = u(z_c[1]) ln(z / z0) / ln(z_c[1] / z0)           (z clipped to >= 1.0001 z0)
+
+bilinear in x, y at level 1. The *deposit* of the reaction of such a parcel goes, with the same
+horizontal weights, to the lowest level (k = 0), where the air it acts on lives. Vertical velocity
+is interpolated between the z-faces, so it goes linearly to ``w = 0`` at the bed (face 0); the part
+of a vertical reaction that falls on face 0 is taken by the bed (it does not enter the air).
+
+Everything here is scalar numba code (``saltstudy._jit.jit``) inlined into the parcel kernels.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import jit
+from .grid import Grid
+
+__all__ = ["GridGeometry", "wrap_periodic", "locate", "interp_fluid", "interp_faces",
+           "deposit_faces", "level_of"]
+
+
+class GridGeometry:
+    """The arrays and scalars the parcel kernels need, in numba-friendly form.
+
+    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz]; ``z_f (nz+1)``, ``z_c (nz)``,
+    ``lut`` int64: ``lut[m]`` is the face index k with ``z_f[k] <= m * lut_dz`` (a fast start for
+    the vertical search on the stretched grid); ``log_den = ln(z_c[1] / z0)``.
+    """
+
+    def __init__(self, grid: Grid, z0: float):
+        self.nx, self.ny, self.nz = grid.shape
+        self.z_f = np.ascontiguousarray(grid.z_f, dtype=np.float64)
+        self.z_c = np.ascontiguousarray(grid.z_c, dtype=np.float64)
+        self.dz_c = np.ascontiguousarray(grid.dz_c, dtype=np.float64)
+        self.dz_f = np.ascontiguousarray(grid.dz_f, dtype=np.float64)
+        lut_dz = 0.5 * float(np.min(self.dz_c))
+        n_lut = int(math.ceil(grid.Lz / lut_dz)) + 2
+        zs = np.arange(n_lut) * lut_dz
+        self.lut = np.clip(np.searchsorted(self.z_f, zs, side="right") - 1, 0, self.nz - 1).astype(np.int64)
+        self.geo = np.array([grid.dx, grid.dy, grid.Lx, grid.Ly, z0, lut_dz, grid.Lz], dtype=np.float64)
+        if self.nz < 2:
+            raise ValueError("the log-law extrapolation needs at least two levels")
+        if not z0 < self.z_c[0]:
+            raise ValueError(f"z0 ({z0}) must lie below the first level ({self.z_c[0]})")
+
+
+@jit
+def wrap_periodic(x: float, L: float) -> float:
+    """x mod L in [0, L), correct for any number of domain lengths (Oceananigans#3320)."""
+    r = x - L * math.floor(x / L)
+    if r >= L:  # x slightly negative: x - L*(-1) rounds to L
+        r -= L
+    if r < 0.0:
+        r = 0.0
+    return r
+
+
+@jit
+def level_of(z: float, z_f: np.ndarray, lut: np.ndarray, lut_dz: float, nz: int) -> int:
+    """Face index k (0..nz-1) with z_f[k] <= z < z_f[k+1] (clamped): the cell holding height z."""
+    if z <= 0.0:
+        return 0
+    m = int(z / lut_dz)
+    if m >= lut.shape[0]:
+        return nz - 1
+    k = lut[m]
+    while k < nz - 1 and z_f[k + 1] <= z:
+        k += 1
+    return k
+
+
+@jit
+def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
+    """Stencil of a point for the three staggered components.
+
+    Returns (ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell):
+    x index/fraction for x-face (u) and x-centre (v, w) positions, same in y, the lower
+    centre level ``kc`` with fraction ``fzc`` (u, v), the lower face ``kf`` with fraction ``fzf``
+    (w), the log-law factor ``lfac`` (meaningful only if ``islog``) and the cell level ``kcell``.
+    Indices ``ix + 1`` etc. are taken modulo n by the callers.
+    """
+    dx = geo[0]
+    dy = geo[1]
+    z0 = geo[4]
+    lut_dz = geo[5]
+    sx = x / dx
+    ixf = int(math.floor(sx))
+    fxf = sx - ixf
+    sxc = sx - 0.5
+    ixc = int(math.floor(sxc))
+    fxc = sxc - ixc
+    sy = y / dy
+    jyf = int(math.floor(sy))
+    fyf = sy - jyf
+    syc = sy - 0.5
+    jyc = int(math.floor(syc))
+    fyc = syc - jyc
+    ixf = ixf % nx
+    ixc = ixc % nx
+    jyf = jyf % ny
+    jyc = jyc % ny
+    kcell = level_of(z, z_f, lut, lut_dz, nz)
+    # faces: w between z_f[kf] and z_f[kf+1]
+    kf = kcell
+    fzf = (z - z_f[kf]) / (z_f[kf + 1] - z_f[kf])
+    if fzf < 0.0:
+        fzf = 0.0
+    elif fzf > 1.0:
+        fzf = 1.0
+    # centres: u, v between z_c[kc] and z_c[kc+1]
+    islog = False
+    lfac = 1.0
+    if z < z_c[0]:
+        islog = True
+        kc = 0
+        fzc = 0.0
+        zz = z if z > 1.0001 * z0 else 1.0001 * z0
+        lfac = math.log(zz / z0) / math.log(z_c[1] / z0)
+    else:
+        kc = kcell if z >= z_c[kcell] else kcell - 1
+        if kc >= nz - 1:
+            kc = nz - 2
+            fzc = 1.0
+        else:
+            fzc = (z - z_c[kc]) / (z_c[kc + 1] - z_c[kc])
+            if fzc > 1.0:
+                fzc = 1.0
+    return ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell
+
+
+@jit
+def _tri(f, i0, fx, j0, fy, k0, fz, nx, ny):
+    """Trilinear value of f around (i0+fx, j0+fy, k0+fz) with periodic i, j."""
+    i1 = i0 + 1
+    if i1 == nx:
+        i1 = 0
+    j1 = j0 + 1
+    if j1 == ny:
+        j1 = 0
+    gx = 1.0 - fx
+    gy = 1.0 - fy
+    gz = 1.0 - fz
+    k1 = k0 + 1
+    a = (gx * (gy * (gz * f[i0, j0, k0] + fz * f[i0, j0, k1])
+               + fy * (gz * f[i0, j1, k0] + fz * f[i0, j1, k1]))
+         + fx * (gy * (gz * f[i1, j0, k0] + fz * f[i1, j0, k1])
+                 + fy * (gz * f[i1, j1, k0] + fz * f[i1, j1, k1])))
+    return a
+
+
+@jit
+def _bil(f, i0, fx, j0, fy, k, nx, ny):
+    i1 = i0 + 1
+    if i1 == nx:
+        i1 = 0
+    j1 = j0 + 1
+    if j1 == ny:
+        j1 = 0
+    gx = 1.0 - fx
+    gy = 1.0 - fy
+    return (gx * (gy * f[i0, j0, k] + fy * f[i0, j1, k])
+            + fx * (gy * f[i1, j0, k] + fy * f[i1, j1, k]))
+
+
+@jit
+def interp_fluid(u, v, w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog,
+                 nx, ny):
+    """Resolved fluid velocity at a located point (trilinear; log law below the first level)."""
+    if islog:
+        uf = lfac * _bil(u, ixf, fxf, jyc, fyc, 1, nx, ny)
+        vf = lfac * _bil(v, ixc, fxc, jyf, fyf, 1, nx, ny)
+    else:
+        uf = _tri(u, ixf, fxf, jyc, fyc, kc, fzc, nx, ny)
+        vf = _tri(v, ixc, fxc, jyf, fyf, kc, fzc, nx, ny)
+    wf = _tri(w, ixc, fxc, jyc, fyc, kf, fzf, nx, ny)
+    return uf, vf, wf
+
+
+@jit
+def interp_faces(du, dv, dw, nk_c, nk_w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf,
+                 islog, nx, ny):
+    """Interpolate face fields (limited to the lowest ``nk_c`` / ``nk_w`` levels) with the *deposit*
+    weights (log region: level 0, weights summing to one). Levels beyond the arrays read as 0."""
+    if islog:
+        kc = 0
+        fzc = 0.0
+    if kc + 1 < nk_c:
+        a = _tri(du, ixf, fxf, jyc, fyc, kc, fzc, nx, ny)
+        b = _tri(dv, ixc, fxc, jyf, fyf, kc, fzc, nx, ny)
+    else:
+        a = 0.0
+        b = 0.0
+    if kf + 1 < nk_w:
+        c = _tri(dw, ixc, fxc, jyc, fyc, kf, fzf, nx, ny)
+    else:
+        c = 0.0
+    return a, b, c
+
+
+@jit
+def _add_tri(buf, val, i0, fx, j0, fy, k0, fz, nx, ny, nk):
+    """buf[i, j, k] += w_ijk * val with trilinear weights; levels >= nk are folded onto nk - 1
+    (a safety net: momentum stays conserved, only its position is approximate)."""
+    i1 = i0 + 1
+    if i1 == nx:
+        i1 = 0
+    j1 = j0 + 1
+    if j1 == ny:
+        j1 = 0
+    k1 = k0 + 1
+    if k0 >= nk:
+        k0 = nk - 1
+    if k1 >= nk:
+        k1 = nk - 1
+    gx = 1.0 - fx
+    gy = 1.0 - fy
+    gz = 1.0 - fz
+    buf[i0, j0, k0] += gx * gy * gz * val
+    buf[i0, j0, k1] += gx * gy * fz * val
+    buf[i0, j1, k0] += gx * fy * gz * val
+    buf[i0, j1, k1] += gx * fy * fz * val
+    buf[i1, j0, k0] += fx * gy * gz * val
+    buf[i1, j0, k1] += fx * gy * fz * val
+    buf[i1, j1, k0] += fx * fy * gz * val
+    buf[i1, j1, k1] += fx * fy * fz * val
+
+
+@jit
+def deposit_faces(bu, bv, bw, val_u, val_v, val_w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc,
+                  kf, fzf, islog, nx, ny):
+    """Scatter (val_u, val_v, val_w) to the u, v, w face buffers with the interpolation weights.
+
+    ``bw`` level 0 is the bed face: what lands there is the bed's share (not added to the air).
+    """
+    if islog:
+        kc = 0
+        fzc = 0.0
+    nk_c = bu.shape[2]
+    _add_tri(bu, val_u, ixf, fxf, jyc, fyc, kc, fzc, nx, ny, nk_c)
+    _add_tri(bv, val_v, ixc, fxc, jyf, fyf, kc, fzc, nx, ny, nk_c)
+    _add_tri(bw, val_w, ixc, fxc, jyc, fyc, kf, fzf, nx, ny, bw.shape[2])

@@ -1,0 +1,243 @@
+"""Deardorff 1.5-order subgrid TKE closure (Deardorff 1980, Boundary-Layer Meteorol. 18, 495;
+Moeng 1984, J. Atmos. Sci. 41, 2052), the closure of the paper (its Appendix A, eq. A1, after Dupont et
+al. 2010).
+
+    nu_t = c_m l sqrt(e)                                  eddy viscosity [m^2 s^-1], c_m = 0.1
+    tau_ij = -2 nu_t S_ij                                 SGS stress (kinematic) [m^2 s^-2]
+    de/dt + u_j de/dx_j = -tau_ij S_ij                    shear production P
+                        + d/dx_j (2 nu_t de/dx_j)         turbulent transport
+                        - eps,  eps = c_eps e^{3/2} / l   dissipation, c_eps = 0.19 + 0.74 l / Delta
+                        - (particle sink: tke_sink e, applied implicitly once per step by the stepper)
+
+Delta = (dx dy dz)^{1/3} (Deardorff 1980). The buoyancy term of A1 vanishes (neutral scenes).
+
+Length scale near the bed. With l = Delta everywhere the SGS model is far too diffusive-free near a
+wall where Delta >> z (the first Delta is 6 cm at z = 5 mm on the reduced grid) and the classic LES
+overshoot of the log law results. We limit l by the distance to the bed,
+
+    l = [Delta^-n + (c_l kappa z)^-n]^(-1/n),                    (Mason & Thomson 1992 blending)
+
+with c_l chosen so that a purely-SGS log layer is an equilibrium solution of the closure: in local
+equilibrium P = eps gives e = (c_m / c_eps) l^2 S^2 and nu_t = c_m^{3/2} c_eps^{-1/2} l^2 S; requiring
+nu_t S = u*^2 with S = u*/(kappa z) gives l = kappa z (c_eps / c_m^3)^{1/4} = 3.7 kappa z for
+c_eps -> 0.19 (l << Delta). The constants ``C_L`` and ``BLEND_N`` below record the values used.
+
+The ``*_at`` functions are per-point kernels inlined into the fused stage kernels of stepper.py.
+Stress sign convention: T_ij = -tau_ij = 2 nu_t S_ij is the diffusive momentum flux with which
+du_i/dt += dT_ij/dx_j; at the bed T_i3 = -tau_s,i with tau_s from wall.py (kinematic, m^2 s^-2).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from .._jit import jit, jit_with, pjit
+
+#: per-point kernels: inlined in numba IR into the fused stage kernels (an out-of-line call with
+#: a dozen array arguments per grid point costs more than the stencil itself)
+device = jit_with(inline="always")
+
+__all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "length_scale", "c_eps_profile", "delta_profile",
+           "eddy_viscosity", "diff_u_at", "diff_v_at", "diff_w_at", "tke_tendency_at",
+           "compute_nu", "sgs_stress_uw_profile"]
+
+C_M = 0.1            #: Deardorff (1980) / Moeng (1984) eddy-viscosity constant
+C_EPS_0 = 0.19       #: c_eps = C_EPS_0 + C_EPS_1 l / Delta (Deardorff 1980; Moeng 1984)
+C_EPS_1 = 0.74
+C_L = 3.7            #: near-wall length l -> C_L kappa z (equilibrium log layer, see module doc)
+BLEND_N = 2.0        #: exponent of the Mason & Thomson (1992) blending of Delta and C_L kappa z
+E_MIN = 1.0e-10      #: floor of e [m^2 s^-2]: keeps sqrt(e) and e^{3/2} defined
+
+
+def delta_profile(grid) -> np.ndarray:
+    """Delta(z) = (dx dy dz_c)^{1/3} per level (nz,) [m]."""
+    return (grid.dx * grid.dy * grid.dz_c) ** (1.0 / 3.0)
+
+
+def length_scale(grid, kappa: float = 0.4, c_l: float = C_L, n: float = BLEND_N) -> np.ndarray:
+    """Mixing length l(z) at the cell centres (nz,) [m] (see module docstring)."""
+    d = delta_profile(grid)
+    lw = c_l * kappa * grid.z_c
+    return (d ** -n + lw ** -n) ** (-1.0 / n)
+
+
+def c_eps_profile(grid, l: np.ndarray) -> np.ndarray:
+    """c_eps = 0.19 + 0.74 l/Delta per level (Deardorff 1980)."""
+    return C_EPS_0 + C_EPS_1 * l / delta_profile(grid)
+
+
+def eddy_viscosity(e: np.ndarray, l: np.ndarray, nu_mol: float = 0.0) -> np.ndarray:
+    """nu_t = c_m l sqrt(e) (+ molecular nu) [m^2 s^-1]."""
+    return C_M * l[None, None, :] * np.sqrt(np.maximum(e, 0.0)) + nu_mol
+
+
+@pjit
+def compute_nu(e, cml, nu_mol, nu):
+    """nu = c_m l sqrt(e) + nu_mol in place; cml = c_m l per level."""
+    nx, ny, nz = e.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                ek = e[i, j, k]
+                if ek < 0.0:
+                    ek = 0.0
+                nu[i, j, k] = cml[k] * math.sqrt(ek) + nu_mol
+
+
+@device
+def diff_u_at(u, v, w, nu, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
+    """d T_1j / dx_j at the u point [m s^-2]; bed flux T_13 = -taux (wall.py)."""
+    uc = u[i, j, k]
+    t11e = 2.0 * nu[i, j, k] * (u[ip, j, k] - uc) * rdx
+    t11w = 2.0 * nu[im, j, k] * (uc - u[im, j, k]) * rdx
+    nun = 0.25 * (nu[im, j, k] + nu[i, j, k] + nu[im, jp, k] + nu[i, jp, k])
+    t12n = nun * ((u[i, jp, k] - uc) * rdy + (v[i, jp, k] - v[im, jp, k]) * rdx)
+    nus = 0.25 * (nu[im, jm, k] + nu[i, jm, k] + nu[im, j, k] + nu[i, j, k])
+    t12s = nus * ((uc - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx)
+    t13t = 0.0
+    if top:
+        nut = 0.25 * (nu[im, j, k] + nu[i, j, k] + nu[im, j, k + 1] + nu[i, j, k + 1])
+        t13t = nut * ((u[i, j, k + 1] - uc) / dzf[k + 1] + (w[i, j, k + 1] - w[im, j, k + 1]) * rdx)
+    if bot:
+        nub = 0.25 * (nu[im, j, k - 1] + nu[i, j, k - 1] + nu[im, j, k] + nu[i, j, k])
+        t13b = nub * ((uc - u[i, j, k - 1]) / dzf[k] + (w[i, j, k] - w[im, j, k]) * rdx)
+    else:
+        t13b = -taux[i, j]
+    return (t11e - t11w) * rdx + (t12n - t12s) * rdy + (t13t - t13b) / dzc[k]
+
+
+@device
+def diff_v_at(u, v, w, nu, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
+    """d T_2j / dx_j at the v point [m s^-2]; bed flux T_23 = -tauy."""
+    vc = v[i, j, k]
+    nue = 0.25 * (nu[i, jm, k] + nu[ip, jm, k] + nu[i, j, k] + nu[ip, j, k])
+    t12e = nue * ((u[ip, j, k] - u[ip, jm, k]) * rdy + (v[ip, j, k] - vc) * rdx)
+    nuw = 0.25 * (nu[im, jm, k] + nu[i, jm, k] + nu[im, j, k] + nu[i, j, k])
+    t12w = nuw * ((u[i, j, k] - u[i, jm, k]) * rdy + (vc - v[im, j, k]) * rdx)
+    t22n = 2.0 * nu[i, j, k] * (v[i, jp, k] - vc) * rdy
+    t22s = 2.0 * nu[i, jm, k] * (vc - v[i, jm, k]) * rdy
+    t23t = 0.0
+    if top:
+        nut = 0.25 * (nu[i, jm, k] + nu[i, j, k] + nu[i, jm, k + 1] + nu[i, j, k + 1])
+        t23t = nut * ((v[i, j, k + 1] - vc) / dzf[k + 1] + (w[i, j, k + 1] - w[i, jm, k + 1]) * rdy)
+    if bot:
+        nub = 0.25 * (nu[i, jm, k - 1] + nu[i, j, k - 1] + nu[i, jm, k] + nu[i, j, k])
+        t23b = nub * ((vc - v[i, j, k - 1]) / dzf[k] + (w[i, j, k] - w[i, jm, k]) * rdy)
+    else:
+        t23b = -tauy[i, j]
+    return (t12e - t12w) * rdx + (t22n - t22s) * rdy + (t23t - t23b) / dzc[k]
+
+
+@device
+def diff_w_at(u, v, w, nu, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
+    """d T_3j / dx_j at the interior w point (1 <= k <= nz-1) [m s^-2]."""
+    wc = w[i, j, k]
+    rdzf = 1.0 / dzf[k]
+    nue = 0.25 * (nu[i, j, k - 1] + nu[ip, j, k - 1] + nu[i, j, k] + nu[ip, j, k])
+    t13e = nue * ((u[ip, j, k] - u[ip, j, k - 1]) * rdzf + (w[ip, j, k] - wc) * rdx)
+    nuw = 0.25 * (nu[im, j, k - 1] + nu[i, j, k - 1] + nu[im, j, k] + nu[i, j, k])
+    t13w = nuw * ((u[i, j, k] - u[i, j, k - 1]) * rdzf + (wc - w[im, j, k]) * rdx)
+    nun = 0.25 * (nu[i, j, k - 1] + nu[i, jp, k - 1] + nu[i, j, k] + nu[i, jp, k])
+    t23n = nun * ((v[i, jp, k] - v[i, jp, k - 1]) * rdzf + (w[i, jp, k] - wc) * rdy)
+    nus = 0.25 * (nu[i, jm, k - 1] + nu[i, j, k - 1] + nu[i, jm, k] + nu[i, j, k])
+    t23s = nus * ((v[i, j, k] - v[i, j, k - 1]) * rdzf + (wc - w[i, jm, k]) * rdy)
+    t33t = 2.0 * nu[i, j, k] * (w[i, j, k + 1] - wc) / dzc[k]
+    t33b = 2.0 * nu[i, j, k - 1] * (wc - w[i, j, k - 1]) / dzc[k - 1]
+    return (t13e - t13w) * rdx + (t23n - t23s) * rdy + (t33t - t33b) * rdzf
+
+
+@device
+def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf, rlog):
+    """2 S_ij S_ij at the cell centre (i, j, k) [s^-2].
+
+    Diagonal terms at the centre; the squares of the off-diagonal terms averaged over the four
+    surrounding edges. On the bed face (bot = False) the vertical shear is the log-law gradient at
+    the first level, du/dz = u_1 / (z_1 ln(z_1/z0)) (rlog = 1/(z_1 ln(z_1/z0))), since the resolved
+    difference does not exist there; on the lid (top = False, free slip) it is zero.
+    """
+    s11 = (u[ip, j, k] - u[i, j, k]) * rdx
+    s22 = (v[i, jp, k] - v[i, j, k]) * rdy
+    s33 = (w[i, j, k + 1] - w[i, j, k]) / dzc[k]
+    acc = 2.0 * (s11 * s11 + s22 * s22 + s33 * s33)
+    # 2 S_12 on the four vertical edges (x_f[i|ip], y_f[j|jp])
+    nx = u.shape[0]
+    ny = u.shape[1]
+    jmp = (jp - 1 + ny) % ny      # = j, as a signed int (see below)
+    ipm = (ip - 1 + nx) % nx      # = i
+    # the four edges: (ipm, jmp), (ip, jmp), (ipm, jp), (ip, jp) with their -1 neighbours
+    e00 = (u[ipm, jmp, k] - u[ipm, jm, k]) * rdy + (v[ipm, jmp, k] - v[im, jmp, k]) * rdx
+    e10 = (u[ip, jmp, k] - u[ip, jm, k]) * rdy + (v[ip, jmp, k] - v[ipm, jmp, k]) * rdx
+    e01 = (u[ipm, jp, k] - u[ipm, jmp, k]) * rdy + (v[ipm, jp, k] - v[im, jp, k]) * rdx
+    e11 = (u[ip, jp, k] - u[ip, jmp, k]) * rdy + (v[ip, jp, k] - v[ipm, jp, k]) * rdx
+    acc += 0.25 * (e00 * e00 + e10 * e10 + e01 * e01 + e11 * e11)
+    # 2 S_13 on the edges (x_f, z_f) and 2 S_23 on (y_f, z_f), faces k (below) and k+1 (above)
+    q = 0.0
+    if bot:
+        rdz = 1.0 / dzf[k]
+        a0 = (u[ipm, jmp, k] - u[ipm, jmp, k - 1]) * rdz + (w[ipm, jmp, k] - w[im, jmp, k]) * rdx
+        a1 = (u[ip, jmp, k] - u[ip, jmp, k - 1]) * rdz + (w[ip, jmp, k] - w[ipm, jmp, k]) * rdx
+        b0 = (v[ipm, jmp, k] - v[ipm, jmp, k - 1]) * rdz + (w[ipm, jmp, k] - w[ipm, jm, k]) * rdy
+        b1 = (v[ipm, jp, k] - v[ipm, jp, k - 1]) * rdz + (w[ipm, jp, k] - w[ipm, jmp, k]) * rdy
+        q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
+    else:
+        a0 = u[ipm, jmp, k] * rlog
+        a1 = u[ip, jmp, k] * rlog
+        b0 = v[ipm, jmp, k] * rlog
+        b1 = v[ipm, jp, k] * rlog
+        q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
+    if top:
+        kt = k + 1
+        rdz = 1.0 / dzf[kt]
+        a0 = (u[ipm, jmp, kt] - u[ipm, jmp, k]) * rdz + (w[ipm, jmp, kt] - w[im, jmp, kt]) * rdx
+        a1 = (u[ip, jmp, kt] - u[ip, jmp, k]) * rdz + (w[ip, jmp, kt] - w[ipm, jmp, kt]) * rdx
+        b0 = (v[ipm, jmp, kt] - v[ipm, jmp, k]) * rdz + (w[ipm, jmp, kt] - w[ipm, jm, kt]) * rdy
+        b1 = (v[ipm, jp, kt] - v[ipm, jp, k]) * rdz + (w[ipm, jp, kt] - w[ipm, jmp, kt]) * rdy
+        q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
+    acc += 0.25 * q
+    return acc
+
+
+@device
+def tke_tendency_at(e, u, v, w, nu, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf, rlog,
+                    ceps_over_l_k):
+    """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (eq. A1)."""
+    ec = e[i, j, k]
+    nuc = nu[i, j, k]
+    prod = nuc * strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf, rlog)
+    # transport 2 nu_t grad e, face viscosities as two-point means
+    fe = (nuc + nu[ip, j, k]) * (e[ip, j, k] - ec) * rdx
+    fw = (nu[im, j, k] + nuc) * (ec - e[im, j, k]) * rdx
+    fn = (nuc + nu[i, jp, k]) * (e[i, jp, k] - ec) * rdy
+    fs = (nu[i, jm, k] + nuc) * (ec - e[i, jm, k]) * rdy
+    ft = 0.0
+    fb = 0.0
+    if top:
+        ft = (nuc + nu[i, j, k + 1]) * (e[i, j, k + 1] - ec) / dzf[k + 1]
+    if bot:
+        fb = (nu[i, j, k - 1] + nuc) * (ec - e[i, j, k - 1]) / dzf[k]
+    trans = (fe - fw) * rdx + (fn - fs) * rdy + (ft - fb) / dzc[k]
+    ep = ec if ec > 0.0 else 0.0
+    eps = ceps_over_l_k * ep * math.sqrt(ep)
+    return prod + trans - eps
+
+
+@pjit
+def sgs_stress_uw_profile(u, w, nu, taux, dzf, rdx):
+    """Horizontal means of the SGS flux tau_13 on the faces z_w (nz+1,) [m^2 s^-2] (bed: taux)."""
+    nx, ny, nz = u.shape
+    part = np.zeros((nx, nz + 1))
+    for i in prange(nx):
+        im = (i - 1) % nx
+        for j in range(ny):
+            part[i, 0] += taux[i, j]
+            for k in range(1, nz):
+                nub = 0.25 * (nu[im, j, k - 1] + nu[i, j, k - 1] + nu[im, j, k] + nu[i, j, k])
+                part[i, k] -= nub * ((u[i, j, k] - u[i, j, k - 1]) / dzf[k]
+                                     + (w[i, j, k] - w[im, j, k]) * rdx)
+    out = np.zeros(nz + 1)
+    for i in range(nx):
+        for k in range(nz + 1):
+            out[k] += part[i, k]
+    return out / (nx * ny)

@@ -1,0 +1,246 @@
+"""Splash at the bed (paper section 2.3, eqs. 5-9) as serial numba kernels drawing from a numpy Generator.
+
+All random draws of the grain component happen here, in serial loops, in a fixed order, so a run is
+reproducible bit for bit (the Generator's ``bit_generator.state`` is checkpointed) and independent
+of the number of numba threads.
+
+Reading of section 2.3 (documented choice). "When a particle reaches the lower 0.5 mm layer ... [it]
+is assumed to rebound, eject other particles, or deposit on the surface following its velocity."
+The rebound is a Bernoulli draw with P_reb (eq. 6); "the rebounding particle can also eject other
+particles", with N_ej (eq. 8) a function of v_imp only. We read the ejection as independent of the
+rebound (as in Kok & Renno 2009, whose scheme the paper follows): *every* impact ejects
+N_ej grains on average, whether the impactor rebounds or deposits. So an impact has one of four
+outcomes: rebound, rebound + ejecta, deposit, deposit + ejecta.
+
+Draws per impact, in this order:
+
+1. rebound ~ Bernoulli(P_reb), P_reb = p_max (1 - exp(-gamma_reb v_imp))               (eq. 6)
+2. if rebound: v_reb ~ N(0.6 v_imp, 0.25 v_imp) redrawn while negative               (eq. 7)
+   alpha_v ~ N(30 deg, 15 deg) redrawn outside (0, 180) deg (the grain must leave the bed),
+   alpha_h ~ N(0, 10 deg) relative to the impactor's horizontal direction of motion
+3. N_ej = floor(nbar) + Bernoulli(nbar - floor(nbar)), nbar = a v_imp / sqrt(g <d_p>)  (eq. 8)
+   (stochastic rounding: E[N_ej] = nbar exactly)
+4. per ejectum: d from the soil (eq. 5), v_ej ~ Exp(mean 0.08 v_imp)                   (eq. 9)
+   alpha_v ~ N(60, 15) deg redrawn outside (0, 180), alpha_h ~ N(0, 10) deg
+
+Soil diameters (eq. 5): pick mode j with probability m_j, then d = mu_j exp(ln(sigma_j) xi),
+xi ~ N(0, 1). Eq. 5 is a *mass* size distribution (dM/dln d); the paper draws ejecta "from the
+multimodal mass size distribution of the soil", i.e. a parcel's diameter is distributed like the
+soil's mass, not like its grain count (the count median would be mu_j exp(-3 ln^2 sigma_j), 10%
+smaller for sigma = 1.2). We follow the paper.
+
+The rebound and the ejecta start at the impact point, on the impact layer, and are integrated for
+the rest of the step by the caller.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import jit
+from ..physics.splash import ejection_number_mean, rebound_probability
+
+__all__ = ["splash_params", "soil_arrays", "draw_diameter", "draw_rebound", "draw_n_ejecta",
+           "draw_ejectum", "bed_events", "sample_impacts", "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN",
+           "SP_RHO_P"]
+
+# indices into the splash parameter vector
+SP_PMAX, SP_GAMMA, SP_REB_M, SP_REB_S, SP_RAV_M, SP_RAV_S, SP_RAH_M, SP_RAH_S = range(8)
+SP_A, SP_EJ_M, SP_EAV_M, SP_EAV_S, SP_EAH_M, SP_EAH_S, SP_IMPACT_LAYER, SP_G, SP_DMEAN, SP_RHO_P = range(8, 18)
+
+
+def splash_params(splash, soil, g: float) -> np.ndarray:
+    """Pack the splash constants (config.Splash, angles to radians) and soil scalars for the kernels."""
+    r = math.radians
+    return np.array([
+        splash.p_reb_max, splash.gamma_reb, splash.reb_speed_mean, splash.reb_speed_std,
+        r(splash.reb_angle_v_mean), r(splash.reb_angle_v_std), r(splash.reb_angle_h_mean),
+        r(splash.reb_angle_h_std), splash.a_ej, splash.ej_speed_mean, r(splash.ej_angle_v_mean),
+        r(splash.ej_angle_v_std), r(splash.ej_angle_h_mean), r(splash.ej_angle_h_std),
+        splash.impact_layer, g, soil.mean_diameter, soil.rho_p,
+    ], dtype=np.float64)
+
+
+def soil_arrays(soil) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(cumulative mass fractions, mu_j, ln sigma_j) of the soil modes (eq. 5)."""
+    m = np.array([mo.mass_fraction for mo in soil.modes], dtype=np.float64)
+    cum = np.cumsum(m) / m.sum()
+    cum[-1] = 1.0
+    mu = np.array([mo.mu for mo in soil.modes], dtype=np.float64)
+    lns = np.log(np.array([mo.sigma for mo in soil.modes], dtype=np.float64))
+    return cum, mu, lns
+
+
+@jit
+def draw_diameter(rng, cum, mu, lnsig) -> float:
+    """A diameter from the multimodal lognormal mass-size distribution (eq. 5), see module doc."""
+    j = 0
+    if cum.shape[0] > 1:
+        r = rng.random()
+        while j < cum.shape[0] - 1 and r >= cum[j]:
+            j += 1
+    return mu[j] * math.exp(lnsig[j] * rng.normal(0.0, 1.0))
+
+
+@jit
+def _angle(rng, mean, std):
+    """Normal angle redrawn until it lies in (0, pi): the grain leaves the bed upwards."""
+    for _ in range(1000):
+        a = rng.normal(mean, std)
+        if 0.0 < a < math.pi:
+            return a
+    return mean
+
+
+@jit
+def draw_rebound(rng, v_imp, sp):
+    """Rebound draw (eqs. 6-7): (rebounds, v_reb, alpha_v, alpha_h) with angles in radians."""
+    p = rebound_probability(v_imp, sp[SP_PMAX], sp[SP_GAMMA])
+    if rng.random() >= p:
+        return False, 0.0, 0.0, 0.0
+    vr = -1.0
+    for _ in range(1000):
+        vr = rng.normal(sp[SP_REB_M] * v_imp, sp[SP_REB_S] * v_imp)
+        if vr >= 0.0:
+            break
+    if vr < 0.0:
+        vr = 0.0
+    av = _angle(rng, sp[SP_RAV_M], sp[SP_RAV_S])
+    ah = rng.normal(sp[SP_RAH_M], sp[SP_RAH_S])
+    return True, vr, av, ah
+
+
+@jit
+def draw_n_ejecta(rng, v_imp, sp) -> int:
+    """N_ej with mean a v_imp / sqrt(g <d>) (eq. 8) by stochastic rounding."""
+    nbar = ejection_number_mean(v_imp, sp[SP_A], sp[SP_G], sp[SP_DMEAN])
+    n0 = int(math.floor(nbar))
+    if rng.random() < nbar - n0:
+        n0 += 1
+    return n0
+
+
+@jit
+def draw_ejectum(rng, v_imp, sp):
+    """(v_ej, alpha_v, alpha_h) of one ejected grain (eq. 9 and the ejection angles)."""
+    ve = rng.exponential(sp[SP_EJ_M] * v_imp)
+    av = _angle(rng, sp[SP_EAV_M], sp[SP_EAV_S])
+    ah = rng.normal(sp[SP_EAH_M], sp[SP_EAH_S])
+    return ve, av, ah
+
+
+@jit
+def _launch(speed, av, phi):
+    """Velocity of a grain leaving the bed at speed, elevation av, heading phi (radians)."""
+    c = speed * math.cos(av)
+    return c * math.cos(phi), c * math.sin(phi), speed * math.sin(av)
+
+
+@jit
+def bed_events(rng, ev, n_ev, cursor, n, x, y, z, u, v, w, d, kd, flag, trem, pend, n_pend, dead,
+               n_dead, sp, cum, mu, lnsig, Q, cnt, en):
+    """Splash every parcel listed in ``ev[cursor:n_ev]`` (each sits on the impact layer with its
+    impact velocity and ``trem`` seconds of the step left).
+
+    Rebounding parcels are updated in place; ejecta are appended at index ``n``; both are listed in
+    ``pend`` (to be integrated for ``trem``). Deposited parcels get ``flag = -1`` and are listed in
+    ``dead``. ``cnt`` (int64: impacts, rebounds, ejections, depositions) and ``en`` (float64:
+    impact and splash kinetic energy of the real grains, J) are incremented.
+
+    Capacity: before an impact is drawn, room for its largest possible ejecta count is checked;
+    if the arrays are full the kernel returns early and the caller grows them and calls again with
+    the returned cursor (no draw is lost or repeated). Returns (cursor, n, n_pend, n_dead).
+    """
+    cap = x.shape[0]
+    h_imp = sp[SP_IMPACT_LAYER]
+    for i in range(cursor, n_ev):
+        p = ev[i]
+        up = u[p]
+        vp = v[p]
+        wp = w[p]
+        v2 = up * up + vp * vp + wp * wp
+        v_imp = math.sqrt(v2)
+        nmax = int(math.floor(ejection_number_mean(v_imp, sp[SP_A], sp[SP_G], sp[SP_DMEAN]))) + 1
+        if n + nmax > cap or n_pend + nmax + 1 > pend.shape[0]:
+            return i, n, n_pend, n_dead
+        mp = math.pi / 6.0 * sp[SP_RHO_P] * d[p] ** 3
+        cnt[0] += 1
+        en[0] += Q * 0.5 * mp * v2
+        phi = math.atan2(vp, up) if (up != 0.0 or vp != 0.0) else 0.0
+        xp = x[p]
+        yp = y[p]
+        tr = trem[p]
+        reb, vr, av, ah = draw_rebound(rng, v_imp, sp)
+        if reb:
+            a, b, c = _launch(vr, av, phi + ah)
+            u[p] = a
+            v[p] = b
+            w[p] = c
+            z[p] = h_imp
+            kd[p] = 0.0  # velocity jumped: the drag rate is re-estimated from scratch
+            flag[p] = 0
+            pend[n_pend] = p
+            n_pend += 1
+            cnt[1] += 1
+            en[1] += Q * 0.5 * mp * vr * vr
+        else:
+            flag[p] = -1
+            dead[n_dead] = p
+            n_dead += 1
+            cnt[3] += 1
+        nej = draw_n_ejecta(rng, v_imp, sp)
+        for _ in range(nej):
+            q = n
+            n += 1
+            dq = draw_diameter(rng, cum, mu, lnsig)
+            ve, av, ah = draw_ejectum(rng, v_imp, sp)
+            a, b, c = _launch(ve, av, phi + ah)
+            x[q] = xp
+            y[q] = yp
+            z[q] = h_imp
+            u[q] = a
+            v[q] = b
+            w[q] = c
+            d[q] = dq
+            kd[q] = 0.0
+            flag[q] = 0
+            trem[q] = tr
+            pend[n_pend] = q
+            n_pend += 1
+            cnt[2] += 1
+            en[1] += Q * 0.5 * (math.pi / 6.0 * sp[SP_RHO_P] * dq ** 3) * ve * ve
+    return n_ev, n, n_pend, n_dead
+
+
+@jit
+def sample_impacts(rng, v_imp, d_imp, n_imp, sp, cum, mu, lnsig):
+    """Statistics of ``n_imp`` impacts at speed ``v_imp`` by the same draws as ``bed_events``.
+
+    Returns (n_rebounds, sum of v_reb, n_ejecta, sum of v_ej, sum of splash kinetic energy per
+    impact normalised by the impact energy of a grain of diameter ``d_imp`` (<= 0: drawn from the
+    soil for each impact)). For tests of eqs. 6-9 and of the energy budget.
+    """
+    nreb = 0
+    svr = 0.0
+    nej_tot = 0
+    sve = 0.0
+    ratio = 0.0
+    for _ in range(n_imp):
+        di = d_imp if d_imp > 0.0 else draw_diameter(rng, cum, mu, lnsig)
+        m_imp = di ** 3
+        e_out = 0.0
+        reb, vr, av, ah = draw_rebound(rng, v_imp, sp)
+        if reb:
+            nreb += 1
+            svr += vr
+            e_out += m_imp * vr * vr
+        nej = draw_n_ejecta(rng, v_imp, sp)
+        for _k in range(nej):
+            dq = draw_diameter(rng, cum, mu, lnsig)
+            ve, av, ah = draw_ejectum(rng, v_imp, sp)
+            nej_tot += 1
+            sve += ve
+            e_out += dq ** 3 * ve * ve
+        ratio += e_out / (m_imp * v_imp * v_imp)
+    return nreb, svr, nej_tot, sve, ratio

@@ -1,0 +1,226 @@
+"""The flow time step: Wicker & Skamarock (2002, Mon. Wea. Rev. 130, 2088) RK3 with a projection per
+stage.
+
+    phi(1) = phi(n) + dt/3 F(phi(n)),  phi(2) = phi(n) + dt/2 F(phi(1)),  phi(n+1) = phi(n) + dt F(phi(2))
+
+for phi = (u, v, w, e), each stage followed by the pressure projection of (u, v, w) (pressure.py).
+Per stage: boundary (bed stress, eddy viscosity from the stage's e) -> one fused kernel for
+advection + SGS diffusion + Rayleigh damping + drive of u, v, w -> one fused kernel for the SGS TKE
+equation (advection, production, transport, dissipation) -> projection. The particle sink of e (paper
+eq. A1, rates in ``state.tke_sink`` [s^-1]) is applied once per step, implicitly:
+e <- e / (1 + rate dt), which is unconditionally stable for any rate.
+
+Memory: the base fields phi(n) stay in the state arrays (stage 3 writes them point by point after
+reading them), so two extra sets of (u, v, w, e) suffice; no array is allocated inside a step.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from .._jit import jit_with, pjit
+from .advection import adv_scalar_at, adv_u_at, adv_v_at, adv_w_at
+from .damping import damping_profiles
+from .pressure import PressureSolver
+from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, diff_u_at, diff_v_at, diff_w_at,
+                  length_scale, tke_tendency_at)
+from .wall import drag_coefficient, surface_stress_into
+
+__all__ = ["Stepper", "RK3_COEFFS"]
+
+RK3_COEFFS = (1.0 / 3.0, 0.5, 1.0)
+
+device = jit_with(inline="always")
+
+
+@device
+def _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, top, bot, cdt,
+              rdx, rdy, dzc, dzf, fck, u_drive, with_adv, with_diff):
+    r = 1.0 / dzc[k]
+    tu = -fck * (u[i, j, k] - u_drive)
+    tv = -fck * v[i, j, k]
+    if with_adv:
+        tu += adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
+        tv += adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
+    if with_diff:
+        tu += diff_u_at(u, v, w, nu, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
+        tv += diff_v_at(u, v, w, nu, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
+    uo[i, j, k] = ub[i, j, k] + cdt * tu
+    vo[i, j, k] = vb[i, j, k] + cdt * tv
+
+
+@pjit
+def _momentum_stage(u, v, w, nu, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, rdy, dzc, dzf,
+                    fc, ff, u_drive, with_adv, with_diff):
+    """uo = ub + cdt (advection + SGS diffusion + damping)(u) for u, v, w (interior w only).
+
+    The first and last levels are peeled off with literal top/bot flags, so that the interior
+    k loop is branch-free.
+    """
+    nx, ny, nz = u.shape
+    for i in prange(nx):
+        im = (i - 1) % nx
+        ip = (i + 1) % nx
+        for j in range(ny):
+            jm = (j - 1) % ny
+            jp = (j + 1) % ny
+            _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, 0, im, ip, jm, jp, True, False,
+                      cdt, rdx, rdy, dzc, dzf, fc[0], u_drive, with_adv, with_diff)
+            for k in range(1, nz - 1):
+                _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, True,
+                          True, cdt, rdx, rdy, dzc, dzf, fc[k], u_drive, with_adv, with_diff)
+            _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, nz - 1, im, ip, jm, jp, False,
+                      True, cdt, rdx, rdy, dzc, dzf, fc[nz - 1], u_drive, with_adv, with_diff)
+            wo[i, j, 0] = 0.0
+            wo[i, j, nz] = 0.0
+            for k in range(1, nz):
+                tw = -ff[k] * w[i, j, k]
+                if with_adv:
+                    hzm = 0.5 * dzc[k - 1] / dzf[k]
+                    hzp = 0.5 * dzc[k] / dzf[k]
+                    tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+                if with_diff:
+                    tw += diff_w_at(u, v, w, nu, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
+                wo[i, j, k] = wb[i, j, k] + cdt * tw
+
+
+@device
+def _e_point(e, u, v, w, nu, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, dzc, dzf,
+             rlog, ceps_lk, e_min):
+    te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, 1.0 / dzc[k])
+    te += tke_tendency_at(e, u, v, w, nu, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf,
+                          rlog, ceps_lk)
+    val = eb[i, j, k] + cdt * te
+    eo[i, j, k] = val if val > e_min else e_min
+
+
+@pjit
+def _tke_stage(e, u, v, w, nu, eb, eo, cdt, rdx, rdy, dzc, dzf, rlog, ceps_l, e_min):
+    """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above)."""
+    nx, ny, nz = e.shape
+    for i in prange(nx):
+        im = (i - 1) % nx
+        ip = (i + 1) % nx
+        for j in range(ny):
+            jm = (j - 1) % ny
+            jp = (j + 1) % ny
+            _e_point(e, u, v, w, nu, eb, eo, i, j, 0, im, ip, jm, jp, True, False, cdt, rdx, rdy,
+                     dzc, dzf, rlog, ceps_l[0], e_min)
+            for k in range(1, nz - 1):
+                _e_point(e, u, v, w, nu, eb, eo, i, j, k, im, ip, jm, jp, True, True, cdt, rdx, rdy,
+                         dzc, dzf, rlog, ceps_l[k], e_min)
+            _e_point(e, u, v, w, nu, eb, eo, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, rdx,
+                     rdy, dzc, dzf, rlog, ceps_l[nz - 1], e_min)
+
+
+@pjit
+def _apply_sink(e, rate, dt, e_min):
+    nx, ny, nz = e.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                val = e[i, j, k] / (1.0 + rate[i, j, k] * dt)
+                e[i, j, k] = val if val > e_min else e_min
+
+
+@pjit
+def _diffusion_rate(e, cml, nu_mol, rdx2, rdy2, rdz2):
+    """max over cells of 2 nu (1/dx^2 + 1/dy^2 + 1/dz^2) [s^-1] (explicit-diffusion limit)."""
+    nx, ny, nz = e.shape
+    part = np.zeros(nx)
+    for i in prange(nx):
+        m = 0.0
+        for j in range(ny):
+            for k in range(nz):
+                ek = e[i, j, k]
+                if ek < 0.0:
+                    ek = 0.0
+                r = 2.0 * (cml[k] * math.sqrt(ek) + nu_mol) * (rdx2 + rdy2 + rdz2[k])
+                if r > m:
+                    m = r
+        part[i] = m
+    return part.max()
+
+
+class Stepper:
+    """RK3 flow stepper for one grid and one scene's flow parameters (work arrays preallocated)."""
+
+    def __init__(self, grid, *, z0: float, kappa: float, nu_mol: float, damping_depth: float,
+                 damping_timescale: float, workers: int | None = None, advection: bool = True,
+                 sgs: bool = True, wall: bool = True):
+        self.grid = grid
+        nx, ny, nz = grid.shape
+        self.z0, self.kappa, self.nu_mol = float(z0), float(kappa), float(nu_mol)
+        self.advection, self.sgs, self.wall = bool(advection), bool(sgs), bool(wall)
+        self.l = length_scale(grid, kappa)
+        self.cml = np.ascontiguousarray(C_M * self.l)
+        self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l) / self.l)
+        z1 = float(grid.z_c[0])
+        self.cd = drag_coefficient(z1, self.z0, self.kappa) if self.wall else 0.0
+        # log-law shear at the first level per unit first-level velocity: 1/(z1 ln(z1/z0)) [m^-1]
+        self.rlog = 1.0 / (z1 * math.log(z1 / self.z0)) if self.wall else 0.0
+        self.f_c, self.f_f = damping_profiles(grid, damping_depth, damping_timescale)
+        self.pressure = PressureSolver(grid, workers=workers)
+        shp, shw = (nx, ny, nz), (nx, ny, nz + 1)
+        self.buf = [dict(u=np.zeros(shp), v=np.zeros(shp), w=np.zeros(shw), e=np.zeros(shp))
+                    for _ in range(2)]
+        self.nu = np.zeros(shp)
+        self.taux = np.zeros((nx, ny))
+        self.tauy = np.zeros((nx, ny))
+        self._rdz2 = 1.0 / grid.dz_c ** 2
+
+    # ---- pieces ----------------------------------------------------------------------------
+    def boundary(self, u, v, e) -> None:
+        """Bed stress from the first level and nu_t from e (for one stage input)."""
+        if self.wall:
+            surface_stress_into(u, v, self.cd, self.taux, self.tauy)
+        else:
+            self.taux[...] = 0.0
+            self.tauy[...] = 0.0
+        if self.sgs:
+            compute_nu(e, self.cml, self.nu_mol, self.nu)
+        else:
+            self.nu[...] = 0.0
+
+    def stage(self, inp, base, out, cdt: float, u_drive: float, p=None) -> None:
+        """out = base + cdt F(inp), then projected (inp/base/out: objects or dicts with u, v, w, e)."""
+        g = self.grid
+        gu, gv, gw, ge = (_get(inp, n) for n in "uvwe")
+        bu, bv, bw, be = (_get(base, n) for n in "uvwe")
+        ou, ov, ow, oe = (_get(out, n) for n in "uvwe")
+        self.boundary(gu, gv, ge)
+        rdx, rdy = 1.0 / g.dx, 1.0 / g.dy
+        _momentum_stage(gu, gv, gw, self.nu, self.taux, self.tauy, bu, bv, bw, ou, ov, ow, cdt, rdx,
+                        rdy, g.dz_c, g.dz_f, self.f_c, self.f_f, u_drive, self.advection, self.sgs)
+        if self.sgs:
+            _tke_stage(ge, gu, gv, gw, self.nu, be, oe, cdt, rdx, rdy, g.dz_c, g.dz_f, self.rlog,
+                       self.ceps_l, E_MIN)
+        elif oe is not be:
+            oe[...] = be
+        self.pressure.project(ou, ov, ow, p, cdt)
+
+    def step(self, state, dt: float) -> None:
+        """Advance (u, v, w, e) of ``state`` by dt in place (clock untouched)."""
+        a, b = self.buf
+        c1, c2, c3 = RK3_COEFFS
+        self.stage(state, state, a, c1 * dt, state.u_drive)
+        self.stage(a, state, b, c2 * dt, state.u_drive)
+        self.stage(b, state, state, c3 * dt, state.u_drive, p=state.p)
+        if state.tke_sink is not None:
+            _apply_sink(state.e, state.tke_sink, dt, E_MIN)
+
+    def diffusion_rate(self, e) -> float:
+        """max 2 nu (1/dx^2 + 1/dy^2 + 1/dz^2) [s^-1]."""
+        if not self.sgs:
+            return 2.0 * self.nu_mol * (1 / self.grid.dx**2 + 1 / self.grid.dy**2 + self._rdz2.max())
+        g = self.grid
+        return float(_diffusion_rate(e, self.cml, self.nu_mol, 1.0 / g.dx**2, 1.0 / g.dy**2, self._rdz2))
+
+    def close(self) -> None:
+        self.pressure.close()
+
+
+def _get(obj, name):
+    return obj[name] if isinstance(obj, dict) else getattr(obj, name)

@@ -1,0 +1,147 @@
+"""Workflow commands: ``run-all``, ``run``, ``status`` (registered on the typer app by cli.py).
+
+Exit codes: 0 success; 1 a task failed (the others ran; see ``saltstudy status``); 2 bad input
+(unknown study/case, invalid file) — then nothing in the cache is touched.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from ..config import ConfigError
+
+#: the study ``run-all`` runs without --study: must finish in minutes on a laptop
+DEFAULT_STUDY = "smoke"
+#: the fidelity ``run CASE`` uses without --fidelity
+DEFAULT_FIDELITY = "smoke"
+
+_OUT_HELP = "cache directory (default: $SALTSTUDY_OUT, else <project>/.saltstudy-cache)"
+
+
+def _fail(message: str, code: int = 2) -> None:
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def _out(out: Optional[Path]) -> Path:
+    from .paths import default_out_dir
+
+    return Path(out) if out is not None else default_out_dir()
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("run-all")
+    def run_all(
+        study: str = typer.Option(DEFAULT_STUDY, "--study", help="study name (workflows/NAME.toml) or a study file"),
+        out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
+        workers: int = typer.Option(1, "--workers", min=1,
+                                    help="tasks at once locally (1 is fastest on a laptop: the "
+                                         "solver's kernels already use every core)"),
+        scheduler: Optional[str] = typer.Option(None, "--scheduler",
+                                                help="dask.distributed scheduler address, e.g. tcp://host:8786"),
+        quiet: bool = typer.Option(False, "--quiet", help="plain log lines instead of a live display"),
+        report_dir: Optional[Path] = typer.Option(None, "--report-dir",
+                                                  help="where the report goes (default: <project>/reports/<study>)"),
+    ) -> None:
+        """Run a whole study (spin-up, saltation, analysis per case; one report), reusing the cache."""
+        from ..config import load_study
+        from . import keys as K
+        from .graph import run_study
+        from .paths import output_path
+
+        out_dir = _out(out)
+        # Validate everything before touching the cache: a bad study or case exits 2 here.
+        try:
+            st = load_study(study)
+            runs = K.study_keys(st)
+        except ConfigError as exc:
+            _fail(str(exc))
+        todo = [(l, t) for l, rk in runs.items() for t in ("spinup", "saltation", "analysis")
+                if not _complete(output_path(out_dir, t, getattr(rk, t)))]
+        typer.echo(f"study {st.name}: {len(runs)} runs, out dir {out_dir}")
+        if not todo:
+            typer.echo("all runs cached: no solver work to do")
+        else:
+            typer.echo(f"{len(todo)} of {3 * len(runs)} run tasks to compute")
+        summary = run_study(st, out_dir, workers=workers, scheduler=scheduler, quiet=quiet,
+                            report_dir=report_dir)
+        _print_summary(summary)
+        if todo and not summary.solver_work:
+            typer.echo("no solver work was needed (spin-ups and saltation runs all cached)")
+        raise typer.Exit(summary.exit_code)
+
+    @app.command("run")
+    def run_one(
+        case: str = typer.Argument(..., help="case number (cases/caseNN.toml) or a case file"),
+        fidelity: str = typer.Option(DEFAULT_FIDELITY, "--fidelity", help="fidelity name or file"),
+        out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
+        quiet: bool = typer.Option(False, "--quiet", help="plain log lines instead of a live display"),
+    ) -> None:
+        """Run one case: spin-up, saltation, analysis (cached like run-all; no report)."""
+        from ..config import load_case, load_fidelity, resolve_scene
+        from . import keys as K
+        from .graph import _analysis, _saltation, _spinup
+        from .paths import task_dir
+        from .progress import ProgressDisplay, TaskRef
+        from .. import SOURCE_KEY
+
+        out_dir = _out(out)
+        try:
+            c = load_case(case)
+            scene = resolve_scene(c, load_fidelity(fidelity))
+        except ConfigError as exc:
+            _fail(str(exc))
+        rk = K.run_keys(scene.label, scene)
+        refs = [TaskRef(f"spinup {rk.label}", task_dir(out_dir, "spinup", rk.spinup)),
+                TaskRef(f"saltation {rk.label}", task_dir(out_dir, "saltation", rk.saltation))]
+        t0 = time.perf_counter()
+        with ProgressDisplay(refs, quiet=quiet):
+            sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
+            sa = _saltation(scene, rk.saltation, sp, out_dir, SOURCE_KEY, None)
+            an = _analysis(rk.label, rk.analysis, sp, sa, out_dir)
+        for o in (sp, sa, an):
+            typer.echo(f"{o.task:<9} {o.status:<8} {o.path or o.error or ''}")
+        typer.echo(f"wall time {time.perf_counter() - t0:.1f} s")
+        raise typer.Exit(1 if any(o.status == "failed" for o in (sp, sa, an)) else 0)
+
+    @app.command("status")
+    def status(
+        study: str = typer.Option(DEFAULT_STUDY, "--study", help="study name or file"),
+        out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
+    ) -> None:
+        """Per run and task: done / stale / failed / partial / running / missing."""
+        from ..config import load_study
+        from .status import format_status, study_status
+
+        out_dir = _out(out)
+        try:
+            st = load_study(study)
+            rows = study_status(st, out_dir)
+        except ConfigError as exc:
+            _fail(str(exc))
+        typer.echo(f"study {st.name}, out dir {out_dir}")
+        typer.echo(format_status(rows))
+
+
+def _complete(path: Path) -> bool:
+    from ..ncio import is_complete
+
+    return is_complete(path)
+
+
+def _print_summary(summary) -> None:
+    counts: dict[str, int] = {}
+    for o in summary.outcomes:
+        counts[o.status] = counts.get(o.status, 0) + 1
+    typer.echo(f"study {summary.study}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
+               + f" in {summary.wall_s:.1f} s")
+    for o in summary.outcomes:
+        if o.status in ("failed", "skipped"):
+            typer.echo(f"  {o.status}: {o.task} {','.join(o.labels)}: {o.error}", err=o.status == "failed")
+    if summary.report_dir is not None:
+        typer.echo(f"report: {summary.report_dir}")
+    else:
+        typer.echo("report: not built (see messages above)")

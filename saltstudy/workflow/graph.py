@@ -1,0 +1,272 @@
+"""The dask graph of a study and its execution.
+
+Per run: spin-up -> saltation -> analysis; one report task over all runs. Runs whose spin-up
+key is equal (same wind, grid, seed, ...) share one spin-up task: the graph is keyed by cache
+key, so dask runs it once.
+
+Execution
+---------
+* Locally (default): dask's threaded scheduler with ``workers`` threads (default 1). The solver's
+  numba kernels are ``parallel=True`` and use every core, so on a laptop one task at a time is
+  fastest; with ``workers > 1`` each task's numba threads are limited to cores // workers.
+* ``scheduler=ADDRESS``: a ``dask.distributed`` Client connected to that scheduler; every worker
+  must run the same checkout (checked: tasks carry the client's ``SOURCE_KEY``) and see the same
+  out dir (shared file system).
+
+A task that fails is recorded (``task.json``: state failed, error, traceback) and its dependents
+are skipped; the other runs go on. :func:`run_study` returns a summary whose ``exit_code`` is 1
+if anything failed.
+
+Cluster example (dask-jobqueue, SLURM): one task per job, each job with N cores for numba::
+
+    # on the login node, in the project's environment (pip install -e ".[cluster]")
+    from dask_jobqueue import SLURMCluster
+    cluster = SLURMCluster(cores=1, processes=1, job_cpu=8, memory="16GB", walltime="12:00:00",
+                           job_script_prologue=["export NUMBA_NUM_THREADS=8",
+                                                "export SALTSTUDY_OUT=/scratch/$USER/saltstudy"])
+    cluster.scale(jobs=10)            # ten cases at once
+    print(cluster.scheduler_address)  # e.g. tcp://10.0.0.5:8786
+
+    # then, in another shell on the login node (same SALTSTUDY_OUT, on the shared file system):
+    saltstudy run-all --study paper --scheduler tcp://10.0.0.5:8786
+
+``cores=1`` gives each worker one dask thread, so one task per job; ``job_cpu=8`` reserves eight
+CPUs that the task's numba kernels use. A job killed by the wall-time limit loses at most
+``checkpoint_interval_wall`` of saltation: the rerun resumes from ``checkpoint.npz``.
+"""
+from __future__ import annotations
+
+import os
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .. import SOURCE_KEY, __version__
+from ..config import Scene, Study
+from ..ncio import is_complete
+from . import keys as K
+from .paths import (default_report_dir, output_path, read_runs_file, runs_file, study_dir, task_dir,
+                    write_json_atomic)
+from .progress import ProgressDisplay, TaskRef, emit
+from .tasks import analysis_task, report_done, report_task, saltation_task, spinup_task
+
+__all__ = ["Outcome", "StudySummary", "build_graph", "run_study"]
+
+
+@dataclass
+class Outcome:
+    """What one task did: ``computed``, ``cached`` (complete output found), ``failed`` or
+    ``skipped`` (an input failed, or the report package is absent)."""
+    task: str
+    key: str
+    labels: list[str]
+    status: str
+    path: str | None = None
+    error: str | None = None
+    wall_s: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return self.status in ("computed", "cached")
+
+
+def _limit_numba_threads(n: int | None) -> None:
+    if n:
+        import numba
+
+        numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+
+
+def _call(task: str, key: str, labels: list[str], out_path: Path, fn, *args, **kw) -> Outcome:
+    """Run one task function, turning any error into a failed Outcome (the graph goes on)."""
+    name = f"{task} {','.join(labels)}"
+    if task != "report" and is_complete(out_path):
+        return Outcome(task, key, labels, "cached", str(out_path))
+    emit(f"[start] {name} ({key})")
+    t0 = time.perf_counter()
+    try:
+        path = fn(*args, **kw)
+    except BaseException as exc:  # noqa: BLE001 — record everything, incl. KeyboardInterrupt
+        wall = time.perf_counter() - t0
+        emit(f"[FAILED] {name}: {type(exc).__name__}: {exc}")
+        if not isinstance(exc, Exception):
+            raise
+        return Outcome(task, key, labels, "failed", None, f"{type(exc).__name__}: {exc}", wall)
+    wall = time.perf_counter() - t0
+    if path is None:
+        return Outcome(task, key, labels, "skipped", None, "report package not available", wall)
+    emit(f"[done] {name} in {wall:.1f} s")
+    return Outcome(task, key, labels, "computed", str(path), None, wall)
+
+
+def _spinup(scene: Scene, key: str, labels: list[str], out_dir: Path, source_key: str,
+            numba_threads: int | None) -> Outcome:
+    _limit_numba_threads(numba_threads)
+    return _call("spinup", key, labels, output_path(out_dir, "spinup", key),
+                 spinup_task, scene, out_dir, source_key)
+
+
+def _saltation(scene: Scene, key: str, spin: Outcome, out_dir: Path, source_key: str,
+               numba_threads: int | None) -> Outcome:
+    if not spin.ok:
+        return Outcome("saltation", key, [scene.label], "skipped", error="spin-up failed")
+    _limit_numba_threads(numba_threads)
+    return _call("saltation", key, [scene.label], output_path(out_dir, "saltation", key),
+                 saltation_task, scene, Path(spin.path), out_dir, source_key)
+
+
+def _analysis(label: str, key: str, spin: Outcome, salt: Outcome, out_dir: Path) -> Outcome:
+    if not (spin.ok and salt.ok):
+        return Outcome("analysis", key, [label], "skipped", error="saltation or spin-up failed")
+    return _call("analysis", key, [label], output_path(out_dir, "analysis", key),
+                 analysis_task, Path(salt.path), Path(spin.path), out_dir, key)
+
+
+def _report(study: Study, analyses: list[Outcome], out_dir: Path, report_dir: Path,
+            meta: dict[str, Any]) -> Outcome:
+    runs = {a.labels[0]: (Path(a.path) if a.ok else None) for a in analyses}
+    rkey = K.report_key(study, {a.labels[0]: (a.key if a.ok else None) for a in analyses})
+    if report_done(out_dir, rkey, report_dir):
+        return Outcome("report", rkey, [study.name], "cached", str(report_dir))
+    return _call("report", rkey, [study.name], Path(report_dir), report_task, study, runs, out_dir,
+                 report_dir, rkey, meta, emit)
+
+
+# ------------------------------------------------------------------------------------------
+@dataclass
+class StudyPlan:
+    study: Study
+    runs: dict[str, K.RunKeys]
+    graph: dict[str, Any]            # final dask.delayed objects by name
+    task_refs: list[TaskRef]
+    report_dir: Path
+
+
+def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
+                numba_threads: int | None = None, root: Path | None = None) -> StudyPlan:
+    """dask.delayed graph of ``study``; nothing runs until computed. Raises ConfigError."""
+    import dask
+
+    out_dir = Path(out_dir)
+    report_dir = Path(report_dir) if report_dir else default_report_dir(study.name)
+    runs = K.study_keys(study, root)
+    spin_nodes: dict[str, Any] = {}
+    refs: list[TaskRef] = []
+    sharing: dict[str, list[str]] = {}
+    for label, rk in runs.items():
+        sharing.setdefault(rk.spinup, []).append(label)
+    analyses = []
+    finals: dict[str, Any] = {}
+    for label, rk in runs.items():
+        if rk.spinup not in spin_nodes:
+            spin_nodes[rk.spinup] = dask.delayed(_spinup, pure=False)(
+                rk.scene, rk.spinup, sharing[rk.spinup], out_dir, SOURCE_KEY, numba_threads,
+                dask_key_name=f"spinup-{rk.spinup}")
+            refs.append(TaskRef(f"spinup {'+'.join(sharing[rk.spinup])}",
+                                task_dir(out_dir, "spinup", rk.spinup)))
+        sp = spin_nodes[rk.spinup]
+        sa = dask.delayed(_saltation, pure=False)(rk.scene, rk.saltation, sp, out_dir, SOURCE_KEY,
+                                                  numba_threads, dask_key_name=f"saltation-{rk.saltation}-{label}")
+        an = dask.delayed(_analysis, pure=False)(label, rk.analysis, sp, sa, out_dir,
+                                                 dask_key_name=f"analysis-{rk.analysis}-{label}")
+        refs.append(TaskRef(f"saltation {label}", task_dir(out_dir, "saltation", rk.saltation)))
+        finals[f"spinup:{label}"] = sp
+        finals[f"saltation:{label}"] = sa
+        finals[f"analysis:{label}"] = an
+        analyses.append(an)
+    if study.report:
+        meta = {"study": study.name, "out_dir": str(out_dir), "package_version": __version__,
+                "source_key": SOURCE_KEY,
+                "keys": {l: {"spinup": r.spinup, "saltation": r.saltation, "analysis": r.analysis}
+                         for l, r in runs.items()}}
+        finals["report"] = dask.delayed(_report, pure=False)(study, analyses, out_dir, report_dir,
+                                                             meta, dask_key_name=f"report-{study.name}")
+    return StudyPlan(study, runs, finals, refs, report_dir)
+
+
+# ------------------------------------------------------------------------------------------
+@dataclass
+class StudySummary:
+    study: str
+    outcomes: list[Outcome] = field(default_factory=list)
+    report_dir: Path | None = None
+    wall_s: float = 0.0
+
+    @property
+    def failed(self) -> list[Outcome]:
+        return [o for o in self.outcomes if o.status == "failed"]
+
+    @property
+    def computed(self) -> list[Outcome]:
+        return [o for o in self.outcomes if o.status == "computed"]
+
+    @property
+    def solver_work(self) -> bool:
+        return any(o.task in ("spinup", "saltation") for o in self.computed)
+
+    @property
+    def exit_code(self) -> int:
+        # a task skipped because its input failed implies a failure already counted
+        return 1 if self.failed else 0
+
+
+def _record_runs(out_dir: Path, plan: StudyPlan, by_name: dict[str, Outcome]) -> None:
+    """Update runs.json: for each label, the keys of its tasks that completed (last good)."""
+    data = read_runs_file(out_dir, plan.study.name)
+    labels = data.get("labels", {})
+    for label in plan.runs:
+        entry = labels.get(label, {})
+        for task in ("spinup", "saltation", "analysis"):
+            o = by_name.get(f"{task}:{label}")
+            if o is not None and o.ok:
+                entry[task] = o.key
+        labels[label] = entry
+    # forget labels no longer in the study
+    data.update({"study": plan.study.name, "labels": {l: labels[l] for l in plan.runs},
+                 "updated": time.time(), "package_version": __version__})
+    rep = by_name.get("report")
+    if rep is not None and rep.ok:
+        data["report"] = {"key": rep.key, "dir": rep.path}
+    write_json_atomic(runs_file(out_dir, plan.study.name), data)
+
+
+def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | None = None,
+              quiet: bool = False, report_dir: Path | None = None, root: Path | None = None) -> StudySummary:
+    """Build and execute the study's graph; never raises for a failed task (see summary)."""
+    import dask
+
+    t0 = time.perf_counter()
+    cores = os.cpu_count() or 1
+    numba_threads = max(1, cores // workers) if (scheduler is None and workers > 1) else None
+    plan = build_graph(study, out_dir, report_dir, numba_threads, root)
+    names = list(plan.graph)
+    study_dir(out_dir, study.name).mkdir(parents=True, exist_ok=True)
+    results: dict[str, Outcome] = {}
+    with ProgressDisplay(plan.task_refs, quiet=quiet):
+        if scheduler is None:
+            values = dask.compute(*[plan.graph[n] for n in names], scheduler="threads",
+                                  num_workers=workers)
+            results = dict(zip(names, values))
+        else:
+            from distributed import Client
+
+            with Client(scheduler) as client:
+                futures = client.compute([plan.graph[n] for n in names])
+                for n, f in zip(names, futures):
+                    try:
+                        results[n] = f.result()
+                    except Exception as exc:  # a worker died (killed, out of memory, ...)
+                        task = n.split(":")[0]
+                        results[n] = Outcome(task, "?", [n.split(":")[-1]], "failed",
+                                             error=f"{type(exc).__name__}: {exc}")
+    _record_runs(out_dir, plan, results)
+    # shared spin-ups appear once per label in `results`: report each task once
+    seen: dict[tuple[str, str], Outcome] = {}
+    for n in names:
+        o = results[n]
+        seen.setdefault((o.task, o.key if o.key != "?" else n), o)
+    rep = results.get("report")
+    return StudySummary(study.name, list(seen.values()),
+                        Path(rep.path) if rep is not None and rep.ok else None,
+                        time.perf_counter() - t0)

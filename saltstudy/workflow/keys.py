@@ -1,0 +1,110 @@
+"""Cache keys: a task's output directory is named by the hash of everything that determines it.
+
+key = SHA-256 of the JSON (sorted keys) of
+  * the task's slice of the configuration,
+  * the keys of its inputs (so a changed spin-up re-keys everything downstream),
+  * the package version and the hash of the code that computes it: ``saltstudy.SOURCE_KEY``
+    (numerics: ``_jit.py``, ``physics/``, ``solver/``) for the solver tasks, plus the sources of
+    ``analysis/`` or ``report/`` for those tasks (re-running them is cheap, so an edit there
+    re-runs them and nothing upstream),
+  * :data:`ARCHIVE_FORMAT`, bumped by hand when the workflow changes what an archive holds.
+
+Python's ``hash()`` is never used (it changes with PYTHONHASHSEED), and pydantic models are dumped
+with ``mode="json"`` so the text is the same in every process.
+
+What is left out of the slices, on purpose: descriptions, the run's label (the same case at the
+same fidelity is the same run in any study), and ``checkpoint_interval_wall`` (it changes when
+checkpoints are written, not the result: resume is bit-for-bit).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+from .. import SOURCE_KEY, __version__
+from ..config import Scene, Study, study_runs
+
+__all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "saltation_key",
+           "analysis_key", "report_key", "RunKeys", "run_keys", "study_keys", "saltation_slice",
+           "area_source_key"]
+
+#: bump when spinup.nc / samples.nc change layout, so old archives are not mistaken for new ones
+ARCHIVE_FORMAT = 1
+KEY_LENGTH = 20
+
+
+def hash_json(data: Any) -> str:
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()[:KEY_LENGTH]
+
+
+@lru_cache(maxsize=None)
+def area_source_key(area: str) -> str:
+    """Hash of the ``.py`` files of one package area (``analysis``, ``report``); '' if absent."""
+    root = Path(__file__).resolve().parent.parent / area
+    h = hashlib.sha256()
+    for f in sorted(root.rglob("*.py")):
+        h.update(str(f.relative_to(root)).encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def _code(extra: dict[str, str] | None = None) -> dict[str, Any]:
+    d: dict[str, Any] = {"version": __version__, "source": SOURCE_KEY, "archive_format": ARCHIVE_FORMAT}
+    if extra:
+        d.update(extra)
+    return d
+
+
+def spinup_key(scene: Scene) -> str:
+    return hash_json({"task": "spinup", "config": scene.spinup_slice(), "code": _code()})
+
+
+def saltation_slice(scene: Scene) -> dict[str, Any]:
+    """The whole resolved scene minus what cannot change the samples (see module docstring)."""
+    case = scene.case.model_dump(mode="json")
+    case.pop("description", None)
+    fid = scene.fidelity.model_dump(mode="json")
+    for k in ("description", "checkpoint_interval_wall"):
+        fid.pop(k, None)
+    return {"case": case, "fidelity": fid}
+
+
+def saltation_key(scene: Scene, spinup: str) -> str:
+    return hash_json({"task": "saltation", "config": saltation_slice(scene), "inputs": [spinup],
+                      "code": _code()})
+
+
+def analysis_key(saltation: str, spinup: str) -> str:
+    return hash_json({"task": "analysis", "inputs": [saltation, spinup],
+                      "code": _code({"analysis": area_source_key("analysis")})})
+
+
+def report_key(study: Study, analyses: dict[str, str | None]) -> str:
+    """Key of a study's report: its runs' analysis keys (None: run failed) and the report code."""
+    return hash_json({"task": "report", "study": study.model_dump(mode="json"),
+                      "inputs": analyses, "code": _code({"report": area_source_key("report")})})
+
+
+@dataclass(frozen=True)
+class RunKeys:
+    label: str
+    scene: Scene
+    spinup: str
+    saltation: str
+    analysis: str
+
+
+def run_keys(label: str, scene: Scene) -> RunKeys:
+    sp = spinup_key(scene)
+    sa = saltation_key(scene, sp)
+    return RunKeys(label, scene, sp, sa, analysis_key(sa, sp))
+
+
+def study_keys(study: Study, root: Path | None = None) -> dict[str, RunKeys]:
+    """Label -> keys of every run of ``study`` (raises ConfigError on a bad case reference)."""
+    return {r.label: run_keys(r.label, r.scene) for r in study_runs(study, root)}

@@ -1,0 +1,100 @@
+"""Where the workflow keeps its outputs.
+
+The *out dir* (cache) is ``$SALTSTUDY_OUT`` if set, else ``<project root>/.saltstudy-cache``
+(the project root is ``$SALTSTUDY_HOME``, else the checkout; see :func:`saltstudy.config.project_root`).
+Every CLI command takes ``--out DIR`` to override it. Layout::
+
+    <out>/spinup/<key>/spinup.nc        flow-only spin-up (restart state + profiles)
+    <out>/saltation/<key>/samples.nc    saltation run records
+    <out>/saltation/<key>/checkpoint.npz  last periodic checkpoint (deleted once samples.nc is written)
+    <out>/analysis/<key>/analysis.nc    statistics of one case
+    <out>/report/<key>/task.json        marker of a built report (the report itself: reports/<study>/)
+    <out>/<task>/<key>/task.json        what the task was (config slice, inputs, status, wall time)
+    <out>/<task>/<key>/progress.json    live progress (simulated time / target), read by the display
+    <out>/studies/<study>/runs.json     label -> keys of the last completed tasks of each run
+
+``<key>`` is the task's cache key (:mod:`saltstudy.workflow.keys`): a change of anything that
+determines a task's output gives a new directory, so nothing computed is ever overwritten.
+"""
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from ..config import Study, load_study, project_root
+
+__all__ = ["default_out_dir", "task_dir", "output_path", "OUTPUT_NAMES", "study_dir", "runs_file",
+           "analysis_paths", "default_report_dir", "read_runs_file", "write_json_atomic"]
+
+#: the archive each task writes into its directory
+OUTPUT_NAMES = {"spinup": "spinup.nc", "saltation": "samples.nc", "analysis": "analysis.nc",
+                "report": "task.json"}
+
+
+def default_out_dir() -> Path:
+    """The cache directory: ``$SALTSTUDY_OUT``, else ``<project root>/.saltstudy-cache``."""
+    env = os.environ.get("SALTSTUDY_OUT")
+    if env:
+        return Path(env).expanduser()
+    return project_root() / ".saltstudy-cache"
+
+
+def default_report_dir(study_name: str) -> Path:
+    """Where a study's report is built: ``<project root>/reports/<study>`` (see reports/README.md)."""
+    return project_root() / "reports" / study_name
+
+
+def task_dir(out_dir: Path, task: str, key: str) -> Path:
+    return Path(out_dir) / task / key
+
+
+def output_path(out_dir: Path, task: str, key: str) -> Path:
+    """The archive of task ``task`` with cache key ``key``."""
+    return task_dir(out_dir, task, key) / OUTPUT_NAMES[task]
+
+
+def study_dir(out_dir: Path, study_name: str) -> Path:
+    return Path(out_dir) / "studies" / study_name
+
+
+def runs_file(out_dir: Path, study_name: str) -> Path:
+    return study_dir(out_dir, study_name) / "runs.json"
+
+
+def read_runs_file(out_dir: Path, study_name: str) -> dict:
+    """The study's record of last completed keys per label (empty if none or unreadable)."""
+    p = runs_file(out_dir, study_name)
+    try:
+        return json.loads(p.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def write_json_atomic(path: Path, data: dict) -> None:
+    """Write JSON to a temporary name and rename, so a reader never sees half a file."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    tmp.write_text(json.dumps(data, indent=1, sort_keys=True, default=str))
+    os.replace(tmp, path)
+
+
+def analysis_paths(study: Study | str | Path, out_dir: Path | None = None) -> dict[str, Path | None]:
+    """Label -> analysis.nc of each run of ``study`` for the *current* configuration and code.
+
+    ``None`` where that archive is missing or incomplete (not run yet, failed, or its inputs
+    changed since it was computed): the report never shows a result that does not match the
+    case files. Raises :class:`saltstudy.config.ConfigError` for a bad study or case.
+    """
+    from . import keys as _keys
+    from ..ncio import is_complete
+
+    if not isinstance(study, Study):
+        study = load_study(study)
+    out_dir = Path(out_dir) if out_dir is not None else default_out_dir()
+    result: dict[str, Path | None] = {}
+    for run, k in _keys.study_keys(study).items():
+        p = output_path(out_dir, "analysis", k.analysis)
+        result[run] = p if is_complete(p) else None
+    return result

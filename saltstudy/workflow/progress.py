@@ -1,0 +1,174 @@
+"""Live progress: tasks write ``progress.json`` in their directory; the display polls the files.
+
+Files rather than a dask Queue/Variable because they work the same with threads, local processes
+and a distributed cluster on a shared file system (which the cache needs anyway), survive a
+worker's death, and need no connection back to the client. A task's callback writes at most once
+a second (atomically), so the cost is nil.
+"""
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .paths import write_json_atomic
+
+__all__ = ["ProgressFile", "read_progress", "ProgressDisplay", "TaskRef", "format_duration", "emit"]
+
+PROGRESS_NAME = "progress.json"
+
+_ACTIVE: "ProgressDisplay | None" = None
+_EMIT_LOCK = threading.Lock()
+
+
+def emit(message: str) -> None:
+    """Print a log line (stderr) without tearing the live display of this process, if any."""
+    display = _ACTIVE
+    if display is not None:
+        display.log(message)
+        return
+    with _EMIT_LOCK:
+        sys.stderr.write(message + "\n")
+        sys.stderr.flush()
+
+
+class ProgressFile:
+    """Callable handed to a task: ``cb(t_done, t_target)`` (simulated seconds).
+
+    Accepts what a solver might pass (a number, or an object with ``.t``) and ignores the rest.
+    """
+
+    def __init__(self, task_dir: Path, task: str, label: str, phase: str, min_interval: float = 1.0):
+        self.path = Path(task_dir) / PROGRESS_NAME
+        self.task, self.label, self.phase = task, label, phase
+        self.min_interval = min_interval
+        self._last = 0.0
+        self._t0 = time.time()
+        self.target = None
+
+    def __call__(self, t: Any = None, target: Any = None, *args: Any, **kw: Any) -> None:
+        if t is not None and not isinstance(t, (int, float)):
+            t = getattr(t, "t", None)
+        if t is None:
+            t = kw.get("t")
+        if target is not None and isinstance(target, (int, float)):
+            self.target = float(target)
+        now = time.time()
+        if t is None or now - self._last < self.min_interval:
+            return
+        self._last = now
+        self.write(float(t), "running")
+
+    def write(self, t: float, state: str, message: str = "") -> None:
+        try:
+            write_json_atomic(self.path, {
+                "task": self.task, "label": self.label, "phase": self.phase, "state": state,
+                "t": t, "target": self.target, "started": self._t0, "updated": time.time(),
+                "message": message})
+        except OSError:  # progress is best-effort; never fail a task because of it
+            pass
+
+
+def read_progress(task_dir: Path) -> dict | None:
+    try:
+        return json.loads((Path(task_dir) / PROGRESS_NAME).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def format_duration(s: float | None) -> str:
+    if s is None or s != s or s < 0:
+        return "?"
+    s = int(round(s))
+    if s < 60:
+        return f"{s}s"
+    if s < 3600:
+        return f"{s // 60}m{s % 60:02d}s"
+    return f"{s // 3600}h{(s % 3600) // 60:02d}m"
+
+
+@dataclass
+class TaskRef:
+    name: str        # e.g. "saltation case01"
+    directory: Path  # the task's cache directory
+
+
+class ProgressDisplay:
+    """Background thread printing the state of every task of the graph.
+
+    On a terminal: one refreshed block of lines (simulated time / target, %, ETA). With
+    ``quiet`` or when not on a terminal: a plain log line per running task every ``log_every``
+    seconds, so logs of batch jobs stay readable.
+    """
+
+    def __init__(self, tasks: list[TaskRef], quiet: bool = False, interval: float = 1.0,
+                 log_every: float = 30.0, stream=None):
+        self.tasks, self.quiet = tasks, quiet
+        self.stream = stream or sys.stderr
+        self.interactive = (not quiet) and self.stream.isatty()
+        self.interval = interval if self.interactive else log_every
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True, name="saltstudy-progress")
+        self._lines = 0
+
+    def __enter__(self) -> "ProgressDisplay":
+        global _ACTIVE
+        _ACTIVE = self
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        global _ACTIVE
+        self._stop.set()
+        self._thread.join(timeout=5)
+        _ACTIVE = None
+
+    def log(self, message: str) -> None:
+        with _EMIT_LOCK:
+            self._clear()
+            self.stream.write(message + "\n")
+            self.stream.flush()
+
+    def _clear(self) -> None:
+        if self.interactive and self._lines:
+            self.stream.write(f"\x1b[{self._lines}F\x1b[J")
+            self._lines = 0
+
+    def rows(self) -> list[str]:
+        out = []
+        for ref in self.tasks:
+            p = read_progress(ref.directory)
+            if p is None or p.get("state") != "running":
+                continue
+            t, target = p.get("t") or 0.0, p.get("target")
+            elapsed = time.time() - p.get("started", time.time())
+            if target:
+                frac = min(max(t / target, 0.0), 1.0)
+                eta = elapsed * (1 - frac) / frac if frac > 0 else None
+                out.append(f"{ref.name:<28} {p.get('phase', ''):<10} t = {t:8.2f} / {target:.2f} s "
+                           f"({100 * frac:5.1f} %)  elapsed {format_duration(elapsed)}  "
+                           f"ETA {format_duration(eta)}")
+            else:
+                out.append(f"{ref.name:<28} {p.get('phase', ''):<10} t = {t:8.2f} s  "
+                           f"elapsed {format_duration(elapsed)}")
+        return out
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.interval):
+            rows = self.rows()
+            with _EMIT_LOCK:
+                if self.interactive:
+                    self._clear()  # move up over the previous block and redraw it
+                    self.stream.write("".join(r + "\n" for r in rows))
+                    self._lines = len(rows)
+                else:
+                    for r in rows:
+                        self.stream.write(f"[progress] {r}\n")
+                self.stream.flush()
+        with _EMIT_LOCK:
+            self._clear()
+            self.stream.flush()

@@ -1,0 +1,102 @@
+"""``saltstudy status``: per run and task, is the output for the *current* config done?
+
+States: ``done`` (complete archive at the current key), ``stale`` (no output for the current
+configuration/code, but runs.json records an older complete one), ``failed`` (task.json at the
+current key says so, with the reason), ``partial`` (a saltation checkpoint to resume from),
+``running`` (task.json says running: in progress, or killed), ``missing``.
+"""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ..config import Study
+from ..ncio import is_complete
+from . import keys as K
+from .paths import output_path, read_runs_file, task_dir
+from .tasks import read_task_json
+
+__all__ = ["StatusRow", "study_status", "format_status"]
+
+TASKS = ("spinup", "saltation", "analysis")
+
+
+@dataclass
+class StatusRow:
+    label: str
+    task: str
+    state: str
+    key: str
+    detail: str = ""
+
+
+def _checkpoint_time(d: Path) -> float | None:
+    try:
+        with np.load(d / "checkpoint.npz", allow_pickle=False) as z:
+            meta = json.loads(str(z["meta"]))
+        return None if meta is None else float(meta.get("t_since_activation", np.nan))
+    except Exception:
+        return None
+
+
+def _state(out_dir: Path, task: str, key: str, old_key: str | None) -> tuple[str, str]:
+    if is_complete(output_path(out_dir, task, key)):
+        return "done", ""
+    d = task_dir(out_dir, task, key)
+    tj = read_task_json(d) or {}
+    if task == "saltation" and (d / "checkpoint.npz").is_file():
+        # interrupted or failed, but a rerun resumes from the checkpoint
+        t = _checkpoint_time(d)
+        where = f" at t = {t:.3g} s" if t is not None and t == t else ""
+        why = f" (stopped by {tj['error']})" if tj.get("state") == "failed" else ""
+        return "partial", f"checkpoint to resume from{where}{why}"
+    if tj.get("state") == "failed":
+        return "failed", str(tj.get("error", ""))
+    if tj.get("state") == "running":
+        return "running", f"since {tj.get('started', '?')} on {tj.get('host', '?')} (or killed)"
+    if old_key and old_key != key and is_complete(output_path(out_dir, task, old_key)):
+        return "stale", f"config or code changed; last done: {old_key}"
+    return "missing", ""
+
+
+def study_status(study: Study, out_dir: Path, root: Path | None = None) -> list[StatusRow]:
+    """Rows for every run and task of ``study``, plus the report. Raises ConfigError."""
+    runs = K.study_keys(study, root)
+    recorded = read_runs_file(out_dir, study.name).get("labels", {})
+    rows: list[StatusRow] = []
+    analyses: dict[str, str | None] = {}
+    for label, rk in runs.items():
+        old = recorded.get(label, {})
+        for task in TASKS:
+            key = getattr(rk, task)
+            state, detail = _state(out_dir, task, key, old.get(task))
+            rows.append(StatusRow(label, task, state, key, detail))
+            if task == "analysis":
+                analyses[label] = key if state == "done" else None
+    if study.report:
+        rkey = K.report_key(study, analyses)
+        tj = read_task_json(task_dir(out_dir, "report", rkey)) or {}
+        if tj.get("state") == "done" and Path(tj.get("report_dir", "")).is_dir():
+            rows.append(StatusRow("(all)", "report", "done", rkey, tj["report_dir"]))
+        elif tj.get("state") == "failed":
+            rows.append(StatusRow("(all)", "report", "failed", rkey, str(tj.get("error", ""))))
+        else:
+            old = read_runs_file(out_dir, study.name).get("report", {})
+            st = "stale" if old.get("key") else "missing"
+            rows.append(StatusRow("(all)", "report", st, rkey, old.get("dir", "")))
+    return rows
+
+
+def format_status(rows: list[StatusRow]) -> str:
+    w = max([len(r.label) for r in rows] + [5])
+    lines = [f"{'run':<{w}}  {'task':<9}  {'state':<7}  {'key':<20}  detail"]
+    for r in rows:
+        lines.append(f"{r.label:<{w}}  {r.task:<9}  {r.state:<7}  {r.key:<20}  {r.detail}")
+    counts: dict[str, int] = {}
+    for r in rows:
+        counts[r.state] = counts.get(r.state, 0) + 1
+    lines.append("; ".join(f"{v} {k}" for k, v in sorted(counts.items())))
+    return "\n".join(lines)

@@ -1,0 +1,236 @@
+"""The four task functions: spin-up, saltation, analysis, report.
+
+Each takes its configuration and its input paths, writes one output into its cache directory
+``<out>/<task>/<key>/`` and returns the output's path. Each first checks for a complete output
+(:func:`saltstudy.ncio.is_complete`: readable and marked complete) and returns it untouched if
+present; an incomplete, truncated or corrupt file is never trusted but recomputed. Each records
+what it did in ``task.json`` beside its output (state, config slice, inputs, wall time, error).
+
+They know nothing of dask (graph.py wraps them), so ``saltstudy run CASE`` calls them directly.
+"""
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+import traceback
+from collections import deque
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from .. import SOURCE_KEY, __version__
+from ..config import Scene, Study
+from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
+from . import archives, keys
+from .driver import run_saltation
+from .paths import output_path, task_dir, write_json_atomic
+from .progress import ProgressFile
+
+__all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "read_attrs",
+           "write_task_json", "read_task_json", "report_done", "check_source_key", "SourceMismatch"]
+
+
+class SourceMismatch(RuntimeError):
+    """A worker runs other numerical code than the client that computed the cache keys."""
+
+
+def check_source_key(expected: str | None) -> None:
+    if expected is not None and expected != SOURCE_KEY:
+        raise SourceMismatch(
+            f"this process ({platform.node()}) runs saltstudy code {SOURCE_KEY}, but the client "
+            f"keyed the tasks with {expected}: install the same checkout on every worker")
+
+
+def write_task_json(directory: Path, **fields: Any) -> None:
+    d = read_task_json(directory) or {}
+    d.update(fields)
+    d.update({"package_version": __version__, "source_key": SOURCE_KEY, "host": platform.node(),
+              "pid": os.getpid()})
+    write_json_atomic(Path(directory) / "task.json", d)
+
+
+def read_task_json(directory: Path) -> dict | None:
+    try:
+        return json.loads((Path(directory) / "task.json").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def read_attrs(path: Path) -> dict[str, Any]:
+    """Global attributes of an archive without loading its variables."""
+    import xarray as xr
+
+    with NC_LOCK:
+        with xr.open_dataset(path, engine="netcdf4") as ds:
+            return dict(ds.attrs)
+
+
+class _Running:
+    """Context: task.json says running; on error it says failed (with the reason) and re-raises."""
+
+    def __init__(self, directory: Path, task: str, **fields: Any):
+        self.directory, self.task, self.fields = directory, task, fields
+        self.t0 = time.perf_counter()
+
+    def __enter__(self) -> "_Running":
+        self.directory.mkdir(parents=True, exist_ok=True)
+        write_task_json(self.directory, task=self.task, state="running", started=time.time(),
+                        error=None, **self.fields)
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        wall = time.perf_counter() - self.t0
+        if exc is None:
+            write_task_json(self.directory, state="done", finished=time.time(), task_wall_s=wall)
+        else:
+            write_task_json(self.directory, state="failed", finished=time.time(), task_wall_s=wall,
+                            error=f"{type(exc).__name__}: {exc}",
+                            traceback="".join(traceback.format_exception(exc_type, exc, tb))[-4000:])
+            ProgressFile(self.directory, self.task, "", "").write(0.0, "failed", str(exc))
+
+
+def _close(model) -> None:
+    """Release the solver's resources (FFT plans, thread pools) if it has any to release."""
+    close = getattr(model, "close", None)
+    if close is not None:
+        close()
+
+
+# ------------------------------------------------------------------------------------------
+def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None) -> Path:
+    """Flow-only spin-up of ``scene`` -> ``<out>/spinup/<key>/spinup.nc``."""
+    key = keys.spinup_key(scene)
+    path = output_path(out_dir, "spinup", key)
+    if is_complete(path):
+        return path
+    check_source_key(source_key)
+    from ..solver import diagnostics_flow as dflow
+    from ..solver.model import Model
+
+    d = task_dir(out_dir, "spinup", key)
+    with _Running(d, "spinup", key=key, label=scene.label, config=scene.spinup_slice()):
+        t0 = time.perf_counter()
+        sp = scene.fidelity.spinup
+        model = Model.from_scene(scene, saltation=False)
+        t_start = float(getattr(model, "t", model.state.t))
+        prog = ProgressFile(d, "spinup", scene.label, "spin-up")
+        prog.target = sp.t_max  # the solver reports (t since start of spin-up, t_max)
+        # Profiles averaged over the last spin-up window: keep samples of the last `window`
+        # seconds (every window/20), since when the steadiness test stops is not known ahead.
+        window, every = sp.window, sp.window / 20.0
+        samples: deque[tuple[float, dict[str, np.ndarray]]] = deque()
+
+        def on_progress(*args: Any, **kw: Any) -> None:
+            prog(*args, **kw)
+            t = float(getattr(model, "t", model.state.t))
+            if not samples or t - samples[-1][0] >= every - 1e-12:
+                samples.append((t, {k: np.array(v) for k, v in dflow.flow_profiles(model).items()}))
+                while samples and samples[0][0] < t - window - 1e-9:
+                    samples.popleft()
+
+        try:
+            res = model.spinup(progress=on_progress)
+            t_end = float(getattr(model, "t", model.state.t))
+            last = {k: np.array(v) for k, v in dflow.flow_profiles(model).items()}
+            ckpt = model.checkpoint()
+        finally:
+            _close(model)
+        if not samples or samples[-1][0] < t_end - 1e-12:
+            samples.append((t_end, last))
+        use = [s for t, s in samples if t >= t_end - window - 1e-9]
+        profiles = {k: np.mean([s[k] for s in use], axis=0) for k in last}
+        ds = archives.spinup_dataset(
+            scene, model.state.grid, ckpt, profiles, dict(res.history),
+            converged=bool(res.converged), reason=str(res.reason), u_drive=float(model.state.u_drive),
+            t_end=t_end, wall_time_s=time.perf_counter() - t0, key=key,
+            profile_window=(min(t for t, _ in samples if t >= t_end - window - 1e-9), t_end, len(use)))
+        write_dataset(ds, path)
+        prog.write(t_end - t_start, "done")
+    return path
+
+
+def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: str | None = None,
+                   interrupt_after_steps: int | None = None,
+                   checkpoint_interval: float | None = None) -> Path:
+    """Activation + saltation run + sampling -> ``<out>/saltation/<key>/samples.nc``.
+
+    Resumes from ``checkpoint.npz`` in the same directory if an earlier run was interrupted; the
+    checkpoint is removed once samples.nc is complete. On a solver blow-up the last checkpoint is
+    kept and task.json names step, time, field and place.
+    """
+    sp_key = keys.spinup_key(scene)
+    key = keys.saltation_key(scene, sp_key)
+    path = output_path(out_dir, "saltation", key)
+    if is_complete(path):
+        return path
+    check_source_key(source_key)
+    if not is_complete(spinup_path):
+        raise FileNotFoundError(f"{spinup_path}: spin-up archive missing or incomplete")
+    d = task_dir(out_dir, "saltation", key)
+    ckpt_path = d / "checkpoint.npz"
+    with _Running(d, "saltation", key=key, label=scene.label, inputs={"spinup": str(spinup_path)},
+                  config=keys.saltation_slice(scene)):
+        sp = open_dataset(spinup_path)
+        restart = archives.restart_from_dataset(sp)
+        prog = ProgressFile(d, "saltation", scene.label, "saltation")
+        res = run_saltation(scene, restart, ckpt_path, progress=prog,
+                            checkpoint_interval=checkpoint_interval,
+                            interrupt_after_steps=interrupt_after_steps)
+        ds = archives.samples_dataset(scene, res.grid, res.records, res.z_plane, res.d_edges,
+                                      res.t_activation, res.wall_time_s, key, res.n_steps)
+        ds.attrs["spinup_wall_time_s"] = float(sp.attrs.get("wall_time_s", np.nan))
+        if res.resumed_from is not None:
+            ds.attrs["resumed_from_t"] = float(res.resumed_from)
+        write_dataset(ds, path)
+        write_task_json(d, solver_wall_s=res.wall_time_s, n_steps=res.n_steps,
+                        resumed_from=res.resumed_from)
+        prog.write(scene.fidelity.saltation_duration, "done")
+    # only now is the checkpoint redundant (samples.nc is complete and renamed into place)
+    ckpt_path.unlink(missing_ok=True)
+    return path
+
+
+def analysis_task(samples_path: Path, spinup_path: Path, out_dir: Path, key: str) -> Path:
+    """``saltstudy.analysis.analyse.analyse_case`` -> ``<out>/analysis/<key>/analysis.nc``."""
+    path = output_path(out_dir, "analysis", key)
+    if is_complete(path):
+        return path
+    from ..analysis.analyse import analyse_case
+
+    d = task_dir(out_dir, "analysis", key)
+    with _Running(d, "analysis", key=key, inputs={"samples": str(samples_path), "spinup": str(spinup_path)}):
+        wall = (float(read_attrs(samples_path).get("wall_time_s", 0.0))
+                + float(read_attrs(spinup_path).get("wall_time_s", 0.0)))
+        analyse_case(samples_path, spinup_path, path, wall_time_s=wall)
+        if not is_complete(path):
+            raise RuntimeError(f"analyse_case returned but {path} is missing or incomplete")
+    return path
+
+
+def report_done(out_dir: Path, key: str, report_dir: Path) -> bool:
+    """True if the report with this key was built into ``report_dir`` and is still there."""
+    done = read_task_json(task_dir(out_dir, "report", key)) or {}
+    return (done.get("state") == "done" and done.get("report_dir") == str(report_dir)
+            and Path(report_dir).is_dir())
+
+
+def report_task(study: Study, runs: dict[str, Path | None], out_dir: Path, report_dir: Path,
+                key: str, meta: dict[str, Any] | None = None,
+                log: Callable[[str], None] = print) -> Path | None:
+    """``saltstudy.report.build_report`` over all runs -> ``report_dir``; None if the report
+    package is not installed in this checkout. Marker: ``<out>/report/<key>/task.json``."""
+    d = task_dir(out_dir, "report", key)
+    if report_done(out_dir, key, report_dir):
+        return Path(report_dir)
+    try:
+        from ..report import build_report
+    except ImportError as exc:
+        log(f"report: skipped (saltstudy.report.build_report not available: {exc})")
+        return None
+    with _Running(d, "report", key=key, study=study.name, report_dir=str(report_dir),
+                  inputs={k: (str(v) if v else None) for k, v in runs.items()}):
+        build_report(study.name, runs, Path(report_dir), meta or {})
+    return Path(report_dir)

@@ -1,0 +1,122 @@
+"""analyse_case on schema-complete synthetic archives (tests/analysis_fixtures.py)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+try:
+    from analysis_fixtures import build_archives
+except ImportError:  # tests run as a package
+    from tests.analysis_fixtures import build_archives
+
+from saltstudy.analysis.analyse import analyse_case
+from saltstudy.ncio import is_complete, open_dataset
+
+# docs/ARCHITECTURE.md, "analysis.nc": written out here (not imported) so that the code's own
+# list cannot drift unnoticed.
+CONTRACT_COORDS = ["z", "time", "time_sample", "time_plane", "ky", "lag_x", "lag_y", "lag_t",
+                   "z_plane", "d_bin", "z_band", "x", "y"]
+CONTRACT_SCALARS = [
+    "u_star_s", "z0s", "u_star_0", "z0_0", "z_m", "z_m_flux995", "G_tot", "sigma_G",
+    "sigma_G_over_G_tot", "lambda_x", "lambda_y", "delta_y", "delta_y_u", "u_star_t",
+    "tau_p_surface_fraction", "R_cu_upper", "n_parcels_mean", "n_parcels_peak", "overshoot_ratio",
+    "t_equilibrium", "streamer_lifetime", "streamer_speed", "E_splash_over_E_impact",
+    "fit_z_min", "fit_z_max"]
+CONTRACT_ARRAYS = {
+    **{k: ("z",) for k in ("u_mean", "u_mean_spinup", "uw_flux", "uw_flux_spinup", "tke", "tau_p",
+                           "G", "R_cu", "St", "T_p", "T_eps", "eps_tot")},
+    "n_parcels": ("time",), "G_tot_series": ("time",), "S_c": ("ky",), "S_u": ("ky",),
+    "C_p_autocorr": ("lag_x", "lag_y"), "psd_air": ("z_band", "d_bin"), "psd_bed": ("d_bin",),
+    "C_p_snapshot": ("x", "y"), "u_snapshot": ("x", "y"), "R_cu_lag": ("lag_t", "z_plane"),
+}
+
+
+def check_contract(ds):
+    for c in CONTRACT_COORDS:
+        assert c in ds.coords and ds[c].dims == (c,), c
+    for v in CONTRACT_SCALARS:
+        assert v in ds.data_vars and ds[v].dims == (), v
+    for v, dims in CONTRACT_ARRAYS.items():
+        assert v in ds.data_vars and ds[v].dims == dims, (v, ds[v].dims if v in ds else None)
+    assert "z_band_edges" in ds
+    for name in ds.variables:
+        assert ds[name].attrs.get("units"), f"{name} lacks units"
+        assert ds[name].attrs.get("long_name"), f"{name} lacks long_name"
+    for a in ("case_json", "package_version", "fidelity", "seed", "label", "case_number", "Lx", "Ly",
+              "Lz", "dx", "dy", "Q", "rho", "rho_p", "nu", "g", "kappa", "z0", "u_star_target",
+              "t_activation", "wall_time_s"):
+        assert a in ds.attrs, a
+
+
+def test_end_to_end_schema_and_known_answers(tmp_path):
+    samples, spinup, truth = build_archives(tmp_path)
+    out = analyse_case(samples, spinup, tmp_path / "analysis.nc", wall_time_s=42.0)
+    assert is_complete(out)
+    ds = open_dataset(out)
+    check_contract(ds)
+    assert ds.attrs["wall_time_s"] == 42.0
+    assert float(ds.u_star_s) == pytest.approx(truth["u_star_s"], rel=1e-6)
+    assert float(ds.z0s) == pytest.approx(truth["z0s"], rel=1e-5)
+    assert float(ds.u_star_0) == pytest.approx(truth["u_star_0"], rel=1e-6)
+    assert float(ds.z0_0) == pytest.approx(truth["z0_0"], rel=1e-5)
+    assert np.allclose(ds.tau_p.values, truth["tau_p"], rtol=1e-9, atol=1e-15)
+    assert float(ds.G_tot) == pytest.approx(truth["G_tot"], rel=1e-9)
+    assert float(ds.z_m) == pytest.approx(truth["z_m"], rel=1e-9)
+    assert float(ds.sigma_G) == pytest.approx(truth["sigma_G"], rel=0.05)
+    assert float(ds.n_parcels_peak) == truth["n_parcels_peak"]
+    assert float(ds.n_parcels_mean) == pytest.approx(truth["n_parcels_mean"], rel=0.01)
+    assert float(ds.E_splash_over_E_impact) == pytest.approx(0.6)
+    assert float(ds.delta_y) == pytest.approx(truth["streak_spacing"], abs=float(ds.attrs["dy"]))
+    assert float(ds.streamer_speed) == pytest.approx(truth["streak_speed"], rel=0.02)
+    eps = truth["eps_sgs"] + truth["eps_drag"]
+    assert np.allclose(ds.eps_tot.values, eps, rtol=1e-9)
+    assert np.allclose(ds.T_p.values[:3], truth["T_p"], rtol=0.02)
+    for v in ("lambda_x", "lambda_y", "u_star_t", "R_cu_upper", "overshoot_ratio", "t_equilibrium"):
+        assert math.isfinite(float(ds[v])), v
+    assert np.nansum(ds.psd_bed.values) == pytest.approx(1.0)
+    assert np.nansum(ds.psd_air.values[0]) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("kwargs", [
+    dict(grains=False),
+    dict(n_samples=1),
+    dict(nx=4, ny=4, nz=4, Lz=1.0, damping=0.3, n_samples=1, plane_interval=5.0),
+    dict(full_fields=False),
+])
+def test_degenerate_archives_give_nan_not_errors(tmp_path, kwargs):
+    samples, spinup, _ = build_archives(tmp_path, **kwargs)
+    ds = open_dataset(analyse_case(samples, spinup, tmp_path / "analysis.nc"))
+    check_contract(ds)
+    if kwargs.get("grains") is False:
+        for v in ("z_m", "lambda_x", "lambda_y", "delta_y", "R_cu_upper", "overshoot_ratio",
+                  "streamer_speed", "sigma_G_over_G_tot"):
+            assert math.isnan(float(ds[v])), v
+        assert float(ds.G_tot) == 0.0
+        assert np.all(np.isnan(ds.St.values))
+    if kwargs.get("full_fields") is False:
+        assert np.all(np.isnan(ds.R_cu.values))
+
+
+def test_missing_spinup_gives_nan_spinup_values(tmp_path):
+    samples, _, _ = build_archives(tmp_path)
+    ds = open_dataset(analyse_case(samples, None, tmp_path / "analysis.nc"))
+    assert math.isnan(float(ds.u_star_0)) and np.all(np.isnan(ds.u_mean_spinup.values))
+    assert math.isfinite(float(ds.u_star_s))
+
+
+def test_cli_analyse(tmp_path):
+    from saltstudy.cli import app
+    samples, spinup, _ = build_archives(tmp_path)
+    runner = CliRunner()
+    res = runner.invoke(app, ["analyse", "--samples", str(samples), "--spinup", str(spinup),
+                              "--out", str(tmp_path / "a.nc")])
+    assert res.exit_code == 0, res.output
+    assert "u_star_s = 0.5" in res.output
+    assert is_complete(tmp_path / "a.nc")
+    res = runner.invoke(app, ["analyse", str(tmp_path)])
+    assert res.exit_code == 0 and (tmp_path / "analysis.nc").is_file()
+    res = runner.invoke(app, ["analyse", "--samples", str(tmp_path / "nope.nc")])
+    assert res.exit_code == 2

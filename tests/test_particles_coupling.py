@@ -1,0 +1,111 @@
+"""Two-way momentum exchange (paper eq. 2) and TKE sink (eq. A1)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from particles_helpers import G_INDEX, component, scene, synthetic_flow
+from saltstudy.solver.grid import Grid
+from saltstudy.solver.particles import Saltation
+from saltstudy.solver.state import FlowState
+
+
+def _air_momentum(st):
+    g = st.grid
+    vol = g.dx * g.dy * g.dz_c
+    rho = 1.2
+    return np.array([rho * np.sum(st.u * vol), rho * np.sum(st.v * vol)])
+
+
+def test_exchange_conserves_horizontal_momentum():
+    """Closed periodic box, no gravity, frozen flow otherwise: air + grain horizontal momentum is
+    conserved to round-off by the exchange, including parcels in the log-law layer (which see level
+    1 and deposit on level 0). (Vertical momentum also goes partly to the bed face: by design.)"""
+    sc = scene(7)  # 90 um, Q = 28000 * 20: a heavy loading
+    s, st = component(sc, gravity=False)
+    synthetic_flow(st, 0.57, 1e-5, amp=0.5)
+    st.w[...] = 0.0  # no vertical motion: no parcel reaches the bed (splash is not an exchange)
+    rng = np.random.default_rng(3)
+    n = 4000
+    g = s.grid
+    z = np.concatenate([rng.uniform(6e-4, g.z_c[0], n // 4), rng.uniform(g.z_c[0], 0.5, 3 * n // 4)])
+    s.add_parcels(rng.uniform(0, g.Lx, n), rng.uniform(0, g.Ly, n), z,
+                  u=rng.normal(0, 2, n), v=rng.normal(0, 1, n), w=0.0,
+                  d=rng.uniform(60e-6, 120e-6, n))
+    p0 = _air_momentum(st) + s.grain_momentum()[:2]
+    bound = max(np.abs(st.u).max(), np.abs(s.u).max())
+    scale = np.abs(_air_momentum(st)).sum() + np.abs(s.Q * s.mass * s.u).sum()
+    for _ in range(40):
+        s.dynamics(st, 0.01)
+    assert s.counters()["n_impacts"] == 0
+    p1 = _air_momentum(st) + s.grain_momentum()[:2]
+    assert np.all(np.abs(p1 - p0) <= 1e-12 * scale), (p1 - p0) / scale
+    # the exchange did something
+    assert abs(s.counters()["momentum_to_air"][0]) > 1e-3 * scale
+    assert np.abs(st.u).max() <= 1.05 * bound  # and stable: no new extremes
+
+
+def test_heavily_loaded_cells_relax_monotonically():
+    """Grain mass 100x the air mass in every cell: air and grains relax to the common velocity
+    without overshoot, even with dt >> T_p."""
+    sc = scene(7, physics={"tke_particle_sink": False})
+    grid = Grid.uniform(4, 4, 4, 0.4, 0.4, 0.4)
+    st = FlowState.zeros(grid)
+    s = Saltation(grid, sc)
+    s.prm[G_INDEX] = 0.0
+    U0 = 4.0
+    st.u[...] = U0
+    # one parcel at every cell centre: every u face gets the same load
+    xc, yc, zc = np.meshgrid(grid.x_c, grid.y_c, grid.z_c, indexing="ij")
+    d = 90e-6
+    m_air = 1.2 * grid.dx * grid.dy * grid.dz_c[0]
+    m_p = math.pi / 6 * 2650 * d ** 3
+    s.Q = 100 * m_air / m_p
+    s.prm[4] = s.Q
+    s.add_parcels(xc.ravel(), yc.ravel(), zc.ravel(), d=d)
+    V = (m_air * U0) / (m_air + 100 * m_air)                 # common velocity
+    tp = 2650 * d * d / (18 * 1.2 * 1.5e-5)
+    ua, up = [U0], [0.0]
+    for _ in range(30):
+        s.dynamics(st, 2 * tp)
+        ua.append(st.u.mean())
+        up.append(s.u.mean())
+        assert np.ptp(st.u) < 1e-10 and np.ptp(s.u) < 1e-10  # stays homogeneous
+    ua, up = np.array(ua), np.array(up)
+    assert np.all(np.diff(ua) <= 1e-12) and np.all(np.diff(up) >= -1e-12)   # monotone
+    assert ua.min() >= V - 1e-12 and up.max() <= V + 1e-12                    # no overshoot
+    assert abs(ua[-1] - V) < 1e-6 and abs(up[-1] - V) < 1e-6
+    # momentum of the pair conserved
+    tot = m_air * ua * grid.nx * grid.ny * grid.nz + s.Q * m_p * up * s.n
+    assert np.all(np.abs(tot - tot[0]) < 1e-12 * tot[0])
+
+
+def test_one_way_switch_leaves_air_untouched():
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
+    s, st = component(sc)
+    synthetic_flow(st, 0.54, 1e-5)
+    u0 = st.u.copy()
+    s.activate(st)
+    for _ in range(5):
+        s.dynamics(st, 0.01)
+    assert np.array_equal(st.u, u0) and st.tke_sink is None
+
+
+def test_tke_sink_rate_matches_eq_A1():
+    """One parcel in a cell of known e: the rate equals (Q/V)(m_p/rho) 2 f/(T_p + T_L)."""
+    sc = scene(2, physics={"two_way_coupling": False})
+    s, st = component(sc, gravity=False)
+    st.e[...] = 0.2
+    g = s.grid
+    k = 3
+    d = 200e-6
+    s.add_parcels([0.55], [0.45], [g.z_c[k]], d=d)  # at rest in still air: f = 1
+    s.dynamics(st, 1e-3)
+    i, j = int(0.55 / g.dx), int(0.45 / g.dy)
+    tp = 2650 * d * d / (18 * 1.2 * 1.5e-5)
+    tl = s.tlc[k] / math.sqrt(0.2)
+    m_p = math.pi / 6 * 2650 * d ** 3
+    expect = s.Q / (g.dx * g.dy * g.dz_c[k]) * m_p / 1.2 * 2 * 1.0 / (tp + tl)
+    assert abs(st.tke_sink[i, j, k] - expect) / expect < 1e-9
+    assert np.count_nonzero(st.tke_sink) == 1

@@ -1,0 +1,90 @@
+"""Splash scheme (paper eqs. 5-9): sampled statistics, energy budget, bed crossing."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from particles_helpers import component, scene, terminal_velocity
+from saltstudy.config import list_case_numbers, load_case
+from saltstudy.solver.splash_kernels import sample_impacts, soil_arrays, splash_params
+
+
+def _truncated_normal_mean(m, s):
+    """Mean of N(m, s^2) conditioned on >= 0."""
+    a = -m / s
+    phi = math.exp(-0.5 * a * a) / math.sqrt(2 * math.pi)
+    Phi = 0.5 * math.erfc(-a / math.sqrt(2))
+    return m + s * phi / (1 - Phi)
+
+
+@pytest.mark.parametrize("v_imp", [0.5, 2.0, 4.0])
+def test_sampled_splash_matches_eqs_6_to_9(v_imp):
+    case = load_case(2)
+    sp = splash_params(case.splash, case.soil, case.air.g)
+    cum, mu, lns = soil_arrays(case.soil)
+    n = 100_000
+    rng = np.random.Generator(np.random.PCG64(12345))
+    nreb, svr, nej, sve, _ = sample_impacts(rng, v_imp, 2e-4, n, sp, cum, mu, lns)
+    p = 0.95 * (1 - math.exp(-2.0 * v_imp))                                   # eq. 6
+    assert abs(nreb / n - p) < 4 * math.sqrt(p * (1 - p) / n)
+    m_reb = _truncated_normal_mean(0.6 * v_imp, 0.25 * v_imp)                # eq. 7
+    assert abs(svr / nreb - m_reb) < 4 * 0.25 * v_imp / math.sqrt(nreb)
+    nbar = 0.03 * v_imp / math.sqrt(case.air.g * case.soil.mean_diameter)    # eq. 8
+    # stochastic rounding: variance of N_ej is frac (1 - frac) per impact
+    fr = nbar - math.floor(nbar)
+    assert abs(nej / n - nbar) < 4 * math.sqrt(max(fr * (1 - fr), 1e-12) / n) + 1e-12
+    if nej > 1000:
+        assert abs(sve / nej - 0.08 * v_imp) < 4 * 0.08 * v_imp / math.sqrt(nej)  # eq. 9
+
+
+@pytest.mark.parametrize("number", list(range(1, 11)))
+def test_mean_splash_energy_below_impact_energy(number):
+    """Paper sec. 2.3: on average rebound + ejecta energy <= impact energy (impactor and ejecta
+    diameters from the soil), for impact speeds 0.5-5 m/s."""
+    case = load_case(number)
+    sp = splash_params(case.splash, case.soil, case.air.g)
+    cum, mu, lns = soil_arrays(case.soil)
+    rng = np.random.Generator(np.random.PCG64(7))
+    for v in np.linspace(0.5, 5.0, 10):
+        n = 20_000
+        *_, ratio = sample_impacts(rng, float(v), -1.0, n, sp, cum, mu, lns)
+        assert ratio / n < 1.0, (number, v, ratio / n)
+
+
+def test_small_grain_soil_energy_budget():
+    """A 20 um soil ejects many grains per impact (eq. 8 ~ 1/sqrt(d)); still within budget to 5 m/s."""
+    case = load_case(7, overrides={"soil": {"modes": [{"mu": 20e-6}]}})
+    sp = splash_params(case.splash, case.soil, case.air.g)
+    cum, mu, lns = soil_arrays(case.soil)
+    rng = np.random.Generator(np.random.PCG64(8))
+    *_, ratio = sample_impacts(rng, 5.0, -1.0, 20_000, sp, cum, mu, lns)
+    assert ratio / 20_000 < 1.0
+
+
+def test_bed_crossing_located_exactly():
+    """A grain at its terminal velocity hits the impact layer at the analytic time and speed."""
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
+    s, st = component(sc)
+    air = sc.case.air
+    d = 200e-6
+    wt = terminal_velocity(d, 2650.0, air.rho, air.nu, air.g)
+    z0 = 0.05
+    s.add_parcels([1.0], [0.5], [z0], w=-wt, d=d)
+    s._kd[0] = (1 + 0.15 * (wt * d / air.nu) ** 0.687) / (2650 * d * d / (18 * air.rho * air.nu))
+    t_hit = (z0 - 5e-4) / wt
+    dt = 0.004
+    steps = int(t_hit / dt)
+    for _ in range(steps):
+        s.dynamics(st, dt)
+    assert s.counters()["n_impacts"] == 0
+    assert abs(s.z[0] - (z0 - steps * dt * wt)) < 1e-9
+    s.dynamics(st, dt)
+    c = s.counters()
+    assert c["n_impacts"] == 1
+    m = math.pi / 6 * 2650 * d ** 3
+    assert abs(c["E_impact"] - s.Q * 0.5 * m * wt * wt) / c["E_impact"] < 1e-8
+    assert c["n_rebounds"] + c["n_depositions"] == 1
+    assert s.n == c["n_rebounds"] + c["n_ejections"]
+    assert np.all(s.z >= 5e-4 - 1e-15)

@@ -1,0 +1,101 @@
+"""Convergence (error against run time) and stability reports on synthetic inputs."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from report_fixtures import make_analysis_dataset, write_analysis
+from saltstudy.ncio import write_dataset
+from saltstudy.report.convergence import build_convergence_report
+from saltstudy.report.stability import build_stability_report
+
+
+@pytest.fixture()
+def ladder(tmp_path):
+    # bias multiplies every statistic; finest rung (largest wall time) has bias 1.0
+    spec = {"case02@coarse": (1.30, 10.0), "case02@mid": (1.05, 100.0), "case02@fine": (1.00, 1000.0)}
+    runs = {l: write_analysis(tmp_path / f"{l}.nc", 2, bias=b, wall_time_s=w, label=l)
+            for l, (b, w) in spec.items()}
+    return runs, spec
+
+
+def test_errors_against_finest_and_paper(ladder, tmp_path):
+    runs, _ = ladder
+    out = build_convergence_report(runs, tmp_path / "rep")
+    res = out["result"]
+    assert res.finest == "case02@fine"
+    rows = {r["label"]: r for r in res.rungs}
+    assert [r["label"] for r in res.rungs] == ["case02@coarse", "case02@mid", "case02@fine"]
+    assert rows["case02@coarse"]["err_finest"]["u_star_s"] == pytest.approx(0.30)
+    assert rows["case02@mid"]["err_finest"]["lambda_y"] == pytest.approx(0.05)
+    assert rows["case02@fine"]["err_finest"]["z_m"] == 0.0
+    # against the paper: Table 2 gives u*s = 0.54 and lambda_y = 0.3 for case 2; bias 1 matches
+    assert rows["case02@fine"]["err_paper"]["u_star_s"] == pytest.approx(0.0, abs=1e-12)
+    assert rows["case02@coarse"]["err_paper"]["lambda_y"] == pytest.approx(0.30)
+    assert np.isnan(rows["case02@fine"]["err_paper"]["z0s"])     # the paper gives no z0s per case
+    assert res.cheapest["u_star_s"] == {"10%": "case02@mid", "25%": "case02@mid"}
+    for f in ("convergence.png", "convergence.pdf", "convergence.md", "convergence.json"):
+        assert (tmp_path / "rep" / f).is_file()
+    md = (tmp_path / "rep" / "convergence.md").read_text()
+    assert "| u*s | case02@mid | case02@mid |" in md
+    js = json.loads((tmp_path / "rep" / "convergence.json").read_text())
+    assert js["finest"] == "case02@fine"
+
+
+def test_declared_order_wins_over_wall_time(ladder, tmp_path):
+    runs, _ = ladder
+    out = build_convergence_report(runs, tmp_path / "rep",
+                                   order=["case02@fine", "case02@coarse", "case02@mid"])
+    assert out["result"].finest == "case02@mid"
+    rows = {r["label"]: r for r in out["result"].rungs}
+    assert rows["case02@fine"]["err_finest"]["u_star_s"] == pytest.approx(0.05 / 1.05)
+    assert rows["case02@mid"]["err_finest"]["u_star_s"] == 0.0
+
+
+def test_missing_rung_and_wall_time_override(ladder, tmp_path):
+    runs, _ = ladder
+    runs = {**runs, "case02@huge": None}
+    out = build_convergence_report(runs, tmp_path / "rep", wall_times={"case02@coarse": 5000.0})
+    res = out["result"]
+    assert res.finest == "case02@coarse"       # now the most expensive
+    rows = {r["label"]: r for r in res.rungs}
+    assert rows["case02@huge"]["status"] == "no archive"
+    assert np.isnan(rows["case02@huge"]["err_finest"]["u_star_s"])
+
+
+def test_stability_table(tmp_path):
+    ok = make_analysis_dataset(6, label="gale")
+    ok["max_cfl"] = (("time",), np.linspace(0.2, 0.93, ok.sizes["time"]), {"units": "1"})
+    gale = write_dataset(ok, tmp_path / "gale.nc")
+    bare = make_analysis_dataset(7, label="fine_sand")
+    bare = bare.drop_vars(["E_splash_over_E_impact"])
+    fine = write_dataset(bare, tmp_path / "fine.nc")
+    # a samples.nc with a velocity field and splash energies
+    import xarray as xr
+    smp = xr.Dataset({"u": (("time", "x", "y", "z"), np.full((2, 3, 3, 4), 4.0) + np.arange(4)),
+                      "w": (("time", "x", "y", "z"), np.full((2, 3, 3, 4), -0.7)),
+                      "E_splash": (("time_series",), np.array([0.0, 2.0])),
+                      "E_impact": (("time_series",), np.array([1.0, 5.0])),
+                      "max_cfl": (("time_series",), np.array([0.3, 0.61]))})
+    sp = write_dataset(smp, tmp_path / "samples.nc")
+    out = build_stability_report({"gale": gale, "fine_sand": fine, "crash": None}, tmp_path / "rep",
+                                 failures={"crash": "SolverBlowUp: step 12, t=0.3 s, field w, (1, 2, 0) = inf"},
+                                 samples={"fine_sand": sp})
+    rows = {r["label"]: r for r in out["rows"]}
+    assert rows["gale"]["status"] == "completed"
+    assert rows["gale"]["max_cfl"] == pytest.approx(0.93)
+    assert rows["gale"]["E_splash_over_E_impact"] == pytest.approx(0.55)
+    assert rows["crash"]["status"] == "failed" and "SolverBlowUp" in rows["crash"]["error"]
+    assert rows["fine_sand"]["max_cfl"] == pytest.approx(0.61)              # from samples.nc
+    assert rows["fine_sand"]["u_min"] == pytest.approx(4.0) and rows["fine_sand"]["u_max"] == pytest.approx(7.0)
+    assert rows["fine_sand"]["w_absmax"] == pytest.approx(0.7)
+    assert rows["fine_sand"]["E_splash_over_E_impact"] == pytest.approx(0.4)
+    md = (tmp_path / "rep" / "stability.md").read_text()
+    assert "n/a" in md                          # no momentum budget anywhere
+    assert "SolverBlowUp: step 12" in md
+    line = next(l for l in md.splitlines() if l.startswith("| crash |"))
+    assert line.count("n/a") >= 6
+    js = json.loads((tmp_path / "rep" / "stability.json").read_text())
+    assert {r["label"] for r in js} == {"gale", "fine_sand", "crash"}

@@ -1,0 +1,143 @@
+"""Each figure is drawn from the archives: change an archive value and the drawn data change."""
+from __future__ import annotations
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from report_fixtures import make_analysis_dataset, modify_archive, write_analysis, write_study
+from saltstudy.report.data import ReportContext, load_runs
+from saltstudy.report.figures import FIGURES, figure_data_digest, make_figures
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    root = tmp_path_factory.mktemp("fig")
+    return root, write_study(root / "a")
+
+
+def _ctx(runs):
+    return ReportContext("t", load_runs(runs))
+
+
+def _scale(f):
+    return lambda v: np.asarray(v, float) * f
+
+
+# figure -> (case whose archive changes, variable, change)
+CHANGES = {
+    "fig01": (2, "n_parcels", _scale(1.3)),
+    "fig02": (2, "u_mean", _scale(1.1)),
+    "fig03": (5, "z0s", _scale(2.0)),
+    "fig04": (3, "z_m", _scale(1.2)),
+    "fig05": (10, "psd_air", lambda v: np.roll(v, 1, axis=-1)),
+    "fig06": (4, "tau_p", _scale(0.5)),
+    "fig07": (9, "G", _scale(0.7)),
+    "fig08": (7, "G_tot", _scale(1.5)),
+    "fig09": (6, "C_p_snapshot", lambda v: np.roll(v, 3, axis=1)),
+    "fig10": (8, "S_u", lambda v: np.asarray(v) * np.linspace(1, 2, np.asarray(v).size)),
+    "fig11": (1, "R_cu", _scale(0.5)),
+    "fig12": (10, "St", _scale(3.0)),
+    "fig13": (4, "sigma_G_over_G_tot", _scale(1.4)),
+}
+
+
+def test_every_figure_has_a_change_test():
+    assert set(CHANGES) == set(FIGURES)
+
+
+@pytest.mark.parametrize("name", sorted(CHANGES))
+def test_figure_follows_archive(study, tmp_path, name):
+    root, runs = study
+    case, var, change = CHANGES[name]
+    before = make_figures(_ctx(runs), [name])[name]
+    assert not any(n.startswith("error") for n in before.notes), before.notes
+    label = f"case{case:02d}"
+    again = make_figures(_ctx(runs), [name])[name]
+    assert figure_data_digest(before.fig) == figure_data_digest(again.fig)   # deterministic
+    # an unrelated scalar does not change the figure
+    p0 = tmp_path / "unrelated.nc"
+    shutil.copy(runs[label], p0)
+    modify_archive(p0, "streamer_speed", _scale(7.0))
+    same = make_figures(_ctx({**runs, label: p0}), [name])[name]
+    assert figure_data_digest(same.fig) == figure_data_digest(before.fig)
+    # the figure's variable does
+    p = tmp_path / "changed.nc"
+    shutil.copy(runs[label], p)
+    modify_archive(p, var, change)
+    after = make_figures(_ctx({**runs, label: p}), [name])[name]
+    assert figure_data_digest(after.fig) != figure_data_digest(before.fig)
+    changed = [k for k in before.data if k in after.data
+               and not np.array_equal(np.asarray(before.data[k]), np.asarray(after.data[k]), equal_nan=True)]
+    assert changed, f"{name}: returned data unchanged after changing {var} of {label}"
+
+
+def test_profile_normalisation_is_the_papers(study):
+    """Fig 6 plots tau_p / (rho u*s^2) against z / z_m."""
+    _, runs = study
+    ctx = _ctx(runs)
+    res = make_figures(ctx, ["fig06"])["fig06"]
+    r = ctx.by_case(3)
+    tau = r.ds["tau_p"].values
+    z = r.ds["z"].values
+    vis = z / r.scalar("z_m") <= 1.5 * 1.05
+    expect = tau[vis] / (r.rho * r.scalar("u_star_s") ** 2)
+    np.testing.assert_allclose(res.data["(a)case3"], expect)
+    line = [ln for ln in res.fig.axes[0].get_lines() if ln.get_label().startswith("case 3")][0]
+    np.testing.assert_allclose(line.get_ydata(), z[vis] / r.scalar("z_m"))
+
+
+def test_fig02_u_ref_height(tmp_path):
+    """u_ref at 2 m when the domain allows, else at half the undamped depth; u/u_ref = 1 there."""
+    deep = write_analysis(tmp_path / "deep.nc", 2, lz=6.0, damping_depth=1.5)
+    shallow = write_analysis(tmp_path / "shallow.nc", 2, lz=3.0, damping_depth=1.0)
+    for path, zref in ((deep, 2.0), (shallow, 1.0)):
+        res = make_figures(_ctx({"case02": path}), ["fig02"])["fig02"]
+        assert res.data["u_ref_height"][0] == pytest.approx(zref)
+        u = res.data["u_mean_norm"]
+        z = res.data["z"]
+        assert np.interp(np.log(zref), np.log(z), u) == pytest.approx(1.0)
+
+
+def test_missing_and_absent_cases_are_noted(tmp_path):
+    runs = write_study(tmp_path / "a", cases=[1, 2, 6], missing=(6,))
+    figs = make_figures(_ctx(runs))
+    assert any("case 6: no archive" in n for n in figs["fig09"].notes)
+    assert any("case 4: not in study" in n for n in figs["fig09"].notes)
+    assert any("case 7: not in study" in n for n in figs["fig05"].notes)
+    assert "psd_air_case2" in figs["fig05"].data
+    assert figs["fig04"].data["z_m"].size == 2          # cases 1, 2 only; none invented
+    assert set(figs["fig06"].data) == {"(a)case1", "(a)case2", "(b)case2"}
+    for name, res in figs.items():
+        assert not any(n.startswith("error") for n in res.notes), (name, res.notes)
+
+
+def test_no_saltation_case_is_not_drawn(tmp_path):
+    """A run with z_m undefined (u*s below threshold) is noted, not plotted against z/z_m."""
+    ds = make_analysis_dataset(1)
+    ds["z_m"] = ((), math.nan, {"units": "m"})
+    from saltstudy.ncio import write_dataset
+    p = write_dataset(ds, tmp_path / "c1.nc")
+    res = make_figures(_ctx({"case01": p}), ["fig06"])["fig06"]
+    assert any("case 1: z_m undefined" in n for n in res.notes)
+    assert not res.data
+
+
+def test_semi_empirical_laws_are_the_physics_module(study):
+    laws = pytest.importorskip("saltstudy.physics.laws")
+    _, runs = study
+    ctx = _ctx(runs)
+    res = make_figures(ctx, ["fig03", "fig08"])
+    ut = ctx.by_case(2).scalar("u_star_t")
+    for fig, table in (("fig03", laws.Z0S_LAWS), ("fig08", laws.GTOT_LAWS)):
+        for name in table:
+            y = res[fig].data[f"law_{name}"]
+            assert y.size == 200 and np.all(np.isfinite(y[1:])), name
+        # one explicit value: first law at the upper end of the plotted range
+        xs = res[fig].data["x_ratio"]
+        hi = max(4.5, float(xs.max()) * 1.1)
+        name, (fn, _) = next(iter(table.items()))
+        expect = fn(hi * ut, ut) if fig == "fig03" else fn(hi * ut, ut, d=200e-6)
+        assert res[fig].data[f"law_{name}"][-1] == pytest.approx(float(expect), rel=1e-9)

@@ -1,0 +1,136 @@
+"""Cache keys, the record schedule, archive round trips and checkpoint files (no solver needed)."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from saltstudy.config import load_case, load_fidelity, load_study, resolve_scene
+from saltstudy.ncio import open_dataset, write_dataset
+from saltstudy.solver.grid import Grid
+from saltstudy.workflow import archives, keys
+from saltstudy.workflow.driver import Recorder, Schedule, load_checkpoint, save_checkpoint
+
+
+def scene(case=1, fidelity="smoke", **case_overrides):
+    return resolve_scene(load_case(case, overrides=case_overrides or None), load_fidelity(fidelity))
+
+
+def test_keys_do_not_depend_on_hash_seed():
+    code = ("from saltstudy.workflow.keys import study_keys; from saltstudy.config import load_study;"
+            "k = study_keys(load_study('smoke'))['case01']; print(k.spinup, k.saltation, k.analysis)")
+    outs = {subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                           env={**os.environ, "PYTHONHASHSEED": s}).stdout for s in ("1", "2")}
+    assert len(outs) == 1
+    k = keys.run_keys("case01", scene(1))
+    assert next(iter(outs)).split() == [k.spinup, k.saltation, k.analysis]
+
+
+def test_what_changes_which_key():
+    base = keys.run_keys("a", scene(1))
+    # splash constants: saltation only, the spin-up is shared
+    splash = keys.run_keys("a", scene(1, splash={"a_ej": 0.05}))
+    assert splash.spinup == base.spinup and splash.saltation != base.saltation
+    assert splash.analysis != base.analysis
+    # wind: everything
+    wind = keys.run_keys("a", scene(1, forcing={"u_star_s": 0.5}))
+    assert wind.spinup != base.spinup and wind.saltation != base.saltation
+    # the label of a run and the checkpoint cadence change nothing
+    other = keys.run_keys("other", scene(1))
+    assert (other.spinup, other.saltation, other.analysis) == (base.spinup, base.saltation, base.analysis)
+    f = load_fidelity("smoke")
+    f2 = f.model_validate({**f.model_dump(), "checkpoint_interval_wall": 999.0})
+    assert keys.run_keys("a", resolve_scene(load_case(1), f2)).saltation == base.saltation
+
+
+def test_cases_with_equal_wind_share_a_spinup():
+    k = keys.study_keys(load_study("smoke"))
+    same = [l for l in k if k[l].spinup == k["case02"].spinup]
+    # cases 2, 9, 10 have the same u*s and seed, differing in the soil only (Table 2)
+    assert len(same) >= 2
+    assert len({k[l].saltation for l in same}) == len(same)
+
+
+def test_report_key_tracks_failed_runs():
+    st = load_study("smoke")
+    assert keys.report_key(st, {"a": "k1", "b": None}) != keys.report_key(st, {"a": "k1", "b": "k2"})
+
+
+def test_schedule_lands_on_exact_multiples():
+    sc = scene(1)
+    s = Schedule.from_scene(sc)
+    times = [t for t, _ in s.events]
+    assert times == sorted(times) and len(set(times)) == len(times)
+    samp = sc.fidelity.sampling
+    sample_times = [t for t, g in s.events if "sample" in g]
+    assert sample_times == [samp.start + i * samp.interval for i in range(samp.count)]
+    planes = [t for t, g in s.events if "plane" in g]
+    assert planes[0] == pytest.approx(samp.start) and planes[-1] == pytest.approx(samp.end)
+    series = [t for t, g in s.events if "series" in g]
+    assert series[0] == 0.0 and series[-1] == pytest.approx(sc.fidelity.saltation_duration)
+    assert np.allclose(np.diff(series), samp.series_interval)
+    assert times[-1] == pytest.approx(sc.fidelity.saltation_duration)
+
+
+def _fake_checkpoint(g: Grid, rng) -> dict:
+    nx, ny, nz = g.shape
+    return {"u": rng.random((nx, ny, nz)), "v": rng.random((nx, ny, nz)),
+            "w": rng.random((nx, ny, nz + 1)), "e": rng.random((nx, ny, nz)), "p": rng.random((nx, ny, nz)),
+            "t": 1.2345678901234567, "step": 77, "flag": True, "rng_state": "abc", "u_drive": 3.5,
+            "hist": rng.random(5), "ints": np.arange(4, dtype=np.int64), "t_activation": float("nan"),
+            "controller/integral": 0.25, "saltation/x": rng.random(7), "saltation:x": rng.random(2)}
+
+
+def test_spinup_archive_round_trips_the_restart(tmp_path):
+    sc = scene(1)
+    g = Grid.from_spec(sc.fidelity.grid)
+    ckpt = _fake_checkpoint(g, np.random.default_rng(0))
+    prof = {"u": np.ones(g.nz), "uw_res": np.zeros(g.nz + 1), "uw_sgs": np.zeros(g.nz + 1),
+            "tke_res": np.ones(g.nz), "e_sgs": np.ones(g.nz), "v": np.ones(g.nz)}
+    hist = {"t": np.arange(3.0), "u_star": np.ones(3), "tke": np.ones(3)}
+    ds = archives.spinup_dataset(sc, g, ckpt, prof, hist, True, "steady", 3.5, 1.2, 0.1, "k", (0.2, 1.2, 3))
+    p = write_dataset(ds, tmp_path / "spinup.nc")
+    back = open_dataset(p)
+    assert archives.check_metadata(back) == []
+    assert back["u"].dims == ("x_u", "y", "z") and back["w"].dims == ("x", "y", "z_w")
+    for a in ("case_json", "package_version", "fidelity", "seed", "wall_time_s", "converged", "t_end"):
+        assert a in back.attrs, a
+    assert json.loads(back.attrs["case_json"])["case"]["number"] == 1
+    r = archives.restart_from_dataset(back)
+    assert set(r) == set(ckpt)
+    for k, v in ckpt.items():
+        if isinstance(v, np.ndarray):
+            assert r[k].dtype == v.dtype and np.array_equal(r[k], v), k
+        else:
+            assert type(r[k]) is type(v) and (r[k] == v or (v != v and r[k] != r[k])), k
+
+
+def test_checkpoint_file_round_trip_and_corruption(tmp_path):
+    g = Grid.from_spec(load_fidelity("smoke").grid)
+    ckpt = _fake_checkpoint(g, np.random.default_rng(1))
+    rec = Recorder()
+    for t in (0.0, 0.05):
+        rec.add("series", t, {"n_parcels": 10, "G_tot_series": 0.1 * t})
+    rec.add("sample", 1.0, {"u": np.ones((2, 3), np.float32)})
+    path = tmp_path / "checkpoint.npz"
+    save_checkpoint(path, ckpt, rec, {"t_activation": 1.0, "next_event": 3})
+    model, rec2, meta = load_checkpoint(path)
+    assert meta["next_event"] == 3
+    for k, v in ckpt.items():
+        assert (np.array_equal(model[k], v) if isinstance(v, np.ndarray)
+                else model[k] == v or (v != v and model[k] != model[k])), k
+    assert type(model["step"]) is int and type(model["flag"]) is bool
+    for grp in ("series", "plane", "sample"):
+        t1, v1 = rec.stacked(grp)
+        t2, v2 = rec2.stacked(grp)
+        assert np.array_equal(t1, t2) and v1.keys() == v2.keys()
+        assert all(np.array_equal(v1[k], v2[k]) and v1[k].dtype == v2[k].dtype for k in v1)
+    # a truncated checkpoint is ignored (the run starts over), never trusted
+    path.write_bytes(path.read_bytes()[:200])
+    assert load_checkpoint(path) is None
+    assert load_checkpoint(tmp_path / "absent.npz") is None

@@ -1,0 +1,202 @@
+"""The workflow with the real solver at smoke size: caching, reruns, resume, distributed runs.
+
+The 2-case study uses cases 2 and 9: the same wind and seed (one shared spin-up), different soils.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from saltstudy.cli import app
+from saltstudy.config import load_case, load_fidelity, load_study, project_root, resolve_scene
+from saltstudy.ncio import is_complete, open_dataset
+from saltstudy.workflow import archives, keys
+from saltstudy.workflow.driver import Interrupted
+from saltstudy.workflow.paths import output_path, task_dir
+from saltstudy.workflow.status import study_status
+from saltstudy.workflow.tasks import read_task_json, saltation_task, spinup_task
+
+STUDY = 'description = "two smoke cases sharing a spin-up"\nfidelity = "smoke"\ncases = [2, 9]\n'
+
+
+@pytest.fixture
+def home(tmp_path, monkeypatch):
+    h = tmp_path / "home"
+    for d in ("cases", "workflows"):
+        shutil.copytree(project_root() / d, h / d)
+    (h / "workflows" / "two.toml").write_text(STUDY)
+    monkeypatch.setenv("SALTSTUDY_HOME", str(h))
+    monkeypatch.setenv("SALTSTUDY_OUT", str(tmp_path / "out"))
+    return h
+
+
+def starts(output: str, task: str) -> list[str]:
+    """Labels of the tasks of kind ``task`` that did work, from the run-all log."""
+    return [line.split()[2] for line in output.splitlines() if line.startswith(f"[start] {task} ")]
+
+
+def assert_same_data(a: xr.Dataset, b: xr.Dataset, rtol: float = 0.0) -> None:
+    assert set(a.variables) == set(b.variables)
+    for n in a.variables:
+        x, y = a[n].values, b[n].values
+        if rtol == 0.0:
+            assert np.array_equal(x, y, equal_nan=True), n
+        else:
+            np.testing.assert_allclose(x, y, rtol=rtol, atol=1e-12, err_msg=n)
+
+
+def test_run_all_caches_and_reruns_only_what_changed(home, tmp_path):
+    out = tmp_path / "out"
+    cli = CliRunner()
+    r = cli.invoke(app, ["run-all", "--study", "two", "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert starts(r.output, "spinup") == ["case02,case09"]        # shared spin-up, run once
+    assert sorted(starts(r.output, "saltation")) == ["case02", "case09"]
+    assert "report:" in r.output
+
+    # archives: complete, readable by xarray, every variable described, global attributes present
+    st = load_study("two")
+    ks = keys.study_keys(st)
+    for label, k in ks.items():
+        for task in ("spinup", "saltation", "analysis"):
+            assert is_complete(output_path(out, task, getattr(k, task))), (label, task)
+        for task in ("spinup", "saltation"):
+            with xr.open_dataset(output_path(out, task, getattr(k, task))) as ds:
+                assert archives.check_metadata(ds) == []
+                for a in ("case_json", "package_version", "fidelity", "seed", "wall_time_s"):
+                    assert a in ds.attrs
+                assert ds.attrs["wall_time_s"] > 0
+                assert json.loads(ds.attrs["case_json"])["fidelity"]["name"] == "smoke"
+    with xr.open_dataset(output_path(out, "saltation", ks["case02"].saltation)) as s:
+        samp = load_fidelity("smoke").sampling
+        assert s["u"].dims == ("time", "x", "y", "z") and s["u"].dtype == np.float32
+        np.testing.assert_array_equal(s["time"].values, samp.start + samp.interval * np.arange(samp.count))
+        assert np.all(np.isfinite(s["u"].values)) and float(s["n_parcels"][0]) > 0
+    assert all(row.state == "done" for row in study_status(st, out) if row.task != "report")
+
+    # second invocation: all cached, no solver work, says so
+    r = cli.invoke(app, ["run-all", "--study", "two", "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert "all runs cached: no solver work" in r.output
+    assert starts(r.output, "spinup") == starts(r.output, "saltation") == starts(r.output, "analysis") == []
+
+    # edit one case (its particles only): its saltation and analysis rerun, not the shared
+    # spin-up, nothing of the other case; status says stale before the rerun
+    p = home / "cases" / "case09.toml"
+    p.write_text(p.read_text().replace("[splash]", "").rstrip() + "\n\n[splash]\na_ej = 0.04\n")
+    assert load_case(9).splash.a_ej == 0.04
+    states = {(row.label, row.task): row.state for row in study_status(st, out)}
+    assert states[("case09", "saltation")] == "stale" and states[("case02", "saltation")] == "done"
+    assert states[("case09", "spinup")] == "done"
+    r = cli.invoke(app, ["run-all", "--study", "two", "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert starts(r.output, "spinup") == []
+    assert starts(r.output, "saltation") == ["case09"] and starts(r.output, "analysis") == ["case09"]
+    try:
+        import saltstudy.report as rep
+        has_report = hasattr(rep, "build_report")
+    except ImportError:
+        has_report = False
+    if has_report:
+        assert starts(r.output, "report") == ["two"]
+
+    # a truncated archive in the cache is detected and recomputed, never trusted
+    ks = keys.study_keys(st)
+    victim = output_path(out, "saltation", ks["case02"].saltation)
+    reference = open_dataset(victim)
+    victim.write_bytes(victim.read_bytes()[:1000])
+    assert not is_complete(victim)
+    r = cli.invoke(app, ["run-all", "--study", "two", "--quiet"])
+    assert r.exit_code == 0, r.output
+    assert starts(r.output, "saltation") == ["case02"] and starts(r.output, "spinup") == []
+    assert_same_data(open_dataset(victim), reference)   # deterministic: same seed, same result
+
+
+def test_interrupt_and_resume_equals_uninterrupted(tmp_path):
+    scene = resolve_scene(load_case(1), load_fidelity("smoke"))
+    a, b = tmp_path / "a", tmp_path / "b"
+    sp = spinup_task(scene, a)
+    full = open_dataset(saltation_task(scene, sp, a))
+    # same spin-up in the second cache; interrupt twice (before and inside the sampling window)
+    shutil.copytree(sp.parent, b / "spinup" / sp.parent.name)
+    sp_b = b / "spinup" / sp.parent.name / "spinup.nc"
+    key = keys.saltation_key(scene, keys.spinup_key(scene))
+    d = task_dir(b, "saltation", key)
+    for n in (30, 40):
+        with pytest.raises(Interrupted):
+            saltation_task(scene, sp_b, b, interrupt_after_steps=n, checkpoint_interval=1e9)
+        assert (d / "checkpoint.npz").is_file()
+        assert read_task_json(d)["state"] == "failed"
+        assert not output_path(b, "saltation", key).exists()
+    status = {(r.label, r.task): r.state for r in
+              study_status(load_study("smoke"), b) if r.label == "case01"}
+    assert status[("case01", "saltation")] == "partial"
+    resumed = open_dataset(saltation_task(scene, sp_b, b))
+    assert resumed.attrs["resumed_from_t"] > 0
+    assert not (d / "checkpoint.npz").exists()
+    assert resumed.attrs["n_steps"] == full.attrs["n_steps"]
+    assert_same_data(resumed, full)
+
+
+@pytest.mark.slow
+def test_sigkill_mid_saltation_then_rerun_resumes(home, tmp_path):
+    """A process killed with SIGKILL after its first checkpoint: the rerun resumes from it."""
+    fid = home / "workflows" / "fidelities" / "smoke.toml"
+    text = fid.read_text().replace("checkpoint_interval_wall = 5.0", "checkpoint_interval_wall = 0.5")
+    text = text.replace("saltation_duration = 2.0", "saltation_duration = 6.0")
+    fid.write_text(text.replace("[sampling]\nstart = 1.0", "[sampling]\nstart = 4.0"))
+    scene = resolve_scene(load_case(1), load_fidelity("smoke"))
+    key = keys.saltation_key(scene, keys.spinup_key(scene))
+    out_k, out_ref = tmp_path / "killed", tmp_path / "ref"
+    exe = Path(sys.executable).parent / "saltstudy"
+    env = {**os.environ, "SALTSTUDY_OUT": str(out_k)}
+    proc = subprocess.Popen([str(exe), "run", "1", "--quiet"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    ckpt = task_dir(out_k, "saltation", key) / "checkpoint.npz"
+    deadline = time.time() + 300
+    while not ckpt.exists() and proc.poll() is None and time.time() < deadline:
+        time.sleep(0.05)
+    assert ckpt.exists(), "no checkpoint was written"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert not is_complete(output_path(out_k, "saltation", key))
+    r = subprocess.run([str(exe), "run", "1", "--quiet"], env=env, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    resumed = open_dataset(output_path(out_k, "saltation", key))
+    assert resumed.attrs.get("resumed_from_t", 0) > 0
+    r = subprocess.run([str(exe), "run", "1", "--quiet"], env={**env, "SALTSTUDY_OUT": str(out_ref)},
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert_same_data(resumed, open_dataset(output_path(out_ref, "saltation", key)))
+
+
+def test_distributed_local_cluster_equals_threaded(home, tmp_path):
+    """2 worker processes x 1 thread: archives identical to the local threaded run."""
+    from distributed import LocalCluster
+
+    from saltstudy.workflow.graph import run_study
+
+    st = load_study("two")
+    st = st.model_validate({**st.model_dump(), "report": False})
+    local = run_study(st, tmp_path / "local", quiet=True)
+    assert local.exit_code == 0, [o for o in local.outcomes if not o.ok]
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl:
+        dist = run_study(st, tmp_path / "dist", scheduler=cl.scheduler_address, quiet=True)
+    assert dist.exit_code == 0, [o for o in dist.outcomes if not o.ok]
+    for label, k in keys.study_keys(st).items():
+        for task in ("spinup", "saltation"):
+            x = open_dataset(output_path(tmp_path / "local", task, getattr(k, task)))
+            y = open_dataset(output_path(tmp_path / "dist", task, getattr(k, task)))
+            # same numba thread count in both (the machine's cores): bit-for-bit
+            assert_same_data(x, y)
