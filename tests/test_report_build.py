@@ -24,7 +24,7 @@ def full_report(tmp_path_factory):
     out = root / "report"
     index = build_report("unit-test-study", runs, out,
                          {"fidelity": "reduced", "study_config": {"name": "unit-test-study", "cases": list(range(1, 11))},
-                          "package_version": "9.9.9", "animation_frames": 8})
+                          "package_version": "9.9.9", "animation_frames": 8, "figure_dpi": 60})
     return runs, out, index
 
 

@@ -14,7 +14,8 @@ from numba import prange
 from .._jit import jit, pjit
 from .state import SolverBlowUp
 
-__all__ = ["first_nonfinite", "max_courant", "check_state", "CFL_RUNAWAY"]
+__all__ = ["first_nonfinite", "max_courant", "check_state", "check_courant", "health",
+           "locate_nonfinite", "CFL_RUNAWAY"]
 
 #: Courant number beyond which RK3 with centred advection is unstable (sqrt 3, Wicker &
 #: Skamarock 2002): the run is stopped before it fills with NaN.
@@ -64,6 +65,64 @@ def _courant(u, v, w, rdx, rdy, dzc):
     return part.max()
 
 
+@pjit
+def _health(u, v, w, e, rdx, rdy, dzc, cml, nu_mol, rdx2, rdy2, rdz2):
+    """One pass: (max Courant rate [s^-1], max diffusion rate [s^-1], number of non-finite values
+    of u, v, w, e). A NaN never wins a '>' comparison, so it is counted separately."""
+    nx, ny, nz = u.shape
+    part = np.zeros(nx)
+    dpart = np.zeros(nx)
+    bad = np.zeros(nx, dtype=np.int64)
+    for i in prange(nx):
+        ip = (i + 1) % nx
+        m = 0.0
+        dm = 0.0
+        nb = 0
+        for j in range(ny):
+            jp = (j + 1) % ny
+            for k in range(nz):
+                uu = u[i, j, k]
+                vv = v[i, j, k]
+                ww = w[i, j, k]
+                ek = e[i, j, k]
+                if not (math.isfinite(uu) and math.isfinite(vv) and math.isfinite(ww)
+                        and math.isfinite(ek)):
+                    nb += 1
+                    continue
+                c = (0.5 * abs(uu + u[ip, j, k]) * rdx + 0.5 * abs(vv + v[i, jp, k]) * rdy
+                     + 0.5 * abs(ww + w[i, j, k + 1]) / dzc[k])
+                c = max(c, abs(uu) * rdx, abs(vv) * rdy, abs(ww) / dzc[k])
+                if c > m:
+                    m = c
+                if ek < 0.0:
+                    ek = 0.0
+                r = 2.0 * (cml[k] * math.sqrt(ek) + nu_mol) * (rdx2 + rdy2 + rdz2[k])
+                if r > dm:
+                    dm = r
+            if not math.isfinite(w[i, j, nz]):
+                nb += 1
+        part[i] = m
+        dpart[i] = dm
+        bad[i] = nb
+    return part.max(), dpart.max(), bad.sum()
+
+
+def health(grid, state, cml, nu_mol) -> tuple[float, float, int]:
+    """(Courant rate, diffusion rate [s^-1], count of non-finite values) in one pass."""
+    c, d, n = _health(state.u, state.v, state.w, state.e, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c,
+                      cml, nu_mol, 1.0 / grid.dx**2, 1.0 / grid.dy**2, 1.0 / grid.dz_c**2)
+    return float(c), float(d), int(n)
+
+
+def locate_nonfinite(state) -> None:
+    """Raise SolverBlowUp at the first non-finite value of u, v, w, e (if any)."""
+    for name in ("u", "v", "w", "e"):
+        a = getattr(state, name)
+        idx = first_nonfinite(a)
+        if idx is not None:
+            raise SolverBlowUp(state.step, state.t, name, idx, float(a[idx]))
+
+
 def max_courant(grid, u, v, w) -> float:
     """The advective rate max(|u|/dx + |v|/dy + |w|/dz) [s^-1]; times dt gives the Courant number."""
     return float(_courant(u, v, w, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c))
@@ -74,11 +133,12 @@ def check_state(state, courant_rate: float, dt: float) -> float:
 
     Returns the Courant number courant_rate dt.
     """
-    for name in ("u", "v", "w", "e"):
-        a = getattr(state, name)
-        idx = first_nonfinite(a)
-        if idx is not None:
-            raise SolverBlowUp(state.step, state.t, name, idx, float(a[idx]))
+    locate_nonfinite(state)
+    return check_courant(state, courant_rate, dt)
+
+
+def check_courant(state, courant_rate: float, dt: float) -> float:
+    """Raise SolverBlowUp if courant_rate dt exceeds CFL_RUNAWAY; return the Courant number."""
     cfl = courant_rate * dt
     if not math.isfinite(cfl) or cfl > CFL_RUNAWAY:
         g = state.grid

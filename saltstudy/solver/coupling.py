@@ -100,8 +100,8 @@ def drag_rate(rel, d, tp, nu):
 
 
 @pjit
-def implicit_coefficients(n, x, y, z, u, v, w, d, kd, flag, uf, vf, wf, dt, prm, geo, z_f, z_c, lut,
-                          A, B, k0):
+def implicit_coefficients(n, x, y, z, u, v, w, d, kd, flag, trem, uf, vf, wf, dt, prm, geo, z_f,
+                          z_c, lut, A, B, k0):
     """Per chunk c, accumulate on the faces A[c, comp] += w c_p and B[c, comp] += w c_p (u~_p - o_p).
 
     prm: [rho, nu, g, rho_p, Q]; A, B: (N_CHUNKS, 3, nx, ny, nk), comp 0 = u, 1 = v, 2 = w.
@@ -148,9 +148,10 @@ def implicit_coefficients(n, x, y, z, u, v, w, d, kd, flag, uf, vf, wf, dt, prm,
                     ou = ur - u0
                     ov = vr - v0
             k0[p] = k
-            ome = -math.expm1(-k * dt)
+            T = dt + trem[p]  # the parcel's own step (time credit after a splash, particles.py)
+            ome = -math.expm1(-k * T)
             cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
-            wt = w[p] + g / k - g * dt / ome
+            wt = w[p] + g / k - g * T / ome
             deposit_faces(Au, Av, Aw, cp, cp, cp, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc,
                           kf, fzf, islog, nx, ny)
             deposit_faces(Bu, Bv, Bw, cp * (u[p] - ou), cp * (v[p] - ov), cp * wt, ixf, fxf, ixc,

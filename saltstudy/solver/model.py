@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks import check_state, max_courant
+from .checks import check_courant, health, locate_nonfinite
 from .forcing import DriveController, z_ref_effective
 from .grid import Grid
 from .spinup import SpinupResult, initial_flow, run_spinup
@@ -102,13 +102,17 @@ class Model:
         return self.state.t
 
     # ---- stepping ----------------------------------------------------------------------------
-    def _courant_rate(self) -> float:
+    def _rates(self) -> tuple[float, float]:
+        """(Courant rate, diffusion rate) [s^-1] of the current state (cached per step); raises
+        SolverBlowUp if a field holds a non-finite value."""
         if self._rate_cache is not None and self._rate_cache[0] == self.state.step:
             return self._rate_cache[1]
-        s = self.state
-        r = max_courant(self.grid, s.u, s.v, s.w)
-        self._rate_cache = (s.step, r)
-        return r
+        st = self.stepper
+        c, d, nbad = health(self.grid, self.state, st.cml, st.nu_mol)
+        if nbad:
+            locate_nonfinite(self.state)
+        self._rate_cache = (self.state.step, (c, d))
+        return c, d
 
     def next_dt(self, limit: float = math.inf) -> float:
         """The next step [s]: min(CFL, diffusion, dt_max, components' limits, limit), or dt_fixed.
@@ -122,11 +126,10 @@ class Model:
         if ts.dt_fixed is not None:
             dt = ts.dt_fixed
         else:
-            rate = self._courant_rate()
+            rate, drate = self._rates()
             dt = ts.dt_max
             if rate > 0:
                 dt = min(dt, ts.cfl / rate)
-            drate = self.stepper.diffusion_rate(self.state.e)
             if drate > 0:
                 dt = min(dt, ts.diffusion_number / drate)
         for c in self.components:
@@ -149,8 +152,8 @@ class Model:
         s.t += dt
         s.step += 1
         self._rate_cache = None
-        rate = self._courant_rate()
-        cfl = check_state(s, rate, dt)
+        rate, _ = self._rates()          # finiteness of u, v, w, e and the Courant number
+        cfl = check_courant(s, rate, dt)
         tau = self._measure_stress()
         self.controller.update(s, dt, self._damped_mean_u(), tau)
         return StepInfo(step=s.step, t=s.t, dt=dt, max_cfl=cfl, u_drive=s.u_drive,

@@ -26,8 +26,10 @@ short of it); it lands on the root of f(Re) w = g T_p to the iteration tolerance
 Sub-steps: a parcel is sub-stepped so that it moves at most one local cell height per sub-step
 (re-interpolating the fluid velocity), at most ``MAX_SUBSTEPS`` per step. A parcel that crosses the
 impact layer (z = ``splash.impact_layer``, 0.5 mm) is stopped at the crossing, found by safeguarded
-Newton on the analytic z(t); it then splashes (:mod:`splash_kernels`) and the rebound and ejecta
-are integrated over the rest of the step (repeatedly, if they hit again). A parcel reaching the lid
+Newton on the analytic z(t); it then splashes (:mod:`splash_kernels`). The rebound and the ejecta
+start at the impact point with the rest of the step as a time credit and are integrated over
+``dt + credit`` in the next step, inside that step's implicit exchange (integrating them at once
+would exchange their momentum explicitly, which is unstable for small grains at high loading). A parcel reaching the lid
 is reflected (it does not happen at the cases' heights).
 
 Fluid velocity at a parcel: trilinear on the staggered grid, log law below the first level
@@ -76,7 +78,7 @@ __all__ = ["Saltation", "advance_parcel", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN
 
 #: relative tolerance of the fixed-point iteration for the end-of-step drag rate k_p
 DRAG_TOL = 1e-6
-DRAG_MAXIT = 2
+DRAG_MAXIT = 40
 #: sub-steps per step at most (a parcel then moves more than a cell height in a sub-step)
 MAX_SUBSTEPS = 16
 #: the grains' random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct from
@@ -84,8 +86,8 @@ MAX_SUBSTEPS = 16
 RNG_SPAWN_KEY = 0x5A17
 #: Anderson & Haff (1991) excess-stress entrainment coefficient [grains N^-1 s^-1] (see doc)
 ENTRAINMENT_ZETA = 1.0e5
-#: how many times rebounds/ejecta of one step may splash again within that step
-MAX_SPLASH_ROUNDS = 200
+#: parcels are reordered by cell every this many steps (cache locality of gathers and scatters)
+SORT_INTERVAL = 10
 
 # indices of the kernels' parameter vector
 _RHO, _NU, _G, _RHOP, _Q, _HIMP, _TOL, _LZ, _DT, _TWOWAY, _TKE, _SGS = range(12)
@@ -292,7 +294,9 @@ def _advance_all(n, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf,
         for p in range(lo, hi):
             if flag[p] != 0:
                 continue
-            hit, rem = advance_parcel(p, dt, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef,
+            T = dt + trem[p]  # time credit of a parcel that left the bed during the last step
+            trem[p] = 0.0
+            hit, rem = advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef,
                                       du, dv, dw, bu, bv, bw, bt, prm, geo, z_f, z_c, dz_c, lut,
                                       tlc, k0)
             if hit:
@@ -302,31 +306,6 @@ def _advance_all(n, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf,
             if s > m:
                 m = s
         vmax[c] = m
-
-
-@jit
-def _advance_pending(pend, n_pend, ev, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf, wf,
-                     ef, du, dv, dw, P, Tb, prm, geo, z_f, z_c, dz_c, lut, tlc, k0):
-    """Serially integrate rebounds/ejecta for their time left (deposits into chunk 0's buffers).
-    Returns the number of new hits, listed in ev."""
-    bu = P[0, 0]
-    bv = P[0, 1]
-    bw = P[0, 2]
-    bt = Tb[0]
-    n_ev = 0
-    for i in range(n_pend):
-        p = pend[i]
-        k0[p] = 0.0  # not in this step's implicit estimate
-        hit, rem = advance_parcel(p, trem[p], x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef,
-                                  du, dv, dw, bu, bv, bw, bt, prm, geo, z_f, z_c, dz_c, lut, tlc, k0)
-        if hit:
-            flag[p] = 1
-            trem[p] = rem
-            ev[n_ev] = p
-            n_ev += 1
-        else:
-            trem[p] = 0.0
-    return n_ev
 
 
 @jit
@@ -355,14 +334,44 @@ def _compact(dead, n_dead, n, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw):
     return n
 
 
+@jit
+def _cell_order(n, x, y, z, geo, z_f, lut, nx, ny, nz, key, perm, count):
+    """Stable counting sort of parcels by cell (x-slab, then y, then level): perm[new] = old.
+    Serial and deterministic. Keeps the grid gathers/scatters of neighbouring parcels in cache."""
+    nkey = nx * ny * nz
+    for c in range(nkey + 1):
+        count[c] = 0
+    for p in range(n):
+        i = int(x[p] / geo[0]) % nx
+        j = int(y[p] / geo[1]) % ny
+        k = level_of(z[p], z_f, lut, geo[5], nz)
+        kk = (i * ny + j) * nz + k
+        key[p] = kk
+        count[kk + 1] += 1
+    for c in range(nkey):
+        count[c + 1] += count[c]
+    for p in range(n):
+        kk = key[p]
+        perm[count[kk]] = p
+        count[kk] += 1
+
+
 @pjit
+def _permute(n, perm, a, tmp):
+    for q in prange(n):
+        tmp[q] = a[perm[q]]
+    for q in prange(n):
+        a[q] = tmp[q]
+
+
+@jit
 def _vmax_and_ztop(n, u, v, w, z):
     """(max horizontal speed, max of z + max(w, 0) scale) over parcels: for max_dt and buffer depth."""
     nb = 64
     mu = np.zeros(nb)
     mz = np.zeros(nb)
     mw = np.zeros(nb)
-    for b in prange(nb):
+    for b in range(nb):
         lo = (b * n) // nb
         hi = ((b + 1) * n) // nb
         a = 0.0
@@ -526,6 +535,7 @@ class Saltation:
         self.momentum_to_air = np.zeros(3)
         self.momentum_to_bed = 0.0
         self.last_step: dict = {}
+        self._steps = 0
         self._vmax = 0.0
         self._empty = np.zeros(0)
         self._e_zero = np.zeros((1, 1, 1))
@@ -649,6 +659,9 @@ class Saltation:
         if self.sgs and self.n > 0:
             _sgs_update(self.rng, self.n, dt, self._x, self._y, self._z, self._su, self._sv,
                         self._sw, state.e, self.tlc, geo.geo, geo.z_f, geo.lut, nx, ny, nz)
+        if self.n > 0 and self._steps % SORT_INTERVAL == 0:
+            self._sort()
+        self._steps += 1
         nk = self._levels(state, dt) if self.n > 0 else 2
         self.prm[_DT] = dt
         nc = N_CHUNKS
@@ -657,7 +670,8 @@ class Saltation:
             A = np.empty((nc, 3, nx, ny, nk))
             B = np.empty((nc, 3, nx, ny, nk))
             implicit_coefficients(self.n, self._x, self._y, self._z, self._u, self._v, self._w,
-                                  self._d, self._kd, self._flag, state.u, state.v, state.w, dt,
+                                  self._d, self._kd, self._flag, self._trem, state.u, state.v,
+                                  state.w, dt,
                                   self.prm, geo.geo, geo.z_f, geo.z_c, geo.lut, A, B, self._k0)
             du = np.empty((nx, ny, nk))
             dv = np.empty((nx, ny, nk))
@@ -675,36 +689,28 @@ class Saltation:
                      self._kd, self._flag, self._trem, self._su, self._sv, self._sw, state.u,
                      state.v, state.w, ef, du, dv, dw, P, Tb, self.prm, geo.geo, geo.z_f, geo.z_c,
                      geo.dz_c, geo.lut, self.tlc, vmax, self._k0)
-        # bed events, serial, in parcel order; then rebounds/ejecta for the rest of the step
+        # bed events, serial, in parcel order. Rebounds and ejecta leave the bed at the impact
+        # point with the rest of the step as a time credit: they are integrated over dt + credit in
+        # the next step, inside its implicit exchange (integrating them now, outside it, would be
+        # an explicit exchange: unstable for small grains at high loading).
         ev = np.flatnonzero(self._flag[: self.n] == 1).astype(np.int64)
         cnt = np.zeros(4, dtype=np.int64)
         en = np.zeros(2)
         n_dead = 0
-        rounds = 0
-        while ev.shape[0] > 0 and rounds < MAX_SPLASH_ROUNDS:
-            rounds += 1
-            cursor, n_pend = 0, 0
-            n_before = self.n
-            while True:
-                cursor, self.n, n_pend, n_dead = bed_events(
-                    self.rng, ev, ev.shape[0], cursor, self.n, self._x, self._y, self._z, self._u,
-                    self._v, self._w, self._d, self._kd, self._flag, self._trem, self._pend,
-                    n_pend, self._dead, n_dead, self.sp, self.cum, self.mu, self.lnsig, self.Q,
-                    cnt, en)
-                if cursor >= ev.shape[0]:
-                    break
-                self._grow(2 * self.capacity)
-            if self.sgs:  # ejecta start without an SGS velocity
-                self._su[n_before:self.n] = self._sv[n_before:self.n] = self._sw[n_before:self.n] = 0.0
-            n_ev = _advance_pending(self._pend, n_pend, self._ev, self._x, self._y, self._z,
-                                    self._u, self._v, self._w, self._d, self._kd, self._flag,
-                                    self._trem, self._su, self._sv, self._sw, state.u, state.v,
-                                    state.w, ef, du, dv, dw, P, Tb, self.prm, geo.geo, geo.z_f,
-                                    geo.z_c, geo.dz_c, geo.lut, self.tlc, self._k0)
-            ev = self._ev[:n_ev].copy()
-        if ev.shape[0] > 0:  # give up splashing again this step: they wait on the impact layer
-            self._flag[ev] = 0
-            self._trem[ev] = 0.0
+        rounds = 1 if ev.shape[0] else 0
+        cursor, n_pend = 0, 0
+        n_before = self.n
+        while ev.shape[0]:
+            cursor, self.n, n_pend, n_dead = bed_events(
+                self.rng, ev, ev.shape[0], cursor, self.n, self._x, self._y, self._z, self._u,
+                self._v, self._w, self._d, self._kd, self._flag, self._trem, self._pend,
+                n_pend, self._dead, n_dead, self.sp, self.cum, self.mu, self.lnsig, self.Q,
+                cnt, en)
+            if cursor >= ev.shape[0]:
+                break
+            self._grow(2 * self.capacity)
+        if self.sgs:  # ejecta start without an SGS velocity
+            self._su[n_before:self.n] = self._sv[n_before:self.n] = self._sw[n_before:self.n] = 0.0
         if n_dead:
             dead = np.sort(self._dead[:n_dead])[::-1].copy()
             self.n = _compact(dead, n_dead, self.n, self._x, self._y, self._z, self._u, self._v,
@@ -731,6 +737,20 @@ class Saltation:
         step["E_impact"], step["E_splash"] = float(en[0]), float(en[1])
         step["splash_rounds"] = rounds
         self.last_step = step
+
+    def _sort(self) -> None:
+        """Reorder the parcels by cell (every SORT_INTERVAL steps): locality for the kernels."""
+        g = self.geom
+        n = self.n
+        key = np.empty(n, dtype=np.int64)
+        perm = np.empty(n, dtype=np.int64)
+        count = np.empty(g.nx * g.ny * g.nz + 1, dtype=np.int64)
+        _cell_order(n, self._x, self._y, self._z, g.geo, g.z_f, g.lut, g.nx, g.ny, g.nz, key, perm,
+                    count)
+        tmp = np.empty(n)
+        names = list(self._FIELDS) + (["su", "sv", "sw"] if self.sgs else [])
+        for f in names:
+            _permute(n, perm, getattr(self, "_" + f), tmp)
 
     def _do_entrainment(self, state: FlowState, dt: float) -> int:
         n0 = self.n
@@ -791,6 +811,7 @@ class Saltation:
         data["grain_momentum_to_air"] = self.momentum_to_air.copy()
         data["grain_momentum_to_bed"] = self.momentum_to_bed
         data["grain_vmax"] = self._vmax
+        data["grain_steps"] = int(self._steps)
         return data
 
     def restore(self, data: dict) -> None:
@@ -814,6 +835,7 @@ class Saltation:
         self.momentum_to_air = np.array(data["grain_momentum_to_air"], dtype=np.float64).reshape(3)
         self.momentum_to_bed = float(data["grain_momentum_to_bed"])
         self._vmax = float(data["grain_vmax"])
+        self._steps = int(data.get("grain_steps", 0))
 
 
 @pjit

@@ -1,0 +1,32 @@
+"""The solver's commands: ``saltstudy bench flow`` (and ``bench particles`` when
+``solver/bench_particles.py`` is present: it registers itself through its ``register_bench``)."""
+from __future__ import annotations
+
+import importlib
+
+import typer
+
+__all__ = ["register"]
+
+
+def register(app: typer.Typer) -> None:
+    bench_app = typer.Typer(no_args_is_help=True, help="Solver benchmarks (wall time per step).")
+
+    @bench_app.command("flow")
+    def flow(steps: int = typer.Option(10, "--steps", help="timed steps per grid (median reported)"),
+             big: bool = typer.Option(True, "--big/--no-big", help="include the paper's 200x150x100 grid"),
+             as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
+        """Median wall time per LES step on 64x48x48 and 200x150x100, per cell-step, vs the FFT floor."""
+        from .bench import main
+        main(steps=steps, big=big, as_json=as_json)
+
+    try:
+        mod = importlib.import_module("saltstudy.solver.bench_particles")
+    except ModuleNotFoundError as exc:
+        if exc.name != "saltstudy.solver.bench_particles":
+            raise
+    else:
+        hook = getattr(mod, "register_bench", None) or getattr(mod, "register", None)
+        if hook is not None:
+            hook(bench_app)
+    app.add_typer(bench_app, name="bench")
