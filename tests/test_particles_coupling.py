@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from particles_helpers import G_INDEX, component, scene, synthetic_flow
+from test_particles_helpers import G_INDEX, component, scene, synthetic_flow
 from saltstudy.solver.grid import Grid
 from saltstudy.solver.particles import Saltation
 from saltstudy.solver.state import FlowState

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from particles_helpers import component, scene, synthetic_flow
+from test_particles_helpers import component, scene, synthetic_flow
 
 
 def _run(threads=None, steps=30, ckpt_at=None):

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from particles_helpers import component, exact_slip, scene, terminal_velocity
+from test_particles_helpers import component, exact_slip, scene, terminal_velocity
 from saltstudy.solver.interp import wrap_periodic
 
 

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from particles_helpers import component, scene, terminal_velocity
+from test_particles_helpers import component, scene, terminal_velocity
 from saltstudy.config import list_case_numbers, load_case
 from saltstudy.solver.splash_kernels import sample_impacts, soil_arrays, splash_params
 
