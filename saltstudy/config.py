@@ -116,6 +116,10 @@ class Forcing(_Frozen):
     z_ref: float = Field(2.0, gt=0, description="height where u* is read and held [m] (paper: 2 m)")
     controller_timescale: float = Field(
         20.0, gt=0, description="relaxation time of the driving-velocity controller [s]")
+    drive: Literal["top", "pressure_gradient"] = Field(
+        "top", description="top: base-state wind through the Rayleigh layer (the paper; constant "
+        "stress below it); pressure_gradient: mean body force, stress falls linearly with height, "
+        "set so that the stress at z_ref is rho u*s^2")
 
 
 class Surface(_Frozen):

@@ -18,7 +18,7 @@ import pytest
 from solver_helpers import smoke_scene  # noqa: F401  (imports saltstudy first)
 from saltstudy.config import load_case, load_fidelity, resolve_scene
 
-T_SPIN = 70.0
+T_SPIN = 150.0
 T_AVG = 60.0
 KAPPA = 0.40
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .._jit import jit, jit_with, pjit
+from .._jit import jit_with, pjit
 
 #: per-point kernels: inlined in numba IR into the fused stage kernels (an out-of-line call with
 #: a dozen array arguments per grid point costs more than the stencil itself)

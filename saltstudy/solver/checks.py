@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import jit, pjit
+from .._jit import pjit
 from .state import SolverBlowUp
 
 __all__ = ["first_nonfinite", "max_courant", "check_state", "check_courant", "health",

@@ -1,4 +1,12 @@
-"""Two-way momentum exchange between parcels and air (paper eq. 2) and the SGS TKE sink (eq. A1).
+"""Two-way momentum exchange between parcels and air (paper eq. 2) and the SGS Buffers. Each of the ``N_CHUNKS`` parcel chunks deposits into its own buffers (no races; the
+chunks' buffers are summed in chunk order, so the result does not depend on the thread count).
+Parcels are kept sorted by cell (particles.py), so a chunk only touches a narrow range of x-slabs:
+its buffers cover only that circular range (``chunk_arcs``: the x-cells its parcels occupy,
+widened by the stencil and by the largest distance a parcel of the chunk can travel within the
+step, ``chunk_ranges``), stored flat in one pool that lives across steps (no allocation, no page
+faults). Slabs outside a chunk's range hold zeros of that chunk and are skipped in the sums.
+
+TKE sink (eq. A1).
 
 Momentum. The air at a velocity face (u at x-faces, v at y-faces, w at z-faces) of mass
 ``M = rho * dx * dy * dz`` (``dz = grid.dz_c[k]`` for u and v, ``grid.dz_f[k]`` for w) receives minus
@@ -33,6 +41,14 @@ that ``u_s,p`` is still its raw velocity plus the interpolated ``delta = U' - U`
 are then damped by (1 + a lambda)/(1 + a) <= 1 per step (a = loading, lambda <= 1 the
 interpolation's smoothing factor).
 
+Buffers. Each of the ``N_CHUNKS`` parcel chunks deposits into its own buffers (no races; the
+chunks' buffers are summed in chunk order, so the result does not depend on the thread count).
+Parcels are kept sorted by cell (particles.py), so a chunk only touches a narrow range of x-slabs:
+its buffers cover only that circular range (``chunk_arcs``: the x-cells its parcels occupy,
+widened by the stencil and by the largest distance a parcel of the chunk can travel within the
+step, ``chunk_ranges``), stored flat in one pool that lives across steps (no allocation, no page
+faults). Slabs outside a chunk's range hold zeros of that chunk and are skipped in the sums.
+
 TKE sink (eq. A1). Per cell, the rate [s^-1] multiplying e::
 
     s = (Q / V_cell) sum_p (m_p / rho) 2 f(Re_p) / (T_p + T_L),   T_L = 4 e / (3 C0 eps)
@@ -53,11 +69,11 @@ from numba import prange
 
 from .._jit import jit, pjit
 from ..physics.drag import drag_correction
-from .interp import deposit_faces, interp_faces, interp_fluid, locate
+from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, slab_of
 
 __all__ = ["C0_LAGRANGIAN", "face_inverse_masses", "lagrangian_time_coefficients", "chunk_bounds",
-           "implicit_coefficients", "implicit_corrections", "apply_exchange", "tke_rates",
-           "N_CHUNKS"]
+           "chunk_arcs", "chunk_ranges", "implicit_coefficients", "implicit_corrections",
+           "apply_exchange", "tke_rates", "grid_absmax", "N_CHUNKS"]
 
 #: Lagrangian structure-function constant used in T_L (eq. A1); not given in the paper.
 C0_LAGRANGIAN = 2.1
@@ -88,24 +104,133 @@ def lagrangian_time_coefficients(grid, kappa: float, c0: float = C0_LAGRANGIAN) 
     return np.ascontiguousarray(4.0 * ell / (3.0 * c0 * c_eps))
 
 
-@jit
+@ijit
 def chunk_bounds(n, c, nc):
     return (c * n) // nc, ((c + 1) * n) // nc
 
 
-@jit
+@ijit
 def drag_rate(rel, d, tp, nu):
     """k = f(Re_p) / T_p [s^-1] (eqs. 3-4), Re_p = |u - u_p| d / nu."""
     return drag_correction(rel * d / nu) / tp
 
 
 @pjit
+def chunk_arcs(n, x, u, su, flag, trem, dx, nx, occ, arcs, stats):
+    """Per chunk c: the shortest circular range of x-cells holding its live parcels
+    (arcs[c] = start, length; length 0 if none) and stats[c] = (max |u_p|, max trem, max |su|)."""
+    nc = arcs.shape[0]
+    has_sgs = su.shape[0] > 0
+    for c in prange(nc):
+        lo, hi = chunk_bounds(n, c, nc)
+        for i in range(nx):
+            occ[c, i] = 0
+        um = 0.0
+        tm = 0.0
+        sm = 0.0
+        for p in range(lo, hi):
+            if flag[p] != 0:
+                continue
+            i = int(x[p] / dx)
+            if i >= nx:
+                i = nx - 1
+            elif i < 0:
+                i = 0
+            occ[c, i] = 1
+            a = abs(u[p])
+            if a > um:
+                um = a
+            if trem[p] > tm:
+                tm = trem[p]
+            if has_sgs:
+                a = abs(su[p])
+                if a > sm:
+                    sm = a
+        stats[c, 0] = um
+        stats[c, 1] = tm
+        stats[c, 2] = sm
+        first = -1
+        for i in range(nx):
+            if occ[c, i] != 0:
+                first = i
+                break
+        if first < 0:
+            arcs[c, 0] = 0
+            arcs[c, 1] = 0
+            continue
+        # largest circular gap of empty cells; the range starts just after it
+        best = 0
+        start = first
+        run = 0
+        for m in range(1, nx + 1):
+            i = (first + m) % nx
+            if occ[c, i] == 0:
+                run += 1
+            else:
+                if run > best:
+                    best = run
+                    start = i
+                run = 0
+        arcs[c, 0] = start
+        arcs[c, 1] = nx - best
+
+
+@jit
+def chunk_ranges(arcs, margin, nx, per_slab, ranges):
+    """ranges[c] = (start slab, number of slabs L, pool offset) of chunk c: its arc widened by
+    margin[c] slabs on both sides (all nx if that wraps around); per_slab = pool entries per slab.
+    Returns the pool size needed."""
+    nc = arcs.shape[0]
+    off = 0
+    for c in range(nc):
+        L = arcs[c, 1]
+        if L == 0:
+            ranges[c, 0] = 0
+            ranges[c, 1] = 0
+            ranges[c, 2] = off
+            continue
+        m = margin[c]
+        L = L + 2 * m
+        st = arcs[c, 0] - m
+        if L >= nx:
+            L = nx
+            st = 0
+        st = st % nx
+        ranges[c, 0] = st
+        ranges[c, 1] = L
+        ranges[c, 2] = off
+        off += L * per_slab
+    return off
+
+
+@pjit
+def grid_absmax(f):
+    """max |f| over a (nx, ny, nz) field (parallel over x-slabs; order-free, so deterministic)."""
+    nx = f.shape[0]
+    ny = f.shape[1]
+    nz = f.shape[2]
+    part = np.zeros(nx)
+    for i in prange(nx):
+        m = 0.0
+        for j in range(ny):
+            for k in range(nz):
+                a = abs(f[i, j, k])
+                if a > m:
+                    m = a
+        part[i] = m
+    return part.max()
+
+
+@pjit
 def implicit_coefficients(n, x, y, z, u, v, w, d, kd, flag, trem, uf, vf, wf, dt, prm, geo, z_f,
-                          z_c, lut, A, B, k0):
+                          z_c, lut, pool, ranges, nk, k0, c0, wtil):
     """Per chunk c, accumulate on the faces A[c, comp] += w c_p and B[c, comp] += w c_p (u~_p - o_p).
 
-    prm: [rho, nu, g, rho_p, Q]; A, B: (N_CHUNKS, 3, nx, ny, nk), comp 0 = u, 1 = v, 2 = w.
+    prm: [rho, nu, g, rho_p, Q]. A and B live interleaved in the chunk's pool range (``ranges``,
+    see ``chunk_ranges``): comp 0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs.
     o_p is the log-law offset of a parcel below the first level (module doc), 0 elsewhere.
+    Stores per parcel the drag rate k0, c_p in c0 and the vertical u~_p in wtil (particles.py
+    uses them for the modelled impulse).
     """
     nx = uf.shape[0]
     ny = uf.shape[1]
@@ -115,17 +240,15 @@ def implicit_coefficients(n, x, y, z, u, v, w, d, kd, flag, trem, uf, vf, wf, dt
     g = prm[2]
     rho_p = prm[3]
     Q = prm[4]
-    nc = A.shape[0]
+    nc = ranges.shape[0]
     for c in prange(nc):
-        A[c] = 0.0
-        B[c] = 0.0
+        s = ranges[c, 0]
+        L = ranges[c, 1]
+        off = ranges[c, 2]
+        csz = L * ny * nk * 2
+        for q in range(off, off + 3 * csz):
+            pool[q] = 0.0
         lo, hi = chunk_bounds(n, c, nc)
-        Au = A[c, 0]
-        Av = A[c, 1]
-        Aw = A[c, 2]
-        Bu = B[c, 0]
-        Bv = B[c, 1]
-        Bw = B[c, 2]
         for p in range(lo, hi):
             if flag[p] != 0:
                 continue
@@ -152,21 +275,30 @@ def implicit_coefficients(n, x, y, z, u, v, w, d, kd, flag, trem, uf, vf, wf, dt
             ome = -math.expm1(-k * T)
             cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
             wt = w[p] + g / k - g * T / ome
-            deposit_faces(Au, Av, Aw, cp, cp, cp, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc,
-                          kf, fzf, islog, nx, ny)
-            deposit_faces(Bu, Bv, Bw, cp * (u[p] - ou), cp * (v[p] - ov), cp * wt, ixf, fxf, ixc,
-                          fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, islog, nx, ny)
+            c0[p] = cp
+            wtil[p] = wt
+            if islog:
+                kc = 0
+                fzc = 0.0
+            pool_add_tri2(pool, off, s, nx, ny, nk, cp, cp * (u[p] - ou), ixf, fxf, jyc, fyc, kc,
+                          fzc)
+            pool_add_tri2(pool, off + csz, s, nx, ny, nk, cp, cp * (v[p] - ov), ixc, fxc, jyf,
+                          fyf, kc, fzc)
+            pool_add_tri2(pool, off + 2 * csz, s, nx, ny, nk, cp, cp * wt, ixc, fxc, jyc, fyc, kf,
+                          fzf)
 
 
 @pjit
-def implicit_corrections(A, B, inv_mc, inv_mw, uf, vf, wf, du, dv, dw):
+def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, Uc, Vc, Wc, dmax):
     """delta_f = (sum_c B - U_f sum_c A) / (M_f + sum_c A) on the lowest nk levels of each face
-    field: the backward-Euler air velocity change (a convex combination, see module doc)."""
-    nc = A.shape[0]
+    field: the backward-Euler air velocity change (a convex combination, see module doc).
+    Also the seen fields Uc = U + delta (etc.) and dmax[i] = max |delta| over slab i."""
+    nc = ranges.shape[0]
     nx = du.shape[0]
     ny = du.shape[1]
     nk = dw.shape[2]
     for i in prange(nx):
+        dm = 0.0
         for j in range(ny):
             for k in range(nk):
                 au = 0.0
@@ -176,32 +308,48 @@ def implicit_corrections(A, B, inv_mc, inv_mw, uf, vf, wf, du, dv, dw):
                 bv = 0.0
                 bw = 0.0
                 for c in range(nc):
-                    au += A[c, 0, i, j, k]
-                    av += A[c, 1, i, j, k]
-                    aw += A[c, 2, i, j, k]
-                    bu += B[c, 0, i, j, k]
-                    bv += B[c, 1, i, j, k]
-                    bw += B[c, 2, i, j, k]
+                    L = ranges[c, 1]
+                    ii = slab_of(i, ranges[c, 0], nx)
+                    if ii >= L:
+                        continue
+                    csz = L * ny * nk * 2
+                    q = ranges[c, 2] + 2 * ((ii * ny + j) * nk + k)
+                    au += pool[q]
+                    bu += pool[q + 1]
+                    av += pool[q + csz]
+                    bv += pool[q + csz + 1]
+                    aw += pool[q + 2 * csz]
+                    bw += pool[q + 2 * csz + 1]
                 m = inv_mc[k]
-                du[i, j, k] = (bu - au * uf[i, j, k]) * m / (1.0 + au * m)
-                dv[i, j, k] = (bv - av * vf[i, j, k]) * m / (1.0 + av * m)
+                a = (bu - au * uf[i, j, k]) * m / (1.0 + au * m)
+                b = (bv - av * vf[i, j, k]) * m / (1.0 + av * m)
+                du[i, j, k] = a
+                dv[i, j, k] = b
+                Uc[i, j, k] = uf[i, j, k] + a
+                Vc[i, j, k] = vf[i, j, k] + b
                 m = inv_mw[k]
-                dw[i, j, k] = (bw - aw * wf[i, j, k]) * m / (1.0 + aw * m)
+                cc = (bw - aw * wf[i, j, k]) * m / (1.0 + aw * m)
+                dw[i, j, k] = cc
+                Wc[i, j, k] = wf[i, j, k] + cc
+                a = max(abs(a), abs(b))
+                if a > dm:
+                    dm = a
+        dmax[i] = dm
 
 
 @pjit
-def apply_exchange(P, du, dv, dw, inv_mc, inv_mw, uf, vf, wf, tot):
+def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, uf, vf, wf, tot):
     """Air update: U += delta + (sum_c P[c]) / M on the lowest nk levels (module doc).
 
-    P holds, per face, the difference between the modelled and the actual drag impulses of the
-    parcels (zero if they coincide) plus the full impulses of rebounds/ejecta. tot (3,) receives the
-    momentum given to the air (kg m s^-1); the return value is the w impulse taken by the bed face.
-    Sums are taken in a fixed order.
+    P (comps 0, 1, 2 of the chunks' pool ranges, each (L, ny, nk); ncomp comps per chunk) holds,
+    per face, the difference between the modelled and the actual drag impulses of the parcels
+    (zero if they coincide). tot (3,) receives the momentum given to the air (kg m s^-1); the
+    return value is the w impulse taken by the bed face. Sums are taken in a fixed order.
     """
-    nc = P.shape[0]
+    nc = ranges.shape[0]
     nx = uf.shape[0]
     ny = uf.shape[1]
-    nk = P.shape[4]
+    nk = du.shape[2]
     su = np.zeros(nx)
     sv = np.zeros(nx)
     sw = np.zeros(nx)
@@ -213,9 +361,15 @@ def apply_exchange(P, du, dv, dw, inv_mc, inv_mw, uf, vf, wf, tot):
                 pv = 0.0
                 pw = 0.0
                 for c in range(nc):
-                    pu += P[c, 0, i, j, k]
-                    pv += P[c, 1, i, j, k]
-                    pw += P[c, 2, i, j, k]
+                    L = ranges[c, 1]
+                    ii = slab_of(i, ranges[c, 0], nx)
+                    if ii >= L:
+                        continue
+                    csz = L * ny * nk
+                    q = ranges[c, 2] + (ii * ny + j) * nk + k
+                    pu += pool[q]
+                    pv += pool[q + csz]
+                    pw += pool[q + 2 * csz]
                 pu += du[i, j, k] / inv_mc[k]
                 pv += dv[i, j, k] / inv_mc[k]
                 uf[i, j, k] += pu * inv_mc[k]
@@ -244,9 +398,10 @@ def apply_exchange(P, du, dv, dw, inv_mc, inv_mw, uf, vf, wf, tot):
 
 
 @pjit
-def tke_rates(T, inv_vol, nk_c, out):
-    """out[:, :, :nk_c] = sum_c T[c] / V_cell; zero above (rates of eq. A1, s^-1)."""
-    nc = T.shape[0]
+def tke_rates(pool, ranges, comp, nk_c, inv_vol, out):
+    """out[:, :, :nk_c] = sum_c T[c] / V_cell; zero above (rates of eq. A1, s^-1). T[c] is comp
+    ``comp`` of chunk c's pool range, (L, ny, nk_c)."""
+    nc = ranges.shape[0]
     nx = out.shape[0]
     ny = out.shape[1]
     nz = out.shape[2]
@@ -256,7 +411,11 @@ def tke_rates(T, inv_vol, nk_c, out):
                 if k < nk_c:
                     s = 0.0
                     for c in range(nc):
-                        s += T[c, i, j, k]
+                        L = ranges[c, 1]
+                        ii = slab_of(i, ranges[c, 0], nx)
+                        if ii >= L:
+                            continue
+                        s += pool[ranges[c, 2] + ((comp * L + ii) * ny + j) * nk_c + k]
                     out[i, j, k] = s * inv_vol[k]
                 else:
                     out[i, j, k] = 0.0

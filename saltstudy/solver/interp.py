@@ -18,7 +18,8 @@ horizontal weights, to the lowest level (k = 0), where the air it acts on lives.
 is interpolated between the z-faces, so it goes linearly to ``w = 0`` at the bed (face 0); the part
 of a vertical reaction that falls on face 0 is taken by the bed (it does not enter the air).
 
-Everything here is scalar numba code (``saltstudy._jit.jit``) inlined into the parcel kernels.
+Everything here is scalar numba code (``saltstudy._jit``'s flags with ``inline="always"``),
+inlined into the parcel kernels.
 """
 from __future__ import annotations
 
@@ -26,17 +27,23 @@ import math
 
 import numpy as np
 
-from .._jit import jit
+from .._jit import jit, jit_with
 from .grid import Grid
 
+#: small helpers of the parcel kernels: inlined into the callers at numba-IR level. (LLVM does not
+#: inline across numba's per-function libraries: an out-of-line call that passes the arrays as
+#: structs on the stack cost ~25 ns per call, most of the parcel step.)
+ijit = jit_with(inline="always")
+
 __all__ = ["GridGeometry", "wrap_periodic", "locate", "interp_fluid", "interp_faces",
-           "deposit_faces", "level_of"]
+           "deposit_faces", "level_of", "slab_of", "pool_add_tri", "pool_add_tri2"]
 
 
 class GridGeometry:
     """The arrays and scalars the parcel kernels need, in numba-friendly form.
 
-    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz]; ``z_f (nz+1)``, ``z_c (nz)``,
+    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[1] / z0)]; ``z_f (nz+1)``,
+    ``z_c (nz)``,
     ``lut`` int64: ``lut[m]`` is the face index k with ``z_f[k] <= m * lut_dz`` (a fast start for
     the vertical search on the stretched grid); ``log_den = ln(z_c[1] / z0)``.
     """
@@ -51,14 +58,15 @@ class GridGeometry:
         n_lut = int(math.ceil(grid.Lz / lut_dz)) + 2
         zs = np.arange(n_lut) * lut_dz
         self.lut = np.clip(np.searchsorted(self.z_f, zs, side="right") - 1, 0, self.nz - 1).astype(np.int64)
-        self.geo = np.array([grid.dx, grid.dy, grid.Lx, grid.Ly, z0, lut_dz, grid.Lz], dtype=np.float64)
         if self.nz < 2:
             raise ValueError("the log-law extrapolation needs at least two levels")
+        self.geo = np.array([grid.dx, grid.dy, grid.Lx, grid.Ly, z0, lut_dz, grid.Lz,
+                             1.0 / math.log(self.z_c[1] / z0)], dtype=np.float64)
         if not z0 < self.z_c[0]:
             raise ValueError(f"z0 ({z0}) must lie below the first level ({self.z_c[0]})")
 
 
-@jit
+@ijit
 def wrap_periodic(x: float, L: float) -> float:
     """x mod L in [0, L), correct for any number of domain lengths (Oceananigans#3320)."""
     r = x - L * math.floor(x / L)
@@ -69,7 +77,7 @@ def wrap_periodic(x: float, L: float) -> float:
     return r
 
 
-@jit
+@ijit
 def level_of(z: float, z_f: np.ndarray, lut: np.ndarray, lut_dz: float, nz: int) -> int:
     """Face index k (0..nz-1) with z_f[k] <= z < z_f[k+1] (clamped): the cell holding height z."""
     if z <= 0.0:
@@ -83,7 +91,7 @@ def level_of(z: float, z_f: np.ndarray, lut: np.ndarray, lut_dz: float, nz: int)
     return k
 
 
-@jit
+@ijit
 def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
     """Stencil of a point for the three staggered components.
 
@@ -129,7 +137,7 @@ def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
         kc = 0
         fzc = 0.0
         zz = z if z > 1.0001 * z0 else 1.0001 * z0
-        lfac = math.log(zz / z0) / math.log(z_c[1] / z0)
+        lfac = math.log(zz / z0) * geo[7]
     else:
         kc = kcell if z >= z_c[kcell] else kcell - 1
         if kc >= nz - 1:
@@ -142,7 +150,7 @@ def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
     return ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell
 
 
-@jit
+@ijit
 def _tri(f, i0, fx, j0, fy, k0, fz, nx, ny):
     """Trilinear value of f around (i0+fx, j0+fy, k0+fz) with periodic i, j."""
     i1 = i0 + 1
@@ -162,7 +170,7 @@ def _tri(f, i0, fx, j0, fy, k0, fz, nx, ny):
     return a
 
 
-@jit
+@ijit
 def _bil(f, i0, fx, j0, fy, k, nx, ny):
     i1 = i0 + 1
     if i1 == nx:
@@ -176,7 +184,7 @@ def _bil(f, i0, fx, j0, fy, k, nx, ny):
             + fx * (gy * f[i1, j0, k] + fy * f[i1, j1, k]))
 
 
-@jit
+@ijit
 def interp_fluid(u, v, w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog,
                  nx, ny):
     """Resolved fluid velocity at a located point (trilinear; log law below the first level)."""
@@ -190,7 +198,7 @@ def interp_fluid(u, v, w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, f
     return uf, vf, wf
 
 
-@jit
+@ijit
 def interp_faces(du, dv, dw, nk_c, nk_w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf,
                  islog, nx, ny):
     """Interpolate face fields (limited to the lowest ``nk_c`` / ``nk_w`` levels) with the *deposit*
@@ -211,7 +219,7 @@ def interp_faces(du, dv, dw, nk_c, nk_w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc,
     return a, b, c
 
 
-@jit
+@ijit
 def _add_tri(buf, val, i0, fx, j0, fy, k0, fz, nx, ny, nk):
     """buf[i, j, k] += w_ijk * val with trilinear weights; levels >= nk are folded onto nk - 1
     (a safety net: momentum stays conserved, only its position is approximate)."""
@@ -239,7 +247,7 @@ def _add_tri(buf, val, i0, fx, j0, fy, k0, fz, nx, ny, nk):
     buf[i1, j1, k1] += fx * fy * fz * val
 
 
-@jit
+@ijit
 def deposit_faces(bu, bv, bw, val_u, val_v, val_w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc,
                   kf, fzf, islog, nx, ny):
     """Scatter (val_u, val_v, val_w) to the u, v, w face buffers with the interpolation weights.
@@ -253,3 +261,108 @@ def deposit_faces(bu, bv, bw, val_u, val_v, val_w, ixf, fxf, ixc, fxc, jyf, fyf,
     _add_tri(bu, val_u, ixf, fxf, jyc, fyc, kc, fzc, nx, ny, nk_c)
     _add_tri(bv, val_v, ixc, fxc, jyf, fyf, kc, fzc, nx, ny, nk_c)
     _add_tri(bw, val_w, ixc, fxc, jyc, fyc, kf, fzf, nx, ny, bw.shape[2])
+
+
+# ---- chunk-private deposit buffers limited to a range of x-slabs (coupling.py) ----------------
+# A chunk's buffer covers the L slabs s, s+1, ..., s+L-1 (mod nx) of one or more face fields,
+# stored flat in a pool at ``off``: index ``off + ((comp * L + (i - s) mod nx) * ny + j) * nk + k``
+# (times 2, plus 0 or 1, for the paired buffers). The caller guarantees that every slab written
+# lies in the range (coupling.chunk_ranges).
+
+
+@ijit
+def slab_of(i, s, nx):
+    """Chunk-local slab index of global slab i for a range starting at s."""
+    ii = i - s
+    if ii < 0:
+        ii += nx
+    return ii
+
+
+@ijit
+def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
+    """pool[base + slab-local trilinear stencil] += w_ijk * val (as _add_tri: levels >= nk fold
+    onto nk - 1). ``base = off + comp * L * ny * nk``."""
+    i1 = i0 + 1
+    if i1 == nx:
+        i1 = 0
+    j1 = j0 + 1
+    if j1 == ny:
+        j1 = 0
+    k1 = k0 + 1
+    if k0 >= nk:
+        k0 = nk - 1
+    if k1 >= nk:
+        k1 = nk - 1
+    gx = 1.0 - fx
+    gy = 1.0 - fy
+    gz = 1.0 - fz
+    r0 = base + slab_of(i0, s, nx) * ny * nk
+    r1 = base + slab_of(i1, s, nx) * ny * nk
+    a00 = r0 + j0 * nk
+    a01 = r0 + j1 * nk
+    a10 = r1 + j0 * nk
+    a11 = r1 + j1 * nk
+    v00 = gx * gy * val
+    v01 = gx * fy * val
+    v10 = fx * gy * val
+    v11 = fx * fy * val
+    pool[a00 + k0] += v00 * gz
+    pool[a00 + k1] += v00 * fz
+    pool[a01 + k0] += v01 * gz
+    pool[a01 + k1] += v01 * fz
+    pool[a10 + k0] += v10 * gz
+    pool[a10 + k1] += v10 * fz
+    pool[a11 + k0] += v11 * gz
+    pool[a11 + k1] += v11 * fz
+
+
+@ijit
+def pool_add_tri2(pool, base, s, nx, ny, nk, va, vb, i0, fx, j0, fy, k0, fz):
+    """As pool_add_tri for a pair of interleaved buffers (stride 2): (+ w va, + w vb)."""
+    i1 = i0 + 1
+    if i1 == nx:
+        i1 = 0
+    j1 = j0 + 1
+    if j1 == ny:
+        j1 = 0
+    k1 = k0 + 1
+    if k0 >= nk:
+        k0 = nk - 1
+    if k1 >= nk:
+        k1 = nk - 1
+    gx = 1.0 - fx
+    gy = 1.0 - fy
+    gz = 1.0 - fz
+    r0 = base + 2 * slab_of(i0, s, nx) * ny * nk
+    r1 = base + 2 * slab_of(i1, s, nx) * ny * nk
+    a00 = r0 + 2 * j0 * nk
+    a01 = r0 + 2 * j1 * nk
+    a10 = r1 + 2 * j0 * nk
+    a11 = r1 + 2 * j1 * nk
+    k0 *= 2
+    k1 *= 2
+    w = gx * gy * gz
+    pool[a00 + k0] += w * va
+    pool[a00 + k0 + 1] += w * vb
+    w = gx * gy * fz
+    pool[a00 + k1] += w * va
+    pool[a00 + k1 + 1] += w * vb
+    w = gx * fy * gz
+    pool[a01 + k0] += w * va
+    pool[a01 + k0 + 1] += w * vb
+    w = gx * fy * fz
+    pool[a01 + k1] += w * va
+    pool[a01 + k1 + 1] += w * vb
+    w = fx * gy * gz
+    pool[a10 + k0] += w * va
+    pool[a10 + k0 + 1] += w * vb
+    w = fx * gy * fz
+    pool[a10 + k1] += w * va
+    pool[a10 + k1 + 1] += w * vb
+    w = fx * fy * gz
+    pool[a11 + k0] += w * va
+    pool[a11 + k0 + 1] += w * vb
+    w = fx * fy * fz
+    pool[a11 + k1] += w * va
+    pool[a11 + k1 + 1] += w * vb

@@ -64,12 +64,12 @@ from numba import prange
 
 from .._jit import jit, pjit
 from ..physics.drag import drag_correction
-from .coupling import (N_CHUNKS, apply_exchange, chunk_bounds, face_inverse_masses,
-                       implicit_coefficients, implicit_corrections, lagrangian_time_coefficients,
-                       tke_rates)
+from .coupling import (N_CHUNKS, apply_exchange, chunk_arcs, chunk_bounds, chunk_ranges,
+                       face_inverse_masses, grid_absmax, implicit_coefficients,
+                       implicit_corrections, lagrangian_time_coefficients, tke_rates)
 from .grid import Grid
-from .interp import (GridGeometry, deposit_faces, interp_faces, interp_fluid, level_of, locate,
-                     wrap_periodic)
+from .interp import (GridGeometry, _bil, _tri, ijit, interp_fluid, level_of, locate,
+                     pool_add_tri, slab_of, wrap_periodic)
 from .splash_kernels import bed_events, draw_diameter, soil_arrays, splash_params
 from .state import FlowState
 
@@ -79,6 +79,8 @@ __all__ = ["Saltation", "advance_parcel", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN
 #: relative tolerance of the fixed-point iteration for the end-of-step drag rate k_p
 DRAG_TOL = 1e-6
 DRAG_MAXIT = 40
+#: Newton updates of the drag-rate iteration at most (then plain fixed-point updates)
+NEWTON_MAXIT = 12
 #: sub-steps per step at most (a parcel then moves more than a cell height in a sub-step)
 MAX_SUBSTEPS = 16
 #: the grains' random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct from
@@ -93,7 +95,7 @@ SORT_INTERVAL = 10
 _RHO, _NU, _G, _RHOP, _Q, _HIMP, _TOL, _LZ, _DT, _TWOWAY, _TKE, _SGS = range(12)
 
 
-@jit
+@ijit
 def _z_at(t, z0, wt, a, k):
     """z(t) = z0 + w_t t + (w_p - w_t)(1 - exp(-k t))/k, a = w_p - w_t."""
     return z0 + wt * t - a * math.expm1(-k * t) / k
@@ -132,19 +134,48 @@ def _crossing_time(z0, wt, a, k, h, zc):
     return min(max(t, 0.0), h)
 
 
-@jit
-def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, du, dv, dw,
-                   bu, bv, bw, bt, prm, geo, z_f, z_c, dz_c, lut, tlc, k0):
+@ijit
+def _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc,
+          kc, fzc, kf, fzf, lfac, islog, nx, ny):
+    """Seen resolved velocity: the fluid's (interp_fluid) plus, two-way, the implicit change delta
+    interpolated with the deposit weights (interp_faces; zero beyond the buffer levels nkb).
+    Above the log layer both use the same weights, so the sum is read from Uc = U + delta."""
+    if islog:
+        us = lfac * _bil(uf, ixf, fxf, jyc, fyc, 1, nx, ny)
+        vs = lfac * _bil(vf, ixc, fxc, jyf, fyf, 1, nx, ny)
+        if twoway and 1 < nkb:
+            us += _bil(du, ixf, fxf, jyc, fyc, 0, nx, ny)
+            vs += _bil(dv, ixc, fxc, jyf, fyf, 0, nx, ny)
+    elif twoway and kc + 1 < nkb:
+        us = _tri(Uc, ixf, fxf, jyc, fyc, kc, fzc, nx, ny)
+        vs = _tri(Vc, ixc, fxc, jyf, fyf, kc, fzc, nx, ny)
+    else:
+        us = _tri(uf, ixf, fxf, jyc, fyc, kc, fzc, nx, ny)
+        vs = _tri(vf, ixc, fxc, jyf, fyf, kc, fzc, nx, ny)
+    if twoway and kf + 1 < nkb:
+        ws = _tri(Wc, ixc, fxc, jyc, fyc, kf, fzf, nx, ny)
+    else:
+        ws = _tri(wf, ixc, fxc, jyc, fyc, kf, fzf, nx, ny)
+    return us, vs, ws
+
+
+@ijit
+def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, Uc, Vc, Wc, du, dv,
+                   dw, pool, s, off, L, nk, ct, prm, geo, z_f, z_c, dz_c, lut, tlc, c0, wtil):
     """Integrate parcel p over T seconds (see module doc). Returns (hit, time left).
 
-    Deposits in (bu, bv, bw) minus the drag impulse and, if ``k0[p] > 0`` (the parcel was in the
-    implicit estimate, coupling.py, with drag rate k0 over T), plus the modelled impulse
-    c_p (u_s - u~_p) at the start; the TKE-sink sum goes to bt. su/sv/sw: SGS velocity (length 0
-    when off).
+    Deposits in its chunk's pool range (``s`` first slab, ``L`` slabs, offset ``off``; comps 0-2 =
+    u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk)) minus the drag impulse and, if
+    ``c0[p] > 0`` (the parcel was in the implicit estimate, coupling.py, with c_p = c0, vertical
+    u~_p = wtil), plus the modelled impulse c_p (u_s - u~_p) at the start (same weights as the
+    first sub-step's drag impulse: one deposit). su/sv/sw: SGS velocity (length 0 when off).
+
+    Drag rate: the fixed point k = F(k) of the module doc, solved by safeguarded Newton (the
+    derivative of F is analytic: no extra transcendental), stopped when |F(k) - k| <= tol k; the
+    last Newton update is then applied (an error quadratically below the tolerance).
     """
     nx = uf.shape[0]
     ny = uf.shape[1]
-    nz = uf.shape[2]
     rho = prm[_RHO]
     nu = prm[_NU]
     g = prm[_G]
@@ -159,8 +190,8 @@ def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, du
     sgs = prm[_SGS] != 0.0
     Lx = geo[2]
     Ly = geo[3]
-    nk_c = du.shape[2]
-    nk_w = dw.shape[2]
+    nkb = du.shape[2]
+    csz = L * ny * nk
     xp = x[p]
     yp = y[p]
     zp = z[p]
@@ -170,9 +201,8 @@ def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, du
     dp = d[p]
     tp = rho_p * dp * dp / (18.0 * rho * nu)
     Qm = Q * (math.pi / 6.0) * rho_p * dp * dp * dp
+    dnu = dp / nu
     k = kd[p]
-    k_next = k
-    wt = 0.0
     t = 0.0
     nsub = 0
     hit = False
@@ -180,15 +210,9 @@ def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, du
         return True, T
     while t < T:
         ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
-            xp, yp, zp, geo, z_f, z_c, lut, nx, ny, nz)
-        us, vs, ws = interp_fluid(uf, vf, wf, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf,
-                                  fzf, lfac, islog, nx, ny)
-        if twoway:
-            a_, b_, c_ = interp_faces(du, dv, dw, nk_c, nk_w, ixf, fxf, ixc, fxc, jyf, fyf, jyc,
-                                      fyc, kc, fzc, kf, fzf, islog, nx, ny)
-            us += a_
-            vs += b_
-            ws += c_
+            xp, yp, zp, geo, z_f, z_c, lut, nx, ny, z_c.shape[0])
+        us, vs, ws = _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc,
+                           jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, nx, ny)
         h = T - t
         if nsub < MAX_SUBSTEPS - 1:
             lim = dz_c[kcell] / (abs(wp) + 1e-30)
@@ -196,40 +220,63 @@ def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, du
                 h = max(lim, T / MAX_SUBSTEPS)
                 if h > T - t:
                     h = T - t
-        if twoway and nsub == 0 and k0[p] > 0.0:
+        mu_ = 0.0
+        mv_ = 0.0
+        mw_ = 0.0
+        if twoway and nsub == 0 and c0[p] > 0.0:
             # the modelled impulse of the implicit estimate (coupling.py), same k, dt and weights
-            kk0 = k0[p]
-            ome0 = -math.expm1(-kk0 * T)
-            c0 = Qm * ome0
-            deposit_faces(bu, bv, bw, c0 * (us - up), c0 * (vs - vp),
-                          c0 * (ws - (wp + g / kk0 - g * T / ome0)), ixf, fxf, ixc, fxc, jyf, fyf,
-                          jyc, fyc, kc, fzc, kf, fzf, islog, nx, ny)
+            cc = c0[p]
+            mu_ = cc * (us - up)
+            mv_ = cc * (vs - vp)
+            mw_ = cc * (ws - wtil[p])
         if sgs:
             us += su[p]
             vs += sv[p]
             ws += sw[p]
+        Du = us - up
+        Dv = vs - vp
+        Dw = ws - wp
         if k <= 0.0:
-            rel = math.sqrt((us - up) ** 2 + (vs - vp) ** 2 + (ws - wp) ** 2)
-            k = drag_correction(rel * dp / nu) / tp
-        # drag rate at a blend of the step-mean and end-of-step slip, by fixed-point iteration
-        # (module doc): E * mean + (1 - E) * end
+            rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
+            k = drag_correction(rel * dnu) / tp
+        # drag rate at a blend of the step-mean and end-of-step slip (module doc):
+        # E * mean + (1 - E) * end, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z
         for _it in range(DRAG_MAXIT):
-            em = math.expm1(-k * h)
+            kh = k * h
+            em = math.expm1(-kh)
             E = 1.0 + em
-            phi = -em / (k * h)
-            wt = ws - g / k
-            un = us + (up - us) * E
-            vn = vs + (vp - vs) * E
-            wn = wt + (wp - wt) * E
-            ax = (us - up) * (E * phi - em * E)
-            ay = (vs - vp) * (E * phi - em * E)
-            az = (ws - wt) - (wp - wt) * (E * phi - em * E)
+            phi = -em / kh
+            beta = E * (phi - em)
+            gk = g / k
+            ax = Du * beta
+            ay = Dv * beta
+            az = gk + (Dw - gk) * beta
             rel = math.sqrt(ax * ax + ay * ay + az * az)
-            k_next = drag_correction(rel * dp / nu) / tp
-            if abs(k_next - k) <= tol * k:
+            rp = (rel * dnu) ** 0.687
+            F = (1.0 + 0.15 * rp) / tp
+            G = F - k
+            kn = F
+            if _it < NEWTON_MAXIT and rel > 0.0:
+                # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
+                db = E * ((E - phi) / k + h * E) - h * beta
+                daz = (Dw - gk) * db - gk / k * (1.0 - beta)
+                drel = ((ax * Du + ay * Dv) * db + az * daz) / rel
+                den = 1.0 - (0.15 * 0.687) * rp * drel / (rel * tp)
+                if den > 0.1:
+                    kt = k + G / den
+                    if kt > 0.0:
+                        kn = kt
+            if abs(G) <= tol * k:
+                k = kn
                 break
-            k = k_next
-        ome_k = -math.expm1(-k * h) / k
+            k = kn
+        em = math.expm1(-k * h)
+        E = 1.0 + em
+        ome_k = -em / k
+        wt = ws - g / k
+        un = us + (up - us) * E
+        vn = vs + (vp - vs) * E
+        wn = wt + (wp - wt) * E
         zn = zp + wt * h + (wp - wt) * ome_k
         if zn < h_imp:
             h = _crossing_time(zp, wt, wp - wt, k, h, h_imp)
@@ -246,17 +293,26 @@ def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, du
             zn = 2.0 * Lz - zn
             wn = -wn
         if twoway:
-            # the air's impulse is minus the parcel's drag impulse: Q m_p (Delta u - g h)
-            deposit_faces(bu, bv, bw, -Qm * (un - up), -Qm * (vn - vp), -Qm * (wn - wp + g * h),
-                          ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, islog, nx, ny)
+            # the air's impulse is minus the parcel's drag impulse: Q m_p (Delta u - g h), plus
+            # (first sub-step) the modelled impulse
+            if islog:
+                kc = 0
+                fzc = 0.0
+            pool_add_tri(pool, off, s, nx, ny, nk, mu_ - Qm * (un - up), ixf, fxf, jyc, fyc, kc,
+                         fzc)
+            pool_add_tri(pool, off + csz, s, nx, ny, nk, mv_ - Qm * (vn - vp), ixc, fxc, jyf, fyf,
+                         kc, fzc)
+            pool_add_tri(pool, off + 2 * csz, s, nx, ny, nk, mw_ - Qm * (wn - wp + g * h), ixc,
+                         fxc, jyc, fyc, kf, fzf)
         if tke:
             ic = int(xp / geo[0]) % nx
             jc = int(yp / geo[1]) % ny
-            kk = kcell if kcell < bt.shape[2] else bt.shape[2] - 1
+            kk = kcell if kcell < nk else nk - 1
             e = ef[ic, jc, kcell]
             if e > 0.0:
                 tl = tlc[kcell] / math.sqrt(e)
-                bt[ic, jc, kk] += Qm / rho * 2.0 * (k * tp) / (tp + tl) * (h / dtot)
+                pool[off + ((ct * L + slab_of(ic, s, nx)) * ny + jc) * nk + kk] += (
+                    Qm / rho * 2.0 * (k * tp) / (tp + tl) * (h / dtot))
         xp = wrap_periodic(xn, Lx)
         yp = wrap_periodic(yn, Ly)
         zp = zn
@@ -273,39 +329,60 @@ def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, du
     u[p] = up
     v[p] = vp
     w[p] = wp
-    kd[p] = k_next
+    kd[p] = k
     return hit, T - t if hit else 0.0
 
 
 @pjit
-def _advance_all(n, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf, wf, ef, du, dv, dw,
-                 P, Tb, prm, geo, z_f, z_c, dz_c, lut, tlc, vmax, k0):
-    """All parcels over dt, chunk-parallel. Hits get flag 1 and their time left in trem."""
-    nc = P.shape[0]
+def _advance_all(n, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf, wf, ef, Uc, Vc,
+                 Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c, dz_c, lut, tlc,
+                 vmax, c0, wtil, nhit):
+    """All parcels over dt, chunk-parallel. Hits get flag 1 and their time left in trem; nhit[c]
+    counts the hits of chunk c. Chunk c first zeroes its pool range (ncomp comps)."""
+    nc = ranges.shape[0]
+    ny = uf.shape[1]
     for c in prange(nc):
-        P[c] = 0.0
-        Tb[c] = 0.0
+        s = ranges[c, 0]
+        L = ranges[c, 1]
+        off = ranges[c, 2]
+        for q in range(off, off + ncomp * L * ny * nk):
+            pool[q] = 0.0
         lo, hi = chunk_bounds(n, c, nc)
-        bu = P[c, 0]
-        bv = P[c, 1]
-        bw = P[c, 2]
-        bt = Tb[c]
         m = 0.0
+        nh = 0
         for p in range(lo, hi):
             if flag[p] != 0:
                 continue
             T = dt + trem[p]  # time credit of a parcel that left the bed during the last step
             trem[p] = 0.0
             hit, rem = advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef,
-                                      du, dv, dw, bu, bv, bw, bt, prm, geo, z_f, z_c, dz_c, lut,
-                                      tlc, k0)
+                                      Uc, Vc, Wc, du, dv, dw, pool, s, off, L, nk, ct, prm, geo,
+                                      z_f, z_c, dz_c, lut, tlc, c0, wtil)
             if hit:
                 flag[p] = 1
                 trem[p] = rem
-            s = max(abs(u[p]), abs(v[p]))
-            if s > m:
-                m = s
+                nh += 1
+            sp = max(abs(u[p]), abs(v[p]))
+            if sp > m:
+                m = sp
         vmax[c] = m
+        nhit[c] = nh
+
+
+@pjit
+def _collect_events(n, flag, nhit, ev):
+    """ev[:sum(nhit)] = indices of the parcels with flag 1, in increasing order (as flatnonzero)."""
+    nc = nhit.shape[0]
+    start = np.zeros(nc, dtype=np.int64)
+    for c in range(1, nc):
+        start[c] = start[c - 1] + nhit[c - 1]
+    for c in prange(nc):
+        lo, hi = chunk_bounds(n, c, nc)
+        q = start[c]
+        for p in range(lo, hi):
+            if flag[p] == 1:
+                ev[q] = p
+                q += 1
 
 
 @jit
@@ -364,14 +441,14 @@ def _permute(n, perm, a, tmp):
         a[q] = tmp[q]
 
 
-@jit
+@pjit
 def _vmax_and_ztop(n, u, v, w, z):
     """(max horizontal speed, max of z + max(w, 0) scale) over parcels: for max_dt and buffer depth."""
     nb = 64
     mu = np.zeros(nb)
     mz = np.zeros(nb)
     mw = np.zeros(nb)
-    for b in range(nb):
+    for b in prange(nb):
         lo = (b * n) // nb
         hi = ((b + 1) * n) // nb
         a = 0.0
@@ -550,7 +627,7 @@ class Saltation:
     _FIELDS = ("x", "y", "z", "u", "v", "w", "d", "kd", "trem")
 
     def _alloc(self, cap: int) -> None:
-        for f in self._FIELDS + ("k0",):
+        for f in self._FIELDS + ("k0", "c0", "wtil"):
             setattr(self, "_" + f, np.zeros(cap))
         self._flag = np.zeros(cap, dtype=np.int8)
         self._pend = np.zeros(cap, dtype=np.int64)
@@ -570,7 +647,7 @@ class Saltation:
         if need <= cap:
             return
         new = max(need, 2 * cap)
-        for f in self._FIELDS + ("k0", "flag", "pend", "dead", "ev"):
+        for f in self._FIELDS + ("k0", "c0", "wtil", "flag", "pend", "dead", "ev"):
             old = getattr(self, "_" + f)
             a = np.zeros(new, dtype=old.dtype)
             a[:cap] = old
@@ -641,17 +718,49 @@ class Saltation:
         """Levels the deposit buffers must cover this step: up to where any parcel can get."""
         vh, ztop, vtot = _vmax_and_ztop(self.n, self._u, self._v, self._w, self._z)
         self._vmax = vh
-        wmax = float(np.abs(state.w).max()) if state.w.size else 0.0
+        wmax = grid_absmax(state.w) if state.w.size else 0.0
         # rebounds leave at <= ~2 v_imp (the normal tail is redrawn only below 0), ejecta slower
         reach = ztop + (max(vtot, wmax) * 2.5 + 1.0) * dt
         k = int(np.searchsorted(self.grid.z_f, reach, side="right"))
         return int(min(self.grid.nz, max(2, k + 2)))
+
+    # ---- work buffers (kept across steps: no allocation, no page faults per step) ------------
+    def _work_init(self) -> None:
+        nx, ny, nz = self.grid.shape
+        nc = N_CHUNKS
+        self._occ = np.zeros((nc, nx), dtype=np.int8)
+        self._arcs = np.zeros((nc, 2), dtype=np.int64)
+        self._stats = np.zeros((nc, 3))
+        self._margin = np.zeros(nc, dtype=np.int64)
+        self._ranges = np.zeros((nc, 3), dtype=np.int64)
+        self._vmaxc = np.zeros(nc)
+        self._nhit = np.zeros(nc, dtype=np.int64)
+        self._dmax = np.zeros(nx)
+        self._pool = np.zeros(0)
+        self._grid6 = np.zeros((6, nx * ny * nz)) if self.two_way else np.zeros((6, 1))
+        self._cnt = np.zeros(4, dtype=np.int64)
+        self._en = np.zeros(2)
+        self._tot = np.zeros(3)
+
+    def _grid_views(self, nk: int):
+        """(du, dv, dw, Uc, Vc, Wc), each (nx, ny, nk), views of persistent storage."""
+        nx, ny, _ = self.grid.shape
+        m = nx * ny * nk
+        return tuple(self._grid6[i, :m].reshape(nx, ny, nk) for i in range(6))
+
+    def _layout(self, margin: np.ndarray, per_slab: int) -> None:
+        """Chunk ranges for the given margins; grows the pool if needed."""
+        size = chunk_ranges(self._arcs, margin, self.grid.nx, per_slab, self._ranges)
+        if size > self._pool.shape[0]:
+            self._pool = np.zeros(int(size * 1.25) + 1)
 
     def dynamics(self, state: FlowState, dt: float) -> None:
         """Advance all parcels over dt in the frozen flow; exchange momentum; splash; fill tke_sink."""
         g = self.grid
         nx, ny, nz = g.shape
         geo = self.geom
+        if not hasattr(self, "_ranges"):
+            self._work_init()
         step = {"n_impacts": 0, "n_rebounds": 0, "n_ejections": 0, "n_depositions": 0,
                 "n_entrained": 0}
         if self.entrainment:
@@ -662,72 +771,90 @@ class Saltation:
         if self.n > 0 and self._steps % SORT_INTERVAL == 0:
             self._sort()
         self._steps += 1
-        nk = self._levels(state, dt) if self.n > 0 else 2
+        n = self.n
+        nk = self._levels(state, dt) if n > 0 else 2
         self.prm[_DT] = dt
-        nc = N_CHUNKS
-        need_buf = self.two_way
-        if need_buf:
-            A = np.empty((nc, 3, nx, ny, nk))
-            B = np.empty((nc, 3, nx, ny, nk))
-            implicit_coefficients(self.n, self._x, self._y, self._z, self._u, self._v, self._w,
+        two, tke = self.two_way, self.tke_sink
+        # which x-slabs each chunk can touch (parcels are sorted by cell: a narrow range)
+        chunk_arcs(n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._occ,
+                   self._arcs, self._stats)
+        if two:
+            du, dv, dw, Uc, Vc, Wc = self._grid_views(nk)
+            self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
+            self._layout(self._margin, 3 * 2 * ny * nk)
+            implicit_coefficients(n, self._x, self._y, self._z, self._u, self._v, self._w,
                                   self._d, self._kd, self._flag, self._trem, state.u, state.v,
-                                  state.w, dt,
-                                  self.prm, geo.geo, geo.z_f, geo.z_c, geo.lut, A, B, self._k0)
-            du = np.empty((nx, ny, nk))
-            dv = np.empty((nx, ny, nk))
-            dw = np.empty((nx, ny, nk))
-            implicit_corrections(A, B, self.inv_mc, self.inv_mw, state.u, state.v, state.w, du, dv, dw)
-            del A, B
-            P = np.empty((nc, 3, nx, ny, nk))
+                                  state.w, dt, self.prm, geo.geo, geo.z_f, geo.z_c, geo.lut,
+                                  self._pool, self._ranges, nk, self._k0, self._c0, self._wtil)
+            implicit_corrections(self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
+                                 state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax)
+            dumax = float(self._dmax.max())
         else:
-            du = dv = dw = np.zeros((1, 1, 1))
-            P = np.empty((nc, 3, 1, 1, 1))
-        Tb = np.empty((nc, nx, ny, nk)) if self.tke_sink else np.empty((nc, 1, 1, 1))
-        ef = state.e if (self.tke_sink or self.sgs) else self._e_zero
-        vmax = np.zeros(nc)
-        _advance_all(self.n, dt, self._x, self._y, self._z, self._u, self._v, self._w, self._d,
+            du = dv = dw = Uc = Vc = Wc = self._e_zero
+            dumax = 0.0
+        # a parcel moves at most max(|u_p|, |u_seen|) (dt + credit) in x within the step
+        if n > 0:
+            uair = grid_absmax(state.u) + dumax
+            st = self._stats
+            vb = np.maximum(st[:, 0], uair + st[:, 2])
+            mg = vb * (dt + st[:, 1]) / g.dx
+            mg = np.where(np.isfinite(mg), np.minimum(mg, nx), nx)  # NaN: the whole domain
+            self._margin[:] = np.ceil(mg).astype(np.int64) + 2
+        ncomp = 3 * int(two) + int(tke)
+        self._layout(self._margin, ncomp * ny * nk)
+        ef = state.e if (tke or self.sgs) else self._e_zero
+        _advance_all(n, dt, self._x, self._y, self._z, self._u, self._v, self._w, self._d,
                      self._kd, self._flag, self._trem, self._su, self._sv, self._sw, state.u,
-                     state.v, state.w, ef, du, dv, dw, P, Tb, self.prm, geo.geo, geo.z_f, geo.z_c,
-                     geo.dz_c, geo.lut, self.tlc, vmax, self._k0)
+                     state.v, state.w, ef, Uc, Vc, Wc, du, dv, dw, self._pool, self._ranges, nk,
+                     ncomp, 3 if two else 0, self.prm, geo.geo, geo.z_f, geo.z_c, geo.dz_c,
+                     geo.lut, self.tlc, self._vmaxc, self._c0, self._wtil, self._nhit)
         # bed events, serial, in parcel order. Rebounds and ejecta leave the bed at the impact
         # point with the rest of the step as a time credit: they are integrated over dt + credit in
         # the next step, inside its implicit exchange (integrating them now, outside it, would be
         # an explicit exchange: unstable for small grains at high loading).
-        ev = np.flatnonzero(self._flag[: self.n] == 1).astype(np.int64)
-        cnt = np.zeros(4, dtype=np.int64)
-        en = np.zeros(2)
+        n_ev = int(self._nhit.sum())
+        cnt = self._cnt
+        en = self._en
+        cnt[:] = 0
+        en[:] = 0.0
         n_dead = 0
-        rounds = 1 if ev.shape[0] else 0
-        cursor, n_pend = 0, 0
-        n_before = self.n
-        while ev.shape[0]:
-            cursor, self.n, n_pend, n_dead = bed_events(
-                self.rng, ev, ev.shape[0], cursor, self.n, self._x, self._y, self._z, self._u,
-                self._v, self._w, self._d, self._kd, self._flag, self._trem, self._pend,
-                n_pend, self._dead, n_dead, self.sp, self.cum, self.mu, self.lnsig, self.Q,
-                cnt, en)
-            if cursor >= ev.shape[0]:
-                break
-            self._grow(2 * self.capacity)
-        if self.sgs:  # ejecta start without an SGS velocity
-            self._su[n_before:self.n] = self._sv[n_before:self.n] = self._sw[n_before:self.n] = 0.0
+        rounds = 1 if n_ev else 0
+        if n_ev:
+            ev = self._ev[:n_ev]
+            _collect_events(n, self._flag, self._nhit, ev)
+            ev = ev.copy()  # bed_events may grow (replace) self._ev
+            cursor, n_pend = 0, 0
+            n_before = self.n
+            while True:
+                cursor, self.n, n_pend, n_dead = bed_events(
+                    self.rng, ev, n_ev, cursor, self.n, self._x, self._y, self._z, self._u,
+                    self._v, self._w, self._d, self._kd, self._flag, self._trem, self._pend,
+                    n_pend, self._dead, n_dead, self.sp, self.cum, self.mu, self.lnsig, self.Q,
+                    cnt, en)
+                if cursor >= n_ev:
+                    break
+                self._grow(2 * self.capacity)
+            if self.sgs:  # ejecta start without an SGS velocity
+                self._su[n_before:self.n] = self._sv[n_before:self.n] = \
+                    self._sw[n_before:self.n] = 0.0
         if n_dead:
             dead = np.sort(self._dead[:n_dead])[::-1].copy()
             self.n = _compact(dead, n_dead, self.n, self._x, self._y, self._z, self._u, self._v,
                               self._w, self._d, self._kd, self._flag, self._trem, self._su,
                               self._sv, self._sw)
         # momentum to the air, TKE sink
-        if self.two_way:
-            tot = np.zeros(3)
-            bed = apply_exchange(P, du, dv, dw, self.inv_mc, self.inv_mw, state.u, state.v, state.w,
-                                 tot)
+        if two:
+            tot = self._tot
+            bed = apply_exchange(self._pool, self._ranges, ncomp, du, dv, dw, self.inv_mc,
+                                 self.inv_mw, state.u, state.v, state.w, tot)
             self.momentum_to_air += tot
             self.momentum_to_bed += bed
-        if self.tke_sink:
+        if tke:
             if state.tke_sink is None:
                 state.tke_sink = np.zeros(g.shape)
-            tke_rates(Tb, self.inv_vol, nk, state.tke_sink)
-        self._vmax = max(self._vmax, float(vmax.max()) if self.n else 0.0)
+            tke_rates(self._pool, self._ranges, 3 if two else 0, nk, self.inv_vol,
+                      state.tke_sink)
+        self._vmax = max(self._vmax, float(self._vmaxc.max()) if self.n else 0.0)
         step["n_impacts"], step["n_rebounds"], step["n_ejections"], step["n_depositions"] = (
             int(c) for c in cnt)
         for key, val in step.items():
