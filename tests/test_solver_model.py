@@ -56,7 +56,9 @@ def test_wall_stress_and_length_scale():
 
 
 def test_drive_feed_forward_and_diagnostics_shapes():
-    sc = smoke_scene()
+    from saltstudy.config import load_case, load_fidelity, resolve_scene
+    # the feed-forward of the top drive (explicitly: the package default may be the pressure gradient)
+    sc = resolve_scene(load_case(1, overrides={"forcing": {"drive": "top"}}), load_fidelity("smoke"))
     m = Model.from_scene(sc)
     ustar = sc.case.forcing.u_star_s
     f = m.stepper.f_c * m.grid.dz_c

@@ -1,10 +1,11 @@
 """Two-way momentum exchange between parcels and air (paper eq. 2) and the SGS Buffers. Each of the ``N_CHUNKS`` parcel chunks deposits into its own buffers (no races; the
 chunks' buffers are summed in chunk order, so the result does not depend on the thread count).
-Parcels are kept sorted by cell (particles.py), so a chunk only touches a narrow range of x-slabs:
-its buffers cover only that circular range (``chunk_arcs``: the x-cells its parcels occupy,
-widened by the stencil and by the largest distance a parcel of the chunk can travel within the
-step, ``chunk_ranges``), stored flat in one pool that lives across steps (no allocation, no page
-faults). Slabs outside a chunk's range hold zeros of that chunk and are skipped in the sums.
+A chunk is a run of consecutive x-slabs holding about n / N_CHUNKS parcels (``chunk_assign``;
+its parcels are processed in increasing index order), so its buffers need only cover its own
+slabs widened by the stencil and by the largest distance one of its parcels can travel within the
+step (``chunk_ranges``); they are stored flat in one pool that lives across steps (no allocation,
+no page faults). Slabs outside a chunk's range hold zeros of that chunk and are skipped in the
+sums.
 
 TKE sink (eq. A1).
 
@@ -43,11 +44,12 @@ interpolation's smoothing factor).
 
 Buffers. Each of the ``N_CHUNKS`` parcel chunks deposits into its own buffers (no races; the
 chunks' buffers are summed in chunk order, so the result does not depend on the thread count).
-Parcels are kept sorted by cell (particles.py), so a chunk only touches a narrow range of x-slabs:
-its buffers cover only that circular range (``chunk_arcs``: the x-cells its parcels occupy,
-widened by the stencil and by the largest distance a parcel of the chunk can travel within the
-step, ``chunk_ranges``), stored flat in one pool that lives across steps (no allocation, no page
-faults). Slabs outside a chunk's range hold zeros of that chunk and are skipped in the sums.
+A chunk is a run of consecutive x-slabs holding about n / N_CHUNKS parcels (``chunk_assign``;
+its parcels are processed in increasing index order), so its buffers need only cover its own
+slabs widened by the stencil and by the largest distance one of its parcels can travel within the
+step (``chunk_ranges``); they are stored flat in one pool that lives across steps (no allocation,
+no page faults). Slabs outside a chunk's range hold zeros of that chunk and are skipped in the
+sums.
 
 TKE sink (eq. A1). Per cell, the rate [s^-1] multiplying e::
 
@@ -69,10 +71,10 @@ from numba import prange
 
 from .._jit import jit, pjit
 from ..physics.drag import drag_correction
-from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, slab_of
+from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 
 __all__ = ["C0_LAGRANGIAN", "face_inverse_masses", "lagrangian_time_coefficients", "chunk_bounds",
-           "chunk_arcs", "chunk_ranges", "implicit_coefficients", "implicit_corrections",
+           "chunk_assign", "chunk_ranges", "implicit_coefficients", "implicit_corrections",
            "apply_exchange", "tke_rates", "grid_absmax", "N_CHUNKS"]
 
 #: Lagrangian structure-function constant used in T_L (eq. A1); not given in the paper.
@@ -115,75 +117,81 @@ def drag_rate(rel, d, tp, nu):
     return drag_correction(rel * d / nu) / tp
 
 
-@pjit
-def chunk_arcs(n, x, u, su, flag, trem, dx, nx, occ, arcs, stats):
-    """Per chunk c: the shortest circular range of x-cells holding its live parcels
-    (arcs[c] = start, length; length 0 if none) and stats[c] = (max |u_p|, max trem, max |su|)."""
-    nc = arcs.shape[0]
+@jit
+def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, bounds, cid, cstart, idx, stats):
+    """Split the live parcels (flag 0) into chunks of consecutive x-slabs holding about equal
+    numbers of parcels: chunk c owns slabs [bounds[c], bounds[c+1]); its parcels are
+    idx[cstart[c]:cstart[c+1]] in increasing index order (deterministic, thread-free).
+    stats[c] = (max |u_p|, max |su_p|, max trem) over its parcels. Serial, O(n)."""
+    nc = cstart.shape[0] - 1
     has_sgs = su.shape[0] > 0
-    for c in prange(nc):
-        lo, hi = chunk_bounds(n, c, nc)
-        for i in range(nx):
-            occ[c, i] = 0
-        um = 0.0
-        tm = 0.0
-        sm = 0.0
-        for p in range(lo, hi):
-            if flag[p] != 0:
-                continue
-            i = int(x[p] / dx)
-            if i >= nx:
-                i = nx - 1
-            elif i < 0:
-                i = 0
-            occ[c, i] = 1
-            a = abs(u[p])
-            if a > um:
-                um = a
-            if trem[p] > tm:
-                tm = trem[p]
-            if has_sgs:
-                a = abs(su[p])
-                if a > sm:
-                    sm = a
-        stats[c, 0] = um
-        stats[c, 1] = tm
-        stats[c, 2] = sm
-        first = -1
-        for i in range(nx):
-            if occ[c, i] != 0:
-                first = i
-                break
-        if first < 0:
-            arcs[c, 0] = 0
-            arcs[c, 1] = 0
+    for i in range(nx):
+        hist[i] = 0
+    live = 0
+    for p in range(n):
+        if flag[p] != 0:
             continue
-        # largest circular gap of empty cells; the range starts just after it
-        best = 0
-        start = first
-        run = 0
-        for m in range(1, nx + 1):
-            i = (first + m) % nx
-            if occ[c, i] == 0:
-                run += 1
-            else:
-                if run > best:
-                    best = run
-                    start = i
-                run = 0
-        arcs[c, 0] = start
-        arcs[c, 1] = nx - best
+        i = wrap_index(int(x[p] / dx), nx)
+        hist[i] += 1
+        live += 1
+    bounds[0] = 0
+    c = 1
+    acc = 0
+    for i in range(nx):
+        acc += hist[i]
+        while c < nc and acc * nc >= c * live:
+            bounds[c] = i + 1
+            c += 1
+    while c < nc:
+        bounds[c] = nx
+        c += 1
+    bounds[nc] = nx
+    # slab -> chunk (reuse hist)
+    for c in range(nc):
+        for i in range(bounds[c], bounds[c + 1]):
+            hist[i] = c
+    for c in range(nc + 1):
+        cstart[c] = 0
+    for c in range(nc):
+        stats[c, 0] = 0.0
+        stats[c, 1] = 0.0
+        stats[c, 2] = 0.0
+    for p in range(n):
+        if flag[p] != 0:
+            continue
+        c = hist[wrap_index(int(x[p] / dx), nx)]
+        cid[p] = c
+        cstart[c + 1] += 1
+        a = abs(u[p])
+        if a > stats[c, 0]:
+            stats[c, 0] = a
+        if has_sgs:
+            a = abs(su[p])
+            if a > stats[c, 1]:
+                stats[c, 1] = a
+        if trem[p] > stats[c, 2]:
+            stats[c, 2] = trem[p]
+    for c in range(nc):
+        cstart[c + 1] += cstart[c]
+    for c in range(nc):
+        bounds[nc + 1 + c] = cstart[c]  # fill pointers (bounds has 2 nc + 1 entries)
+    for p in range(n):
+        if flag[p] != 0:
+            continue
+        c = cid[p]
+        idx[bounds[nc + 1 + c]] = p
+        bounds[nc + 1 + c] += 1
 
 
 @jit
-def chunk_ranges(arcs, margin, nx, per_slab, ranges):
-    """ranges[c] = (start slab, number of slabs L, pool offset) of chunk c: its arc widened by
-    margin[c] slabs on both sides (all nx if that wraps around); per_slab = pool entries per slab.
-    Returns the pool size needed."""
-    nc = arcs.shape[0]
+def chunk_ranges(bounds, margin, nx, per_slab, ranges):
+    """ranges[c] = (start slab, number of slabs L, pool offset) of chunk c: its slabs widened by
+    margin[c] on both sides (all nx if that wraps around; L = 0 for an empty chunk);
+    per_slab = pool entries per slab. Returns the pool size needed."""
+    nc = ranges.shape[0]
     off = 0
     for c in range(nc):
-        L = arcs[c, 1]
+        L = bounds[c + 1] - bounds[c]
         if L == 0:
             ranges[c, 0] = 0
             ranges[c, 1] = 0
@@ -191,11 +199,12 @@ def chunk_ranges(arcs, margin, nx, per_slab, ranges):
             continue
         m = margin[c]
         L = L + 2 * m
-        st = arcs[c, 0] - m
+        st = bounds[c] - m
         if L >= nx:
             L = nx
             st = 0
-        st = st % nx
+        if st < 0:
+            st += nx
         ranges[c, 0] = st
         ranges[c, 1] = L
         ranges[c, 2] = off
@@ -221,17 +230,10 @@ def grid_absmax(f):
     return part.max()
 
 
-@pjit
-def implicit_coefficients(n, x, y, z, u, v, w, d, kd, flag, trem, uf, vf, wf, dt, prm, geo, z_f,
-                          z_c, lut, pool, ranges, nk, k0, c0, wtil):
-    """Per chunk c, accumulate on the faces A[c, comp] += w c_p and B[c, comp] += w c_p (u~_p - o_p).
-
-    prm: [rho, nu, g, rho_p, Q]. A and B live interleaved in the chunk's pool range (``ranges``,
-    see ``chunk_ranges``): comp 0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs.
-    o_p is the log-law offset of a parcel below the first level (module doc), 0 elsewhere.
-    Stores per parcel the drag rate k0, c_p in c0 and the vertical u~_p in wtil (particles.py
-    uses them for the modelled impulse).
-    """
+@jit
+def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo, z_f,
+                    z_c, lut, pool, ranges, nk, k0, c0, wtil):
+    """Chunk c of implicit_coefficients (serial; helpers inlined)."""
     nx = uf.shape[0]
     ny = uf.shape[1]
     nz = uf.shape[2]
@@ -241,51 +243,65 @@ def implicit_coefficients(n, x, y, z, u, v, w, d, kd, flag, trem, uf, vf, wf, dt
     rho_p = prm[3]
     Q = prm[4]
     nc = ranges.shape[0]
-    for c in prange(nc):
-        s = ranges[c, 0]
-        L = ranges[c, 1]
-        off = ranges[c, 2]
-        csz = L * ny * nk * 2
-        for q in range(off, off + 3 * csz):
-            pool[q] = 0.0
-        lo, hi = chunk_bounds(n, c, nc)
-        for p in range(lo, hi):
-            if flag[p] != 0:
-                continue
-            ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
-                x[p], y[p], z[p], geo, z_f, z_c, lut, nx, ny, nz)
-            dp = d[p]
-            tp = rho_p * dp * dp / (18.0 * rho * nu)
-            k = kd[p]
-            ou = 0.0
-            ov = 0.0
-            if islog or k <= 0.0:
-                ur, vr, wr = interp_fluid(uf, vf, wf, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc,
-                                          fzc, kf, fzf, lfac, islog, nx, ny)
-                if k <= 0.0:
-                    rel = math.sqrt((ur - u[p]) ** 2 + (vr - v[p]) ** 2 + (wr - w[p]) ** 2)
-                    k = drag_rate(rel, dp, tp, nu)
-                if islog:
-                    u0, v0, w0 = interp_faces(uf, vf, wf, nz, nz + 1, ixf, fxf, ixc, fxc, jyf, fyf,
-                                              jyc, fyc, kc, fzc, kf, fzf, islog, nx, ny)
-                    ou = ur - u0
-                    ov = vr - v0
-            k0[p] = k
-            T = dt + trem[p]  # the parcel's own step (time credit after a splash, particles.py)
-            ome = -math.expm1(-k * T)
-            cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
-            wt = w[p] + g / k - g * T / ome
-            c0[p] = cp
-            wtil[p] = wt
+    s = ranges[c, 0]
+    L = ranges[c, 1]
+    off = ranges[c, 2]
+    csz = L * ny * nk * 2
+    for q in range(off, off + 3 * csz):
+        pool[q] = 0.0
+    for q in range(cstart[c], cstart[c + 1]):
+        p = idx[q]
+        ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
+            x[p], y[p], z[p], geo, z_f, z_c, lut, nx, ny, nz)
+        dp = d[p]
+        tp = rho_p * dp * dp / (18.0 * rho * nu)
+        k = kd[p]
+        ou = 0.0
+        ov = 0.0
+        if islog or k <= 0.0:
+            ur, vr, wr = interp_fluid(uf, vf, wf, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc,
+                                      fzc, kf, fzf, lfac, islog, nx, ny)
+            if k <= 0.0:
+                rel = math.sqrt((ur - u[p]) ** 2 + (vr - v[p]) ** 2 + (wr - w[p]) ** 2)
+                k = drag_rate(rel, dp, tp, nu)
             if islog:
-                kc = 0
-                fzc = 0.0
-            pool_add_tri2(pool, off, s, nx, ny, nk, cp, cp * (u[p] - ou), ixf, fxf, jyc, fyc, kc,
-                          fzc)
-            pool_add_tri2(pool, off + csz, s, nx, ny, nk, cp, cp * (v[p] - ov), ixc, fxc, jyf,
-                          fyf, kc, fzc)
-            pool_add_tri2(pool, off + 2 * csz, s, nx, ny, nk, cp, cp * wt, ixc, fxc, jyc, fyc, kf,
-                          fzf)
+                u0, v0, w0 = interp_faces(uf, vf, wf, nz, nz + 1, ixf, fxf, ixc, fxc, jyf, fyf,
+                                          jyc, fyc, kc, fzc, kf, fzf, islog, nx, ny)
+                ou = ur - u0
+                ov = vr - v0
+        k0[p] = k
+        T = dt + trem[p]  # the parcel's own step (time credit after a splash, particles.py)
+        ome = -math.expm1(-k * T)
+        cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
+        wt = w[p] + g / k - g * T / ome
+        c0[p] = cp
+        wtil[p] = wt
+        if islog:
+            kc = 0
+            fzc = 0.0
+        pool_add_tri2(pool, off, s, nx, ny, nk, cp, cp * (u[p] - ou), ixf, fxf, jyc, fyc, kc,
+                      fzc)
+        pool_add_tri2(pool, off + csz, s, nx, ny, nk, cp, cp * (v[p] - ov), ixc, fxc, jyf,
+                      fyf, kc, fzc)
+        pool_add_tri2(pool, off + 2 * csz, s, nx, ny, nk, cp, cp * wt, ixc, fxc, jyc, fyc, kf,
+                      fzf)
+
+
+@pjit
+def implicit_coefficients(cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo,
+                          z_f, z_c, lut, pool, ranges, nk, k0, c0, wtil):
+    """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
+    A[c, comp] += w c_p and B[c, comp] += w c_p (u~_p - o_p).
+
+    prm: [rho, nu, g, rho_p, Q]. A and B live interleaved in the chunk's pool range (``ranges``,
+    see ``chunk_ranges``): comp 0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs.
+    o_p is the log-law offset of a parcel below the first level (module doc), 0 elsewhere.
+    Stores per parcel the drag rate k0, c_p in c0 and the vertical u~_p in wtil (particles.py
+    uses them for the modelled impulse).
+    """
+    for c in prange(ranges.shape[0]):
+        _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo,
+                        z_f, z_c, lut, pool, ranges, nk, k0, c0, wtil)
 
 
 @pjit
@@ -309,7 +325,9 @@ def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, U
                 bw = 0.0
                 for c in range(nc):
                     L = ranges[c, 1]
-                    ii = slab_of(i, ranges[c, 0], nx)
+                    ii = i - ranges[c, 0]
+                    if ii < 0:
+                        ii += nx
                     if ii >= L:
                         continue
                     csz = L * ny * nk * 2
@@ -362,7 +380,9 @@ def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, uf, vf, wf, 
                 pw = 0.0
                 for c in range(nc):
                     L = ranges[c, 1]
-                    ii = slab_of(i, ranges[c, 0], nx)
+                    ii = i - ranges[c, 0]
+                    if ii < 0:
+                        ii += nx
                     if ii >= L:
                         continue
                     csz = L * ny * nk
@@ -412,7 +432,9 @@ def tke_rates(pool, ranges, comp, nk_c, inv_vol, out):
                     s = 0.0
                     for c in range(nc):
                         L = ranges[c, 1]
-                        ii = slab_of(i, ranges[c, 0], nx)
+                        ii = i - ranges[c, 0]
+                        if ii < 0:
+                            ii += nx
                         if ii >= L:
                             continue
                         s += pool[ranges[c, 2] + ((comp * L + ii) * ny + j) * nk_c + k]

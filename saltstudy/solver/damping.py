@@ -7,6 +7,12 @@ In the top ``damping_depth`` D of the domain, du_i/dt += -f(z) (u_i - u_i,ref) w
 T = ``damping_timescale`` [s] the relaxation time at the lid. References: u -> state.u_drive (the
 base-state wind that drives the flow, set by forcing.py), v, w -> 0. The sin^2 ramp starts with zero
 slope so that the layer reflects little of the upward-travelling disturbances.
+
+Only the top drive (``forcing.drive = "top"``) uses the layer. With the pressure-gradient drive the
+model builds no damping layer at all (the fidelity's ``damping_depth`` is ignored): the flow is
+neutral, so there are no gravity waves to absorb, and the free-slip lid (w = 0, no stress) is the
+standard open-channel top; relaxing u there would add a drag that breaks tau = G (H - z), and
+damping v, w would suppress the resolved stress under the lid.
 """
 from __future__ import annotations
 

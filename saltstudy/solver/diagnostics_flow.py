@@ -15,7 +15,85 @@ from .sgs import C_M, E_MIN, sgs_stress_uw_profile, strain_sq_at
 from .wall import surface_stress
 
 __all__ = ["flow_profiles", "flow_planes", "cell_centred_velocity", "u_star_at", "stress_profile",
-           "resolved_tke_volume_mean"]
+           "resolved_tke_volume_mean", "log_law_shape", "log_law_profile", "fit_log_law"]
+
+
+# ------------------------------------------------------------------------------------------------
+# Log law with a linearly decreasing stress (pressure-gradient drive). Pure numpy, no model needed.
+# ------------------------------------------------------------------------------------------------
+def log_law_shape(z, H: float | None = None) -> np.ndarray:
+    """F(z) with U(z) = (u*_0/kappa) [F(z) - F(z0)] the local-equilibrium mean profile [-].
+
+    H = None: constant stress, F = ln z (the plain log law). H given: the stress falls linearly,
+    u*(z) = u*_0 sqrt(1 - z/H), and dU/dz = u*(z)/(kappa z) integrates to
+
+        F(z) = 2 s + ln((1 - s)/(1 + s)) = 2 s + ln(z/H) - 2 ln(1 + s),   s = sqrt(1 - z/H)
+
+    (the second form is the one evaluated: no cancellation for z << H). F -> ln z + const for
+    z << H, F(H) = 0. Valid for 0 < z <= H.
+    """
+    z = np.asarray(z, dtype=np.float64)
+    if H is None:
+        return np.log(z)
+    s = np.sqrt(np.clip(1.0 - z / H, 0.0, 1.0))
+    return 2.0 * s + np.log(z / H) - 2.0 * np.log1p(s)
+
+
+def log_law_profile(z, u_star0: float, z0: float, kappa: float, H: float | None = None) -> np.ndarray:
+    """U(z) = (u*_0/kappa) [F(z) - F(z0)] [m s^-1] (see ``log_law_shape``); U = 0 below z0."""
+    z = np.asarray(z, dtype=np.float64)
+    zz = np.maximum(z, z0)
+    return u_star0 / kappa * (log_law_shape(zz, H) - log_law_shape(np.float64(z0), H))
+
+
+def _invert_shape(c: float, H: float | None) -> float:
+    """z with F(z) = c (F is strictly increasing on (0, H])."""
+    if H is None:
+        return math.exp(c)
+    if c >= 0.0:
+        return H                        # F(H) = 0 is the maximum
+    lo, hi = math.log(1e-300), math.log(H)
+    for _ in range(200):                # bisection in ln z
+        mid = 0.5 * (lo + hi)
+        if float(log_law_shape(math.exp(mid), H)) < c:
+            lo = mid
+        else:
+            hi = mid
+    return math.exp(0.5 * (lo + hi))
+
+
+def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None = None,
+                z_max: float | None = None, z_eval=()) -> dict:
+    """Least-squares fit of U = (u*_0/kappa) [F(z) - F(z0)] over z_min <= z <= z_max.
+
+    H = None: the plain log law (u* constant with height, u*_0 = u*). H = the domain height of a
+    pressure-gradient drive (free-slip lid): the local-equilibrium profile with
+    u*(z) = u*_0 sqrt(1 - z/H) (``log_law_shape``). The model is linear in (u*_0/kappa,
+    -u*_0/kappa F(z0)), so the fit is an ordinary linear regression on F(z).
+
+    Returns ``u_star0`` (surface friction velocity, m s^-1), ``z0`` [m], ``u_star_at`` (array: u* at
+    each of ``z_eval`` [m]), ``z_eval``, ``rms`` (residual, m s^-1) and ``n`` (points used).
+    """
+    z = np.asarray(z, dtype=np.float64)
+    U = np.asarray(U, dtype=np.float64)
+    sel = np.isfinite(U) & (z > 0)
+    if z_min is not None:
+        sel &= z >= z_min
+    if z_max is not None:
+        sel &= z <= z_max
+    if H is not None:
+        sel &= z < H
+    if sel.sum() < 2:
+        raise ValueError(f"fit_log_law: fewer than 2 levels in [{z_min}, {z_max}] m")
+    F = log_law_shape(z[sel], H)
+    a, b = np.polyfit(F, U[sel], 1)
+    u0 = kappa * a
+    z0 = _invert_shape(-b / a, H) if a > 0 else math.nan
+    ze = np.atleast_1d(np.asarray(z_eval, dtype=np.float64))
+    us = u0 * (np.ones_like(ze) if H is None else np.sqrt(np.clip(1.0 - ze / H, 0.0, 1.0)))
+    rms = float(np.sqrt(np.mean((a * F + b - U[sel]) ** 2)))
+    return {"u_star0": float(u0), "z0": float(z0), "u_star_at": us, "z_eval": ze, "rms": rms,
+            "n": int(sel.sum())}
 
 
 def _nu(model) -> np.ndarray:

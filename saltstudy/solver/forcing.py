@@ -1,4 +1,27 @@
-"""Drive of the flow: the base-state wind u_drive in the top Rayleigh layer and its controller.
+"""Drive of the flow: ``forcing.drive = "pressure_gradient"`` (a uniform mean body force) or ``"top"``
+(the base-state wind u_drive in the top Rayleigh layer and its controller).
+
+Pressure-gradient drive
+-----------------------
+A uniform streamwise body force G = -(1/rho) dP/dx [m s^-2] acts on u everywhere; the lid is free
+slip and nothing relaxes u. The horizontally averaged x-momentum balance in a steady state is
+d tau/dz = -G with tau(H) = 0, so the total (resolved + SGS + grain) kinematic stress is exactly
+
+    tau(z) = G (H - z),        u*(z) = u*_0 sqrt(1 - z/H),   u*_0^2 = G H,
+
+whatever the turbulence or the grains do (no controller, no drift). G is set so that the stress at
+the hold height z_hold equals u*s^2: G = u*s^2 / (H - z_hold). We hold it at the bed (z_hold = 0,
+``PG_HOLD_HEIGHT``): the surface stress of the grain-free flow -- and, under saltation, the total
+(air + grain) stress at the bed and within a few per cent of it at the top of the saltation layer
+(z_m/H ~ 0.05) -- is then rho u*s^2 as in the paper's constant-stress layer, independently of the
+domain height (the same grain physics at every fidelity). The stress at z_ref (2 m) is then
+u*s^2 (1 - z_ref/H); ``pressure_gradient_force`` takes the hold height as an argument should a
+run prefer to hold it there instead. No Rayleigh damping is applied with this drive (the free-slip
+lid needs none in a neutral flow; see model.py). The local-equilibrium mean shear is
+dU/dz = u*(z)/(kappa z); ``diagnostics_flow.fit_log_law`` fits that profile.
+
+Top drive
+---------
 
 The paper drives its surface layer from above (a base-state wind with a Rayleigh layer), which gives
 a constant-stress layer below the damping layer (its Fig. 2b). Here the Rayleigh layer pulls u towards
@@ -32,12 +55,31 @@ from numba import prange
 
 from .._jit import pjit
 
-__all__ = ["DriveController", "z_ref_effective", "total_stress_at_face"]
+__all__ = ["DriveController", "z_ref_effective", "total_stress_at_face", "pressure_gradient_force",
+           "PG_HOLD_HEIGHT", "stress_profile_pg"]
+
+#: height [m] where the pressure-gradient drive holds the stress at u*s^2 (0: the bed; see above)
+PG_HOLD_HEIGHT = 0.0
 
 
 def z_ref_effective(z_ref: float, Lz: float, damping_depth: float) -> float:
-    """min(z_ref, (Lz - D)/2) [m]: the height where u* is read and held."""
+    """min(z_ref, (Lz - D)/2) [m]: the height where u* is read (and, top drive, held).
+
+    For the pressure-gradient drive pass damping_depth = 0 (no damping layer): min(z_ref, Lz/2)."""
     return min(z_ref, 0.5 * (Lz - damping_depth))
+
+
+def pressure_gradient_force(u_star: float, Lz: float, z_hold: float = PG_HOLD_HEIGHT) -> float:
+    """G = u*^2 / (Lz - z_hold) [m s^-2]: the body force whose steady stress G (Lz - z) is u*^2 at
+    z_hold [m] (0 <= z_hold < Lz)."""
+    if not 0.0 <= z_hold < Lz:
+        raise ValueError(f"pressure_gradient_force: hold height {z_hold:g} m must lie in [0, Lz={Lz:g} m)")
+    return u_star ** 2 / (Lz - z_hold)
+
+
+def stress_profile_pg(z, G: float, Lz: float):
+    """Steady total kinematic stress magnitude G (Lz - z) [m^2 s^-2] of the pressure-gradient drive."""
+    return G * (Lz - np.asarray(z, dtype=np.float64))
 
 
 @pjit

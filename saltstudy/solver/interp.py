@@ -36,7 +36,7 @@ from .grid import Grid
 ijit = jit_with(inline="always")
 
 __all__ = ["GridGeometry", "wrap_periodic", "locate", "interp_fluid", "interp_faces",
-           "deposit_faces", "level_of", "slab_of", "pool_add_tri", "pool_add_tri2"]
+           "deposit_faces", "level_of", "slab_of", "wrap_index", "pool_add_tri", "pool_add_tri2"]
 
 
 class GridGeometry:
@@ -75,6 +75,20 @@ def wrap_periodic(x: float, L: float) -> float:
     if r < 0.0:
         r = 0.0
     return r
+
+
+@ijit
+def wrap_index(i, n):
+    """i mod n; positions are kept in [0, L), so i is almost always in [-1, n]: no division."""
+    if i < 0:
+        i += n
+        if i < 0:
+            i %= n
+    elif i >= n:
+        i -= n
+        if i >= n:
+            i %= n
+    return i
 
 
 @ijit
@@ -117,10 +131,10 @@ def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
     syc = sy - 0.5
     jyc = int(math.floor(syc))
     fyc = syc - jyc
-    ixf = ixf % nx
-    ixc = ixc % nx
-    jyf = jyf % ny
-    jyc = jyc % ny
+    ixf = wrap_index(ixf, nx)
+    ixc = wrap_index(ixc, nx)
+    jyf = wrap_index(jyf, ny)
+    jyc = wrap_index(jyc, ny)
     kcell = level_of(z, z_f, lut, lut_dz, nz)
     # faces: w between z_f[kf] and z_f[kf+1]
     kf = kcell

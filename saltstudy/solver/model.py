@@ -8,7 +8,10 @@ See docs/ARCHITECTURE.md ("Solver API") for the contract. One step (``Model.step
 2. the RK3 flow step (stepper.py: boundary -> advection -> diffusion -> damping -> drive -> pressure
    per stage),
 3. the checks (finiteness of u, v, w, e; Courant number), raising ``SolverBlowUp``,
-4. the drive controller (forcing.py) updates ``state.u_drive`` from the stress at z_ref_eff.
+4. top drive only: the drive controller (forcing.py) updates ``state.u_drive`` from the stress at
+   z_ref_eff. With ``forcing.drive = "pressure_gradient"`` the flow is driven by the uniform body
+   force G = u*s^2 / (Lz - z_hold) (forcing.py) and there is no damping layer and no controller
+   (``state.u_drive`` stays 0; the Rayleigh layer of the fidelity is not used).
 
 A scene without saltation never imports the grain component.
 """
@@ -23,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .checks import check_courant, health, locate_nonfinite
-from .forcing import DriveController, z_ref_effective
+from .forcing import DriveController, pressure_gradient_force, z_ref_effective
 from .grid import Grid
 from .spinup import SpinupResult, initial_flow, run_spinup
 from .state import FlowState, SolverBlowUp
@@ -63,8 +66,12 @@ class Model:
         self.t_activation: float | None = None
         self._rate_cache: tuple[int, float] | None = None
         spec = scene.fidelity.grid
-        self.damping_depth = float(spec.damping_depth)
-        self.z_ref = z_ref_effective(scene.case.forcing.z_ref, grid.Lz, spec.damping_depth)
+        self.drive = scene.case.forcing.drive
+        #: depth of the active Rayleigh layer [m] (0 with the pressure-gradient drive)
+        self.damping_depth = float(spec.damping_depth) if self.drive == "top" else 0.0
+        self.z_ref = z_ref_effective(scene.case.forcing.z_ref, grid.Lz, self.damping_depth)
+        #: the pressure-gradient body force G [m s^-2] (0 with the top drive)
+        self.body_force = float(stepper.body_force)
 
     # ---- construction -------------------------------------------------------------------------
     @classmethod
@@ -75,11 +82,14 @@ class Model:
         ``case.physics.saltation`` the grain component is constructed (not yet activated)."""
         case, fid = scene.case, scene.fidelity
         grid = Grid.from_spec(fid.grid)
+        pg = case.forcing.drive == "pressure_gradient"
+        depth = 0.0 if pg else fid.grid.damping_depth
+        G = pressure_gradient_force(case.forcing.u_star_s, grid.Lz) if pg else 0.0
         stepper = Stepper(grid, z0=case.surface.z0, kappa=case.air.kappa, nu_mol=case.air.nu,
-                          damping_depth=fid.grid.damping_depth,
-                          damping_timescale=fid.grid.damping_timescale, workers=workers)
+                          damping_depth=depth, damping_timescale=fid.grid.damping_timescale,
+                          workers=workers, damp_u=not pg, body_force=G)
         state = FlowState.zeros(grid)
-        z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, fid.grid.damping_depth)
+        z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
                                      case.forcing.controller_timescale, stepper.f_c,
                                      case.air.kappa, case.surface.z0)
@@ -90,9 +100,17 @@ class Model:
             components.append(Saltation(grid, scene))
         model = cls(scene, grid, stepper, state, controller, rng, components)
         if restart is None:
-            initial_flow(state, case.forcing.u_star_s, case.surface.z0, case.air.kappa,
-                         grid.Lz - fid.grid.damping_depth, rng, stepper.pressure)
-            state.u_drive = controller.initial_u_drive()
+            if pg:
+                from .diagnostics_flow import log_law_profile
+                u0 = math.sqrt(G * grid.Lz)       # surface friction velocity u*_0
+                prof = log_law_profile(grid.z_c, u0, case.surface.z0, case.air.kappa, H=grid.Lz)
+                initial_flow(state, u0, case.surface.z0, case.air.kappa, grid.Lz, rng,
+                             stepper.pressure, u_profile=prof)
+                state.u_drive = 0.0
+            else:
+                initial_flow(state, case.forcing.u_star_s, case.surface.z0, case.air.kappa,
+                             grid.Lz - fid.grid.damping_depth, rng, stepper.pressure)
+                state.u_drive = controller.initial_u_drive()
         else:
             model._restore(restart)
         return model
@@ -155,7 +173,8 @@ class Model:
         rate, _ = self._rates()          # finiteness of u, v, w, e and the Courant number
         cfl = check_courant(s, rate, dt)
         tau = self._measure_stress()
-        self.controller.update(s, dt, self._damped_mean_u(), tau)
+        if self.drive == "top":
+            self.controller.update(s, dt, self._damped_mean_u(), tau)
         return StepInfo(step=s.step, t=s.t, dt=dt, max_cfl=cfl, u_drive=s.u_drive,
                         u_star_ref=math.sqrt(abs(tau)), wall_time=time.perf_counter() - t0)
 

@@ -22,6 +22,10 @@ k_p h << 1 this is the step-mean slip (second order in h); for k_p h >> 1 it is 
 then a grain falling from rest cannot overshoot its terminal velocity whatever h / T_p (if the end
 slip exceeded the terminal slip, k_p would exceed its terminal value and the end slip would fall
 short of it); it lands on the root of f(Re) w = g T_p to the iteration tolerance.
+The fixed point k = F(k) is found by safeguarded Newton (dF/dk is analytic: no extra
+transcendental per iteration; plain fixed-point updates if Newton would leave (0, inf) or F is
+not contracting), stopped when ``|F(k) - k| <= DRAG_TOL k``; the last Newton update is then
+applied, so k is accurate to well below the tolerance (typically two evaluations of F).
 
 Sub-steps: a parcel is sub-stepped so that it moves at most one local cell height per sub-step
 (re-interpolating the fluid velocity), at most ``MAX_SUBSTEPS`` per step. A parcel that crosses the
@@ -38,7 +42,12 @@ Fluid velocity at a parcel: trilinear on the staggered grid, log law below the f
 Work split: the per-parcel integration is ``prange``-parallel over a fixed number of chunks with
 chunk-private deposit buffers (race-free, and reductions in a fixed order, so results do not
 depend on the numba thread count); every random draw (splash, SGS velocity, entrainment) is in
-serial kernels. Buffers cover only the levels parcels can reach within the step.
+serial kernels. A chunk is a run of x-slabs with about n / N_CHUNKS parcels (processed in index
+order), so its buffers cover only those slabs plus a margin (coupling.py), and only the levels
+parcels can reach within the step; the buffers persist across steps. The per-parcel code is
+inlined (interp.py ``ijit``) into a serial per-chunk loop (``_advance_chunk``) called from the
+prange. Two-way, the modelled impulse of the implicit estimate and the first sub-step's drag
+impulse share their weights and are deposited as one value.
 
 Optional processes (off by default, not constructed when off):
 
@@ -64,16 +73,16 @@ from numba import prange
 
 from .._jit import jit, pjit
 from ..physics.drag import drag_correction
-from .coupling import (N_CHUNKS, apply_exchange, chunk_arcs, chunk_bounds, chunk_ranges,
+from .coupling import (N_CHUNKS, apply_exchange, chunk_assign, chunk_ranges,
                        face_inverse_masses, grid_absmax, implicit_coefficients,
                        implicit_corrections, lagrangian_time_coefficients, tke_rates)
 from .grid import Grid
 from .interp import (GridGeometry, _bil, _tri, ijit, interp_fluid, level_of, locate,
-                     pool_add_tri, slab_of, wrap_periodic)
+                     pool_add_tri, slab_of, wrap_index, wrap_periodic)
 from .splash_kernels import bed_events, draw_diameter, soil_arrays, splash_params
 from .state import FlowState
 
-__all__ = ["Saltation", "advance_parcel", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN_KEY",
+__all__ = ["Saltation", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN_KEY",
            "ENTRAINMENT_ZETA"]
 
 #: relative tolerance of the fixed-point iteration for the end-of-step drag rate k_p
@@ -159,20 +168,27 @@ def _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc, j
     return us, vs, ws
 
 
-@ijit
-def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, Uc, Vc, Wc, du, dv,
-                   dw, pool, s, off, L, nk, ct, prm, geo, z_f, z_c, dz_c, lut, tlc, c0, wtil):
-    """Integrate parcel p over T seconds (see module doc). Returns (hit, time left).
+@jit
+def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf,
+                   wf, ef, Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c,
+                   dz_c, lut, tlc, vmax, c0, wtil, nhit):
+    """Integrate the parcels of chunk c (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign) over
+    dt (plus their time credit), see the module doc.
+    Hits (bed crossings) get flag 1 and their time left in trem; nhit[c] counts them.
 
-    Deposits in its chunk's pool range (``s`` first slab, ``L`` slabs, offset ``off``; comps 0-2 =
-    u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk)) minus the drag impulse and, if
-    ``c0[p] > 0`` (the parcel was in the implicit estimate, coupling.py, with c_p = c0, vertical
-    u~_p = wtil), plus the modelled impulse c_p (u_s - u~_p) at the start (same weights as the
-    first sub-step's drag impulse: one deposit). su/sv/sw: SGS velocity (length 0 when off).
+    Deposits in the chunk's pool range (``ranges[c]`` = first slab s, L slabs, offset off; comps
+    0-2 = u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk); zeroed here first) minus the
+    drag impulse and, if ``c0[p] > 0`` (the parcel was in the implicit estimate, coupling.py, with
+    c_p = c0, vertical u~_p = wtil), plus the modelled impulse c_p (u_s - u~_p) at the start (same
+    weights as the first sub-step's drag impulse: one deposit). su/sv/sw: SGS velocity (length 0
+    when off).
 
     Drag rate: the fixed point k = F(k) of the module doc, solved by safeguarded Newton (the
     derivative of F is analytic: no extra transcendental), stopped when |F(k) - k| <= tol k; the
     last Newton update is then applied (an error quadratically below the tolerance).
+
+    Serial: the per-parcel helpers (interp.py) are inlined here at numba-IR level (an out-of-line
+    call cost more than the arithmetic); the prange over chunks is in _advance_all.
     """
     nx = uf.shape[0]
     ny = uf.shape[1]
@@ -191,198 +207,191 @@ def advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef, Uc
     Lx = geo[2]
     Ly = geo[3]
     nkb = du.shape[2]
+    s = ranges[c, 0]
+    L = ranges[c, 1]
+    off = ranges[c, 2]
     csz = L * ny * nk
-    xp = x[p]
-    yp = y[p]
-    zp = z[p]
-    up = u[p]
-    vp = v[p]
-    wp = w[p]
-    dp = d[p]
-    tp = rho_p * dp * dp / (18.0 * rho * nu)
-    Qm = Q * (math.pi / 6.0) * rho_p * dp * dp * dp
-    dnu = dp / nu
-    k = kd[p]
-    t = 0.0
-    nsub = 0
-    hit = False
-    if zp < h_imp:  # already inside the impact layer: splash now
-        return True, T
-    while t < T:
-        ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
-            xp, yp, zp, geo, z_f, z_c, lut, nx, ny, z_c.shape[0])
-        us, vs, ws = _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc,
-                           jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, nx, ny)
-        h = T - t
-        if nsub < MAX_SUBSTEPS - 1:
-            lim = dz_c[kcell] / (abs(wp) + 1e-30)
-            if h > lim:
-                h = max(lim, T / MAX_SUBSTEPS)
-                if h > T - t:
-                    h = T - t
-        mu_ = 0.0
-        mv_ = 0.0
-        mw_ = 0.0
-        if twoway and nsub == 0 and c0[p] > 0.0:
-            # the modelled impulse of the implicit estimate (coupling.py), same k, dt and weights
-            cc = c0[p]
-            mu_ = cc * (us - up)
-            mv_ = cc * (vs - vp)
-            mw_ = cc * (ws - wtil[p])
-        if sgs:
-            us += su[p]
-            vs += sv[p]
-            ws += sw[p]
-        Du = us - up
-        Dv = vs - vp
-        Dw = ws - wp
-        if k <= 0.0:
-            rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
-            k = drag_correction(rel * dnu) / tp
-        # drag rate at a blend of the step-mean and end-of-step slip (module doc):
-        # E * mean + (1 - E) * end, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z
-        for _it in range(DRAG_MAXIT):
-            kh = k * h
-            em = math.expm1(-kh)
-            E = 1.0 + em
-            phi = -em / kh
-            beta = E * (phi - em)
-            gk = g / k
-            ax = Du * beta
-            ay = Dv * beta
-            az = gk + (Dw - gk) * beta
-            rel = math.sqrt(ax * ax + ay * ay + az * az)
-            rp = (rel * dnu) ** 0.687
-            F = (1.0 + 0.15 * rp) / tp
-            G = F - k
-            kn = F
-            if _it < NEWTON_MAXIT and rel > 0.0:
-                # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
-                db = E * ((E - phi) / k + h * E) - h * beta
-                daz = (Dw - gk) * db - gk / k * (1.0 - beta)
-                drel = ((ax * Du + ay * Dv) * db + az * daz) / rel
-                den = 1.0 - (0.15 * 0.687) * rp * drel / (rel * tp)
-                if den > 0.1:
-                    kt = k + G / den
-                    if kt > 0.0:
-                        kn = kt
-            if abs(G) <= tol * k:
-                k = kn
-                break
-            k = kn
-        em = math.expm1(-k * h)
-        E = 1.0 + em
-        ome_k = -em / k
-        wt = ws - g / k
-        un = us + (up - us) * E
-        vn = vs + (vp - vs) * E
-        wn = wt + (wp - wt) * E
-        zn = zp + wt * h + (wp - wt) * ome_k
-        if zn < h_imp:
-            h = _crossing_time(zp, wt, wp - wt, k, h, h_imp)
+    for q in range(off, off + ncomp * csz):
+        pool[q] = 0.0
+    vm = 0.0
+    nh = 0
+    for q in range(cstart[c], cstart[c + 1]):
+        p = idx[q]
+        T = dt + trem[p]  # time credit of a parcel that left the bed during the last step
+        trem[p] = 0.0
+        xp = x[p]
+        yp = y[p]
+        zp = z[p]
+        up = u[p]
+        vp = v[p]
+        wp = w[p]
+        dp = d[p]
+        tp = rho_p * dp * dp / (18.0 * rho * nu)
+        itp = 1.0 / tp
+        Qm = Q * (math.pi / 6.0) * rho_p * dp * dp * dp
+        dnu = dp / nu
+        k = kd[p]
+        t = 0.0
+        nsub = 0
+        hit = False
+        if zp < h_imp:  # already inside the impact layer: splash now
             hit = True
-            E = math.exp(-k * h)
-            ome_k = -math.expm1(-k * h) / k
+        while t < T and not hit:
+            ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
+                xp, yp, zp, geo, z_f, z_c, lut, nx, ny, z_c.shape[0])
+            us, vs, ws = _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc,
+                               jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, nx, ny)
+            h = T - t
+            if nsub < MAX_SUBSTEPS - 1:
+                lim = dz_c[kcell] / (abs(wp) + 1e-30)
+                if h > lim:
+                    h = max(lim, T / MAX_SUBSTEPS)
+                    if h > T - t:
+                        h = T - t
+            mu_ = 0.0
+            mv_ = 0.0
+            mw_ = 0.0
+            if twoway and nsub == 0 and c0[p] > 0.0:
+                # the modelled impulse of the implicit estimate (coupling.py), same k, dt and weights
+                cc = c0[p]
+                mu_ = cc * (us - up)
+                mv_ = cc * (vs - vp)
+                mw_ = cc * (ws - wtil[p])
+            if sgs:
+                us += su[p]
+                vs += sv[p]
+                ws += sw[p]
+            Du = us - up
+            Dv = vs - vp
+            Dw = ws - wp
+            if k <= 0.0:
+                rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
+                k = drag_correction(rel * dnu) / tp
+            # drag rate at a blend of the step-mean and end-of-step slip (module doc):
+            # E * mean + (1 - E) * end, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z
+            ih = 1.0 / h
+            for _it in range(DRAG_MAXIT):
+                ik = 1.0 / k
+                em = math.expm1(-k * h)
+                E = 1.0 + em
+                phi = -em * ik * ih
+                beta = E * (phi - em)
+                gk = g * ik
+                ax = Du * beta
+                ay = Dv * beta
+                az = gk + (Dw - gk) * beta
+                rel = math.sqrt(ax * ax + ay * ay + az * az)
+                rp = (rel * dnu) ** 0.687
+                F = (1.0 + 0.15 * rp) * itp
+                G = F - k
+                kn = F
+                if _it < NEWTON_MAXIT and rel > 0.0:
+                    # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
+                    irel = 1.0 / rel
+                    db = E * ((E - phi) * ik + h * E) - h * beta
+                    daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
+                    drel = ((ax * Du + ay * Dv) * db + az * daz) * irel
+                    den = 1.0 - (0.15 * 0.687) * rp * drel * irel * itp
+                    if den > 0.1:
+                        kt = k + G / den
+                        if kt > 0.0:
+                            kn = kt
+                if abs(G) <= tol * k:
+                    k = kn
+                    break
+                k = kn
+            ik = 1.0 / k
+            em = math.expm1(-k * h)
+            E = 1.0 + em
+            ome_k = -em * ik
+            wt = ws - g * ik
             un = us + (up - us) * E
             vn = vs + (vp - vs) * E
             wn = wt + (wp - wt) * E
-            zn = h_imp
-        xn = xp + us * h + (up - us) * ome_k
-        yn = yp + vs * h + (vp - vs) * ome_k
-        if zn > Lz:  # reflect at the lid
-            zn = 2.0 * Lz - zn
-            wn = -wn
-        if twoway:
-            # the air's impulse is minus the parcel's drag impulse: Q m_p (Delta u - g h), plus
-            # (first sub-step) the modelled impulse
-            if islog:
-                kc = 0
-                fzc = 0.0
-            pool_add_tri(pool, off, s, nx, ny, nk, mu_ - Qm * (un - up), ixf, fxf, jyc, fyc, kc,
-                         fzc)
-            pool_add_tri(pool, off + csz, s, nx, ny, nk, mv_ - Qm * (vn - vp), ixc, fxc, jyf, fyf,
-                         kc, fzc)
-            pool_add_tri(pool, off + 2 * csz, s, nx, ny, nk, mw_ - Qm * (wn - wp + g * h), ixc,
-                         fxc, jyc, fyc, kf, fzf)
-        if tke:
-            ic = int(xp / geo[0]) % nx
-            jc = int(yp / geo[1]) % ny
-            kk = kcell if kcell < nk else nk - 1
-            e = ef[ic, jc, kcell]
-            if e > 0.0:
-                tl = tlc[kcell] / math.sqrt(e)
-                pool[off + ((ct * L + slab_of(ic, s, nx)) * ny + jc) * nk + kk] += (
-                    Qm / rho * 2.0 * (k * tp) / (tp + tl) * (h / dtot))
-        xp = wrap_periodic(xn, Lx)
-        yp = wrap_periodic(yn, Ly)
-        zp = zn
-        up = un
-        vp = vn
-        wp = wn
-        t += h
-        nsub += 1
-        if hit:
-            break
-    x[p] = xp
-    y[p] = yp
-    z[p] = zp
-    u[p] = up
-    v[p] = vp
-    w[p] = wp
-    kd[p] = k
-    return hit, T - t if hit else 0.0
-
-
-@pjit
-def _advance_all(n, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf, wf, ef, Uc, Vc,
-                 Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c, dz_c, lut, tlc,
-                 vmax, c0, wtil, nhit):
-    """All parcels over dt, chunk-parallel. Hits get flag 1 and their time left in trem; nhit[c]
-    counts the hits of chunk c. Chunk c first zeroes its pool range (ncomp comps)."""
-    nc = ranges.shape[0]
-    ny = uf.shape[1]
-    for c in prange(nc):
-        s = ranges[c, 0]
-        L = ranges[c, 1]
-        off = ranges[c, 2]
-        for q in range(off, off + ncomp * L * ny * nk):
-            pool[q] = 0.0
-        lo, hi = chunk_bounds(n, c, nc)
-        m = 0.0
-        nh = 0
-        for p in range(lo, hi):
-            if flag[p] != 0:
-                continue
-            T = dt + trem[p]  # time credit of a parcel that left the bed during the last step
-            trem[p] = 0.0
-            hit, rem = advance_parcel(p, T, x, y, z, u, v, w, d, kd, su, sv, sw, uf, vf, wf, ef,
-                                      Uc, Vc, Wc, du, dv, dw, pool, s, off, L, nk, ct, prm, geo,
-                                      z_f, z_c, dz_c, lut, tlc, c0, wtil)
+            zn = zp + wt * h + (wp - wt) * ome_k
+            if zn < h_imp:
+                h = _crossing_time(zp, wt, wp - wt, k, h, h_imp)
+                hit = True
+                E = math.exp(-k * h)
+                ome_k = -math.expm1(-k * h) * ik
+                un = us + (up - us) * E
+                vn = vs + (vp - vs) * E
+                wn = wt + (wp - wt) * E
+                zn = h_imp
+            xn = xp + us * h + (up - us) * ome_k
+            yn = yp + vs * h + (vp - vs) * ome_k
+            if zn > Lz:  # reflect at the lid
+                zn = 2.0 * Lz - zn
+                wn = -wn
+            if twoway:
+                # the air's impulse is minus the parcel's drag impulse: Q m_p (Delta u - g h), plus
+                # (first sub-step) the modelled impulse
+                if islog:
+                    kc = 0
+                    fzc = 0.0
+                pool_add_tri(pool, off, s, nx, ny, nk, mu_ - Qm * (un - up), ixf, fxf, jyc, fyc, kc,
+                             fzc)
+                pool_add_tri(pool, off + csz, s, nx, ny, nk, mv_ - Qm * (vn - vp), ixc, fxc, jyf, fyf,
+                             kc, fzc)
+                pool_add_tri(pool, off + 2 * csz, s, nx, ny, nk, mw_ - Qm * (wn - wp + g * h), ixc,
+                             fxc, jyc, fyc, kf, fzf)
+            if tke:
+                ic = wrap_index(int(xp / geo[0]), nx)
+                jc = wrap_index(int(yp / geo[1]), ny)
+                kk = kcell if kcell < nk else nk - 1
+                e = ef[ic, jc, kcell]
+                if e > 0.0:
+                    tl = tlc[kcell] / math.sqrt(e)
+                    pool[off + ((ct * L + slab_of(ic, s, nx)) * ny + jc) * nk + kk] += (
+                        Qm / rho * 2.0 * (k * tp) / (tp + tl) * (h / dtot))
+            xp = wrap_periodic(xn, Lx)
+            yp = wrap_periodic(yn, Ly)
+            zp = zn
+            up = un
+            vp = vn
+            wp = wn
+            t += h
+            nsub += 1
             if hit:
-                flag[p] = 1
-                trem[p] = rem
-                nh += 1
-            sp = max(abs(u[p]), abs(v[p]))
-            if sp > m:
-                m = sp
-        vmax[c] = m
-        nhit[c] = nh
+                break
+        x[p] = xp
+        y[p] = yp
+        z[p] = zp
+        u[p] = up
+        v[p] = vp
+        w[p] = wp
+        kd[p] = k
+        if hit:
+            flag[p] = 1
+            trem[p] = T - t
+            nh += 1
+        sp = max(abs(up), abs(vp))
+        if sp > vm:
+            vm = sp
+    vmax[c] = vm
+    nhit[c] = nh
 
 
 @pjit
-def _collect_events(n, flag, nhit, ev):
-    """ev[:sum(nhit)] = indices of the parcels with flag 1, in increasing order (as flatnonzero)."""
-    nc = nhit.shape[0]
-    start = np.zeros(nc, dtype=np.int64)
-    for c in range(1, nc):
-        start[c] = start[c - 1] + nhit[c - 1]
-    for c in prange(nc):
-        lo, hi = chunk_bounds(n, c, nc)
-        q = start[c]
-        for p in range(lo, hi):
-            if flag[p] == 1:
-                ev[q] = p
-                q += 1
+def _advance_all(cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf, wf, ef,
+                 Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c, dz_c,
+                 lut, tlc, vmax, c0, wtil, nhit):
+    """All parcels over dt, chunk-parallel (see _advance_chunk)."""
+    for c in prange(ranges.shape[0]):
+        _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf,
+                       vf, wf, ef, Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo,
+                       z_f, z_c, dz_c, lut, tlc, vmax, c0, wtil, nhit)
+
+
+@jit
+def _collect_events(n, flag, ev):
+    """ev[:m] = indices of the parcels with flag 1, in increasing order; returns m."""
+    m = 0
+    for p in range(n):
+        if flag[p] == 1:
+            ev[m] = p
+            m += 1
+    return m
 
 
 @jit
@@ -419,8 +428,8 @@ def _cell_order(n, x, y, z, geo, z_f, lut, nx, ny, nz, key, perm, count):
     for c in range(nkey + 1):
         count[c] = 0
     for p in range(n):
-        i = int(x[p] / geo[0]) % nx
-        j = int(y[p] / geo[1]) % ny
+        i = wrap_index(int(x[p] / geo[0]), nx)
+        j = wrap_index(int(y[p] / geo[1]), ny)
         k = level_of(z[p], z_f, lut, geo[5], nz)
         kk = (i * ny + j) * nz + k
         key[p] = kk
@@ -489,8 +498,8 @@ def _release(rng, n0, n_new, x, y, z, u, v, w, d, kd, flag, trem, Lx, Ly, z_lo, 
 def _sgs_update(rng, n, dt, x, y, z, su, sv, sw, ef, tlc, geo, z_f, lut, nx, ny, nz):
     """Ornstein-Uhlenbeck SGS velocity per parcel (serial: random draws). See module doc."""
     for p in range(n):
-        i = int(x[p] / geo[0]) % nx
-        j = int(y[p] / geo[1]) % ny
+        i = wrap_index(int(x[p] / geo[0]), nx)
+        j = wrap_index(int(y[p] / geo[1]), ny)
         k = level_of(z[p], z_f, lut, geo[5], nz)
         e = ef[i, j, k]
         if e <= 0.0:
@@ -633,6 +642,8 @@ class Saltation:
         self._pend = np.zeros(cap, dtype=np.int64)
         self._dead = np.zeros(cap, dtype=np.int64)
         self._ev = np.zeros(cap, dtype=np.int64)
+        self._idx = np.zeros(cap, dtype=np.int64)
+        self._cid = np.zeros(cap, dtype=np.int64)
         if self.sgs:
             self._su, self._sv, self._sw = np.zeros(cap), np.zeros(cap), np.zeros(cap)
         else:
@@ -647,7 +658,7 @@ class Saltation:
         if need <= cap:
             return
         new = max(need, 2 * cap)
-        for f in self._FIELDS + ("k0", "c0", "wtil", "flag", "pend", "dead", "ev"):
+        for f in self._FIELDS + ("k0", "c0", "wtil", "flag", "pend", "dead", "ev", "idx", "cid"):
             old = getattr(self, "_" + f)
             a = np.zeros(new, dtype=old.dtype)
             a[:cap] = old
@@ -728,8 +739,9 @@ class Saltation:
     def _work_init(self) -> None:
         nx, ny, nz = self.grid.shape
         nc = N_CHUNKS
-        self._occ = np.zeros((nc, nx), dtype=np.int8)
-        self._arcs = np.zeros((nc, 2), dtype=np.int64)
+        self._hist = np.zeros(nx, dtype=np.int64)
+        self._bounds = np.zeros(2 * nc + 1, dtype=np.int64)
+        self._cstart = np.zeros(nc + 1, dtype=np.int64)
         self._stats = np.zeros((nc, 3))
         self._margin = np.zeros(nc, dtype=np.int64)
         self._ranges = np.zeros((nc, 3), dtype=np.int64)
@@ -750,7 +762,7 @@ class Saltation:
 
     def _layout(self, margin: np.ndarray, per_slab: int) -> None:
         """Chunk ranges for the given margins; grows the pool if needed."""
-        size = chunk_ranges(self._arcs, margin, self.grid.nx, per_slab, self._ranges)
+        size = chunk_ranges(self._bounds, margin, self.grid.nx, per_slab, self._ranges)
         if size > self._pool.shape[0]:
             self._pool = np.zeros(int(size * 1.25) + 1)
 
@@ -775,17 +787,19 @@ class Saltation:
         nk = self._levels(state, dt) if n > 0 else 2
         self.prm[_DT] = dt
         two, tke = self.two_way, self.tke_sink
-        # which x-slabs each chunk can touch (parcels are sorted by cell: a narrow range)
-        chunk_arcs(n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._occ,
-                   self._arcs, self._stats)
+        # chunks of consecutive x-slabs with about equal parcel counts: each chunk's deposit
+        # buffers cover only its slabs, widened by the stencil and by how far its parcels can move
+        chunk_assign(n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._hist,
+                     self._bounds, self._cid, self._cstart, self._idx, self._stats)
         if two:
             du, dv, dw, Uc, Vc, Wc = self._grid_views(nk)
             self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
             self._layout(self._margin, 3 * 2 * ny * nk)
-            implicit_coefficients(n, self._x, self._y, self._z, self._u, self._v, self._w,
-                                  self._d, self._kd, self._flag, self._trem, state.u, state.v,
-                                  state.w, dt, self.prm, geo.geo, geo.z_f, geo.z_c, geo.lut,
-                                  self._pool, self._ranges, nk, self._k0, self._c0, self._wtil)
+            implicit_coefficients(self._cstart, self._idx, self._x, self._y, self._z, self._u,
+                                  self._v, self._w, self._d, self._kd, self._trem, state.u,
+                                  state.v, state.w, dt, self.prm, geo.geo, geo.z_f, geo.z_c,
+                                  geo.lut, self._pool, self._ranges, nk, self._k0, self._c0,
+                                  self._wtil)
             implicit_corrections(self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
                                  state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax)
             dumax = float(self._dmax.max())
@@ -796,18 +810,19 @@ class Saltation:
         if n > 0:
             uair = grid_absmax(state.u) + dumax
             st = self._stats
-            vb = np.maximum(st[:, 0], uair + st[:, 2])
-            mg = vb * (dt + st[:, 1]) / g.dx
+            vb = np.maximum(st[:, 0], uair + st[:, 1])
+            mg = vb * (dt + st[:, 2]) / g.dx
             mg = np.where(np.isfinite(mg), np.minimum(mg, nx), nx)  # NaN: the whole domain
             self._margin[:] = np.ceil(mg).astype(np.int64) + 2
         ncomp = 3 * int(two) + int(tke)
         self._layout(self._margin, ncomp * ny * nk)
         ef = state.e if (tke or self.sgs) else self._e_zero
-        _advance_all(n, dt, self._x, self._y, self._z, self._u, self._v, self._w, self._d,
-                     self._kd, self._flag, self._trem, self._su, self._sv, self._sw, state.u,
-                     state.v, state.w, ef, Uc, Vc, Wc, du, dv, dw, self._pool, self._ranges, nk,
-                     ncomp, 3 if two else 0, self.prm, geo.geo, geo.z_f, geo.z_c, geo.dz_c,
-                     geo.lut, self.tlc, self._vmaxc, self._c0, self._wtil, self._nhit)
+        _advance_all(self._cstart, self._idx, dt, self._x, self._y, self._z, self._u, self._v,
+                     self._w, self._d, self._kd, self._flag, self._trem, self._su, self._sv,
+                     self._sw, state.u, state.v, state.w, ef, Uc, Vc, Wc, du, dv, dw, self._pool,
+                     self._ranges, nk, ncomp, 3 if two else 0, self.prm, geo.geo, geo.z_f,
+                     geo.z_c, geo.dz_c, geo.lut, self.tlc, self._vmaxc, self._c0, self._wtil,
+                     self._nhit)
         # bed events, serial, in parcel order. Rebounds and ejecta leave the bed at the impact
         # point with the rest of the step as a time credit: they are integrated over dt + credit in
         # the next step, inside its implicit exchange (integrating them now, outside it, would be
@@ -820,9 +835,8 @@ class Saltation:
         n_dead = 0
         rounds = 1 if n_ev else 0
         if n_ev:
-            ev = self._ev[:n_ev]
-            _collect_events(n, self._flag, self._nhit, ev)
-            ev = ev.copy()  # bed_events may grow (replace) self._ev
+            _collect_events(n, self._flag, self._ev)
+            ev = self._ev[:n_ev].copy()  # bed_events may grow (replace) self._ev
             cursor, n_pend = 0, 0
             n_before = self.n
             while True:
@@ -965,12 +979,12 @@ class Saltation:
         self._steps = int(data.get("grain_steps", 0))
 
 
-@pjit
-def _fluid_at(n, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
+@jit
+def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
     nx = uf.shape[0]
     ny = uf.shape[1]
     nz = uf.shape[2]
-    for p in prange(n):
+    for p in range(lo, hi):
         ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
             x[p], y[p], z[p], geo, z_f, z_c, lut, nx, ny, nz)
         a, b, c = interp_fluid(uf, vf, wf, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf,
@@ -978,3 +992,11 @@ def _fluid_at(n, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
         out[0, p] = a
         out[1, p] = b
         out[2, p] = c
+
+
+@pjit
+def _fluid_at(n, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
+    nb = 64
+    for b in prange(nb):
+        _fluid_at_range((b * n) // nb, ((b + 1) * n) // nb, x, y, z, uf, vf, wf, geo, z_f, z_c,
+                        lut, out)

@@ -50,12 +50,17 @@ def smooth_noise(rng: np.random.Generator, shape: tuple[int, int, int], passes: 
 
 def initial_flow(state, u_star: float, z0: float, kappa: float, z_top: float,
                  rng: np.random.Generator, pressure, amplitude: float = 1.0,
-                 streak_spacing: float = 0.7) -> None:
-    """Fill ``state`` with the perturbed log profile described in the module docstring."""
+                 streak_spacing: float = 0.7, u_profile: np.ndarray | None = None) -> None:
+    """Fill ``state`` with the perturbed log profile described in the module docstring
+    (``u_profile`` (nz,): a mean profile to use instead of the log law, e.g. the local-equilibrium
+    profile of the pressure-gradient drive)."""
     g = state.grid
     zc, zf = g.z_c, g.z_f
     nx, ny, nz = g.shape
-    u_log = u_star / kappa * np.log(np.maximum(np.minimum(zc, z_top), 2 * z0) / z0)
+    if u_profile is None:
+        u_log = u_star / kappa * np.log(np.maximum(np.minimum(zc, z_top), 2 * z0) / z0)
+    else:
+        u_log = np.asarray(u_profile, dtype=np.float64)
     taper_c = np.clip(1.0 - zc / z_top, 0.0, 1.0) ** 2
     taper_f = np.clip(1.0 - zf / z_top, 0.0, 1.0) ** 2
     amp = amplitude * u_star

@@ -5,7 +5,8 @@ stage.
 
 for phi = (u, v, w, e), each stage followed by the pressure projection of (u, v, w) (pressure.py).
 Per stage: boundary (bed stress, eddy viscosity from the stage's e) -> one fused kernel for
-advection + SGS diffusion + Rayleigh damping + drive of u, v, w -> one fused kernel for the SGS TKE
+advection + SGS diffusion + Rayleigh damping + drive (u_drive through the damping layer, or a
+uniform body force G) of u, v, w -> one fused kernel for the SGS TKE
 equation (advection, production, transport, dissipation) -> projection. The particle sink of e (paper
 eq. A1, rates in ``state.tke_sink`` [s^-1]) is applied once per step, implicitly:
 e <- e / (1 + rate dt), which is unconditionally stable for any rate.
@@ -37,9 +38,9 @@ device = jit_with(inline="always")
 
 @device
 def _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, top, bot, cdt,
-              rdx, rdy, dzc, dzf, fck, u_drive, with_adv, with_diff):
+              rdx, rdy, dzc, dzf, fck, fcuk, u_drive, gx, with_adv, with_diff):
     r = 1.0 / dzc[k]
-    tu = -fck * (u[i, j, k] - u_drive)
+    tu = gx - fcuk * (u[i, j, k] - u_drive)
     tv = -fck * v[i, j, k]
     if with_adv:
         tu += adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
@@ -53,8 +54,11 @@ def _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, 
 
 @pjit
 def _momentum_stage(u, v, w, nu, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, rdy, dzc, dzf,
-                    fc, ff, u_drive, with_adv, with_diff):
-    """uo = ub + cdt (advection + SGS diffusion + damping)(u) for u, v, w (interior w only).
+                    fc, fcu, ff, u_drive, gx, with_adv, with_diff):
+    """uo = ub + cdt (advection + SGS diffusion + damping + drive)(u) for u, v, w (interior w only).
+
+    Damping rates: fcu for u (towards u_drive), fc for v (towards 0) at the centres, ff for w at the
+    faces; gx [m s^-2] a uniform streamwise body force (mean pressure gradient, -1/rho dP/dx).
 
     The first and last levels are peeled off with literal top/bot flags, so that the interior
     k loop is branch-free.
@@ -67,12 +71,13 @@ def _momentum_stage(u, v, w, nu, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, r
             jm = (j - 1) % ny
             jp = (j + 1) % ny
             _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, 0, im, ip, jm, jp, True, False,
-                      cdt, rdx, rdy, dzc, dzf, fc[0], u_drive, with_adv, with_diff)
+                      cdt, rdx, rdy, dzc, dzf, fc[0], fcu[0], u_drive, gx, with_adv, with_diff)
             for k in range(1, nz - 1):
                 _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, True,
-                          True, cdt, rdx, rdy, dzc, dzf, fc[k], u_drive, with_adv, with_diff)
+                          True, cdt, rdx, rdy, dzc, dzf, fc[k], fcu[k], u_drive, gx, with_adv, with_diff)
             _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, nz - 1, im, ip, jm, jp, False,
-                      True, cdt, rdx, rdy, dzc, dzf, fc[nz - 1], u_drive, with_adv, with_diff)
+                      True, cdt, rdx, rdy, dzc, dzf, fc[nz - 1], fcu[nz - 1], u_drive, gx,
+                      with_adv, with_diff)
             wo[i, j, 0] = 0.0
             wo[i, j, nz] = 0.0
             for k in range(1, nz):
@@ -149,7 +154,10 @@ class Stepper:
 
     def __init__(self, grid, *, z0: float, kappa: float, nu_mol: float, damping_depth: float,
                  damping_timescale: float, workers: int | None = None, advection: bool = True,
-                 sgs: bool = True, wall: bool = True):
+                 sgs: bool = True, wall: bool = True, damp_u: bool = True, body_force: float = 0.0):
+        """``damp_u``: the Rayleigh layer acts on u (towards ``state.u_drive``; the top drive) or
+        not (v and w only); ``body_force`` G [m s^-2]: uniform streamwise acceleration added to u
+        everywhere (the mean pressure gradient drive, forcing.py)."""
         self.grid = grid
         nx, ny, nz = grid.shape
         self.z0, self.kappa, self.nu_mol = float(z0), float(kappa), float(nu_mol)
@@ -162,6 +170,8 @@ class Stepper:
         # log-law shear at the first level per unit first-level velocity: 1/(z1 ln(z1/z0)) [m^-1]
         self.rlog = 1.0 / (z1 * math.log(z1 / self.z0)) if self.wall else 0.0
         self.f_c, self.f_f = damping_profiles(grid, damping_depth, damping_timescale)
+        self.f_cu = self.f_c if damp_u else np.zeros_like(self.f_c)
+        self.body_force = float(body_force)
         self.pressure = PressureSolver(grid, workers=workers)
         shp, shw = (nx, ny, nz), (nx, ny, nz + 1)
         self.buf = [dict(u=np.zeros(shp), v=np.zeros(shp), w=np.zeros(shw), e=np.zeros(shp))
@@ -193,7 +203,8 @@ class Stepper:
         self.boundary(gu, gv, ge)
         rdx, rdy = 1.0 / g.dx, 1.0 / g.dy
         _momentum_stage(gu, gv, gw, self.nu, self.taux, self.tauy, bu, bv, bw, ou, ov, ow, cdt, rdx,
-                        rdy, g.dz_c, g.dz_f, self.f_c, self.f_f, u_drive, self.advection, self.sgs)
+                        rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive, self.body_force,
+                        self.advection, self.sgs)
         if self.sgs:
             _tke_stage(ge, gu, gv, gw, self.nu, be, oe, cdt, rdx, rdy, g.dz_c, g.dz_f, self.rlog,
                        self.ceps_l, E_MIN)

@@ -14,7 +14,7 @@ import typer
 from ..config import ConfigError
 
 #: the study ``run-all`` runs without --study: must finish in minutes on a laptop
-DEFAULT_STUDY = "smoke"
+DEFAULT_STUDY = "quick"
 #: the fidelity ``run CASE`` uses without --fidelity
 DEFAULT_FIDELITY = "smoke"
 

@@ -132,7 +132,7 @@ def save_checkpoint(path: Path, model_ckpt: dict[str, Any], recorder: Recorder,
     meta = dict(meta, model_kinds=kinds, source_key=SOURCE_KEY)
     arrays["meta"] = np.asarray(json.dumps(meta))
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")  # per process: never two writers on one file
     with open(tmp, "wb") as fh:
         np.savez(fh, **arrays)
         fh.flush()
