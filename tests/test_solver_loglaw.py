@@ -104,6 +104,8 @@ def summarize(layer: dict, log=print) -> dict:
     plain = fit_log_law(z, u, KAPPA, None, zmin, zmax)
     us_loc = u0_expect * (np.sqrt(1 - z / Lz) if pg else np.ones_like(z))
     phi = KAPPA * z / us_loc * np.gradient(u, z)
+    tau_c = np.interp(z, zw, np.abs(np.asarray(layer["uw_res"]) + np.asarray(layer["uw_sgs"])))
+    phi_m = KAPPA * z / np.sqrt(np.maximum(tau_c, 1e-12)) * np.gradient(u, z)
     log(f"\ndrive = {layer.get('drive', 'top')}, G = {G:.5f} m s-2, target u*s = {target} "
         f"(expected u*_0 = {u0_expect:.4f}, u*(z_ref = {z_ref:g} m) = {uref_expect:.4f})")
     log(f"fit {zmin} .. {zmax:.2f} m with H = {H}: u*_0 = {fit['u_star0']:.4f} m/s "
@@ -112,17 +114,18 @@ def summarize(layer: dict, log=print) -> dict:
     log(f"plain log fit {zmin} .. {zmax:.2f} m: u* = {plain['u_star0']:.4f} m/s, z0 = {plain['z0']:.3g} m, "
         f"rms {plain['rms']:.3f} m/s")
     log(f"u* at z_ref from the stress: mean {np.mean(layer['u_star_ref']):.4f} m/s")
-    log(" z [m]   <u> [m/s]  phi    uw_res   uw_sgs (on the face below)  res/sgs")
+    log(" z [m]   <u> [m/s]  phi  phi_m   uw_res   uw_sgs (on the face below)  res/sgs")
+    log("   (phi: with the expected u*(z) of the drive; phi_m: with the measured total stress)")
     for k in range(len(z)):
         r = layer["uw_res"][k] / layer["uw_sgs"][k] if layer["uw_sgs"][k] != 0 else math.inf
-        log(f"{z[k]:6.3f}  {u[k]:7.3f}  {phi[k]:5.2f}  {layer['uw_res'][k]:8.4f}  "
+        log(f"{z[k]:6.3f}  {u[k]:7.3f}  {phi[k]:5.2f}  {phi_m[k]:5.2f}  {layer['uw_res'][k]:8.4f}  "
             f"{layer['uw_sgs'][k]:8.4f}  {r:7.2f}")
     ky, S = layer["ky"], layer["spec_u01"]
     pre = ky * S
     n_peak = int(np.argmax(pre[1:])) + 1
     log(f"premultiplied spanwise spectrum of u(0.1 m): peak at lambda_y = {1 / ky[n_peak]:.2f} m "
         f"(index {n_peak} of {len(ky)})")
-    return {"fit": fit, "plain": plain, "phi": phi, "n_peak": n_peak, "u0_expect": u0_expect,
+    return {"fit": fit, "plain": plain, "phi": phi, "phi_m": phi_m, "n_peak": n_peak, "u0_expect": u0_expect,
             "uref_expect": uref_expect}
 
 
