@@ -17,6 +17,7 @@ p, e      (nx, ny, nz)          (x_c[i], y_c[j], z_c[k])     cell centres
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -55,6 +56,17 @@ def stretched_levels(Lz: float, nz: int, dz_bottom: float, dz_top: float | None 
     return z_f
 
 
+class _cached_array(cached_property):
+    """A per-grid cached, read-only derived array: computed once (the stepper asks for the same
+    metric arrays several times per stage) and protected, since every caller shares it."""
+
+    def __get__(self, instance, owner=None):
+        a = super().__get__(instance, owner)
+        if instance is not None and a.flags.writeable:
+            a.setflags(write=False)
+        return a
+
+
 @dataclass(frozen=True, eq=False)
 class Grid:
     """Geometry of the staggered grid (see module docstring for the layout)."""
@@ -90,19 +102,19 @@ class Grid:
     def dy(self) -> float:
         return self.Ly / self.ny
 
-    @property
+    @_cached_array
     def x_f(self) -> np.ndarray:
         return np.arange(self.nx) * self.dx
 
-    @property
+    @_cached_array
     def x_c(self) -> np.ndarray:
         return (np.arange(self.nx) + 0.5) * self.dx
 
-    @property
+    @_cached_array
     def y_f(self) -> np.ndarray:
         return np.arange(self.ny) * self.dy
 
-    @property
+    @_cached_array
     def y_c(self) -> np.ndarray:
         return (np.arange(self.ny) + 0.5) * self.dy
 
@@ -111,17 +123,17 @@ class Grid:
     def Lz(self) -> float:
         return float(self.z_f[-1])
 
-    @property
+    @_cached_array
     def z_c(self) -> np.ndarray:
         """Cell-centre heights (nz,) [m]."""
         return 0.5 * (self.z_f[1:] + self.z_f[:-1])
 
-    @property
+    @_cached_array
     def dz_c(self) -> np.ndarray:
         """Cell thickness z_f[k+1] - z_f[k] (nz,) [m]."""
         return np.diff(self.z_f)
 
-    @property
+    @_cached_array
     def dz_f(self) -> np.ndarray:
         """Distance between the centres either side of face k (nz + 1,) [m]; end faces: half cells."""
         zc = self.z_c
@@ -131,7 +143,7 @@ class Grid:
         d[-1] = self.Lz - zc[-1]
         return d
 
-    @property
+    @_cached_array
     def cell_volume(self) -> np.ndarray:
         """Volume of each layer's cells (nz,) [m^3]."""
         return self.dx * self.dy * self.dz_c
