@@ -232,7 +232,7 @@ def grid_absmax(f):
 
 @jit
 def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo, z_f,
-                    z_c, lut, pool, ranges, nk, k0, c0, wtil):
+                    z_c, lut, pool, ranges, nk, k0, e0, c0, wtil):
     """Chunk c of implicit_coefficients (serial; helpers inlined)."""
     nx = uf.shape[0]
     ny = uf.shape[1]
@@ -271,7 +271,9 @@ def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, d
                 ov = vr - v0
         k0[p] = k
         T = dt + trem[p]  # the parcel's own step (time credit after a splash, particles.py)
-        ome = -math.expm1(-k * T)
+        em = math.expm1(-k * T)
+        e0[p] = em  # particles.py reuses it (first drag evaluation, same k and T)
+        ome = -em
         cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
         wt = w[p] + g / k - g * T / ome
         c0[p] = cp
@@ -289,19 +291,19 @@ def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, d
 
 @pjit
 def implicit_coefficients(cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo,
-                          z_f, z_c, lut, pool, ranges, nk, k0, c0, wtil):
+                          z_f, z_c, lut, pool, ranges, nk, k0, e0, c0, wtil):
     """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
     A[c, comp] += w c_p and B[c, comp] += w c_p (u~_p - o_p).
 
     prm: [rho, nu, g, rho_p, Q]. A and B live interleaved in the chunk's pool range (``ranges``,
     see ``chunk_ranges``): comp 0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs.
     o_p is the log-law offset of a parcel below the first level (module doc), 0 elsewhere.
-    Stores per parcel the drag rate k0, c_p in c0 and the vertical u~_p in wtil (particles.py
-    uses them for the modelled impulse).
+    Stores per parcel the drag rate k0, expm1(-k0 T) in e0, c_p in c0 and the vertical u~_p in
+    wtil (particles.py uses them for the modelled impulse and its first drag evaluation).
     """
     for c in prange(ranges.shape[0]):
         _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo,
-                        z_f, z_c, lut, pool, ranges, nk, k0, c0, wtil)
+                        z_f, z_c, lut, pool, ranges, nk, k0, e0, c0, wtil)
 
 
 @pjit

@@ -45,9 +45,10 @@ depend on the numba thread count); every random draw (splash, SGS velocity, entr
 serial kernels. A chunk is a run of x-slabs with about n / N_CHUNKS parcels (processed in index
 order), so its buffers cover only those slabs plus a margin (coupling.py), and only the levels
 parcels can reach within the step; the buffers persist across steps. The per-parcel code is
-inlined (interp.py ``ijit``) into a serial per-chunk loop (``_advance_chunk``) called from the
-prange. Two-way, the modelled impulse of the implicit estimate and the first sub-step's drag
-impulse share their weights and are deposited as one value.
+inlined (interp.py ``ijit``) into a serial per-chunk loop (``_advance_chunk``, blocks of parcels
+in lockstep passes) called from the prange. Two-way, the modelled impulse of the implicit
+estimate and the first sub-step's drag impulse share their weights and are deposited as one
+value.
 
 Optional processes (off by default, not constructed when off):
 
@@ -92,6 +93,8 @@ DRAG_MAXIT = 40
 NEWTON_MAXIT = 12
 #: sub-steps per step at most (a parcel then moves more than a cell height in a sub-step)
 MAX_SUBSTEPS = 16
+#: parcels advanced together (in lockstep passes) by _advance_chunk
+_LANES = 64
 #: the grains' random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct from
 #: any stream the flow derives from the same seed with another key
 RNG_SPAWN_KEY = 0x5A17
@@ -102,6 +105,48 @@ SORT_INTERVAL = 10
 
 # indices of the kernels' parameter vector
 _RHO, _NU, _G, _RHOP, _Q, _HIMP, _TOL, _LZ, _DT, _TWOWAY, _TKE, _SGS = range(12)
+
+
+#: The drag-rate iteration evaluates exp(-k h) and Re_p^0.687 at arguments close to those of its
+#: previous evaluation; there they are updated from the previous values by short series, exact to
+#: round-off (truncation < 1e-19 relative), instead of new libm calls:
+#: expm1(-k h) = em_q + E_q expm1((k_q - k) h) and Re^a = Re_q^a (1 + eps)^a (binomial series).
+_NEAR = 0.02
+_X2, _X3, _X4, _X5, _X6, _X7, _X8, _X9 = (1.0 / math.factorial(i) for i in range(2, 10))
+
+
+def _binomial(a, m):
+    c = [1.0]
+    for i in range(m):
+        c.append(c[-1] * (a - i) / (i + 1))
+    return c[1:]
+
+
+_B1, _B2, _B3, _B4, _B5, _B6, _B7, _B8, _B9, _B10 = _binomial(0.687, 10)
+
+
+@ijit
+def _expm1_near(k, h, kq, emq):
+    """expm1(-k h), from emq = expm1(-kq h) if |(kq - k) h| <= _NEAR (kq <= 0: no previous)."""
+    if kq > 0.0:
+        x = (kq - k) * h
+        if abs(x) <= _NEAR:
+            t = x * (1.0 + x * (_X2 + x * (_X3 + x * (_X4 + x * (_X5 + x * (_X6 + x * (
+                _X7 + x * (_X8 + x * _X9))))))))
+            return emq + (1.0 + emq) * t
+    return math.expm1(-k * h)
+
+
+@ijit
+def _re687_near(rel, dnu, relq, rpq):
+    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR (relq <= 0:
+    none)."""
+    if relq > 0.0:
+        e = (rel - relq) / relq
+        if abs(e) <= _NEAR:
+            return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
+                _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
+    return (rel * dnu) ** 0.687
 
 
 @ijit
@@ -171,7 +216,7 @@ def _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc, j
 @jit
 def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf,
                    wf, ef, Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c,
-                   dz_c, lut, tlc, vmax, c0, wtil, nhit):
+                   dz_c, lut, tlc, vmax, k0, e0, c0, wtil, nhit):
     """Integrate the parcels of chunk c (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign) over
     dt (plus their time credit), see the module doc.
     Hits (bed crossings) get flag 1 and their time left in trem; nhit[c] counts them.
@@ -187,11 +232,17 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
     derivative of F is analytic: no extra transcendental), stopped when |F(k) - k| <= tol k; the
     last Newton update is then applied (an error quadratically below the tolerance).
 
-    Serial: the per-parcel helpers (interp.py) are inlined here at numba-IR level (an out-of-line
-    call cost more than the arithmetic); the prange over chunks is in _advance_all.
+    Serial, in blocks of ``_LANES`` parcels: a sub-step of every parcel of the block is done in
+    three passes (locate and interpolate; the drag-rate iterations of all lanes in lockstep;
+    update, bed crossing and deposits), so that the long dependency chains of independent parcels
+    overlap in the CPU (one parcel at a time left it waiting on latencies). Parcels that need
+    another sub-step go round again. Each parcel's arithmetic is the same as one at a time; only
+    the order of the deposits into the pool differs (round-off). The per-parcel helpers
+    (interp.py) are inlined here at numba-IR level; the prange over chunks is in _advance_all.
     """
     nx = uf.shape[0]
     ny = uf.shape[1]
+    nzc = z_c.shape[0]
     rho = prm[_RHO]
     nu = prm[_NU]
     g = prm[_G]
@@ -215,159 +266,294 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
         pool[q] = 0.0
     vm = 0.0
     nh = 0
-    for q in range(cstart[c], cstart[c + 1]):
-        p = idx[q]
-        T = dt + trem[p]  # time credit of a parcel that left the bed during the last step
-        trem[p] = 0.0
-        xp = x[p]
-        yp = y[p]
-        zp = z[p]
-        up = u[p]
-        vp = v[p]
-        wp = w[p]
-        dp = d[p]
-        tp = rho_p * dp * dp / (18.0 * rho * nu)
-        itp = 1.0 / tp
-        Qm = Q * (math.pi / 6.0) * rho_p * dp * dp * dp
-        dnu = dp / nu
-        k = kd[p]
-        t = 0.0
-        nsub = 0
-        hit = False
-        if zp < h_imp:  # already inside the impact layer: splash now
-            hit = True
-        while t < T and not hit:
-            ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
-                xp, yp, zp, geo, z_f, z_c, lut, nx, ny, z_c.shape[0])
-            us, vs, ws = _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc,
-                               jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, nx, ny)
-            h = T - t
-            if nsub < MAX_SUBSTEPS - 1:
-                lim = dz_c[kcell] / (abs(wp) + 1e-30)
-                if h > lim:
-                    h = max(lim, T / MAX_SUBSTEPS)
-                    if h > T - t:
-                        h = T - t
-            mu_ = 0.0
-            mv_ = 0.0
-            mw_ = 0.0
-            if twoway and nsub == 0 and c0[p] > 0.0:
-                # the modelled impulse of the implicit estimate (coupling.py), same k, dt and weights
-                cc = c0[p]
-                mu_ = cc * (us - up)
-                mv_ = cc * (vs - vp)
-                mw_ = cc * (ws - wtil[p])
-            if sgs:
-                us += su[p]
-                vs += sv[p]
-                ws += sw[p]
-            Du = us - up
-            Dv = vs - vp
-            Dw = ws - wp
-            if k <= 0.0:
-                rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
-                k = drag_correction(rel * dnu) / tp
-            # drag rate at a blend of the step-mean and end-of-step slip (module doc):
-            # E * mean + (1 - E) * end, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z
-            ih = 1.0 / h
+    B = _LANES
+    # lane state: parcel (x, y, z, u, v, w), t, T, k, T_p, 1/T_p, Q m_p, d/nu | seen velocity,
+    # h, modelled impulse, slip, 1/h | stencil fractions | last drag evaluation (kq, emq, relq, rpq)
+    fx_ = np.empty((36, B))
+    ix_ = np.empty((12, B), dtype=np.int64)
+    lanes = np.empty(B, dtype=np.int64)
+    itl = np.empty(B, dtype=np.int64)
+    q0 = cstart[c]
+    qend = cstart[c + 1]
+    while q0 < qend:
+        nb = min(B, qend - q0)
+        na = 0
+        for l in range(nb):
+            p = idx[q0 + l]
+            T = dt + trem[p]  # time credit of a parcel that left the bed during the last step
+            trem[p] = 0.0
+            zp = z[p]
+            if zp < h_imp:  # already inside the impact layer: splash now
+                flag[p] = 1
+                trem[p] = T
+                nh += 1
+                sp = max(abs(u[p]), abs(v[p]))
+                if sp > vm:
+                    vm = sp
+                continue
+            dp = d[p]
+            tp = rho_p * dp * dp / (18.0 * rho * nu)
+            fx_[0, l] = x[p]
+            fx_[1, l] = y[p]
+            fx_[2, l] = zp
+            fx_[3, l] = u[p]
+            fx_[4, l] = v[p]
+            fx_[5, l] = w[p]
+            fx_[6, l] = 0.0
+            fx_[7, l] = T
+            fx_[8, l] = kd[p]
+            fx_[9, l] = tp
+            fx_[10, l] = 1.0 / tp
+            fx_[11, l] = Q * (math.pi / 6.0) * rho_p * dp * dp * dp
+            fx_[12, l] = dp / nu
+            ix_[0, l] = p
+            ix_[1, l] = 0  # nsub
+            lanes[na] = l
+            na += 1
+        while na > 0:
+            # pass 1: stencil, seen velocity, sub-step length, modelled impulse, slip
+            for a in range(na):
+                l = lanes[a]
+                p = ix_[0, l]
+                nsub = ix_[1, l]
+                xp = fx_[0, l]
+                yp = fx_[1, l]
+                zp = fx_[2, l]
+                up = fx_[3, l]
+                vp = fx_[4, l]
+                wp = fx_[5, l]
+                t = fx_[6, l]
+                T = fx_[7, l]
+                k = fx_[8, l]
+                ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = \
+                    locate(xp, yp, zp, geo, z_f, z_c, lut, nx, ny, nzc)
+                us, vs, ws = _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc,
+                                   fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, nx, ny)
+                h = T - t
+                if nsub < MAX_SUBSTEPS - 1:
+                    lim = dz_c[kcell] / (abs(wp) + 1e-30)
+                    if h > lim:
+                        h = max(lim, T / MAX_SUBSTEPS)
+                        if h > T - t:
+                            h = T - t
+                mu_ = 0.0
+                mv_ = 0.0
+                mw_ = 0.0
+                if twoway and nsub == 0 and c0[p] > 0.0:
+                    # the modelled impulse of the implicit estimate (coupling.py), same k, dt and
+                    # weights
+                    cc = c0[p]
+                    mu_ = cc * (us - up)
+                    mv_ = cc * (vs - vp)
+                    mw_ = cc * (ws - wtil[p])
+                if sgs:
+                    us += su[p]
+                    vs += sv[p]
+                    ws += sw[p]
+                Du = us - up
+                Dv = vs - vp
+                Dw = ws - wp
+                if k <= 0.0:
+                    rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
+                    k = drag_correction(rel * fx_[12, l]) / fx_[9, l]
+                    fx_[8, l] = k
+                fx_[13, l] = us
+                fx_[14, l] = vs
+                fx_[15, l] = ws
+                fx_[16, l] = h
+                fx_[17, l] = mu_
+                fx_[18, l] = mv_
+                fx_[19, l] = mw_
+                fx_[20, l] = Du
+                fx_[21, l] = Dv
+                fx_[22, l] = Dw
+                fx_[23, l] = 1.0 / h
+                fx_[24, l] = fxf
+                fx_[25, l] = fxc
+                fx_[26, l] = fyf
+                fx_[27, l] = fyc
+                fx_[28, l] = fzc
+                fx_[29, l] = fzf
+                # the last evaluation of the drag-rate iteration (none yet)
+                fx_[30, l] = -1.0
+                fx_[31, l] = 0.0
+                fx_[32, l] = -1.0
+                fx_[33, l] = 0.0
+                ix_[2, l] = ixf
+                ix_[3, l] = ixc
+                ix_[4, l] = jyf
+                ix_[5, l] = jyc
+                ix_[6, l] = kc
+                ix_[7, l] = kf
+                ix_[8, l] = 1 if islog else 0
+                ix_[9, l] = kcell
+                # expm1(-k0 T) of the implicit estimate is the first evaluation's: the same number
+                ix_[10, l] = 1 if (twoway and nsub == 0 and h == T and k == k0[p]) else 0
+                itl[a] = l
+            # pass 2: drag rate at a blend of the step-mean and end-of-step slip (module doc):
+            # E * mean + (1 - E) * end, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z,
+            # all lanes in lockstep
+            nit = na
             for _it in range(DRAG_MAXIT):
-                ik = 1.0 / k
-                em = math.expm1(-k * h)
-                E = 1.0 + em
-                phi = -em * ik * ih
-                beta = E * (phi - em)
-                gk = g * ik
-                ax = Du * beta
-                ay = Dv * beta
-                az = gk + (Dw - gk) * beta
-                rel = math.sqrt(ax * ax + ay * ay + az * az)
-                rp = (rel * dnu) ** 0.687
-                F = (1.0 + 0.15 * rp) * itp
-                G = F - k
-                kn = F
-                if _it < NEWTON_MAXIT and rel > 0.0:
-                    # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
-                    irel = 1.0 / rel
-                    db = E * ((E - phi) * ik + h * E) - h * beta
-                    daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
-                    drel = ((ax * Du + ay * Dv) * db + az * daz) * irel
-                    den = 1.0 - (0.15 * 0.687) * rp * drel * irel * itp
-                    if den > 0.1:
-                        kt = k + G / den
-                        if kt > 0.0:
-                            kn = kt
-                if abs(G) <= tol * k:
-                    k = kn
+                m = 0
+                for a in range(nit):
+                    l = itl[a]
+                    k = fx_[8, l]
+                    h = fx_[16, l]
+                    ih = fx_[23, l]
+                    Du = fx_[20, l]
+                    Dv = fx_[21, l]
+                    Dw = fx_[22, l]
+                    itp = fx_[10, l]
+                    ik = 1.0 / k
+                    if _it == 0 and ix_[10, l] != 0:
+                        em = e0[ix_[0, l]]
+                    else:
+                        em = _expm1_near(k, h, fx_[30, l], fx_[31, l])
+                    E = 1.0 + em
+                    phi = -em * ik * ih
+                    beta = E * (phi - em)
+                    gk = g * ik
+                    ax = Du * beta
+                    ay = Dv * beta
+                    az = gk + (Dw - gk) * beta
+                    rel = math.sqrt(ax * ax + ay * ay + az * az)
+                    rp = _re687_near(rel, fx_[12, l], fx_[32, l], fx_[33, l])
+                    fx_[30, l] = k
+                    fx_[31, l] = em
+                    fx_[32, l] = rel
+                    fx_[33, l] = rp
+                    F = (1.0 + 0.15 * rp) * itp
+                    G = F - k
+                    kn = F
+                    if _it < NEWTON_MAXIT and rel > 0.0:
+                        # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
+                        irel = 1.0 / rel
+                        db = E * ((E - phi) * ik + h * E) - h * beta
+                        daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
+                        drel = ((ax * Du + ay * Dv) * db + az * daz) * irel
+                        den = 1.0 - (0.15 * 0.687) * rp * drel * irel * itp
+                        if den > 0.1:
+                            kt = k + G / den
+                            if kt > 0.0:
+                                kn = kt
+                    fx_[8, l] = kn
+                    if not abs(G) <= tol * k:
+                        itl[m] = l
+                        m += 1
+                nit = m
+                if nit == 0:
                     break
-                k = kn
-            ik = 1.0 / k
-            em = math.expm1(-k * h)
-            E = 1.0 + em
-            ome_k = -em * ik
-            wt = ws - g * ik
-            un = us + (up - us) * E
-            vn = vs + (vp - vs) * E
-            wn = wt + (wp - wt) * E
-            zn = zp + wt * h + (wp - wt) * ome_k
-            if zn < h_imp:
-                h = _crossing_time(zp, wt, wp - wt, k, h, h_imp)
-                hit = True
-                E = math.exp(-k * h)
-                ome_k = -math.expm1(-k * h) * ik
+            # pass 3: exact update over h, bed crossing, lid, deposits; lanes that go on
+            m = 0
+            for a in range(na):
+                l = lanes[a]
+                p = ix_[0, l]
+                xp = fx_[0, l]
+                yp = fx_[1, l]
+                zp = fx_[2, l]
+                up = fx_[3, l]
+                vp = fx_[4, l]
+                wp = fx_[5, l]
+                t = fx_[6, l]
+                T = fx_[7, l]
+                k = fx_[8, l]
+                us = fx_[13, l]
+                vs = fx_[14, l]
+                ws = fx_[15, l]
+                h = fx_[16, l]
+                hit = False
+                ik = 1.0 / k
+                em = _expm1_near(k, h, fx_[30, l], fx_[31, l])
+                E = 1.0 + em
+                ome_k = -em * ik
+                wt = ws - g * ik
                 un = us + (up - us) * E
                 vn = vs + (vp - vs) * E
                 wn = wt + (wp - wt) * E
-                zn = h_imp
-            xn = xp + us * h + (up - us) * ome_k
-            yn = yp + vs * h + (vp - vs) * ome_k
-            if zn > Lz:  # reflect at the lid
-                zn = 2.0 * Lz - zn
-                wn = -wn
-            if twoway:
-                # the air's impulse is minus the parcel's drag impulse: Q m_p (Delta u - g h), plus
-                # (first sub-step) the modelled impulse
-                if islog:
-                    kc = 0
-                    fzc = 0.0
-                pool_add_tri(pool, off, s, nx, ny, nk, mu_ - Qm * (un - up), ixf, fxf, jyc, fyc, kc,
-                             fzc)
-                pool_add_tri(pool, off + csz, s, nx, ny, nk, mv_ - Qm * (vn - vp), ixc, fxc, jyf, fyf,
-                             kc, fzc)
-                pool_add_tri(pool, off + 2 * csz, s, nx, ny, nk, mw_ - Qm * (wn - wp + g * h), ixc,
-                             fxc, jyc, fyc, kf, fzf)
-            if tke:
-                ic = wrap_index(int(xp / geo[0]), nx)
-                jc = wrap_index(int(yp / geo[1]), ny)
-                kk = kcell if kcell < nk else nk - 1
-                e = ef[ic, jc, kcell]
-                if e > 0.0:
-                    tl = tlc[kcell] / math.sqrt(e)
-                    pool[off + ((ct * L + slab_of(ic, s, nx)) * ny + jc) * nk + kk] += (
-                        Qm / rho * 2.0 * (k * tp) / (tp + tl) * (h / dtot))
-            xp = wrap_periodic(xn, Lx)
-            yp = wrap_periodic(yn, Ly)
-            zp = zn
-            up = un
-            vp = vn
-            wp = wn
-            t += h
-            nsub += 1
-            if hit:
-                break
-        x[p] = xp
-        y[p] = yp
-        z[p] = zp
-        u[p] = up
-        v[p] = vp
-        w[p] = wp
-        kd[p] = k
-        if hit:
-            flag[p] = 1
-            trem[p] = T - t
-            nh += 1
-        sp = max(abs(up), abs(vp))
-        if sp > vm:
-            vm = sp
+                zn = zp + wt * h + (wp - wt) * ome_k
+                if zn < h_imp:
+                    h = _crossing_time(zp, wt, wp - wt, k, h, h_imp)
+                    hit = True
+                    E = math.exp(-k * h)
+                    ome_k = -math.expm1(-k * h) * ik
+                    un = us + (up - us) * E
+                    vn = vs + (vp - vs) * E
+                    wn = wt + (wp - wt) * E
+                    zn = h_imp
+                xn = xp + us * h + (up - us) * ome_k
+                yn = yp + vs * h + (vp - vs) * ome_k
+                if zn > Lz:  # reflect at the lid
+                    zn = 2.0 * Lz - zn
+                    wn = -wn
+                Qm = fx_[11, l]
+                if twoway:
+                    # the air's impulse is minus the parcel's drag impulse: Q m_p (Delta u - g h),
+                    # plus (first sub-step) the modelled impulse
+                    ixf = ix_[2, l]
+                    ixc = ix_[3, l]
+                    jyf = ix_[4, l]
+                    jyc = ix_[5, l]
+                    kf = ix_[7, l]
+                    fxf = fx_[24, l]
+                    fxc = fx_[25, l]
+                    fyf = fx_[26, l]
+                    fyc = fx_[27, l]
+                    fzf = fx_[29, l]
+                    if ix_[8, l] != 0:
+                        kc = 0
+                        fzc = 0.0
+                    else:
+                        kc = ix_[6, l]
+                        fzc = fx_[28, l]
+                    pool_add_tri(pool, off, s, nx, ny, nk, fx_[17, l] - Qm * (un - up), ixf, fxf,
+                                 jyc, fyc, kc, fzc)
+                    pool_add_tri(pool, off + csz, s, nx, ny, nk, fx_[18, l] - Qm * (vn - vp), ixc,
+                                 fxc, jyf, fyf, kc, fzc)
+                    pool_add_tri(pool, off + 2 * csz, s, nx, ny, nk,
+                                 fx_[19, l] - Qm * (wn - wp + g * h), ixc, fxc, jyc, fyc, kf, fzf)
+                if tke:
+                    kcell = ix_[9, l]
+                    ic = wrap_index(int(xp / geo[0]), nx)
+                    jc = wrap_index(int(yp / geo[1]), ny)
+                    kk = kcell if kcell < nk else nk - 1
+                    e = ef[ic, jc, kcell]
+                    if e > 0.0:
+                        tp = fx_[9, l]
+                        tl = tlc[kcell] / math.sqrt(e)
+                        pool[off + ((ct * L + slab_of(ic, s, nx)) * ny + jc) * nk + kk] += (
+                            Qm / rho * 2.0 * (k * tp) / (tp + tl) * (h / dtot))
+                xp = wrap_periodic(xn, Lx)
+                yp = wrap_periodic(yn, Ly)
+                t += h
+                if hit or not t < T:
+                    x[p] = xp
+                    y[p] = yp
+                    z[p] = zn
+                    u[p] = un
+                    v[p] = vn
+                    w[p] = wn
+                    kd[p] = k
+                    if hit:
+                        flag[p] = 1
+                        trem[p] = T - t
+                        nh += 1
+                    sp = max(abs(un), abs(vn))
+                    if sp > vm:
+                        vm = sp
+                else:
+                    fx_[0, l] = xp
+                    fx_[1, l] = yp
+                    fx_[2, l] = zn
+                    fx_[3, l] = un
+                    fx_[4, l] = vn
+                    fx_[5, l] = wn
+                    fx_[6, l] = t
+                    ix_[1, l] += 1
+                    lanes[m] = l
+                    m += 1
+            na = m
+        q0 += nb
     vmax[c] = vm
     nhit[c] = nh
 
@@ -375,12 +561,12 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
 @pjit
 def _advance_all(cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf, wf, ef,
                  Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c, dz_c,
-                 lut, tlc, vmax, c0, wtil, nhit):
+                 lut, tlc, vmax, k0, e0, c0, wtil, nhit):
     """All parcels over dt, chunk-parallel (see _advance_chunk)."""
     for c in prange(ranges.shape[0]):
         _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf,
                        vf, wf, ef, Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo,
-                       z_f, z_c, dz_c, lut, tlc, vmax, c0, wtil, nhit)
+                       z_f, z_c, dz_c, lut, tlc, vmax, k0, e0, c0, wtil, nhit)
 
 
 @jit
@@ -636,7 +822,7 @@ class Saltation:
     _FIELDS = ("x", "y", "z", "u", "v", "w", "d", "kd", "trem")
 
     def _alloc(self, cap: int) -> None:
-        for f in self._FIELDS + ("k0", "c0", "wtil"):
+        for f in self._FIELDS + ("k0", "e0", "c0", "wtil"):
             setattr(self, "_" + f, np.zeros(cap))
         self._flag = np.zeros(cap, dtype=np.int8)
         self._pend = np.zeros(cap, dtype=np.int64)
@@ -658,7 +844,8 @@ class Saltation:
         if need <= cap:
             return
         new = max(need, 2 * cap)
-        for f in self._FIELDS + ("k0", "c0", "wtil", "flag", "pend", "dead", "ev", "idx", "cid"):
+        for f in self._FIELDS + ("k0", "e0", "c0", "wtil", "flag", "pend", "dead", "ev", "idx",
+                                 "cid"):
             old = getattr(self, "_" + f)
             a = np.zeros(new, dtype=old.dtype)
             a[:cap] = old
@@ -798,8 +985,8 @@ class Saltation:
             implicit_coefficients(self._cstart, self._idx, self._x, self._y, self._z, self._u,
                                   self._v, self._w, self._d, self._kd, self._trem, state.u,
                                   state.v, state.w, dt, self.prm, geo.geo, geo.z_f, geo.z_c,
-                                  geo.lut, self._pool, self._ranges, nk, self._k0, self._c0,
-                                  self._wtil)
+                                  geo.lut, self._pool, self._ranges, nk, self._k0, self._e0,
+                                  self._c0, self._wtil)
             implicit_corrections(self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
                                  state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax)
             dumax = float(self._dmax.max())
@@ -821,8 +1008,8 @@ class Saltation:
                      self._w, self._d, self._kd, self._flag, self._trem, self._su, self._sv,
                      self._sw, state.u, state.v, state.w, ef, Uc, Vc, Wc, du, dv, dw, self._pool,
                      self._ranges, nk, ncomp, 3 if two else 0, self.prm, geo.geo, geo.z_f,
-                     geo.z_c, geo.dz_c, geo.lut, self.tlc, self._vmaxc, self._c0, self._wtil,
-                     self._nhit)
+                     geo.z_c, geo.dz_c, geo.lut, self.tlc, self._vmaxc, self._k0, self._e0,
+                     self._c0, self._wtil, self._nhit)
         # bed events, serial, in parcel order. Rebounds and ejecta leave the bed at the impact
         # point with the rest of the step as a time credit: they are integrated over dt + credit in
         # the next step, inside its implicit exchange (integrating them now, outside it, would be
@@ -883,12 +1070,15 @@ class Saltation:
         """Reorder the parcels by cell (every SORT_INTERVAL steps): locality for the kernels."""
         g = self.geom
         n = self.n
-        key = np.empty(n, dtype=np.int64)
-        perm = np.empty(n, dtype=np.int64)
-        count = np.empty(g.nx * g.ny * g.nz + 1, dtype=np.int64)
+        # work arrays kept across sorts (no allocation and page faults every SORT_INTERVAL steps)
+        if getattr(self, "_sort_key", None) is None or self._sort_key.shape[0] < n:
+            self._sort_key = np.empty(self.capacity, dtype=np.int64)
+            self._sort_perm = np.empty(self.capacity, dtype=np.int64)
+            self._sort_tmp = np.empty(self.capacity)
+            self._sort_count = np.empty(g.nx * g.ny * g.nz + 1, dtype=np.int64)
+        key, perm, tmp = self._sort_key, self._sort_perm, self._sort_tmp
         _cell_order(n, self._x, self._y, self._z, g.geo, g.z_f, g.lut, g.nx, g.ny, g.nz, key, perm,
-                    count)
-        tmp = np.empty(n)
+                    self._sort_count)
         names = list(self._FIELDS) + (["su", "sv", "sw"] if self.sgs else [])
         for f in names:
             _permute(n, perm, getattr(self, "_" + f), tmp)

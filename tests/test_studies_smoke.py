@@ -1,0 +1,90 @@
+"""The convergence and stability studies end to end at smoke size, through `saltstudy run-all`.
+
+Real solver, real archives, real reports: the convergence-smoke ladder (case 2 at two grids) and
+the stability-smoke scenes (the stiff and extreme cases of the stability study, at smoke size).
+Their real-size counterparts (`--study convergence`, `--study stability`) are documented in the
+README with expected run times.
+"""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+
+import pytest
+from typer.testing import CliRunner
+
+from saltstudy.cli import app
+from saltstudy.config import load_study, project_root, study_runs
+
+
+@pytest.fixture
+def home(tmp_path, monkeypatch):
+    h = tmp_path / "home"
+    for d in ("cases", "workflows"):
+        shutil.copytree(project_root() / d, h / d)
+    # half the smoke runs' simulated time: these tests check the studies' plumbing end to end
+    for name in ("smoke", "smoke-fine", "smoke-maxcfl"):
+        f = h / "workflows" / "fidelities" / f"{name}.toml"
+        text = f.read_text()
+        for old, new in (("saltation_duration = 2.0", "saltation_duration = 1.0"),
+                         ("t_min = 1.0", "t_min = 0.5"), ("t_max = 3.0", "t_max = 1.5"),
+                         ("window = 1.0", "window = 0.5"), ("start = 1.0", "start = 0.4"),
+                         ("interval = 0.5", "interval = 0.3")):
+            assert old in text, (name, old)
+            text = text.replace(old, new)
+        f.write_text(text)
+    monkeypatch.setenv("SALTSTUDY_HOME", str(h))
+    monkeypatch.setenv("SALTSTUDY_OUT", str(tmp_path / "out"))
+    return h
+
+
+def _run_all(study: str, report_dir):
+    r = CliRunner().invoke(app, ["run-all", "--study", study, "--quiet", "--report-dir", str(report_dir)])
+    assert r.exit_code == 0, r.output
+    return r.output
+
+
+def test_convergence_smoke_study_end_to_end(home, tmp_path):
+    rep = tmp_path / "rep"
+    _run_all("convergence-smoke", rep)
+    js = json.loads((rep / "convergence.json").read_text())
+    labels = [r["label"] for r in js["rungs"]]
+    assert labels == ["case02@smoke", "case02@smoke-fine"]
+    assert js["finest"] == "case02@smoke-fine"
+    by = {r["label"]: r for r in js["rungs"]}
+    for label in labels:
+        assert by[label]["status"] == "ok"
+        assert by[label]["wall_time_s"] > 0
+    # errors against the finest rung are computed, zero on the finest itself
+    assert by["case02@smoke-fine"]["err_finest"]["u_star_s"] == 0.0
+    coarse = by["case02@smoke"]["err_finest"]["u_star_s"]
+    assert coarse is not None and math.isfinite(coarse) and coarse >= 0
+    # against the paper: case 2 has u*s = 0.54 in Table 2
+    assert math.isfinite(by["case02@smoke"]["err_paper"]["u_star_s"])
+    for f in ("convergence.png", "convergence.pdf", "convergence.md", "index.html", "fig02.png"):
+        assert (rep / f).is_file(), f
+    assert "Error against run time" in (rep / "index.html").read_text()
+
+
+def test_stability_smoke_study_end_to_end(home, tmp_path):
+    rep = tmp_path / "rep"
+    _run_all("stability-smoke", rep)
+    labels = [r.label for r in study_runs(load_study("stability-smoke"))]
+    assert len(labels) == 6
+    js = json.loads((rep / "stability.json").read_text())
+    rows = {r["label"]: r for r in js}
+    assert sorted(rows) == sorted(labels)
+    for label, row in rows.items():
+        assert row["status"] == "completed", (label, row)
+        assert 0 < row["max_cfl"] < 2.0, (label, row)
+        assert math.isfinite(row["u_max"]) and math.isfinite(row["w_absmax"])
+        assert row["wall_time_s"] > 0
+        # on average the splash returns less kinetic energy than the impacts bring (paper, sect. 2)
+        e = row.get("E_splash_over_E_impact")
+        if e is not None:
+            assert 0 < e <= 1.0, (label, e)
+    # the largest-time-step scene ran near its (raised) CFL limit
+    assert rows["case02_max_cfl"]["max_cfl"] > rows["case07_90um_Q28000"]["max_cfl"]
+    text = (rep / "stability.md").read_text()
+    assert all(label in text for label in labels)
