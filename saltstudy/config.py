@@ -19,7 +19,7 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 __all__ = [
     "Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Physics", "Particles",
@@ -117,14 +117,33 @@ class Forcing(_Frozen):
     controller_timescale: float = Field(
         20.0, gt=0, description="relaxation time of the driving-velocity controller [s]")
     drive: Literal["top", "pressure_gradient"] = Field(
-        "top", description="top: base-state wind through the Rayleigh layer (the paper; constant "
-        "stress below it); pressure_gradient: mean body force, stress falls linearly with height, "
-        "set so that the stress at z_ref is rho u*s^2")
+        "pressure_gradient", description="pressure_gradient (default): mean body force, the stress "
+        "falls linearly with height from rho u*s^2 at the bed (the log law holds in the lower third: "
+        "solver/forcing.py); top: base-state wind through the Rayleigh layer (the paper's set-up; "
+        "on domains a few metres deep its core is Couette-like, kappa z/u* dU/dz ~ 0.6)")
 
 
 class Surface(_Frozen):
     """Rigid bed: log-law stress at the first level."""
     z0: float = Field(1.0e-5, gt=0, lt=0.1, description="roughness length z0 [m] (paper: 10 um)")
+
+
+class Closure(_Frozen):
+    """Turbulence closure choices beyond the Deardorff SGS model (solver/sgs.py)."""
+    near_wall: bool = Field(
+        True, description="near-wall mean-field eddy viscosity (solver/nearwall.py): a mixing-length "
+        "closure of the mean shear where the horizontal grid cannot resolve the wall eddies")
+    near_wall_layer: tuple[float, float] = Field(
+        (1.0, 3.0), description="(a, b): the near-wall term acts fully below a dx and fades to zero "
+        "at b dx (dx: the horizontal grid spacing) [-]")
+
+    @field_validator("near_wall_layer")
+    @classmethod
+    def _layer(cls, v: tuple[float, float]) -> tuple[float, float]:
+        a, b = v
+        if not (0.0 <= a < b):
+            raise ValueError(f"near_wall_layer = {v}: need 0 <= a < b")
+        return v
 
 
 class Physics(_Frozen):
@@ -165,6 +184,7 @@ class Case(_Frozen):
     threshold: Threshold = Threshold()
     forcing: Forcing
     surface: Surface = Surface()
+    closure: Closure = Closure()
     physics: Physics = Physics()
     particles: Particles
 
@@ -330,12 +350,19 @@ class Scene(_Frozen):
         n = self.case.particles.n_initial * (g.Lx * g.Ly) / PAPER_AREA_M2 / self.fidelity.q_multiplier
         return max(1, int(round(n)))
 
+    @property
+    def damping_depth(self) -> float:
+        """Depth of the Rayleigh layer the model builds [m]: the fidelity's with the top drive,
+        none with the pressure-gradient drive."""
+        return self.fidelity.grid.damping_depth if self.case.forcing.drive == "top" else 0.0
+
     def spinup_slice(self) -> dict[str, Any]:
         """What determines the particle-free spin-up (cases sharing it share one spin-up)."""
         c, f = self.case, self.fidelity
         return {
             "air": c.air.model_dump(mode="json"),
             "surface": c.surface.model_dump(mode="json"),
+            "closure": c.closure.model_dump(mode="json"),
             "forcing": c.forcing.model_dump(mode="json"),
             "seed": c.seed,
             "grid": f.grid.model_dump(mode="json"),

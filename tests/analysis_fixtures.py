@@ -31,6 +31,7 @@ import xarray as xr
 
 from saltstudy.config import Case, Fidelity, Scene
 from saltstudy.ncio import write_dataset
+from saltstudy.physics.laws import log_law_profile
 
 __all__ = ["build_archives", "make_scene", "stretched_faces", "samples_schema_variables"]
 
@@ -104,9 +105,9 @@ def stretched_faces(Lz: float, nz: int, dz_bottom: float) -> np.ndarray:
 def make_scene(*, Lx: float, Ly: float, Lz: float, nx: int, ny: int, nz: int, damping: float,
                u_star: float, Q: float, mu: float, sigma: float, sample_start: float,
                sample_interval: float, sample_count: int, duration: float,
-               plane_interval: float, series_interval: float) -> Scene:
+               plane_interval: float, series_interval: float, drive: str = "top") -> Scene:
     case = Case.model_validate({
-        "number": 1, "name": "fixture", "forcing": {"u_star_s": u_star},
+        "number": 1, "name": "fixture", "forcing": {"u_star_s": u_star, "drive": drive},
         "particles": {"Q": Q}, "soil": {"modes": [{"mass_fraction": 1.0, "mu": mu, "sigma": sigma}]},
     })
     fid = Fidelity.model_validate({
@@ -147,7 +148,7 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
                    u_star_0: float = 0.45, z0_0: float = 1e-5, tau0_fraction: float = 0.3,
                    H_tau: float = 0.05, H_m: float = 0.04, mu: float = 2.0e-4, sigma: float = 1.2,
                    streak_spacing: float | None = None, streak_speed: float = 2.0,
-                   full_fields: bool = True) -> tuple[Path, Path, dict[str, Any]]:
+                   full_fields: bool = True, drive: str = "top") -> tuple[Path, Path, dict[str, Any]]:
     """Write ``samples.nc`` and ``spinup.nc`` in ``directory``; return (samples, spinup, truth)."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -169,13 +170,16 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
                        Q=20.0, mu=mu, sigma=sigma, sample_start=sample_start,
                        sample_interval=sample_interval, sample_count=max(n_samples, 1),
                        duration=max(duration, 1e-3), plane_interval=plane_interval,
-                       series_interval=series_interval)
+                       series_interval=series_interval, drive=drive)
     spacing = streak_spacing or (Ly / max(1, ny // 4))
     X, Y = np.meshgrid(x, y, indexing="ij")
 
     # --- wind ---
-    u_prof = u_star_s / KAPPA * np.log(z / z0s)
-    u_prof0 = u_star_0 / KAPPA * np.log(z / z0_0)
+    # top drive: constant stress, the plain log law; pressure-gradient drive: the linear-stress
+    # profile with the lid at Lz (u*_0 and z0 its surface values)
+    H = Lz if drive == "pressure_gradient" else None
+    u_prof = log_law_profile(z, u_star_s, z0s, KAPPA, H)
+    u_prof0 = log_law_profile(z, u_star_0, z0_0, KAPPA, H)
     uw_res_w = np.full(nz + 1, -0.8 * u_star_s ** 2)
     uw_sgs_w = np.full(nz + 1, -0.2 * u_star_s ** 2)
     uw_res_w[[0, -1]] = 0.0

@@ -129,7 +129,7 @@ def test_bad_case_rejected_with_field_and_reason(tmp_path, body, field, reason):
 def test_domain_shallower_than_damping_layer_rejected(tmp_path):
     src = (project_root() / "workflows" / "fidelities" / "smoke.toml").read_text()
     p = tmp_path / "thin.toml"
-    p.write_text(src.replace("damping_depth = 1.0", "damping_depth = 3.5"))
+    p.write_text(src.replace("damping_depth = 1.0", "damping_depth = 4.5"))
     res = runner.invoke(app, ["validate", str(p)])
     assert res.exit_code == 2
     assert "damping_depth" in res.output and "less than the domain height" in res.output

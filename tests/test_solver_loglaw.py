@@ -18,8 +18,8 @@ import pytest
 from solver_helpers import smoke_scene  # noqa: F401  (imports saltstudy first)
 from saltstudy.config import load_case, load_fidelity, resolve_scene
 
-T_SPIN = 150.0
-T_AVG = 60.0
+T_SPIN = 240.0
+T_AVG = 90.0
 KAPPA = 0.40
 DRIVE = "pressure_gradient"
 

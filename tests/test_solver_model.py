@@ -58,7 +58,10 @@ def test_wall_stress_and_length_scale():
 def test_drive_feed_forward_and_diagnostics_shapes():
     from saltstudy.config import load_case, load_fidelity, resolve_scene
     # the feed-forward of the top drive (explicitly: the package default may be the pressure gradient)
-    sc = resolve_scene(load_case(1, overrides={"forcing": {"drive": "top"}}), load_fidelity("smoke"))
+    fid = load_fidelity("smoke")
+    # a 3 m domain under its 1 m damping layer (the feed-forward's log law is checked at 5 %)
+    fid = fid.model_validate({**fid.model_dump(), "grid": {**fid.grid.model_dump(), "Lz": 3.0}})
+    sc = resolve_scene(load_case(1, overrides={"forcing": {"drive": "top"}}), fid)
     m = Model.from_scene(sc)
     ustar = sc.case.forcing.u_star_s
     f = m.stepper.f_c * m.grid.dz_c

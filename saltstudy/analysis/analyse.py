@@ -29,6 +29,7 @@ import xarray as xr
 
 from ..ncio import NC_LOCK, write_dataset
 from . import correlation, flux, profiles, series, sizes, stokes, streamers
+from ..physics import laws
 
 __all__ = ["analyse_case", "analyse_datasets", "SPEC", "REQUIRED_VARIABLES", "MAX_LAG_S",
            "SAMPLE_VARIABLES_USED"]
@@ -222,8 +223,14 @@ def _case_info(attrs: dict[str, Any]) -> dict[str, Any]:
     if damping is None:
         damping = _f(attrs, "damping_depth", min(3.0, 0.5 * Lz) if math.isfinite(Lz) else 0.0)
     forcing = case.get("forcing", {}) if isinstance(case, dict) else {}
+    drive = str(forcing.get("drive", "top"))
+    if drive == "pressure_gradient":
+        damping = 0.0  # the model builds no damping layer with this drive
     return {
         "Lz": Lz,
+        "drive": drive,
+        # the pressure-gradient drive's stress falls linearly to the lid at Lz: fits use that shape
+        "H": Lz if drive == "pressure_gradient" and math.isfinite(Lz) else None,
         "damping_depth": float(damping),
         "z_ref": float(forcing.get("z_ref", 2.0)),
         "soil": case.get("soil") if isinstance(case, dict) else None,
@@ -361,8 +368,12 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     e_sgs = _tmean(get("e_sgs"), nz)
     tke = tke_res + e_sgs
 
-    z_hi_fit = 0.5 * (Lz - info["damping_depth"])
-    z_ref_eff = _f(attrs, "z_ref_eff", min(info["z_ref"], z_hi_fit))
+    H = info["H"]
+    z_ref_eff = _f(attrs, "z_ref_eff", min(info["z_ref"], 0.5 * (Lz - info["damping_depth"])))
+
+    def rng_fit(zm):
+        return profiles.fit_range(zm, Lz, info["damping_depth"], drive=info["drive"])
+
     u_star_stress = profiles.stress_u_star(z_w, _tmean(uw_w, nz + 1), z_ref_eff)
 
     # ---------------- tau_p, z_m, log fit (sections 3.1, 3.2) ----------------
@@ -377,23 +388,27 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
         G_tot_sample = np.full(n_t, np.nan)
 
     z_m = flux.z_m_from_tau(z, tau_p, rho, u_star_stress)
-    fit = profiles.log_law_fit(z, u_mean, *profiles.fit_range(z_m, Lz, info["damping_depth"]), kappa)
+    fit = profiles.log_law_fit(z, u_mean, *rng_fit(z_m), kappa, H=H)
     for _ in range(2):
         u_norm = fit.u_star if math.isfinite(fit.u_star) else u_star_stress
         z_m_new = flux.z_m_from_tau(z, tau_p, rho, u_norm)
-        rng = profiles.fit_range(z_m_new, Lz, info["damping_depth"])
+        rng = rng_fit(z_m_new)
         same = (z_m_new == z_m) or (math.isnan(z_m_new) and math.isnan(z_m))
         z_m = z_m_new
         if same and rng[0] == fit.z_min:
             break
-        fit = profiles.log_law_fit(z, u_mean, *rng, kappa)
+        fit = profiles.log_law_fit(z, u_mean, *rng, kappa, H=H)
     u_star_s = fit.u_star
     u_norm = u_star_s if math.isfinite(u_star_s) else u_star_stress
     # z0s with u* fixed at the stress value (the paper's u* at the reference height)
     z0s_stress = math.nan
     sel = (z >= fit.z_min) & (z <= fit.z_max) & np.isfinite(u_mean)
-    if sel.sum() >= 1 and math.isfinite(u_star_stress) and u_star_stress > 0:
-        z0s_stress = float(np.exp(np.mean(np.log(z[sel]) - kappa * u_mean[sel] / u_star_stress)))
+    # the surface value of the stress u*: the linear stress of the pressure-gradient drive is
+    # u*_0^2 (1 - z/H) at z_ref
+    u0_stress = u_star_stress / math.sqrt(1.0 - z_ref_eff / H) if H else u_star_stress
+    if sel.sum() >= 1 and math.isfinite(u0_stress) and u0_stress > 0:
+        F = laws.log_law_shape(z[sel], H)
+        z0s_stress = laws.invert_log_law_shape(float(np.mean(F - kappa * u_mean[sel] / u0_stress)), H)
 
     put("u_star_s", (), u_star_s, fit_range=f"[{fit.z_min:g}, {fit.z_max:g}] m, {fit.n_points} levels")
     put("z0s", (), fit.z0)
@@ -432,7 +447,7 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     uw_sp = on_z(profiles.faces_to_centres(uw_sp_w), 0.5 * (sp_zw[1:] + sp_zw[:-1])) \
         if sp_zw.size >= 2 else np.full(nz, np.nan)
     tke_sp = on_z(sp_get("tke_res", sp_z.size) + sp_get("e_sgs", sp_z.size), sp_z)
-    fit0 = profiles.log_law_fit(z, u_sp, *profiles.fit_range(math.nan, Lz, info["damping_depth"]), kappa)
+    fit0 = profiles.log_law_fit(z, u_sp, *rng_fit(math.nan), kappa, H=H)
     put("u_star_0", (), fit0.u_star, fit_range=f"[{fit0.z_min:g}, {fit0.z_max:g}] m, {fit0.n_points} levels")
     put("z0_0", (), fit0.z0)
     put("fit_r2_0", (), fit0.r2)

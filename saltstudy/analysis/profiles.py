@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..physics.laws import invert_log_law_shape, log_law_shape
+
 __all__ = ["LogFit", "faces_to_centres", "log_law_fit", "fit_range", "stress_u_star",
            "interp_at", "FIT_Z_FLOOR", "MIN_FIT_POINTS"]
 
@@ -50,37 +52,45 @@ def faces_to_centres(a_w: np.ndarray) -> np.ndarray:
 
 
 def fit_range(z_m: float, Lz: float, damping_depth: float,
-              z_floor: float = FIT_Z_FLOOR) -> tuple[float, float]:
+              z_floor: float = FIT_Z_FLOOR, drive: str = "top") -> tuple[float, float]:
     """Height range [z_min, z_max] of the log-law fit.
 
     ``z_min = max(z_floor, z_m)``: above the saltation layer, where grains no longer extract
     momentum (z_m NaN, e.g. the particle-free spin-up: ``z_floor``, 0.3 m by default).
-    ``z_max = (Lz - damping_depth) / 2``: the lower half of the undamped column, which is the
-    surface layer of the simulated flow; above it the top lid and the Rayleigh layer bend the
-    profile. This is also where the forcing holds u* (``z_ref_eff`` never exceeds it).
+    ``z_max``: top drive, ``(Lz - damping_depth) / 2``, the lower half of the undamped column
+    (above it the top lid and the Rayleigh layer bend the profile; also where the forcing holds
+    u*); pressure-gradient drive (no damping layer), ``Lz / 3``: the lower third, where the
+    local-equilibrium profile of the linear stress holds (outer-layer effects grow above).
     """
     z_lo = float(z_floor)
     if z_m is not None and math.isfinite(z_m):
         z_lo = max(z_lo, float(z_m))
-    z_hi = 0.5 * (float(Lz) - float(damping_depth))
+    if drive == "pressure_gradient":
+        z_hi = float(Lz) / 3.0
+    else:
+        z_hi = 0.5 * (float(Lz) - float(damping_depth))
     return z_lo, z_hi
 
 
 def log_law_fit(z: np.ndarray, u: np.ndarray, z_min: float, z_max: float, kappa: float,
-                min_points: int = MIN_FIT_POINTS) -> LogFit:
+                min_points: int = MIN_FIT_POINTS, H: float | None = None) -> LogFit:
     """Regress ``u = (u*/kappa) ln(z/z0)`` on the levels with ``z_min <= z <= z_max``.
 
     Returns ``u*`` = kappa * slope and ``z0 = exp(-intercept/slope)``; NaN when fewer than
-    ``min_points`` finite levels lie in the range or the slope is not positive.
+    ``min_points`` finite levels lie in the range or the slope is not positive. With ``H`` (the
+    domain height of a pressure-gradient drive) ln z is replaced by the shape F(z) of the
+    linear-stress profile (``physics.laws.log_law_shape``) and ``u*`` is the surface value u*_0.
     """
     z = np.asarray(z, dtype=np.float64)
     u = np.asarray(u, dtype=np.float64)
     sel = (z >= z_min) & (z <= z_max) & np.isfinite(u) & (z > 0)
+    if H is not None:
+        sel &= z < H
     n = int(sel.sum())
     nan = LogFit(math.nan, math.nan, n, math.nan, float(z_min), float(z_max))
     if n < min_points:
         return nan
-    lz = np.log(z[sel])
+    lz = log_law_shape(z[sel], H)
     uu = u[sel]
     A = np.vstack([lz, np.ones_like(lz)]).T
     (a, b), *_ = np.linalg.lstsq(A, uu, rcond=None)
@@ -89,7 +99,8 @@ def log_law_fit(z: np.ndarray, u: np.ndarray, z_min: float, z_max: float, kappa:
     resid = uu - (a * lz + b)
     ss_tot = float(np.sum((uu - uu.mean()) ** 2))
     r2 = 1.0 - float(np.sum(resid ** 2)) / ss_tot if ss_tot > 0 else math.nan
-    return LogFit(float(kappa * a), float(math.exp(-b / a)), n, r2, float(z_min), float(z_max))
+    return LogFit(float(kappa * a), float(invert_log_law_shape(-b / a, H)), n, r2, float(z_min),
+                  float(z_max))
 
 
 def interp_at(z: np.ndarray, f: np.ndarray, z0: float) -> float:

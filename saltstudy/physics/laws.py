@@ -27,7 +27,7 @@ import numpy as np
 from .drag import terminal_velocity
 
 __all__ = [
-    "log_law_u", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s",
+    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s",
     "bagnold1937_flux", "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux",
     "lettau1978_flux", "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS",
     "RAUPACH_A", "D_REF",
@@ -63,6 +63,50 @@ def log_law_u(z, u_star, z0, kappa=0.40):
 # --------------------------------------------------------------------------------------------
 # Fig. 3: saltation roughness length z0s [m]
 # --------------------------------------------------------------------------------------------
+
+
+def log_law_shape(z, H: float | None = None) -> np.ndarray:
+    """F(z) with U(z) = (u*_0/kappa) [F(z) - F(z0)] the local-equilibrium mean profile [-].
+
+    H = None: constant stress, F = ln z (the plain log law). H given (a pressure-gradient drive
+    under a free-slip lid at H): the stress falls linearly, u*(z) = u*_0 sqrt(1 - z/H), and
+    dU/dz = u*(z)/(kappa z) integrates to
+
+        F(z) = 2 s + ln((1 - s)/(1 + s)) = 2 s + ln(z/H) - 2 ln(1 + s),   s = sqrt(1 - z/H)
+
+    (the second form is the one evaluated: no cancellation for z << H). F -> ln z + const for
+    z << H, F(H) = 0. Valid for 0 < z <= H.
+    """
+    z = np.asarray(z, dtype=np.float64)
+    if H is None:
+        return np.log(z)
+    s = np.sqrt(np.clip(1.0 - z / H, 0.0, 1.0))
+    return 2.0 * s + np.log(z / H) - 2.0 * np.log1p(s)
+
+
+def log_law_profile(z, u_star0: float, z0: float, kappa: float, H: float | None = None) -> np.ndarray:
+    """U(z) = (u*_0/kappa) [F(z) - F(z0)] [m s^-1] (see ``log_law_shape``); U = 0 below z0."""
+    z = np.asarray(z, dtype=np.float64)
+    zz = np.maximum(z, z0)
+    return u_star0 / kappa * (log_law_shape(zz, H) - log_law_shape(np.float64(z0), H))
+
+
+def invert_log_law_shape(c: float, H: float | None) -> float:
+    """z [m] with F(z) = c (F is strictly increasing on (0, H])."""
+    if H is None:
+        return math.exp(c)
+    if c >= 0.0:
+        return H                        # F(H) = 0 is the maximum
+    lo, hi = math.log(1e-300), math.log(H)
+    for _ in range(200):                # bisection in ln z
+        mid = 0.5 * (lo + hi)
+        if float(log_law_shape(math.exp(mid), H)) < c:
+            lo = mid
+        else:
+            hi = mid
+    return math.exp(0.5 * (lo + hi))
+
+
 def charnock_z0s(u_star, u_star_t=None, *, z0=1.0e-5, g=9.81, C_c=0.08):
     """Charnock-type z0s = C_c u*s^2 / g [m] (Charnock 1955; Sherman & Farrell 2008).
 

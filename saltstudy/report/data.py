@@ -133,6 +133,12 @@ class RunData:
             return float(dominant.get("mu", math.nan))
         return math.nan
 
+    def damping_depth(self) -> float:
+        """Depth of the Rayleigh layer of the run [m] (none with the pressure-gradient drive)."""
+        if self.scene.get("case", {}).get("forcing", {}).get("drive", "top") != "top":
+            return 0.0
+        return float(self.scene.get("fidelity", {}).get("grid", {}).get("damping_depth", 0.0))
+
     def z_ref(self) -> tuple[float, str]:
         """Height where u_ref is read for Fig 2 and why.
 
@@ -142,7 +148,7 @@ class RunData:
         """
         grid = self.scene.get("fidelity", {}).get("grid", {})
         lz = float(grid.get("Lz", self.attr("Lz", math.nan)))
-        damp = float(grid.get("damping_depth", 0.0))
+        damp = self.damping_depth()
         zr = float(self.scene.get("case", {}).get("forcing", {}).get("z_ref", 2.0))
         z = min(2.0, zr)
         why = "2 m (paper)"

@@ -226,7 +226,7 @@ def fig02(ctx: ReportContext) -> FigureResult:
         ax.grid(alpha=0.3, which="both")
     ax_u.axhline(zref, color="tab:red", lw=0.8, ls="-.", label=f"z_ref = {why}")
     grid = r.scene.get("fidelity", {}).get("grid", {})
-    lz, damp = float(grid.get("Lz", r.attr("Lz"))), float(grid.get("damping_depth", 0.0))
+    lz, damp = float(grid.get("Lz", r.attr("Lz"))), r.damping_depth()
     if math.isfinite(lz) and damp > 0:
         for ax in (ax_u, ax_f):
             ax.axhspan(lz - damp, lz, facecolor="none", edgecolor="0.6", hatch="//", lw=0,

@@ -11,55 +11,12 @@ import numpy as np
 from numba import prange
 
 from .._jit import pjit
+from ..physics.laws import invert_log_law_shape, log_law_profile, log_law_shape
 from .sgs import C_M, E_MIN, sgs_stress_uw_profile, strain_sq_at
 from .wall import surface_stress
 
 __all__ = ["flow_profiles", "flow_planes", "cell_centred_velocity", "u_star_at", "stress_profile",
            "resolved_tke_volume_mean", "log_law_shape", "log_law_profile", "fit_log_law"]
-
-
-# ------------------------------------------------------------------------------------------------
-# Log law with a linearly decreasing stress (pressure-gradient drive). Pure numpy, no model needed.
-# ------------------------------------------------------------------------------------------------
-def log_law_shape(z, H: float | None = None) -> np.ndarray:
-    """F(z) with U(z) = (u*_0/kappa) [F(z) - F(z0)] the local-equilibrium mean profile [-].
-
-    H = None: constant stress, F = ln z (the plain log law). H given: the stress falls linearly,
-    u*(z) = u*_0 sqrt(1 - z/H), and dU/dz = u*(z)/(kappa z) integrates to
-
-        F(z) = 2 s + ln((1 - s)/(1 + s)) = 2 s + ln(z/H) - 2 ln(1 + s),   s = sqrt(1 - z/H)
-
-    (the second form is the one evaluated: no cancellation for z << H). F -> ln z + const for
-    z << H, F(H) = 0. Valid for 0 < z <= H.
-    """
-    z = np.asarray(z, dtype=np.float64)
-    if H is None:
-        return np.log(z)
-    s = np.sqrt(np.clip(1.0 - z / H, 0.0, 1.0))
-    return 2.0 * s + np.log(z / H) - 2.0 * np.log1p(s)
-
-
-def log_law_profile(z, u_star0: float, z0: float, kappa: float, H: float | None = None) -> np.ndarray:
-    """U(z) = (u*_0/kappa) [F(z) - F(z0)] [m s^-1] (see ``log_law_shape``); U = 0 below z0."""
-    z = np.asarray(z, dtype=np.float64)
-    zz = np.maximum(z, z0)
-    return u_star0 / kappa * (log_law_shape(zz, H) - log_law_shape(np.float64(z0), H))
-
-
-def _invert_shape(c: float, H: float | None) -> float:
-    """z with F(z) = c (F is strictly increasing on (0, H])."""
-    if H is None:
-        return math.exp(c)
-    if c >= 0.0:
-        return H                        # F(H) = 0 is the maximum
-    lo, hi = math.log(1e-300), math.log(H)
-    for _ in range(200):                # bisection in ln z
-        mid = 0.5 * (lo + hi)
-        if float(log_law_shape(math.exp(mid), H)) < c:
-            lo = mid
-        else:
-            hi = mid
-    return math.exp(0.5 * (lo + hi))
 
 
 def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None = None,
@@ -88,7 +45,7 @@ def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None 
     F = log_law_shape(z[sel], H)
     a, b = np.polyfit(F, U[sel], 1)
     u0 = kappa * a
-    z0 = _invert_shape(-b / a, H) if a > 0 else math.nan
+    z0 = invert_log_law_shape(-b / a, H) if a > 0 else math.nan
     ze = np.atleast_1d(np.asarray(z_eval, dtype=np.float64))
     us = u0 * (np.ones_like(ze) if H is None else np.sqrt(np.clip(1.0 - ze / H, 0.0, 1.0)))
     rms = float(np.sqrt(np.mean((a * F + b - U[sel]) ** 2)))
@@ -177,6 +134,8 @@ def flow_profiles(model) -> dict:
     tke = 0.5 * (((uc - um) ** 2).mean(axis=(0, 1)) + ((vc - vm) ** 2).mean(axis=(0, 1))
                  + ((wc - wm) ** 2).mean(axis=(0, 1)))
     res, sgs = stress_profile(model)
+    if st.near_wall is not None:  # the near-wall mean-field part of the modelled stress
+        sgs = sgs - st.near_wall.stress_profile()
     nu = _nu(model)
     eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, g.dz_f,
                                   st.rlog, st.ceps_l)

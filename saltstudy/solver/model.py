@@ -65,10 +65,9 @@ class Model:
         self.components = components
         self.t_activation: float | None = None
         self._rate_cache: tuple[int, float] | None = None
-        spec = scene.fidelity.grid
         self.drive = scene.case.forcing.drive
         #: depth of the active Rayleigh layer [m] (0 with the pressure-gradient drive)
-        self.damping_depth = float(spec.damping_depth) if self.drive == "top" else 0.0
+        self.damping_depth = float(scene.damping_depth)
         self.z_ref = z_ref_effective(scene.case.forcing.z_ref, grid.Lz, self.damping_depth)
         #: the pressure-gradient body force G [m s^-2] (0 with the top drive)
         self.body_force = float(stepper.body_force)
@@ -83,11 +82,13 @@ class Model:
         case, fid = scene.case, scene.fidelity
         grid = Grid.from_spec(fid.grid)
         pg = case.forcing.drive == "pressure_gradient"
-        depth = 0.0 if pg else fid.grid.damping_depth
+        depth = scene.damping_depth
         G = pressure_gradient_force(case.forcing.u_star_s, grid.Lz) if pg else 0.0
         stepper = Stepper(grid, z0=case.surface.z0, kappa=case.air.kappa, nu_mol=case.air.nu,
                           damping_depth=depth, damping_timescale=fid.grid.damping_timescale,
-                          workers=workers, damp_u=not pg, body_force=G)
+                          workers=workers, damp_u=not pg, body_force=G,
+                          near_wall_layer=(case.closure.near_wall_layer if case.closure.near_wall
+                                           else None))
         state = FlowState.zeros(grid)
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
@@ -127,6 +128,7 @@ class Model:
             return self._rate_cache[1]
         st = self.stepper
         c, d, nbad = health(self.grid, self.state, st.cml, st.nu_mol)
+        d = max(d, st.near_wall_rate())
         if nbad:
             locate_nonfinite(self.state)
         self._rate_cache = (self.state.step, (c, d))

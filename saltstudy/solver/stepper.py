@@ -154,10 +154,12 @@ class Stepper:
 
     def __init__(self, grid, *, z0: float, kappa: float, nu_mol: float, damping_depth: float,
                  damping_timescale: float, workers: int | None = None, advection: bool = True,
-                 sgs: bool = True, wall: bool = True, damp_u: bool = True, body_force: float = 0.0):
+                 sgs: bool = True, wall: bool = True, damp_u: bool = True, body_force: float = 0.0,
+                 near_wall_layer: tuple[float, float] | None = None):
         """``damp_u``: the Rayleigh layer acts on u (towards ``state.u_drive``; the top drive) or
         not (v and w only); ``body_force`` G [m s^-2]: uniform streamwise acceleration added to u
-        everywhere (the mean pressure gradient drive, forcing.py)."""
+        everywhere (the mean pressure gradient drive, forcing.py); ``near_wall_layer`` (a, b): the
+        near-wall mean-field eddy viscosity of nearwall.py over that layer (in dx), None: none."""
         self.grid = grid
         nx, ny, nz = grid.shape
         self.z0, self.kappa, self.nu_mol = float(z0), float(kappa), float(nu_mol)
@@ -180,6 +182,10 @@ class Stepper:
         self.taux = np.zeros((nx, ny))
         self.tauy = np.zeros((nx, ny))
         self._rdz2 = 1.0 / grid.dz_c ** 2
+        self.near_wall = None
+        if near_wall_layer is not None and self.sgs and self.wall:
+            from .nearwall import NearWallMeanViscosity
+            self.near_wall = NearWallMeanViscosity(grid, self.kappa, near_wall_layer)
 
     # ---- pieces ----------------------------------------------------------------------------
     def boundary(self, u, v, e) -> None:
@@ -205,6 +211,8 @@ class Stepper:
         _momentum_stage(gu, gv, gw, self.nu, self.taux, self.tauy, bu, bv, bw, ou, ov, ow, cdt, rdx,
                         rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive, self.body_force,
                         self.advection, self.sgs)
+        if self.near_wall is not None:
+            self.near_wall.apply(ou, ov, cdt)
         if self.sgs:
             _tke_stage(ge, gu, gv, gw, self.nu, be, oe, cdt, rdx, rdy, g.dz_c, g.dz_f, self.rlog,
                        self.ceps_l, E_MIN)
@@ -216,6 +224,8 @@ class Stepper:
         """Advance (u, v, w, e) of ``state`` by dt in place (clock untouched)."""
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
+        if self.near_wall is not None:  # held over the stages (a slow mean-field term)
+            self.near_wall.update(state, self.cml, self.nu_mol)
         self.stage(state, state, a, c1 * dt, state.u_drive)
         self.stage(a, state, b, c2 * dt, state.u_drive)
         self.stage(b, state, state, c3 * dt, state.u_drive, p=state.p)
@@ -223,11 +233,15 @@ class Stepper:
             _apply_sink(state.e, state.tke_sink, dt, E_MIN)
 
     def diffusion_rate(self, e) -> float:
-        """max 2 nu (1/dx^2 + 1/dy^2 + 1/dz^2) [s^-1]."""
+        """max 2 nu (1/dx^2 + 1/dy^2 + 1/dz^2) [s^-1] (SGS only; see ``near_wall_rate``)."""
         if not self.sgs:
             return 2.0 * self.nu_mol * (1 / self.grid.dx**2 + 1 / self.grid.dy**2 + self._rdz2.max())
         g = self.grid
         return float(_diffusion_rate(e, self.cml, self.nu_mol, 1.0 / g.dx**2, 1.0 / g.dy**2, self._rdz2))
+
+    def near_wall_rate(self) -> float:
+        """Explicit-diffusion rate of the near-wall mean-field term (its last nu_T) [s^-1]."""
+        return self.near_wall.rate() if self.near_wall is not None else 0.0
 
     def close(self) -> None:
         self.pressure.close()

@@ -97,15 +97,16 @@ PLANE_HEIGHTS = (0.02, 0.05, 0.1, 0.2, 0.4)
 
 
 def z_ref_eff(scene: Scene) -> float:
-    """Height where u* is held (ARCHITECTURE.md, Forcing): below the damping layer."""
+    """Height where u* is read (ARCHITECTURE.md, Forcing): below the damping layer, if any (the
+    model's own ``z_ref``)."""
     g = scene.fidelity.grid
-    return min(scene.case.forcing.z_ref, 0.5 * (g.Lz - g.damping_depth))
+    return min(scene.case.forcing.z_ref, 0.5 * (g.Lz - scene.damping_depth))
 
 
 def plane_heights(scene: Scene) -> np.ndarray:
     """0.02 ... 0.4 m clipped to the domain (below the damping layer); 0.1 m always present."""
     g = scene.fidelity.grid
-    top = g.Lz - g.damping_depth
+    top = g.Lz - scene.damping_depth
     return np.array([h for h in PLANE_HEIGHTS if h < top or h == 0.1], dtype=np.float64)
 
 
