@@ -117,10 +117,11 @@ class Forcing(_Frozen):
     controller_timescale: float = Field(
         20.0, gt=0, description="relaxation time of the driving-velocity controller [s]")
     drive: Literal["top", "pressure_gradient"] = Field(
-        "pressure_gradient", description="pressure_gradient (default): mean body force, the stress "
-        "falls linearly with height from rho u*s^2 at the bed (the log law holds in the lower third: "
-        "solver/forcing.py); top: base-state wind through the Rayleigh layer (the paper's set-up; "
-        "on domains a few metres deep its core is Couette-like, kappa z/u* dU/dz ~ 0.6)")
+        "top", description="top (default, the paper's set-up): base-state wind through the Rayleigh "
+        "layer with a slow u* controller, constant stress below it (on domains a few metres deep its "
+        "core is Couette-like, kappa z/u* dU/dz ~ 0.6 at 0.5-1.5 m); pressure_gradient: mean body "
+        "force, the stress falls linearly from rho u*s^2 at the bed and the log law holds in the lower "
+        "third (solver/forcing.py), but a run must spin up for a few hundred seconds to reach it")
 
 
 class Surface(_Frozen):
