@@ -49,7 +49,7 @@ def layer_weight(z: np.ndarray, dx: float, a: float, b: float) -> np.ndarray:
 
 @pjit
 def mean_flux_profiles(u, v, w, e, cml, nu_mol, rdx, rdy, dzf, out):
-    """Horizontal means for the closure, in place into ``out`` (6, nz+1):
+    """Horizontal means for the closure, in place into ``out`` (4, nz+1):
 
     out[0, k] = <u>, out[1, k] = <v> at level k (k < nz);
     out[2, k], out[3, k] = the LES flux of x- and y-momentum down through face k (1 <= k < nz):
@@ -57,7 +57,7 @@ def mean_flux_profiles(u, v, w, e, cml, nu_mol, rdx, rdy, dzf, out):
     sgs.diff_u_at), and the same for v. [m s^-1] and [m^2 s^-2].
     """
     nx, ny, nz = u.shape
-    part = np.zeros((nx, 6, nz + 1))
+    part = np.zeros((nx, 4, nz + 1))
     for i in prange(nx):
         im = (i - 1) % nx
         for j in range(ny):
@@ -102,7 +102,7 @@ class NearWallMeanViscosity:
         self.weight[0] = 0.0
         self.weight[-1] = 0.0
         nz = grid.nz
-        self._means = np.zeros((6, nz + 1))
+        self._means = np.zeros((4, nz + 1))
         self.nu_T = np.zeros(nz + 1)
         self.tend_u = np.zeros(nz)
         self.tend_v = np.zeros(nz)
