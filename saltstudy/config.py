@@ -251,6 +251,11 @@ class SpinUp(_Frozen):
     window: float = Field(..., gt=0, description="averaging window of the steadiness test [s]")
     tolerance: float = Field(0.03, gt=0, description="relative change of u* and resolved TKE "
                                                     "between consecutive windows")
+    u_star_ref: float | None = Field(
+        None, gt=0, lt=5.0,
+        description="spin up once at this friction velocity [m s^-1] and rescale the flow to each "
+                    "case's u*s by Reynolds-number similarity (solver.similarity); None: spin up "
+                    "at the case's own u*s. t_min, t_max and window are then times at u_star_ref")
 
     @model_validator(mode="after")
     def _order(self) -> "SpinUp":
@@ -357,9 +362,23 @@ class Scene(_Frozen):
         none with the pressure-gradient drive."""
         return self.fidelity.grid.damping_depth if self.case.forcing.drive == "top" else 0.0
 
+    def spinup_scene(self) -> "Scene":
+        """The scene the particle-free spin-up runs: this one, or with ``fidelity.spinup.u_star_ref``
+        set, this one at that friction velocity (rescaled to u*s at activation)."""
+        u_ref = self.fidelity.spinup.u_star_ref
+        if u_ref is None or u_ref == self.case.forcing.u_star_s:
+            return self
+        forcing = self.case.forcing.model_copy(update={"u_star_s": float(u_ref)})
+        return self.model_copy(update={"case": self.case.model_copy(update={"forcing": forcing})})
+
+    @property
+    def spinup_scale(self) -> float:
+        """u*s / the spin-up's u* [1]: the similarity factor applied to the spun-up flow."""
+        return self.case.forcing.u_star_s / self.spinup_scene().case.forcing.u_star_s
+
     def spinup_slice(self) -> dict[str, Any]:
         """What determines the particle-free spin-up (cases sharing it share one spin-up)."""
-        c, f = self.case, self.fidelity
+        c, f = self.spinup_scene().case, self.fidelity
         return {
             "air": c.air.model_dump(mode="json"),
             "surface": c.surface.model_dump(mode="json"),

@@ -86,8 +86,9 @@ def test_scene_scales_release_with_area_and_q():
     assert paper.n_initial == 10_000 and paper.Q == 600
     red = resolve_scene(c, load_fidelity("reduced"))
     g = red.fidelity.grid
-    # released mass per unit area is the paper's at every fidelity
-    assert red.n_initial * red.Q / (g.Lx * g.Ly) == pytest.approx(10_000 * 600 / 300.0, rel=1e-3)
+    # released mass per unit area is the paper's at every fidelity (to the rounding of one parcel)
+    assert red.n_initial * red.Q / (g.Lx * g.Ly) == pytest.approx(10_000 * 600 / 300.0,
+                                                                  abs=0.5 * red.Q / (g.Lx * g.Ly))
 
 
 @pytest.mark.parametrize("name", ["smoke", "reduced", "paper"])

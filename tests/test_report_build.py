@@ -124,6 +124,20 @@ def test_missing_cases_are_drawn_as_missing(tmp_path):
     assert "case 7: not in study" in index
 
 
+def test_hand_written_findings_survive_a_rebuild(tmp_path):
+    runs = write_study(tmp_path / "a", cases=[2])
+    out = tmp_path / "r"
+    out.mkdir()
+    (out / "FINDINGS.md").write_text("u*s agrees; lambda_y is 2x too small <because> of dx\n")
+    build_report("findings", runs, out, {"figure_formats": ["png"], "figure_dpi": 50})
+    index = (out / "index.html").read_text()
+    assert "id='findings'" in index and "too small &lt;because&gt; of dx" in index
+    assert (out / "FINDINGS.md").read_text().startswith("u*s agrees")
+    out2 = tmp_path / "r2"
+    build_report("nofindings", runs, out2, {"figure_formats": ["png"], "figure_dpi": 50})
+    assert "id='findings'" not in (out2 / "index.html").read_text()
+
+
 def test_stats_can_differ_from_paper(tmp_path):
     """The Table 2 difference column reflects the archive, not the paper (bias 1.5 -> +50%)."""
     runs = {"case02": write_analysis(tmp_path / "c2.nc", 2, bias=1.5)}

@@ -36,9 +36,13 @@ def test_what_changes_which_key():
     splash = keys.run_keys("a", scene(1, splash={"a_ej": 0.05}))
     assert splash.spinup == base.spinup and splash.saltation != base.saltation
     assert splash.analysis != base.analysis
-    # wind: everything
+    # wind: everything, unless the fidelity shares one spin-up by similarity (smoke does)
+    assert load_fidelity("smoke").spinup.u_star_ref is not None
     wind = keys.run_keys("a", scene(1, forcing={"u_star_s": 0.5}))
-    assert wind.spinup != base.spinup and wind.saltation != base.saltation
+    assert wind.spinup == base.spinup and wind.saltation != base.saltation
+    q1, q2 = (keys.run_keys("a", scene(1, "quick", forcing={"u_star_s": u})) for u in (0.41, 0.5))
+    assert load_fidelity("quick").spinup.u_star_ref is None
+    assert q1.spinup != q2.spinup and q1.saltation != q2.saltation
     # the label of a run and the checkpoint cadence change nothing
     other = keys.run_keys("other", scene(1))
     assert (other.spinup, other.saltation, other.analysis) == (base.spinup, base.saltation, base.analysis)
@@ -48,11 +52,17 @@ def test_what_changes_which_key():
 
 
 def test_cases_with_equal_wind_share_a_spinup():
-    k = keys.study_keys(load_study("smoke"))
+    k = keys.study_keys(load_study("quick"))
     same = [l for l in k if k[l].spinup == k["case02"].spinup]
     # cases 2, 9, 10 have the same u*s and seed, differing in the soil only (Table 2)
-    assert len(same) >= 2
+    assert len(same) >= 2 and len(same) < len(k)
     assert len({k[l].saltation for l in same}) == len(same)
+
+
+def test_similarity_shares_one_spinup_for_all_winds():
+    k = keys.study_keys(load_study("smoke"))
+    assert len({r.spinup for r in k.values()}) == 1
+    assert len({r.saltation for r in k.values()}) == len(k)
 
 
 def test_report_key_tracks_failed_runs():

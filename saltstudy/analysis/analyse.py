@@ -288,6 +288,7 @@ def analyse_case(samples_path: str | Path, spinup_path: str | Path | None, out_p
     s_attrs, s_coords, s = _read(samples_path, SAMPLE_VARIABLES_USED, LAZY_VARIABLES)
     if spinup_path is not None and Path(spinup_path).is_file():
         sp_attrs, sp_coords, sp = _read(spinup_path, ("u_mean", "uw_res", "uw_sgs", "tke_res", "e_sgs"))
+        sp = rescale_spinup_profiles(sp, _f(s_attrs, "u_star_target") / _f(sp_attrs, "u_star_target"))
     else:
         sp_attrs, sp_coords, sp = {}, {}, {}
     ds = analyse_datasets(s_attrs, s_coords, s, sp_coords, sp)
@@ -303,6 +304,17 @@ def analyse_case(samples_path: str | Path, spinup_path: str | Path | None, out_p
     attrs["analysis_seconds"] = float(_time.perf_counter() - t_start)
     ds.attrs = attrs
     return write_dataset(ds, out_path)
+
+
+def rescale_spinup_profiles(sp: dict[str, Any], a: float) -> dict[str, Any]:
+    """Spin-up profiles at the case's u*s from a spin-up shared by similarity at u*s / ``a``
+    (``solver.similarity``): the mean wind times a, the stresses and TKE times a^2. A NaN factor
+    (an archive without ``u_star_target``) leaves them as they are."""
+    if not math.isfinite(a) or a == 1.0:
+        return sp
+    power = {"u_mean": 1, "uw_res": 2, "uw_sgs": 2, "tke_res": 2, "e_sgs": 2}
+    return {k: np.asarray(v, dtype=np.float64) * a ** power[k] if k in power else v
+            for k, v in sp.items()}
 
 
 def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: dict[str, Any],

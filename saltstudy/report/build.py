@@ -26,6 +26,8 @@ from .summary import write_summary
 
 __all__ = ["build_report"]
 
+FINDINGS_FILE = "FINDINGS.md"   # hand-written discussion kept beside a committed report
+
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1200px;
 margin:1.5em auto;padding:0 1em;color:#222;line-height:1.4}
@@ -36,7 +38,7 @@ th{background:#f3f3f3}td:first-child{text-align:left}
 td.ref,th.ref{color:#777;background:#fafafa}td.missing{color:#b22;text-align:center;font-style:italic}
 td.bad{color:#b22;font-weight:bold}td.how{text-align:left;font-size:.9em;color:#555}
 figure{margin:1.2em 0}figure img{max-width:100%;border:1px solid #eee}
-figcaption{font-size:.9em;color:#444}.notes{color:#b22;font-size:.85em}
+figcaption{font-size:.9em;color:#444}.notes{color:#b22;font-size:.85em}.findings{white-space:pre-wrap;font-size:.9em}
 pre{background:#f6f6f6;padding:.8em;overflow:auto;font-size:.8em;max-height:30em}
 .meta td{text-align:left}
 """
@@ -129,6 +131,14 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
 
     # ---- index.html ---------------------------------------------------------------------------
     index = report_dir / "index.html"
+    findings = report_dir / FINDINGS_FILE
+    if findings.is_file():
+        # the hand-written comparison with the paper kept beside a committed report: it survives
+        # a rebuild (only generated files are rewritten) and is shown verbatim
+        sections.insert(0, "<h2 id='findings'>Findings: where the run agrees with the paper and why "
+                           f"not where it does not</h2><p>From <a href='{FINDINGS_FILE}'>{FINDINGS_FILE}</a>"
+                           "; written by hand from this report's numbers.</p><pre class='findings'>"
+                           + html.escape(findings.read_text(encoding="utf-8")) + "</pre>")
     index.write_text(_index(ctx, summary, fig_notes, t2, rs, sections, anim_html), encoding="utf-8")
     return index
 
@@ -184,6 +194,7 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
              "<a href='#runs'>Runs and wall time</a> · <a href='#config'>Configuration</a> · "
              "<a href='summary.json'>summary.json</a> · <a href='table2.md'>table2.md</a>"
+             + (" · <a href='#findings'>Findings</a>" if any("id='findings'" in s for s in sections) else "")
              + (" · <a href='#convergence'>Convergence</a>" if any("convergence" in s for s in sections) else "")
              + (" · <a href='#stability'>Stability</a>" if any("stability" in s for s in sections) else "")
              + "</p>",

@@ -25,6 +25,7 @@ from .. import SOURCE_KEY, __version__
 from ..config import Scene, Study
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
+from ..solver.similarity import rescale_restart
 from .driver import run_saltation
 from .paths import output_path, task_dir, write_json_atomic
 from .progress import ProgressFile
@@ -110,6 +111,8 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None) -> P
     from ..solver import diagnostics_flow as dflow
     from ..solver.model import Model
 
+    scene = scene.spinup_scene()   # at fidelity.spinup.u_star_ref when set (solver.similarity)
+
     d = task_dir(out_dir, "spinup", key)
     with _Running(d, "spinup", key=key, label=scene.label, config=scene.spinup_slice()):
         t0 = time.perf_counter()
@@ -175,6 +178,9 @@ def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: s
                   config=keys.saltation_slice(scene)):
         sp = open_dataset(spinup_path)
         restart = archives.restart_from_dataset(sp)
+        # a spin-up shared by similarity ran at another u*: rescale it to this case's u*s
+        u_spin = float(sp.attrs.get("u_star_target", scene.case.forcing.u_star_s))
+        restart = rescale_restart(restart, scene.case.forcing.u_star_s / u_spin)
         prog = ProgressFile(d, "saltation", scene.label, "saltation")
         res = run_saltation(scene, restart, ckpt_path, progress=prog,
                             checkpoint_interval=checkpoint_interval,
