@@ -40,8 +40,8 @@ def test_what_changes_which_key():
     assert load_fidelity("smoke").spinup.u_star_ref is not None
     wind = keys.run_keys("a", scene(1, forcing={"u_star_s": 0.5}))
     assert wind.spinup == base.spinup and wind.saltation != base.saltation
-    q1, q2 = (keys.run_keys("a", scene(1, "quick", forcing={"u_star_s": u})) for u in (0.41, 0.5))
-    assert load_fidelity("quick").spinup.u_star_ref is None
+    q1, q2 = (keys.run_keys("a", scene(1, "paper", forcing={"u_star_s": u})) for u in (0.41, 0.5))
+    assert load_fidelity("paper").spinup.u_star_ref is None
     assert q1.spinup != q2.spinup and q1.saltation != q2.saltation
     # the label of a run and the checkpoint cadence change nothing
     other = keys.run_keys("other", scene(1))
@@ -52,7 +52,7 @@ def test_what_changes_which_key():
 
 
 def test_cases_with_equal_wind_share_a_spinup():
-    k = keys.study_keys(load_study("quick"))
+    k = keys.study_keys(load_study("paper"))
     same = [l for l in k if k[l].spinup == k["case02"].spinup]
     # cases 2, 9, 10 have the same u*s and seed, differing in the soil only (Table 2)
     assert len(same) >= 2 and len(same) < len(k)
