@@ -134,6 +134,10 @@ class Closure(_Frozen):
     near_wall: bool = Field(
         True, description="near-wall mean-field eddy viscosity (solver/nearwall.py): a mixing-length "
         "closure of the mean shear where the horizontal grid cannot resolve the wall eddies")
+    delta: Literal["scotti", "geometric"] = Field(
+        "scotti", description="SGS filter width: (dx dy dz)^(1/3) times the anisotropy factor of "
+        "Scotti, Meneveau & Lilly (1993) for flat cells ('scotti'), or without it ('geometric', "
+        "Deardorff 1980) (solver/sgs.py)")
     near_wall_layer: tuple[float, float] = Field(
         (1.0, 3.0), description="(a, b): the near-wall term acts fully below a dx and fades to zero "
         "at b dx (dx: the horizontal grid spacing) [-]")

@@ -9,7 +9,7 @@ import numpy as np
 from solver_helpers import smoke_scene
 from saltstudy.solver import diagnostics_flow as df
 from saltstudy.solver.model import Model, StepInfo
-from saltstudy.solver.sgs import E_MIN, length_scale
+from saltstudy.solver.sgs import E_MIN, delta_profile, length_scale
 from saltstudy.solver.wall import drag_coefficient, surface_stress
 
 
@@ -50,9 +50,10 @@ def test_wall_stress_and_length_scale():
     assert np.allclose(tx, -cd * 25.0) and np.allclose(ty, 0.0)
     m = Model.from_scene(smoke_scene())
     l = length_scale(m.grid)
-    delta = (m.grid.dx * m.grid.dy * m.grid.dz_c) ** (1 / 3)
+    delta = delta_profile(m.grid)          # the filter width, with the Scotti factor by default
     assert np.all(l <= delta) and np.all(l <= 3.7 * 0.4 * m.grid.z_c + 1e-15)
     assert l[0] < 0.5 * delta[0]          # wall-limited near the bed
+    assert np.allclose(m.stepper.l, l)    # the model uses the case's (default) filter width
 
 
 def test_drive_feed_forward_and_diagnostics_shapes():

@@ -95,14 +95,15 @@ def face_inverse_masses(grid, rho: float) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(inv_c), inv_w
 
 
-def lagrangian_time_coefficients(grid, kappa: float, c0: float = C0_LAGRANGIAN) -> np.ndarray:
+def lagrangian_time_coefficients(grid, kappa: float, c0: float = C0_LAGRANGIAN,
+                                 delta: str = "scotti") -> np.ndarray:
     """Per level k: ``4 l / (3 C0 c_eps)`` so that ``T_L = coef[k] / sqrt(e)`` (see module doc).
 
     l and c_eps are the SGS model's own (``sgs.length_scale``, ``sgs.c_eps_profile``), so the
     epsilon in T_L is the dissipation the TKE equation uses."""
     from .sgs import c_eps_profile, length_scale
-    ell = length_scale(grid, kappa)
-    c_eps = c_eps_profile(grid, ell)
+    ell = length_scale(grid, kappa, delta=delta)
+    c_eps = c_eps_profile(grid, ell, delta)
     return np.ascontiguousarray(4.0 * ell / (3.0 * c0 * c_eps))
 
 

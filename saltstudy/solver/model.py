@@ -88,7 +88,7 @@ class Model:
                           damping_depth=depth, damping_timescale=fid.grid.damping_timescale,
                           workers=workers, damp_u=not pg, body_force=G,
                           near_wall_layer=(case.closure.near_wall_layer if case.closure.near_wall
-                                           else None))
+                                           else None), delta=case.closure.delta)
         state = FlowState.zeros(grid)
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,

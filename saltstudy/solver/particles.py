@@ -788,7 +788,7 @@ class Saltation:
         self.cum, self.mu, self.lnsig = soil_arrays(case.soil)
         self.inv_mc, self.inv_mw = face_inverse_masses(grid, self.rho)
         self.inv_vol = np.ascontiguousarray(1.0 / grid.cell_volume)
-        self.tlc = lagrangian_time_coefficients(grid, self.kappa)
+        self.tlc = lagrangian_time_coefficients(grid, self.kappa, delta=case.closure.delta)
         self.prm = np.array([self.rho, self.nu, self.g, self.rho_p, self.Q, self.h_imp, DRAG_TOL,
                              grid.Lz, 1.0, float(self.two_way), float(self.tke_sink),
                              float(self.sgs)])

@@ -155,18 +155,19 @@ class Stepper:
     def __init__(self, grid, *, z0: float, kappa: float, nu_mol: float, damping_depth: float,
                  damping_timescale: float, workers: int | None = None, advection: bool = True,
                  sgs: bool = True, wall: bool = True, damp_u: bool = True, body_force: float = 0.0,
-                 near_wall_layer: tuple[float, float] | None = None):
+                 near_wall_layer: tuple[float, float] | None = None, delta: str = "scotti"):
         """``damp_u``: the Rayleigh layer acts on u (towards ``state.u_drive``; the top drive) or
         not (v and w only); ``body_force`` G [m s^-2]: uniform streamwise acceleration added to u
         everywhere (the mean pressure gradient drive, forcing.py); ``near_wall_layer`` (a, b): the
-        near-wall mean-field eddy viscosity of nearwall.py over that layer (in dx), None: none."""
+        near-wall mean-field eddy viscosity of nearwall.py over that layer (in dx), None: none;
+        ``delta``: the SGS filter width, "scotti" or "geometric" (sgs.delta_profile)."""
         self.grid = grid
         nx, ny, nz = grid.shape
         self.z0, self.kappa, self.nu_mol = float(z0), float(kappa), float(nu_mol)
         self.advection, self.sgs, self.wall = bool(advection), bool(sgs), bool(wall)
-        self.l = length_scale(grid, kappa)
+        self.l = length_scale(grid, kappa, delta=delta)
         self.cml = np.ascontiguousarray(C_M * self.l)
-        self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l) / self.l)
+        self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l, delta) / self.l)
         z1 = float(grid.z_c[0])
         self.cd = drag_coefficient(z1, self.z0, self.kappa) if self.wall else 0.0
         # log-law shear at the first level per unit first-level velocity: 1/(z1 ln(z1/z0)) [m^-1]
