@@ -39,8 +39,8 @@ def rescale_restart(ck: dict[str, Any], a: float) -> dict[str, Any]:
     """
     if not (math.isfinite(a) and a > 0):
         raise ValueError(f"rescale_restart: the scale factor must be positive and finite (got {a!r})")
-    if any("/" in k and not k.startswith("controller/") for k in ck):
-        bad = sorted(k for k in ck if "/" in k and not k.startswith("controller/"))
+    bad = sorted(k for k in ck if "/" in k and not k.startswith("controller/"))
+    if bad:
         raise ValueError(f"rescale_restart: only a particle-free state is self-similar; this "
                          f"checkpoint carries component entries {bad[:3]}")
     out = dict(ck)
