@@ -281,6 +281,15 @@ class Sampling(_Frozen):
         return self.start + (self.count - 1) * self.interval
 
 
+class Relaxation(_Frozen):
+    """Column relaxation after activation (solver/relaxation.py): a uniform body force
+    -K (tau_bed - u*s^2) / Lz that brings the particle-free column to the saltation equilibrium
+    about (1 + K) times faster, switched off before sampling. Off (K = 0) by default."""
+    gain: float = Field(0.0, ge=0, le=20, description="K [-]: 0 switches the relaxation off")
+    timescale: float = Field(1.0, gt=0, description="running-mean time of the bed stress [s]")
+    until: float = Field(0.0, ge=0, description="active until this time after activation [s]")
+
+
 class Outputs(_Frozen):
     """What a run writes beyond what analysis needs."""
     full_snapshots: bool = Field(False, description="write full 3-D u, v, w, e at sampling times")
@@ -298,6 +307,7 @@ class Fidelity(_Frozen):
     sampling: Sampling
     q_multiplier: float = Field(1.0, gt=0, description="Q is multiplied by this (fewer parcels)")
     checkpoint_interval_wall: float = Field(120.0, gt=0, description="wall-clock s between checkpoints")
+    relaxation: Relaxation = Relaxation()
     outputs: Outputs = Outputs()
 
     @model_validator(mode="after")
@@ -305,6 +315,9 @@ class Fidelity(_Frozen):
         if self.sampling.end > self.saltation_duration + 1e-9:
             raise ValueError(f"sampling ends at {self.sampling.end:g} s, after the saltation run "
                              f"({self.saltation_duration:g} s)")
+        if self.relaxation.gain > 0 and self.relaxation.until > self.sampling.start + 1e-9:
+            raise ValueError(f"relaxation.until ({self.relaxation.until:g} s) must not exceed "
+                             f"sampling.start ({self.sampling.start:g} s): the sampled flow must run free")
         return self
 
 

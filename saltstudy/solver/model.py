@@ -64,6 +64,8 @@ class Model:
         self.rng = rng
         self.components = components
         self.t_activation: float | None = None
+        #: the column relaxation after activation (relaxation.py), built only when the fidelity asks
+        self.relaxation = None
         self._rate_cache: tuple[int, float] | None = None
         self.drive = scene.case.forcing.drive
         #: depth of the active Rayleigh layer [m] (0 with the pressure-gradient drive)
@@ -100,6 +102,11 @@ class Model:
             from .particles import Saltation
             components.append(Saltation(grid, scene))
         model = cls(scene, grid, stepper, state, controller, rng, components)
+        rl = fid.relaxation
+        if components and rl.gain > 0 and rl.until > 0:
+            from .relaxation import ColumnRelaxation
+            model.relaxation = ColumnRelaxation(case.forcing.u_star_s, grid.Lz, rl.gain, rl.timescale,
+                                                rl.until, grid.Lx * grid.Ly, case.air.rho)
         if restart is None:
             if pg:
                 from .diagnostics_flow import log_law_profile
@@ -175,6 +182,9 @@ class Model:
         rate, _ = self._rates()          # finiteness of u, v, w, e and the Courant number
         cfl = check_courant(s, rate, dt)
         tau = self._measure_stress()
+        if self.relaxation is not None and self.t_activation is not None:
+            self.relaxation.update(s.u, self.stepper.taux, float(self.components[0].momentum_to_air[0]),
+                                   dt, s.t - self.t_activation)
         if self.drive == "top":
             self.controller.update(s, dt, self._damped_mean_u(), tau)
         return StepInfo(step=s.step, t=s.t, dt=dt, max_cfl=cfl, u_drive=s.u_drive,
@@ -236,7 +246,7 @@ class Model:
             out["tke_sink"] = np.array(s.tke_sink, copy=True)
         for k, v in self.controller.checkpoint().items():
             out[f"controller/{k}"] = v
-        for c in self.components:
+        for c in self.components + ([self.relaxation] if self.relaxation is not None else []):
             for k, v in c.checkpoint().items():
                 out[f"{c.name}/{k}"] = v
         return out
@@ -265,7 +275,7 @@ class Model:
         ctl = {k.split("/", 1)[1]: v for k, v in ck.items() if k.startswith("controller/")}
         if ctl:
             self.controller.restore(ctl)
-        for c in self.components:
+        for c in self.components + ([self.relaxation] if self.relaxation is not None else []):
             pre = f"{c.name}/"
             data = {k[len(pre):]: v for k, v in ck.items() if k.startswith(pre)}
             if data:
