@@ -40,8 +40,9 @@ def test_excess_bed_stress_decelerates_the_column_uniformly_at_K_times_the_exces
     u = np.random.default_rng(1).normal(5.0, 1.0, (4, 3, 5))
     u0 = u.copy()
     excess, dt = 0.2, 0.01
-    r.update(u, _taux(U_STAR ** 2 + excess), 0.0, dt, 0.0)
+    du = r.update(u, _taux(U_STAR ** 2 + excess), 0.0, dt, 0.0)
     expected = -4.0 * excess / LZ
+    assert du == pytest.approx(expected * dt, rel=1e-12)
     assert r.force == pytest.approx(expected, rel=1e-12)
     assert np.allclose(u - u0, expected * dt, rtol=0, atol=1e-14)   # the same at every point
 
@@ -118,6 +119,9 @@ def test_model_builds_it_only_when_asked_and_applies_a_uniform_force():
     diff = a.state.u - b.state.u
     assert np.allclose(diff, a.relaxation.force * 0.01, rtol=1e-9, atol=1e-13)
     assert np.array_equal(a.state.w, b.state.w)
+    # the top drive's target moves with the column, so the Rayleigh layer does not undo the shift
+    assert a.drive == "top"
+    assert a.state.u_drive - b.state.u_drive == pytest.approx(a.relaxation.force * 0.01, rel=1e-9)
 
 
 def test_model_restart_with_relaxation_is_bit_for_bit():

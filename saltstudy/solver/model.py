@@ -183,8 +183,11 @@ class Model:
         cfl = check_courant(s, rate, dt)
         tau = self._measure_stress()
         if self.relaxation is not None and self.t_activation is not None:
-            self.relaxation.update(s.u, self.stepper.taux, float(self.components[0].momentum_to_air[0]),
-                                   dt, s.t - self.t_activation)
+            du = self.relaxation.update(s.u, self.stepper.taux,
+                                        float(self.components[0].momentum_to_air[0]), dt,
+                                        s.t - self.t_activation)
+            if self.drive == "top":
+                s.u_drive += du
         if self.drive == "top":
             self.controller.update(s, dt, self._damped_mean_u(), tau)
         return StepInfo(step=s.step, t=s.t, dt=dt, max_cfl=cfl, u_drive=s.u_drive,

@@ -21,6 +21,13 @@ times faster. A uniform force has no divergence and no horizontal structure: it 
 turbulence directly. It is switched off at ``until`` seconds after activation, before sampling, so
 the sampled flow runs free; the fidelity's ``relaxation`` block documents the knob and
 ``paper`` leaves it off.
+
+With the top drive the same increment is added to ``state.u_drive``: the Rayleigh layer relaxes u
+towards u_drive, and a column shifted without its drive target would be pushed back up by the layer
+and its slow controller for ~20 s after the force stops. Measured on the quick grid (case 2, K = 10,
+until 12 s): without the shift the grain stress climbed from 0.3 back to 0.4-0.5 m^2 s^-2 after the
+switch-off (and to 0.5 in the reduced grid's case 9, sampled out of equilibrium); with it the bed
+stress stayed at 0.25-0.31 m^2 s^-2 (u*s^2 = 0.29) from 3 s to 29 s.
 """
 from __future__ import annotations
 
@@ -63,8 +70,10 @@ class ColumnRelaxation:
         return -float(np.mean(taux)) - dp / (dt * self.area * self.rho)
 
     def update(self, u: np.ndarray, taux: np.ndarray, p_to_air: float, dt: float,
-               t_since_activation: float) -> None:
-        """Filter the bed stress over the step just taken and, while active, apply B dt to u."""
+               t_since_activation: float) -> float:
+        """Filter the bed stress over the step just taken and, while active, apply B dt to u.
+        Returns the increment B dt [m s^-1] (0 when inactive): a top drive must shift its
+        ``u_drive`` by it too (see the module docstring)."""
         tau = self.bed_stress(taux, p_to_air, dt)
         if math.isnan(self.tau_bed_filtered):
             self.tau_bed_filtered = tau
@@ -72,9 +81,10 @@ class ColumnRelaxation:
             self.tau_bed_filtered += min(1.0, dt / self.timescale) * (tau - self.tau_bed_filtered)
         if not self.active(t_since_activation):
             self.force = 0.0
-            return
+            return 0.0
         self.force = -self.gain * (self.tau_bed_filtered - self.target) / self.Lz
         u += self.force * dt
+        return self.force * dt
 
     def checkpoint(self) -> dict:
         return {"tau_bed_filtered": float(self.tau_bed_filtered), "p_last": float(self._p_last)}
