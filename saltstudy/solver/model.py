@@ -135,7 +135,6 @@ class Model:
             return self._rate_cache[1]
         st = self.stepper
         c, d, nbad = health(self.grid, self.state, st.cml, st.nu_mol)
-        d = max(d, st.near_wall_rate())
         if nbad:
             locate_nonfinite(self.state)
         self._rate_cache = (self.state.step, (c, d))
@@ -249,10 +248,14 @@ class Model:
             out["tke_sink"] = np.array(s.tke_sink, copy=True)
         for k, v in self.controller.checkpoint().items():
             out[f"controller/{k}"] = v
-        for c in self.components + ([self.relaxation] if self.relaxation is not None else []):
+        for c in self._checkpointed_parts():
             for k, v in c.checkpoint().items():
                 out[f"{c.name}/{k}"] = v
         return out
+
+    def _checkpointed_parts(self) -> list:
+        """Parts with their own ``name``, ``checkpoint()`` and ``restore()`` (keys ``name/...``)."""
+        return self.components + ([self.relaxation] if self.relaxation is not None else [])
 
     def _restore(self, ck: dict) -> None:
         fmt = ck.get("format", CHECKPOINT_FORMAT)
@@ -278,7 +281,7 @@ class Model:
         ctl = {k.split("/", 1)[1]: v for k, v in ck.items() if k.startswith("controller/")}
         if ctl:
             self.controller.restore(ctl)
-        for c in self.components + ([self.relaxation] if self.relaxation is not None else []):
+        for c in self._checkpointed_parts():
             pre = f"{c.name}/"
             data = {k[len(pre):]: v for k, v in ck.items() if k.startswith(pre)}
             if data:

@@ -226,7 +226,7 @@ class Stepper:
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
         if self.near_wall is not None:  # held over the stages (a slow mean-field term)
-            self.near_wall.update(state, self.cml, self.nu_mol)
+            self.near_wall.update(state, self.cml, self.nu_mol, dt)
         self.stage(state, state, a, c1 * dt, state.u_drive)
         self.stage(a, state, b, c2 * dt, state.u_drive)
         self.stage(b, state, state, c3 * dt, state.u_drive, p=state.p)
@@ -234,15 +234,12 @@ class Stepper:
             _apply_sink(state.e, state.tke_sink, dt, E_MIN)
 
     def diffusion_rate(self, e) -> float:
-        """max 2 nu (1/dx^2 + 1/dy^2 + 1/dz^2) [s^-1] (SGS only; see ``near_wall_rate``)."""
+        """max 2 nu (1/dx^2 + 1/dy^2 + 1/dz^2) [s^-1] (SGS only: the near-wall mean-field term is
+        implicit and does not limit the step, nearwall.py)."""
         if not self.sgs:
             return 2.0 * self.nu_mol * (1 / self.grid.dx**2 + 1 / self.grid.dy**2 + self._rdz2.max())
         g = self.grid
         return float(_diffusion_rate(e, self.cml, self.nu_mol, 1.0 / g.dx**2, 1.0 / g.dy**2, self._rdz2))
-
-    def near_wall_rate(self) -> float:
-        """Explicit-diffusion rate of the near-wall mean-field term (its last nu_T) [s^-1]."""
-        return self.near_wall.rate() if self.near_wall is not None else 0.0
 
     def close(self) -> None:
         self.pressure.close()

@@ -7,8 +7,11 @@ key, so dask runs it once.
 Execution
 ---------
 * Locally (default): dask's threaded scheduler with ``workers`` threads (default 1). The solver's
-  numba kernels are ``parallel=True`` and use every core, so on a laptop one task at a time is
-  fastest; with ``workers > 1`` each task's numba threads are limited to cores // workers.
+  numba kernels are ``parallel=True`` and use every core; with ``workers > 1`` each task's numba
+  threads are limited to cores // workers. On 2 cores one task at a time is the default: the
+  shared spin-up must finish before any saltation run starts, and one flow step on 2 threads is
+  1.74x faster than on 1 (``NUMBA_NUM_THREADS=1|2 saltstudy bench flow --no-big``: 57.7 vs
+  33.2 ms on 64x48x48), so two 1-thread tasks could gain at most ~15 % on the saltation runs.
 * ``scheduler=ADDRESS``: a ``dask.distributed`` Client connected to that scheduler; every worker
   must run the same checkout (checked: tasks carry the client's ``SOURCE_KEY``) and see the same
   out dir (shared file system).
