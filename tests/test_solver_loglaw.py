@@ -8,9 +8,9 @@ the premultiplied spanwise spectrum of u at 0.1 m. Prints the non-dimensional sh
 phi = kappa z / u* dU/dz. Run with ``pytest -m slow -s tests/test_solver_loglaw.py`` (20 min on
 2 cores, measured with the reduced grid's 2 cm first level and Courant 1.4). Last run (2026-11-23:
 diffusion number 0.5, implicit near-wall term; 17 min): u*_0 -6.0 % (FAILS the 5 % check), z0
-6.9e-6 m, phi = 1.00 +- 0.02 from 7 cm to 0.3 m (1.12 at 3 cm) but 0.84-0.86 at 0.6-0.8 m (the dip that biases the
-fit), stress u* at the bed 0.406 m/s (-1 %). Earlier runs: -5.9 % and -3.3 %, so run-to-run scatter
-of the 90 s average is a few per cent.
+6.9e-6 m, phi = 1.00 +- 0.02 from 7 cm to 0.3 m (1.12 at 3 cm) but 0.84-0.86 at 0.6-0.8 m (the
+dip that biases the fit), stress u* at the bed 0.406 m/s (-1 %). Earlier runs: -5.9 % and -3.3 %,
+so run-to-run scatter of the 90 s average is a few per cent.
 """
 from __future__ import annotations
 
