@@ -169,21 +169,22 @@ def _backward_euler_diffusion(U, V, nu, dzc, dzf, dt):
             lo[k] = -dt * nu[k] / (dzf[k] * dzc[k])
         if k < nz - 1:
             up[k] = -dt * nu[k + 1] / (dzf[k + 1] * dzc[k])
+    # the factorisation is shared by both profiles
     cp = np.zeros(nz)
+    inv = np.zeros(nz)
+    for k in range(nz):
+        b = 1.0 - lo[k] - up[k]
+        if k > 0:
+            b -= lo[k] * cp[k - 1]
+        inv[k] = 1.0 / b
+        cp[k] = up[k] * inv[k]
     out = np.zeros((2, nz))
     for q in range(2):
         d = U if q == 0 else V
-        dp = np.zeros(nz)
-        for k in range(nz):
-            b = 1.0 - lo[k] - up[k]
-            if k > 0:
-                b -= lo[k] * cp[k - 1]
-                dp[k] = (d[k] - lo[k] * dp[k - 1]) / b
-            else:
-                dp[k] = d[k] / b
-            cp[k] = up[k] / b
         x = out[q]
-        x[nz - 1] = dp[nz - 1]
+        x[0] = d[0] * inv[0]
+        for k in range(1, nz):
+            x[k] = (d[k] - lo[k] * x[k - 1]) * inv[k]
         for k in range(nz - 2, -1, -1):
-            x[k] = dp[k] - cp[k] * x[k + 1]
+            x[k] -= cp[k] * x[k + 1]
     return out[0], out[1]
