@@ -509,9 +509,31 @@ def _named_file(kind: str, ref: str | Path, folder: Path) -> Path:
     return candidate
 
 
-def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
-    path = _named_file("fidelity", ref, (root or project_root()) / "workflows" / "fidelities")
+def _fidelity_data(ref: str | Path, root: Path | None, chain: tuple[str, ...] = ()) -> tuple[Path, dict]:
+    """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins)."""
+    folder = (root or project_root()) / "workflows" / "fidelities"
+    path = _named_file("fidelity", ref, folder)
     data = _read_toml(path)
+    base = data.pop("based_on", None)
+    if base is None:
+        return path, data
+    if not isinstance(base, str):
+        raise ConfigError(f"{path}: based_on: must be the name of another fidelity (got {base!r})")
+    if base in chain or base == path.stem:
+        raise ConfigError(f"{path}: based_on: circular ({' -> '.join((*chain, path.stem, base))})")
+    sibling = path.parent / f"{base}.toml"   # a parent next to the file, else the project's
+    try:
+        _, parent = _fidelity_data(sibling if sibling.exists() else base, root, (*chain, path.stem))
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: based_on: {exc}") from None
+    parent.pop("name", None)
+    return path, deep_merge(parent, data)
+
+
+def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
+    """Load a fidelity by name or path. A file may start from another with ``based_on = "NAME"``
+    and list only what differs (sections are deep-merged, the file wins)."""
+    path, data = _fidelity_data(ref, root)
     data.setdefault("name", path.stem)
     return validate_model(Fidelity, data, str(path))
 
@@ -560,7 +582,7 @@ def validate_file(path: Path) -> str:
     if "forcing" in data or "particles" in data or "number" in data:
         load_case(path)
         return "case"
-    if "grid" in data:
+    if "grid" in data or "based_on" in data:
         load_fidelity(path)
         return "fidelity"
     study = load_study(path)

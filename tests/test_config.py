@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -166,3 +167,32 @@ def test_overrides_are_validated():
     assert "sigma" in str(exc.value)
     c = load_case(2, overrides={"forcing": {"u_star_s": 1.5}})
     assert c.forcing.u_star_s == 1.5 and c.particles.Q == 600
+
+
+def test_fidelity_based_on_inherits_and_the_file_wins():
+    red = load_fidelity("reduced").model_dump()
+    mx = load_fidelity("reduced-maxcfl").model_dump()
+    assert mx["time"]["cfl"] == 1.5 != red["time"]["cfl"]
+    assert mx["name"] == "reduced-maxcfl"
+    for key in ("grid", "sampling", "relaxation", "spinup", "saltation_duration", "q_multiplier"):
+        assert mx[key] == red[key], key
+    assert {k: v for k, v in mx["time"].items() if k != "cfl"} == \
+        {k: v for k, v in red["time"].items() if k != "cfl"}
+
+
+def _write_fidelity(root, name, text):
+    d = root / "workflows" / "fidelities"
+    d.mkdir(parents=True, exist_ok=True)
+    (d / f"{name}.toml").write_text(text)
+
+
+@pytest.mark.parametrize("text, needle", [
+    ('based_on = "nosuch"\n', "based_on: fidelity 'nosuch': unknown"),
+    ('based_on = "b"\n', "based_on: circular"),
+    ("based_on = 3\n", "based_on: must be the name of another fidelity"),
+])
+def test_fidelity_based_on_errors_name_the_field(tmp_path, text, needle):
+    _write_fidelity(tmp_path, "a", text)
+    _write_fidelity(tmp_path, "b", 'based_on = "a"\n')
+    with pytest.raises(ConfigError, match=re.escape(needle)):
+        load_fidelity("a", root=tmp_path)
