@@ -136,3 +136,23 @@ def test_pressure_gradient_drive_fits_the_linear_stress_profile(tmp_path):
     from saltstudy.analysis.profiles import log_law_fit
     plain = log_law_fit(ds.z.values, ds.u_mean.values, float(ds.fit_z_min), 2.0, 0.4)
     assert plain.u_star < 0.95 * truth["u_star_s"]
+
+
+def test_u_star_s_standard_error_from_per_sample_fits(tmp_path):
+    # three samples whose profiles are exact log laws with u* 0.45, 0.50, 0.55 (same z0s): the fit
+    # of the mean profile is 0.50 and the per-sample fits recover each u*_i
+    import xarray as xr
+    samples, spinup, truth = build_archives(tmp_path, n_samples=3)
+    u_i = truth["u_star_s"] * np.array([0.9, 1.0, 1.1])
+    with xr.open_dataset(samples) as ds:
+        ds = ds.load()
+    z = ds["z"].values
+    prof = np.array([(u / 0.40) * np.log(z / truth["z0s"]) for u in u_i])
+    ds["u_mean"] = (("time", "z"), prof, ds["u_mean"].attrs)
+    edited = tmp_path / "edited.nc"
+    ds.to_netcdf(edited)
+    out = open_dataset(analyse_case(edited, spinup, tmp_path / "analysis.nc"))
+    assert float(out.u_star_s) == pytest.approx(truth["u_star_s"], rel=1e-6)
+    assert np.allclose(out.u_star_s_samples.values, u_i, rtol=1e-6)
+    assert float(out.u_star_s_se) == pytest.approx(np.std(u_i, ddof=1) / math.sqrt(3), rel=1e-6)
+    assert out.u_star_s_se.attrs["units"] == "m s-1"

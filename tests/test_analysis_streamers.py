@@ -187,3 +187,57 @@ def test_degenerate_planes_give_nan():
     one = np.random.default_rng(0).standard_normal((1, 8, 8))
     c, life = st.speed_and_lifetime(st.space_time_correlation(one, 0.1, 0.1, 0.1))
     assert math.isnan(c) and math.isnan(life)
+
+
+def _parcel_planes(intensity, mean_count, rng):
+    """Parcel counts drawn independently per cell (Poisson) around ``intensity`` scaled to a mean
+    of ``mean_count`` parcels per cell: the parcel-count noise of C_p, with Q/(dx dy) = 1."""
+    lam = intensity / intensity.mean(axis=(1, 2), keepdims=True) * mean_count
+    return rng.poisson(lam).astype(np.float64)
+
+
+def test_white_noise_of_independent_parcels_is_their_poisson_variance():
+    rng = np.random.default_rng(11)
+    nx, ny = 96, 64
+    x = np.arange(nx)[:, None]
+    smooth = 1.0 + 0.5 * np.cos(2 * np.pi * x / nx) * np.ones((1, ny))
+    planes = _parcel_planes(np.broadcast_to(smooth, (12, nx, ny)), 6.0, rng)
+    dev, _ = st.deviation_planes(planes)
+    noise = st.white_noise_variance(dev)
+    # Poisson: variance = mean count (Q / cell area = 1 here); ~1500 corner modes per plane
+    assert noise == pytest.approx(planes.mean(axis=(1, 2)), rel=0.1)
+    assert noise.mean() == pytest.approx(6.0, rel=0.03)
+    # a smooth field alone has no white part
+    assert st.white_noise_variance(st.deviation_planes(np.broadcast_to(smooth, (2, nx, ny)))[0]) \
+        == pytest.approx(0.0, abs=1e-20)
+
+
+def test_removing_the_parcel_noise_recovers_the_pattern_lengths():
+    rng = np.random.default_rng(4)
+    nx, ny, dx, dy = 128, 64, 0.1, 0.1
+    sx, sy = 0.7, 0.25
+    pattern = 0.3 + shot_noise_planes(16, nx, ny, dx, dy, sx, sy, rate=0.15, rng=rng)
+    ac_true = st.autocorrelation_2d(pattern)
+    lx_true = st.core_length(ac_true[:, ny // 2], dx)
+    ly_true = st.core_length(ac_true[nx // 2, :], dy)
+    planes = _parcel_planes(pattern, 5.0, rng)
+    raw = st.autocorrelation_2d(planes)
+    den = st.autocorrelation_2d(planes, noise_removed=1.0)
+    lx_raw, ly_raw = st.core_length(raw[:, ny // 2], dx), st.core_length(raw[nx // 2, :], dy)
+    lx_den, ly_den = st.core_length(den[:, ny // 2], dx), st.core_length(den[nx // 2, :], dy)
+    assert abs(lx_den - lx_true) <= 2 * dx and abs(ly_den - ly_true) <= dy, (lx_den, lx_true, ly_den, ly_true)
+    # the noise shortens the raw lengths by more than that (so the check can fail)
+    assert lx_true - lx_raw > 2 * dx and ly_true - ly_raw > dy, (lx_raw, ly_raw)
+    # removing half the noise lands in between
+    half = st.autocorrelation_2d(planes, noise_removed=0.5)
+    assert lx_raw < st.core_length(half[:, ny // 2], dx) < lx_den
+
+
+def test_removing_the_noise_floor_flattens_a_white_spectrum_to_zero():
+    rng = np.random.default_rng(8)
+    planes = _parcel_planes(np.ones((20, 64, 48)), 8.0, rng)
+    ky, S_raw, _ = st.spanwise_spectrum(planes, 0.1)
+    _, S_den, se = st.spanwise_spectrum(planes, 0.1, noise_removed=1.0)
+    # raw: flat at the Poisson floor 2 s^2 dy (one-sided) = 1.6
+    assert np.mean(S_raw[1:-1]) == pytest.approx(2 * 8.0 * 0.1, rel=0.03)
+    assert abs(np.mean(S_den[1:-1])) < 0.02 * np.mean(S_raw[1:-1])

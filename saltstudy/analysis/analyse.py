@@ -63,6 +63,10 @@ SPEC: dict[str, tuple[str, str]] = {
     "z0s": ("m", "saltation roughness length z0s from the log-law fit"),
     "u_star_0": ("m s-1", "friction velocity of the particle-free spin-up from the log-law fit"),
     "z0_0": ("m", "roughness length of the particle-free spin-up from the log-law fit"),
+    "u_star_s_se": ("m s-1", "standard error of u*s: standard deviation of the per-sample fits over "
+                    "sqrt(number of samples); a lower bound when the samples are correlated"),
+    "u_star_s_samples": ("m s-1", "u*s from the log-law fit of each 3-D sample's mean profile "
+                         "(same height range as u_star_s)"),
     "u_star_s_stress": ("m s-1", "sqrt|<u'w'>| (resolved + SGS) at the reference height, with grains"),
     "u_star_0_stress": ("m s-1", "sqrt|<u'w'>| (resolved + SGS) at the reference height, spin-up"),
     "z0s_stress": ("m", "z0s from the log law with u* fixed at u_star_s_stress (mean over the fit range)"),
@@ -79,9 +83,17 @@ SPEC: dict[str, tuple[str, str]] = {
     "sigma_G_over_G_tot": ("1", "sigma_G divided by the window-mean total flux of the same series"),
     "sigma_G_local": ("kg m-1 s-1", "standard deviation of the local column flux G_col(x, y, t) about its mean"),
     "sigma_G_local_over_mean": ("1", "sigma_G_local divided by the mean column flux"),
-    "lambda_x": ("m", "streamer length: streamwise extent of the C_p autocorrelation > 0.4"),
-    "lambda_y": ("m", "streamer width: spanwise extent of the C_p autocorrelation > 0.4"),
-    "delta_y": ("m", "mean spanwise spacing of streamers: 1/ky at the peak of the C_p spanwise spectrum"),
+    "lambda_x": ("m", "streamer length: streamwise extent of the C_p autocorrelation > 0.4 "
+                 "(parcel-count noise at the case's Q)"),
+    "lambda_y": ("m", "streamer width: spanwise extent of the C_p autocorrelation > 0.4 "
+                 "(parcel-count noise at the case's Q)"),
+    "delta_y": ("m", "mean spanwise spacing of streamers: 1/ky at the peak of the C_p spanwise spectrum "
+                "(parcel-count noise at the case's Q)"),
+    "lambda_x_raw": ("m", "lambda_x with the parcel-count noise of the run's heavier parcels left in"),
+    "lambda_y_raw": ("m", "lambda_y with the parcel-count noise of the run's heavier parcels left in"),
+    "delta_y_raw": ("m", "delta_y with the parcel-count noise of the run's heavier parcels left in"),
+    "C_p_noise_fraction": ("1", "white (parcel-count) noise variance of C_p over its spatial variance, "
+                           "mean over the planes"),
     "delta_y_u": ("m", "mean spanwise spacing of streaks: 1/ky at the peak of the u spanwise spectrum"),
     "u_star_t": ("m s-1", "threshold friction velocity (Shao and Lu 2000) of the soil's mean diameter"),
     "tau_p_surface_fraction": ("1", "tau_p at the lowest level divided by rho u*s^2"),
@@ -122,11 +134,11 @@ SPEC: dict[str, tuple[str, str]] = {
     "G_tot_sample": ("kg m-1 s-1", "total horizontal mass flux at each 3-D sample"),
     "C_p_mean": ("m-2", "domain-mean C_p of each plane"),
     # spectra, correlations, distributions, snapshots
-    "S_c": ("m-3", "spanwise spectral density of C_p, averaged over time and streamwise wavenumbers"),
+    "S_c": ("m-3", "spanwise spectral density of C_p, averaged over time and streamwise wavenumbers, parcel-count noise at the case's Q"),
     "S_c_stderr": ("m-3", "standard error of S_c from contiguous time blocks"),
     "S_u": ("m3 s-2", "spanwise spectral density of u at the 0.1 m plane, averaged over time and streamwise wavenumbers"),
     "S_u_stderr": ("m3 s-2", "standard error of S_u from contiguous time blocks"),
-    "C_p_autocorr": ("1", "time-averaged spatial autocorrelation of C_p"),
+    "C_p_autocorr": ("1", "time-averaged spatial autocorrelation of C_p, parcel-count noise at the case's Q"),
     "C_p_st_peak": ("1", "peak over spatial lags of the correlation of C_p(t) and C_p(t + lag_t)"),
     "C_p_st_x": ("m", "streamwise position of that peak"),
     "C_p_st_y": ("m", "spanwise position of that peak"),
@@ -236,6 +248,8 @@ def _case_info(attrs: dict[str, Any]) -> dict[str, Any]:
         "soil": case.get("soil") if isinstance(case, dict) else None,
         "threshold": case.get("threshold", {}) if isinstance(case, dict) else {},
         "air": case.get("air", {}) if isinstance(case, dict) else {},
+        # parcels are q_multiplier x heavier than the case's Q (a cost knob); 1 when unknown
+        "q_multiplier": float(fid.get("q_multiplier", 1.0)) if isinstance(fid, dict) else 1.0,
     }
 
 
@@ -431,6 +445,17 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("fit_n", (), fit.n_points)
     put("fit_z_min", (), fit.z_min)
     put("fit_z_max", (), fit.z_max)
+    # the sampling error of u*s, from the scatter of the same fit on each sample's profile: large
+    # eddies (turnover H/u* ~ 4-11 s) make single samples scatter by 5-15 %
+    u_prof = get("u_mean")
+    u_star_i = np.full(n_t, np.nan)
+    if u_prof is not None and u_prof.ndim == 2 and u_prof.shape[0] == n_t:
+        u_star_i = np.array([profiles.log_law_fit(z, row, fit.z_min, fit.z_max, kappa, H=H).u_star
+                             for row in np.asarray(u_prof, dtype=np.float64)])
+    ok_i = u_star_i[np.isfinite(u_star_i)]
+    put("u_star_s_samples", ("time_sample",), u_star_i)
+    put("u_star_s_se", (), float(np.std(ok_i, ddof=1) / math.sqrt(ok_i.size)) if ok_i.size >= 2
+        else math.nan)
     put("z_m", (), z_m, definition="tau_p first below 0.1 % of rho u_star_s^2 (log interpolation)")
     rho_u2 = rho * u_norm ** 2 if math.isfinite(u_norm) else math.nan
     put("tau_p_surface_fraction", (), tau_p[0] / rho_u2 if nz and rho_u2 > 0 else math.nan)
@@ -563,15 +588,26 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("n_planes", (), n_planes)
     put("n_samples", (), n_t)
     if C_w is not None and n_planes and nx >= 2 and ny >= 2:
-        ac = streamers.autocorrelation_2d(C_w)
+        # the parcel-count noise of the case's own Q stays in (saltstudy.analysis.streamers)
+        f_noise = 1.0 - 1.0 / max(info["q_multiplier"], 1.0)
+        ac = streamers.autocorrelation_2d(C_w, noise_removed=f_noise)
         lam_x = streamers.core_length(ac[:, ny // 2], dx)
         lam_y = streamers.core_length(ac[nx // 2, :], dy)
-        ky, S_c, S_c_se = streamers.spanwise_spectrum(C_w, dy)
+        ky, S_c, S_c_se = streamers.spanwise_spectrum(C_w, dy, noise_removed=f_noise)
         delta_y = 1.0 / streamers.spectral_peak(ky, S_c, S_c_se)
+        ac_raw = streamers.autocorrelation_2d(C_w)
+        lam_x_raw = streamers.core_length(ac_raw[:, ny // 2], dx)
+        lam_y_raw = streamers.core_length(ac_raw[nx // 2, :], dy)
+        _, S_raw, S_raw_se = streamers.spanwise_spectrum(C_w, dy)
+        delta_y_raw = 1.0 / streamers.spectral_peak(ky, S_raw, S_raw_se)
+        dev_c, var_c = streamers.deviation_planes(C_w)
+        has = var_c > 0
+        noise_frac = float(np.mean(streamers.white_noise_variance(dev_c)[has] / var_c[has])) \
+            if has.any() else math.nan
         snap_c = np.asarray(C_w[-1], dtype=np.float64)
     else:
         ac = np.full((nx, ny), np.nan)
-        lam_x = lam_y = delta_y = math.nan
+        lam_x = lam_y = delta_y = lam_x_raw = lam_y_raw = delta_y_raw = noise_frac = math.nan
         ky = np.arange(ny // 2 + 1) / Ly if ny else np.zeros(0)
         S_c = S_c_se = np.full(ky.size, np.nan)
         snap_c = np.full((nx, ny), np.nan)
@@ -588,6 +624,10 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("delta_y", (), delta_y, definition="1/ky of the prominent interior peak of S_c "
         "(saltstudy.analysis.streamers.spectral_peak); NaN without one")
     put("delta_y_u", (), delta_y_u)
+    put("lambda_x_raw", (), lam_x_raw)
+    put("lambda_y_raw", (), lam_y_raw)
+    put("delta_y_raw", (), delta_y_raw)
+    put("C_p_noise_fraction", (), noise_frac, definition="saltstudy.analysis.streamers.white_noise_variance")
     put("C_p_autocorr", ("lag_x", "lag_y"), ac)
     put("S_c", ("ky",), S_c)
     put("S_c_stderr", ("ky",), S_c_se)

@@ -7,6 +7,28 @@ domain (no windowing, no padding). Each plane is reduced to its deviation from i
 mean before correlating: the statistics describe the spatial pattern, not the drift of the
 domain mean.
 
+Parcel-count noise (beyond the paper)
+    C_p counts parcels that each stand for Q grains, so every plane carries a spatially white
+    noise from the parcel count per column on top of the concentration pattern: its variance is
+    ~ Q mean(C_p) / (dx dy) for independent parcels, more when parcels cluster (ejecta leave an
+    impact together). At Q x 16 and 5-10 parcels per column it is 25-40 % of the C_p variance,
+    and it decides where the autocorrelation first drops (a spike at zero lag) and how far a
+    spanwise peak stands out of the floor. :func:`white_noise_variance` measures it per plane as
+    the mean 2-D periodogram over the modes whose wavelengths are shorter than ``1/NOISE_K``
+    = 4 cells in *both* directions (a pattern the LES resolves has next to no power there: 2nd-
+    order advection damps anything under ~4 cells; in the reduced study this level is flat, 1.5-
+    1.7x the independent-parcel value, and the same whatever the cut-off between 1/4 and 0.45
+    cycles per cell). ``noise_removed`` = f removes the fraction f of it: the autocorrelation is
+    normalised by the plane variance minus f x the noise (zero lag stays 1) and the spanwise
+    spectrum has f x the noise's flat floor subtracted.
+
+    The noise variance scales with the parcel weight, so a run at ``q_multiplier`` x the case's Q
+    carries q_multiplier x the noise of a run at the case's Q. lambda_x, lambda_y and delta_y are
+    computed with ``f = 1 - 1/q_multiplier``: the statistic the same flow would give at the
+    case's (the paper's) Q, noise and all, which makes Q a pure cost knob for them (nothing is
+    removed at q_multiplier 1). The raw values are kept beside them. The wind planes are never
+    touched: their small scales are the flow's.
+
 lambda_x, lambda_y (section 4.1 [46], Table 2)
     "estimated from time-average spatial autocorrelation of C_p in the horizontal section. We
     defined the core of the streamer as the region where the autocorrelation is higher than 0.4".
@@ -54,7 +76,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CORE_LEVEL", "PEAK_REL_MARGIN", "PEAK_N_SE", "PEAK_FALLBACK_MARGIN",
+__all__ = ["CORE_LEVEL", "PEAK_REL_MARGIN", "PEAK_N_SE", "PEAK_FALLBACK_MARGIN", "NOISE_K",
+           "white_noise_variance",
            "centred_lags", "autocorrelation_2d", "core_length", "spanwise_spectrum",
            "spectral_peak", "SpaceTime", "space_time_correlation", "speed_and_lifetime",
            "deviation_planes"]
@@ -64,6 +87,8 @@ PEAK_REL_MARGIN = 0.10
 PEAK_N_SE = 3.0
 PEAK_FALLBACK_MARGIN = 0.2
 N_BLOCKS = 8
+#: white-noise modes: |kx| and |ky| both at least this many cycles per cell (wavelengths < 4 cells)
+NOISE_K = 0.25
 
 
 def deviation_planes(planes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -81,27 +106,52 @@ def _has_variance(var: np.ndarray, dev: np.ndarray) -> np.ndarray:
     return var > max(1e-14 * scale, 1e-300)
 
 
+def white_noise_variance(dev: np.ndarray) -> np.ndarray:
+    """Per-plane variance of the spatially white part of (nt, nx, ny) deviation planes.
+
+    Mean of ``|FFT2|^2 / (nx ny)`` (white noise of variance s^2 gives s^2 in every mode) over the
+    modes with ``|kx|, |ky| >= NOISE_K`` cycles per cell; zeros when the grid has no such mode.
+    """
+    dev = np.asarray(dev, dtype=np.float64)
+    nt, nx, ny = dev.shape
+    kx = np.abs(np.fft.fftfreq(nx))
+    ky = np.abs(np.fft.fftfreq(ny))
+    corner = (kx[:, None] >= NOISE_K) & (ky[None, :] >= NOISE_K)
+    if nt == 0 or not corner.any():
+        return np.zeros(nt)
+    out = np.empty(nt)
+    for t in range(nt):
+        P = np.abs(np.fft.fft2(dev[t])) ** 2 / (nx * ny)
+        out[t] = P[corner].mean()
+    return out
+
+
 def centred_lags(n: int, d: float) -> np.ndarray:
     """Lags of a fftshift-ed periodic correlation: ``(i - n//2) d`` for i = 0..n-1."""
     return (np.arange(n) - n // 2) * d
 
 
-def autocorrelation_2d(planes: np.ndarray) -> np.ndarray:
+def autocorrelation_2d(planes: np.ndarray, noise_removed: float = 0.0) -> np.ndarray:
     """Time-averaged normalised periodic autocorrelation of (nt, nx, ny) planes.
 
     Returned fftshift-ed: zero lag at ``[nx//2, ny//2]`` (see :func:`centred_lags`). All NaN if
-    no plane has variance.
+    no plane has variance. ``noise_removed`` (0-1): normalised by the variance minus that
+    fraction of the white noise of :func:`white_noise_variance` (planes with no variance left
+    over are skipped).
     """
     planes = np.asarray(planes, dtype=np.float64)
     nt, nx, ny = planes.shape
     dev, var = deviation_planes(planes)
     ok = _has_variance(var, dev)
+    noise = noise_removed * white_noise_variance(dev) if noise_removed else np.zeros(nt)
+    ok &= var - noise > 0
     if nt == 0 or not ok.any():
         return np.full((nx, ny), np.nan)
     acc = np.zeros((nx, ny))
     for t in np.flatnonzero(ok):
         F = np.fft.rfft2(dev[t])
-        ac = np.fft.irfft2(F * np.conj(F), s=(nx, ny))
+        ac = np.fft.irfft2(F * np.conj(F), s=(nx, ny)) / (nx * ny)
+        ac[0, 0] -= noise[t]
         acc += ac / ac[0, 0]
     acc /= ok.sum()
     return np.fft.fftshift(acc)
@@ -130,13 +180,15 @@ def core_length(r_centred_1d: np.ndarray, d: float, level: float = CORE_LEVEL) -
     return math.nan
 
 
-def spanwise_spectrum(planes: np.ndarray, dy: float,
-                      n_blocks: int = N_BLOCKS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def spanwise_spectrum(planes: np.ndarray, dy: float, n_blocks: int = N_BLOCKS,
+                      noise_removed: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(ky [cycles m-1], S(ky), standard error of S) of (nt, nx, ny) planes.
 
     One-sided density: ``sum_m S_m dky`` = mean spatial variance of the planes (dky = 1/Ly).
     Averaged over x (= over kx by Parseval) and time. The standard error comes from
     ``min(n_blocks, nt)`` contiguous time blocks (NaN with fewer than 4 planes).
+    ``noise_removed`` (0-1): that fraction of each plane's white-noise floor (``s^2 dy`` per
+    two-sided mode) is subtracted.
     """
     planes = np.asarray(planes, dtype=np.float64)
     nt, nx, ny = planes.shape
@@ -151,6 +203,8 @@ def spanwise_spectrum(planes: np.ndarray, dy: float,
     w[0] = 1.0
     if ny % 2 == 0:
         w[-1] = 1.0
+    if noise_removed:
+        P = P - noise_removed * white_noise_variance(dev)[:, None] / ny
     P = P * w * Ly                                   # density: divide by dky = 1/Ly
     S = P.mean(axis=0)
     se = np.full(ky.size, np.nan)

@@ -23,7 +23,7 @@ __all__ = ["RunData", "ReportContext", "load_runs", "SCALAR_UNITS", "to_si", "ca
 
 #: units of the scalars of analysis.nc (used when the archive does not carry a ``units`` attribute)
 SCALAR_UNITS: dict[str, str] = {
-    "u_star_s": "m s-1", "z0s": "m", "u_star_0": "m s-1", "z0_0": "m", "z_m": "m",
+    "u_star_s": "m s-1", "u_star_s_se": "m s-1", "z0s": "m", "u_star_0": "m s-1", "z0_0": "m", "z_m": "m",
     "z_m_flux995": "m", "G_tot": "kg m-1 s-1", "sigma_G": "kg m-1 s-1", "sigma_G_over_G_tot": "1",
     "lambda_x": "m", "lambda_y": "m", "delta_y": "m", "delta_y_u": "m", "u_star_t": "m s-1",
     "tau_p_surface_fraction": "1", "R_cu_upper": "1", "n_parcels_mean": "1", "n_parcels_peak": "1",

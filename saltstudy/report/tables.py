@@ -42,6 +42,15 @@ class Cell:
     computed: float
     paper: float
     rel: float
+    se: float = math.nan          # standard error of the computed value, where the analysis gives one
+
+
+#: Table 2 variables with a standard error in analysis.nc
+TABLE2_SE = {"u_star_s": "u_star_s_se"}
+
+
+def _computed(c: Cell) -> str:
+    return fmt(c.computed) + (f" ± {fmt(c.se, 2)}" if math.isfinite(c.se) else "")
 
 
 def table2_rows(ctx: ReportContext) -> list[dict]:
@@ -66,7 +75,8 @@ def table2_rows(ctx: ReportContext) -> list[dict]:
         for var, pkey, _, _ in TABLE2_COLUMNS:
             c = r.scalar(var) if r is not None else math.nan
             p = prow.get(pkey, math.nan) if pkey else math.nan
-            row["cells"][var] = Cell(c, p, rel_diff(c, p))
+            se = r.scalar(TABLE2_SE[var]) if r is not None and var in TABLE2_SE else math.nan
+            row["cells"][var] = Cell(c, p, rel_diff(c, p), se)
         rows.append(row)
     return rows
 
@@ -167,7 +177,8 @@ def table2_markdown(ctx: ReportContext) -> str:
         heads.append(f"{lab} [{unit}]")
     lines = [f"# Table 2 — computed beside {PAPER_LABEL}", "",
              f"Study `{ctx.study}`. Each cell: computed / paper (relative difference). "
-             "“—”: not given by the paper or undefined in the run.", "",
+             "“—”: not given by the paper or undefined in the run. u*s ± its standard error "
+             "over the 3-D samples (the scatter of the per-sample fits).", "",
              "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
     for row in rows:
         if row["status"] != "ok":
@@ -176,7 +187,7 @@ def table2_markdown(ctx: ReportContext) -> str:
         cells = [row["name"]]
         for var, pkey, _, _ in TABLE2_COLUMNS:
             c = row["cells"][var]
-            s = fmt(c.computed)
+            s = _computed(c)
             if pkey:
                 s += f" / {fmt(c.paper)}"
                 if math.isfinite(c.rel):
@@ -216,7 +227,7 @@ def table2_html(ctx: ReportContext) -> str:
             continue
         for var, pkey, _, _ in TABLE2_COLUMNS:
             c = row["cells"][var]
-            out.append(f"<td>{fmt(c.computed)}</td>")
+            out.append(f"<td>{e(_computed(c))}</td>")
             if pkey:
                 cls = "bad" if math.isfinite(c.rel) and abs(c.rel) > 0.25 else ""
                 out.append(f"<td class='ref'>{fmt(c.paper)}</td><td class='{cls}'>{_pct(c.rel)}</td>")
