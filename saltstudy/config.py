@@ -338,12 +338,14 @@ class Study(_Frozen):
     description: str = ""
     fidelity: str | None = Field(None, description="default fidelity of the study")
     fidelities: tuple[str, ...] = Field((), description="a ladder: every case runs at each")
+    reference: str | None = Field(None, description="the fidelity of fidelities that the convergence "
+                                  "report compares the others with (default: the last listed)")
     cases: tuple[int, ...] = ()
     scenes: tuple[SceneSpec, ...] = ()
     report: bool = True
 
     @model_validator(mode="after")
-    def _nonempty(self) -> "Study":
+    def _consistent(self) -> "Study":
         if not self.cases and not self.scenes:
             raise ValueError("a study needs at least one entry in cases or scenes")
         if self.cases and not (self.fidelity or self.fidelities):
@@ -351,6 +353,9 @@ class Study(_Frozen):
         for s in self.scenes:
             if not (s.fidelity or self.fidelity):
                 raise ValueError(f"scenes.{s.label}.fidelity: no fidelity for this scene")
+        if self.reference is not None and self.reference not in self.fidelities:
+            raise ValueError(f"reference: {self.reference!r} is not one of fidelities "
+                             f"{list(self.fidelities)}")
         return self
 
 

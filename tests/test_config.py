@@ -161,6 +161,16 @@ def test_bad_study_reference(tmp_path):
     assert res.exit_code == 2 and "fidelity 'nonexistent'" in res.output
 
 
+def test_study_reference_must_be_one_of_its_fidelities(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text('fidelities = ["smoke", "smoke-fine"]\nreference = "paper"\ncases = [2]\n')
+    res = runner.invoke(app, ["validate", str(p)])
+    assert res.exit_code == 2 and "reference" in res.output and "not one of fidelities" in res.output
+    p.write_text('fidelities = ["smoke", "smoke-fine"]\nreference = "smoke"\ncases = [2]\n')
+    res = runner.invoke(app, ["validate", str(p)])
+    assert res.exit_code == 0, res.output
+
+
 def test_overrides_are_validated():
     with pytest.raises(ConfigError) as exc:
         load_case(2, overrides={"soil": {"modes": [{"mu": 2e-4, "sigma": 0.5}]}})

@@ -54,6 +54,22 @@ def test_declared_order_wins_over_wall_time(ladder, tmp_path):
     assert rows["case02@mid"]["err_finest"]["u_star_s"] == 0.0
 
 
+def test_named_reference_rung_wins(ladder, tmp_path):
+    # a sensitivity study compares one-knob variants with their base, not with the dearest variant
+    runs, _ = ladder
+    out = build_convergence_report(runs, tmp_path / "rep", reference="case02@mid")
+    res = out["result"]
+    assert res.finest == "case02@mid"
+    rows = {r["label"]: r for r in res.rungs}
+    assert rows["case02@fine"]["err_finest"]["u_star_s"] == pytest.approx(0.05 / 1.05)
+    assert rows["case02@coarse"]["err_finest"]["lambda_y"] == pytest.approx(0.25 / 1.05)
+    assert rows["case02@mid"]["err_finest"]["z_m"] == 0.0
+    assert "Reference rung: case02@mid." in (tmp_path / "rep" / "convergence.md").read_text()
+    # an unknown or missing reference falls back to the finest rung
+    assert build_convergence_report(runs, tmp_path / "rep2", reference="case02@nope")["result"].finest \
+        == "case02@fine"
+
+
 def test_missing_rung_and_wall_time_override(ladder, tmp_path):
     runs, _ = ladder
     runs = {**runs, "case02@huge": None}

@@ -103,11 +103,13 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     sections: list[str] = []
     if "convergence" in wanted or _is_ladder(ctx):
         from .convergence import build_convergence_report
-        conv = build_convergence_report(ctx.runs, report_dir, order=meta.get("order"))
+        conv = build_convergence_report(ctx.runs, report_dir, order=meta.get("order"),
+                                        reference=meta.get("reference"))
         sections.append("<h2 id='convergence'>Error against run time</h2>"
-                        "<p>Relative error of each statistic against the finest rung and against the "
-                        f"paper, versus wall-clock time. Finest rung: <b>{html.escape(str(conv['result'].finest))}"
-                        "</b>.</p><figure><a href='convergence.pdf'><img src='convergence.png' "
+                        "<p>Relative difference of each statistic from the reference rung and error "
+                        "against the paper, versus the wall-clock time of the run (spin-up + saltation). Reference "
+                        f"rung: <b>{html.escape(str(conv['result'].finest))}</b> (the study's "
+                        "<code>reference</code> fidelity, else the finest rung).</p><figure><a href='convergence.pdf'><img src='convergence.png' "
                         "alt='error against run time'></a></figure>" + conv["html"])
     if "stability" in wanted or meta.get("failures") or meta.get("has_scenes") \
             or (_has_scenes(ctx) and not _is_ladder(ctx)):

@@ -1,12 +1,19 @@
 """Error against run time for a convergence ladder (one case at a ladder of fidelities).
 
-For each statistic (u*s, z0s, z_m, G_tot, sigma_G/G_tot, lambda_y, delta_y) and each rung:
-* the relative error against the *finest* rung (declared order's last, else the largest wall time),
-* the relative error against the paper (where the paper gives a value: Table 2 for u*s, lambda_y,
-  delta_y; the 10-20 % range for sigma_G/G_tot, where the error is the distance to the nearer bound
-  and 0 inside; the paper gives no per-case z0s, z_m or G_tot),
-plotted against the wall-clock time of the rung; and a table naming the cheapest rung within 10 % and
-within 25 % of the finest, per statistic.
+For each statistic (u*s, z0s, z_m, G_tot, sigma_G/G_tot, lambda_x, lambda_y, delta_y, the tau_p
+surface fraction and the airborne grain count N_air) and each rung:
+* the relative difference from the *reference* rung: the study's ``reference`` fidelity when it
+  names one (a sensitivity study: one-knob variants of a base fidelity), else the finest rung (the
+  declared order's last, else the largest wall time);
+* the relative error against the paper (where the paper gives a value: Table 2 for u*s, lambda_x,
+  lambda_y, delta_y; the 10-20 % range for sigma_G/G_tot, where the error is the distance to the
+  nearer bound and 0 inside; the paper gives no per-case z0s, z_m, G_tot, tau_p fraction or N_air),
+plotted against the wall-clock time of the rung (its spin-up + saltation run; the spin-up's share is
+listed beside it: rungs on the same grid share one spin-up, so a study pays it once); and a table naming the cheapest rung within 10 % and within
+25 % of the reference, per statistic.
+
+``N_air`` = mean parcel count over the sampling window x Q: the real grains in the air, the same
+physical quantity whatever the parcel weight, so Q-variants compare directly.
 """
 from __future__ import annotations
 
@@ -30,7 +37,8 @@ __all__ = ["CONV_STATS", "ConvergenceResult", "convergence_analysis", "build_con
 CONV_STATS: dict[str, tuple[str, str | None]] = {
     "u_star_s": ("u*s", "u_star_s"), "z0s": ("z0s", None), "z_m": ("z_m", None),
     "G_tot": ("G_tot", None), "sigma_G_over_G_tot": ("σG/G_tot", "range"),
-    "lambda_y": ("λy", "lambda_y_m"), "delta_y": ("δy", "delta_y_m"),
+    "lambda_x": ("λx", "lambda_x_m"), "lambda_y": ("λy", "lambda_y_m"), "delta_y": ("δy", "delta_y_m"),
+    "tau_p_surface_fraction": ("τp(0)/ρu*s²", None), "N_air": ("N_air", None),
 }
 THRESHOLDS = (0.10, 0.25)
 
@@ -38,7 +46,7 @@ THRESHOLDS = (0.10, 0.25)
 @dataclass
 class ConvergenceResult:
     rungs: list[dict[str, Any]]                # ordered coarse -> fine
-    finest: str | None
+    finest: str | None                         # the reference rung (see module docstring)
     cheapest: dict[str, dict[str, str | None]]  # stat -> {"10%": label, "25%": label}
     data: dict[str, np.ndarray]
 
@@ -57,7 +65,14 @@ def _paper_error(stat: str, value: float, case: int | None) -> float:
     return abs(value - ref) / abs(ref) if math.isfinite(ref) and ref != 0 else math.nan
 
 
-def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = None) -> ConvergenceResult:
+def _value(r: RunData, stat: str) -> float:
+    if stat == "N_air":
+        return r.scalar("n_parcels_mean") * r.attr("Q")
+    return r.scalar(stat)
+
+
+def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = None,
+                         reference: str | None = None) -> ConvergenceResult:
     present = [r for r in runs.values() if r.ok]
     if order:
         ranked = [runs[l] for l in order if l in runs]
@@ -65,8 +80,8 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
     else:
         ranked = sorted(runs.values(), key=lambda r: (not math.isfinite(r.wall_time_s),
                                                       r.wall_time_s if math.isfinite(r.wall_time_s) else 0))
-    finest = None
-    if order:
+    finest = runs[reference] if reference in runs and runs[reference].ok else None
+    if finest is None and order:
         finest = next((runs[l] for l in reversed(order) if l in runs and runs[l].ok), None)
     if finest is None and present:
         timed = [r for r in present if math.isfinite(r.wall_time_s)]
@@ -74,12 +89,13 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
     rungs = []
     for r in ranked:
         row: dict[str, Any] = {"label": r.label, "fidelity": r.fidelity, "status": r.status,
-                               "wall_time_s": r.wall_time_s, "values": {}, "err_finest": {},
-                               "err_paper": {}}
+                               "wall_time_s": r.wall_time_s,
+                               "spinup_wall_time_s": r.attr("spinup_wall_time_s"),
+                               "values": {}, "err_finest": {}, "err_paper": {}}
         case = r.case if r.case is not None else case_number_of(r.label)
         for s in CONV_STATS:
-            v = r.scalar(s)
-            f = finest.scalar(s) if finest is not None else math.nan
+            v = _value(r, s)
+            f = _value(finest, s) if finest is not None else math.nan
             row["values"][s] = v
             row["err_finest"][s] = (abs(v - f) / abs(f)) if math.isfinite(v) and math.isfinite(f) and f != 0 \
                 else math.nan
@@ -106,17 +122,18 @@ def _rung_name(row: dict[str, Any]) -> str:
 
 
 _STAT_COLORS = dict(zip(CONV_STATS, ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-                                     "#8c564b", "#e377c2")))
+                                     "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"),
+                        strict=True))
 
 
 def _figure(res: ConvergenceResult) -> Figure:
     fig = Figure(figsize=(11, 4.8), layout="constrained")
     ax1, ax2 = fig.subplots(1, 2, sharex=True)
-    fig.suptitle("Error against wall-clock time, convergence ladder")
+    fig.suptitle("Error against wall-clock time (spin-up + saltation)")
     t = res.data["wall_time_s"]
     labels = [row["label"] for row in res.rungs]
     not_finest = np.array([l != res.finest for l in labels])
-    markers = "osD^v<>"
+    markers = "osD^v<>PX*"
     floor = 1e-4   # an error of exactly 0 (inside the paper's range) is drawn here, hollow, unjoined
     for i, s in enumerate(CONV_STATS):
         lab, col, mk = CONV_STATS[s][0], _STAT_COLORS[s], markers[i % len(markers)]
@@ -140,15 +157,15 @@ def _figure(res: ConvergenceResult) -> Figure:
         ax.grid(alpha=0.3, which="both")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
-    ax1.set_ylabel("|relative error| [-]   (10 % dotted, 25 % dashed)")
-    ax1.set_title(f"(a) against the finest rung ({res.finest})", loc="left", fontsize=9)
+    ax1.set_ylabel("|relative difference| [-]   (10 % dotted, 25 % dashed)")
+    ax1.set_title(f"(a) against the reference rung ({res.finest})", loc="left", fontsize=9)
     ax2.set_title(f"(b) against {PAPER_LABEL} (case 2; σG/G_tot: distance to 10–20 %)",
                   loc="left", fontsize=9, color="0.3")
     for row, tt in zip(res.rungs, t):
         if math.isfinite(tt):
             for ax in (ax1, ax2):
                 ax.axvline(tt, color="0.85", lw=0.8, zorder=0)
-                ax.annotate(_rung_name(row) + (" (finest)" if row["label"] == res.finest else ""),
+                ax.annotate(_rung_name(row) + (" (reference)" if row["label"] == res.finest else ""),
                             (tt, 1.0), xycoords=("data", "axes fraction"), textcoords="offset points",
                             xytext=(2, -4), fontsize=7, rotation=90, va="top", color="0.4")
     ax2.text(0.02, 0.02, f"hollow markers: error 0, drawn at {floor:g}", transform=ax2.transAxes,
@@ -157,16 +174,17 @@ def _figure(res: ConvergenceResult) -> Figure:
 
 
 def _tables_md(res: ConvergenceResult) -> str:
-    lines = ["| rung | fidelity | status | wall time [s] | " +
-             " | ".join(f"{CONV_STATS[s][0]} (err. finest / paper)" for s in CONV_STATS) + " |",
-             "|" + "---|" * (4 + len(CONV_STATS))]
+    lines = ["| rung | fidelity | status | wall time [s] | of which spin-up [s] | " +
+             " | ".join(f"{CONV_STATS[s][0]} (vs reference / paper)" for s in CONV_STATS) + " |",
+             "|" + "---|" * (5 + len(CONV_STATS))]
     for row in res.rungs:
-        cells = [row["label"], str(row["fidelity"] or "—"), row["status"], fmt(row["wall_time_s"])]
+        cells = [row["label"], str(row["fidelity"] or "—"), row["status"], fmt(row["wall_time_s"]),
+                 fmt(row["spinup_wall_time_s"])]
         for s in CONV_STATS:
             ef, ep = row["err_finest"][s], row["err_paper"][s]
             cells.append(f"{fmt(row['values'][s])} ({_p(ef)} / {_p(ep)})")
         lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", "Cheapest rung within 10 % / 25 % of the finest:", "",
+    lines += ["", "Cheapest rung within 10 % / 25 % of the reference:", "",
               "| statistic | within 10 % | within 25 % |", "|---|---|---|"]
     for s in CONV_STATS:
         c = res.cheapest[s]
@@ -180,17 +198,20 @@ def _p(v: float) -> str:
 
 def _tables_html(res: ConvergenceResult) -> str:
     e = html.escape
-    out = ["<table><thead><tr><th>rung</th><th>fidelity</th><th>status</th><th>wall time [s]</th>"]
-    out += [f"<th>{e(CONV_STATS[s][0])}<br><small>value (err. finest / paper)</small></th>" for s in CONV_STATS]
+    out = ["<table><thead><tr><th>rung</th><th>fidelity</th><th>status</th>"
+           "<th>wall time [s]</th><th>of which spin-up [s]</th>"]
+    out += [f"<th>{e(CONV_STATS[s][0])}<br><small>value (vs reference / paper)</small></th>"
+            for s in CONV_STATS]
     out.append("</tr></thead><tbody>")
     for row in res.rungs:
         out.append(f"<tr><td>{e(row['label'])}</td><td>{e(str(row['fidelity'] or '—'))}</td>"
-                   f"<td>{e(row['status'])}</td><td>{fmt(row['wall_time_s'])}</td>")
+                   f"<td>{e(row['status'])}</td><td>{fmt(row['wall_time_s'])}</td>"
+                   f"<td>{fmt(row['spinup_wall_time_s'])}</td>")
         for s in CONV_STATS:
             out.append(f"<td>{fmt(row['values'][s])} ({_p(row['err_finest'][s])} / "
                        f"{_p(row['err_paper'][s])})</td>")
         out.append("</tr>")
-    out.append("</tbody></table><h4>Cheapest rung within 10 % / 25 % of the finest</h4>"
+    out.append("</tbody></table><h4>Cheapest rung within 10 % / 25 % of the reference</h4>"
                "<table><thead><tr><th>statistic</th><th>within 10 %</th><th>within 25 %</th></tr>"
                "</thead><tbody>")
     for s in CONV_STATS:
@@ -204,12 +225,14 @@ def _tables_html(res: ConvergenceResult) -> str:
 def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunData], report_dir: Path,
                              fidelities: dict[str, str] | None = None,
                              wall_times: dict[str, float] | None = None,
-                             order: list[str] | None = None) -> dict[str, Any]:
+                             order: list[str] | None = None,
+                             reference: str | None = None) -> dict[str, Any]:
     """Write ``convergence.png/.pdf``, ``convergence.md`` and ``convergence.json`` in ``report_dir``.
 
     ``runs``: label -> analysis path (or None), or already loaded :class:`RunData`. ``fidelities`` and
     ``wall_times`` per label override the archives' attributes; ``order`` (coarse -> fine) declares
-    the ladder, else the rung with the largest wall time is the finest.
+    the ladder, else the rung with the largest wall time is the finest; ``reference`` (a label)
+    names the rung the others are compared with (default: the finest).
     Returns {"result": ConvergenceResult, "html": str, "files": [...]}.
     """
     report_dir = Path(report_dir)
@@ -218,18 +241,19 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
         loaded = dict(runs)  # type: ignore[arg-type]
     else:
         loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
-    res = convergence_analysis(loaded, order)
+    res = convergence_analysis(loaded, order, reference)
     fig = _figure(res)
     files = []
     for ext in ("png", "pdf"):
         p = report_dir / f"convergence.{ext}"
         fig.savefig(p, dpi=130)
         files.append(p)
-    md = ("# Error against run time\n\n" + f"Finest rung: {res.finest}.\n\n" + _tables_md(res) + "\n")
+    md = ("# Error against run time\n\n" + f"Reference rung: {res.finest}.\n\n" + _tables_md(res) + "\n")
     (report_dir / "convergence.md").write_text(md, encoding="utf-8")
-    payload = {"finest": res.finest, "cheapest": res.cheapest,
+    payload = {"finest": res.finest, "reference": res.finest, "cheapest": res.cheapest,
                "rungs": [{**{k: v for k, v in row.items() if k not in ("values", "err_finest", "err_paper")},
-                          "wall_time_s": row["wall_time_s"] if math.isfinite(row["wall_time_s"]) else None,
+                          **{k: (row[k] if math.isfinite(row[k]) else None)
+                             for k in ("wall_time_s", "spinup_wall_time_s")},
                           **{f"{k}": {s: (x if math.isfinite(x) else None) for s, x in row[k].items()}
                              for k in ("values", "err_finest", "err_paper")}}
                          for row in res.rungs]}

@@ -21,7 +21,11 @@ __all__ = ["enrich_meta", "study_meta"]
 
 
 def study_meta(study_name: str) -> dict[str, Any]:
-    """case_numbers, fidelities, study_config, fidelity, order from the study file ({} if none)."""
+    """case_numbers, fidelities, study_config, fidelity, order, reference from the study file.
+
+    ``reference`` is the label of the run at the study's ``reference`` fidelity (None when the
+    study names none: the convergence report then compares with the last rung). {} if no file.
+    """
     try:
         from ..config import load_study, study_runs
         study = load_study(study_name)
@@ -33,12 +37,16 @@ def study_meta(study_name: str) -> dict[str, Any]:
     if len(ladder) > 1:  # declared ladder order, coarse -> fine as listed in the study file
         for fname in ladder:
             order += [r.label for r in runs if r.label.endswith(f"@{fname}")]
+    reference = None
+    if study.reference:
+        reference = next((r.label for r in runs if r.label.endswith(f"@{study.reference}")), None)
     return {
         "case_numbers": {r.label: r.scene.case.number for r in runs},
         "fidelities": {r.label: r.scene.fidelity.name for r in runs},
         "study_config": study.model_dump(mode="json"),
         "fidelity": study.fidelity or (", ".join(ladder) if ladder else None),
         "order": order or None,
+        "reference": reference,
         "has_scenes": bool(study.scenes),
     }
 
