@@ -130,6 +130,22 @@ def test_peak_criterion_on_given_spectra():
     assert math.isnan(st.spectral_peak(ky, S, se))
 
 
+def test_peaks_shorter_than_four_cells_are_not_resolved():
+    ny, dy = 64, 0.1
+    ky = np.arange(ny // 2 + 1) / (ny * dy)
+    base = 1.0 / (1.0 + (ky / 0.5) ** 2)
+    exact = np.zeros_like(base)
+    for cells, found in ((3.0, False), (4.5, True)):
+        k0 = 1.0 / (cells * dy)
+        S = base * (1.0 + 2.0 * np.exp(-0.5 * ((ky - k0) / 0.2) ** 2))
+        got = st.spectral_peak(ky, S, exact)
+        assert math.isfinite(got) is found, (cells, got)
+        if found:
+            assert 1.0 / got == pytest.approx(cells * dy, abs=dy)
+        # with the limit lowered, the 3-cell peak is found
+        assert math.isfinite(st.spectral_peak(ky, S, exact, min_cells=2.0))
+
+
 def moving_pattern(nt, nx, ny, dx, dy, dt, speed, a, rng):
     """Smooth random field advected at ``speed`` (exact Fourier shift) and renewed as AR(1):
     C_t = a shift(C_{t-1}) + sqrt(1-a^2) new. The moving-frame correlation at lag k is a^k."""

@@ -59,15 +59,15 @@ def test_named_reference_rung_wins(ladder, tmp_path):
     runs, _ = ladder
     out = build_convergence_report(runs, tmp_path / "rep", reference="case02@mid")
     res = out["result"]
-    assert res.finest == "case02@mid"
+    assert res.finest == "case02@mid" and res.named_reference
     rows = {r["label"]: r for r in res.rungs}
     assert rows["case02@fine"]["err_finest"]["u_star_s"] == pytest.approx(0.05 / 1.05)
     assert rows["case02@coarse"]["err_finest"]["lambda_y"] == pytest.approx(0.25 / 1.05)
     assert rows["case02@mid"]["err_finest"]["z_m"] == 0.0
     assert "Reference rung: case02@mid." in (tmp_path / "rep" / "convergence.md").read_text()
     # an unknown or missing reference falls back to the finest rung
-    assert build_convergence_report(runs, tmp_path / "rep2", reference="case02@nope")["result"].finest \
-        == "case02@fine"
+    fallback = build_convergence_report(runs, tmp_path / "rep2", reference="case02@nope")["result"]
+    assert fallback.finest == "case02@fine" and not fallback.named_reference
 
 
 def test_missing_rung_and_wall_time_override(ladder, tmp_path):

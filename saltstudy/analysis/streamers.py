@@ -48,7 +48,9 @@ delta_y (section 4.1 [46], Fig. 10)
     contiguous time blocks. ``delta_y = 1/ky_peak`` with the peak found by :func:`spectral_peak`:
 
     * candidates are interior local maxima (``2 <= m < M``: not the domain-scale mode m = 1,
-      whose "spacing" is the domain width, and not the Nyquist mode);
+      whose "spacing" is the domain width, and not the Nyquist mode) at wavelengths of at least
+      ``MIN_PEAK_CELLS`` = 4 cells (ky at most half the Nyquist wavenumber): shorter ones are not
+      resolved by the 2nd-order LES, and that is where the parcel-count noise lives;
     * each candidate's *base* is the higher of the two valley floors that separate it from a
       higher point (or from the ends of the spectrum) on its left and its right (topographic
       prominence);
@@ -77,6 +79,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["CORE_LEVEL", "PEAK_REL_MARGIN", "PEAK_N_SE", "PEAK_FALLBACK_MARGIN", "NOISE_K",
+           "MIN_PEAK_CELLS",
            "white_noise_variance",
            "centred_lags", "autocorrelation_2d", "core_length", "spanwise_spectrum",
            "spectral_peak", "SpaceTime", "space_time_correlation", "speed_and_lifetime",
@@ -87,6 +90,8 @@ PEAK_REL_MARGIN = 0.10
 PEAK_N_SE = 3.0
 PEAK_FALLBACK_MARGIN = 0.2
 N_BLOCKS = 8
+#: shortest spanwise wavelength, in cells, at which a spectral peak is accepted
+MIN_PEAK_CELLS = 4.0
 #: white-noise modes: |kx| and |ky| both at least this many cycles per cell (wavelengths < 4 cells)
 NOISE_K = 0.25
 
@@ -218,7 +223,8 @@ def spanwise_spectrum(planes: np.ndarray, dy: float, n_blocks: int = N_BLOCKS,
 
 def spectral_peak(ky: np.ndarray, S: np.ndarray, se: np.ndarray | None = None,
                   rel_margin: float = PEAK_REL_MARGIN, n_se: float = PEAK_N_SE,
-                  fallback_margin: float = PEAK_FALLBACK_MARGIN) -> float:
+                  fallback_margin: float = PEAK_FALLBACK_MARGIN,
+                  min_cells: float = MIN_PEAK_CELLS) -> float:
     """ky of the spectral peak (criterion in the module docstring); NaN when there is none."""
     ky = np.asarray(ky, dtype=np.float64)
     S = np.asarray(S, dtype=np.float64)
@@ -228,7 +234,10 @@ def spectral_peak(ky: np.ndarray, S: np.ndarray, se: np.ndarray | None = None,
     have_se = se is not None and np.all(np.isfinite(np.asarray(se)[1:]))
     se = np.asarray(se, dtype=np.float64) if have_se else np.zeros_like(S)
     best_m, best_s = -1, -math.inf
+    ky_resolved = 2.0 * ky[M] / min_cells          # ky[M] is (about) the Nyquist 1/(2 dy)
     for m in range(2, M):
+        if ky[m] > ky_resolved * (1.0 + 1e-12):
+            break
         if not (S[m] > S[m - 1] and S[m] >= S[m + 1]):
             continue
         # left valley: down to the nearest higher point (or the first non-zero mode)

@@ -49,6 +49,7 @@ class ConvergenceResult:
     finest: str | None                         # the reference rung (see module docstring)
     cheapest: dict[str, dict[str, str | None]]  # stat -> {"10%": label, "25%": label}
     data: dict[str, np.ndarray]
+    named_reference: bool = False              # a sensitivity study: rungs are not a sequence
 
 
 def _paper_error(stat: str, value: float, case: int | None) -> float:
@@ -113,7 +114,8 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
     for s in CONV_STATS:
         data[f"err_finest_{s}"] = np.array([row["err_finest"][s] for row in rungs], float)
         data[f"err_paper_{s}"] = np.array([row["err_paper"][s] for row in rungs], float)
-    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data)
+    named = finest is not None and finest.label == reference
+    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data, named)
 
 
 def _rung_name(row: dict[str, Any]) -> str:
@@ -144,7 +146,9 @@ def _figure(res: ConvergenceResult) -> Figure:
             zero = ok & (e <= 1e-9)
             if pos.any():
                 order = np.argsort(t[pos])
-                ax.plot(t[pos][order], e[pos][order], marker=mk, color=col, lw=1.2, label=lab)
+                # one-knob variants of a named reference are not a ladder: markers only
+                ax.plot(t[pos][order], e[pos][order], marker=mk, color=col, lw=1.2, label=lab,
+                        ls="none" if res.named_reference else "-")
             if zero.any():
                 ax.plot(t[zero], np.full(zero.sum(), floor), marker=mk, mfc="none", color=col, ls="none",
                         label=None if pos.any() else f"{lab} (0)")
