@@ -238,14 +238,15 @@ def test_removing_the_parcel_noise_recovers_the_pattern_lengths():
     ly_true = st.core_length(ac_true[nx // 2, :], dy)
     planes = _parcel_planes(pattern, 5.0, rng)
     raw = st.autocorrelation_2d(planes)
-    den = st.autocorrelation_2d(planes, noise_removed=1.0)
+    noise = st.white_noise_variance(st.deviation_planes(planes)[0])
+    den = st.autocorrelation_2d(planes, noise=noise)
     lx_raw, ly_raw = st.core_length(raw[:, ny // 2], dx), st.core_length(raw[nx // 2, :], dy)
     lx_den, ly_den = st.core_length(den[:, ny // 2], dx), st.core_length(den[nx // 2, :], dy)
     assert abs(lx_den - lx_true) <= 2 * dx and abs(ly_den - ly_true) <= dy, (lx_den, lx_true, ly_den, ly_true)
     # the noise shortens the raw lengths by more than that (so the check can fail)
     assert lx_true - lx_raw > 2 * dx and ly_true - ly_raw > dy, (lx_raw, ly_raw)
     # removing half the noise lands in between
-    half = st.autocorrelation_2d(planes, noise_removed=0.5)
+    half = st.autocorrelation_2d(planes, noise=0.5 * noise)
     assert lx_raw < st.core_length(half[:, ny // 2], dx) < lx_den
 
 
@@ -253,7 +254,8 @@ def test_removing_the_noise_floor_flattens_a_white_spectrum_to_zero():
     rng = np.random.default_rng(8)
     planes = _parcel_planes(np.ones((20, 64, 48)), 8.0, rng)
     ky, S_raw, _ = st.spanwise_spectrum(planes, 0.1)
-    _, S_den, se = st.spanwise_spectrum(planes, 0.1, noise_removed=1.0)
+    noise = st.white_noise_variance(st.deviation_planes(planes)[0])
+    _, S_den, se = st.spanwise_spectrum(planes, 0.1, noise=noise)
     # raw: flat at the Poisson floor 2 s^2 dy (one-sided) = 1.6
     assert np.mean(S_raw[1:-1]) == pytest.approx(2 * 8.0 * 0.1, rel=0.03)
     assert abs(np.mean(S_den[1:-1])) < 0.02 * np.mean(S_raw[1:-1])

@@ -588,22 +588,22 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("n_planes", (), n_planes)
     put("n_samples", (), n_t)
     if C_w is not None and n_planes and nx >= 2 and ny >= 2:
+        dev_c, var_c = streamers.deviation_planes(C_w)
+        noise_c = streamers.white_noise_variance(dev_c)
+        has = var_c > 0
+        noise_frac = float(np.mean(noise_c[has] / var_c[has])) if has.any() else math.nan
         # the parcel-count noise of the case's own Q stays in (saltstudy.analysis.streamers)
-        f_noise = 1.0 - 1.0 / max(info["q_multiplier"], 1.0)
-        ac = streamers.autocorrelation_2d(C_w, noise_removed=f_noise)
+        removed = (1.0 - 1.0 / max(info["q_multiplier"], 1.0)) * noise_c
+        ac = streamers.autocorrelation_2d(C_w, noise=removed)
         lam_x = streamers.core_length(ac[:, ny // 2], dx)
         lam_y = streamers.core_length(ac[nx // 2, :], dy)
-        ky, S_c, S_c_se = streamers.spanwise_spectrum(C_w, dy, noise_removed=f_noise)
+        ky, S_c, S_c_se = streamers.spanwise_spectrum(C_w, dy, noise=removed)
         delta_y = 1.0 / streamers.spectral_peak(ky, S_c, S_c_se)
         ac_raw = streamers.autocorrelation_2d(C_w)
         lam_x_raw = streamers.core_length(ac_raw[:, ny // 2], dx)
         lam_y_raw = streamers.core_length(ac_raw[nx // 2, :], dy)
         _, S_raw, S_raw_se = streamers.spanwise_spectrum(C_w, dy)
         delta_y_raw = 1.0 / streamers.spectral_peak(ky, S_raw, S_raw_se)
-        dev_c, var_c = streamers.deviation_planes(C_w)
-        has = var_c > 0
-        noise_frac = float(np.mean(streamers.white_noise_variance(dev_c)[has] / var_c[has])) \
-            if has.any() else math.nan
         snap_c = np.asarray(C_w[-1], dtype=np.float64)
     else:
         ac = np.full((nx, ny), np.nan)

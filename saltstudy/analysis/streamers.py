@@ -11,20 +11,20 @@ Parcel-count noise (beyond the paper)
     C_p counts parcels that each stand for Q grains, so every plane carries a spatially white
     noise from the parcel count per column on top of the concentration pattern: its variance is
     ~ Q mean(C_p) / (dx dy) for independent parcels, more when parcels cluster (ejecta leave an
-    impact together). At Q x 16 and 5-10 parcels per column it is 25-40 % of the C_p variance,
+    impact together). At Q x 16 and 5-10 parcels per column it is 24-76 % of the C_p variance,
     and it decides where the autocorrelation first drops (a spike at zero lag) and how far a
     spanwise peak stands out of the floor. :func:`white_noise_variance` measures it per plane as
     the mean 2-D periodogram over the modes whose wavelengths are shorter than ``1/NOISE_K``
     = 4 cells in *both* directions (a pattern the LES resolves has next to no power there: 2nd-
     order advection damps anything under ~4 cells; in the reduced study this level is flat, 1.5-
     1.7x the independent-parcel value, and the same whatever the cut-off between 1/4 and 0.45
-    cycles per cell). ``noise_removed`` = f removes the fraction f of it: the autocorrelation is
-    normalised by the plane variance minus f x the noise (zero lag stays 1) and the spanwise
-    spectrum has f x the noise's flat floor subtracted.
+    cycles per cell). Given a per-plane noise variance to remove (``noise``), the autocorrelation
+    is normalised by the plane variance minus it (zero lag stays 1) and the spanwise spectrum has
+    its flat floor subtracted.
 
     The noise variance scales with the parcel weight, so a run at ``q_multiplier`` x the case's Q
     carries q_multiplier x the noise of a run at the case's Q. lambda_x, lambda_y and delta_y are
-    computed with ``f = 1 - 1/q_multiplier``: the statistic the same flow would give at the
+    computed with the fraction ``1 - 1/q_multiplier`` of it removed: the statistic the same flow would give at the
     case's (the paper's) Q, noise and all, which makes Q a pure cost knob for them (nothing is
     removed at q_multiplier 1). The raw values are kept beside them. The wind planes are never
     touched: their small scales are the flow's.
@@ -136,19 +136,18 @@ def centred_lags(n: int, d: float) -> np.ndarray:
     return (np.arange(n) - n // 2) * d
 
 
-def autocorrelation_2d(planes: np.ndarray, noise_removed: float = 0.0) -> np.ndarray:
+def autocorrelation_2d(planes: np.ndarray, noise: np.ndarray | None = None) -> np.ndarray:
     """Time-averaged normalised periodic autocorrelation of (nt, nx, ny) planes.
 
     Returned fftshift-ed: zero lag at ``[nx//2, ny//2]`` (see :func:`centred_lags`). All NaN if
-    no plane has variance. ``noise_removed`` (0-1): normalised by the variance minus that
-    fraction of the white noise of :func:`white_noise_variance` (planes with no variance left
-    over are skipped).
+    no plane has variance. ``noise`` (nt,): white-noise variance removed from each plane (see
+    the module docstring); planes with no variance left over are skipped.
     """
     planes = np.asarray(planes, dtype=np.float64)
     nt, nx, ny = planes.shape
     dev, var = deviation_planes(planes)
     ok = _has_variance(var, dev)
-    noise = noise_removed * white_noise_variance(dev) if noise_removed else np.zeros(nt)
+    noise = np.zeros(nt) if noise is None else np.asarray(noise, dtype=np.float64)
     ok &= var - noise > 0
     if nt == 0 or not ok.any():
         return np.full((nx, ny), np.nan)
@@ -186,14 +185,14 @@ def core_length(r_centred_1d: np.ndarray, d: float, level: float = CORE_LEVEL) -
 
 
 def spanwise_spectrum(planes: np.ndarray, dy: float, n_blocks: int = N_BLOCKS,
-                      noise_removed: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                      noise: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(ky [cycles m-1], S(ky), standard error of S) of (nt, nx, ny) planes.
 
     One-sided density: ``sum_m S_m dky`` = mean spatial variance of the planes (dky = 1/Ly).
     Averaged over x (= over kx by Parseval) and time. The standard error comes from
     ``min(n_blocks, nt)`` contiguous time blocks (NaN with fewer than 4 planes).
-    ``noise_removed`` (0-1): that fraction of each plane's white-noise floor (``s^2 dy`` per
-    two-sided mode) is subtracted.
+    ``noise`` (nt,): each plane's white-noise variance s^2, whose floor (``s^2 dy`` per two-sided
+    mode) is subtracted.
     """
     planes = np.asarray(planes, dtype=np.float64)
     nt, nx, ny = planes.shape
@@ -208,8 +207,8 @@ def spanwise_spectrum(planes: np.ndarray, dy: float, n_blocks: int = N_BLOCKS,
     w[0] = 1.0
     if ny % 2 == 0:
         w[-1] = 1.0
-    if noise_removed:
-        P = P - noise_removed * white_noise_variance(dev)[:, None] / ny
+    if noise is not None:
+        P = P - np.asarray(noise, dtype=np.float64)[:, None] / ny
     P = P * w * Ly                                   # density: divide by dky = 1/Ly
     S = P.mean(axis=0)
     se = np.full(ky.size, np.nan)
