@@ -50,3 +50,22 @@ def test_lagged_correlation_peaks_at_the_delay():
     assert int(np.argmax(R[:, 0])) == delay
     assert R[delay, 0] == pytest.approx(1.0, abs=0.08)
     assert np.all(np.abs(R[:, 1]) < 0.1)      # plane 1 independent
+
+
+def test_white_noise_in_c_is_taken_out_of_r_cu():
+    # C = smooth signal (correlated with u) + white noise of known variance: removing that
+    # variance restores the correlation of the signal; leaving it in lowers it by sqrt(1 - f)
+    rng = np.random.default_rng(9)
+    nt, nx, ny = 8, 64, 48
+    x = np.arange(nx)[None, :, None]
+    sig = np.cos(2 * np.pi * (x + rng.uniform(0, nx, (nt, 1, 1))) / 16.0) * np.ones((1, 1, ny))
+    u = 6.0 + sig[..., None] * 0.5 + 0.5 * rng.standard_normal((nt, nx, ny, 1))
+    r_clean = co.correlation_profile(sig, u)[0]
+    s2 = 0.5                                   # noise variance = signal variance: f = 0.5
+    C = sig + math.sqrt(s2) * rng.standard_normal(sig.shape)
+    r_raw = co.correlation_profile(C, u)[0]
+    r_fix = co.correlation_profile(C, u, noise=s2)[0]
+    assert r_raw == pytest.approx(r_clean * math.sqrt(0.5), abs=0.02)
+    assert r_fix == pytest.approx(r_clean, abs=0.03)
+    lag = co.lagged_correlation(C, u, 0, noise=s2)[0, 0]
+    assert lag == pytest.approx(r_clean, abs=0.03)

@@ -119,7 +119,7 @@ SPEC: dict[str, tuple[str, str]] = {
     "tke_spinup": ("m2 s-2", "turbulent kinetic energy (resolved + SGS), spin-up"),
     "tau_p": ("Pa", "grain momentum flux (eq. 10), positive downward"),
     "G": ("kg m-2 s-1", "horizontal mass flux density (eq. 11), horizontally and time averaged"),
-    "R_cu": ("1", "zero-lag correlation of C_p and u(z) (eq. 12)"),
+    "R_cu": ("1", "zero-lag correlation of C_p and u(z) (eq. 12), parcel-count noise at the case's Q"),
     "St": ("1", "Stokes number T_p / T_eps"),
     "T_p": ("s", "response time of the mass-weighted mean grain diameter at that level"),
     "T_eps": ("s", "lifetime of the resolved eddies 0.5<u_i'^2>/eps_tot"),
@@ -587,13 +587,15 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     n_planes = int(C_w.shape[0]) if C_w is not None else 0
     put("n_planes", (), n_planes)
     put("n_samples", (), n_t)
+    # the parcel-count noise of heavier-than-the-case parcels is taken out of C_p statistics
+    f_noise = 1.0 - 1.0 / max(info["q_multiplier"], 1.0)
+    removed = np.zeros(n_planes)
     if C_w is not None and n_planes and nx >= 2 and ny >= 2:
         dev_c, var_c = streamers.deviation_planes(C_w)
         noise_c = streamers.white_noise_variance(dev_c)
         has = var_c > 0
         noise_frac = float(np.mean(noise_c[has] / var_c[has])) if has.any() else math.nan
-        # the parcel-count noise of the case's own Q stays in (saltstudy.analysis.streamers)
-        removed = (1.0 - 1.0 / max(info["q_multiplier"], 1.0)) * noise_c
+        removed = f_noise * noise_c    # the noise of the case's own Q stays in
         ac = streamers.autocorrelation_2d(C_w, noise=removed)
         lam_x = streamers.core_length(ac[:, ny // 2], dx)
         lam_y = streamers.core_length(ac[nx // 2, :], dy)
@@ -658,15 +660,18 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("streamer_lifetime", (), lifetime)
     R_lag = np.full((K + 1, z_plane.size), np.nan)
     if C_w is not None and u_pl_ok:
+        noise_w = float(removed.mean()) if removed.size else 0.0
         for j in range(z_plane.size):     # one plane height at a time (memory)
-            R_lag[:, j] = correlation.lagged_correlation(C_w, u_pl[:, :, :, j][pmask][..., None], K)[:, 0]
+            R_lag[:, j] = correlation.lagged_correlation(C_w, u_pl[:, :, :, j][pmask][..., None], K,
+                                                         noise=noise_w)[:, 0]
     put("R_cu_lag", ("lag_t", "z_plane"), R_lag)
 
     # ---------------- R_cu (eq. 12) ----------------
     u3 = get("u")
     Cs = get("C_p_s")
     if u3 is not None and Cs is not None and u3.ndim == 4 and Cs.ndim == 3 and u3.shape[0] == Cs.shape[0]:
-        R_cu = correlation.correlation_profile(Cs, u3)
+        noise_s = f_noise * streamers.white_noise_variance(streamers.deviation_planes(Cs)[0])
+        R_cu = correlation.correlation_profile(Cs, u3, noise=float(noise_s.mean()))
     else:
         R_cu = np.full(nz, np.nan)
     put("R_cu", ("z",), R_cu)

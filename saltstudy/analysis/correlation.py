@@ -6,6 +6,9 @@ R_cu(z) (section 4.2 [50], Fig. 11)
     C_p is ``C_p_s(time, x, y)`` (C_p at the 3-D sample times), u the cell-centred
     ``u(time, x, y, z)``. Accumulated sample by sample (float64) so the 3-D field is never
     copied. NaN at levels where either variance vanishes.
+    ``noise``: a white-noise variance of C_p to take out of ``<C_p'^2>`` (the parcel-count noise
+    of heavier-than-the-case parcels, :mod:`saltstudy.analysis.streamers`): it is uncorrelated
+    with u, so it lowers |R_cu| by sqrt(1 - noise/<C_p'^2>) and nothing else.
 ``R_cu_upper``
     The mean of R_cu over the levels with ``0.6 z_m <= z <= z_m`` (the upper saltation layer,
     where the paper finds a constant value).
@@ -26,8 +29,9 @@ __all__ = ["correlation_profile", "upper_mean", "lagged_correlation", "UPPER_FRA
 UPPER_FRACTION = 0.6
 
 
-def correlation_profile(C: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """R_cu(z) of ``C (nt, nx, ny)`` and ``u (nt, nx, ny, nz)`` (eq. 12)."""
+def correlation_profile(C: np.ndarray, u: np.ndarray, noise: float = 0.0) -> np.ndarray:
+    """R_cu(z) of ``C (nt, nx, ny)`` and ``u (nt, nx, ny, nz)`` (eq. 12), ``noise`` taken out of
+    the variance of C (module docstring)."""
     C = np.asarray(C)
     nt = C.shape[0]
     nz = u.shape[-1]
@@ -50,7 +54,7 @@ def correlation_profile(C: np.ndarray, u: np.ndarray) -> np.ndarray:
     # shift-free formulas in float64; u is O(10) m s-1 and its variance O(0.1-1): fine
     mc = s_c / n
     mu = s_u / n
-    var_c = s_cc / n - mc * mc
+    var_c = s_cc / n - mc * mc - noise
     var_u = s_uu / n - mu * mu
     cov = s_cu / n - mc * mu
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -71,8 +75,9 @@ def upper_mean(z: np.ndarray, R: np.ndarray, z_m: float, frac: float = UPPER_FRA
     return float(R[sel].mean()) if sel.any() else math.nan
 
 
-def lagged_correlation(C: np.ndarray, u: np.ndarray, max_lag: int) -> np.ndarray:
-    """R(k, j) = corr(C(t), u(t - k, plane j)) for k = 0..max_lag; ``u (nt, nx, ny, nzp)``."""
+def lagged_correlation(C: np.ndarray, u: np.ndarray, max_lag: int, noise: float = 0.0) -> np.ndarray:
+    """R(k, j) = corr(C(t), u(t - k, plane j)) for k = 0..max_lag; ``u (nt, nx, ny, nzp)``;
+    ``noise`` taken out of the variance of C as in :func:`correlation_profile`."""
     C = np.asarray(C, dtype=np.float64)
     u = np.asarray(u, dtype=np.float64)
     nt = C.shape[0]
@@ -81,7 +86,8 @@ def lagged_correlation(C: np.ndarray, u: np.ndarray, max_lag: int) -> np.ndarray
     if nt == 0:
         return out
     c = C - C.mean()
-    sc = math.sqrt(float((c ** 2).mean()))
+    var_c = float((c ** 2).mean()) - noise
+    sc = math.sqrt(var_c) if var_c > 0 else 0.0
     if not sc > 0:
         return out
     for j in range(nzp):
