@@ -105,11 +105,12 @@ def u_star_at(model, z: float) -> float:
 
 
 @pjit
-def _sgs_profiles(e, u, v, w, nu, rdx, rdy, dzc, dzf, rlog, ceps_l):
+def _sgs_profiles(e, u, v, w, nu, rdx, rdy, rdzc, rdzf, rlog, ceps_l):
     nx, ny, nz = e.shape
     eps = np.zeros((nx, nz))
     tr = np.zeros((nx, nz))
-    for i in prange(nx):
+    for ii in prange(nx):
+        i = np.int64(ii)
         im = (i - 1) % nx
         ip = (i + 1) % nx
         for j in range(ny):
@@ -119,7 +120,7 @@ def _sgs_profiles(e, u, v, w, nu, rdx, rdy, dzc, dzf, rlog, ceps_l):
                 ek = max(e[i, j, k], 0.0)
                 eps[i, k] += ceps_l[k] * ek * math.sqrt(ek)
                 tr[i, k] += nu[i, j, k] * strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1,
-                                                       k > 0, rdx, rdy, dzc, dzf, rlog)
+                                                       k > 0, rdx, rdy, rdzc, rdzf, rlog)
     return eps.sum(axis=0) / (nx * ny), tr.sum(axis=0) / (nx * ny)
 
 
@@ -137,7 +138,7 @@ def flow_profiles(model) -> dict:
     if st.near_wall is not None:  # the near-wall mean-field part of the modelled stress
         sgs = sgs - st.near_wall.stress_profile()
     nu = _nu(model)
-    eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, g.dz_f,
+    eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c, g.rdz_f,
                                   st.rlog, st.ceps_l)
     return {"z": g.z_c.copy(), "z_w": g.z_f.copy(), "u": s.u.mean(axis=(0, 1)), "v": s.v.mean(axis=(0, 1)),
             "uw_res": res, "uw_sgs": sgs, "tke_res": tke, "e_sgs": s.e.mean(axis=(0, 1)),

@@ -144,6 +144,16 @@ class Grid:
         return d
 
     @_cached_array
+    def rdz_c(self) -> np.ndarray:
+        """1 / dz_c (nz,) [m^-1]: the stencils multiply (a division per point and level costs)."""
+        return 1.0 / self.dz_c
+
+    @_cached_array
+    def rdz_f(self) -> np.ndarray:
+        """1 / dz_f (nz + 1,) [m^-1]."""
+        return 1.0 / self.dz_f
+
+    @_cached_array
     def cell_volume(self) -> np.ndarray:
         """Volume of each layer's cells (nz,) [m^3]."""
         return self.dx * self.dy * self.dz_c

@@ -42,7 +42,7 @@ def _divergence_kzxy(u, v, w, rdx, rdy, dzc, out):
         for k in range(nz):
             rdz = 1.0 / dzc[k]
             for j in range(ny):
-                jp = (j + 1) % ny
+                jp = j + 1 if j + 1 < ny else 0  # no integer division in the inner loop
                 out[k, i, j] = ((u[ip, j, k] - u[i, j, k]) * rdx + (v[i, jp, k] - v[i, j, k]) * rdy
                                 + (w[i, j, k + 1] - w[i, j, k]) * rdz)
 
@@ -72,15 +72,16 @@ def _correct(u, v, w, phi, rdx, rdy, dzf, p, rdt):
     for i in prange(nx):
         im = (i - 1) % nx
         for k in range(nz):
+            rdz = 1.0 / dzf[k]
             for j in range(ny):
-                jm = (j - 1) % ny
+                jm = j - 1 if j > 0 else ny - 1  # no integer division in the inner loop
                 pc = phi[k, i, j]
                 u[i, j, k] -= (pc - phi[k, im, j]) * rdx
                 v[i, j, k] -= (pc - phi[k, i, jm]) * rdy
                 if rdt != 0.0:
                     p[i, j, k] = pc * rdt
                 if k > 0:
-                    w[i, j, k] -= (pc - phi[k - 1, i, j]) / dzf[k]
+                    w[i, j, k] -= (pc - phi[k - 1, i, j]) * rdz
 
 
 class PressureSolver:

@@ -92,32 +92,34 @@ def _momentum_stage(u, v, w, nu, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, r
 
 
 @device
-def _e_point(e, u, v, w, nu, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, dzc, dzf,
-             rlog, ceps_lk, e_min):
-    te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, 1.0 / dzc[k])
-    te += tke_tendency_at(e, u, v, w, nu, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf,
+def _e_point(e, u, v, w, nu, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, rdzc,
+             rdzf, rlog, ceps_lk, e_min):
+    te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
+    te += tke_tendency_at(e, u, v, w, nu, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
                           rlog, ceps_lk)
     val = eb[i, j, k] + cdt * te
     eo[i, j, k] = val if val > e_min else e_min
 
 
 @pjit
-def _tke_stage(e, u, v, w, nu, eb, eo, cdt, rdx, rdy, dzc, dzf, rlog, ceps_l, e_min):
-    """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above)."""
+def _tke_stage(e, u, v, w, nu, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min):
+    """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above);
+    rdzc, rdzf: 1/dz_c, 1/dz_f."""
     nx, ny, nz = e.shape
-    for i in prange(nx):
+    for ii in prange(nx):
+        i = np.int64(ii)  # signed: strain_sq_at indexes with i directly
         im = (i - 1) % nx
         ip = (i + 1) % nx
         for j in range(ny):
             jm = (j - 1) % ny
             jp = (j + 1) % ny
             _e_point(e, u, v, w, nu, eb, eo, i, j, 0, im, ip, jm, jp, True, False, cdt, rdx, rdy,
-                     dzc, dzf, rlog, ceps_l[0], e_min)
+                     rdzc, rdzf, rlog, ceps_l[0], e_min)
             for k in range(1, nz - 1):
                 _e_point(e, u, v, w, nu, eb, eo, i, j, k, im, ip, jm, jp, True, True, cdt, rdx, rdy,
-                         dzc, dzf, rlog, ceps_l[k], e_min)
+                         rdzc, rdzf, rlog, ceps_l[k], e_min)
             _e_point(e, u, v, w, nu, eb, eo, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, rdx,
-                     rdy, dzc, dzf, rlog, ceps_l[nz - 1], e_min)
+                     rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], e_min)
 
 
 @pjit
@@ -215,7 +217,7 @@ class Stepper:
         if self.near_wall is not None:
             self.near_wall.apply(ou, ov, cdt)
         if self.sgs:
-            _tke_stage(ge, gu, gv, gw, self.nu, be, oe, cdt, rdx, rdy, g.dz_c, g.dz_f, self.rlog,
+            _tke_stage(ge, gu, gv, gw, self.nu, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f, self.rlog,
                        self.ceps_l, E_MIN)
         elif oe is not be:
             oe[...] = be
