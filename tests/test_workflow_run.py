@@ -156,7 +156,8 @@ def test_sigkill_mid_saltation_then_rerun_resumes(home, tmp_path):
     text = fid.read_text().replace("checkpoint_interval_wall = 5.0", "checkpoint_interval_wall = 0.5")
     text = text.replace("saltation_duration = 2.0", "saltation_duration = 6.0")
     fid.write_text(text.replace("[sampling]\nstart = 1.0", "[sampling]\nstart = 4.0"))
-    warm_numba_cache(home, tmp_path)
+    # `saltstudy run` compiles in a child first (workflow/warmup.py), so that the killed, the
+    # resumed and the reference process all load the kernels from the cache: bit-for-bit
     out_k, out_ref = tmp_path / "killed", tmp_path / "ref"
     exe = Path(sys.executable).parent / "saltstudy"
     env = {**os.environ, "SALTSTUDY_OUT": str(out_k)}
@@ -185,41 +186,6 @@ def test_sigkill_mid_saltation_then_rerun_resumes(home, tmp_path):
     assert_same_data(resumed, open_dataset(ref))
 
 
-WARM_FIDELITY = """
-description = "a few steps of every kernel: fills numba's on-disk cache"
-saltation_duration = 0.1
-q_multiplier = 20.0
-[grid]
-Lx = 2.4
-Ly = 1.6
-Lz = 3.0
-nx = 16
-ny = 12
-nz = 16
-damping_depth = 1.0
-[spinup]
-t_min = 0.02
-t_max = 0.04
-window = 0.02
-[sampling]
-start = 0.0
-interval = 0.05
-count = 2
-plane_interval = 0.05
-"""
-
-
-def warm_numba_cache(home: Path, tmp_path: Path) -> None:
-    """Compile every kernel once in a subprocess, so that all later processes load them from
-    numba's cache. Needed for bit-for-bit comparisons between processes: a freshly compiled
-    kernel and the same kernel loaded from the cache differ at ~1e-13 (measured: spin-up u after
-    one step), which the turbulence and the splash lottery amplify to O(1) within seconds."""
-    (home / "workflows" / "fidelities" / "warm.toml").write_text(WARM_FIDELITY)
-    r = subprocess.run([str(Path(sys.executable).parent / "saltstudy"), "run", "2", "--fidelity", "warm",
-                        "--quiet", "--out", str(tmp_path / "warm")], capture_output=True, text=True)
-    assert r.returncode == 0, r.stdout + r.stderr
-
-
 @pytest.mark.slow
 def test_distributed_local_cluster_equals_threaded(home, tmp_path):
     """2 worker processes x 1 thread: archives identical to the local threaded run."""
@@ -228,8 +194,9 @@ def test_distributed_local_cluster_equals_threaded(home, tmp_path):
     from saltstudy.workflow.graph import run_study
 
     (home / "workflows" / "two.toml").write_text(STUDY + "report = false\n")
-    warm_numba_cache(home, tmp_path)
-    # the threaded run in its own process too: this process may hold freshly compiled kernels
+    # the threaded run in its own process: this process may hold freshly compiled kernels, while
+    # `run-all` warms the cache in a child first (workflow/warmup.py) and then loads from it, as
+    # the workers below do
     r = subprocess.run([str(Path(sys.executable).parent / "saltstudy"), "run-all", "--study", "two",
                         "--quiet", "--out", str(tmp_path / "local")], capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr

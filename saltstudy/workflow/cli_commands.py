@@ -84,7 +84,7 @@ def register(app: typer.Typer) -> None:
         """Run one case: spin-up, saltation, analysis (cached like run-all; no report)."""
         from ..config import load_case, load_fidelity, resolve_scene
         from . import keys as K
-        from .graph import _analysis, _saltation, _spinup
+        from .graph import _analysis, _saltation, _spinup, warm_for
         from .paths import task_dir
         from .progress import ProgressDisplay, TaskRef
         from .. import SOURCE_KEY
@@ -100,6 +100,7 @@ def register(app: typer.Typer) -> None:
                 TaskRef(f"saltation {rk.label}", task_dir(out_dir, "saltation", rk.saltation))]
         t0 = time.perf_counter()
         with ProgressDisplay(refs, quiet=quiet):
+            warm_for([rk], out_dir)
             sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
             sa = _saltation(scene, rk.saltation, sp, out_dir, SOURCE_KEY, None)
             an = _analysis(rk.label, rk.analysis, sp, sa, out_dir)

@@ -53,6 +53,7 @@ from .paths import (default_report_dir, output_path, read_runs_file, runs_file, 
                     write_json_atomic)
 from .progress import ProgressDisplay, TaskRef, emit
 from .tasks import analysis_task, report_done, report_task, saltation_task, spinup_task
+from .warmup import ensure_warm
 
 __all__ = ["Outcome", "StudySummary", "build_graph", "run_study"]
 
@@ -234,6 +235,15 @@ def _record_runs(out_dir: Path, plan: StudyPlan, by_name: dict[str, Outcome]) ->
     write_json_atomic(runs_file(out_dir, plan.study.name), data)
 
 
+def warm_for(runs, out_dir: Path) -> None:
+    """Compile the kernels of the runs that still need solver work in a child process, so that
+    every task loads them from the cache (warmup.py: a rerun or a resumed run then repeats the
+    first run exactly). Local runs only: a dask.distributed worker compiles for itself."""
+    ensure_warm([rk.scene for rk in runs
+                 if not (is_complete(output_path(out_dir, "saltation", rk.saltation))
+                         and is_complete(output_path(out_dir, "spinup", rk.spinup)))], log=emit)
+
+
 def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | None = None,
               quiet: bool = False, report_dir: Path | None = None, root: Path | None = None) -> StudySummary:
     """Build and execute the study's graph; never raises for a failed task (see summary)."""
@@ -248,6 +258,7 @@ def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | No
     results: dict[str, Outcome] = {}
     with ProgressDisplay(plan.task_refs, quiet=quiet):
         if scheduler is None:
+            warm_for(plan.runs.values(), out_dir)
             values = dask.compute(*[plan.graph[n] for n in names], scheduler="threads",
                                   num_workers=workers)
             results = dict(zip(names, values))

@@ -1,0 +1,120 @@
+"""Compile the numba kernels in a subprocess before a study's solver work.
+
+Why: kernels that numba compiles in the running process give results that differ at round-off
+(~1e-13 after a few seconds of flow) from the same kernels loaded from its on-disk cache, while
+every process that loads them from the cache is bit-identical to every other (session 7,
+README "Resuming"). The turbulence amplifies a round-off difference into another realization.
+Without a warm-up the first run of a new source (which compiles) and any rerun or resumed run
+(which loads) are different realizations; with it, every solver task loads from the cache and a
+rerun, or a run resumed from its checkpoint, repeats the first run.
+
+How: for every distinct set of code paths among the scenes that still need solver work (same
+fidelity options and physics switches; sizes and durations do not change numba's type
+signatures), a child process runs one of them shrunk to the smoke grid for two seconds of flow
+and two of saltation (:func:`warm_scene`), in a temporary directory. A marker in the numba cache
+directory, keyed by that set and by the package's location (numba indexes its cache by source
+path), makes the warm-up a no-op afterwards. Set ``SALTSTUDY_NO_WARMUP=1`` to skip it.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from ..config import Fidelity, Scene
+
+__all__ = ["warm_scene", "signature", "ensure_warm"]
+
+#: the smoke grid's horizontal size and level count (workflows/fidelities/smoke.toml)
+_GRID = {"Lx": 2.4, "Ly": 1.6, "nx": 16, "ny": 12, "nz": 16, "dz_top": None}
+_SALTATION_S = 2.0
+_SAMPLING = {"start": 1.0, "interval": 0.5, "count": 3}
+
+
+def warm_scene(scene: Scene) -> Scene:
+    """``scene`` on the smoke grid for 2 s of spin-up and 2 s of saltation, every option kept."""
+    f = scene.fidelity.model_dump()
+    g = f["grid"]
+    g.update(_GRID)
+    g["nz"] = min(g["nz"], _GRID["nz"])
+    while g["dz_bottom"] * g["nz"] >= g["Lz"]:  # the stretched grid must fit: thinner levels
+        g["dz_bottom"] *= 0.5
+    f["spinup"].update(t_min=min(f["spinup"]["t_min"], 1.0), t_max=2.0, window=1.0)
+    f["saltation_duration"] = _SALTATION_S
+    f["sampling"].update(_SAMPLING)
+    f["relaxation"]["until"] = min(f["relaxation"]["until"], _SAMPLING["start"])
+    f["name"] = f"{f['name']}-warmup"
+    return Scene(label=f"{scene.label}-warmup", case=scene.case,
+                 fidelity=Fidelity.model_validate(f))
+
+
+def signature(scene: Scene) -> str:
+    """What selects code paths (hence numba specialisations): the fidelity's options and the
+    case's switches, not its sizes, durations or physical constants."""
+    w = warm_scene(scene)
+    c = scene.case
+    sel = {"fidelity": w.fidelity.model_dump(mode="json", exclude={"name", "description"}),
+           "physics": c.physics.model_dump(mode="json"),
+           "closure": c.closure.model_dump(mode="json"),
+           "drive": c.forcing.drive, "soil_modes": len(c.soil.modes)}
+    return hashlib.sha256(json.dumps(sel, sort_keys=True).encode()).hexdigest()[:16]
+
+
+def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
+    if marker_dir is None:
+        base = os.environ.get("NUMBA_CACHE_DIR")
+        if not base:
+            return None
+        marker_dir = Path(base) / "warmup"
+    pkg = str(Path(__file__).resolve().parents[1])
+    h = hashlib.sha256(json.dumps([pkg, sorted(sigs)]).encode()).hexdigest()[:16]
+    return Path(marker_dir) / f"{h}.json"
+
+
+def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -> bool:
+    """Warm the numba cache for ``scenes`` in a child process unless already done.
+
+    ``marker_dir``: where the done-markers live (default: ``$NUMBA_CACHE_DIR/warmup``). Returns
+    True if a child ran. A failing child is reported and ignored: the tasks then compile
+    in-process, as without a warm-up."""
+    if not scenes or os.environ.get("SALTSTUDY_NO_WARMUP"):
+        return False
+    reps: dict[str, Scene] = {}
+    for s in scenes:
+        reps.setdefault(signature(s), s)
+    marker = _marker(list(reps), marker_dir)
+    if marker is None or marker.exists():
+        return False
+    if log is not None:
+        log(f"[warm-up] numba kernels for {len(reps)} code path(s), in a child process "
+            "(so that every run loads them from the cache: reruns and resumes repeat it)")
+    with tempfile.TemporaryDirectory(prefix="saltstudy-warmup-") as tmp:
+        spec = Path(tmp) / "scenes.json"
+        spec.write_text(json.dumps([warm_scene(s).model_dump(mode="json") for s in reps.values()]))
+        proc = subprocess.run([sys.executable, "-m", "saltstudy.workflow.warmup", str(spec), tmp],
+                              capture_output=True, text=True)
+    if proc.returncode != 0:
+        if log is not None:
+            tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
+            log("[warm-up] failed (the tasks compile in-process instead): " + " | ".join(tail))
+        return True
+    marker.parent.mkdir(parents=True, exist_ok=True)
+    marker.write_text(json.dumps({"signatures": sorted(reps), "package": str(Path(__file__).parents[1])}))
+    return True
+
+
+def _main(spec: str, out: str) -> None:
+    from .tasks import saltation_task, spinup_task
+
+    for d in json.loads(Path(spec).read_text()):
+        scene = Scene.model_validate(d)
+        # the same two tasks as the study graph (graph.py) runs for every scene
+        saltation_task(scene, spinup_task(scene, Path(out)), Path(out))
+
+
+if __name__ == "__main__":
+    _main(sys.argv[1], sys.argv[2])
