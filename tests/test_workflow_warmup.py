@@ -77,3 +77,18 @@ def test_first_run_from_cold_cache_equals_its_rerun(tmp_path):
     a, b = (xr.open_dataset(next(Path(o, "saltation").glob("*/samples.nc"))) for o in runs)
     for name in ("u", "w", "e", "n_parcels", "C_p"):
         assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+
+
+def test_touching_a_solver_file_invalidates_the_marker(tmp_path, monkeypatch):
+    """numba recompiles a kernel whose source file's time stamp changed, even with the same
+    content (a checkout): the warm-up must run again then."""
+    import saltstudy.workflow.warmup as W
+
+    sigs = ["abc"]
+    m1 = W._marker(sigs, tmp_path)
+    assert W._marker(sigs, tmp_path) == m1
+    real = W._source_stamps()
+    monkeypatch.setattr(W, "_source_stamps", lambda: [(p, t + 1, n) for p, t, n in real])
+    assert W._marker(sigs, tmp_path) != m1
+    assert W._marker(["abd"], tmp_path) != m1
+    assert any(p.endswith("solver/stepper.py") for p, _, _ in real)

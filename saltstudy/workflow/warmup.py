@@ -2,8 +2,8 @@
 
 Why: kernels that numba compiles in the running process give results that differ at round-off
 (~1e-13 after a few seconds of flow) from the same kernels loaded from its on-disk cache, while
-every process that loads them from the cache is bit-identical to every other (session 7,
-README "Resuming"). The turbulence amplifies a round-off difference into another realization.
+every process that loads them from the cache is bit-identical to every other (measured in
+session 7; README, "Running a study"). The turbulence amplifies a round-off difference into another realization.
 Without a warm-up the first run of a new source (which compiles) and any rerun or resumed run
 (which loads) are different realizations; with it, every solver task loads from the cache and a
 rerun, or a run resumed from its checkpoint, repeats the first run.
@@ -12,8 +12,9 @@ How: for every distinct set of code paths among the scenes that still need solve
 fidelity options and physics switches; sizes and durations do not change numba's type
 signatures), a child process runs one of them shrunk to the smoke grid for two seconds of flow
 and two of saltation (:func:`warm_scene`), in a temporary directory. A marker in the numba cache
-directory, keyed by that set and by the package's location (numba indexes its cache by source
-path), makes the warm-up a no-op afterwards. Set ``SALTSTUDY_NO_WARMUP=1`` to skip it.
+directory, keyed by that set and by the location and time stamps of the numerical sources (numba
+indexes its cache by source path and modification time: a checkout that only touches a file
+makes it compile again), makes the warm-up a no-op afterwards. Set ``SALTSTUDY_NO_WARMUP=1`` to skip it.
 """
 from __future__ import annotations
 
@@ -64,14 +65,21 @@ def signature(scene: Scene) -> str:
     return hashlib.sha256(json.dumps(sel, sort_keys=True).encode()).hexdigest()[:16]
 
 
+def _source_stamps() -> list[tuple[str, int, int]]:
+    """(path, mtime in ns, size) of the sources numba compiles: what its cache index checks."""
+    pkg = Path(__file__).resolve().parents[1]
+    files = [pkg / "_jit.py"] + sorted((pkg / "physics").rglob("*.py")) + \
+        sorted((pkg / "solver").rglob("*.py"))
+    return [(str(f), f.stat().st_mtime_ns, f.stat().st_size) for f in files]
+
+
 def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
     if marker_dir is None:
         base = os.environ.get("NUMBA_CACHE_DIR")
         if not base:
             return None
         marker_dir = Path(base) / "warmup"
-    pkg = str(Path(__file__).resolve().parents[1])
-    h = hashlib.sha256(json.dumps([pkg, sorted(sigs)]).encode()).hexdigest()[:16]
+    h = hashlib.sha256(json.dumps([_source_stamps(), sorted(sigs)]).encode()).hexdigest()[:16]
     return Path(marker_dir) / f"{h}.json"
 
 
@@ -103,7 +111,8 @@ def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -
             log("[warm-up] failed (the tasks compile in-process instead): " + " | ".join(tail))
         return True
     marker.parent.mkdir(parents=True, exist_ok=True)
-    marker.write_text(json.dumps({"signatures": sorted(reps), "package": str(Path(__file__).parents[1])}))
+    marker.write_text(json.dumps({"signatures": sorted(reps),
+                                  "package": str(Path(__file__).resolve().parents[1])}))
     return True
 
 
