@@ -78,14 +78,6 @@ def run_surface_layer(t_spin: float = T_SPIN, t_avg: float = T_AVG, every: float
     return out
 
 
-def log_fit(z, u, zmin, zmax):
-    """(u*, z0) from a least-squares fit of u = (u*/kappa) ln(z/z0) on zmin <= z <= zmax."""
-    sel = (z >= zmin) & (z <= zmax)
-    slope, icpt = np.polyfit(np.log(z[sel]), u[sel], 1)
-    us = KAPPA * slope
-    return us, math.exp(-icpt / slope)
-
-
 def summarize(layer: dict, log=print) -> dict:
     """Fits, expected friction velocities, phi table, stress ratio and spectral peak of a run.
 
