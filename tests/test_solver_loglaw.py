@@ -24,8 +24,7 @@ import pytest
 from solver_helpers import smoke_scene  # noqa: F401  (imports saltstudy first)
 from saltstudy.config import load_case, load_fidelity, resolve_scene
 
-# 600 s, not 240 s: the flow starts from the exact log law and relaxes to its own profile over
-# ~H U / u*^2 ~ 400 s; at 240 s the fit still remembers the start (-9.5 % against -17 % at 600 s)
+# the column leaves its initial log law over ~H U / u*^2 ~ 400 s (module doc: 240 s flattered)
 T_SPIN = 600.0
 T_AVG = 90.0
 KAPPA = 0.40
