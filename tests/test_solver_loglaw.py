@@ -15,7 +15,8 @@ starts from the exact log law and drifts into the dip, so the shorter spin-up fl
 (the probes of other closures, grids and drives: reports/reduced/FINDINGS.md, "u*s").
 The dip follows the SGS filter width, not the domain height (session 11, FINDINGS "What the dip
 is tied to"); the test prints the share of the resolved stress at 0.8 m carried by motions
-uniform in x (53 % in a session-11 probe with the top drive: the box's long rolls).
+uniform in x: 46 % (and 26 % more at the domain length) in this test's run of session 11,
+53 % in a top-drive probe. Session 11 reran it unchanged: -17.1 % again, 12 min.
 """
 from __future__ import annotations
 
@@ -39,7 +40,7 @@ CO_HEIGHT = 0.8
 def streamwise_cospectrum_uw(m, k: int) -> np.ndarray:
     """One-sided streamwise cospectrum of the resolved u'w' on the w face k, averaged over y
     (nx//2 + 1,) [m^2 s^-2]: its sum is the resolved stress <u'w'> on that face (Parseval);
-    entry 0 is the share of motions uniform in x."""
+    entry 0 is the part carried by motions uniform in x."""
     s = m.state
     uf = 0.5 * (s.u[:, :, k - 1] + s.u[:, :, k])
     uc = 0.5 * (uf + np.roll(uf, -1, axis=0))        # x face -> cell centre, where w lives
