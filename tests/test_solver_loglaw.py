@@ -13,10 +13,9 @@ Results (all FAIL the 5 % check). With 600 s (session 10, one run): u*_0 -17.1 %
 phi 0.79-0.81 at 0.5-0.8 m, stress u* at z_ref +0.7 %), and -6.0, -5.9 and -3.3 % before. The flow
 starts from the exact log law and drifts into the dip, so the shorter spin-up flattered the fit
 (the probes of other closures, grids and drives: reports/reduced/FINDINGS.md, "u*s").
-The dip follows the SGS filter width, not the domain height (session 11, FINDINGS "What the dip
-is tied to"); the test prints the share of the resolved stress at 0.8 m carried by motions
-uniform in x: 46 % (and 26 % more at the domain length) in this test's run of session 11,
-53 % in a top-drive probe. Session 11 reran it unchanged: -17.1 % again, 12 min.
+The dip follows the SGS filter width, not the domain height; the test also prints the share of
+the resolved stress at 0.8 m carried by motions uniform in x (session 11 numbers: FINDINGS,
+"What the dip is tied to").
 """
 from __future__ import annotations
 
