@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.laws import invert_log_law_shape, log_law_shape
+from ..physics.laws import invert_log_law_shape, regress_log_law
 
 __all__ = ["LogFit", "faces_to_centres", "log_law_fit", "fit_range", "stress_u_star",
            "interp_at", "FIT_Z_FLOOR", "MIN_FIT_POINTS"]
@@ -81,20 +81,10 @@ def log_law_fit(z: np.ndarray, u: np.ndarray, z_min: float, z_max: float, kappa:
     domain height of a pressure-gradient drive) ln z is replaced by the shape F(z) of the
     linear-stress profile (``physics.laws.log_law_shape``) and ``u*`` is the surface value u*_0.
     """
-    z = np.asarray(z, dtype=np.float64)
-    u = np.asarray(u, dtype=np.float64)
-    sel = (z >= z_min) & (z <= z_max) & np.isfinite(u) & (z > 0)
-    if H is not None:
-        sel &= z < H
-    n = int(sel.sum())
+    a, b, lz, uu = regress_log_law(z, u, z_min, z_max, H)
+    n = int(uu.size)
     nan = LogFit(math.nan, math.nan, n, math.nan, float(z_min), float(z_max))
-    if n < min_points:
-        return nan
-    lz = log_law_shape(z[sel], H)
-    uu = u[sel]
-    A = np.vstack([lz, np.ones_like(lz)]).T
-    (a, b), *_ = np.linalg.lstsq(A, uu, rcond=None)
-    if not (a > 0 and math.isfinite(a) and math.isfinite(b)):
+    if n < min_points or not (a > 0 and math.isfinite(a) and math.isfinite(b)):
         return nan
     resid = uu - (a * lz + b)
     ss_tot = float(np.sum((uu - uu.mean()) ** 2))

@@ -27,7 +27,7 @@ import numpy as np
 from .drag import terminal_velocity
 
 __all__ = [
-    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s",
+    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s",
     "bagnold1937_flux", "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux",
     "lettau1978_flux", "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS",
     "RAUPACH_A", "D_REF",
@@ -105,6 +105,34 @@ def invert_log_law_shape(c: float, H: float | None) -> float:
         else:
             hi = mid
     return math.exp(0.5 * (lo + hi))
+
+
+def regress_log_law(z, U, z_min: float | None = None, z_max: float | None = None,
+                    H: float | None = None):
+    """Least squares of U = a F(z) + b over the finite levels with z_min <= z <= z_max (and
+    0 < z < H when H is given), F = ``log_law_shape(z, H)``.
+
+    The one regression behind both log-law fits (``solver.diagnostics_flow.fit_log_law``, which
+    raises on too few levels, and ``analysis.profiles.log_law_fit``, which returns NaN): u*_0 =
+    kappa a [m s^-1], z0 = ``invert_log_law_shape(-b/a, H)`` [m]. Returns (a, b, F, U_used), the
+    last two the selected levels (a and b NaN with fewer than 2 of them).
+    """
+    z = np.asarray(z, dtype=np.float64)
+    U = np.asarray(U, dtype=np.float64)
+    sel = np.isfinite(U) & (z > 0)
+    if z_min is not None:
+        sel &= z >= z_min
+    if z_max is not None:
+        sel &= z <= z_max
+    if H is not None:
+        sel &= z < H
+    F = log_law_shape(z[sel], H)
+    Us = U[sel]
+    if Us.size < 2:
+        return math.nan, math.nan, F, Us
+    A = np.vstack([F, np.ones_like(F)]).T
+    (a, b), *_ = np.linalg.lstsq(A, Us, rcond=None)
+    return float(a), float(b), F, Us
 
 
 def charnock_z0s(u_star, u_star_t=None, *, z0=1.0e-5, g=9.81, C_c=0.08):

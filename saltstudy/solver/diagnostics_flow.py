@@ -11,7 +11,7 @@ import numpy as np
 from numba import prange
 
 from .._jit import pjit
-from ..physics.laws import invert_log_law_shape, log_law_profile, log_law_shape
+from ..physics.laws import invert_log_law_shape, log_law_profile, log_law_shape, regress_log_law
 from .sgs import C_M, E_MIN, sgs_stress_uw_profile, strain_sq_at
 from .wall import surface_stress
 
@@ -31,26 +31,16 @@ def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None 
     Returns ``u_star0`` (surface friction velocity, m s^-1), ``z0`` [m], ``u_star_at`` (array: u* at
     each of ``z_eval`` [m]), ``z_eval``, ``rms`` (residual, m s^-1) and ``n`` (points used).
     """
-    z = np.asarray(z, dtype=np.float64)
-    U = np.asarray(U, dtype=np.float64)
-    sel = np.isfinite(U) & (z > 0)
-    if z_min is not None:
-        sel &= z >= z_min
-    if z_max is not None:
-        sel &= z <= z_max
-    if H is not None:
-        sel &= z < H
-    if sel.sum() < 2:
+    a, b, F, Us = regress_log_law(z, U, z_min, z_max, H)
+    if Us.size < 2:
         raise ValueError(f"fit_log_law: fewer than 2 levels in [{z_min}, {z_max}] m")
-    F = log_law_shape(z[sel], H)
-    a, b = np.polyfit(F, U[sel], 1)
     u0 = kappa * a
     z0 = invert_log_law_shape(-b / a, H) if a > 0 else math.nan
     ze = np.atleast_1d(np.asarray(z_eval, dtype=np.float64))
     us = u0 * (np.ones_like(ze) if H is None else np.sqrt(np.clip(1.0 - ze / H, 0.0, 1.0)))
-    rms = float(np.sqrt(np.mean((a * F + b - U[sel]) ** 2)))
+    rms = float(np.sqrt(np.mean((a * F + b - Us) ** 2)))
     return {"u_star0": float(u0), "z0": float(z0), "u_star_at": us, "z_eval": ze, "rms": rms,
-            "n": int(sel.sum())}
+            "n": int(Us.size)}
 
 
 def _nu(model) -> np.ndarray:

@@ -71,17 +71,18 @@ class ColumnRelaxation:
 
     def update(self, u: np.ndarray, taux: np.ndarray, p_to_air: float, dt: float,
                t_since_activation: float) -> float:
-        """Filter the bed stress over the step just taken and, while active, apply B dt to u.
-        Returns the increment B dt [m s^-1] (0 when inactive): a top drive must shift its
-        ``u_drive`` by it too (see the module docstring)."""
+        """While active, filter the bed stress over the step just taken and apply B dt to u.
+        Returns the increment B dt [m s^-1] (0 when inactive, and the filter then stops: nothing
+        reads it after the switch-off): a top drive must shift its ``u_drive`` by it too (see the
+        module docstring)."""
+        if not self.active(t_since_activation):
+            self.force = 0.0
+            return 0.0
         tau = self.bed_stress(taux, p_to_air, dt)
         if math.isnan(self.tau_bed_filtered):
             self.tau_bed_filtered = tau
         else:
             self.tau_bed_filtered += min(1.0, dt / self.timescale) * (tau - self.tau_bed_filtered)
-        if not self.active(t_since_activation):
-            self.force = 0.0
-            return 0.0
         self.force = -self.gain * (self.tau_bed_filtered - self.target) / self.Lz
         u += self.force * dt
         return self.force * dt
