@@ -26,29 +26,13 @@ import pytest
 
 from solver_helpers import smoke_scene  # noqa: F401  (imports saltstudy first)
 from saltstudy.config import load_case, load_fidelity, resolve_scene
+from saltstudy.solver.loglaw_probe import CO_HEIGHT, streamwise_cospectrum_uw
 
 # the column leaves its initial log law over ~H U / u*^2 ~ 400 s (module doc: 240 s flattered)
 T_SPIN = 600.0
 T_AVG = 90.0
 KAPPA = 0.40
 DRIVE = "pressure_gradient"
-#: height [m] of the streamwise u'w' cospectrum (the middle of the shear dip, FINDINGS)
-CO_HEIGHT = 0.8
-
-
-def streamwise_cospectrum_uw(m, k: int) -> np.ndarray:
-    """One-sided streamwise cospectrum of the resolved u'w' on the w face k, averaged over y
-    (nx//2 + 1,) [m^2 s^-2]: its sum is the resolved stress <u'w'> on that face (Parseval);
-    entry 0 is the part carried by motions uniform in x."""
-    s = m.state
-    uf = 0.5 * (s.u[:, :, k - 1] + s.u[:, :, k])
-    uc = 0.5 * (uf + np.roll(uf, -1, axis=0))        # x face -> cell centre, where w lives
-    up = uc - uc.mean()
-    wp = s.w[:, :, k] - s.w[:, :, k].mean()
-    nx = up.shape[0]
-    c = (np.fft.rfft(up, axis=0) * np.conj(np.fft.rfft(wp, axis=0))).real.mean(axis=1) / nx ** 2
-    c[1:(nx + 1) // 2] *= 2.0                       # the conjugate half (not the Nyquist entry)
-    return c
 
 
 def run_surface_layer(t_spin: float = T_SPIN, t_avg: float = T_AVG, every: float = 0.5,
@@ -84,7 +68,7 @@ def run_surface_layer(t_spin: float = T_SPIN, t_avg: float = T_AVG, every: float
             f = np.fft.rfft(up - up.mean(axis=1, keepdims=True), axis=1)
             s = (np.abs(f) ** 2).mean(axis=0)
             spec = s if spec is None else spec + s
-            c = streamwise_cospectrum_uw(m, k_co)
+            c = streamwise_cospectrum_uw(m.state, k_co)
             co_x = c if co_x is None else co_x + c
             ustar_ref.append(df.u_star_at(m, m.z_ref))
             n += 1
@@ -175,25 +159,3 @@ def test_log_law_and_surface_layer_statistics(layer):
     above = (zw > 0.3) & (zw < layer["Lz"] / 2)
     assert np.all(np.abs(layer["uw_res"][above]) > np.abs(layer["uw_sgs"][above]))
     assert 1 < sm["n_peak"] < len(ky) - 2
-
-
-@pytest.mark.parametrize("nx", [16, 15])
-def test_streamwise_cospectrum_sums_to_the_resolved_stress(nx):
-    from types import SimpleNamespace
-    rng = np.random.default_rng(3)
-    ny, nz, k = 6, 5, 2
-    u = rng.normal(size=(nx, ny, nz)) + np.linspace(0, 1, nz)
-    w = rng.normal(size=(nx, ny, nz + 1))
-    w[:, :, 1:] += 0.5 * u             # a correlation, so the stress is not ~0
-    m = SimpleNamespace(state=SimpleNamespace(u=u, w=w))
-    c = streamwise_cospectrum_uw(m, k)
-    uf = 0.5 * (u[:, :, k - 1] + u[:, :, k])
-    uc = 0.5 * (uf + np.roll(uf, -1, axis=0))
-    direct = np.mean((uc - uc.mean()) * (w[:, :, k] - w[:, :, k].mean()))
-    assert c.shape == (nx // 2 + 1,)
-    assert abs(direct) > 0.1
-    assert c.sum() == pytest.approx(direct, rel=1e-12)
-    # a field uniform in x puts all of it at kx = 0
-    m0 = SimpleNamespace(state=SimpleNamespace(u=np.repeat(u[:1], nx, 0), w=np.repeat(w[:1], nx, 0)))
-    c0 = streamwise_cospectrum_uw(m0, k)
-    assert c0[0] == pytest.approx(c0.sum(), rel=1e-12) and np.allclose(c0[1:], 0.0, atol=1e-14)

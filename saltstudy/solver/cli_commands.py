@@ -1,5 +1,6 @@
 """The solver's commands: ``saltstudy bench flow`` (and ``bench particles`` when
-``solver/bench_particles.py`` is present: it registers itself through its ``register_bench``)."""
+``solver/bench_particles.py`` is present: it registers itself through its ``register_bench``), and
+``saltstudy probe loglaw`` (loglaw_probe.py)."""
 from __future__ import annotations
 
 import importlib
@@ -30,3 +31,5 @@ def register(app: typer.Typer) -> None:
         if hook is not None:
             hook(bench_app)
     app.add_typer(bench_app, name="bench")
+    from .loglaw_probe import register_probe
+    register_probe(app)

@@ -1,0 +1,93 @@
+"""The windowed log-law probe (solver/loglaw_probe.py): its cospectrum, its roll-damping
+diagnostic, its input errors and a short run on the smoke grid."""
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from solver_helpers import random_velocity, stretched_grid  # noqa: F401  (imports saltstudy first)
+from saltstudy.config import ConfigError
+from saltstudy.solver.loglaw_probe import (HEIGHTS, build_scene, damp_x_uniform_circulation,
+                                           probe_loglaw, streamwise_cospectrum_uw)
+
+
+@pytest.mark.parametrize("nx", [16, 15])
+def test_streamwise_cospectrum_sums_to_the_resolved_stress(nx):
+    rng = np.random.default_rng(3)
+    ny, nz, k = 6, 5, 2
+    u = rng.normal(size=(nx, ny, nz)) + np.linspace(0, 1, nz)
+    w = rng.normal(size=(nx, ny, nz + 1))
+    w[:, :, 1:] += 0.5 * u             # a correlation, so the stress is not ~0
+    c = streamwise_cospectrum_uw(SimpleNamespace(u=u, w=w), k)
+    uf = 0.5 * (u[:, :, k - 1] + u[:, :, k])
+    uc = 0.5 * (uf + np.roll(uf, -1, axis=0))
+    direct = np.mean((uc - uc.mean()) * (w[:, :, k] - w[:, :, k].mean()))
+    assert c.shape == (nx // 2 + 1,)
+    assert abs(direct) > 0.1
+    assert c.sum() == pytest.approx(direct, rel=1e-12)
+    # a field uniform in x puts all of it at kx = 0
+    c0 = streamwise_cospectrum_uw(SimpleNamespace(u=np.repeat(u[:1], nx, 0), w=np.repeat(w[:1], nx, 0)), k)
+    assert c0[0] == pytest.approx(c0.sum(), rel=1e-12) and np.allclose(c0[1:], 0.0, atol=1e-14)
+
+
+def test_roll_damping_removes_the_x_mean_circulation_and_keeps_the_divergence():
+    from saltstudy.solver.pressure import PressureSolver, divergence
+
+    g = stretched_grid()
+    u, v, w = random_velocity(g, seed=5, mean_u=2.0)
+    ps = PressureSolver(g)
+    ps.project(u, v, w, None, 1.0)
+    v_fluct = v - v.mean(axis=0, keepdims=True)
+    w_fluct = w - w.mean(axis=0, keepdims=True)
+    v_plane = v.mean(axis=(0, 1))
+    assert np.abs(w.mean(axis=0)).max() > 1e-3      # the field has an x-mean circulation
+    damp_x_uniform_circulation(v, w, 1.0)
+    assert np.abs(w.mean(axis=0)).max() < 1e-12
+    vbar = v.mean(axis=0)
+    assert np.abs(vbar - vbar.mean(axis=0, keepdims=True)).max() < 1e-12
+    # the x-varying part and the plane-mean v are untouched
+    assert np.allclose(v - v.mean(axis=0, keepdims=True), v_fluct, atol=1e-13)
+    assert np.allclose(w - w.mean(axis=0, keepdims=True), w_fluct, atol=1e-13)
+    assert np.allclose(v.mean(axis=(0, 1)), v_plane, atol=1e-13)
+    # still divergence-free: a projection has (almost) nothing left to remove
+    assert np.abs(divergence(g, u, v, w)).max() * g.dx / np.abs(u).max() < 1e-10
+    u2, v2, w2 = u.copy(), v.copy(), w.copy()
+    ps.project(u2, v2, w2, None, 1.0)
+    assert np.abs(v2 - v).max() < 1e-10 and np.abs(w2 - w).max() < 1e-10
+    ps.close()
+
+
+def test_bad_probe_input_names_the_option_or_field():
+    with pytest.raises(ValueError, match="--grid: not valid JSON"):
+        build_scene(1, "smoke", "top", "{nx: 3}")
+    with pytest.raises(ValueError, match="--overrides: expected a JSON object"):
+        build_scene(1, "smoke", "top", None, "[1, 2]")
+    with pytest.raises(ConfigError, match="grid.nx"):
+        build_scene(1, "smoke", "top", '{"nx": -3}')
+    with pytest.raises(ConfigError, match="surface.z0"):
+        build_scene(1, "smoke", "top", None, '{"surface": {"z0": -1}}')
+    scene = build_scene(1, "smoke", "top")
+    with pytest.raises(ValueError, match="window"):
+        probe_loglaw(scene, 1.0, 2.0)
+    with pytest.raises(ValueError, match="roll_damping"):
+        probe_loglaw(scene, 2.0, 1.0, roll_damping=-1.0)
+
+
+def test_probe_runs_windows_on_the_smoke_grid():
+    scene = build_scene(1, "smoke", "pressure_gradient", '{"nx": 16, "ny": 12}',
+                        '{"closure": {"near_wall": false}}')
+    lines = []
+    res = probe_loglaw(scene, 4.0, 2.0, roll_damping=0.5, log=lines.append)
+    assert scene.case.closure.near_wall is False and res["drive"] == "pressure_gradient"
+    assert res["grid"][:2] == [16, 12]
+    assert [round(r["t"]) for r in res["windows"]] == [2, 4]
+    for r in res["windows"]:
+        assert len(r["phi"]) == len(HEIGHTS) == len(r["u_star_stress_ratio"])
+        ratios = [f["u_star_ratio"] for f in r["fit"].values()]
+        assert all(np.isfinite(ratios)) and all(x > 0 for x in ratios)
+        assert np.isfinite(r["kx0_share"])
+    json.dumps(res)                                     # the --json output is serialisable
+    assert any("phi" in line for line in lines)
