@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from solver_helpers import random_velocity, stretched_grid  # noqa: F401  (imports saltstudy first)
+from solver_helpers import random_velocity, stretched_grid  # (solver_helpers imports saltstudy first)
 from saltstudy.config import ConfigError
 from saltstudy.solver.loglaw_probe import (HEIGHTS, build_scene, damp_x_uniform_circulation,
                                            probe_loglaw, streamwise_cospectrum_uw)

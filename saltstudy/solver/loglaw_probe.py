@@ -17,7 +17,8 @@ reports the means over that window (one profile per second):
   streamwise cospectrum.
 
 ``--grid`` and ``--overrides`` take JSON merged into the fidelity's ``grid`` block and into the
-case (validated like the files: a bad field is named). ``--roll-damping RATE`` [s^-1] is a
+case (validated like the files: a bad field is named); ``--drive`` sets ``forcing.drive`` over any
+given in ``--overrides``. ``--roll-damping RATE`` [s^-1] is a
 diagnostic, not a model: after every step it relaxes the x-mean of v (less its plane mean) and of
 w towards zero at that rate, which removes the x-uniform roll circulation while leaving the
 field divergence-free (the x-mean of a solenoidal field is solenoidal in (y, z)). Comparing a run
