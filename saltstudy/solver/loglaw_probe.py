@@ -113,8 +113,14 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     pg = m.drive == "pressure_gradient"
     target = scene.case.forcing.u_star_s
     u0 = math.sqrt(m.body_force * Lz) if pg else target
+    kappa = m.stepper.kappa
+
+    def u_star_expected(zz):
+        """The drive's u*(z) [m s^-1]: u*_0 sqrt(1 - z/H) (pressure gradient) or u*s (top)."""
+        return u0 * (np.sqrt(np.clip(1 - zz / Lz, 0, 1)) if pg else np.ones_like(zz))
+
     hs = np.asarray(HEIGHTS)
-    us_exp = u0 * (np.sqrt(np.clip(1 - hs / Lz, 0, 1)) if pg else np.ones_like(hs))
+    us_exp = u_star_expected(hs)
     k_co = int(np.argmin(np.abs(g.z_f - CO_HEIGHT)))
     out = {"grid": [g.nx, g.ny, g.nz], "L": [g.Lx, g.Ly, Lz], "drive": m.drive,
            "z_ref": m.z_ref, "target": target, "roll_damping": roll_damping, "windows": []}
@@ -140,11 +146,11 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
             continue
         z, zw, u = p["z"], p["z_w"], acc["u"] / n
         H = Lz if pg else None
-        fits = {f"{zmax:.2f}": fit_log_law(z, u, 0.4, H, FIT_Z_MIN, zmax)
+        fits = {f"{zmax:.2f}": fit_log_law(z, u, kappa, H, FIT_Z_MIN, zmax)
                 for zmax in (2.0, Lz / 3)}
-        us_loc = u0 * (np.sqrt(1 - z / Lz) if pg else np.ones_like(z))
         inside = hs < z[-1]                             # heights above the top level: NaN
-        phi = np.where(inside, np.interp(hs, z, 0.4 * z / us_loc * np.gradient(u, z)), np.nan)
+        phi_z = kappa * z / u_star_expected(z) * np.gradient(u, z)
+        phi = np.where(inside, np.interp(hs, z, phi_z), np.nan)
         tau = np.abs(acc["uw_res"] + acc["uw_sgs"]) / n
         ust = np.full(hs.size, np.nan)
         ust[inside] = np.sqrt(np.interp(hs[inside], zw, tau)) / us_exp[inside]
