@@ -138,6 +138,10 @@ class Closure(_Frozen):
         "scotti", description="SGS filter width: (dx dy dz)^(1/3) times the anisotropy factor of "
         "Scotti, Meneveau & Lilly (1993) for flat cells ('scotti'), or without it ('geometric', "
         "Deardorff 1980) (solver/sgs.py)")
+    viscosity: Literal["isotropic", "anisotropic"] = Field(
+        "isotropic", description="SGS eddy viscosity: one, with the filter length ('isotropic'), or "
+        "a horizontal one with sqrt(dx dy) and a vertical one with dz ('anisotropic', the nu_th and "
+        "nu_tv of the paper's eq. A1) (solver/sgs.py)")
     near_wall_layer: tuple[float, float] = Field(
         (1.0, 3.0), description="(a, b): the near-wall term acts fully below a dx and fades to zero "
         "at b dx (dx: the horizontal grid spacing) [-]")

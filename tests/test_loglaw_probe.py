@@ -89,5 +89,6 @@ def test_probe_runs_windows_on_the_smoke_grid():
         ratios = [f["u_star_ratio"] for f in r["fit"].values()]
         assert all(np.isfinite(ratios)) and all(x > 0 for x in ratios)
         assert np.isfinite(r["kx0_share"])
+        assert r["paper"]["u_star_ratio"] > 0 and r["paper"]["z0"] > 0
     json.dumps(res)                                     # the --json output is serialisable
     assert any("phi" in line for line in lines)

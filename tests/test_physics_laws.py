@@ -12,9 +12,10 @@ from hypothesis import strategies as st
 
 from saltstudy.physics.drag import terminal_velocity
 from saltstudy.physics.laws import (D_REF, GTOT_LAWS, RAUPACH_A, Z0S_LAWS, Law, bagnold1937_flux,
-                                    charnock_z0s, kawamura_white_flux, lettau1978_flux, log_law_u,
-                                    owen1964_flux, owen_terminal_velocity, raupach1991_z0s,
-                                    sherman1992_z0s, sorensen2004_flux)
+                                    charnock_z0s, kawamura_white_flux, lettau1978_flux,
+                                    log_law_profile, log_law_u, owen1964_flux,
+                                    owen_terminal_velocity, raupach1991_z0s, sherman1992_z0s,
+                                    sorensen2004_flux, z0_at_fixed_u_star)
 
 UT = 0.262          # Shao & Lu u*t for 200 um
 BASE = dict(d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5)
@@ -81,6 +82,17 @@ def test_log_law():
     assert log_law_u(math.e * 1e-5, 0.4, 1e-5, kappa=0.4) == pytest.approx(1.0)
     np.testing.assert_allclose(log_law_u(np.array([0.1, 1.0]), 0.5, 1e-4),
                                0.5 / 0.4 * np.log([1e3, 1e4]))
+
+
+@pytest.mark.parametrize("H", [None, 6.0])
+def test_z0_at_fixed_u_star_recovers_the_profile_and_sees_a_slope_error(H):
+    z = np.geomspace(0.05, 3.0, 30)
+    U = log_law_profile(z, 0.41, 1e-5, 0.4, H)
+    assert z0_at_fixed_u_star(z, U, 0.41, 0.4, 0.3, 2.0, H) == pytest.approx(1e-5, rel=1e-9)
+    # u* held 10 % too high: the same profile needs a larger z0 (U = u*/kappa ln(z/z0))
+    assert z0_at_fixed_u_star(z, U, 0.451, 0.4, 0.3, 2.0, H) > 2e-5
+    assert math.isnan(z0_at_fixed_u_star(z, U, 0.41, 0.4, 5.0, 6.0, H))   # no level in range
+    assert math.isnan(z0_at_fixed_u_star(z, U, 0.0, 0.4, 0.3, 2.0, H))
 
 
 # ------------------------------------------------------------------------ dimensions

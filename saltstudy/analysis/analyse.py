@@ -427,14 +427,10 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     u_star_s = fit.u_star
     u_norm = u_star_s if math.isfinite(u_star_s) else u_star_stress
     # z0s with u* fixed at the stress value (the paper's u* at the reference height)
-    z0s_stress = math.nan
-    sel = (z >= fit.z_min) & (z <= fit.z_max) & np.isfinite(u_mean)
     # the surface value of the stress u*: the linear stress of the pressure-gradient drive is
     # u*_0^2 (1 - z/H) at z_ref
     u0_stress = u_star_stress / math.sqrt(1.0 - z_ref_eff / H) if H else u_star_stress
-    if sel.sum() >= 1 and math.isfinite(u0_stress) and u0_stress > 0:
-        F = laws.log_law_shape(z[sel], H)
-        z0s_stress = laws.invert_log_law_shape(float(np.mean(F - kappa * u_mean[sel] / u0_stress)), H)
+    z0s_stress = laws.z0_at_fixed_u_star(z, u_mean, u0_stress, kappa, fit.z_min, fit.z_max, H)
 
     put("u_star_s", (), u_star_s, fit_range=f"[{fit.z_min:g}, {fit.z_max:g}] m, {fit.n_points} levels")
     put("z0s", (), fit.z0)

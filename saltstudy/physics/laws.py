@@ -27,7 +27,8 @@ import numpy as np
 from .drag import terminal_velocity
 
 __all__ = [
-    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s",
+    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law", "z0_at_fixed_u_star",
+    "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s",
     "bagnold1937_flux", "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux",
     "lettau1978_flux", "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS",
     "RAUPACH_A", "D_REF",
@@ -133,6 +134,28 @@ def regress_log_law(z, U, z_min: float | None = None, z_max: float | None = None
     A = np.vstack([F, np.ones_like(F)]).T
     (a, b), *_ = np.linalg.lstsq(A, Us, rcond=None)
     return float(a), float(b), F, Us
+
+
+def z0_at_fixed_u_star(z, U, u_star0: float, kappa: float, z_min: float | None = None,
+                       z_max: float | None = None, H: float | None = None) -> float:
+    """z0 [m] of the log law with u*_0 given: the least-squares z0 of U = (u*_0/kappa)
+    [F(z) - F(z0)] over the finite levels in [z_min, z_max] (F = ``log_law_shape``), i.e.
+    F(z0) = mean(F - kappa U / u*_0). The paper's roughness regression: u* read from the stress
+    at 2 m, z0 fitted with it (Dupont et al. 2013, section 3.1 [33]). NaN with no level or
+    u*_0 <= 0."""
+    z = np.asarray(z, dtype=np.float64)
+    U = np.asarray(U, dtype=np.float64)
+    sel = np.isfinite(U) & (z > 0)
+    if z_min is not None:
+        sel &= z >= z_min
+    if z_max is not None:
+        sel &= z <= z_max
+    if H is not None:
+        sel &= z < H
+    if not sel.any() or not (math.isfinite(u_star0) and u_star0 > 0):
+        return math.nan
+    F = log_law_shape(z[sel], H)
+    return invert_log_law_shape(float(np.mean(F - kappa * U[sel] / u_star0)), H)
 
 
 def charnock_z0s(u_star, u_star_t=None, *, z0=1.0e-5, g=9.81, C_c=0.08):

@@ -66,7 +66,7 @@ def _courant(u, v, w, rdx, rdy, dzc):
 
 
 @pjit
-def _health(u, v, w, e, rdx, rdy, dzc, cml, nu_mol, rdx2, rdy2, rdz2):
+def _health(u, v, w, e, rdx, rdy, dzc, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
     """One pass: (max Courant rate [s^-1], max diffusion rate [s^-1], number of non-finite values
     of u, v, w, e). A NaN never wins a '>' comparison, so it is counted separately."""
     nx, ny, nz = u.shape
@@ -96,7 +96,8 @@ def _health(u, v, w, e, rdx, rdy, dzc, cml, nu_mol, rdx2, rdy2, rdz2):
                     m = c
                 if ek < 0.0:
                     ek = 0.0
-                r = 2.0 * (cml[k] * math.sqrt(ek) + nu_mol) * (rdx2 + rdy2 + rdz2[k])
+                se = math.sqrt(ek)
+                r = 2.0 * ((cml[k] * se + nu_mol) * (rdx2 + rdy2) + (cml_v[k] * se + nu_mol) * rdz2[k])
                 if r > dm:
                     dm = r
             if not math.isfinite(w[i, j, nz]):
@@ -107,10 +108,11 @@ def _health(u, v, w, e, rdx, rdy, dzc, cml, nu_mol, rdx2, rdy2, rdz2):
     return part.max(), dpart.max(), bad.sum()
 
 
-def health(grid, state, cml, nu_mol) -> tuple[float, float, int]:
-    """(Courant rate, diffusion rate [s^-1], count of non-finite values) in one pass."""
+def health(grid, state, cml, cml_v, nu_mol) -> tuple[float, float, int]:
+    """(Courant rate, diffusion rate [s^-1], count of non-finite values) in one pass; cml, cml_v:
+    c_m times the horizontal and vertical viscosity lengths per level (sgs.viscosity_lengths)."""
     c, d, n = _health(state.u, state.v, state.w, state.e, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c,
-                      cml, nu_mol, 1.0 / grid.dx**2, 1.0 / grid.dy**2, 1.0 / grid.dz_c**2)
+                      cml, cml_v, nu_mol, 1.0 / grid.dx**2, 1.0 / grid.dy**2, 1.0 / grid.dz_c**2)
     return float(c), float(d), int(n)
 
 

@@ -70,7 +70,7 @@ def _resolved_uw(model) -> np.ndarray:
 def _sgs_uw(model) -> np.ndarray:
     s, st = model.state, model.stepper
     taux, _ = surface_stress(s.u, s.v, st.cd) if st.wall else (np.zeros(s.u.shape[:2]), None)
-    return sgs_stress_uw_profile(s.u, s.w, _nu(model), taux, s.grid.dz_f, 1.0 / s.grid.dx)
+    return sgs_stress_uw_profile(s.u, s.w, _nu(model), st.rv, taux, s.grid.dz_f, 1.0 / s.grid.dx)
 
 
 def stress_profile(model) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +95,7 @@ def u_star_at(model, z: float) -> float:
 
 
 @pjit
-def _sgs_profiles(e, u, v, w, nu, rdx, rdy, rdzc, rdzf, rlog, ceps_l):
+def _sgs_profiles(e, u, v, w, nu, rv, rdx, rdy, rdzc, rdzf, rlog, ceps_l):
     nx, ny, nz = e.shape
     eps = np.zeros((nx, nz))
     tr = np.zeros((nx, nz))
@@ -109,8 +109,9 @@ def _sgs_profiles(e, u, v, w, nu, rdx, rdy, rdzc, rdzf, rlog, ceps_l):
             for k in range(nz):
                 ek = max(e[i, j, k], 0.0)
                 eps[i, k] += ceps_l[k] * ek * math.sqrt(ek)
-                tr[i, k] += nu[i, j, k] * strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1,
-                                                       k > 0, rdx, rdy, rdzc, rdzf, rlog)
+                sh, sv = strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1, k > 0, rdx, rdy,
+                                      rdzc, rdzf, rlog)
+                tr[i, k] += nu[i, j, k] * (sh + rv[k] * sv)
     return eps.sum(axis=0) / (nx * ny), tr.sum(axis=0) / (nx * ny)
 
 
@@ -128,7 +129,7 @@ def flow_profiles(model) -> dict:
     if st.near_wall is not None:  # the near-wall mean-field part of the modelled stress
         sgs = sgs - st.near_wall.stress_profile()
     nu = _nu(model)
-    eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c, g.rdz_f,
+    eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, st.rv, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c, g.rdz_f,
                                   st.rlog, st.ceps_l)
     return {"z": g.z_c.copy(), "z_w": g.z_f.copy(), "u": s.u.mean(axis=(0, 1)), "v": s.v.mean(axis=(0, 1)),
             "uw_res": res, "uw_sgs": sgs, "tke_res": tke, "e_sgs": s.e.mean(axis=(0, 1)),

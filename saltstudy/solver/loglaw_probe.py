@@ -12,6 +12,9 @@ reports the means over that window (one profile per second):
   (``diagnostics_flow.fit_log_law``; the pressure-gradient drive is fitted with its linear-stress
   shape), and the fitted z0 [m];
 - phi = kappa z / u*(z) dU/dz at fixed heights, u*(z) the drive's expected friction velocity;
+- the paper's own reading (its section 3.1 [33]): u* from the total stress at 2 m (for the
+  pressure-gradient drive brought to the surface value u*_0), over the expected u*_0, and z0
+  regressed over 0.3 m to 2 m with that u* fixed (``physics.laws.z0_at_fixed_u_star``);
 - u* from the total (resolved + SGS) stress at the same heights over the expected u*(z);
 - the share of the resolved u'w' at ~0.8 m carried by motions uniform in x (kx = 0), from the
   streamwise cospectrum.
@@ -44,6 +47,8 @@ HEIGHTS = (0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0)
 CO_HEIGHT = 0.8
 #: the fit's lower end [m] (the issue's log-law range starts at 0.3 m)
 FIT_Z_MIN = 0.3
+#: where the paper reads u* from the stress, and the top of its z0 regression here [m]
+PAPER_Z_REF = 2.0
 
 
 def streamwise_cospectrum_uw(state, k: int) -> np.ndarray:
@@ -100,6 +105,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
                  log=print) -> dict:
     """Run ``scene`` without grains to ``t_end`` [s]; one summary per ``window`` [s] (module doc).
     Returns {"grid", "drive", "z_ref", "target", "windows": [...]}."""
+    from ..physics.laws import z0_at_fixed_u_star
     from .diagnostics_flow import fit_log_law, flow_profiles
     from .model import Model
 
@@ -155,8 +161,13 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         ust = np.full(hs.size, np.nan)
         ust[inside] = np.sqrt(np.interp(hs[inside], zw, tau)) / us_exp[inside]
         co = acc["co"] / n
+        u0_paper = math.sqrt(float(np.interp(PAPER_Z_REF, zw, tau)))
+        if pg:
+            u0_paper /= math.sqrt(1.0 - PAPER_Z_REF / Lz)
+        z0_paper = z0_at_fixed_u_star(z, u, u0_paper, kappa, FIT_Z_MIN, PAPER_Z_REF, H)
         row = {"t": float(m.t),
                "fit": {k: {"u_star_ratio": f["u_star0"] / u0, "z0": f["z0"]} for k, f in fits.items()},
+               "paper": {"u_star_ratio": u0_paper / u0, "z0": z0_paper},
                "phi": phi.tolist(),
                "u_star_stress_ratio": ust.tolist(),
                "kx0_share": float(co[0] / co.sum()) if co.sum() != 0 else math.nan,
@@ -166,6 +177,8 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
                             for k, v in row["fit"].items())
         log(f"t = {m.t - window:.0f}-{m.t:.0f} s  {fit_txt}  kx=0 share at {g.z_f[k_co]:.2f} m: "
             f"{row['kx0_share']:.2f}  wall {row['wall_s']:.0f} s")
+        log(f"   paper's reading: u* from the stress at {PAPER_Z_REF:g} m "
+            f"{row['paper']['u_star_ratio']:.3f}, z0 with it {z0_paper:.2g} m")
         log("   z [m]        " + " ".join(f"{h:5.2f}" for h in hs))
         log("   phi          " + " ".join(f"{v:5.2f}" for v in row["phi"]))
         log("   u*(stress)/  " + " ".join(f"{v:5.2f}" for v in row["u_star_stress_ratio"]))

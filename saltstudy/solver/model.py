@@ -90,7 +90,8 @@ class Model:
                           damping_depth=depth, damping_timescale=fid.grid.damping_timescale,
                           workers=workers, damp_u=not pg, body_force=G,
                           near_wall_layer=(case.closure.near_wall_layer if case.closure.near_wall
-                                           else None), delta=case.closure.delta)
+                                           else None), delta=case.closure.delta,
+                          viscosity=case.closure.viscosity)
         state = FlowState.zeros(grid)
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
@@ -134,7 +135,7 @@ class Model:
         if self._rate_cache is not None and self._rate_cache[0] == self.state.step:
             return self._rate_cache[1]
         st = self.stepper
-        c, d, nbad = health(self.grid, self.state, st.cml, st.nu_mol)
+        c, d, nbad = health(self.grid, self.state, st.cml, st.cml_v, st.nu_mol)
         if nbad:
             locate_nonfinite(self.state)
         self._rate_cache = (self.state.step, (c, d))
@@ -201,7 +202,7 @@ class Model:
             f = getattr(c, "stress_at", None)
             if f is not None:
                 extra += float(f(s, self.z_ref))
-        return self.controller.measure(s, st.cml, st.nu_mol, st.taux, extra)
+        return self.controller.measure(s, st.cml_v, st.nu_mol, st.taux, extra)
 
     def _damped_mean_u(self) -> np.ndarray:
         """Horizontal-mean u on the levels the drive sees (zeros elsewhere: weight zero there)."""

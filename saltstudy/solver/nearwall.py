@@ -62,7 +62,7 @@ def mean_flux_profiles(u, v, w, e, cml, nu_mol, rdx, rdy, dzf, out):
     out[0, k] = <u>, out[1, k] = <v> at level k (k < nz);
     out[2, k], out[3, k] = the LES flux of x- and y-momentum down through face k (1 <= k < nz):
     -<u'w'> (resolved, the advection scheme's face means) + <T_13> (SGS, nu at the edge as in
-    sgs.diff_u_at), and the same for v. [m s^-1] and [m^2 s^-2].
+    sgs.diff_u_at; ``cml`` = c_m l_v, the vertical viscosity's), and the same for v. [m s^-1] and [m^2 s^-2].
     """
     nx, ny, nz = u.shape
     part = np.zeros((nx, 4, nz + 1))

@@ -31,6 +31,15 @@ equilibrium P = eps gives e = (c_m / c_eps) l^2 S^2 and nu_t = c_m^{3/2} c_eps^{
 nu_t S = u*^2 with S = u*/(kappa z) gives l = kappa z (c_eps / c_m^3)^{1/4} = 3.7 kappa z for
 c_eps -> 0.19 (l << Delta). The constants ``C_L`` and ``BLEND_N`` below record the values used.
 
+Horizontal and vertical viscosities (``case.closure.viscosity``). The paper's eq. A1 carries a
+horizontal and a vertical eddy viscosity, nu_th and nu_tv (its model, ARPS, has both for grids
+much flatter than wide). "isotropic" (the default) uses one, nu_t = c_m l sqrt(e), for every stress;
+"anisotropic" uses nu_h = c_m l_h sqrt(e) for tau_11, tau_12, tau_22 and the horizontal TKE
+transport, and nu_v = c_m l_v sqrt(e) for tau_13, tau_23, tau_33 and the vertical transport, with
+l_h = sqrt(dx dy) and l_v = dz, each blended with C_L kappa z as l is; the dissipation keeps l and
+c_eps. The kernels take the horizontal nu field and the per-level ratio rv = l_v / l_h (all ones
+when isotropic); the molecular part of nu is scaled by rv with it, a relative 1e-5 to 1e-3.
+
 The ``*_at`` functions are per-point kernels inlined into the fused stage kernels of stepper.py.
 Stress sign convention: T_ij = -tau_ij = 2 nu_t S_ij is the diffusive momentum flux with which
 du_i/dt += dT_ij/dx_j; at the bed T_i3 = -tau_s,i with tau_s from wall.py (kinematic, m^2 s^-2).
@@ -48,7 +57,7 @@ from .._jit import jit_with, pjit
 #: a dozen array arguments per grid point costs more than the stencil itself)
 device = jit_with(inline="always")
 
-__all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "length_scale", "c_eps_profile", "delta_profile",
+__all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "length_scale", "viscosity_lengths", "VISCOSITY_KINDS", "c_eps_profile", "delta_profile",
            "scotti_factor", "DELTA_KINDS",
            "eddy_viscosity", "diff_u_at", "diff_v_at", "diff_w_at", "tke_tendency_at",
            "compute_nu", "sgs_stress_uw_profile"]
@@ -89,6 +98,26 @@ def length_scale(grid, kappa: float = 0.4, c_l: float = C_L, n: float = BLEND_N,
     return (d ** -n + lw ** -n) ** (-1.0 / n)
 
 
+VISCOSITY_KINDS = ("isotropic", "anisotropic")
+
+
+def viscosity_lengths(grid, kappa: float = 0.4, viscosity: str = "isotropic",
+                      delta: str = "scotti") -> tuple[np.ndarray, np.ndarray]:
+    """(l_h, l_v) per level (nz,) [m]: the lengths of the horizontal and vertical eddy
+    viscosities. "isotropic": both the filter length l (``length_scale``); "anisotropic": the
+    horizontal spacing sqrt(dx dy) and the level's dz, each blended with C_L kappa z as l is
+    (module doc)."""
+    if viscosity not in VISCOSITY_KINDS:
+        raise ValueError(f"viscosity must be one of {VISCOSITY_KINDS} (got {viscosity!r})")
+    if viscosity == "isotropic":
+        ell = length_scale(grid, kappa, delta=delta)
+        return ell, ell.copy()
+    lw = C_L * kappa * grid.z_c
+    lh = math.sqrt(grid.dx * grid.dy)
+    return ((lh ** -BLEND_N + lw ** -BLEND_N) ** (-1.0 / BLEND_N),
+            (grid.dz_c ** -BLEND_N + lw ** -BLEND_N) ** (-1.0 / BLEND_N))
+
+
 def c_eps_profile(grid, l: np.ndarray, delta: str = "scotti") -> np.ndarray:
     """c_eps = 0.19 + 0.74 l/Delta per level (Deardorff 1980)."""
     return C_EPS_0 + C_EPS_1 * l / delta_profile(grid, delta)
@@ -113,8 +142,9 @@ def compute_nu(e, cml, nu_mol, nu):
 
 
 @device
-def diff_u_at(u, v, w, nu, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
-    """d T_1j / dx_j at the u point [m s^-2]; bed flux T_13 = -taux (wall.py)."""
+def diff_u_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
+    """d T_1j / dx_j at the u point [m s^-2]; bed flux T_13 = -taux (wall.py). ``nu`` is the
+    horizontal viscosity, ``rv[k]`` the vertical over the horizontal one per level (module doc)."""
     uc = u[i, j, k]
     t11e = 2.0 * nu[i, j, k] * (u[ip, j, k] - uc) * rdx
     t11w = 2.0 * nu[im, j, k] * (uc - u[im, j, k]) * rdx
@@ -124,10 +154,12 @@ def diff_u_at(u, v, w, nu, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dz
     t12s = nus * ((uc - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx)
     t13t = 0.0
     if top:
-        nut = 0.25 * (nu[im, j, k] + nu[i, j, k] + nu[im, j, k + 1] + nu[i, j, k + 1])
+        nut = 0.25 * ((nu[im, j, k] + nu[i, j, k]) * rv[k]
+                      + (nu[im, j, k + 1] + nu[i, j, k + 1]) * rv[k + 1])
         t13t = nut * ((u[i, j, k + 1] - uc) / dzf[k + 1] + (w[i, j, k + 1] - w[im, j, k + 1]) * rdx)
     if bot:
-        nub = 0.25 * (nu[im, j, k - 1] + nu[i, j, k - 1] + nu[im, j, k] + nu[i, j, k])
+        nub = 0.25 * ((nu[im, j, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
+                      + (nu[im, j, k] + nu[i, j, k]) * rv[k])
         t13b = nub * ((uc - u[i, j, k - 1]) / dzf[k] + (w[i, j, k] - w[im, j, k]) * rdx)
     else:
         t13b = -taux[i, j]
@@ -135,7 +167,7 @@ def diff_u_at(u, v, w, nu, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dz
 
 
 @device
-def diff_v_at(u, v, w, nu, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
+def diff_v_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
     """d T_2j / dx_j at the v point [m s^-2]; bed flux T_23 = -tauy."""
     vc = v[i, j, k]
     nue = 0.25 * (nu[i, jm, k] + nu[ip, jm, k] + nu[i, j, k] + nu[ip, j, k])
@@ -146,10 +178,12 @@ def diff_v_at(u, v, w, nu, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dz
     t22s = 2.0 * nu[i, jm, k] * (vc - v[i, jm, k]) * rdy
     t23t = 0.0
     if top:
-        nut = 0.25 * (nu[i, jm, k] + nu[i, j, k] + nu[i, jm, k + 1] + nu[i, j, k + 1])
+        nut = 0.25 * ((nu[i, jm, k] + nu[i, j, k]) * rv[k]
+                      + (nu[i, jm, k + 1] + nu[i, j, k + 1]) * rv[k + 1])
         t23t = nut * ((v[i, j, k + 1] - vc) / dzf[k + 1] + (w[i, j, k + 1] - w[i, jm, k + 1]) * rdy)
     if bot:
-        nub = 0.25 * (nu[i, jm, k - 1] + nu[i, j, k - 1] + nu[i, jm, k] + nu[i, j, k])
+        nub = 0.25 * ((nu[i, jm, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
+                      + (nu[i, jm, k] + nu[i, j, k]) * rv[k])
         t23b = nub * ((vc - v[i, j, k - 1]) / dzf[k] + (w[i, j, k] - w[i, jm, k]) * rdy)
     else:
         t23b = -tauy[i, j]
@@ -157,26 +191,31 @@ def diff_v_at(u, v, w, nu, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dz
 
 
 @device
-def diff_w_at(u, v, w, nu, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
-    """d T_3j / dx_j at the interior w point (1 <= k <= nz-1) [m s^-2]."""
+def diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
+    """d T_3j / dx_j at the interior w point (1 <= k <= nz-1) [m s^-2]. Every T_3j is a vertical
+    flux: all carry the vertical viscosity nu rv."""
     wc = w[i, j, k]
     rdzf = 1.0 / dzf[k]
-    nue = 0.25 * (nu[i, j, k - 1] + nu[ip, j, k - 1] + nu[i, j, k] + nu[ip, j, k])
+    r0 = 0.25 * rv[k - 1]
+    r1 = 0.25 * rv[k]
+    nue = r0 * (nu[i, j, k - 1] + nu[ip, j, k - 1]) + r1 * (nu[i, j, k] + nu[ip, j, k])
     t13e = nue * ((u[ip, j, k] - u[ip, j, k - 1]) * rdzf + (w[ip, j, k] - wc) * rdx)
-    nuw = 0.25 * (nu[im, j, k - 1] + nu[i, j, k - 1] + nu[im, j, k] + nu[i, j, k])
+    nuw = r0 * (nu[im, j, k - 1] + nu[i, j, k - 1]) + r1 * (nu[im, j, k] + nu[i, j, k])
     t13w = nuw * ((u[i, j, k] - u[i, j, k - 1]) * rdzf + (wc - w[im, j, k]) * rdx)
-    nun = 0.25 * (nu[i, j, k - 1] + nu[i, jp, k - 1] + nu[i, j, k] + nu[i, jp, k])
+    nun = r0 * (nu[i, j, k - 1] + nu[i, jp, k - 1]) + r1 * (nu[i, j, k] + nu[i, jp, k])
     t23n = nun * ((v[i, jp, k] - v[i, jp, k - 1]) * rdzf + (w[i, jp, k] - wc) * rdy)
-    nus = 0.25 * (nu[i, jm, k - 1] + nu[i, j, k - 1] + nu[i, jm, k] + nu[i, j, k])
+    nus = r0 * (nu[i, jm, k - 1] + nu[i, j, k - 1]) + r1 * (nu[i, jm, k] + nu[i, j, k])
     t23s = nus * ((v[i, j, k] - v[i, j, k - 1]) * rdzf + (wc - w[i, jm, k]) * rdy)
-    t33t = 2.0 * nu[i, j, k] * (w[i, j, k + 1] - wc) / dzc[k]
-    t33b = 2.0 * nu[i, j, k - 1] * (wc - w[i, j, k - 1]) / dzc[k - 1]
+    t33t = 2.0 * nu[i, j, k] * rv[k] * (w[i, j, k + 1] - wc) / dzc[k]
+    t33b = 2.0 * nu[i, j, k - 1] * rv[k - 1] * (wc - w[i, j, k - 1]) / dzc[k - 1]
     return (t13e - t13w) * rdx + (t23n - t23s) * rdy + (t33t - t33b) * rdzf
 
 
 @device
 def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
-    """2 S_ij S_ij at the cell centre (i, j, k) [s^-2].
+    """2 S_ij S_ij at the cell centre (i, j, k) [s^-2], split as (horizontal part, vertical part):
+    (2 S_11^2 + 2 S_22^2 + 4 S_12^2, 2 S_33^2 + 4 S_13^2 + 4 S_23^2), the parts that work against
+    the horizontal and the vertical viscosity (module doc).
 
     Diagonal terms at the centre; the squares of the off-diagonal terms averaged over the four
     surrounding edges. On the bed face (bot = False) the vertical shear is the log-law gradient at
@@ -189,7 +228,7 @@ def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdz
     s11 = (u[ip, j, k] - u[i, j, k]) * rdx
     s22 = (v[i, jp, k] - v[i, j, k]) * rdy
     s33 = (w[i, j, k + 1] - w[i, j, k]) * rdzc[k]
-    acc = 2.0 * (s11 * s11 + s22 * s22 + s33 * s33)
+    acc = 2.0 * (s11 * s11 + s22 * s22)
     # 2 S_12 on the four vertical edges (x_f[i|ip], y_f[j|jp])
     e00 = (u[i, j, k] - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx
     e10 = (u[ip, j, k] - u[ip, jm, k]) * rdy + (v[ip, j, k] - v[i, j, k]) * rdx
@@ -219,18 +258,19 @@ def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdz
         b0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy
         b1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy
         q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
-    acc += 0.25 * q
-    return acc
+    return acc, 2.0 * s33 * s33 + 0.25 * q
 
 
 @device
-def tke_tendency_at(e, u, v, w, nu, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog,
-                    ceps_over_l_k):
-    """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (eq. A1)."""
+def tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
+                    rlog, ceps_over_l_k):
+    """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (eq. A1); horizontal
+    fluxes with nu, vertical ones with nu rv (as in A1's nu_th, nu_tv)."""
     ec = e[i, j, k]
     nuc = nu[i, j, k]
-    prod = nuc * strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                              rlog)
+    sh, sv = strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog)
+    nvc = nuc * rv[k]
+    prod = nuc * sh + nvc * sv
     # transport 2 nu_t grad e, face viscosities as two-point means
     fe = (nuc + nu[ip, j, k]) * (e[ip, j, k] - ec) * rdx
     fw = (nu[im, j, k] + nuc) * (ec - e[im, j, k]) * rdx
@@ -239,9 +279,9 @@ def tke_tendency_at(e, u, v, w, nu, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
     ft = 0.0
     fb = 0.0
     if top:
-        ft = (nuc + nu[i, j, k + 1]) * (e[i, j, k + 1] - ec) * rdzf[k + 1]
+        ft = (nvc + nu[i, j, k + 1] * rv[k + 1]) * (e[i, j, k + 1] - ec) * rdzf[k + 1]
     if bot:
-        fb = (nu[i, j, k - 1] + nuc) * (ec - e[i, j, k - 1]) * rdzf[k]
+        fb = (nu[i, j, k - 1] * rv[k - 1] + nvc) * (ec - e[i, j, k - 1]) * rdzf[k]
     trans = (fe - fw) * rdx + (fn - fs) * rdy + (ft - fb) * rdzc[k]
     ep = ec if ec > 0.0 else 0.0
     eps = ceps_over_l_k * ep * math.sqrt(ep)
@@ -249,8 +289,9 @@ def tke_tendency_at(e, u, v, w, nu, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
 
 
 @pjit
-def sgs_stress_uw_profile(u, w, nu, taux, dzf, rdx):
-    """Horizontal means of the SGS flux tau_13 on the faces z_w (nz+1,) [m^2 s^-2] (bed: taux)."""
+def sgs_stress_uw_profile(u, w, nu, rv, taux, dzf, rdx):
+    """Horizontal means of the SGS flux tau_13 on the faces z_w (nz+1,) [m^2 s^-2] (bed: taux);
+    nu the horizontal viscosity, rv the vertical/horizontal ratio per level."""
     nx, ny, nz = u.shape
     part = np.zeros((nx, nz + 1))
     for i in prange(nx):
@@ -258,7 +299,8 @@ def sgs_stress_uw_profile(u, w, nu, taux, dzf, rdx):
         for j in range(ny):
             part[i, 0] += taux[i, j]
             for k in range(1, nz):
-                nub = 0.25 * (nu[im, j, k - 1] + nu[i, j, k - 1] + nu[im, j, k] + nu[i, j, k])
+                nub = 0.25 * ((nu[im, j, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
+                              + (nu[im, j, k] + nu[i, j, k]) * rv[k])
                 part[i, k] -= nub * ((u[i, j, k] - u[i, j, k - 1]) / dzf[k]
                                      + (w[i, j, k] - w[im, j, k]) * rdx)
     out = np.zeros(nz + 1)

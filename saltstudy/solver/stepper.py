@@ -26,7 +26,7 @@ from .advection import adv_scalar_at, adv_u_at, adv_v_at, adv_w_at
 from .damping import damping_profiles
 from .pressure import PressureSolver
 from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, diff_u_at, diff_v_at, diff_w_at,
-                  length_scale, tke_tendency_at)
+                  length_scale, tke_tendency_at, viscosity_lengths)
 from .wall import drag_coefficient, surface_stress_into
 
 __all__ = ["Stepper", "RK3_COEFFS"]
@@ -37,23 +37,25 @@ device = jit_with(inline="always")
 
 
 @device
-def _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, top, bot, cdt,
-              rdx, rdy, dzc, dzf, fck, fcuk, u_drive, gx, with_adv, with_diff):
+def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, top, bot, cdt,
+              rdx, rdy, dzc, dzf, fck, fcuk, srck, with_adv, with_diff):
+    # srck = gx + fcuk u_drive (drive and damping target folded: CPython passes calls of more
+    # than 30 arguments as a tuple, which numba cannot inline)
     r = 1.0 / dzc[k]
-    tu = gx - fcuk * (u[i, j, k] - u_drive)
+    tu = srck - fcuk * u[i, j, k]
     tv = -fck * v[i, j, k]
     if with_adv:
         tu += adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
         tv += adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
     if with_diff:
-        tu += diff_u_at(u, v, w, nu, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
-        tv += diff_v_at(u, v, w, nu, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
+        tu += diff_u_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
+        tv += diff_v_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
     uo[i, j, k] = ub[i, j, k] + cdt * tu
     vo[i, j, k] = vb[i, j, k] + cdt * tv
 
 
 @pjit
-def _momentum_stage(u, v, w, nu, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, rdy, dzc, dzf,
+def _momentum_stage(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, rdy, dzc, dzf,
                     fc, fcu, ff, u_drive, gx, with_adv, with_diff):
     """uo = ub + cdt (advection + SGS diffusion + damping + drive)(u) for u, v, w (interior w only).
 
@@ -70,13 +72,14 @@ def _momentum_stage(u, v, w, nu, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, r
         for j in range(ny):
             jm = (j - 1) % ny
             jp = (j + 1) % ny
-            _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, 0, im, ip, jm, jp, True, False,
-                      cdt, rdx, rdy, dzc, dzf, fc[0], fcu[0], u_drive, gx, with_adv, with_diff)
+            _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, 0, im, ip, jm, jp, True, False,
+                      cdt, rdx, rdy, dzc, dzf, fc[0], fcu[0], gx + fcu[0] * u_drive, with_adv, with_diff)
             for k in range(1, nz - 1):
-                _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, True,
-                          True, cdt, rdx, rdy, dzc, dzf, fc[k], fcu[k], u_drive, gx, with_adv, with_diff)
-            _uv_point(u, v, w, nu, taux, tauy, ub, vb, uo, vo, i, j, nz - 1, im, ip, jm, jp, False,
-                      True, cdt, rdx, rdy, dzc, dzf, fc[nz - 1], fcu[nz - 1], u_drive, gx,
+                _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, True,
+                          True, cdt, rdx, rdy, dzc, dzf, fc[k], fcu[k], gx + fcu[k] * u_drive, with_adv,
+                          with_diff)
+            _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, nz - 1, im, ip, jm, jp, False,
+                      True, cdt, rdx, rdy, dzc, dzf, fc[nz - 1], fcu[nz - 1], gx + fcu[nz - 1] * u_drive,
                       with_adv, with_diff)
             wo[i, j, 0] = 0.0
             wo[i, j, nz] = 0.0
@@ -87,22 +90,22 @@ def _momentum_stage(u, v, w, nu, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, r
                     hzp = 0.5 * dzc[k] / dzf[k]
                     tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
                 if with_diff:
-                    tw += diff_w_at(u, v, w, nu, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
+                    tw += diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
                 wo[i, j, k] = wb[i, j, k] + cdt * tw
 
 
 @device
-def _e_point(e, u, v, w, nu, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, rdzc,
+def _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, rdzc,
              rdzf, rlog, ceps_lk, e_min):
     te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
-    te += tke_tendency_at(e, u, v, w, nu, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
+    te += tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
                           rlog, ceps_lk)
     val = eb[i, j, k] + cdt * te
     eo[i, j, k] = val if val > e_min else e_min
 
 
 @pjit
-def _tke_stage(e, u, v, w, nu, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min):
+def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min):
     """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above);
     rdzc, rdzf: 1/dz_c, 1/dz_f."""
     nx, ny, nz = e.shape
@@ -113,12 +116,12 @@ def _tke_stage(e, u, v, w, nu, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, 
         for j in range(ny):
             jm = (j - 1) % ny
             jp = (j + 1) % ny
-            _e_point(e, u, v, w, nu, eb, eo, i, j, 0, im, ip, jm, jp, True, False, cdt, rdx, rdy,
+            _e_point(e, u, v, w, nu, rv, eb, eo, i, j, 0, im, ip, jm, jp, True, False, cdt, rdx, rdy,
                      rdzc, rdzf, rlog, ceps_l[0], e_min)
             for k in range(1, nz - 1):
-                _e_point(e, u, v, w, nu, eb, eo, i, j, k, im, ip, jm, jp, True, True, cdt, rdx, rdy,
+                _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, True, True, cdt, rdx, rdy,
                          rdzc, rdzf, rlog, ceps_l[k], e_min)
-            _e_point(e, u, v, w, nu, eb, eo, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, rdx,
+            _e_point(e, u, v, w, nu, rv, eb, eo, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, rdx,
                      rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], e_min)
 
 
@@ -133,8 +136,9 @@ def _apply_sink(e, rate, dt, e_min):
 
 
 @pjit
-def _diffusion_rate(e, cml, nu_mol, rdx2, rdy2, rdz2):
-    """max over cells of 2 nu (1/dx^2 + 1/dy^2 + 1/dz^2) [s^-1] (explicit-diffusion limit)."""
+def _diffusion_rate(e, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
+    """max over cells of 2 (nu_h (1/dx^2 + 1/dy^2) + nu_v / dz^2) [s^-1] (explicit-diffusion
+    limit); cml, cml_v: c_m l_h and c_m l_v per level."""
     nx, ny, nz = e.shape
     part = np.zeros(nx)
     for i in prange(nx):
@@ -144,7 +148,8 @@ def _diffusion_rate(e, cml, nu_mol, rdx2, rdy2, rdz2):
                 ek = e[i, j, k]
                 if ek < 0.0:
                     ek = 0.0
-                r = 2.0 * (cml[k] * math.sqrt(ek) + nu_mol) * (rdx2 + rdy2 + rdz2[k])
+                se = math.sqrt(ek)
+                r = 2.0 * ((cml[k] * se + nu_mol) * (rdx2 + rdy2) + (cml_v[k] * se + nu_mol) * rdz2[k])
                 if r > m:
                     m = r
         part[i] = m
@@ -157,18 +162,26 @@ class Stepper:
     def __init__(self, grid, *, z0: float, kappa: float, nu_mol: float, damping_depth: float,
                  damping_timescale: float, workers: int | None = None, advection: bool = True,
                  sgs: bool = True, wall: bool = True, damp_u: bool = True, body_force: float = 0.0,
-                 near_wall_layer: tuple[float, float] | None = None, delta: str = "scotti"):
+                 near_wall_layer: tuple[float, float] | None = None, delta: str = "scotti",
+                 viscosity: str = "isotropic"):
         """``damp_u``: the Rayleigh layer acts on u (towards ``state.u_drive``; the top drive) or
         not (v and w only); ``body_force`` G [m s^-2]: uniform streamwise acceleration added to u
         everywhere (the mean pressure gradient drive, forcing.py); ``near_wall_layer`` (a, b): the
         near-wall mean-field eddy viscosity of nearwall.py over that layer (in dx), None: none;
-        ``delta``: the SGS filter width, "scotti" or "geometric" (sgs.delta_profile)."""
+        ``delta``: the SGS filter width, "scotti" or "geometric" (sgs.delta_profile);
+        ``viscosity``: one eddy viscosity ("isotropic") or separate horizontal and vertical ones
+        ("anisotropic", sgs.viscosity_lengths)."""
         self.grid = grid
         nx, ny, nz = grid.shape
         self.z0, self.kappa, self.nu_mol = float(z0), float(kappa), float(nu_mol)
         self.advection, self.sgs, self.wall = bool(advection), bool(sgs), bool(wall)
-        self.l = length_scale(grid, kappa, delta=delta)
-        self.cml = np.ascontiguousarray(C_M * self.l)
+        self.l = length_scale(grid, kappa, delta=delta)   # the dissipation length
+        l_h, l_v = viscosity_lengths(grid, kappa, viscosity, delta)
+        self.cml = np.ascontiguousarray(C_M * l_h)          # nu_h = cml sqrt(e) (+ nu_mol)
+        self.cml_v = np.ascontiguousarray(C_M * l_v)        # nu_v = cml_v sqrt(e)
+        # the vertical viscosity is nu rv: the kernels carry one field (nu_mol rides along, a
+        # relative 1e-5 - 1e-3 of nu_t)
+        self.rv = np.ascontiguousarray(l_v / l_h)
         self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l, delta) / self.l)
         z1 = float(grid.z_c[0])
         self.cd = drag_coefficient(z1, self.z0, self.kappa) if self.wall else 0.0
@@ -211,13 +224,13 @@ class Stepper:
         ou, ov, ow, oe = (_get(out, n) for n in "uvwe")
         self.boundary(gu, gv, ge)
         rdx, rdy = 1.0 / g.dx, 1.0 / g.dy
-        _momentum_stage(gu, gv, gw, self.nu, self.taux, self.tauy, bu, bv, bw, ou, ov, ow, cdt, rdx,
+        _momentum_stage(gu, gv, gw, self.nu, self.rv, self.taux, self.tauy, bu, bv, bw, ou, ov, ow, cdt, rdx,
                         rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive, self.body_force,
                         self.advection, self.sgs)
         if self.near_wall is not None:
             self.near_wall.apply(ou, ov, cdt)
         if self.sgs:
-            _tke_stage(ge, gu, gv, gw, self.nu, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f, self.rlog,
+            _tke_stage(ge, gu, gv, gw, self.nu, self.rv, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f, self.rlog,
                        self.ceps_l, E_MIN)
         elif oe is not be:
             oe[...] = be
@@ -228,7 +241,7 @@ class Stepper:
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
         if self.near_wall is not None:  # held over the stages (a slow mean-field term)
-            self.near_wall.update(state, self.cml, self.nu_mol, dt)
+            self.near_wall.update(state, self.cml_v, self.nu_mol, dt)
         self.stage(state, state, a, c1 * dt, state.u_drive)
         self.stage(a, state, b, c2 * dt, state.u_drive)
         self.stage(b, state, state, c3 * dt, state.u_drive, p=state.p)
@@ -236,12 +249,12 @@ class Stepper:
             _apply_sink(state.e, state.tke_sink, dt, E_MIN)
 
     def diffusion_rate(self, e) -> float:
-        """max 2 nu (1/dx^2 + 1/dy^2 + 1/dz^2) [s^-1] (SGS only: the near-wall mean-field term is
+        """max 2 (nu_h (1/dx^2 + 1/dy^2) + nu_v / dz^2) [s^-1] (SGS only: the near-wall mean-field term is
         implicit and does not limit the step, nearwall.py)."""
         if not self.sgs:
             return 2.0 * self.nu_mol * (1 / self.grid.dx**2 + 1 / self.grid.dy**2 + self._rdz2.max())
         g = self.grid
-        return float(_diffusion_rate(e, self.cml, self.nu_mol, 1.0 / g.dx**2, 1.0 / g.dy**2, self._rdz2))
+        return float(_diffusion_rate(e, self.cml, self.cml_v, self.nu_mol, 1.0 / g.dx**2, 1.0 / g.dy**2, self._rdz2))
 
     def close(self) -> None:
         self.pressure.close()
