@@ -135,27 +135,6 @@ def _apply_sink(e, rate, dt, e_min):
                 e[i, j, k] = val if val > e_min else e_min
 
 
-@pjit
-def _diffusion_rate(e, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
-    """max over cells of 2 (nu_h (1/dx^2 + 1/dy^2) + nu_v / dz^2) [s^-1] (explicit-diffusion
-    limit); cml, cml_v: c_m l_h and c_m l_v per level."""
-    nx, ny, nz = e.shape
-    part = np.zeros(nx)
-    for i in prange(nx):
-        m = 0.0
-        for j in range(ny):
-            for k in range(nz):
-                ek = e[i, j, k]
-                if ek < 0.0:
-                    ek = 0.0
-                se = math.sqrt(ek)
-                r = 2.0 * ((cml[k] * se + nu_mol) * (rdx2 + rdy2) + (cml_v[k] * se + nu_mol) * rdz2[k])
-                if r > m:
-                    m = r
-        part[i] = m
-    return part.max()
-
-
 class Stepper:
     """RK3 flow stepper for one grid and one scene's flow parameters (work arrays preallocated)."""
 
@@ -197,7 +176,6 @@ class Stepper:
         self.nu = np.zeros(shp)
         self.taux = np.zeros((nx, ny))
         self.tauy = np.zeros((nx, ny))
-        self._rdz2 = 1.0 / grid.dz_c ** 2
         self.near_wall = None
         if near_wall_layer is not None and self.sgs and self.wall:
             from .nearwall import NearWallMeanViscosity
@@ -247,14 +225,6 @@ class Stepper:
         self.stage(b, state, state, c3 * dt, state.u_drive, p=state.p)
         if state.tke_sink is not None:
             _apply_sink(state.e, state.tke_sink, dt, E_MIN)
-
-    def diffusion_rate(self, e) -> float:
-        """max 2 (nu_h (1/dx^2 + 1/dy^2) + nu_v / dz^2) [s^-1] (SGS only: the near-wall mean-field term is
-        implicit and does not limit the step, nearwall.py)."""
-        if not self.sgs:
-            return 2.0 * self.nu_mol * (1 / self.grid.dx**2 + 1 / self.grid.dy**2 + self._rdz2.max())
-        g = self.grid
-        return float(_diffusion_rate(e, self.cml, self.cml_v, self.nu_mol, 1.0 / g.dx**2, 1.0 / g.dy**2, self._rdz2))
 
     def close(self) -> None:
         self.pressure.close()
