@@ -1,0 +1,35 @@
+"""`saltstudy bench flow|particles --json`: the fields the issues ask for, from real (short) runs.
+
+Timings are not asserted (a noisy machine would make that flaky); the structure and the sanity
+of the numbers are.
+"""
+from __future__ import annotations
+
+import json
+
+from typer.testing import CliRunner
+
+from saltstudy.cli import app
+
+
+def _json(args):
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout.strip().splitlines()[-1])
+
+
+def test_bench_flow_json_has_the_grids_fields():
+    out = _json(["bench", "flow", "--steps", "2", "--no-big", "--json"])
+    assert out["threads"] >= 1 and out["max_rss_mb"] > 0
+    (g,) = out["grids"]
+    assert g["shape"] == [64, 48, 48]
+    assert g["ns_per_cell_step"] > 0 and g["pressure_floor_ns_per_cell"] > 0
+    assert g["ratio"] == g["ns_per_cell_step"] / g["pressure_floor_ns_per_cell"]
+
+
+def test_bench_particles_json_has_the_runs_fields():
+    out = _json(["bench", "particles", "--n", "2000", "--n", "4000", "--steps", "3", "--json"])
+    assert [r["n_parcels"] for r in out["runs"]] == [2000, 4000]
+    for r in out["runs"]:
+        assert r["ns_per_parcel_step"] > 0 and r["mean_ns_per_parcel_step"] > 0
+        assert r["n_end"] > 0 and r["impacts_per_step"] >= 0
