@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from typer.testing import CliRunner
 
 from saltstudy.cli import app
@@ -24,7 +25,8 @@ def test_bench_flow_json_has_the_grids_fields():
     (g,) = out["grids"]
     assert g["shape"] == [64, 48, 48]
     assert g["ns_per_cell_step"] > 0 and g["pressure_floor_ns_per_cell"] > 0
-    assert g["ratio"] == g["ns_per_cell_step"] / g["pressure_floor_ns_per_cell"]
+    assert g["ratio"] == pytest.approx(g["ns_per_cell_step"] / g["pressure_floor_ns_per_cell"],
+                                       rel=1e-12)
 
 
 def test_bench_particles_json_has_the_runs_fields():
