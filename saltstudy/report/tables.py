@@ -178,7 +178,11 @@ def table2_markdown(ctx: ReportContext) -> str:
     lines = [f"# Table 2 — computed beside {PAPER_LABEL}", "",
              f"Study `{ctx.study}`. Each cell: computed / paper (relative difference). "
              "“—”: not given by the paper or undefined in the run. u*s ± its standard error "
-             "over the 3-D samples (the scatter of the per-sample fits).", "",
+             "over the 3-D samples (the scatter of the per-sample fits). u*s is the free log-law "
+             "fit above the saltation layer; “u*s, stress at z_ref” is the paper's own reading "
+             "(section 3.1: u* from ⟨u'w'⟩ at 2 m), a quantity the drive holds at the case's "
+             "target, so it checks the drive rather than the profile; z0s with it is the "
+             "paper's roughness regression.", "",
              "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
     for row in rows:
         if row["status"] != "ok":
