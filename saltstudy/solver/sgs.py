@@ -57,8 +57,8 @@ from .._jit import jit_with, pjit
 #: a dozen array arguments per grid point costs more than the stencil itself)
 device = jit_with(inline="always")
 
-__all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "length_scale", "viscosity_lengths", "VISCOSITY_KINDS", "c_eps_profile", "delta_profile",
-           "scotti_factor", "DELTA_KINDS",
+__all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "wall_blend", "length_scale", "viscosity_lengths",
+           "VISCOSITY_KINDS", "c_eps_profile", "delta_profile", "scotti_factor", "DELTA_KINDS",
            "eddy_viscosity", "diff_u_at", "diff_v_at", "diff_w_at", "tke_tendency_at",
            "compute_nu", "sgs_stress_uw_profile"]
 
@@ -90,12 +90,17 @@ def delta_profile(grid, delta: str = "scotti") -> np.ndarray:
     return d * scotti_factor(grid.dx, grid.dy, grid.dz_c) if delta == "scotti" else d
 
 
+def wall_blend(length, grid, kappa: float = 0.4, c_l: float = C_L, n: float = BLEND_N) -> np.ndarray:
+    """[length^-n + (c_l kappa z)^-n]^(-1/n) at the cell centres (nz,) [m]: a grid length limited
+    by the distance to the bed (Mason & Thomson 1992 blending, module doc)."""
+    lw = c_l * kappa * grid.z_c
+    return (np.asarray(length, dtype=np.float64) ** -n + lw ** -n) ** (-1.0 / n)
+
+
 def length_scale(grid, kappa: float = 0.4, c_l: float = C_L, n: float = BLEND_N,
                  delta: str = "scotti") -> np.ndarray:
     """Mixing length l(z) at the cell centres (nz,) [m] (see module docstring)."""
-    d = delta_profile(grid, delta)
-    lw = c_l * kappa * grid.z_c
-    return (d ** -n + lw ** -n) ** (-1.0 / n)
+    return wall_blend(delta_profile(grid, delta), grid, kappa, c_l, n)
 
 
 VISCOSITY_KINDS = ("isotropic", "anisotropic")
@@ -112,10 +117,8 @@ def viscosity_lengths(grid, kappa: float = 0.4, viscosity: str = "isotropic",
     if viscosity == "isotropic":
         ell = length_scale(grid, kappa, delta=delta)
         return ell, ell.copy()
-    lw = C_L * kappa * grid.z_c
-    lh = math.sqrt(grid.dx * grid.dy)
-    return ((lh ** -BLEND_N + lw ** -BLEND_N) ** (-1.0 / BLEND_N),
-            (grid.dz_c ** -BLEND_N + lw ** -BLEND_N) ** (-1.0 / BLEND_N))
+    return (wall_blend(math.sqrt(grid.dx * grid.dy), grid, kappa),
+            wall_blend(grid.dz_c, grid, kappa))
 
 
 def c_eps_profile(grid, l: np.ndarray, delta: str = "scotti") -> np.ndarray:
