@@ -16,6 +16,12 @@ def smoke_scene(case: int = 1, **grid_overrides):
     return resolve_scene(load_case(case), fid)
 
 
+def with_closure(scene, **closure):
+    """``scene`` with ``case.closure`` fields replaced (e.g. delta="geometric")."""
+    case = scene.case.model_copy(update={"closure": scene.case.closure.model_copy(update=closure)})
+    return scene.model_copy(update={"case": case})
+
+
 def stretched_grid(nx=16, ny=12, nz=14, Lx=2.0, Ly=1.5, Lz=3.0, dz_bottom=0.02) -> Grid:
     return Grid(nx, ny, nz, Lx, Ly, stretched_levels(Lz, nz, dz_bottom))
 

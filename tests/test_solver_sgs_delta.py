@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from solver_helpers import smoke_scene, stretched_grid
+from solver_helpers import smoke_scene, stretched_grid, with_closure
 from saltstudy.solver import sgs
 
 
@@ -35,8 +35,7 @@ def test_model_uses_the_case_choice():
 
     s = smoke_scene(1)
     assert s.case.closure.delta == "scotti"
-    g_over = s.model_copy(update={"case": s.case.model_copy(update={
-        "closure": s.case.closure.model_copy(update={"delta": "geometric"})})})
+    g_over = with_closure(s, delta="geometric")
     m1, m2 = Model.from_scene(s), Model.from_scene(g_over)
     assert np.all(m1.stepper.l >= m2.stepper.l) and m1.stepper.l[0] > m2.stepper.l[0]
     m1.close()

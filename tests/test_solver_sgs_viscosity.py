@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from solver_helpers import random_velocity, smoke_scene, stretched_grid
+from solver_helpers import random_velocity, smoke_scene, stretched_grid, with_closure
 from saltstudy.solver import sgs
 from saltstudy.solver.forcing import total_stress_at_face
 from saltstudy.solver.nearwall import mean_flux_profiles
@@ -85,8 +85,7 @@ def test_model_uses_the_case_choice():
 
     s = smoke_scene(1)
     assert s.case.closure.viscosity == "isotropic"
-    an = s.model_copy(update={"case": s.case.model_copy(update={
-        "closure": s.case.closure.model_copy(update={"viscosity": "anisotropic"})})})
+    an = with_closure(s, viscosity="anisotropic")
     m1, m2 = Model.from_scene(s), Model.from_scene(an)
     assert np.all(m1.stepper.rv == 1.0)
     assert np.allclose(m2.stepper.cml_v, m2.stepper.cml * m2.stepper.rv, rtol=1e-14)

@@ -108,6 +108,21 @@ def invert_log_law_shape(c: float, H: float | None) -> float:
     return math.exp(0.5 * (lo + hi))
 
 
+def _fit_levels(z, U, z_min, z_max, H):
+    """(z, U) as float arrays and the mask of the finite levels with z_min <= z <= z_max, z > 0
+    (and z < H when H is given): the levels both log-law regressions use."""
+    z = np.asarray(z, dtype=np.float64)
+    U = np.asarray(U, dtype=np.float64)
+    sel = np.isfinite(U) & (z > 0)
+    if z_min is not None:
+        sel &= z >= z_min
+    if z_max is not None:
+        sel &= z <= z_max
+    if H is not None:
+        sel &= z < H
+    return z, U, sel
+
+
 def regress_log_law(z, U, z_min: float | None = None, z_max: float | None = None,
                     H: float | None = None):
     """Least squares of U = a F(z) + b over the finite levels with z_min <= z <= z_max (and
@@ -118,15 +133,7 @@ def regress_log_law(z, U, z_min: float | None = None, z_max: float | None = None
     kappa a [m s^-1], z0 = ``invert_log_law_shape(-b/a, H)`` [m]. Returns (a, b, F, U_used), the
     last two the selected levels (a and b NaN with fewer than 2 of them).
     """
-    z = np.asarray(z, dtype=np.float64)
-    U = np.asarray(U, dtype=np.float64)
-    sel = np.isfinite(U) & (z > 0)
-    if z_min is not None:
-        sel &= z >= z_min
-    if z_max is not None:
-        sel &= z <= z_max
-    if H is not None:
-        sel &= z < H
+    z, U, sel = _fit_levels(z, U, z_min, z_max, H)
     F = log_law_shape(z[sel], H)
     Us = U[sel]
     if Us.size < 2:
@@ -143,15 +150,7 @@ def z0_at_fixed_u_star(z, U, u_star0: float, kappa: float, z_min: float | None =
     F(z0) = mean(F - kappa U / u*_0). The paper's roughness regression: u* read from the stress
     at 2 m, z0 fitted with it (Dupont et al. 2013, section 3.1 [33]). NaN with no level or
     u*_0 <= 0."""
-    z = np.asarray(z, dtype=np.float64)
-    U = np.asarray(U, dtype=np.float64)
-    sel = np.isfinite(U) & (z > 0)
-    if z_min is not None:
-        sel &= z >= z_min
-    if z_max is not None:
-        sel &= z <= z_max
-    if H is not None:
-        sel &= z < H
+    z, U, sel = _fit_levels(z, U, z_min, z_max, H)
     if not sel.any() or not (math.isfinite(u_star0) and u_star0 > 0):
         return math.nan
     F = log_law_shape(z[sel], H)
