@@ -6,7 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from test_particles_helpers import component, exact_slip, scene, terminal_velocity
+from test_particles_helpers import (component, exact_slip, scene, synthetic_flow,
+                                    terminal_velocity)
+from saltstudy.solver import particles
 from saltstudy.solver.interp import wrap_periodic
 
 
@@ -39,7 +41,7 @@ def test_terminal_velocity_stiff_10um_no_overshoot():
     assert abs(tp - sc_tp) < 1e-15
     assert np.all(np.isfinite(ws))
     assert abs(ws[0] - wt) / wt < 1e-6        # on the terminal velocity after one step
-    # never above it, beyond the drag-rate iteration tolerance (DRAG_TOL = 1e-6 on k)
+    # never above it, beyond the drag-rate iteration's error (~DRAG_TOL^2 on k)
     assert ws.max() <= wt * (1 + 1e-7)
     assert abs(ws[-1] - wt) / wt < 1e-7
 
@@ -107,3 +109,35 @@ def test_log_law_below_first_level():
     assert np.allclose(uf[:2], 2.0 * L, rtol=1e-12)
     assert abs(uf[2] - 1.5) < 1e-12                         # trilinear above the first level
     assert np.allclose(wf[:2], 0.4 * z[:2] / g.z_f[1], rtol=1e-12)  # w linear to 0 at the bed
+
+
+def _saltating(tol, steps, n=3000):
+    """A two-way coupled cloud of parcels in a frozen perturbed log-law wind (they splash)."""
+    sc = scene(2)
+    s, st = component(sc)
+    s.prm[particles._TOL] = tol
+    synthetic_flow(st, sc.case.forcing.u_star_s, sc.case.surface.z0)
+    rng = np.random.default_rng(3)
+    g = s.grid
+    s.add_parcels(rng.uniform(0, g.Lx, n), rng.uniform(0, g.Ly, n), rng.uniform(1e-3, 0.3, n),
+                  u=rng.uniform(0, 4, n), w=rng.normal(0, 1, n),
+                  d=rng.choice([90e-6, 200e-6, 400e-6], n))
+    for _ in range(steps):
+        s.dynamics(st, 0.005)
+    return s
+
+
+def test_drag_rate_iteration_error_far_below_its_tolerance():
+    """DRAG_TOL stops the iteration before its last Newton update, so the accepted drag rate is
+    ~DRAG_TOL^2 off: the cold first step (k from rest) agrees with a 1e-13 tolerance to round-off,
+    and so does a warm one."""
+    for steps in (1, 3):
+        a = _saltating(particles.DRAG_TOL, steps)
+        b = _saltating(1e-13, steps)
+        assert a.n == b.n
+        for f in ("u", "v", "w", "z"):
+            assert np.max(np.abs(getattr(a, f) - getattr(b, f))) < 1e-10, f
+        kd_a, kd_b = a._kd[:a.n], b._kd[:b.n]
+        live = kd_b > 0
+        assert np.max(np.abs(kd_a[live] / kd_b[live] - 1.0)) < 1e-9
+
