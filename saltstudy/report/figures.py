@@ -83,9 +83,13 @@ def _plain_log(ax, axis: str = "x") -> None:
     a.set_minor_formatter(NullFormatter())
 
 
-def _legend(ax, **kw) -> None:
+def _legend(ax, below: bool = False, **kw) -> None:
+    """below: under the axes, for scatter plots whose points may fall anywhere (a legend inside
+    hid case 10's point in Fig. 4)."""
     handles, labels = ax.get_legend_handles_labels()
     if handles:
+        if below:
+            kw.update(loc="upper center", bbox_to_anchor=(0.5, -0.14))
         ax.legend(**kw)
 
 
@@ -277,10 +281,9 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
         ys.append(y)
     res.data["x_ratio"] = np.array(xs)
     res.data[var] = np.array(ys)
-    if others:
-        ax.text(0.99, 0.5, "µ1 ≠ 200 µm:\n" + "\n".join(f"case {k}: {v}" for k, v in others.items()),
-                transform=ax.transAxes, ha="right", va="center", fontsize=7.5,
-                bbox=dict(boxstyle="round", fc="white", ec="0.7", alpha=0.9))
+    if others:  # a legend entry, not a box over the data
+        ax.plot([], [], ls="none", label="µ1 ≠ 200 µm: " + ", ".join(
+            f"case {k} {v}" for k, v in others.items()))
     for n in range(1, 11):
         note = ctx.missing_note(n)
         if note and ctx.by_case(n) is not None:
@@ -343,7 +346,7 @@ def fig03(ctx: ReportContext) -> FigureResult:
         ax.set_yscale("log")
     ax.set_ylabel(r"saltation roughness length $z_{0s}$ [m]")
     ax.set_title("Fig. 3 — z0s vs u*s/u*t (laws at µ1 = 200 µm, u*t of case 2)", fontsize=10)
-    _legend(ax, fontsize=7, loc="lower right")
+    _legend(ax, below=True, fontsize=7)
     _notes(ax, res.notes, "upper left")
     return res
 
@@ -361,7 +364,7 @@ def fig04(ctx: ReportContext) -> FigureResult:
     ax.set_ylabel(r"saltation height $z_m$ [m]")
     ax.set_ylim(bottom=0)
     ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s²)")
-    _legend(ax, fontsize=7.5, loc="upper left")
+    _legend(ax, below=True, fontsize=7.5)
     _notes(ax, res.notes, "lower right")
     return res
 
@@ -378,7 +381,7 @@ def fig08(ctx: ReportContext) -> FigureResult:
     ax.set_title("Fig. 8 — G_tot vs u*s/u*t (laws at µ1 = 200 µm)", fontsize=10)
     ax.plot([], [], ls="none", label=f"{PAPER_LABEL}: G_tot close to Bagnold (1937) at low u*s,\n"
                                      "close to Sørensen (2004) at high u*s")
-    _legend(ax, fontsize=7, loc="upper left")
+    _legend(ax, below=True, fontsize=7)
     _notes(ax, res.notes, "upper right")
     return res
 
@@ -395,7 +398,7 @@ def fig13(ctx: ReportContext) -> FigureResult:
     ax.set_ylabel(r"$\sigma_G / \langle G_{tot}\rangle$ [-]")
     ax.set_ylim(bottom=0)
     ax.set_title("Fig. 13 — relative standard deviation of the saltation flux")
-    _legend(ax, fontsize=7.5, loc="upper right")
+    _legend(ax, below=True, fontsize=7.5)
     _notes(ax, res.notes, "lower right")
     return res
 
