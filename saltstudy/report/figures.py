@@ -496,7 +496,7 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
         ax.set_xlabel(xlabel)
         ax.set_title(ptitle, loc="left")
         ax.grid(alpha=0.3, which="both")
-        _legend(ax, fontsize=7.5, loc="upper right")
+        _legend(ax, fontsize=7.5, loc="best")  # profiles differ per run: least overlap
         _notes(ax, notes, "lower left")
         res.notes.extend(notes)
     axes[0, 0].set_ylabel(r"$z / z_m$ [-]")
