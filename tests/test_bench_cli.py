@@ -35,3 +35,18 @@ def test_bench_particles_json_has_the_runs_fields():
     for r in out["runs"]:
         assert r["ns_per_parcel_step"] > 0 and r["mean_ns_per_parcel_step"] > 0
         assert r["n_end"] > 0 and r["impacts_per_step"] >= 0
+
+
+def test_bench_particles_phases_sum_within_the_step_and_leave_the_solver_as_it_was():
+    from saltstudy.solver import bench_particles, particles
+
+    before = {k: getattr(particles, k) for k in bench_particles.PHASE_KERNELS}
+    out = _json(["bench", "particles", "--n", "3000", "--steps", "12", "--phases", "--json"])
+    (r,) = out["runs"]
+    ph = r["phases_ns_per_parcel_step"]
+    # every step of the 12 runs the advance, the implicit estimate (two-way) and one reordering
+    assert {"_advance_all", "implicit_coefficients", "_sort"} <= set(ph)
+    assert all(v > 0 for v in ph.values())
+    # the kernels are timed inside the timed steps: together they cannot exceed the step
+    assert sum(ph.values()) <= r["steps_ns_per_parcel_step"] * (1 + 1e-9)
+    assert {k: getattr(particles, k) for k in before} == before

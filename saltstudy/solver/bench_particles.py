@@ -1,17 +1,23 @@
 """Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow.
 
-    python -m saltstudy.solver.bench_particles [--json] [--steps N] [--n 1e5 --n 1e6]
+    python -m saltstudy.solver.bench_particles [--json] [--phases] [--steps N] [--n 1e5 --n 1e6]
     saltstudy bench particles ...          (registered by the solver's cli_commands via register_bench)
 
 The flow is a frozen synthetic log-law wind (u*s of case 2) with smooth periodic perturbations of
 30% u* in u, v, w; the parcels are spread in the lowest 0.3 m with random velocities, so they
 splash, sub-step and couple two-way as in a run. Timing excludes compilation (one warm-up step).
+
+``--phases`` also times each kernel the component calls (the implicit estimate, the parcel
+advance, the bed events, the reordering, ...), as ns per parcel-step over the timed steps: where
+the time goes, for whoever works on the speed target. The kernels are wrapped for the bench only,
+and the solver is left as it was afterwards.
 """
 from __future__ import annotations
 
 import json
 import math
 import time
+from contextlib import contextmanager, nullcontext
 
 import numpy as np
 
@@ -32,13 +38,49 @@ def _frozen_flow(st, u_star: float, z0: float) -> None:
     st.e[...] = 0.5 * u_star ** 2
 
 
+#: the kernels of Saltation.dynamics timed by --phases (module-level names in solver/particles.py)
+PHASE_KERNELS = ("implicit_coefficients", "implicit_corrections", "_advance_all", "bed_events",
+                 "apply_exchange", "tke_rates", "chunk_assign", "_vmax_and_ztop", "grid_absmax",
+                 "_collect_events", "_compact")
+
+
+@contextmanager
+def _timed_kernels(acc: dict, component):
+    """Accumulate wall seconds per kernel in ``acc`` while inside (and the parcel reordering,
+    ``component._sort``, as "_sort"); restores the originals on exit."""
+    from . import particles
+
+    saved = {name: getattr(particles, name) for name in PHASE_KERNELS}
+
+    def timed(name, f):
+        def g(*args, **kw):
+            t0 = time.perf_counter()
+            out = f(*args, **kw)
+            acc[name] = acc.get(name, 0.0) + time.perf_counter() - t0
+            return out
+        return g
+
+    for name, f in saved.items():
+        setattr(particles, name, timed(name, f))
+    component._sort = timed("_sort", component._sort)
+    try:
+        yield
+    finally:
+        for name, f in saved.items():
+            setattr(particles, name, f)
+        del component._sort
+
+
 def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, dt: float = 0.005,
-                    case: int = 2, fidelity: str = "reduced") -> dict:
+                    case: int = 2, fidelity: str = "reduced", phases: bool = False) -> dict:
     """Time ``steps`` component steps for each parcel count; print and return
     {"threads": ..., "runs": [{"n_parcels", "ns_per_parcel_step", "mean_ns_per_parcel_step",
     "n_end", "impacts_per_step"}]}. ``ns_per_parcel_step`` is the median step; the mean also
     counts the steps that reorder the parcels (every ``particles.SORT_INTERVAL``-th), which the
-    median leaves out: it is the amortized cost of a run."""
+    median leaves out: it is the amortized cost of a run. ``phases``: each run also gets
+    ``phases_ns_per_parcel_step`` {kernel: ns} and ``steps_ns_per_parcel_step``, the whole steps
+    on the same footing (total time over total parcel-steps), which the kernels' sum cannot
+    exceed."""
     import numba
 
     from ..config import load_case, load_fidelity, resolve_scene
@@ -61,15 +103,28 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
         s.dynamics(st, dt)  # compile / warm up
         times = []
         imp = 0
-        for _ in range(steps):
-            n0 = max(s.n, 1)
-            t0 = time.perf_counter()
-            s.dynamics(st, dt)
-            times.append((time.perf_counter() - t0) / n0 * 1e9)
-            imp += s.last_step["n_impacts"]
-        runs.append({"n_parcels": n, "ns_per_parcel_step": float(np.median(times)),
-                     "mean_ns_per_parcel_step": float(np.mean(times)),
-                     "n_end": int(s.n), "impacts_per_step": imp / steps})
+        acc: dict = {}
+        parcel_steps = 0
+        wall = 0.0
+        with _timed_kernels(acc, s) if phases else nullcontext():
+            for _ in range(steps):
+                n0 = max(s.n, 1)
+                t0 = time.perf_counter()
+                s.dynamics(st, dt)
+                t1 = time.perf_counter() - t0
+                times.append(t1 / n0 * 1e9)
+                wall += t1
+                imp += s.last_step["n_impacts"]
+                parcel_steps += n0
+        run = {"n_parcels": n, "ns_per_parcel_step": float(np.median(times)),
+               "mean_ns_per_parcel_step": float(np.mean(times)),
+               "n_end": int(s.n), "impacts_per_step": imp / steps}
+        if phases:
+            # per parcel-step of all the timed steps together (the kernels' shares of it)
+            run["steps_ns_per_parcel_step"] = wall / parcel_steps * 1e9
+            run["phases_ns_per_parcel_step"] = {k: v / parcel_steps * 1e9 for k, v in
+                                                sorted(acc.items(), key=lambda kv: -kv[1])}
+        runs.append(run)
     out = {"threads": int(numba.get_num_threads()), "runs": runs}
     if as_json:
         print(json.dumps(out))
@@ -80,6 +135,10 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
             print(f"  {r['n_parcels']:>9d} parcels: {r['ns_per_parcel_step']:8.1f} ns per parcel-step "
                   f"(mean with the reordering steps {r['mean_ns_per_parcel_step']:.1f}; "
                   f"{r['impacts_per_step']:.0f} impacts/step)")
+            if "phases_ns_per_parcel_step" in r:
+                print(f"      {'all timed steps':24s} {r['steps_ns_per_parcel_step']:8.1f} ns, of which")
+            for k, v in r.get("phases_ns_per_parcel_step", {}).items():
+                print(f"      {k:24s} {v:8.1f} ns")
     return out
 
 
@@ -90,9 +149,11 @@ def register_bench(bench_app) -> None:
     @bench_app.command("particles")
     def particles(n: list[float] = typer.Option([1e5, 1e6], "--n", help="parcel counts"),
                   steps: int = typer.Option(20, "--steps", help="timed steps per count"),
-                  as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
+                  as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout"),
+                  phases: bool = typer.Option(False, "--phases",
+                                              help="also ns per parcel-step of each kernel")) -> None:
         """ns per parcel-step of the grain component on the reduced grid (frozen flow)."""
-        bench_particles(tuple(n), steps=steps, as_json=as_json)
+        bench_particles(tuple(n), steps=steps, as_json=as_json, phases=phases)
 
 
 if __name__ == "__main__":
@@ -101,4 +162,4 @@ if __name__ == "__main__":
     args = sys.argv[1:]
     ns = [float(args[i + 1]) for i, a in enumerate(args) if a == "--n"] or [1e5, 1e6]
     st = int(args[args.index("--steps") + 1]) if "--steps" in args else 20
-    bench_particles(ns, steps=st, as_json="--json" in args)
+    bench_particles(ns, steps=st, as_json="--json" in args, phases="--phases" in args)
