@@ -44,7 +44,8 @@ def test_bench_particles_phases_sum_within_the_step_and_leave_the_solver_as_it_w
     out = _json(["bench", "particles", "--n", "3000", "--steps", "12", "--phases", "--json"])
     (r,) = out["runs"]
     ph = r["phases_ns_per_parcel_step"]
-    # every step of the 12 runs the advance, the implicit estimate (two-way) and one reordering
+    # over 12 steps the advance and the implicit estimate (two-way) run every step, the
+    # reordering once (every particles.SORT_INTERVAL = 10 steps)
     assert {"_advance_all", "implicit_coefficients", "_sort"} <= set(ph)
     assert all(v > 0 for v in ph.values())
     # the kernels are timed inside the timed steps: together they cannot exceed the step
