@@ -8,6 +8,7 @@ by a hash of the package's numerical sources (set in ``saltstudy/__init__.py``),
 from __future__ import annotations
 
 import numba
+import numba.core.cpu
 
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
@@ -15,6 +16,20 @@ FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 jit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)
 #: parallel stencils: ``prange`` over x-slabs
 pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH, parallel=True)
+
+
+#: serial per-parcel kernels that allocate nothing (scratch arrays come from the caller): compiled
+#: without numba's reference counting. With it, every call of an inlined helper that takes an array
+#: and branches inside (``interp.locate``, the trilinear deposits, ...) incremented and decremented
+#: that array's reference count -- an atomic on a cache line both threads share -- about 18 pairs
+#: per parcel-step, which the reference-count pruning pass cannot remove across the branches
+#: (measured by callgrind on the bench; a micro-benchmark of one such helper: 11 ns -> 3 ns per
+#: call). Falls back to the plain flags if numba no longer has the (private) option.
+if hasattr(numba.core.cpu.CPUTargetOptions, "_nrt"):
+    jit_borrow = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH,
+                            _nrt=False)
+else:  # pragma: no cover
+    jit_borrow = jit
 
 
 def jit_with(**overrides):

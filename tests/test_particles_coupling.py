@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from test_particles_helpers import G_INDEX, component, scene, synthetic_flow
 from saltstudy.solver.grid import Grid
@@ -135,3 +136,50 @@ def test_exchange_conserves_momentum_with_fast_parcels_across_the_periodic_bound
     p1 = _air_momentum(st) + s.grain_momentum()[:2]
     assert np.all(np.abs(p1 - p0) <= 1e-12 * scale), (p1 - p0) / scale
     assert np.all(np.isfinite(st.u)) and np.all((s.x >= 0) & (s.x < g.Lx))
+
+
+@pytest.mark.parametrize("has_sgs", [False, True])
+def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
+    """chunk_assign against a plain numpy reference: every live parcel (flag 0) in exactly one
+    chunk, in increasing index order, inside its chunk's slabs; the chunks' slab runs tile the
+    domain with about n / N_CHUNKS parcels each; the per-chunk maxima are those of its parcels."""
+    from saltstudy.solver.coupling import N_CHUNKS, chunk_assign
+
+    rng = np.random.default_rng(7)
+    n, nx, dx = 5000, 40, 0.25
+    # clustered in x (uneven slabs), a few parcels dead or pending
+    x = np.concatenate([rng.uniform(0, nx * dx, n // 2), rng.normal(3.0, 0.4, n - n // 2)])
+    x = np.mod(x, nx * dx)
+    u = rng.normal(2.0, 1.5, n)
+    su = rng.normal(0.0, 0.3, n) if has_sgs else np.zeros(0)
+    trem = np.where(rng.random(n) < 0.1, rng.uniform(0, 1e-3, n), 0.0)
+    flag = np.where(rng.random(n) < 0.05, rng.choice([-1, 1], n), 0).astype(np.int8)
+    hist = np.zeros(nx, dtype=np.int64)
+    slab_stats = np.zeros((nx, 3))
+    bounds = np.zeros(2 * N_CHUNKS + 1, dtype=np.int64)
+    cid = np.zeros(n, dtype=np.int64)
+    cstart = np.zeros(N_CHUNKS + 1, dtype=np.int64)
+    idx = np.full(n, -1, dtype=np.int64)
+    stats = np.zeros((N_CHUNKS, 3))
+    chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
+                 stats)
+
+    live = np.flatnonzero(flag == 0)
+    slab = np.floor(x / dx).astype(int) % nx
+    assert bounds[0] == 0 and bounds[N_CHUNKS] == nx
+    assert np.all(np.diff(bounds[:N_CHUNKS + 1]) >= 0)
+    assert cstart[0] == 0 and cstart[N_CHUNKS] == live.size
+    filed = idx[:live.size]
+    np.testing.assert_array_equal(np.sort(filed), live)
+    per_slab = np.bincount(slab[live], minlength=nx)
+    for c in range(N_CHUNKS):
+        lo, hi = bounds[c], bounds[c + 1]
+        mine = idx[cstart[c]:cstart[c + 1]]
+        assert np.all(np.diff(mine) > 0)
+        assert np.all((slab[mine] >= lo) & (slab[mine] < hi))
+        # balanced up to one slab's worth of parcels
+        assert abs(mine.size - live.size / N_CHUNKS) <= per_slab.max()
+        if mine.size:
+            assert stats[c, 0] == np.abs(u[mine]).max()
+            assert stats[c, 1] == (np.abs(su[mine]).max() if has_sgs else 0.0)
+            assert stats[c, 2] == trem[mine].max()

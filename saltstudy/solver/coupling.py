@@ -1,13 +1,4 @@
-"""Two-way momentum exchange between parcels and air (paper eq. 2) and the SGS Buffers. Each of the ``N_CHUNKS`` parcel chunks deposits into its own buffers (no races; the
-chunks' buffers are summed in chunk order, so the result does not depend on the thread count).
-A chunk is a run of consecutive x-slabs holding about n / N_CHUNKS parcels (``chunk_assign``;
-its parcels are processed in increasing index order), so its buffers need only cover its own
-slabs widened by the stencil and by the largest distance one of its parcels can travel within the
-step (``chunk_ranges``); they are stored flat in one pool that lives across steps (no allocation,
-no page faults). Slabs outside a chunk's range hold zeros of that chunk and are skipped in the
-sums.
-
-TKE sink (eq. A1).
+"""Two-way momentum exchange between parcels and air (paper eq. 2) and the SGS TKE sink (eq. A1).
 
 Momentum. The air at a velocity face (u at x-faces, v at y-faces, w at z-faces) of mass
 ``M = rho * dx * dy * dz`` (``dz = grid.dz_c[k]`` for u and v, ``grid.dz_f[k]`` for w) receives minus
@@ -69,7 +60,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import jit, pjit
+from .._jit import jit, jit_borrow, pjit
 from ..physics.drag import drag_correction
 from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 
@@ -118,23 +109,39 @@ def drag_rate(rel, d, tp, nu):
     return drag_correction(rel * d / nu) / tp
 
 
-@jit
-def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, bounds, cid, cstart, idx, stats):
+@jit_borrow
+def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
+                 stats):
     """Split the live parcels (flag 0) into chunks of consecutive x-slabs holding about equal
     numbers of parcels: chunk c owns slabs [bounds[c], bounds[c+1]); its parcels are
     idx[cstart[c]:cstart[c+1]] in increasing index order (deterministic, thread-free).
-    stats[c] = (max |u_p|, max |su_p|, max trem) over its parcels. Serial, O(n)."""
+    stats[c] = (max |u_p|, max |su_p|, max trem) over its parcels. Serial, two passes over the
+    parcels (the first keeps each parcel's slab in cid and the maxima per slab in slab_stats
+    (nx, 3), so the second only files the indices)."""
     nc = cstart.shape[0] - 1
     has_sgs = su.shape[0] > 0
     for i in range(nx):
         hist[i] = 0
+        slab_stats[i, 0] = 0.0
+        slab_stats[i, 1] = 0.0
+        slab_stats[i, 2] = 0.0
     live = 0
     for p in range(n):
         if flag[p] != 0:
             continue
         i = wrap_index(int(x[p] / dx), nx)
+        cid[p] = i
         hist[i] += 1
         live += 1
+        a = abs(u[p])
+        if a > slab_stats[i, 0]:
+            slab_stats[i, 0] = a
+        if has_sgs:
+            a = abs(su[p])
+            if a > slab_stats[i, 1]:
+                slab_stats[i, 1] = a
+        if trem[p] > slab_stats[i, 2]:
+            slab_stats[i, 2] = trem[p]
     bounds[0] = 0
     c = 1
     acc = 0
@@ -147,39 +154,26 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, bounds, cid, cstart, idx
         bounds[c] = nx
         c += 1
     bounds[nc] = nx
-    # slab -> chunk (reuse hist)
+    # per chunk: parcel count and maxima; then slab -> chunk (reusing hist)
+    cstart[0] = 0
     for c in range(nc):
-        for i in range(bounds[c], bounds[c + 1]):
-            hist[i] = c
-    for c in range(nc + 1):
-        cstart[c] = 0
-    for c in range(nc):
+        m = 0
         stats[c, 0] = 0.0
         stats[c, 1] = 0.0
         stats[c, 2] = 0.0
-    for p in range(n):
-        if flag[p] != 0:
-            continue
-        c = hist[wrap_index(int(x[p] / dx), nx)]
-        cid[p] = c
-        cstart[c + 1] += 1
-        a = abs(u[p])
-        if a > stats[c, 0]:
-            stats[c, 0] = a
-        if has_sgs:
-            a = abs(su[p])
-            if a > stats[c, 1]:
-                stats[c, 1] = a
-        if trem[p] > stats[c, 2]:
-            stats[c, 2] = trem[p]
-    for c in range(nc):
-        cstart[c + 1] += cstart[c]
+        for i in range(bounds[c], bounds[c + 1]):
+            m += hist[i]
+            for r in range(3):
+                if slab_stats[i, r] > stats[c, r]:
+                    stats[c, r] = slab_stats[i, r]
+            hist[i] = c
+        cstart[c + 1] = cstart[c] + m
     for c in range(nc):
         bounds[nc + 1 + c] = cstart[c]  # fill pointers (bounds has 2 nc + 1 entries)
     for p in range(n):
         if flag[p] != 0:
             continue
-        c = cid[p]
+        c = hist[cid[p]]
         idx[bounds[nc + 1 + c]] = p
         bounds[nc + 1 + c] += 1
 
@@ -231,10 +225,11 @@ def grid_absmax(f):
     return part.max()
 
 
-@jit
+@jit_borrow
 def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo, z_f,
                     z_c, lut, pool, ranges, nk, k0, e0, c0, wtil):
-    """Chunk c of implicit_coefficients (serial; helpers inlined)."""
+    """Chunk c of implicit_coefficients (serial; helpers inlined; no reference counting, see
+    ``_jit.jit_borrow``)."""
     nx = uf.shape[0]
     ny = uf.shape[1]
     nz = uf.shape[2]

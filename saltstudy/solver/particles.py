@@ -73,7 +73,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import jit, pjit
+from .._jit import jit, jit_borrow, pjit
 from ..physics.drag import drag_correction
 from .coupling import (N_CHUNKS, apply_exchange, chunk_assign, chunk_ranges,
                        face_inverse_masses, grid_absmax, implicit_coefficients,
@@ -96,8 +96,11 @@ DRAG_MAXIT = 40
 NEWTON_MAXIT = 12
 #: sub-steps per step at most (a parcel then moves more than a cell height in a sub-step)
 MAX_SUBSTEPS = 16
-#: parcels advanced together (in lockstep passes) by _advance_chunk
+#: parcels advanced together (in lockstep passes) by _advance_chunk, and the rows of its per-lane
+#: float and integer state
 _LANES = 64
+_LANE_ROWS_F = 36
+_LANE_ROWS_I = 12
 #: the grains' random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct from
 #: any stream the flow derives from the same seed with another key
 RNG_SPAWN_KEY = 0x5A17
@@ -141,11 +144,11 @@ def _expm1_near(k, h, kq, emq):
 
 
 @ijit
-def _re687_near(rel, dnu, relq, rpq):
-    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR (relq <= 0:
-    none)."""
-    if relq > 0.0:
-        e = (rel - relq) / relq
+def _re687_near(rel, dnu, irelq, rpq):
+    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR; irelq = 1 / relq
+    (irelq <= 0: none)."""
+    if irelq > 0.0:
+        e = rel * irelq - 1.0
         if abs(e) <= _NEAR:
             return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
                 _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
@@ -216,10 +219,10 @@ def _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc, j
     return us, vs, ws
 
 
-@jit
+@jit_borrow
 def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf,
                    wf, ef, Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c,
-                   dz_c, lut, tlc, vmax, k0, e0, c0, wtil, nhit):
+                   dz_c, lut, tlc, vmax, k0, e0, c0, wtil, nhit, lane_f, lane_i):
     """Integrate the parcels of chunk c (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign) over
     dt (plus their time credit), see the module doc.
     Hits (bed crossings) get flag 1 and their time left in trem; nhit[c] counts them.
@@ -235,6 +238,10 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
     derivative of F is analytic: no extra transcendental), stopped when |F(k) - k| <= tol k; the
     last Newton update is then applied (an error quadratically below the tolerance); a plain
     fixed-point update is accepted only at tol^2.
+
+    Compiled without reference counting (``jit_borrow``): the lane scratch ``lane_f`` (chunks,
+    ``_LANE_ROWS_F``, ``_LANES``) and ``lane_i`` (chunks, ``_LANE_ROWS_I`` + 2, ``_LANES``) comes
+    from the caller.
 
     Serial, in blocks of ``_LANES`` parcels: a sub-step of every parcel of the block is done in
     three passes (locate and interpolate; the drag-rate iterations of all lanes in lockstep;
@@ -272,12 +279,14 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
     vm = 0.0
     nh = 0
     B = _LANES
-    # lane state: parcel (x, y, z, u, v, w), t, T, k, T_p, 1/T_p, Q m_p, d/nu | seen velocity,
-    # h, modelled impulse, slip, 1/h | stencil fractions | last drag evaluation (kq, emq, relq, rpq)
-    fx_ = np.empty((36, B))
-    ix_ = np.empty((12, B), dtype=np.int64)
-    lanes = np.empty(B, dtype=np.int64)
-    itl = np.empty(B, dtype=np.int64)
+    # lane state (the chunk's scratch, lane_f[c] and lane_i[c]): parcel (x, y, z, u, v, w), t, T,
+    # k, T_p, 1/T_p, Q m_p, d/nu | seen velocity, h, modelled impulse, slip, 1/h | stencil
+    # fractions | last drag evaluation (kq, emq, 1 / relq, rpq); integer rows 0-11 per lane,
+    # then the active lanes and the lanes still iterating
+    fx_ = lane_f[c]
+    ix_ = lane_i[c]
+    lanes = lane_i[c, _LANE_ROWS_I]
+    itl = lane_i[c, _LANE_ROWS_I + 1]
     q0 = cstart[c]
     qend = cstart[c + 1]
     while q0 < qend:
@@ -336,9 +345,9 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
                                    fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, nx, ny)
                 h = T - t
                 if nsub < MAX_SUBSTEPS - 1:
-                    lim = dz_c[kcell] / (abs(wp) + 1e-30)
-                    if h > lim:
-                        h = max(lim, T / MAX_SUBSTEPS)
+                    awp = abs(wp) + 1e-30
+                    if h * awp > dz_c[kcell]:
+                        h = max(dz_c[kcell] / awp, T / MAX_SUBSTEPS)
                         if h > T - t:
                             h = T - t
                 mu_ = 0.0
@@ -382,7 +391,7 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
                 # the last evaluation of the drag-rate iteration (none yet)
                 fx_[30, l] = -1.0
                 fx_[31, l] = 0.0
-                fx_[32, l] = -1.0
+                fx_[32, l] = 0.0
                 fx_[33, l] = 0.0
                 ix_[2, l] = ixf
                 ix_[3, l] = ixc
@@ -424,9 +433,10 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
                     az = gk + (Dw - gk) * beta
                     rel = math.sqrt(ax * ax + ay * ay + az * az)
                     rp = _re687_near(rel, fx_[12, l], fx_[32, l], fx_[33, l])
+                    irel = 1.0 / rel if rel > 0.0 else 0.0
                     fx_[30, l] = k
                     fx_[31, l] = em
-                    fx_[32, l] = rel
+                    fx_[32, l] = irel
                     fx_[33, l] = rp
                     F = (1.0 + 0.15 * rp) * itp
                     G = F - k
@@ -434,7 +444,6 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
                     lim = tol_fp
                     if _it < NEWTON_MAXIT and rel > 0.0:
                         # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
-                        irel = 1.0 / rel
                         db = E * ((E - phi) * ik + h * E) - h * beta
                         daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
                         drel = ((ax * Du + ay * Dv) * db + az * daz) * irel
@@ -521,8 +530,8 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
                                  fx_[19, l] - Qm * (wn - wp + g * h), ixc, fxc, jyc, fyc, kf, fzf)
                 if tke:
                     kcell = ix_[9, l]
-                    ic = wrap_index(int(xp / geo[0]), nx)
-                    jc = wrap_index(int(yp / geo[1]), ny)
+                    ic = ix_[2, l]  # the cell holding the parcel: floor(x / dx), as ixf
+                    jc = ix_[4, l]
                     kk = kcell if kcell < nk else nk - 1
                     e = ef[ic, jc, kcell]
                     if e > 0.0:
@@ -568,15 +577,15 @@ def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, 
 @pjit
 def _advance_all(cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf, wf, ef,
                  Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c, dz_c,
-                 lut, tlc, vmax, k0, e0, c0, wtil, nhit):
+                 lut, tlc, vmax, k0, e0, c0, wtil, nhit, lane_f, lane_i):
     """All parcels over dt, chunk-parallel (see _advance_chunk)."""
     for c in prange(ranges.shape[0]):
         _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf,
                        vf, wf, ef, Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo,
-                       z_f, z_c, dz_c, lut, tlc, vmax, k0, e0, c0, wtil, nhit)
+                       z_f, z_c, dz_c, lut, tlc, vmax, k0, e0, c0, wtil, nhit, lane_f, lane_i)
 
 
-@jit
+@jit_borrow
 def _collect_events(n, flag, ev):
     """ev[:m] = indices of the parcels with flag 1, in increasing order; returns m."""
     m = 0
@@ -587,7 +596,7 @@ def _collect_events(n, flag, ev):
     return m
 
 
-@jit
+@jit_borrow
 def _compact(dead, n_dead, n, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw):
     """Swap-remove the dead parcels; ``dead`` sorted in decreasing order. Returns the new count."""
     has_sgs = su.shape[0] > 0
@@ -613,7 +622,7 @@ def _compact(dead, n_dead, n, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw):
     return n
 
 
-@jit
+@jit_borrow
 def _cell_order(n, x, y, z, geo, z_f, lut, nx, ny, nz, key, perm, count):
     """Stable counting sort of parcels by cell (x-slab, then y, then level): perm[new] = old.
     Serial and deterministic. Keeps the grid gathers/scatters of neighbouring parcels in cache."""
@@ -687,7 +696,7 @@ def _release(rng, n0, n_new, x, y, z, u, v, w, d, kd, flag, trem, Lx, Ly, z_lo, 
         trem[q] = 0.0
 
 
-@jit
+@jit_borrow
 def _sgs_update(rng, n, dt, x, y, z, su, sv, sw, ef, tlc, geo, z_f, lut, nx, ny, nz):
     """Ornstein-Uhlenbeck SGS velocity per parcel (serial: random draws). See module doc."""
     for p in range(n):
@@ -934,6 +943,7 @@ class Saltation:
         nx, ny, nz = self.grid.shape
         nc = N_CHUNKS
         self._hist = np.zeros(nx, dtype=np.int64)
+        self._slab_stats = np.zeros((nx, 3))
         self._bounds = np.zeros(2 * nc + 1, dtype=np.int64)
         self._cstart = np.zeros(nc + 1, dtype=np.int64)
         self._stats = np.zeros((nc, 3))
@@ -941,6 +951,8 @@ class Saltation:
         self._ranges = np.zeros((nc, 3), dtype=np.int64)
         self._vmaxc = np.zeros(nc)
         self._nhit = np.zeros(nc, dtype=np.int64)
+        self._lane_f = np.zeros((nc, _LANE_ROWS_F, _LANES))
+        self._lane_i = np.zeros((nc, _LANE_ROWS_I + 2, _LANES), dtype=np.int64)
         self._dmax = np.zeros(nx)
         self._pool = np.zeros(0)
         self._grid6 = np.zeros((6, nx * ny * nz)) if self.two_way else np.zeros((6, 1))
@@ -984,7 +996,8 @@ class Saltation:
         # chunks of consecutive x-slabs with about equal parcel counts: each chunk's deposit
         # buffers cover only its slabs, widened by the stencil and by how far its parcels can move
         chunk_assign(n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._hist,
-                     self._bounds, self._cid, self._cstart, self._idx, self._stats)
+                     self._slab_stats, self._bounds, self._cid, self._cstart, self._idx,
+                     self._stats)
         if two:
             du, dv, dw, Uc, Vc, Wc = self._grid_views(nk)
             self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
@@ -1016,7 +1029,7 @@ class Saltation:
                      self._sw, state.u, state.v, state.w, ef, Uc, Vc, Wc, du, dv, dw, self._pool,
                      self._ranges, nk, ncomp, 3 if two else 0, self.prm, geo.geo, geo.z_f,
                      geo.z_c, geo.dz_c, geo.lut, self.tlc, self._vmaxc, self._k0, self._e0,
-                     self._c0, self._wtil, self._nhit)
+                     self._c0, self._wtil, self._nhit, self._lane_f, self._lane_i)
         # bed events, serial, in parcel order. Rebounds and ejecta leave the bed at the impact
         # point with the rest of the step as a time credit: they are integrated over dt + credit in
         # the next step, inside its implicit exchange (integrating them now, outside it, would be
@@ -1176,7 +1189,7 @@ class Saltation:
         self._steps = int(data.get("grain_steps", 0))
 
 
-@jit
+@jit_borrow
 def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
     nx = uf.shape[0]
     ny = uf.shape[1]

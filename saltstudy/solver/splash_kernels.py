@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from .._jit import jit
+from .._jit import jit, jit_borrow
 from ..physics.splash import ejection_number_mean, rebound_probability
 
 __all__ = ["splash_params", "soil_arrays", "draw_diameter", "draw_rebound", "draw_n_ejecta",
@@ -137,7 +137,7 @@ def _launch(speed, av, phi):
     return c * math.cos(phi), c * math.sin(phi), speed * math.sin(av)
 
 
-@jit
+@jit_borrow
 def bed_events(rng, ev, n_ev, cursor, n, x, y, z, u, v, w, d, kd, flag, trem, pend, n_pend, dead,
                n_dead, sp, cum, mu, lnsig, Q, cnt, en):
     """Splash every parcel listed in ``ev[cursor:n_ev]`` (each sits on the impact layer with its
