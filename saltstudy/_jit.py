@@ -18,6 +18,13 @@ jit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)
 pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH, parallel=True)
 
 
+def jit_with(**overrides):
+    """The shared flags with some overridden (e.g. ``parallel=True`` for a kernel with prange)."""
+    flags = dict(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)
+    flags.update(overrides)
+    return numba.njit(**flags)
+
+
 #: serial per-parcel kernels that allocate nothing (scratch arrays come from the caller): compiled
 #: without numba's reference counting. With it, every call of an inlined helper that takes an array
 #: and branches inside (``interp.locate``, the trilinear deposits, ...) incremented and decremented
@@ -25,15 +32,4 @@ pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH
 #: per parcel-step, which the reference-count pruning pass cannot remove across the branches
 #: (measured by callgrind on the bench; a micro-benchmark of one such helper: 11 ns -> 3 ns per
 #: call). Falls back to the plain flags if numba no longer has the (private) option.
-if hasattr(numba.core.cpu.CPUTargetOptions, "_nrt"):
-    jit_borrow = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH,
-                            _nrt=False)
-else:  # pragma: no cover
-    jit_borrow = jit
-
-
-def jit_with(**overrides):
-    """The shared flags with some overridden (e.g. ``parallel=True`` for a kernel with prange)."""
-    flags = dict(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)
-    flags.update(overrides)
-    return numba.njit(**flags)
+jit_borrow = jit_with(_nrt=False) if hasattr(numba.core.cpu.CPUTargetOptions, "_nrt") else jit
