@@ -88,3 +88,38 @@ def test_bed_crossing_located_exactly():
     assert c["n_rebounds"] + c["n_depositions"] == 1
     assert s.n == c["n_rebounds"] + c["n_ejections"]
     assert np.all(s.z >= 5e-4 - 1e-15)
+
+
+def test_splash_runs_keep_the_books_of_a_step_with_many_impacts():
+    """A step where hundreds of grains hit the bed at once (so every run of impacts has some):
+    each counts once, parcels = before + ejections - depositions, every ejectum and rebound is
+    a live grain on the impact layer with an upward launch and a soil diameter, and nothing of
+    the closed-up stretches is left behind (no duplicates, no stale slots)."""
+    from saltstudy.solver.particles import N_SPLASH_RUNS
+
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
+    s, st = component(sc)
+    rng = np.random.default_rng(11)
+    m = 600
+    s.add_parcels(rng.uniform(0, 2.4, m), rng.uniform(0, 1.6, m), rng.uniform(6e-4, 2e-3, m),
+                  u=rng.uniform(2, 5, m), v=rng.normal(0, 0.5, m), w=-rng.uniform(1.0, 3.0, m),
+                  d=2e-4)
+    s.add_parcels([1.0], [0.5], [0.2], d=2e-4)  # one that does not reach the bed
+    n0 = s.n
+    s.dynamics(st, 0.004)
+    c = s.last_step
+    assert c["n_impacts"] == m
+    assert c["n_impacts"] > 10 * N_SPLASH_RUNS
+    assert c["n_rebounds"] + c["n_depositions"] == m
+    assert c["n_ejections"] > 0
+    assert s.n == n0 + c["n_ejections"] - c["n_depositions"]
+    h_imp = sc.case.splash.impact_layer
+    on_bed = s.z == h_imp
+    assert on_bed.sum() == c["n_rebounds"] + c["n_ejections"]
+    assert np.all(s.w[on_bed] > 0.0)
+    assert np.all(np.isfinite(s.x[:s.n])) and np.all(s.d > 0.0)
+    assert np.all(s._flag[:s.n] == 0)
+    # every grain is distinct (a slot copied twice would repeat its whole state)
+    state = np.stack([s.x, s.y, s.z, s.u, s.v, s.w, s.d], axis=1)
+    assert np.unique(state, axis=0).shape[0] == s.n
+    assert np.any((s.x == 1.0) & (s.y == 0.5) & (s.z < 0.2))

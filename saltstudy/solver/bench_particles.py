@@ -39,9 +39,9 @@ def _frozen_flow(st, u_star: float, z0: float) -> None:
 
 
 #: the kernels of Saltation.dynamics timed by --phases (module-level names in solver/particles.py)
-PHASE_KERNELS = ("implicit_coefficients", "implicit_corrections", "_advance_all", "bed_events",
-                 "apply_exchange", "tke_rates", "chunk_assign", "_vmax_and_ztop", "grid_absmax",
-                 "_collect_events", "_compact")
+PHASE_KERNELS = ("implicit_coefficients", "implicit_corrections", "_advance_all", "splash_runs",
+                 "ejecta_reserve", "apply_exchange", "tke_rates", "chunk_assign",
+                 "_vmax_and_ztop", "grid_absmax", "_collect_events", "_compact")
 
 
 @contextmanager

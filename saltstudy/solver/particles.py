@@ -42,8 +42,10 @@ Fluid velocity at a parcel: trilinear on the staggered grid, log law below the f
 
 Work split: the per-parcel integration is ``prange``-parallel over a fixed number of chunks with
 chunk-private deposit buffers (race-free, and reductions in a fixed order, so results do not
-depend on the numba thread count); every random draw (splash, SGS velocity, entrainment) is in
-serial kernels. A chunk is a run of x-slabs with about n / N_CHUNKS parcels (processed in index
+depend on the numba thread count). The bed events are split into a fixed number of runs of
+consecutive impacts, each with its own random stream, splashed in parallel
+(splash_kernels.splash_runs); the other random draws (release, SGS velocity, entrainment) are in
+serial kernels on the component's main stream. A chunk is a run of x-slabs with about n / N_CHUNKS parcels (processed in index
 order), so its buffers cover only those slabs plus a margin (coupling.py), and only the levels
 parcels can reach within the step; the buffers persist across steps. The per-parcel code is
 inlined (interp.py ``ijit``) into a serial per-chunk loop (``_advance_chunk``, blocks of parcels
@@ -81,7 +83,8 @@ from .coupling import (N_CHUNKS, apply_exchange, chunk_assign, chunk_ranges,
 from .grid import Grid
 from .interp import (GridGeometry, _bil, _tri, ijit, interp_fluid, level_of, locate,
                      pool_add_tri, slab_of, wrap_index, wrap_periodic)
-from .splash_kernels import bed_events, draw_diameter, soil_arrays, splash_params
+from .splash_kernels import (draw_diameter, ejecta_reserve, soil_arrays, splash_params,
+                             splash_runs)
 from .state import FlowState
 
 __all__ = ["Saltation", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN_KEY",
@@ -101,11 +104,16 @@ MAX_SUBSTEPS = 16
 _LANES = 64
 _LANE_ROWS_F = 36
 _LANE_ROWS_I = 12
-#: the grains' random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct from
-#: any stream the flow derives from the same seed with another key
+#: the grains' main random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct
+#: from any stream the flow derives from the same seed with another key
 RNG_SPAWN_KEY = 0x5A17
 #: Anderson & Haff (1991) excess-stress entrainment coefficient [grains N^-1 s^-1] (see doc)
 ENTRAINMENT_ZETA = 1.0e5
+#: the impacts of a step are splashed in this many runs, each with its own random stream
+#: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY, SPLASH_STREAM, run)); fixed, not the thread
+#: count, so that a run is bit-for-bit the same with any number of threads
+N_SPLASH_RUNS = 4
+SPLASH_STREAM = 1
 #: parcels are reordered by cell every this many steps (cache locality of gathers and scatters)
 SORT_INTERVAL = 10
 
@@ -810,6 +818,10 @@ class Saltation:
                              float(self.sgs)])
         ss = np.random.SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,))
         self.rng = np.random.Generator(np.random.PCG64(ss))
+        # one stream per run of impacts (splash_kernels.ejecta_reserve): the bed events of a step
+        # go in parallel and still do not depend on the thread count
+        self.splash_rngs = tuple(np.random.Generator(np.random.PCG64(np.random.SeedSequence(
+            case.seed, spawn_key=(RNG_SPAWN_KEY, SPLASH_STREAM, r)))) for r in range(N_SPLASH_RUNS))
         cap = max(1024, capacity or 2 * self.n_initial)
         self._alloc(cap)
         self.n = 0
@@ -1042,22 +1054,7 @@ class Saltation:
         n_dead = 0
         rounds = 1 if n_ev else 0
         if n_ev:
-            _collect_events(n, self._flag, self._ev)
-            ev = self._ev[:n_ev].copy()  # bed_events may grow (replace) self._ev
-            cursor, n_pend = 0, 0
-            n_before = self.n
-            while True:
-                cursor, self.n, n_pend, n_dead = bed_events(
-                    self.rng, ev, n_ev, cursor, self.n, self._x, self._y, self._z, self._u,
-                    self._v, self._w, self._d, self._kd, self._flag, self._trem, self._pend,
-                    n_pend, self._dead, n_dead, self.sp, self.cum, self.mu, self.lnsig, self.Q,
-                    cnt, en)
-                if cursor >= n_ev:
-                    break
-                self._grow(2 * self.capacity)
-            if self.sgs:  # ejecta start without an SGS velocity
-                self._su[n_before:self.n] = self._sv[n_before:self.n] = \
-                    self._sw[n_before:self.n] = 0.0
+            n_dead = self._splash(n, n_ev)
         if n_dead:
             dead = np.sort(self._dead[:n_dead])[::-1].copy()
             self.n = _compact(dead, n_dead, self.n, self._x, self._y, self._z, self._u, self._v,
@@ -1085,6 +1082,50 @@ class Saltation:
         step["E_impact"], step["E_splash"] = float(en[0]), float(en[1])
         step["splash_rounds"] = rounds
         self.last_step = step
+
+    def _splash(self, n: int, n_ev: int) -> int:
+        """Bed events of the n_ev parcels flagged as hits, in N_SPLASH_RUNS runs of consecutive
+        impacts with their own random streams, in parallel (splash_kernels.splash_runs). Each
+        run appends its ejecta in a stretch reserved after n (ejecta_reserve); the stretches are
+        then closed up in run order. Fills cnt and en and the dead list self._dead; returns the
+        number of dead parcels."""
+        _collect_events(n, self._flag, self._ev)
+        ev = self._ev[:n_ev].copy()  # _grow replaces self._ev
+        nr = N_SPLASH_RUNS
+        lo = np.zeros(nr + 1, dtype=np.int64)
+        res = np.zeros(nr, dtype=np.int64)
+        ejecta_reserve(ev, n_ev, self._u, self._v, self._w, self.sp, lo, res)
+        base = n + np.concatenate(([0], np.cumsum(res)))  # run r appends in [base[r], base[r+1])
+        if base[-1] > self.capacity:
+            self._grow(max(2 * self.capacity, int(base[-1])))
+        cnt_r = np.zeros((nr, 4), dtype=np.int64)
+        en_r = np.zeros((nr, 2))
+        out = np.zeros((nr, 3), dtype=np.int64)
+        splash_runs(self.splash_rngs, ev, lo, base, self._x, self._y, self._z, self._u, self._v,
+                    self._w, self._d, self._kd, self._flag, self._trem, self._pend, self._dead,
+                    self.sp, self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out)
+        # close up the runs' ejecta stretches, in run order; the dead lists likewise
+        dst = n
+        dead = []
+        for r in range(nr):
+            if out[r, 0] != lo[r + 1] - lo[r]:  # ejecta_reserve's bound is the kernel's own
+                raise RuntimeError(f"splash run {r} ran out of its reserved ejecta stretch")
+            src, m = int(base[r]), int(out[r, 1] - base[r])
+            if m and dst != src:
+                for f in self._FIELDS:
+                    a = getattr(self, "_" + f)
+                    a[dst:dst + m] = a[src:src + m]
+            dst += m
+            dead.append(self._dead[lo[r]:lo[r] + out[r, 2]])
+        self._flag[n:dst] = 0
+        if self.sgs:  # ejecta start without an SGS velocity
+            self._su[n:dst] = self._sv[n:dst] = self._sw[n:dst] = 0.0
+        self.n = dst
+        self._cnt[:] = cnt_r.sum(axis=0)
+        self._en[:] = en_r.sum(axis=0)
+        dead = np.concatenate(dead)
+        self._dead[:dead.size] = dead
+        return int(dead.size)
 
     def _sort(self) -> None:
         """Reorder the parcels by cell (every SORT_INTERVAL steps): locality for the kernels."""
@@ -1153,6 +1194,8 @@ class Saltation:
                 data[f"grain_{f}"] = getattr(self, "_" + f)[:n].copy()
         data["grain_n"] = n
         data["grain_rng_state"] = json.dumps(self.rng.bit_generator.state)
+        data["grain_splash_rng_states"] = json.dumps([g.bit_generator.state
+                                                      for g in self.splash_rngs])
         data["grain_activated"] = int(self.activated)
         data["grain_t_activation"] = float(self.t_activation)
         for k, v in self._cum.items():
@@ -1177,6 +1220,10 @@ class Saltation:
         self.n = n
         st = data["grain_rng_state"]
         self.rng.bit_generator.state = json.loads(st if isinstance(st, str) else str(st))
+        if "grain_splash_rng_states" in data:
+            st = data["grain_splash_rng_states"]
+            for g, state in zip(self.splash_rngs, json.loads(st if isinstance(st, str) else str(st))):
+                g.bit_generator.state = state
         self.activated = bool(int(data["grain_activated"]))
         self.t_activation = float(data["grain_t_activation"])
         for k in self._cum:

@@ -1,8 +1,11 @@
 """Splash at the bed (paper section 2.3, eqs. 5-9) as serial numba kernels drawing from a numpy Generator.
 
 All random draws of the grain component happen here, in serial loops, in a fixed order, so a run is
-reproducible bit for bit (the Generator's ``bit_generator.state`` is checkpointed) and independent
-of the number of numba threads.
+reproducible bit for bit (the Generators' ``bit_generator.state`` is checkpointed) and independent
+of the number of threads. The impacts of a step are split into a fixed number of runs of
+consecutive impacts (``ejecta_reserve``), each splashed by ``bed_events`` with its own Generator
+and its own stretch of the parcel arrays, so the runs go in parallel (``splash_runs``) and the
+result does not depend on how many threads there are.
 
 Reading of section 2.3 (documented choice). "When a particle reaches the lower 0.5 mm layer ... [it]
 is assumed to rebound, eject other particles, or deposit on the surface following its velocity."
@@ -38,11 +41,13 @@ import math
 
 import numpy as np
 
-from .._jit import jit, jit_borrow
+from numba import prange
+
+from .._jit import jit, jit_borrow, pjit
 from ..physics.splash import ejection_number_mean, rebound_probability
 
 __all__ = ["splash_params", "soil_arrays", "draw_diameter", "draw_rebound", "draw_n_ejecta",
-           "draw_ejectum", "bed_events", "sample_impacts", "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN",
+           "draw_ejectum", "bed_events", "ejecta_reserve", "splash_runs", "sample_impacts", "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN",
            "SP_RHO_P"]
 
 # indices into the splash parameter vector
@@ -137,22 +142,46 @@ def _launch(speed, av, phi):
     return c * math.cos(phi), c * math.sin(phi), speed * math.sin(av)
 
 
+@jit
+def _ejecta_max(up, vp, wp, sp):
+    """The most ejecta an impact at velocity (up, vp, wp) can draw: floor(nbar) + 1 (eq. 8)."""
+    v_imp = math.sqrt(up * up + vp * vp + wp * wp)
+    return int(math.floor(ejection_number_mean(v_imp, sp[SP_A], sp[SP_G], sp[SP_DMEAN]))) + 1
+
+
 @jit_borrow
-def bed_events(rng, ev, n_ev, cursor, n, x, y, z, u, v, w, d, kd, flag, trem, pend, n_pend, dead,
-               n_dead, sp, cum, mu, lnsig, Q, cnt, en):
+def ejecta_reserve(ev, n_ev, u, v, w, sp, lo, res):
+    """Split the impacts ev[:n_ev] into ``res.shape[0]`` runs of consecutive entries (run r is
+    ev[lo[r]:lo[r+1]], lo[r] = r n_ev // runs) and give each the most ejecta its impacts can
+    draw: res[r] = sum over them of floor(nbar) + 1 (eq. 8, stochastic rounding)."""
+    nr = res.shape[0]
+    for r in range(nr + 1):
+        lo[r] = (r * n_ev) // nr
+    for r in range(nr):
+        m = 0
+        for i in range(lo[r], lo[r + 1]):
+            p = ev[i]
+            m += _ejecta_max(u[p], v[p], w[p], sp)
+        res[r] = m
+
+
+@jit_borrow
+def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, trem, pend, n_pend,
+               dead, n_dead, sp, cum, mu, lnsig, Q, cnt, en):
     """Splash every parcel listed in ``ev[cursor:n_ev]`` (each sits on the impact layer with its
     impact velocity and ``trem`` seconds of the step left).
 
-    Rebounding parcels are updated in place; ejecta are appended at index ``n``; both are listed in
-    ``pend`` (to be integrated for ``trem``). Deposited parcels get ``flag = -1`` and are listed in
+    Rebounding parcels are updated in place; ejecta are appended at index ``n`` (below
+    ``n_end``); both are listed in ``pend`` (to be integrated for ``trem``). Deposited parcels get ``flag = -1`` and are listed in
     ``dead``. ``cnt`` (int64: impacts, rebounds, ejections, depositions) and ``en`` (float64:
     impact and splash kinetic energy of the real grains, J) are incremented.
 
     Capacity: before an impact is drawn, room for its largest possible ejecta count is checked;
-    if the arrays are full the kernel returns early and the caller grows them and calls again with
-    the returned cursor (no draw is lost or repeated). Returns (cursor, n, n_pend, n_dead).
+    if there is none (index ``n_end``, or the end of ``pend``) the kernel returns early, and the
+    caller can make room and call again with the returned cursor (no draw is lost or repeated).
+    Returns (cursor, n, n_pend, n_dead).
     """
-    cap = x.shape[0]
+    cap = n_end
     h_imp = sp[SP_IMPACT_LAYER]
     for i in range(cursor, n_ev):
         p = ev[i]
@@ -161,7 +190,7 @@ def bed_events(rng, ev, n_ev, cursor, n, x, y, z, u, v, w, d, kd, flag, trem, pe
         wp = w[p]
         v2 = up * up + vp * vp + wp * wp
         v_imp = math.sqrt(v2)
-        nmax = int(math.floor(ejection_number_mean(v_imp, sp[SP_A], sp[SP_G], sp[SP_DMEAN]))) + 1
+        nmax = _ejecta_max(up, vp, wp, sp)
         if n + nmax > cap or n_pend + nmax + 1 > pend.shape[0]:
             return i, n, n_pend, n_dead
         mp = math.pi / 6.0 * sp[SP_RHO_P] * d[p] ** 3
@@ -211,6 +240,27 @@ def bed_events(rng, ev, n_ev, cursor, n, x, y, z, u, v, w, d, kd, flag, trem, pe
             cnt[2] += 1
             en[1] += Q * 0.5 * (math.pi / 6.0 * sp[SP_RHO_P] * dq ** 3) * ve * ve
     return n_ev, n, n_pend, n_dead
+
+
+@pjit
+def splash_runs(rngs, ev, lo, base, x, y, z, u, v, w, d, kd, flag, trem, pend, dead, sp, cum, mu,
+                lnsig, Q, cnt, en, out):
+    """bed_events for each run r of impacts ev[lo[r]:lo[r+1]] (ejecta_reserve), in parallel, with
+    the run's own Generator rngs[r]: its ejecta go to [base[r], base[r+1]), its pend and dead
+    lists to stretches of their own; cnt[r], en[r] get its counts and energies and out[r] =
+    (impacts done, end of its ejecta, dead count)."""
+    n0 = base[0]
+    for r in prange(lo.shape[0] - 1):
+        a = lo[r]
+        b = lo[r + 1]
+        pa = a + base[r] - n0
+        pb = pa + (b - a) + base[r + 1] - base[r]
+        cursor, end, _, nd = bed_events(rngs[r], ev[a:b], b - a, 0, base[r], base[r + 1], x, y,
+                                        z, u, v, w, d, kd, flag, trem, pend[pa:pb], 0, dead[a:b],
+                                        0, sp, cum, mu, lnsig, Q, cnt[r], en[r])
+        out[r, 0] = cursor
+        out[r, 1] = end
+        out[r, 2] = nd
 
 
 @jit
