@@ -109,39 +109,56 @@ def drag_rate(rel, d, tp, nu):
     return drag_correction(rel * d / nu) / tp
 
 
-@jit_borrow
+#: parcel blocks of chunk_assign's parallel passes (fixed, so the result is thread-count free)
+_ASSIGN_BLOCKS = 32
+
+
+@pjit
 def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
                  stats):
     """Split the live parcels (flag 0) into chunks of consecutive x-slabs holding about equal
     numbers of parcels: chunk c owns slabs [bounds[c], bounds[c+1]); its parcels are
     idx[cstart[c]:cstart[c+1]] in increasing index order (deterministic, thread-free).
-    stats[c] = (max |u_p|, max |su_p|, max trem) over its parcels. Serial, two passes over the
-    parcels (the first keeps each parcel's slab in cid and the maxima per slab in slab_stats
-    (nx, 3), so the second only files the indices)."""
+    stats[c] = (max |u_p|, max |su_p|, max trem) over its parcels; hist[i] and slab_stats[i]
+    (nx, 3) end up as the slab -> chunk map and the slabs' maxima.
+
+    Two passes over the parcels, each parallel over _ASSIGN_BLOCKS blocks of consecutive
+    indices: the first keeps each parcel's slab in cid and counts and maxima per block and
+    slab; the second files the indices, each block from its own offsets (the blocks' counts per
+    chunk, summed in block order), so the order within a chunk is the serial one."""
     nc = cstart.shape[0] - 1
+    nb = _ASSIGN_BLOCKS
     has_sgs = su.shape[0] > 0
-    for i in range(nx):
-        hist[i] = 0
-        slab_stats[i, 0] = 0.0
-        slab_stats[i, 1] = 0.0
-        slab_stats[i, 2] = 0.0
+    hb = np.zeros((nb, nx), dtype=np.int64)
+    sb = np.zeros((nb, nx, 3))
+    for b in prange(nb):
+        for p in range((b * n) // nb, ((b + 1) * n) // nb):
+            if flag[p] != 0:
+                continue
+            i = wrap_index(int(x[p] / dx), nx)
+            cid[p] = i
+            hb[b, i] += 1
+            a = abs(u[p])
+            if a > sb[b, i, 0]:
+                sb[b, i, 0] = a
+            if has_sgs:
+                a = abs(su[p])
+                if a > sb[b, i, 1]:
+                    sb[b, i, 1] = a
+            if trem[p] > sb[b, i, 2]:
+                sb[b, i, 2] = trem[p]
     live = 0
-    for p in range(n):
-        if flag[p] != 0:
-            continue
-        i = wrap_index(int(x[p] / dx), nx)
-        cid[p] = i
-        hist[i] += 1
-        live += 1
-        a = abs(u[p])
-        if a > slab_stats[i, 0]:
-            slab_stats[i, 0] = a
-        if has_sgs:
-            a = abs(su[p])
-            if a > slab_stats[i, 1]:
-                slab_stats[i, 1] = a
-        if trem[p] > slab_stats[i, 2]:
-            slab_stats[i, 2] = trem[p]
+    for i in range(nx):
+        m = 0
+        for r in range(3):
+            slab_stats[i, r] = 0.0
+        for b in range(nb):
+            m += hb[b, i]
+            for r in range(3):
+                if sb[b, i, r] > slab_stats[i, r]:
+                    slab_stats[i, r] = sb[b, i, r]
+        hist[i] = m
+        live += m
     bounds[0] = 0
     c = 1
     acc = 0
@@ -168,14 +185,21 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
                     stats[c, r] = slab_stats[i, r]
             hist[i] = c
         cstart[c + 1] = cstart[c] + m
+    # fill pointers per block and chunk: the chunk's start plus the earlier blocks' parcels
+    fill = np.zeros((nb, nc), dtype=np.int64)
     for c in range(nc):
-        bounds[nc + 1 + c] = cstart[c]  # fill pointers (bounds has 2 nc + 1 entries)
-    for p in range(n):
-        if flag[p] != 0:
-            continue
-        c = hist[cid[p]]
-        idx[bounds[nc + 1 + c]] = p
-        bounds[nc + 1 + c] += 1
+        o = cstart[c]
+        for b in range(nb):
+            fill[b, c] = o
+            for i in range(bounds[c], bounds[c + 1]):
+                o += hb[b, i]
+    for b in prange(nb):
+        for p in range((b * n) // nb, ((b + 1) * n) // nb):
+            if flag[p] != 0:
+                continue
+            c = hist[cid[p]]
+            idx[fill[b, c]] = p
+            fill[b, c] += 1
 
 
 @jit
