@@ -51,3 +51,23 @@ def test_bench_particles_phases_sum_within_the_step_and_leave_the_solver_as_it_w
     # the kernels are timed inside the timed steps: together they cannot exceed the step
     assert sum(ph.values()) <= r["steps_ns_per_parcel_step"] * (1 + 1e-9)
     assert {k: getattr(particles, k) for k in before} == before
+
+
+def test_bench_particles_against_a_revision_times_both_sides_in_one_process():
+    """--against HEAD: the revision's package is extracted from git and timed alternately with
+    this checkout's; both sides get every round."""
+    out = _json(["bench", "particles", "--against", "HEAD", "--n", "2000", "--steps", "2",
+                 "--rounds", "2", "--json"])
+    assert out["against"] == "HEAD"
+    (r,) = out["runs"]
+    assert r["n_parcels"] == 2000
+    assert len(r["this_rounds"]) == len(r["against_rounds"]) == 2
+    assert r["this"] > 0 and r["against"] > 0
+    import sys
+    assert any(m.startswith("saltstudy_") and m.endswith(".solver.particles") for m in sys.modules)
+
+
+def test_bench_particles_against_an_unknown_revision_is_a_clear_error():
+    res = CliRunner().invoke(app, ["bench", "particles", "--against", "no-such-rev", "--n", "100"])
+    assert res.exit_code != 0
+    assert "--against" in res.output and "no-such-rev" in res.output

@@ -11,17 +11,33 @@ splash, sub-step and couple two-way as in a run. Timing excludes compilation (on
 advance, the bed events, the reordering, ...), as ns per parcel-step over the timed steps: where
 the time goes, for whoever works on the speed target. The kernels are wrapped for the bench only,
 and the solver is left as it was afterwards.
+
+``--against REV`` times this checkout against the grain component of git revision REV in one
+process: REV's ``saltstudy/`` and ``cases/`` are extracted (``git archive``) under
+``~/.cache/saltstudy/compare/<sha>/`` with the package renamed, both are imported, and rounds of
+``--steps`` steps alternate between them (the order flipped every round) on the same set-up.
+Separate processes on a machine whose speed drifts scatter by tens of per cent; alternating in
+one process resolves a few. REV's kernels compile on first use and are cached beside this
+checkout's (numba's cache, keyed by this checkout's sources).
 """
 from __future__ import annotations
 
+import importlib
+import io
 import json
 import math
+import os
+import shutil
+import subprocess
+import sys
+import tarfile
 import time
 from contextlib import contextmanager, nullcontext
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["bench_particles", "register_bench"]
+__all__ = ["bench_particles", "compare_particles", "register_bench"]
 
 
 def _frozen_flow(st, u_star: float, z0: float) -> None:
@@ -142,6 +158,96 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
     return out
 
 
+class RevisionError(ValueError):
+    """--against names no revision of this checkout (or there is no git checkout)."""
+
+
+def _revision_package(rev: str) -> str:
+    """Import name of the ``saltstudy`` package of git revision ``rev`` of this checkout,
+    extracted (with its ``cases/`` and ``workflows/``) under ~/.cache/saltstudy/compare/<sha>/
+    and put on sys.path."""
+    root = Path(__file__).resolve().parents[2]
+    try:
+        sha = subprocess.run(["git", "-C", str(root), "rev-parse", "--verify", rev + "^{commit}"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError) as e:
+        raise RevisionError(f"{rev!r} is not a git revision of {root}") from e
+    name = f"saltstudy_{sha[:12]}"
+    base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "saltstudy" / \
+        "compare" / sha[:12]
+    if not base.exists():  # extracted whole into a temporary folder, then renamed into place
+        tar = subprocess.run(["git", "-C", str(root), "archive", sha, "saltstudy", "cases",
+                              "workflows"], capture_output=True, check=True).stdout
+        tmp = base.with_name(base.name + f".tmp{os.getpid()}")
+        with tarfile.open(fileobj=io.BytesIO(tar)) as tf:
+            tf.extractall(tmp, filter="data")
+        (tmp / "saltstudy").rename(tmp / name)
+        try:
+            tmp.rename(base)
+        except OSError:  # another process got there first
+            shutil.rmtree(tmp, ignore_errors=True)
+    if str(base) not in sys.path:
+        sys.path.insert(0, str(base))
+    return name
+
+
+def _component(pkg: str, n: int, dt: float, case: int, fidelity: str):
+    """A warmed-up grain component of package ``pkg`` with the bench's flow and parcels."""
+    cfg = importlib.import_module(pkg + ".config")
+    G = importlib.import_module(pkg + ".solver.grid")
+    P = importlib.import_module(pkg + ".solver.particles")
+    S = importlib.import_module(pkg + ".solver.state")
+    scene = cfg.resolve_scene(cfg.load_case(case), cfg.load_fidelity(fidelity))
+    grid = G.Grid.from_spec(scene.fidelity.grid)
+    st = S.FlowState.zeros(grid)
+    _frozen_flow(st, scene.case.forcing.u_star_s, scene.case.surface.z0)
+    s = P.Saltation(grid, scene, capacity=2 * n)
+    rng = np.random.default_rng(1)
+    s.add_parcels(rng.uniform(0, grid.Lx, n), rng.uniform(0, grid.Ly, n),
+                  rng.uniform(1e-3, 0.3, n), u=rng.uniform(0, 4, n), v=rng.normal(0, 0.3, n),
+                  w=rng.normal(0, 1, n), d=None)
+    s.dynamics(st, dt)  # compile / warm up
+    return s, st
+
+
+def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: int = 7,
+                      as_json: bool = False, dt: float = 0.005, case: int = 2,
+                      fidelity: str = "reduced") -> dict:
+    """This checkout against revision ``against`` (module doc), per parcel count: the median over
+    rounds of each side's median step, ns per parcel-step. Returns {"threads", "against",
+    "runs": [{"n_parcels", "this", "against", "this_rounds", "against_rounds"}]}."""
+    import numba
+
+    sides = {"this": __name__.split(".")[0], "against": _revision_package(against)}
+    runs = []
+    for n in n_list:
+        n = int(n)
+        per = {k: [] for k in sides}
+        for r in range(rounds):
+            for side in (("this", "against") if r % 2 == 0 else ("against", "this")):
+                s, st = _component(sides[side], n, dt, case, fidelity)
+                times = []
+                for _ in range(steps):
+                    n0 = max(s.n, 1)
+                    t0 = time.perf_counter()
+                    s.dynamics(st, dt)
+                    times.append((time.perf_counter() - t0) / n0 * 1e9)
+                per[side].append(float(np.median(times)))
+        runs.append({"n_parcels": n, "this": float(np.median(per["this"])),
+                     "against": float(np.median(per["against"])),
+                     "this_rounds": per["this"], "against_rounds": per["against"]})
+    out = {"threads": int(numba.get_num_threads()), "against": against, "runs": runs}
+    if as_json:
+        print(json.dumps(out))
+    else:
+        print(f"grain component, this checkout against {against}, {out['threads']} numba threads, "
+              f"{rounds} alternating rounds of {steps} steps, medians")
+        for r in runs:
+            print(f"  {r['n_parcels']:>9d} parcels: {r['this']:8.1f} ns per parcel-step here, "
+                  f"{r['against']:8.1f} at {against} ({r['this'] / r['against'] - 1:+.1%})")
+    return out
+
+
 def register_bench(bench_app) -> None:
     """Add the ``particles`` command to the given typer sub-app (``saltstudy bench particles``)."""
     import typer
@@ -151,9 +257,19 @@ def register_bench(bench_app) -> None:
                   steps: int = typer.Option(20, "--steps", help="timed steps per count"),
                   as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout"),
                   phases: bool = typer.Option(False, "--phases",
-                                              help="also ns per parcel-step of each kernel")) -> None:
+                                              help="also ns per parcel-step of each kernel"),
+                  against: str = typer.Option(None, "--against", help="git revision to time "
+                                              "this checkout against, alternating in one process"),
+                  rounds: int = typer.Option(7, "--rounds", help="alternating rounds (--against)")
+                  ) -> None:
         """ns per parcel-step of the grain component on the reduced grid (frozen flow)."""
-        bench_particles(tuple(n), steps=steps, as_json=as_json, phases=phases)
+        if against:
+            try:
+                compare_particles(against, tuple(n), steps=steps, rounds=rounds, as_json=as_json)
+            except RevisionError as e:
+                raise typer.BadParameter(str(e), param_hint="--against") from e
+        else:
+            bench_particles(tuple(n), steps=steps, as_json=as_json, phases=phases)
 
 
 if __name__ == "__main__":
