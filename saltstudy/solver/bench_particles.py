@@ -39,6 +39,9 @@ import numpy as np
 
 __all__ = ["bench_particles", "compare_particles", "register_bench"]
 
+#: the package this module belongs to (``saltstudy``)
+_PACKAGE = __name__.split(".")[0]
+
 
 def _frozen_flow(st, u_star: float, z0: float) -> None:
     g = st.grid
@@ -52,6 +55,30 @@ def _frozen_flow(st, u_star: float, z0: float) -> None:
     st.w[...] = a * np.cos(4 * kx * Xc) * np.sin(2 * ky * Y) * np.tanh(zf / 0.05)
     st.w[..., 0] = st.w[..., -1] = 0.0
     st.e[...] = 0.5 * u_star ** 2
+
+
+def _component(pkg: str, n: int, dt: float, case: int, fidelity: str):
+    """A warmed-up grain component of package ``pkg`` with the bench's flow and parcels."""
+    cfg = importlib.import_module(pkg + ".config")
+    G = importlib.import_module(pkg + ".solver.grid")
+    P = importlib.import_module(pkg + ".solver.particles")
+    S = importlib.import_module(pkg + ".solver.state")
+    scene = cfg.resolve_scene(cfg.load_case(case), cfg.load_fidelity(fidelity))
+    grid = G.Grid.from_spec(scene.fidelity.grid)
+    st = S.FlowState.zeros(grid)
+    _frozen_flow(st, scene.case.forcing.u_star_s, scene.case.surface.z0)
+    s = P.Saltation(grid, scene, capacity=2 * n)
+    rng = np.random.default_rng(1)
+    s.add_parcels(rng.uniform(0, grid.Lx, n), rng.uniform(0, grid.Ly, n),
+                  rng.uniform(1e-3, 0.3, n), u=rng.uniform(0, 4, n), v=rng.normal(0, 0.3, n),
+                  w=rng.normal(0, 1, n), d=None)
+    s.dynamics(st, dt)  # compile / warm up
+    return s, st
+
+
+def _emit(out: dict, as_json: bool, lines) -> None:
+    """Print ``out`` as one JSON object, or else the text ``lines``."""
+    print(json.dumps(out) if as_json else "\n".join(lines))
 
 
 #: the kernels of Saltation.dynamics timed by --phases (module-level names in solver/particles.py)
@@ -99,24 +126,10 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
     exceed."""
     import numba
 
-    from ..config import load_case, load_fidelity, resolve_scene
-    from .grid import Grid
-    from .particles import Saltation
-    from .state import FlowState
-
-    scene = resolve_scene(load_case(case), load_fidelity(fidelity))
-    grid = Grid.from_spec(scene.fidelity.grid)
     runs = []
     for n in n_list:
         n = int(n)
-        st = FlowState.zeros(grid)
-        _frozen_flow(st, scene.case.forcing.u_star_s, scene.case.surface.z0)
-        s = Saltation(grid, scene, capacity=2 * n)
-        rng = np.random.default_rng(1)
-        s.add_parcels(rng.uniform(0, grid.Lx, n), rng.uniform(0, grid.Ly, n),
-                      rng.uniform(1e-3, 0.3, n), u=rng.uniform(0, 4, n), v=rng.normal(0, 0.3, n),
-                      w=rng.normal(0, 1, n), d=None)
-        s.dynamics(st, dt)  # compile / warm up
+        s, st = _component(_PACKAGE, n, dt, case, fidelity)
         times = []
         imp = 0
         acc: dict = {}
@@ -142,19 +155,21 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
                                                 sorted(acc.items(), key=lambda kv: -kv[1])}
         runs.append(run)
     out = {"threads": int(numba.get_num_threads()), "runs": runs}
-    if as_json:
-        print(json.dumps(out))
-    else:
-        print(f"grain component, {fidelity} grid {grid.shape}, {out['threads']} numba threads, "
-              f"median of {steps} steps, dt = {dt} s")
+
+    def text():
+        yield (f"grain component, {fidelity} grid {st.grid.shape}, {out['threads']} numba "
+               f"threads, median of {steps} steps, dt = {dt} s")
         for r in runs:
-            print(f"  {r['n_parcels']:>9d} parcels: {r['ns_per_parcel_step']:8.1f} ns per parcel-step "
-                  f"(mean with the reordering steps {r['mean_ns_per_parcel_step']:.1f}; "
-                  f"{r['impacts_per_step']:.0f} impacts/step)")
+            yield (f"  {r['n_parcels']:>9d} parcels: {r['ns_per_parcel_step']:8.1f} ns per "
+                   f"parcel-step (mean with the reordering steps "
+                   f"{r['mean_ns_per_parcel_step']:.1f}; {r['impacts_per_step']:.0f} impacts/step)")
             if "phases_ns_per_parcel_step" in r:
-                print(f"      {'all timed steps':24s} {r['steps_ns_per_parcel_step']:8.1f} ns, of which")
+                yield (f"      {'all timed steps':24s} {r['steps_ns_per_parcel_step']:8.1f} ns, "
+                       "of which")
             for k, v in r.get("phases_ns_per_parcel_step", {}).items():
-                print(f"      {k:24s} {v:8.1f} ns")
+                yield f"      {k:24s} {v:8.1f} ns"
+
+    _emit(out, as_json, text())
     return out
 
 
@@ -191,25 +206,6 @@ def _revision_package(rev: str) -> str:
     return name
 
 
-def _component(pkg: str, n: int, dt: float, case: int, fidelity: str):
-    """A warmed-up grain component of package ``pkg`` with the bench's flow and parcels."""
-    cfg = importlib.import_module(pkg + ".config")
-    G = importlib.import_module(pkg + ".solver.grid")
-    P = importlib.import_module(pkg + ".solver.particles")
-    S = importlib.import_module(pkg + ".solver.state")
-    scene = cfg.resolve_scene(cfg.load_case(case), cfg.load_fidelity(fidelity))
-    grid = G.Grid.from_spec(scene.fidelity.grid)
-    st = S.FlowState.zeros(grid)
-    _frozen_flow(st, scene.case.forcing.u_star_s, scene.case.surface.z0)
-    s = P.Saltation(grid, scene, capacity=2 * n)
-    rng = np.random.default_rng(1)
-    s.add_parcels(rng.uniform(0, grid.Lx, n), rng.uniform(0, grid.Ly, n),
-                  rng.uniform(1e-3, 0.3, n), u=rng.uniform(0, 4, n), v=rng.normal(0, 0.3, n),
-                  w=rng.normal(0, 1, n), d=None)
-    s.dynamics(st, dt)  # compile / warm up
-    return s, st
-
-
 def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: int = 7,
                       as_json: bool = False, dt: float = 0.005, case: int = 2,
                       fidelity: str = "reduced") -> dict:
@@ -218,7 +214,7 @@ def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: 
     "runs": [{"n_parcels", "this", "against", "this_rounds", "against_rounds"}]}."""
     import numba
 
-    sides = {"this": __name__.split(".")[0], "against": _revision_package(against)}
+    sides = {"this": _PACKAGE, "against": _revision_package(against)}
     runs = []
     for n in n_list:
         n = int(n)
@@ -237,14 +233,15 @@ def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: 
                      "against": float(np.median(per["against"])),
                      "this_rounds": per["this"], "against_rounds": per["against"]})
     out = {"threads": int(numba.get_num_threads()), "against": against, "runs": runs}
-    if as_json:
-        print(json.dumps(out))
-    else:
-        print(f"grain component, this checkout against {against}, {out['threads']} numba threads, "
-              f"{rounds} alternating rounds of {steps} steps, medians")
+
+    def text():
+        yield (f"grain component, this checkout against {against}, {out['threads']} numba "
+               f"threads, {rounds} alternating rounds of {steps} steps, medians")
         for r in runs:
-            print(f"  {r['n_parcels']:>9d} parcels: {r['this']:8.1f} ns per parcel-step here, "
-                  f"{r['against']:8.1f} at {against} ({r['this'] / r['against'] - 1:+.1%})")
+            yield (f"  {r['n_parcels']:>9d} parcels: {r['this']:8.1f} ns per parcel-step here, "
+                   f"{r['against']:8.1f} at {against} ({r['this'] / r['against'] - 1:+.1%})")
+
+    _emit(out, as_json, text())
     return out
 
 
