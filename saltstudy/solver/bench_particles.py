@@ -13,7 +13,7 @@ the time goes, for whoever works on the speed target. The kernels are wrapped fo
 and the solver is left as it was afterwards.
 
 ``--against REV`` times this checkout against the grain component of git revision REV in one
-process: REV's ``saltstudy/`` and ``cases/`` are extracted (``git archive``) under
+process: REV's ``saltstudy/``, ``cases/`` and ``workflows/`` are extracted (``git archive``) under
 ``~/.cache/saltstudy/compare/<sha>/`` with the package renamed, both are imported, and rounds of
 ``--steps`` steps alternate between them (the order flipped every round) on the same set-up.
 Separate processes on a machine whose speed drifts scatter by tens of per cent; alternating in
@@ -195,7 +195,9 @@ def _revision_package(rev: str) -> str:
                               "workflows"], capture_output=True, check=True).stdout
         tmp = base.with_name(base.name + f".tmp{os.getpid()}")
         with tarfile.open(fileobj=io.BytesIO(tar)) as tf:
-            tf.extractall(tmp, filter="data")
+            # the "data" filter (no links out, no absolute paths) exists from Python 3.11.4
+            safe = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
+            tf.extractall(tmp, **safe)
         (tmp / "saltstudy").rename(tmp / name)
         try:
             tmp.rename(base)

@@ -45,9 +45,10 @@ chunk-private deposit buffers (race-free, and reductions in a fixed order, so re
 depend on the numba thread count). The bed events are split into a fixed number of runs of
 consecutive impacts, each with its own random stream, splashed in parallel
 (splash_kernels.splash_runs); the other random draws (release, SGS velocity, entrainment) are in
-serial kernels on the component's main stream. A chunk is a run of x-slabs with about n / N_CHUNKS parcels (processed in index
-order), so its buffers cover only those slabs plus a margin (coupling.py), and only the levels
-parcels can reach within the step; the buffers persist across steps. The per-parcel code is
+serial kernels on the component's main stream. A chunk is a run of x-slabs with about
+n / N_CHUNKS parcels (processed in index order), so its buffers cover only those slabs plus a
+margin (coupling.py), and only the levels parcels can reach within the step; the buffers persist
+across steps. The per-parcel code is
 inlined (interp.py ``ijit``) into a serial per-chunk loop (``_advance_chunk``, blocks of parcels
 in lockstep passes) called from the prange. Two-way, the modelled impulse of the implicit
 estimate and the first sub-step's drag impulse share their weights and are deposited as one
@@ -853,7 +854,6 @@ class Saltation:
         for f in self._FIELDS + ("k0", "e0", "c0", "wtil"):
             setattr(self, "_" + f, np.zeros(cap))
         self._flag = np.zeros(cap, dtype=np.int8)
-        self._pend = np.zeros(cap, dtype=np.int64)
         self._dead = np.zeros(cap, dtype=np.int64)
         self._ev = np.zeros(cap, dtype=np.int64)
         self._idx = np.zeros(cap, dtype=np.int64)
@@ -872,7 +872,7 @@ class Saltation:
         if need <= cap:
             return
         new = max(need, 2 * cap)
-        for f in self._FIELDS + ("k0", "e0", "c0", "wtil", "flag", "pend", "dead", "ev", "idx",
+        for f in self._FIELDS + ("k0", "e0", "c0", "wtil", "flag", "dead", "ev", "idx",
                                  "cid"):
             old = getattr(self, "_" + f)
             a = np.zeros(new, dtype=old.dtype)
@@ -1042,10 +1042,10 @@ class Saltation:
                      self._ranges, nk, ncomp, 3 if two else 0, self.prm, geo.geo, geo.z_f,
                      geo.z_c, geo.dz_c, geo.lut, self.tlc, self._vmaxc, self._k0, self._e0,
                      self._c0, self._wtil, self._nhit, self._lane_f, self._lane_i)
-        # bed events, serial, in parcel order. Rebounds and ejecta leave the bed at the impact
-        # point with the rest of the step as a time credit: they are integrated over dt + credit in
-        # the next step, inside its implicit exchange (integrating them now, outside it, would be
-        # an explicit exchange: unstable for small grains at high loading).
+        # bed events (self._splash). Rebounds and ejecta leave the bed at the impact point with the
+        # rest of the step as a time credit: they are integrated over dt + credit in the next step,
+        # inside its implicit exchange (integrating them now, outside it, would be an explicit
+        # exchange: unstable for small grains at high loading).
         n_ev = int(self._nhit.sum())
         cnt = self._cnt
         en = self._en
@@ -1102,8 +1102,8 @@ class Saltation:
         en_r = np.zeros((nr, 2))
         out = np.zeros((nr, 3), dtype=np.int64)
         splash_runs(self.splash_rngs, ev, lo, base, self._x, self._y, self._z, self._u, self._v,
-                    self._w, self._d, self._kd, self._flag, self._trem, self._pend, self._dead,
-                    self.sp, self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out)
+                    self._w, self._d, self._kd, self._flag, self._trem, self._dead, self.sp,
+                    self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out)
         # close up the runs' ejecta stretches, in run order; the dead lists likewise
         dst = n
         dead = []
@@ -1222,7 +1222,8 @@ class Saltation:
         self.rng.bit_generator.state = json.loads(st if isinstance(st, str) else str(st))
         if "grain_splash_rng_states" in data:
             st = data["grain_splash_rng_states"]
-            for g, state in zip(self.splash_rngs, json.loads(st if isinstance(st, str) else str(st))):
+            states = json.loads(st if isinstance(st, str) else str(st))
+            for g, state in zip(self.splash_rngs, states):
                 g.bit_generator.state = state
         self.activated = bool(int(data["grain_activated"]))
         self.t_activation = float(data["grain_t_activation"])

@@ -40,7 +40,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-
 from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
@@ -166,20 +165,21 @@ def ejecta_reserve(ev, n_ev, u, v, w, sp, lo, res):
 
 
 @jit_borrow
-def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, trem, pend, n_pend,
-               dead, n_dead, sp, cum, mu, lnsig, Q, cnt, en):
+def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, trem, dead, n_dead,
+               sp, cum, mu, lnsig, Q, cnt, en):
     """Splash every parcel listed in ``ev[cursor:n_ev]`` (each sits on the impact layer with its
     impact velocity and ``trem`` seconds of the step left).
 
     Rebounding parcels are updated in place; ejecta are appended at index ``n`` (below
-    ``n_end``); both are listed in ``pend`` (to be integrated for ``trem``). Deposited parcels get ``flag = -1`` and are listed in
-    ``dead``. ``cnt`` (int64: impacts, rebounds, ejections, depositions) and ``en`` (float64:
-    impact and splash kinetic energy of the real grains, J) are incremented.
+    ``n_end``); both carry the impactor's ``trem`` (integrated by the caller in the next step).
+    Deposited parcels get ``flag = -1`` and are listed in ``dead``. ``cnt`` (int64: impacts,
+    rebounds, ejections, depositions) and ``en`` (float64: impact and splash kinetic energy of the
+    real grains, J) are incremented.
 
     Capacity: before an impact is drawn, room for its largest possible ejecta count is checked;
-    if there is none (index ``n_end``, or the end of ``pend``) the kernel returns early, and the
-    caller can make room and call again with the returned cursor (no draw is lost or repeated).
-    Returns (cursor, n, n_pend, n_dead).
+    if there is none (index ``n_end``) the kernel returns early, and the caller can make room and
+    call again with the returned cursor (no draw is lost or repeated). Returns
+    (cursor, n, n_dead).
     """
     cap = n_end
     h_imp = sp[SP_IMPACT_LAYER]
@@ -191,8 +191,8 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
         v2 = up * up + vp * vp + wp * wp
         v_imp = math.sqrt(v2)
         nmax = _ejecta_max(up, vp, wp, sp)
-        if n + nmax > cap or n_pend + nmax + 1 > pend.shape[0]:
-            return i, n, n_pend, n_dead
+        if n + nmax > cap:
+            return i, n, n_dead
         mp = math.pi / 6.0 * sp[SP_RHO_P] * d[p] ** 3
         cnt[0] += 1
         en[0] += Q * 0.5 * mp * v2
@@ -209,8 +209,6 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             z[p] = h_imp
             kd[p] = 0.0  # velocity jumped: the drag rate is re-estimated from scratch
             flag[p] = 0
-            pend[n_pend] = p
-            n_pend += 1
             cnt[1] += 1
             en[1] += Q * 0.5 * mp * vr * vr
         else:
@@ -235,29 +233,24 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             kd[q] = 0.0
             flag[q] = 0
             trem[q] = tr
-            pend[n_pend] = q
-            n_pend += 1
             cnt[2] += 1
             en[1] += Q * 0.5 * (math.pi / 6.0 * sp[SP_RHO_P] * dq ** 3) * ve * ve
-    return n_ev, n, n_pend, n_dead
+    return n_ev, n, n_dead
 
 
 @pjit
-def splash_runs(rngs, ev, lo, base, x, y, z, u, v, w, d, kd, flag, trem, pend, dead, sp, cum, mu,
-                lnsig, Q, cnt, en, out):
+def splash_runs(rngs, ev, lo, base, x, y, z, u, v, w, d, kd, flag, trem, dead, sp, cum, mu, lnsig,
+                Q, cnt, en, out):
     """bed_events for each run r of impacts ev[lo[r]:lo[r+1]] (ejecta_reserve), in parallel, with
-    the run's own Generator rngs[r]: its ejecta go to [base[r], base[r+1]), its pend and dead
-    lists to stretches of their own; cnt[r], en[r] get its counts and energies and out[r] =
-    (impacts done, end of its ejecta, dead count)."""
-    n0 = base[0]
+    the run's own Generator rngs[r]: its ejecta go to [base[r], base[r+1]), its dead list to
+    dead[lo[r]:]; cnt[r], en[r] get its counts and energies and out[r] = (impacts done, end of
+    its ejecta, dead count)."""
     for r in prange(lo.shape[0] - 1):
         a = lo[r]
         b = lo[r + 1]
-        pa = a + base[r] - n0
-        pb = pa + (b - a) + base[r + 1] - base[r]
-        cursor, end, _, nd = bed_events(rngs[r], ev[a:b], b - a, 0, base[r], base[r + 1], x, y,
-                                        z, u, v, w, d, kd, flag, trem, pend[pa:pb], 0, dead[a:b],
-                                        0, sp, cum, mu, lnsig, Q, cnt[r], en[r])
+        cursor, end, nd = bed_events(rngs[r], ev[a:b], b - a, 0, base[r], base[r + 1], x, y, z, u,
+                                     v, w, d, kd, flag, trem, dead[a:b], 0, sp, cum, mu, lnsig, Q,
+                                     cnt[r], en[r])
         out[r, 0] = cursor
         out[r, 1] = end
         out[r, 2] = nd
