@@ -39,8 +39,9 @@ import numpy as np
 
 __all__ = ["bench_particles", "compare_particles", "register_bench"]
 
-#: the package this module belongs to (``saltstudy``)
-_PACKAGE = __name__.split(".")[0]
+#: the package this module belongs to (``saltstudy``); from ``__package__``, which ``python -m``
+#: keeps (``__name__`` is then ``__main__``)
+_PACKAGE = (__package__ or __name__).split(".")[0]
 
 
 def _frozen_flow(st, u_star: float, z0: float) -> None:
