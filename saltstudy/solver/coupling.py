@@ -61,8 +61,8 @@ import numpy as np
 from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
-from ..physics.drag import drag_correction
 from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
+from .elementary import expm1_small, pow_0687
 
 __all__ = ["C0_LAGRANGIAN", "face_inverse_masses", "lagrangian_time_coefficients", "chunk_bounds",
            "chunk_assign", "chunk_ranges", "implicit_coefficients", "implicit_corrections",
@@ -104,9 +104,10 @@ def chunk_bounds(n, c, nc):
 
 
 @ijit
-def drag_rate(rel, d, tp, nu):
-    """k = f(Re_p) / T_p [s^-1] (eqs. 3-4), Re_p = |u - u_p| d / nu."""
-    return drag_correction(rel * d / nu) / tp
+def drag_rate(rel, dnu, tp):
+    """k = f(Re_p) / T_p [s^-1] (eqs. 3-4), Re_p = |u - u_p| d / nu; dnu = d / nu [s m^-1].
+    physics.drag.drag_correction with the power inlined (elementary.pow_0687)."""
+    return (1.0 + 0.15 * pow_0687(rel * dnu)) / tp
 
 
 #: parcel blocks of chunk_assign's parallel passes (fixed, so the result is thread-count free)
@@ -283,7 +284,7 @@ def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, d
                                       fzc, kf, fzf, lfac, islog, nx, ny)
             if k <= 0.0:
                 rel = math.sqrt((ur - u[p]) ** 2 + (vr - v[p]) ** 2 + (wr - w[p]) ** 2)
-                k = drag_rate(rel, dp, tp, nu)
+                k = drag_rate(rel, dp / nu, tp)
             if islog:
                 u0, v0, w0 = interp_faces(uf, vf, wf, nz, nz + 1, ixf, fxf, ixc, fxc, jyf, fyf,
                                           jyc, fyc, kc, fzc, kf, fzf, islog, nx, ny)
@@ -291,7 +292,7 @@ def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, d
                 ov = vr - v0
         k0[p] = k
         T = dt + trem[p]  # the parcel's own step (time credit after a splash, particles.py)
-        em = math.expm1(-k * T)
+        em = expm1_small(-k * T)
         e0[p] = em  # particles.py reuses it (first drag evaluation, same k and T)
         ome = -em
         cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
