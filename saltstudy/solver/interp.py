@@ -29,6 +29,7 @@ import numpy as np
 
 from .._jit import jit, jit_with
 from .grid import Grid
+from .simd import fma2, fma4, load2
 
 #: small helpers of the parcel kernels: inlined into the callers at numba-IR level. (LLVM does not
 #: inline across numba's per-function libraries: an out-of-line call that passes the arrays as
@@ -176,11 +177,13 @@ def _tri(f, i0, fx, j0, fy, k0, fz, nx, ny):
     gx = 1.0 - fx
     gy = 1.0 - fy
     gz = 1.0 - fz
-    k1 = k0 + 1
-    a = (gx * (gy * (gz * f[i0, j0, k0] + fz * f[i0, j0, k1])
-               + fy * (gz * f[i0, j1, k0] + fz * f[i0, j1, k1]))
-         + fx * (gy * (gz * f[i1, j0, k0] + fz * f[i1, j0, k1])
-                 + fy * (gz * f[i1, j1, k0] + fz * f[i1, j1, k1])))
+    # each column's two levels in one load (simd.load2; k0 + 1 < nz by the callers)
+    f000, f001 = load2(f, i0, j0, k0)
+    f010, f011 = load2(f, i0, j1, k0)
+    f100, f101 = load2(f, i1, j0, k0)
+    f110, f111 = load2(f, i1, j1, k0)
+    a = (gx * (gy * (gz * f000 + fz * f001) + fy * (gz * f010 + fz * f011))
+         + fx * (gy * (gz * f100 + fz * f101) + fy * (gz * f110 + fz * f111)))
     return a
 
 
@@ -296,18 +299,14 @@ def slab_of(i, s, nx):
 @ijit
 def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
     """pool[base + slab-local trilinear stencil] += w_ijk * val (as _add_tri: levels >= nk fold
-    onto nk - 1). ``base = off + comp * L * ny * nk``."""
+    onto nk - 1). ``base = off + comp * L * ny * nk``. A column's two levels are contiguous: one
+    2-wide fused multiply-add each (simd.fma2)."""
     i1 = i0 + 1
     if i1 == nx:
         i1 = 0
     j1 = j0 + 1
     if j1 == ny:
         j1 = 0
-    k1 = k0 + 1
-    if k0 >= nk:
-        k0 = nk - 1
-    if k1 >= nk:
-        k1 = nk - 1
     gx = 1.0 - fx
     gy = 1.0 - fy
     gz = 1.0 - fz
@@ -321,30 +320,33 @@ def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
     v01 = gx * fy * val
     v10 = fx * gy * val
     v11 = fx * fy * val
-    pool[a00 + k0] += v00 * gz
-    pool[a00 + k1] += v00 * fz
-    pool[a01 + k0] += v01 * gz
-    pool[a01 + k1] += v01 * fz
-    pool[a10 + k0] += v10 * gz
-    pool[a10 + k1] += v10 * fz
-    pool[a11 + k0] += v11 * gz
-    pool[a11 + k1] += v11 * fz
+    if k0 + 1 < nk:
+        fma2(pool, a00 + k0, gz, fz, v00)
+        fma2(pool, a01 + k0, gz, fz, v01)
+        fma2(pool, a10 + k0, gz, fz, v10)
+        fma2(pool, a11 + k0, gz, fz, v11)
+    else:  # both levels fold onto nk - 1
+        k = nk - 1
+        pool[a00 + k] += v00 * gz
+        pool[a00 + k] += v00 * fz
+        pool[a01 + k] += v01 * gz
+        pool[a01 + k] += v01 * fz
+        pool[a10 + k] += v10 * gz
+        pool[a10 + k] += v10 * fz
+        pool[a11 + k] += v11 * gz
+        pool[a11 + k] += v11 * fz
 
 
 @ijit
 def pool_add_tri2(pool, base, s, nx, ny, nk, va, vb, i0, fx, j0, fy, k0, fz):
-    """As pool_add_tri for a pair of interleaved buffers (stride 2): (+ w va, + w vb)."""
+    """As pool_add_tri for a pair of interleaved buffers (stride 2): (+ w va, + w vb). A column's
+    two levels are four contiguous values: one 4-wide fused multiply-add each (simd.fma4)."""
     i1 = i0 + 1
     if i1 == nx:
         i1 = 0
     j1 = j0 + 1
     if j1 == ny:
         j1 = 0
-    k1 = k0 + 1
-    if k0 >= nk:
-        k0 = nk - 1
-    if k1 >= nk:
-        k1 = nk - 1
     gx = 1.0 - fx
     gy = 1.0 - fy
     gz = 1.0 - fz
@@ -354,29 +356,18 @@ def pool_add_tri2(pool, base, s, nx, ny, nk, va, vb, i0, fx, j0, fy, k0, fz):
     a01 = r0 + 2 * j1 * nk
     a10 = r1 + 2 * j0 * nk
     a11 = r1 + 2 * j1 * nk
-    k0 *= 2
-    k1 *= 2
-    w = gx * gy * gz
-    pool[a00 + k0] += w * va
-    pool[a00 + k0 + 1] += w * vb
-    w = gx * gy * fz
-    pool[a00 + k1] += w * va
-    pool[a00 + k1 + 1] += w * vb
-    w = gx * fy * gz
-    pool[a01 + k0] += w * va
-    pool[a01 + k0 + 1] += w * vb
-    w = gx * fy * fz
-    pool[a01 + k1] += w * va
-    pool[a01 + k1 + 1] += w * vb
-    w = fx * gy * gz
-    pool[a10 + k0] += w * va
-    pool[a10 + k0 + 1] += w * vb
-    w = fx * gy * fz
-    pool[a10 + k1] += w * va
-    pool[a10 + k1 + 1] += w * vb
-    w = fx * fy * gz
-    pool[a11 + k0] += w * va
-    pool[a11 + k0 + 1] += w * vb
-    w = fx * fy * fz
-    pool[a11 + k1] += w * va
-    pool[a11 + k1 + 1] += w * vb
+    if k0 + 1 < nk:
+        k = 2 * k0
+        fma4(pool, a00 + k, gx * gy * gz, gx * gy * fz, va, vb)
+        fma4(pool, a01 + k, gx * fy * gz, gx * fy * fz, va, vb)
+        fma4(pool, a10 + k, fx * gy * gz, fx * gy * fz, va, vb)
+        fma4(pool, a11 + k, fx * fy * gz, fx * fy * fz, va, vb)
+    else:  # both levels fold onto nk - 1
+        k = 2 * (nk - 1)
+        for a, wxy in ((a00, gx * gy), (a01, gx * fy), (a10, fx * gy), (a11, fx * fy)):
+            w = wxy * gz
+            pool[a + k] += w * va
+            pool[a + k + 1] += w * vb
+            w = wxy * fz
+            pool[a + k] += w * va
+            pool[a + k + 1] += w * vb

@@ -1,0 +1,100 @@
+"""Short-vector read-modify-writes for the deposits of the parcel kernels.
+
+A trilinear deposit adds to the two levels k and k + 1 of each of its four columns, and k is the
+fastest index of the deposit buffers, so each column's pair is contiguous; the implicit estimate
+interleaves its (A, B) sums, so there the column's four values are contiguous. Numba compiles
+scalar code only (LLVM's SLP vectorizer, which would merge such neighbours, is off in numba
+because of a miscompilation it caused, numba#8705, and switching it on is global). These
+intrinsics emit the vector operation directly, for these call sites only: one load, one fused
+multiply-add and one store of 2 or 4 doubles instead of 2 or 4 of each. Each element gets the
+same fused multiply-add as the scalar code, so the results are bit-for-bit the same.
+
+The caller guarantees that the elements lie inside the array (no bounds check, as the kernels'
+other indexing): ``i >= 0`` and ``i + 2`` (``i + 4``) ``<= size``.
+"""
+from __future__ import annotations
+
+from llvmlite import ir
+from numba.core import cgutils, types
+from numba.extending import intrinsic
+
+__all__ = ["fma2", "fma4"]
+
+
+def _vector_fma(context, builder, ary_ty, ary, i, mul, add_scalars):
+    """pool[i:i + n] = fma(mul, add, pool[i:i + n]) for n = len(mul) (vectors built from scalars)."""
+    n = len(mul)
+    dbl = ir.DoubleType()
+    vty = ir.VectorType(dbl, n)
+    arr = context.make_array(ary_ty)(context, builder, value=ary)
+    ptr = builder.gep(arr.data, [i])
+    vptr = builder.bitcast(ptr, vty.as_pointer())
+    old = builder.load(vptr, align=8)
+    a = cgutils.get_null_value(vty)
+    b = cgutils.get_null_value(vty)
+    for m in range(n):
+        idx = ir.Constant(ir.IntType(32), m)
+        a = builder.insert_element(a, mul[m], idx)
+        b = builder.insert_element(b, add_scalars[m], idx)
+    fma = cgutils.get_or_insert_function(builder.module, ir.FunctionType(vty, [vty, vty, vty]),
+                                         f"llvm.fma.v{n}f64")
+    builder.store(builder.call(fma, [a, b, old]), vptr, align=8)
+
+
+def _check(ary, i):
+    return (isinstance(ary, types.Array) and ary.ndim == 1 and ary.dtype == types.float64
+            and ary.layout == "C" and isinstance(i, types.Integer))
+
+
+@intrinsic
+def fma2(typingctx, ary, i, w0, w1, v):
+    """ary[i] += w0 * v; ary[i + 1] += w1 * v (one 2-wide fused multiply-add)."""
+    if not _check(ary, i):
+        return None
+    sig = types.void(ary, types.intp, types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        a, idx, x0, x1, val = args
+        _vector_fma(context, builder, signature.args[0], a, idx, [x0, x1], [val, val])
+        return context.get_dummy_value()
+    return sig, codegen
+
+
+@intrinsic
+def fma4(typingctx, ary, i, w0, w1, va, vb):
+    """ary[i:i + 4] += (w0 va, w0 vb, w1 va, w1 vb): two interleaved (A, B) pairs at once."""
+    if not _check(ary, i):
+        return None
+    sig = types.void(ary, types.intp, types.float64, types.float64, types.float64,
+                     types.float64)
+
+    def codegen(context, builder, signature, args):
+        a, idx, x0, x1, pa, pb = args
+        _vector_fma(context, builder, signature.args[0], a, idx, [x0, x0, x1, x1],
+                    [pa, pb, pa, pb])
+        return context.get_dummy_value()
+    return sig, codegen
+
+
+@intrinsic
+def load2(typingctx, ary, i, j, k):
+    """(ary[i, j, k], ary[i, j, k + 1]) of a C-contiguous 3-D float64 array, one 2-wide load.
+    Indices must be in range (non-negative, k + 1 < shape[2]): no wraparound, no check."""
+    if not (isinstance(ary, types.Array) and ary.ndim == 3 and ary.dtype == types.float64
+            and ary.layout == "C" and all(isinstance(t, types.Integer) for t in (i, j, k))):
+        return None
+    ret = types.UniTuple(types.float64, 2)
+    sig = ret(ary, types.intp, types.intp, types.intp)
+
+    def codegen(context, builder, signature, args):
+        aty = signature.args[0]
+        arr = context.make_array(aty)(context, builder, value=args[0])
+        shape = cgutils.unpack_tuple(builder, arr.shape, 3)
+        strides = cgutils.unpack_tuple(builder, arr.strides, 3)
+        ptr = cgutils.get_item_pointer2(context, builder, arr.data, shape, strides, "C",
+                                        list(args[1:]), wraparound=False)
+        vty = ir.VectorType(ir.DoubleType(), 2)
+        v = builder.load(builder.bitcast(ptr, vty.as_pointer()), align=8)
+        elems = [builder.extract_element(v, ir.Constant(ir.IntType(32), m)) for m in range(2)]
+        return context.make_tuple(builder, ret, elems)
+    return sig, codegen
