@@ -121,8 +121,14 @@ def test_bed_crossing_time_is_the_root_to_round_off():
         drop = wt * h - a * math.expm1(-k * h) / k  # z(h) - z(0)
         if drop < 0.0:
             cases.append((zc - drop * rng.uniform(0.0, 1.0), wt, a, k, h))
+    eps = np.finfo(float).eps
     for z0, wt, a, k, h in cases:
         zh = z0 + wt * h - a * math.expm1(-k * h) / k
         t = _crossing_time(z0, wt, a, k, h, zc, zh)
         assert 0.0 <= t <= h
-        assert t == pytest.approx(_crossing_reference(z0, wt, a, k, h, zc), abs=2e-14 * h)
+        ref = _crossing_reference(z0, wt, a, k, h, zc)
+        # the root is known to the rounding of z(t)'s terms over the slope (a grazing crossing,
+        # near an apex, is ill-conditioned); the iteration's own tolerance is 1e-14 h
+        em = math.expm1(-k * ref)
+        noise = 8 * eps * max(abs(z0), abs(wt * ref), abs(a * em / k)) / abs(wt + a * (1 + em))
+        assert t == pytest.approx(ref, abs=2e-14 * h + noise)
