@@ -112,6 +112,25 @@ def test_tke_sink_rate_matches_eq_A1():
     assert np.count_nonzero(st.tke_sink) == 1
 
 
+def test_tke_rates_clear_the_levels_a_step_no_longer_reaches_and_a_restored_array():
+    """tke_rates writes only the levels parcels may reach (and those the last step reached):
+    when the parcels sink, the higher rates are cleared; an array the component has not filled
+    before (a restart's) is cleared in full."""
+    sc = scene(2, physics={"two_way_coupling": False})
+    s, st = component(sc, gravity=False)
+    st.e[...] = 0.2
+    g = s.grid
+    s.add_parcels([0.55], [0.45], [g.z_c[10]], d=200e-6)
+    s.dynamics(st, 1e-3)
+    assert np.count_nonzero(st.tke_sink[:, :, 10]) == 1
+    s._z[0] = g.z_c[1]  # the parcel now low: its old level must not keep its rate
+    s.dynamics(st, 1e-3)
+    assert np.count_nonzero(st.tke_sink) == 1 and np.count_nonzero(st.tke_sink[:, :, 1]) == 1
+    st.tke_sink = np.full(g.shape, 7.0)  # as restored from a checkpoint
+    s.dynamics(st, 1e-3)
+    assert np.count_nonzero(st.tke_sink) == 1 and np.count_nonzero(st.tke_sink[:, :, 1]) == 1
+
+
 def test_exchange_conserves_momentum_with_fast_parcels_across_the_periodic_boundary():
     """Parcels several cells per step fast, in both directions, near x = 0 and x = Lx (the
     chunks' deposit buffers cover only their x-slabs plus the distance a parcel can travel):

@@ -379,8 +379,9 @@ def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, U
 
 
 @pjit
-def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, uf, vf, wf, tot):
-    """Air update: U += delta + (sum_c P[c]) / M on the lowest nk levels (module doc).
+def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot):
+    """Air update: U += delta + (sum_c P[c]) / M on the lowest nk levels (module doc); m_c, m_w
+    are the face masses M (inverses of inv_mc, inv_mw; 0 where inv_mw is).
 
     P (comps 0, 1, 2 of the chunks' pool ranges, each (L, ny, nk); ncomp comps per chunk) holds,
     per face, the difference between the modelled and the actual drag impulses of the parcels
@@ -413,14 +414,14 @@ def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, uf, vf, wf, 
                     pu += pool[q]
                     pv += pool[q + csz]
                     pw += pool[q + 2 * csz]
-                pu += du[i, j, k] / inv_mc[k]
-                pv += dv[i, j, k] / inv_mc[k]
+                pu += du[i, j, k] * m_c[k]
+                pv += dv[i, j, k] * m_c[k]
                 uf[i, j, k] += pu * inv_mc[k]
                 vf[i, j, k] += pv * inv_mc[k]
                 su[i] += pu
                 sv[i] += pv
                 if inv_mw[k] > 0.0:
-                    pw += dw[i, j, k] / inv_mw[k]
+                    pw += dw[i, j, k] * m_w[k]
                     wf[i, j, k] += pw * inv_mw[k]
                     sw[i] += pw
                 else:
@@ -441,13 +442,13 @@ def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, uf, vf, wf, 
 
 
 @pjit
-def tke_rates(pool, ranges, comp, nk_c, inv_vol, out):
-    """out[:, :, :nk_c] = sum_c T[c] / V_cell; zero above (rates of eq. A1, s^-1). T[c] is comp
-    ``comp`` of chunk c's pool range, (L, ny, nk_c)."""
+def tke_rates(pool, ranges, comp, nk_c, nz, inv_vol, out):
+    """out[:, :, :nk_c] = sum_c T[c] / V_cell; zero on levels nk_c..nz-1 (rates of eq. A1, s^-1;
+    the caller knows the levels from nz up to be zero already). T[c] is comp ``comp`` of chunk
+    c's pool range, (L, ny, nk_c)."""
     nc = ranges.shape[0]
     nx = out.shape[0]
     ny = out.shape[1]
-    nz = out.shape[2]
     for i in prange(nx):
         for j in range(ny):
             for k in range(nz):

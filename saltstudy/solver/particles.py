@@ -709,13 +709,13 @@ def _vmax_and_ztop(n, u, v, w, z):
                 a = s
             if z[p] > zz:
                 zz = z[p]
-            s = math.sqrt(u[p] * u[p] + v[p] * v[p] + w[p] * w[p])
+            s = u[p] * u[p] + v[p] * v[p] + w[p] * w[p]  # squared: one square root at the end
             if s > ww:
                 ww = s
         mu[b] = a
         mz[b] = zz
         mw[b] = ww
-    return mu.max(), mz.max(), mw.max()
+    return mu.max(), mz.max(), math.sqrt(mw.max())
 
 
 @jit
@@ -841,6 +841,9 @@ class Saltation:
         self.h_imp = float(case.splash.impact_layer)
         self.cum, self.mu, self.lnsig = soil_arrays(case.soil)
         self.inv_mc, self.inv_mw = face_inverse_masses(grid, self.rho)
+        self.m_c = 1.0 / self.inv_mc
+        self.m_w = np.divide(1.0, self.inv_mw, out=np.zeros_like(self.inv_mw),
+                             where=self.inv_mw > 0.0)
         self.inv_vol = np.ascontiguousarray(1.0 / grid.cell_volume)
         self.tlc = lagrangian_time_coefficients(grid, self.kappa, delta=case.closure.delta)
         self.prm = np.array([self.rho, self.nu, self.g, self.rho_p, self.Q, self.h_imp, DRAG_TOL,
@@ -1000,6 +1003,7 @@ class Saltation:
         self._cnt = np.zeros(4, dtype=np.int64)
         self._en = np.zeros(2)
         self._tot = np.zeros(3)
+        self._tke_out, self._tke_top = None, nz  # the TKE-rate array last filled, its levels
 
     def _grid_views(self, nk: int):
         """(du, dv, dw, Uc, Vc, Wc), each (nx, ny, nk), views of persistent storage."""
@@ -1056,7 +1060,7 @@ class Saltation:
             dumax = 0.0
         # a parcel moves at most max(|u_p|, |u_seen|) (dt + credit) in x within the step
         if n > 0:
-            uair = grid_absmax(state.u) + dumax
+            uair = grid_absmax(state.u[:, :, :nk]) + dumax  # the levels parcels can reach
             st = self._stats
             vb = np.maximum(st[:, 0], uair + st[:, 1])
             mg = vb * (dt + st[:, 2]) / g.dx
@@ -1093,14 +1097,18 @@ class Saltation:
         if two:
             tot = self._tot
             bed = apply_exchange(self._pool, self._ranges, ncomp, du, dv, dw, self.inv_mc,
-                                 self.inv_mw, state.u, state.v, state.w, tot)
+                                 self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w, tot)
             self.momentum_to_air += tot
             self.momentum_to_bed += bed
         if tke:
             if state.tke_sink is None:
                 state.tke_sink = np.zeros(g.shape)
-            tke_rates(self._pool, self._ranges, 3 if two else 0, nk, self.inv_vol,
+            # levels at and above the last step's nk are zero, unless the array is new to us (a
+            # restart): only the levels that may not be are cleared
+            top = self._tke_top if state.tke_sink is self._tke_out else nz
+            tke_rates(self._pool, self._ranges, 3 if two else 0, nk, max(nk, top), self.inv_vol,
                       state.tke_sink)
+            self._tke_out, self._tke_top = state.tke_sink, nk
         self._vmax = max(self._vmax, float(self._vmaxc.max()) if self.n else 0.0)
         step["n_impacts"], step["n_rebounds"], step["n_ejections"], step["n_depositions"] = (
             int(c) for c in cnt)
