@@ -61,8 +61,8 @@ import numpy as np
 from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
-from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 from .elementary import expm1_small, pow_0687
+from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 
 __all__ = ["C0_LAGRANGIAN", "face_inverse_masses", "lagrangian_time_coefficients", "chunk_bounds",
            "chunk_assign", "chunk_ranges", "implicit_coefficients", "implicit_corrections",

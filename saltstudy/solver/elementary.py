@@ -2,9 +2,9 @@
 
 Every parcel-step needs one Re_p^0.687 (the Clift correction, paper eq. 4) and one expm1(-k T)
 (the exact drag update) at arguments unrelated to the ones before. As calls into libm (``pow``,
-``expm1``) they were 18 % of the grain step's time (``perf`` on the bench, 10^6 parcels), more
-with the spills: every call clobbers all vector registers, so the kernels' live values go to
-the stack and back around it. Here they are a few inlined multiply-adds:
+``expm1``) they were 14 % of the grain step's time (``perf record -e cpu-clock`` on the bench,
+10^6 parcels), plus the spills: every call clobbers all vector registers, so the kernels' live
+values go to the stack and back around it. Here they are a few inlined multiply-adds:
 
 * :func:`pow_0687` ``x^0.687`` for x > 0: with x = 2^e m (m in [1, 2), read from the bits),
   ``x^0.687 = 2^(0.687 e) c_j^0.687 (1 + t)^0.687`` where c_j is the centre of the 1/256-wide bin
