@@ -30,7 +30,8 @@ from numba.extending import intrinsic
 
 from .interp import ijit
 
-__all__ = ["pow_0687", "expm1_small", "CLIFT_EXPONENT", "EXPM1_TAYLOR_MAX"]
+__all__ = ["pow_0687", "expm1_small", "binomial_coefficients", "CLIFT_EXPONENT",
+           "EXPM1_TAYLOR_MAX"]
 
 #: the exponent of the Clift et al. (1978) correction f(Re) = 1 + 0.15 Re^0.687 (paper eq. 4)
 CLIFT_EXPONENT = 0.687
@@ -77,14 +78,15 @@ def _tables(a: float):
 _P2, _PM = _tables(CLIFT_EXPONENT)
 
 
-def _binomial(a: float, m: int) -> list[float]:
+def binomial_coefficients(a: float, m: int) -> list[float]:
+    """C(a, 1), ..., C(a, m): the coefficients of (1 + t)^a = 1 + sum_i C(a, i) t^i."""
     c = [1.0]
     for i in range(m):
         c.append(c[-1] * (a - i) / (i + 1))
     return c[1:]
 
 
-_B1, _B2, _B3, _B4, _B5 = _binomial(CLIFT_EXPONENT, 5)
+_B1, _B2, _B3, _B4, _B5 = binomial_coefficients(CLIFT_EXPONENT, 5)
 _MANT = (1 << 52) - 1
 _ONE = 1023 << 52
 _SHIFT = 52 - _BIN_BITS

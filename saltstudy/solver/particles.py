@@ -80,7 +80,7 @@ from .._jit import jit, jit_borrow, pjit
 from .coupling import (N_CHUNKS, apply_exchange, chunk_assign, chunk_ranges, drag_rate,
                        face_inverse_masses, grid_absmax, implicit_coefficients,
                        implicit_corrections, lagrangian_time_coefficients, tke_rates)
-from .elementary import expm1_small, pow_0687
+from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_0687
 from .grid import Grid
 from .interp import (GridGeometry, _bil, _tri, ijit, interp_fluid, level_of, locate,
                      pool_add_tri, slab_of, wrap_index, wrap_periodic)
@@ -130,15 +130,7 @@ _RHO, _NU, _G, _RHOP, _Q, _HIMP, _TOL, _LZ, _DT, _TWOWAY, _TKE, _SGS = range(12)
 _NEAR = 0.02
 _X2, _X3, _X4, _X5, _X6, _X7, _X8, _X9 = (1.0 / math.factorial(i) for i in range(2, 10))
 
-
-def _binomial(a, m):
-    c = [1.0]
-    for i in range(m):
-        c.append(c[-1] * (a - i) / (i + 1))
-    return c[1:]
-
-
-_B1, _B2, _B3, _B4, _B5, _B6, _B7, _B8, _B9, _B10 = _binomial(0.687, 10)
+_B1, _B2, _B3, _B4, _B5, _B6, _B7, _B8, _B9, _B10 = binomial_coefficients(CLIFT_EXPONENT, 10)
 
 
 @ijit

@@ -1,4 +1,5 @@
-"""Short-vector read-modify-writes for the deposits of the parcel kernels.
+"""Short-vector read-modify-writes and loads for the deposits and trilinear reads of the parcel
+kernels.
 
 A trilinear deposit adds to the two levels k and k + 1 of each of its four columns, and k is the
 fastest index of the deposit buffers, so each column's pair is contiguous; the implicit estimate
@@ -7,7 +8,8 @@ scalar code only (LLVM's SLP vectorizer, which would merge such neighbours, is o
 because of a miscompilation it caused, numba#8705, and switching it on is global). These
 intrinsics emit the vector operation directly, for these call sites only: one load, one fused
 multiply-add and one store of 2 or 4 doubles instead of 2 or 4 of each. Each element gets the
-same fused multiply-add as the scalar code, so the results are bit-for-bit the same.
+same fused multiply-add as the scalar code, so the results are bit-for-bit the same. A trilinear
+read likewise loads a column's two levels at once (``load2``).
 
 The caller guarantees that the elements lie inside the array (no bounds check, as the kernels'
 other indexing): ``i >= 0`` and ``i + 2`` (``i + 4``) ``<= size``.
@@ -18,7 +20,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-__all__ = ["fma2", "fma4"]
+__all__ = ["fma2", "fma4", "load2"]
 
 
 def _vector_fma(context, builder, ary_ty, ary, i, mul, add_scalars):
