@@ -11,7 +11,8 @@ import pytest
 from solver_helpers import random_velocity, stretched_grid  # (solver_helpers imports saltstudy first)
 from saltstudy.config import ConfigError
 from saltstudy.solver.loglaw_probe import (HEIGHTS, build_scene, damp_x_uniform_circulation,
-                                           probe_loglaw, streamwise_cospectrum_uw)
+                                           probe_loglaw, spanwise_spectrum_u,
+                                           spectral_peak_wavelength, streamwise_cospectrum_uw)
 
 
 @pytest.mark.parametrize("nx", [16, 15])
@@ -31,6 +32,24 @@ def test_streamwise_cospectrum_sums_to_the_resolved_stress(nx):
     # a field uniform in x puts all of it at kx = 0
     c0 = streamwise_cospectrum_uw(SimpleNamespace(u=np.repeat(u[:1], nx, 0), w=np.repeat(w[:1], nx, 0)), k)
     assert c0[0] == pytest.approx(c0.sum(), rel=1e-12) and np.allclose(c0[1:], 0.0, atol=1e-14)
+
+
+@pytest.mark.parametrize("ny", [24, 25])
+def test_spanwise_spectrum_sums_to_the_variance_and_finds_a_streak_spacing(ny):
+    rng = np.random.default_rng(4)
+    nx, nz, k, Ly = 10, 4, 1, 3.0
+    y = (np.arange(ny) + 0.5) * Ly / ny
+    streaks = 0.8 * np.cos(2 * np.pi * 4 * y / Ly)            # 4 streaks across the box: 0.75 m
+    u = 5.0 + streaks[None, :, None] + 0.2 * rng.normal(size=(nx, ny, nz))
+    p = spanwise_spectrum_u(SimpleNamespace(u=u), k)
+    plane = u[:, :, k]
+    assert p.shape == (ny // 2 + 1,)
+    assert p[0] == pytest.approx(np.mean((plane.mean(axis=1) - plane.mean()) ** 2), rel=1e-12)
+    assert p.sum() == pytest.approx(np.mean((plane - plane.mean()) ** 2), rel=1e-12)
+    assert spectral_peak_wavelength(p, Ly) == pytest.approx(0.75)
+    # a second, stronger streak spacing wins
+    u2 = u + 1.5 * np.cos(2 * np.pi * 6 * y / Ly)[None, :, None]
+    assert spectral_peak_wavelength(spanwise_spectrum_u(SimpleNamespace(u=u2), k), Ly) == pytest.approx(0.5)
 
 
 def test_roll_damping_removes_the_x_mean_circulation_and_keeps_the_divergence():
@@ -90,5 +109,10 @@ def test_probe_runs_windows_on_the_smoke_grid():
         assert all(np.isfinite(ratios)) and all(x > 0 for x in ratios)
         assert np.isfinite(r["kx0_share"])
         assert r["paper"]["u_star_ratio"] > 0 and r["paper"]["z0"] > 0
+        sp = r["u_spanwise"]
+        assert len(sp["power"]) == 12 // 2 + 1 and sp["peak_wavelength"] > 0
+        assert sp["peak_over_dx"] == pytest.approx(sp["peak_wavelength"] / (scene.fidelity.grid.Ly / 12))
+        prof = r["phi_profile"]
+        assert len(prof["z"]) == len(prof["phi"]) > 3 and max(prof["z"]) < 0.5 * res["L"][2]
     json.dumps(res)                                     # the --json output is serialisable
     assert any("phi" in line for line in lines)

@@ -17,7 +17,11 @@ reports the means over that window (one profile per second):
   regressed over 0.3 m to 2 m with that u* fixed (``physics.laws.z0_at_fixed_u_star``);
 - u* from the total (resolved + SGS) stress at the same heights over the expected u*(z);
 - the share of the resolved u'w' at ~0.8 m carried by motions uniform in x (kx = 0), from the
-  streamwise cospectrum.
+  streamwise cospectrum;
+- the spanwise spectrum of u on the level nearest 0.1 m (averaged over x and the window) and its
+  peak wavelength, against the horizontal spacing: the near-bed streaks whose spacing the grain
+  streamers follow;
+- phi(z) on every level below Lz/2 (``phi_profile``), for plots.
 
 ``--grid`` and ``--overrides`` take JSON merged into the fidelity's ``grid`` block and into the
 case (validated like the files: a bad field is named); ``--drive`` sets ``forcing.drive`` over any
@@ -38,13 +42,16 @@ import time
 
 import numpy as np
 
-__all__ = ["HEIGHTS", "CO_HEIGHT", "streamwise_cospectrum_uw", "damp_x_uniform_circulation",
+__all__ = ["HEIGHTS", "CO_HEIGHT", "STREAK_HEIGHT", "streamwise_cospectrum_uw",
+           "spanwise_spectrum_u", "spectral_peak_wavelength", "damp_x_uniform_circulation",
            "probe_loglaw", "register_probe"]
 
 #: heights [m] of the phi and stress tables
 HEIGHTS = (0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0)
 #: height [m] of the streamwise u'w' cospectrum (the middle of the shear dip)
 CO_HEIGHT = 0.8
+#: height [m] of the spanwise spectrum of u (the paper's u plane of its Figs. 9b and 10b)
+STREAK_HEIGHT = 0.1
 #: the fit's lower end [m] (the issue's log-law range starts at 0.3 m)
 FIT_Z_MIN = 0.3
 #: where the paper reads u* from the stress, and the top of its z0 regression here [m]
@@ -63,6 +70,24 @@ def streamwise_cospectrum_uw(state, k: int) -> np.ndarray:
     c = (np.fft.rfft(up, axis=0) * np.conj(np.fft.rfft(wp, axis=0))).real.mean(axis=1) / nx ** 2
     c[1:(nx + 1) // 2] *= 2.0                       # the conjugate half (not the Nyquist entry)
     return c
+
+
+def spanwise_spectrum_u(state, k: int) -> np.ndarray:
+    """One-sided spanwise power spectrum of u' on level k, averaged over x (ny//2 + 1,) [m^2 s^-2]
+    per wavenumber index: its sum is the plane variance of u (Parseval); entry 0 holds the part
+    uniform in y (the variance of the spanwise means along x)."""
+    up = state.u[:, :, k] - state.u[:, :, k].mean()
+    ny = up.shape[1]
+    p = (np.abs(np.fft.rfft(up, axis=1)) ** 2).mean(axis=0) / ny ** 2
+    p[1:(ny + 1) // 2] *= 2.0
+    return p
+
+
+def spectral_peak_wavelength(power: np.ndarray, length: float) -> float:
+    """Wavelength [m] of the largest entry of a one-sided spectrum over a periodic ``length`` [m]
+    (wavenumber index >= 1): length / index of the peak."""
+    i = 1 + int(np.argmax(np.asarray(power)[1:]))
+    return length / i
 
 
 def damp_x_uniform_circulation(v: np.ndarray, w: np.ndarray, a: float) -> None:
@@ -128,6 +153,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     hs = np.asarray(HEIGHTS)
     us_exp = u_star_expected(hs)
     k_co = int(np.argmin(np.abs(g.z_f - CO_HEIGHT)))
+    k_st = int(np.argmin(np.abs(g.z_c - STREAK_HEIGHT)))
     out = {"grid": [g.nx, g.ny, g.nz], "L": [g.Lx, g.Ly, Lz], "drive": m.drive,
            "z_ref": m.z_ref, "target": target, "roll_damping": roll_damping, "windows": []}
     log(f"log-law probe: {g.nx}x{g.ny}x{g.nz} cells, {g.Lx:g} x {g.Ly:g} x {Lz:g} m, drive {m.drive}, "
@@ -146,6 +172,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         for key in ("u", "uw_res", "uw_sgs"):
             acc[key] = acc.get(key, 0.0) + p[key]
         acc["co"] = acc.get("co", 0.0) + streamwise_cospectrum_uw(m.state, k_co)
+        acc["sy"] = acc.get("sy", 0.0) + spanwise_spectrum_u(m.state, k_st)
         n += 1
         t_next += 1.0
         if m.t < t_win - 1e-9:
@@ -161,6 +188,9 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         ust = np.full(hs.size, np.nan)
         ust[inside] = np.sqrt(np.interp(hs[inside], zw, tau)) / us_exp[inside]
         co = acc["co"] / n
+        sy = acc["sy"] / n
+        lam = spectral_peak_wavelength(sy, g.Ly)
+        low = z < 0.5 * Lz
         u0_paper = math.sqrt(float(np.interp(PAPER_Z_REF, zw, tau)))
         if pg:
             u0_paper /= math.sqrt(1.0 - PAPER_Z_REF / Lz)
@@ -171,12 +201,16 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
                "phi": phi.tolist(),
                "u_star_stress_ratio": ust.tolist(),
                "kx0_share": float(co[0] / co.sum()) if co.sum() != 0 else math.nan,
+               "phi_profile": {"z": z[low].tolist(), "phi": phi_z[low].tolist()},
+               "u_spanwise": {"z": float(g.z_c[k_st]), "power": sy.tolist(),
+                              "peak_wavelength": lam, "peak_over_dx": lam / g.dy},
                "wall_s": time.perf_counter() - wall0}
         out["windows"].append(row)
         fit_txt = "  ".join(f"fit 0.3-{k} m: {v['u_star_ratio']:.3f} (z0 {v['z0']:.2g} m)"
                             for k, v in row["fit"].items())
         log(f"t = {m.t - window:.0f}-{m.t:.0f} s  {fit_txt}  kx=0 share at {g.z_f[k_co]:.2f} m: "
             f"{row['kx0_share']:.2f}  wall {row['wall_s']:.0f} s")
+        log(f"   spanwise peak of u at {g.z_c[k_st]:.2f} m: {lam:.2f} m = {lam / g.dy:.1f} dy")
         log(f"   paper's reading: u* from the stress at {PAPER_Z_REF:g} m "
             f"{row['paper']['u_star_ratio']:.3f}, z0 with it {z0_paper:.2g} m")
         log("   z [m]        " + " ".join(f"{h:5.2f}" for h in hs))
