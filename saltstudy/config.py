@@ -130,7 +130,14 @@ class Surface(_Frozen):
 
 
 class Closure(_Frozen):
-    """Turbulence closure choices beyond the Deardorff SGS model (solver/sgs.py)."""
+    """Turbulence closure: the SGS model and its options."""
+    model: Literal["deardorff", "dynamic"] = Field(
+        "deardorff", description="SGS model: 'deardorff', the paper's 1.5-order prognostic TKE closure "
+        "with a fixed c_m (solver/sgs.py); 'dynamic', the plane-averaged scale-dependent dynamic "
+        "Smagorinsky model of Porte-Agel et al. (2000) and Bou-Zeid et al. (2005), with the SGS TKE of "
+        "the paper's eq. A1 diagnosed in local equilibrium, grain sink included (solver/dynamic_sgs.py)")
+    dynamic_interval: int = Field(
+        5, ge=1, le=100, description="steps between updates of the dynamic coefficient [-]")
     near_wall: bool = Field(
         True, description="near-wall mean-field eddy viscosity (solver/nearwall.py): a mixing-length "
         "closure of the mean shear where the horizontal grid cannot resolve the wall eddies")
@@ -153,6 +160,13 @@ class Closure(_Frozen):
         if not (0.0 <= a < b):
             raise ValueError(f"near_wall_layer = {v}: need 0 <= a < b")
         return v
+
+    @model_validator(mode="after")
+    def _one_viscosity_when_dynamic(self) -> "Closure":
+        if self.model == "dynamic" and self.viscosity != "isotropic":
+            raise ValueError("viscosity: the dynamic model has one eddy viscosity; "
+                             "'anisotropic' goes with model = 'deardorff'")
+        return self
 
 
 class Physics(_Frozen):

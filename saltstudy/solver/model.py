@@ -91,7 +91,8 @@ class Model:
                           workers=workers, damp_u=not pg, body_force=G,
                           near_wall_layer=(case.closure.near_wall_layer if case.closure.near_wall
                                            else None), delta=case.closure.delta,
-                          viscosity=case.closure.viscosity)
+                          viscosity=case.closure.viscosity, closure=case.closure.model,
+                          dynamic_interval=case.closure.dynamic_interval)
         state = FlowState.zeros(grid)
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
@@ -102,6 +103,9 @@ class Model:
         if saltation and case.physics.saltation:
             from .particles import Saltation
             components.append(Saltation(grid, scene))
+            if stepper.dynamic is not None:
+                # the grain sink's Lagrangian time T_L = tlc / sqrt(e) follows the coefficient
+                components[-1].tlc = stepper.dynamic.tlc
         model = cls(scene, grid, stepper, state, controller, rng, components)
         rl = fid.relaxation
         if components and rl.gain > 0 and rl.until > 0:
@@ -249,6 +253,9 @@ class Model:
             out["tke_sink"] = np.array(s.tke_sink, copy=True)
         for k, v in self.controller.checkpoint().items():
             out[f"controller/{k}"] = v
+        if self.stepper.dynamic is not None:
+            for k, v in self.stepper.dynamic.checkpoint().items():
+                out[f"closure/{k}"] = v
         for c in self._checkpointed_parts():
             for k, v in c.checkpoint().items():
                 out[f"{c.name}/{k}"] = v
@@ -282,6 +289,9 @@ class Model:
         ctl = {k.split("/", 1)[1]: v for k, v in ck.items() if k.startswith("controller/")}
         if ctl:
             self.controller.restore(ctl)
+        clo = {k.split("/", 1)[1]: v for k, v in ck.items() if k.startswith("closure/")}
+        if clo and self.stepper.dynamic is not None:
+            self.stepper.dynamic.restore(clo)
         for c in self._checkpointed_parts():
             pre = f"{c.name}/"
             data = {k[len(pre):]: v for k, v in ck.items() if k.startswith(pre)}

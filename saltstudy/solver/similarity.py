@@ -21,13 +21,17 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["rescale_restart", "VELOCITY_ENTRIES", "SQUARED_ENTRIES"]
+__all__ = ["rescale_restart", "VELOCITY_ENTRIES", "SQUARED_ENTRIES", "INVARIANT_PREFIXES"]
 
 # Restart entries that scale like a velocity [m s^-1] and like a velocity squared
 # ([m^2 s^-2]: SGS TKE, kinematic pressure, kinematic stresses held by the drive controller).
 VELOCITY_ENTRIES = ("u", "v", "w", "u_drive")
 SQUARED_ENTRIES = ("e", "p", "controller/tau_ref_filtered", "controller/tau_ref_last",
                    "controller/integral")
+#: entries of the flow's own parts that carry no velocity scale: the dynamic closure's
+#: (C_s Delta)^2 [m^2] and beta [-] are lengths and ratios of the resolved field, unchanged
+#: by a uniform rescaling of the velocities
+INVARIANT_PREFIXES = ("controller/", "closure/")
 
 
 def rescale_restart(ck: dict[str, Any], a: float) -> dict[str, Any]:
@@ -39,7 +43,7 @@ def rescale_restart(ck: dict[str, Any], a: float) -> dict[str, Any]:
     """
     if not (math.isfinite(a) and a > 0):
         raise ValueError(f"rescale_restart: the scale factor must be positive and finite (got {a!r})")
-    bad = sorted(k for k in ck if "/" in k and not k.startswith("controller/"))
+    bad = sorted(k for k in ck if "/" in k and not k.startswith(INVARIANT_PREFIXES))
     if bad:
         raise ValueError(f"rescale_restart: only a particle-free state is self-similar; this "
                          f"checkpoint carries component entries {bad[:3]}")

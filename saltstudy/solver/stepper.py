@@ -11,6 +11,11 @@ equation (advection, production, transport, dissipation) -> projection. The part
 eq. A1, rates in ``state.tke_sink`` [s^-1]) is applied once per step, implicitly:
 e <- e / (1 + rate dt), which is unconditionally stable for any rate.
 
+With the dynamic closure (dynamic_sgs.py) e is not prognostic: the coefficient (C_s Delta)^2(z) is
+refreshed at the start of every ``dynamic_interval``-th step, nu_t comes from each stage's strain,
+there is no TKE kernel, and e (with the grain sink inside its equilibrium) is diagnosed from the
+new state at the end of the step.
+
 Memory: the base fields phi(n) stay in the state arrays (stage 3 writes them point by point after
 reading them), so two extra sets of (u, v, w, e) suffice; no array is allocated inside a step.
 """
@@ -29,9 +34,11 @@ from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, diff_u_at, diff_v_at, d
                   length_scale, tke_tendency_at, viscosity_lengths)
 from .wall import drag_coefficient, surface_stress_into
 
-__all__ = ["Stepper", "RK3_COEFFS"]
+__all__ = ["Stepper", "RK3_COEFFS", "CLOSURES"]
 
 RK3_COEFFS = (1.0 / 3.0, 0.5, 1.0)
+#: the SGS closures a stepper can carry
+CLOSURES = ("deardorff", "dynamic")
 
 device = jit_with(inline="always")
 
@@ -142,14 +149,21 @@ class Stepper:
                  damping_timescale: float, workers: int | None = None, advection: bool = True,
                  sgs: bool = True, wall: bool = True, damp_u: bool = True, body_force: float = 0.0,
                  near_wall_layer: tuple[float, float] | None = None, delta: str = "scotti",
-                 viscosity: str = "isotropic"):
+                 viscosity: str = "isotropic", closure: str = "deardorff", dynamic_interval: int = 5):
         """``damp_u``: the Rayleigh layer acts on u (towards ``state.u_drive``; the top drive) or
         not (v and w only); ``body_force`` G [m s^-2]: uniform streamwise acceleration added to u
         everywhere (the mean pressure gradient drive, forcing.py); ``near_wall_layer`` (a, b): the
         near-wall mean-field eddy viscosity of nearwall.py over that layer (in dx), None: none;
         ``delta``: the SGS filter width, "scotti" or "geometric" (sgs.delta_profile);
         ``viscosity``: one eddy viscosity ("isotropic") or separate horizontal and vertical ones
-        ("anisotropic", sgs.viscosity_lengths)."""
+        ("anisotropic", sgs.viscosity_lengths); ``closure``: the SGS model, "deardorff" (the
+        paper's prognostic TKE, sgs.py) or "dynamic" (the plane-averaged scale-dependent dynamic
+        Smagorinsky model with e diagnosed, dynamic_sgs.py; its coefficient recomputed every
+        ``dynamic_interval`` steps)."""
+        if closure not in CLOSURES:
+            raise ValueError(f"closure must be one of {CLOSURES} (got {closure!r})")
+        if closure == "dynamic" and viscosity != "isotropic":
+            raise ValueError("the dynamic closure has one eddy viscosity: viscosity must be 'isotropic'")
         self.grid = grid
         nx, ny, nz = grid.shape
         self.z0, self.kappa, self.nu_mol = float(z0), float(kappa), float(nu_mol)
@@ -166,6 +180,16 @@ class Stepper:
         self.cd = drag_coefficient(z1, self.z0, self.kappa) if self.wall else 0.0
         # log-law shear at the first level per unit first-level velocity: 1/(z1 ln(z1/z0)) [m^-1]
         self.rlog = 1.0 / (z1 * math.log(z1 / self.z0)) if self.wall else 0.0
+        self.closure = closure
+        self.dynamic = None
+        if closure == "dynamic" and self.sgs:
+            from .dynamic_sgs import DynamicSmagorinsky
+            self.dynamic = DynamicSmagorinsky(grid, self.kappa, self.rlog, delta, dynamic_interval)
+            # nu = C_K l sqrt(e) with the diagnosed e, so every reader of (cml, e) gets the acting
+            # viscosity; c_eps/l follows the coefficient (shared arrays, updated in place)
+            self.cml = self.dynamic.ckl
+            self.cml_v = self.dynamic.ckl
+            self.ceps_l = self.dynamic.ceps_l
         self.f_c, self.f_f = damping_profiles(grid, damping_depth, damping_timescale)
         self.f_cu = self.f_c if damp_u else np.zeros_like(self.f_c)
         self.body_force = float(body_force)
@@ -174,6 +198,9 @@ class Stepper:
         self.buf = [dict(u=np.zeros(shp), v=np.zeros(shp), w=np.zeros(shw), e=np.zeros(shp))
                     for _ in range(2)]
         self.nu = np.zeros(shp)
+        #: the grain sink rate of eq. A1 [s^-1] seen by the dynamic closure's e (set per step)
+        self._sink = None
+        self._e_stage = np.zeros(shp) if self.dynamic is not None else None
         self.taux = np.zeros((nx, ny))
         self.tauy = np.zeros((nx, ny))
         self.near_wall = None
@@ -182,14 +209,17 @@ class Stepper:
             self.near_wall = NearWallMeanViscosity(grid, self.kappa, near_wall_layer)
 
     # ---- pieces ----------------------------------------------------------------------------
-    def boundary(self, u, v, e) -> None:
-        """Bed stress from the first level and nu_t from e (for one stage input)."""
+    def boundary(self, u, v, w, e) -> None:
+        """Bed stress from the first level and nu_t (from e, or from the strain with the dynamic
+        closure) for one stage input."""
         if self.wall:
             surface_stress_into(u, v, self.cd, self.taux, self.tauy)
         else:
             self.taux[...] = 0.0
             self.tauy[...] = 0.0
-        if self.sgs:
+        if self.dynamic is not None:
+            self.dynamic.viscosity(u, v, w, self._sink, self.nu_mol, self.nu, self._e_stage)
+        elif self.sgs:
             compute_nu(e, self.cml, self.nu_mol, self.nu)
         else:
             self.nu[...] = 0.0
@@ -200,14 +230,16 @@ class Stepper:
         gu, gv, gw, ge = (_get(inp, n) for n in "uvwe")
         bu, bv, bw, be = (_get(base, n) for n in "uvwe")
         ou, ov, ow, oe = (_get(out, n) for n in "uvwe")
-        self.boundary(gu, gv, ge)
+        self.boundary(gu, gv, gw, ge)
         rdx, rdy = 1.0 / g.dx, 1.0 / g.dy
         _momentum_stage(gu, gv, gw, self.nu, self.rv, self.taux, self.tauy, bu, bv, bw, ou, ov, ow, cdt, rdx,
                         rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive, self.body_force,
                         self.advection, self.sgs)
         if self.near_wall is not None:
             self.near_wall.apply(ou, ov, cdt)
-        if self.sgs:
+        if self.dynamic is not None:
+            pass                # e is diagnosed from the new state at the end of the step
+        elif self.sgs:
             _tke_stage(ge, gu, gv, gw, self.nu, self.rv, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f, self.rlog,
                        self.ceps_l, E_MIN)
         elif oe is not be:
@@ -218,12 +250,19 @@ class Stepper:
         """Advance (u, v, w, e) of ``state`` by dt in place (clock untouched)."""
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
+        if self.dynamic is not None:
+            self.dynamic.maybe_update(state)
+            self._sink = state.tke_sink
         if self.near_wall is not None:  # held over the stages (a slow mean-field term)
             self.near_wall.update(state, self.cml_v, self.nu_mol, dt)
         self.stage(state, state, a, c1 * dt, state.u_drive)
         self.stage(a, state, b, c2 * dt, state.u_drive)
         self.stage(b, state, state, c3 * dt, state.u_drive, p=state.p)
-        if state.tke_sink is not None:
+        if self.dynamic is not None:
+            # e of the new state, in equilibrium with its strain and the grains' sink
+            self.dynamic.viscosity(state.u, state.v, state.w, self._sink, self.nu_mol, self.nu,
+                                   state.e)
+        elif state.tke_sink is not None:
             _apply_sink(state.e, state.tke_sink, dt, E_MIN)
 
     def close(self) -> None:
