@@ -114,5 +114,15 @@ def test_probe_runs_windows_on_the_smoke_grid():
         assert sp["peak_over_dx"] == pytest.approx(sp["peak_wavelength"] / (scene.fidelity.grid.Ly / 12))
         prof = r["phi_profile"]
         assert len(prof["z"]) == len(prof["phi"]) > 3 and max(prof["z"]) < 0.5 * res["L"][2]
+        assert "dynamic" not in r                       # the Deardorff closure has no coefficient
+
     json.dumps(res)                                     # the --json output is serialisable
     assert any("phi" in line for line in lines)
+
+
+def test_probe_reports_the_dynamic_coefficient():
+    scene = build_scene(1, "smoke", "top", '{"nx": 16, "ny": 12}', '{"closure": {"model": "dynamic"}}')
+    res = probe_loglaw(scene, 2.0, 2.0, log=lambda s: None)
+    dyn = res["windows"][0]["dynamic"]
+    assert len(dyn["z"]) == len(dyn["c_s"]) == len(dyn["beta"]) > 3
+    assert all(0.0 <= c <= 0.35 for c in dyn["c_s"]) and max(dyn["c_s"]) > 0.0

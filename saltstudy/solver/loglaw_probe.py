@@ -21,7 +21,8 @@ reports the means over that window (one profile per second):
 - the spanwise spectrum of u on the level nearest 0.1 m (averaged over x and the window) and its
   peak wavelength, against the horizontal spacing: the near-bed streaks whose spacing the grain
   streamers follow;
-- phi(z) on every level below Lz/2 (``phi_profile``), for plots.
+- phi(z) on every level below Lz/2 (``phi_profile``), for plots;
+- with the dynamic closure, its C_s(z) and beta(z) (window means; beta 0 where undefined).
 
 ``--grid`` and ``--overrides`` take JSON merged into the fidelity's ``grid`` block and into the
 case (validated like the files: a bad field is named); ``--drive`` sets ``forcing.drive`` over any
@@ -173,6 +174,9 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
             acc[key] = acc.get(key, 0.0) + p[key]
         acc["co"] = acc.get("co", 0.0) + streamwise_cospectrum_uw(m.state, k_co)
         acc["sy"] = acc.get("sy", 0.0) + spanwise_spectrum_u(m.state, k_st)
+        if m.stepper.dynamic is not None:
+            acc["c_s"] = acc.get("c_s", 0.0) + m.stepper.dynamic.c_s
+            acc["beta"] = acc.get("beta", 0.0) + np.nan_to_num(m.stepper.dynamic.beta)
         n += 1
         t_next += 1.0
         if m.t < t_win - 1e-9:
@@ -205,11 +209,17 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
                "u_spanwise": {"z": float(g.z_c[k_st]), "power": sy.tolist(),
                               "peak_wavelength": lam, "peak_over_dx": lam / g.dy},
                "wall_s": time.perf_counter() - wall0}
+        if "c_s" in acc:
+            row["dynamic"] = {"z": z[low].tolist(), "c_s": (acc["c_s"] / n)[low].tolist(),
+                              "beta": (acc["beta"] / n)[low].tolist()}
         out["windows"].append(row)
         fit_txt = "  ".join(f"fit 0.3-{k} m: {v['u_star_ratio']:.3f} (z0 {v['z0']:.2g} m)"
                             for k, v in row["fit"].items())
         log(f"t = {m.t - window:.0f}-{m.t:.0f} s  {fit_txt}  kx=0 share at {g.z_f[k_co]:.2f} m: "
             f"{row['kx0_share']:.2f}  wall {row['wall_s']:.0f} s")
+        if "dynamic" in row:
+            cs_h = np.interp(hs, z, acc["c_s"] / n)
+            log("   C_s          " + " ".join(f"{v:5.3f}" for v in cs_h))
         log(f"   spanwise peak of u at {g.z_c[k_st]:.2f} m: {lam:.2f} m = {lam / g.dy:.1f} dy")
         log(f"   paper's reading: u* from the stress at {PAPER_Z_REF:g} m "
             f"{row['paper']['u_star_ratio']:.3f}, z0 with it {z0_paper:.2g} m")
