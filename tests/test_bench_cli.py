@@ -27,6 +27,15 @@ def test_bench_flow_json_has_the_grids_fields():
     assert g["ns_per_cell_step"] > 0 and g["pressure_floor_ns_per_cell"] > 0
     assert g["ratio"] == pytest.approx(g["ns_per_cell_step"] / g["pressure_floor_ns_per_cell"],
                                        rel=1e-12)
+    assert g["closure"] == "deardorff" and g["mean_ns_per_cell_step"] > 0
+
+
+def test_bench_flow_compares_closures_and_rejects_an_unknown_one():
+    out = _json(["bench", "flow", "--steps", "5", "--no-big", "--json", "--closure", "deardorff",
+                 "--closure", "dynamic"])
+    assert [g["closure"] for g in out["grids"]] == ["deardorff", "dynamic"]
+    res = CliRunner().invoke(app, ["bench", "flow", "--closure", "smagorinsky", "--no-big"])
+    assert res.exit_code == 2 and "--closure" in res.output
 
 
 def test_bench_particles_json_has_the_runs_fields():

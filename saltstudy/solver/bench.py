@@ -2,7 +2,10 @@
 
 For each grid the model is built from case 1 at the named fidelity (only the grid matters), spun a
 couple of steps to compile the kernels and leave the initial state, then ``steps`` steps are timed
-one by one; the median is reported as ns per cell-step (wall time / (nx ny nz)). The *pressure
+one by one; the median is reported as ns per cell-step (wall time / (nx ny nz)), and the mean beside
+it (the dynamic closure refreshes its coefficient every ``closure.dynamic_interval`` steps, a cost
+the median leaves out and the mean over a multiple of that interval includes). ``closures`` runs
+the same grids with each SGS closure in turn (``--closure``, repeated), in one process. The *pressure
 floor* is the median time of the FFT pair + tridiagonal solve alone (``PressureSolver.solve_rhs_inplace``),
 three per step (one per RK3 stage), in the same units; ``ratio`` = step / floor says how far the whole
 step is above that irreducible cost. Peak resident memory (ru_maxrss) is reported after the largest grid.
@@ -22,39 +25,47 @@ __all__ = ["bench_flow", "GRIDS"]
 GRIDS = (("64x48x48", "reduced"), ("200x150x100", "paper"))
 
 
-def _median_time(f, n: int) -> float:
+def _times(f, n: int) -> list[float]:
     ts = []
     for _ in range(n):
         t0 = time.perf_counter()
         f()
         ts.append(time.perf_counter() - t0)
-    return statistics.median(ts)
+    return ts
 
 
-def bench_grid(fidelity: str, steps: int = 10) -> dict:
+def _median_time(f, n: int) -> float:
+    return statistics.median(_times(f, n))
+
+
+def bench_grid(fidelity: str, steps: int = 10, closure: str = "deardorff") -> dict:
     from ..config import load_case, load_fidelity, resolve_scene
     from .model import Model
 
-    scene = resolve_scene(load_case(1), load_fidelity(fidelity))
+    scene = resolve_scene(load_case(1, overrides={"closure": {"model": closure}}),
+                          load_fidelity(fidelity))
     m = Model.from_scene(scene)
     for _ in range(2):
         m.step(m.next_dt())
     dt = m.next_dt()
-    t_step = _median_time(lambda: m.step(dt), steps)
+    ts = _times(lambda: m.step(dt), steps)
+    t_step = statistics.median(ts)
     ps = m.stepper.pressure
     t_p = _median_time(ps.solve_rhs_inplace, max(3, steps))
     n = m.grid.n_cells
     ns_step = t_step / n * 1e9
     floor = 3.0 * t_p / n * 1e9
     m.close()
-    return {"shape": list(m.grid.shape), "fidelity": fidelity, "steps": steps,
-            "ns_per_cell_step": ns_step, "ms_per_step": t_step * 1e3,
-            "pressure_floor_ns_per_cell": floor, "ratio": ns_step / floor}
+    return {"shape": list(m.grid.shape), "fidelity": fidelity, "closure": closure, "steps": steps,
+            "ns_per_cell_step": ns_step, "mean_ns_per_cell_step": statistics.fmean(ts) / n * 1e9,
+            "ms_per_step": t_step * 1e3, "pressure_floor_ns_per_cell": floor, "ratio": ns_step / floor}
 
 
-def bench_flow(steps: int = 10, big: bool = True) -> dict:
-    """Run the benchmark; returns {"threads", "grids": [...], "max_rss_mb"}."""
-    grids = [bench_grid(fid, steps) for label, fid in GRIDS if big or fid != "paper"]
+def bench_flow(steps: int = 10, big: bool = True, closures=("deardorff",)) -> dict:
+    """Run the benchmark; returns {"threads", "grids": [...], "max_rss_mb"} (one entry of grids
+    per grid and closure)."""
+    grids = [bench_grid(fid, steps, c) for label, fid in GRIDS if big or fid != "paper"
+             for c in closures]
     rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0   # Linux: kB
     return {"threads": numba.get_num_threads(), "threading_layer": _layer(), "grids": grids,
             "max_rss_mb": rss_mb}
@@ -71,15 +82,16 @@ def format_report(res: dict) -> str:
     lines = [f"numba threads: {res['threads']} (layer {res['threading_layer']})"]
     for g in res["grids"]:
         nx, ny, nz = g["shape"]
-        lines.append(f"{nx}x{ny}x{nz}: {g['ms_per_step']:.1f} ms/step (median of {g['steps']}), "
-                     f"{g['ns_per_cell_step']:.0f} ns/cell-step; pressure floor (3 x FFT pair + "
+        lines.append(f"{nx}x{ny}x{nz} {g['closure']}: {g['ms_per_step']:.1f} ms/step (median of "
+                     f"{g['steps']}), {g['ns_per_cell_step']:.0f} ns/cell-step (mean "
+                     f"{g['mean_ns_per_cell_step']:.0f}); pressure floor (3 x FFT pair + "
                      f"tridiagonal) {g['pressure_floor_ns_per_cell']:.0f} ns/cell; ratio {g['ratio']:.2f}")
     lines.append(f"peak resident memory: {res['max_rss_mb']:.0f} MB")
     return "\n".join(lines)
 
 
-def main(steps: int = 10, big: bool = True, as_json: bool = False) -> None:
-    res = bench_flow(steps, big)
+def main(steps: int = 10, big: bool = True, as_json: bool = False, closures=("deardorff",)) -> None:
+    res = bench_flow(steps, big, tuple(closures))
     print(json.dumps(res) if as_json else format_report(res))
 
 

@@ -16,10 +16,18 @@ def register(app: typer.Typer) -> None:
     @bench_app.command("flow")
     def flow(steps: int = typer.Option(10, "--steps", help="timed steps per grid (median reported)"),
              big: bool = typer.Option(True, "--big/--no-big", help="include the paper's 200x150x100 grid"),
-             as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
+             as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout"),
+             closure: list[str] = typer.Option(["deardorff"], "--closure",
+                                               help="SGS closure (closure.model); repeat to compare")) -> None:
         """Median wall time per LES step on 64x48x48 and 200x150x100, per cell-step, vs the FFT floor."""
         from .bench import main
-        main(steps=steps, big=big, as_json=as_json)
+        from .stepper import CLOSURES
+        bad = [c for c in closure if c not in CLOSURES]
+        if bad:
+            typer.echo(f"error: --closure: unknown closure {bad[0]!r} (known: {', '.join(CLOSURES)})",
+                       err=True)
+            raise typer.Exit(2)
+        main(steps=steps, big=big, as_json=as_json, closures=closure)
 
     try:
         mod = importlib.import_module("saltstudy.solver.bench_particles")
