@@ -52,3 +52,19 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"error: {exc} (the workflow package is needed to locate archives)", err=True)
             raise typer.Exit(2)
         typer.echo(f"report: {index}")
+
+    @app.command("loglaw-report")
+    def loglaw_report(
+        directory: Path = typer.Argument(..., help="directory of `saltstudy probe loglaw --json` results"),
+        n_last: int = typer.Option(2, "--last", help="windows averaged per probe (the last ones)"),
+    ) -> None:
+        """Summary table, phi(z) and spanwise-spectrum figures of particle-free log-law probes."""
+        from .loglaw import build_loglaw_report
+        try:
+            summary = build_loglaw_report(directory, n_last=n_last)
+        except (ValueError, KeyError, OSError) as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(2)
+        for name, s in summary["probes"].items():
+            typer.echo(f"{name}: {'all pass' if s['all_pass'] else 'fails'}")
+        typer.echo(f"report: {Path(directory) / 'summary.md'}")

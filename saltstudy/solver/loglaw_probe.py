@@ -155,7 +155,10 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     us_exp = u_star_expected(hs)
     k_co = int(np.argmin(np.abs(g.z_f - CO_HEIGHT)))
     k_st = int(np.argmin(np.abs(g.z_c - STREAK_HEIGHT)))
+    from .. import __version__
     out = {"grid": [g.nx, g.ny, g.nz], "L": [g.Lx, g.Ly, Lz], "drive": m.drive,
+           "heights": list(HEIGHTS), "closure": scene.case.closure.model_dump(mode="json"),
+           "package_version": __version__,
            "z_ref": m.z_ref, "target": target, "roll_damping": roll_damping, "windows": []}
     log(f"log-law probe: {g.nx}x{g.ny}x{g.nz} cells, {g.Lx:g} x {g.Ly:g} x {Lz:g} m, drive {m.drive}, "
         f"target u* {target} m/s, roll damping {roll_damping} s^-1")
@@ -254,7 +257,7 @@ def register_probe(app) -> None:
         try:
             scene = build_scene(case, fidelity, drive, grid, overrides)
             res = probe_loglaw(scene, t_end, window, roll_damping,
-                               log=(lambda s: None) if as_json else typer.echo)
+                               log=(lambda s: typer.echo(s, err=True)) if as_json else typer.echo)
         except (ConfigError, ValueError) as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(2) from None
