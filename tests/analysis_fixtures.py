@@ -12,7 +12,9 @@ The fields are constructed, not simulated:
   ``U_p(z) = 2 + 3z``, a momentum flux ``tau_p(z) = tau0 exp(-z/H_tau)`` put into ``pmuw``
   (so eq. 10 gives it back exactly), size histograms from a lognormal bed;
 * C_p planes: Gaussian streaks of spanwise spacing ``delta_y`` moving downstream at
-  ``speed``; C_p_s at the 3-D sample times is correlated with u;
+  ``speed``, sampled as whole parcels of ``PARCEL_WEIGHT`` grains (Poisson counts per column);
+  C_p_s at the 3-D sample times is correlated with u;
+* the wall stress is the share of the total the grains do not carry at the bed;
 * series: parcel count with an overshoot ``n = P (1 + A exp(-(t - t_pk)/tau))`` after a linear
   rise, total flux with a known standard deviation, splash/impact energies with a fixed ratio.
 
@@ -29,6 +31,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from saltstudy.analysis import streamers
 from saltstudy.config import Case, Fidelity, Scene
 from saltstudy.ncio import write_dataset
 from saltstudy.physics.laws import log_law_profile
@@ -36,6 +39,8 @@ from saltstudy.physics.laws import log_law_profile
 __all__ = ["build_archives", "make_scene", "stretched_faces", "samples_schema_variables"]
 
 RHO, RHO_P, NU, G, KAPPA, Z0 = 1.2, 2650.0, 1.5e-5, 9.81, 0.40, 1.0e-5
+#: grains per parcel (the case's Q, q_multiplier 1)
+PARCEL_WEIGHT = 20.0
 
 _UNITS = {
     "x": ("m", "x of cell centres (streamwise)"), "y": ("m", "y of cell centres (spanwise)"),
@@ -167,7 +172,7 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
     d_edges = np.geomspace(mu / sigma ** 3, mu * sigma ** 3, 25)
     d_bin = np.sqrt(d_edges[1:] * d_edges[:-1])
     scene = make_scene(Lx=Lx, Ly=Ly, Lz=Lz, nx=nx, ny=ny, nz=nz, damping=damping, u_star=u_star_s,
-                       Q=20.0, mu=mu, sigma=sigma, sample_start=sample_start,
+                       Q=PARCEL_WEIGHT, mu=mu, sigma=sigma, sample_start=sample_start,
                        sample_interval=sample_interval, sample_count=max(n_samples, 1),
                        duration=max(duration, 1e-3), plane_interval=plane_interval,
                        series_interval=series_interval, drive=drive)
@@ -183,7 +188,8 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
     uw_res_w = np.full(nz + 1, -0.8 * u_star_s ** 2)
     uw_sgs_w = np.full(nz + 1, -0.2 * u_star_s ** 2)
     uw_res_w[[0, -1]] = 0.0
-    uw_sgs_w[0], uw_sgs_w[-1] = -u_star_s ** 2, 0.0
+    # the wall stress: the air carries what the grains do not at the bed (steady budget)
+    uw_sgs_w[0], uw_sgs_w[-1] = -(1.0 - (tau0_fraction if grains else 0.0)) * u_star_s ** 2, 0.0
     tke_res = 1.5 * u_star_s ** 2 * np.ones(nz)
     e_sgs = 0.5 * u_star_s ** 2 * np.exp(-z / 0.5)
     # -<tau_ij S_ij> = mean-shear part (-uw_sgs dU/dz) + a fluctuation part 0.2 u*^3/(kappa z)
@@ -225,20 +231,29 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
                      length=0.15 * Lx, speed=streak_speed, seed=s)
         return 1e5 * (0.2 + f)
 
+    # C_p as the solver records it: whole parcels of PARCEL_WEIGHT grains per column, Poisson
+    # about the pattern (their own generator, so the other fields do not depend on it)
+    rng_parcels = np.random.default_rng(seed + 1000)
+
+    def parcel_counts(c):
+        return rng_parcels.poisson(c * dx * dy / PARCEL_WEIGHT) * (PARCEL_WEIGHT / (dx * dy))
+
     u3 = np.empty((n_samples, nx, ny, nz))
     cps = np.empty((n_samples, nx, ny))
     for i, t in enumerate(t3):
         c = cp_field(t, seed + 100 + i)
-        cps[i] = c
+        cps[i] = parcel_counts(c)
         pert = (c - c.mean()) / (c.std() + 1e-30) if grains else rng.standard_normal((nx, ny))
         noise = rng.standard_normal((nx, ny, nz))
         u3[i] = u_prof[None, None, :] + 0.3 * u_star_s * (0.6 * pert[..., None] + 0.8 * noise)
     planes_c = np.empty((tp.size, nx, ny))
+    intensity_c = np.empty((tp.size, nx, ny))
     planes_u = np.empty((tp.size, nx, ny, z_plane.size))
     base = 7 + seed
     for i, t in enumerate(tp):
         c = cp_field(t, base)           # same streak seeds: a pattern that moves at streak_speed
-        planes_c[i] = c
+        intensity_c[i] = c
+        planes_c[i] = parcel_counts(c)
         pert = (c - c.mean()) / (c.std() + 1e-30) if grains else np.zeros((nx, ny))
         u_pl = np.interp(z_plane, z, u_prof)
         planes_u[i] = u_pl[None, None, :] * (1 + 0.05 * pert[..., None]) \
@@ -289,7 +304,7 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
     attrs = {
         "case_json": scene.model_dump_json(), "package_version": "fixture", "fidelity": "fixture",
         "seed": seed, "label": "fixture", "case_number": 1, "wall_time_s": 12.5,
-        "Lx": Lx, "Ly": Ly, "Lz": Lz, "dx": dx, "dy": dy, "Q": 20.0, "rho": RHO, "rho_p": RHO_P,
+        "Lx": Lx, "Ly": Ly, "Lz": Lz, "dx": dx, "dy": dy, "Q": PARCEL_WEIGHT, "rho": RHO, "rho_p": RHO_P,
         "nu": NU, "g": G, "kappa": KAPPA, "z0": Z0, "u_star_target": u_star_s, "t_activation": 3.0,
     }
     samples = xr.Dataset(data, coords=coords, attrs=attrs)
@@ -323,10 +338,15 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
                                 directory / "spinup.nc")
 
     G_prof = rho_m * U_p
+    # the streamer core of the pattern itself (no parcel noise), by the analysis' own functions
+    ac_true = streamers.autocorrelation_2d(intensity_c)
     truth = {
         "u_star_s": u_star_s, "z0s": z0s, "u_star_0": u_star_0, "z0_0": z0_0,
         "tau_p": tau_true, "G": G_prof, "G_tot": G_tot_true, "z": z, "z_w": z_w,
         "z_m": (H_tau * math.log(tau0_fraction / 1e-3) if grains else math.nan),
+        "tau_p_surface_fraction": tau0_fraction if grains else math.nan,
+        "lambda_x_noise_free": streamers.core_length(ac_true[:, ny // 2], dx),
+        "lambda_y_noise_free": streamers.core_length(ac_true[nx // 2, :], dy),
         "sigma_G": g_amp, "n_parcels_peak": float(n_par.max()), "n_parcels_mean": P,
         "E_splash_over_E_impact": 0.6, "streak_spacing": spacing, "streak_speed": streak_speed,
         # T_p of the mass-weighted mean diameter of the lognormal bed, mu exp(ln^2 sigma / 2)

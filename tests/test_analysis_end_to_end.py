@@ -78,6 +78,32 @@ def test_end_to_end_schema_and_known_answers(tmp_path):
         assert math.isfinite(float(ds[v])), v
     assert np.nansum(ds.psd_bed.values) == pytest.approx(1.0)
     assert np.nansum(ds.psd_air.values[0]) == pytest.approx(1.0)
+    # tau_p at the bed over the stress reading, and the same share from the wall stress
+    assert float(ds.tau_p_surface_fraction) == pytest.approx(truth["tau_p_surface_fraction"], rel=1e-3)
+    assert float(ds.tau_p_surface_fraction_budget) == pytest.approx(truth["tau_p_surface_fraction"])
+    assert float(ds.tau_p_paper_cell_fraction) < float(ds.tau_p_surface_fraction)
+
+
+def test_streamer_noise_uses_the_archive_parcel_weight_and_the_paper_columns(tmp_path):
+    """C_p is stored as whole parcels of Q grains: the analysis recovers the counts per column,
+    their Poisson noise, and the streamer core of the noiseless pattern."""
+    samples, spinup, truth = build_archives(tmp_path)
+    ds = open_dataset(analyse_case(samples, spinup, tmp_path / "analysis.nc"))
+    with open_dataset(samples) as s:
+        C = s.C_p.values[s.time_plane.values >= s.time.values[0] - 1e-9]
+        Q, dx, dy = float(s.attrs["Q"]), float(s.attrs["dx"]), float(s.attrs["dy"])
+    assert np.allclose(C * dx * dy / Q, np.rint(C * dx * dy / Q))       # whole parcels
+    assert float(ds.C_p_parcels_per_column) == pytest.approx(C.mean() * dx * dy / Q)
+    assert float(ds.C_p_parcels_per_column_paper) == pytest.approx(C.mean() * 0.01 / Q)
+    noise = C.mean(axis=(1, 2)) * Q / (dx * dy)
+    assert float(ds.C_p_noise_fraction) == pytest.approx(np.mean(noise / C.var(axis=(1, 2))))
+    for v in ("lambda_x", "lambda_y"):
+        d = dx if v == "lambda_x" else dy
+        assert float(ds[v + "_noise_free"]) == pytest.approx(truth[v + "_noise_free"], abs=0.5 * d)
+        # the fixture's columns are twice the paper's at the same Q: fewer parcels' noise in the
+        # run than the paper's, so the paper-level value lies below the raw one
+        assert float(ds[v]) < float(ds[v + "_raw"]) < float(ds[v + "_noise_free"])
+    assert 0.5 < float(ds.C_p_small_scale_over_poisson) < 1.5
 
 
 @pytest.mark.parametrize("kwargs", [

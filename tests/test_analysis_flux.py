@@ -108,3 +108,81 @@ def test_pooled_mean_std_equals_the_one_pass_value():
     assert s == pytest.approx(a.std(), rel=1e-9)
     assert s == pytest.approx(flux.sigma_local(a), rel=1e-9)
     assert math.isnan(flux.pooled_mean_std([])[1])
+
+
+# ------------------------------------------------------------------------------------------
+# tau_p at the bed, independent of the first level's thickness
+# ------------------------------------------------------------------------------------------
+def cubic_faces(Lz, nz, dz0):
+    """Faces cubic in the level index, first level dz0 (the solver's law)."""
+    a, c = np.linalg.solve(np.array([[1.0, 1.0], [nz, nz ** 3]]), [dz0, Lz])
+    k = np.arange(nz + 1.0)
+    zw = a * k + c * k ** 3
+    zw[0], zw[-1] = 0.0, Lz
+    return zw
+
+
+#: the paper's grid (first level 1 cm) and the reduced study's (2 cm)
+GRIDS = {"1 cm": cubic_faces(12.0, 100, 0.01), "2 cm": cubic_faces(6.0, 48, 0.02)}
+
+
+def layer_means(zw, antiderivative):
+    return np.diff(antiderivative(zw)) / np.diff(zw)
+
+
+@pytest.mark.parametrize("H", [0.02, 0.035, 0.08])
+def test_bed_value_of_an_exponential_is_the_same_on_1_and_2_cm_first_levels(H):
+    tau0 = 0.6                                   # Pa
+    z_m = H * math.log(0.5 / 1e-3)               # tau_p(0) = 0.5 rho u*^2
+    got = {}
+    for name, zw in GRIDS.items():
+        tau = layer_means(zw, lambda z: -tau0 * H * np.exp(-z / H))    # eq. 10's layer means
+        bed = flux.bed_value(zw, tau, flux.BED_FIT_FRACTION * z_m)
+        assert bed.value == pytest.approx(tau0, rel=1e-9), name
+        assert bed.height == pytest.approx(H, rel=1e-9), name
+        assert bed.n_layers >= 2
+        # the paper's reading, the mean over its 0-1 cm cell, from the fit on either grid
+        assert bed.layer_mean(0.01) == pytest.approx(tau0 * H * (1 - math.exp(-0.01 / H)) / 0.01,
+                                                     rel=1e-9)
+        got[name] = (bed.value, tau[0])
+    # the lowest layer's own reading depends on the grid: what the bed value replaces
+    assert got["2 cm"][1] / got["1 cm"][1] < 0.95
+
+
+def test_bed_value_of_a_steeper_near_bed_profile_agrees_between_grids():
+    """Two exponentials (a 1 cm near-bed part under a 5 cm one): the fit cannot see the thin
+    part, but reads the same on both grids (within 3 %) where the lowest layers differ by 20 %."""
+    H1, H2, w1 = 0.01, 0.05, 0.6
+    F = lambda z: -w1 * H1 * np.exp(-z / H1) - (1 - w1) * H2 * np.exp(-z / H2)  # noqa: E731
+    z_m = 0.265                                   # where 0.5 x the profile falls to 1e-3
+    vals, first = [], []
+    for zw in GRIDS.values():
+        tau = layer_means(zw, F)
+        vals.append(flux.bed_value(zw, tau, flux.BED_FIT_FRACTION * z_m).value)
+        first.append(tau[0])
+    assert vals[1] == pytest.approx(vals[0], rel=0.03)
+    assert abs(first[1] / first[0] - 1) > 0.15
+    assert 0.7 < vals[0] < 1.0                    # the true bed value is 1
+
+
+def test_bed_value_degenerate_profiles():
+    zw = GRIDS["2 cm"]
+    assert math.isnan(flux.bed_value(zw, np.zeros(zw.size - 1)).value)          # no grains
+    one = np.zeros(zw.size - 1)
+    one[0] = 0.3
+    assert math.isnan(flux.bed_value(zw, one).value)                            # one layer
+    flat = np.full(zw.size - 1, 0.3)                                            # no decay
+    bed = flux.bed_value(zw, flat, 0.1)
+    assert bed.value == pytest.approx(0.3) and abs(bed.height) > 1e3
+    # a profile growing with height: a negative e-folding height, still exact
+    grow = layer_means(zw, lambda z: 0.05 * 0.3 * np.exp(z / 0.05))
+    bed = flux.bed_value(zw, grow)
+    assert bed.value == pytest.approx(0.3, rel=1e-9) and bed.height == pytest.approx(-0.05, rel=1e-9)
+
+
+def test_budget_bed_fraction():
+    u2 = 0.54 ** 2
+    # the air carries 60 % of the total stress at the bed: the grains 40 %
+    assert flux.budget_bed_fraction(-0.6 * u2, -u2) == pytest.approx(0.4)
+    assert math.isnan(flux.budget_bed_fraction(-0.6 * u2, 0.0))
+    assert math.isnan(flux.budget_bed_fraction(math.nan, -u2))

@@ -1,4 +1,6 @@
-"""Streamer statistics on synthetic C_p fields with known answers (analysis/streamers.py)."""
+"""Streamer statistics on synthetic C_p fields with known answers (analysis/streamers.py):
+streaks of known width and spacing (2.5-6 cells), seen through Poisson parcel counts at the
+paper's density (20 parcels per column) and at the reduced run's (20/16)."""
 from __future__ import annotations
 
 import math
@@ -80,70 +82,220 @@ def test_core_length_nan_when_the_core_spans_the_domain():
     assert math.isfinite(st.core_length(ac[nx // 2, :], 0.1))
 
 
-def test_delta_y_of_streaks_on_a_lattice():
-    rng = np.random.default_rng(5)
-    nx, ny, dx, dy = 64, 96, 0.15, 0.1
-    spacing = 0.8                      # Ly = 9.6 m: 12 streaks, ky = 1.25 m-1 is mode 12
-    planes = lattice_streak_planes(40, nx, ny, dx, dy, spacing, sy=0.1, rng=rng, jitter=0.05)
-    ky, S, se = st.spanwise_spectrum(planes, dy)
-    ky_peak = st.spectral_peak(ky, S, se)
-    assert abs(1.0 / ky_peak - spacing) <= dy, 1.0 / ky_peak
-    # Parseval: the one-sided density integrates to the mean plane variance
-    var = np.mean([(p - p.mean()).var() for p in planes])
-    assert np.sum(S) * (ky[1] - ky[0]) == pytest.approx(var, rel=1e-10)
+# ------------------------------------------------------------------------------------------
+# parcel-count noise: Poisson counts per column at the paper's density and at the run's
+# ------------------------------------------------------------------------------------------
+#: parcels per column of the paper (case 2: 6e5 parcels over 200 x 150 columns)
+PAPER_PARCELS = 20.0
+#: the reduced study's parcels are this many times heavier
+RUN_Q_MULTIPLIER = 16.0
+DENSITIES = [pytest.param(PAPER_PARCELS, 1.0, id="paper-20-per-column"),
+             pytest.param(PAPER_PARCELS / RUN_Q_MULTIPLIER, RUN_Q_MULTIPLIER,
+                          id="run-1.25-per-column")]
+D = 0.1                                  # cell size [m]: the paper's
+AREA = D * D
+
+
+def parcel_planes(intensity, mean_count, weight, rng):
+    """C_p [m-2] of whole parcels of ``weight`` grains: Poisson counts per column about
+    ``intensity`` (mean 1) times ``mean_count``."""
+    counts = rng.poisson(np.clip(intensity, 0.0, None) * mean_count)
+    return counts * (weight / AREA)
+
+
+def streak_intensity(nt, nx, ny, sx, sy, rng, per_plane=40):
+    """Shot-noise streaks (Gaussian, sigma sx, sy in cells) over an equal background, scaled by
+    the expected mean to a mean of 1 (so Campbell's autocorrelation stays exact)."""
+    pattern = shot_noise_planes(nt, nx, ny, D, D, sx * D, sy * D,
+                                rate=per_plane / (nx * ny * AREA), rng=rng)
+    mean_streaks = per_plane * 2 * math.pi * sx * sy / (nx * ny)
+    return (mean_streaks + pattern) / (2 * mean_streaks)
+
+
+def lambdas(planes, noise=None):
+    nx, ny = planes.shape[1:]
+    ac = st.autocorrelation_2d(planes, noise=noise)
+    return st.core_length(ac[:, ny // 2], D), st.core_length(ac[nx // 2, :], D)
+
+
+def test_poisson_noise_of_parcel_counts_is_their_mean_count():
+    rng = np.random.default_rng(11)
+    nx, ny, w = 96, 64, 7.0
+    x = np.arange(nx)[:, None]
+    smooth = np.broadcast_to(1.0 + 0.5 * np.cos(2 * np.pi * x / nx) * np.ones((1, ny)), (12, nx, ny))
+    planes = parcel_planes(smooth, 6.0, w, rng)
+    # counts come back from C_p and the parcel weight
+    assert st.parcels_per_cell(planes, w, AREA) == pytest.approx(planes.mean(axis=(1, 2)) * AREA / w)
+    assert st.parcels_per_cell(planes, w, AREA).mean() == pytest.approx(6.0, rel=0.02)
+    noise = st.poisson_noise_variance(planes, w, AREA)
+    # count variance = mean count, times (w / A)^2 in C_p units
+    assert noise == pytest.approx(st.parcels_per_cell(planes, w, AREA) * (w / AREA) ** 2)
+    # the measured white level of the counts is that variance (~1500 small-scale modes a plane)
+    measured = st.small_scale_power(st.deviation_planes(planes)[0])
+    assert measured.mean() == pytest.approx(noise.mean(), rel=0.03)
+    # a smooth field alone has no small-scale power
+    assert st.small_scale_power(st.deviation_planes(smooth)[0]) == pytest.approx(0.0, abs=1e-20)
+    assert np.all(np.isnan(st.poisson_noise_variance(planes, 0.0, AREA)))
+
+
+@pytest.mark.parametrize("parcels, weight", DENSITIES)
+@pytest.mark.parametrize("width_cells", [2.5, 3.0, 4.0, 6.0])
+def test_noise_free_lambda_of_streaks_2p5_to_6_cells_wide(width_cells, parcels, weight):
+    """Streaks whose core (autocorrelation > 0.4) is 2.5-6 cells wide and 11.5 cells long, seen
+    through Poisson parcel counts: with the Poisson variance removed, lambda_y within 0.3 cell
+    and lambda_x within 0.5 cell of the pattern's own (the linear interpolation between lags 1
+    and 2 of a 2.5-cell Gaussian core reads 0.16 cell long)."""
+    rng = np.random.default_rng(int(10 * width_cells) + int(weight))
+    nx, ny = 96, 64
+    sx, sy = 3.0, width_cells / (4 * CORE)
+    planes = parcel_planes(streak_intensity(60, nx, ny, sx, sy, rng), parcels, weight, rng)
+    noise = st.poisson_noise_variance(planes, weight, AREA)
+    lam_x, lam_y = lambdas(planes, noise)
+    assert abs(lam_y - width_cells * D) <= 0.3 * D, (lam_y / D, width_cells)
+    assert abs(lam_x - 4 * sx * CORE * D) <= 0.5 * D, (lam_x / D, 4 * sx * CORE)
+    if weight > 1:   # at ~1 parcel per column the noise alone would narrow the core by > 0.5 cell
+        _, raw_y = lambdas(planes)
+        assert width_cells * D - raw_y > 0.5 * D, (raw_y / D, width_cells)
+
+
+@pytest.mark.parametrize("width_cells", [2.5, 4.0, 6.0])
+def test_paper_noise_level_makes_the_parcel_weight_a_cost_knob(width_cells):
+    """The same streaks sampled by the paper's parcels (20 per column, nothing removed) and by
+    16x heavier ones with the difference of their Poisson variances removed give the same
+    lambda (within 0.3 cell); the heavy parcels' raw lambda does not."""
+    rng = np.random.default_rng(int(100 * width_cells))
+    nx, ny = 96, 64
+    intensity = streak_intensity(60, nx, ny, 3.0, width_cells / (4 * CORE), rng)
+    paper = parcel_planes(intensity, PAPER_PARCELS, 1.0, rng)
+    run = parcel_planes(intensity, PAPER_PARCELS / RUN_Q_MULTIPLIER, RUN_Q_MULTIPLIER, rng)
+    # what analyse removes: the run's Poisson variance less the paper's (Q = 1 on the paper's
+    # columns); for the paper's own parcels that is nothing
+    removed = (st.poisson_noise_variance(run, RUN_Q_MULTIPLIER, AREA)
+               - st.poisson_noise_variance(run, 1.0, st.PAPER_CELL_AREA))
+    assert st.PAPER_CELL_AREA == pytest.approx(AREA)
+    lx_paper, ly_paper = lambdas(paper)
+    lx_run, ly_run = lambdas(run, removed)
+    assert abs(ly_run - ly_paper) <= 0.3 * D, (ly_run / D, ly_paper / D)
+    assert abs(lx_run - lx_paper) <= 0.5 * D, (lx_run / D, lx_paper / D)
+    _, ly_raw = lambdas(run)
+    assert ly_paper - ly_raw > 0.5 * D, (ly_raw / D, ly_paper / D)
+    # and the paper's own noise narrows the core a little, not more than the tolerance
+    _, ly_free = lambdas(paper, st.poisson_noise_variance(paper, 1.0, AREA))
+    assert 0.0 <= ly_free - ly_paper <= 0.3 * D, (ly_free / D, ly_paper / D)
+
+
+def test_removing_the_noise_floor_flattens_a_white_spectrum_to_zero():
+    rng = np.random.default_rng(8)
+    planes = parcel_planes(np.ones((20, 64, 48)), 8.0, 1.0, rng)
+    ky, S_raw, _ = st.spanwise_spectrum(planes, D)
+    noise = st.poisson_noise_variance(planes, 1.0, AREA)
+    _, S_den, _ = st.spanwise_spectrum(planes, D, noise=noise)
+    # raw: flat at the Poisson floor 2 s^2 dy (one-sided), s^2 = 8 / A^2
+    assert np.mean(S_raw[1:-1]) == pytest.approx(2 * 8.0 / AREA ** 2 * D, rel=0.03)
+    assert abs(np.mean(S_den)) < 0.02 * np.mean(S_raw[1:-1])
+
+
+# ------------------------------------------------------------------------------------------
+# delta_y: a spectral peak judged against the spectrum's sampling noise
+# ------------------------------------------------------------------------------------------
+def lattice_intensity(nt, nx, ny, spacing_cells, rng, contrast=1.0):
+    """Streaks on a spanwise lattice ``spacing_cells`` apart (sigma 0.3 spacing, jittered by
+    0.1 spacing), over a background: mean 1, spatial standard deviation about ``contrast``/2."""
+    f = lattice_streak_planes(nt, nx, ny, D, D, spacing_cells * D, 0.3 * spacing_cells * D, rng,
+                              jitter=0.1 * spacing_cells * D)
+    f /= f.mean(axis=(1, 2), keepdims=True)
+    return 1.0 + contrast * (f - 1.0) / 2.0
+
+
+def peak_ky(planes):
+    ky, S, _, blocks = st.spanwise_spectrum_blocks(planes, D)
+    return ky, st.spectral_peak(ky, S, blocks)
+
+
+@pytest.mark.parametrize("parcels, weight", DENSITIES)
+@pytest.mark.parametrize("spacing_cells", [2.5, 3.0, 4.0, 5.0, 6.0])
+def test_delta_y_of_streaks_2p5_to_6_cells_apart_with_parcel_noise(spacing_cells, parcels, weight):
+    """A lattice of streaks 2.5-6 cells apart through Poisson parcel counts: the peak is found
+    within half a spectral mode of 1/spacing (no lower limit but the grid's)."""
+    rng = np.random.default_rng(int(10 * spacing_cells) + int(weight))
+    nx, ny = 64, 60                          # 60 cells: whole numbers of streaks for every spacing
+    planes = parcel_planes(lattice_intensity(60, nx, ny, spacing_cells, rng), parcels, weight, rng)
+    ky, k_peak = peak_ky(planes)
+    assert math.isfinite(k_peak), spacing_cells
+    assert abs(k_peak - 1.0 / (spacing_cells * D)) <= 0.5 * (ky[1] - ky[0]), (1 / k_peak / D)
+
+
+def test_streaks_three_cells_apart_are_found_at_the_run_density():
+    """Three cells apart (shorter than the former 4-cell limit), weak contrast, 1.25 parcels per
+    column: the spectrum's own noise decides, and the peak stands out of it."""
+    rng = np.random.default_rng(3)
+    nx, ny = 64, 48
+    planes = parcel_planes(lattice_intensity(300, nx, ny, 3.0, rng, contrast=0.5),
+                           PAPER_PARCELS / RUN_Q_MULTIPLIER, RUN_Q_MULTIPLIER, rng)
+    _, k_peak = peak_ky(planes)
+    assert 1.0 / k_peak == pytest.approx(3 * D, abs=0.05 * D)
+
+
+@pytest.mark.parametrize("parcels, weight", DENSITIES)
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_pure_poisson_noise_has_no_spectral_peak(seed, parcels, weight):
+    rng = np.random.default_rng(seed)
+    planes = parcel_planes(np.ones((300, 64, 48)), parcels, weight, rng)
+    assert math.isnan(peak_ky(planes)[1])
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_no_peak_for_monotonic_or_white_spectra(seed):
+def test_no_peak_for_a_decaying_spectrum_under_parcel_noise(seed):
+    # a smooth pattern with a monotonically decaying spanwise spectrum, counted in parcels
     rng = np.random.default_rng(seed)
-    nx, ny, dy = 64, 64, 0.1
-    white = rng.standard_normal((40, nx, ny))
-    ky, S, se = st.spanwise_spectrum(white, dy)
-    assert math.isnan(st.spectral_peak(ky, S, se))
-    # red noise: white noise smoothed along y (monotonically decaying spectrum)
-    k = np.fft.rfftfreq(ny, dy)
-    red = np.fft.irfft(np.fft.rfft(white, axis=2) * np.exp(-(k / 1.5) ** 2), n=ny, axis=2)
-    ky, S, se = st.spanwise_spectrum(red, dy)
-    assert math.isnan(st.spectral_peak(ky, S, se))
+    nt, nx, ny = 200, 64, 48
+    kx = np.fft.fftfreq(nx)[:, None]
+    ky = np.fft.rfftfreq(ny)[None, :]
+    filt = np.exp(-(kx / 0.05) ** 2 - (ky / 0.15) ** 2)
+    red = np.fft.irfft2(np.fft.rfft2(rng.standard_normal((nt, nx, ny))) * filt, s=(nx, ny))
+    red /= red.std()
+    for parcels, weight in ((PAPER_PARCELS, 1.0), (PAPER_PARCELS / RUN_Q_MULTIPLIER, RUN_Q_MULTIPLIER)):
+        planes = parcel_planes(np.exp(0.5 * red), parcels, weight, rng)
+        assert math.isnan(peak_ky(planes)[1])
 
 
-def test_peak_criterion_on_given_spectra():
+def test_peak_criterion_on_given_block_spectra():
+    rng = np.random.default_rng(0)
     ky = np.arange(33) / 9.6
-    base = 1.0 / (1.0 + (ky / 0.5) ** 2)
-    bump = np.exp(-0.5 * ((ky - 1.25) / 0.15) ** 2)
-    # a bump that doubles the local level of a decaying spectrum is a peak (16 % above its
-    # valley) ...
-    S = base + 1.0 * bump * base[12]
-    exact = np.zeros_like(S)                 # a spectrum without sampling error
-    assert 1 / st.spectral_peak(ky, S, exact) == pytest.approx(0.8, abs=0.05)
-    # without any error estimate the stricter fallback margin (20 %) applies
-    assert math.isnan(st.spectral_peak(ky, S))
-    assert 1 / st.spectral_peak(ky, base + 2.0 * bump * base[12]) == pytest.approx(0.8, abs=0.05)
-    # ... a 3 % wiggle is not a peak, nor is a monotonic decay, nor a maximum at the domain mode
-    assert math.isnan(st.spectral_peak(ky, base + 0.03 * bump * base[12], exact))
-    assert math.isnan(st.spectral_peak(ky, base, exact))
-    dom = base.copy()
+    flat = np.ones(ky.size)
+    decaying = 1.0 / (1.0 + (ky / 0.5) ** 2)
+    bump = np.exp(-0.5 * ((ky - 1.25) / 0.15) ** 2)      # centred on mode 12 (0.8 m)
+    nb, rel = 8, 0.1                                     # blocks scatter by 10 %
+    scatter = 1.0 + rel * rng.standard_normal((nb, ky.size))
+
+    def peak(base, height_in_se, scatter=scatter):
+        se12 = rel * base[12] / math.sqrt(nb)            # standard error of the mean at mode 12
+        blocks = (base + height_in_se * se12 * bump)[None, :] * scatter
+        return st.spectral_peak(ky, blocks.mean(axis=0), blocks)
+
+    # on a flat spectrum the threshold is 4 sqrt(2) ~ 5.7 standard errors of one mode
+    assert 1 / peak(flat, 12.0) == pytest.approx(0.8, abs=0.05)
+    assert math.isnan(peak(flat, 2.0))              # within the sampling noise: not a peak
+    assert math.isnan(peak(flat, 0.0))
+    # on a decaying spectrum the bump must also rise above the higher valley on its left
+    assert 1 / peak(decaying, 40.0) == pytest.approx(0.8, abs=0.05)
+    assert math.isnan(peak(decaying, 0.0))          # a monotonic decay
+    # the same bump is a peak or not by its blocks' scatter alone
+    assert math.isnan(peak(flat, 12.0, 1.0 + 5 * rel * rng.standard_normal((nb, ky.size))))
+    # a maximum at the domain mode is not a spacing
+    dom = decaying.copy()
     dom[1] = 5.0
-    assert math.isnan(st.spectral_peak(ky, dom, exact))
-    # noise level matters: the same bump is rejected when its standard error is large
-    se = np.full(ky.size, 0.2 * base[12])
-    assert math.isnan(st.spectral_peak(ky, S, se))
+    assert math.isnan(st.spectral_peak(ky, dom, dom[None, :] * scatter))
 
 
-def test_peaks_shorter_than_four_cells_are_not_resolved():
-    ny, dy = 64, 0.1
-    ky = np.arange(ny // 2 + 1) / (ny * dy)
-    base = 1.0 / (1.0 + (ky / 0.5) ** 2)
-    exact = np.zeros_like(base)
-    for cells, found in ((3.0, False), (4.5, True)):
-        k0 = 1.0 / (cells * dy)
-        S = base * (1.0 + 2.0 * np.exp(-0.5 * ((ky - k0) / 0.2) ** 2))
-        got = st.spectral_peak(ky, S, exact)
-        assert math.isfinite(got) is found, (cells, got)
-        if found:
-            assert 1.0 / got == pytest.approx(cells * dy, abs=dy)
-        # with the limit lowered, the 3-cell peak is found
-        assert math.isfinite(st.spectral_peak(ky, S, exact, min_cells=2.0))
+def test_peak_without_an_error_estimate_needs_the_fallback_margin():
+    ky = np.arange(33) / 9.6
+    bump = np.exp(-0.5 * ((ky - 1.25) / 0.15) ** 2)
+    for h, found in ((0.1, False), (0.5, True)):    # 10 % and 50 % above a flat base
+        S = 1.0 + h * bump
+        assert math.isfinite(st.spectral_peak(ky, S)) is found
+        # fewer than MIN_BLOCKS blocks: the same
+        assert math.isfinite(st.spectral_peak(ky, S, np.tile(S, (st.MIN_BLOCKS - 1, 1)))) is found
 
 
 def moving_pattern(nt, nx, ny, dx, dy, dt, speed, a, rng):
@@ -196,66 +348,10 @@ def test_degenerate_planes_give_nan():
     ac = st.autocorrelation_2d(empty)
     assert np.all(np.isnan(ac))
     assert math.isnan(st.core_length(ac[:, 4], 0.1))
-    ky, S, se = st.spanwise_spectrum(empty, 0.1)
-    assert math.isnan(st.spectral_peak(ky, S, se))
+    ky, S, _, blocks = st.spanwise_spectrum_blocks(empty, 0.1)
+    assert math.isnan(st.spectral_peak(ky, S, blocks))
     c, life = st.speed_and_lifetime(st.space_time_correlation(empty, 0.1, 0.1, 0.1))
     assert math.isnan(c) and math.isnan(life)
     one = np.random.default_rng(0).standard_normal((1, 8, 8))
     c, life = st.speed_and_lifetime(st.space_time_correlation(one, 0.1, 0.1, 0.1))
     assert math.isnan(c) and math.isnan(life)
-
-
-def _parcel_planes(intensity, mean_count, rng):
-    """Parcel counts drawn independently per cell (Poisson) around ``intensity`` scaled to a mean
-    of ``mean_count`` parcels per cell: the parcel-count noise of C_p, with Q/(dx dy) = 1."""
-    lam = intensity / intensity.mean(axis=(1, 2), keepdims=True) * mean_count
-    return rng.poisson(lam).astype(np.float64)
-
-
-def test_white_noise_of_independent_parcels_is_their_poisson_variance():
-    rng = np.random.default_rng(11)
-    nx, ny = 96, 64
-    x = np.arange(nx)[:, None]
-    smooth = 1.0 + 0.5 * np.cos(2 * np.pi * x / nx) * np.ones((1, ny))
-    planes = _parcel_planes(np.broadcast_to(smooth, (12, nx, ny)), 6.0, rng)
-    dev, _ = st.deviation_planes(planes)
-    noise = st.white_noise_variance(dev)
-    # Poisson: variance = mean count (Q / cell area = 1 here); ~1500 corner modes per plane
-    assert noise == pytest.approx(planes.mean(axis=(1, 2)), rel=0.1)
-    assert noise.mean() == pytest.approx(6.0, rel=0.03)
-    # a smooth field alone has no white part
-    assert st.white_noise_variance(st.deviation_planes(np.broadcast_to(smooth, (2, nx, ny)))[0]) \
-        == pytest.approx(0.0, abs=1e-20)
-
-
-def test_removing_the_parcel_noise_recovers_the_pattern_lengths():
-    rng = np.random.default_rng(4)
-    nx, ny, dx, dy = 128, 64, 0.1, 0.1
-    sx, sy = 0.7, 0.25
-    pattern = 0.3 + shot_noise_planes(16, nx, ny, dx, dy, sx, sy, rate=0.15, rng=rng)
-    ac_true = st.autocorrelation_2d(pattern)
-    lx_true = st.core_length(ac_true[:, ny // 2], dx)
-    ly_true = st.core_length(ac_true[nx // 2, :], dy)
-    planes = _parcel_planes(pattern, 5.0, rng)
-    raw = st.autocorrelation_2d(planes)
-    noise = st.white_noise_variance(st.deviation_planes(planes)[0])
-    den = st.autocorrelation_2d(planes, noise=noise)
-    lx_raw, ly_raw = st.core_length(raw[:, ny // 2], dx), st.core_length(raw[nx // 2, :], dy)
-    lx_den, ly_den = st.core_length(den[:, ny // 2], dx), st.core_length(den[nx // 2, :], dy)
-    assert abs(lx_den - lx_true) <= 2 * dx and abs(ly_den - ly_true) <= dy, (lx_den, lx_true, ly_den, ly_true)
-    # the noise shortens the raw lengths by more than that (so the check can fail)
-    assert lx_true - lx_raw > 2 * dx and ly_true - ly_raw > dy, (lx_raw, ly_raw)
-    # removing half the noise lands in between
-    half = st.autocorrelation_2d(planes, noise=0.5 * noise)
-    assert lx_raw < st.core_length(half[:, ny // 2], dx) < lx_den
-
-
-def test_removing_the_noise_floor_flattens_a_white_spectrum_to_zero():
-    rng = np.random.default_rng(8)
-    planes = _parcel_planes(np.ones((20, 64, 48)), 8.0, rng)
-    ky, S_raw, _ = st.spanwise_spectrum(planes, 0.1)
-    noise = st.white_noise_variance(st.deviation_planes(planes)[0])
-    _, S_den, se = st.spanwise_spectrum(planes, 0.1, noise=noise)
-    # raw: flat at the Poisson floor 2 s^2 dy (one-sided) = 1.6
-    assert np.mean(S_raw[1:-1]) == pytest.approx(2 * 8.0 * 0.1, rel=0.03)
-    assert abs(np.mean(S_den[1:-1])) < 0.02 * np.mean(S_raw[1:-1])

@@ -4,13 +4,15 @@ Entry point: :func:`saltstudy.analysis.analyse.analyse_case` (also ``saltstudy a
 Each module defines its statistics in its docstring, with the paper's section and equation:
 
 * ``profiles``    - mean wind, momentum flux, TKE; log-law fit (u*s, z0s; u*0, z00); stress u*
-* ``flux``        - tau_p (eq. 10), z_m, G (eq. 11), G_tot, z_m_flux995, sigma_G
-* ``streamers``   - C_p autocorrelation (lambda_x, lambda_y), spanwise spectra (delta_y),
+* ``flux``        - tau_p (eq. 10) and its bed value, z_m, G (eq. 11), G_tot, z_m_flux995, sigma_G
+* ``streamers``   - parcel-count noise of C_p, C_p autocorrelation (lambda_x, lambda_y),
+                    spanwise spectra (delta_y),
                     space-time correlation (streamer lifetime and speed)
 * ``correlation`` - R_cu (eq. 12), R_cu_upper, lagged correlation R_cu_lag
 * ``stokes``      - eps_tot (eq. 13), T_eps, T_p, St
 * ``sizes``       - grain-size distribution by height band and of the bed
 * ``series``      - parcel count overshoot, equilibrium time, splash/impact energy ratio
+* ``paper_grid``  - the paper's column area and first level (for readings made as the paper's)
 * ``analyse``     - the orchestration and the analysis.nc schema (``SPEC``)
 
 The package reads archives only (never the solver); it imports nothing heavy at import time.

@@ -13,7 +13,12 @@ Order of the coupled definitions:
 2. ``z_m`` from tau_p with that ``u*``; the log-law fit over ``[max(0.3 m, z_m), (Lz-damping)/2]``
    gives ``u_star_s, z0s``; ``z_m`` is recomputed with the fitted ``u_star_s`` and the fit
    repeated once if its lower bound moved (the fit falls back to the stress u* for z_m when it
-   is undefined).
+   is undefined);
+3. ``tau_p`` at the bed from the exponential fitted to the layers below ``0.25 z_m``, over
+   ``rho u*^2`` with the stress ``u*`` of step 1 (``tau_p_surface_fraction``, flux module).
+
+C_p statistics carry the paper's parcel-count noise: the run's Poisson noise less the paper's is
+removed (streamers module).
 """
 from __future__ import annotations
 
@@ -28,7 +33,7 @@ import numpy as np
 import xarray as xr
 
 from ..ncio import NC_LOCK, write_dataset
-from . import correlation, flux, profiles, series, sizes, stokes, streamers
+from . import correlation, flux, paper_grid, profiles, series, sizes, stokes, streamers
 from ..physics import laws
 
 __all__ = ["analyse_case", "analyse_datasets", "SPEC", "REQUIRED_VARIABLES", "MAX_LAG_S",
@@ -83,20 +88,36 @@ SPEC: dict[str, tuple[str, str]] = {
     "sigma_G_over_G_tot": ("1", "sigma_G divided by the window-mean total flux of the same series"),
     "sigma_G_local": ("kg m-1 s-1", "standard deviation of the local column flux G_col(x, y, t) about its mean"),
     "sigma_G_local_over_mean": ("1", "sigma_G_local divided by the mean column flux"),
-    "lambda_x": ("m", "streamer length: streamwise extent of the C_p autocorrelation > 0.4 "
-                 "(parcel-count noise at the case's Q)"),
-    "lambda_y": ("m", "streamer width: spanwise extent of the C_p autocorrelation > 0.4 "
-                 "(parcel-count noise at the case's Q)"),
+    "lambda_x": ("m", "streamer length: streamwise extent of the C_p autocorrelation > 0.4, "
+                 "with the paper's parcel-count noise"),
+    "lambda_y": ("m", "streamer width: spanwise extent of the C_p autocorrelation > 0.4, "
+                 "with the paper's parcel-count noise"),
     "delta_y": ("m", "mean spanwise spacing of streamers: 1/ky at the peak of the C_p spanwise spectrum "
-                "(parcel-count noise at the case's Q)"),
-    "lambda_x_raw": ("m", "lambda_x with the parcel-count noise of the run's heavier parcels left in"),
-    "lambda_y_raw": ("m", "lambda_y with the parcel-count noise of the run's heavier parcels left in"),
-    "delta_y_raw": ("m", "delta_y with the parcel-count noise of the run's heavier parcels left in"),
-    "C_p_noise_fraction": ("1", "white (parcel-count) noise variance of C_p over its spatial variance, "
+                "that stands out of the spectrum's sampling noise"),
+    "lambda_x_raw": ("m", "lambda_x with the run's own parcel-count noise"),
+    "lambda_y_raw": ("m", "lambda_y with the run's own parcel-count noise"),
+    "lambda_x_noise_free": ("m", "lambda_x with all the Poisson parcel-count noise removed"),
+    "lambda_y_noise_free": ("m", "lambda_y with all the Poisson parcel-count noise removed"),
+    "C_p_noise_fraction": ("1", "Poisson parcel-count noise variance of C_p over its spatial variance, "
                            "mean over the planes"),
+    "C_p_parcels_per_column": ("1", "mean number of parcels per grid column in the C_p planes"),
+    "C_p_parcels_per_column_paper": ("1", "mean number of parcels per 0.1 m x 0.1 m column the "
+                                     "paper's parcels (the case's Q) would give for the same C_p"),
+    "C_p_small_scale_over_poisson": ("1", "mean power of C_p at wavelengths under 4 cells in both "
+                                     "directions over the Poisson noise level (1: independent "
+                                     "parcels and no pattern there)"),
     "delta_y_u": ("m", "mean spanwise spacing of streaks: 1/ky at the peak of the u spanwise spectrum"),
     "u_star_t": ("m s-1", "threshold friction velocity (Shao and Lu 2000) of the soil's mean diameter"),
-    "tau_p_surface_fraction": ("1", "tau_p at the lowest level divided by rho u*s^2"),
+    "tau_p_surface_fraction": ("1", "grain-borne share of the momentum flux at the bed: tau_p at z = 0 "
+                               "over the total stress rho u*^2 at the reference height"),
+    "tau_p_bed": ("Pa", "tau_p at z = 0: the exponential fitted to the layer means of the lowest "
+                  "layers, at the bed"),
+    "tau_p_bed_decay_height": ("m", "e-folding height of that exponential"),
+    "tau_p_paper_cell_fraction": ("1", "mean of that exponential over the paper's first level "
+                                  "(0-1 cm) over rho u*^2 at the reference height"),
+    "tau_p_surface_fraction_budget": ("1", "1 - air stress at the bed over the total stress at the "
+                                      "reference height (the grain share at the bed by the "
+                                      "momentum budget of a steady layer)"),
     "R_cu_upper": ("1", "mean R_cu over 0.6 z_m <= z <= z_m"),
     "n_parcels_mean": ("1", "mean number of parcels over the sampling window"),
     "n_parcels_peak": ("1", "largest number of parcels after activation"),
@@ -119,7 +140,7 @@ SPEC: dict[str, tuple[str, str]] = {
     "tke_spinup": ("m2 s-2", "turbulent kinetic energy (resolved + SGS), spin-up"),
     "tau_p": ("Pa", "grain momentum flux (eq. 10), positive downward"),
     "G": ("kg m-2 s-1", "horizontal mass flux density (eq. 11), horizontally and time averaged"),
-    "R_cu": ("1", "zero-lag correlation of C_p and u(z) (eq. 12), parcel-count noise at the case's Q"),
+    "R_cu": ("1", "zero-lag correlation of C_p and u(z) (eq. 12), with the paper's parcel-count noise"),
     "St": ("1", "Stokes number T_p / T_eps"),
     "T_p": ("s", "response time of the mass-weighted mean grain diameter at that level"),
     "T_eps": ("s", "lifetime of the resolved eddies 0.5<u_i'^2>/eps_tot"),
@@ -134,11 +155,13 @@ SPEC: dict[str, tuple[str, str]] = {
     "G_tot_sample": ("kg m-1 s-1", "total horizontal mass flux at each 3-D sample"),
     "C_p_mean": ("m-2", "domain-mean C_p of each plane"),
     # spectra, correlations, distributions, snapshots
-    "S_c": ("m-3", "spanwise spectral density of C_p, averaged over time and streamwise wavenumbers, parcel-count noise at the case's Q"),
+    "S_c": ("m-3", "spanwise spectral density of C_p, averaged over time and streamwise wavenumbers, "
+            "with the paper's parcel-count noise"),
     "S_c_stderr": ("m-3", "standard error of S_c from contiguous time blocks"),
     "S_u": ("m3 s-2", "spanwise spectral density of u at the 0.1 m plane, averaged over time and streamwise wavenumbers"),
     "S_u_stderr": ("m3 s-2", "standard error of S_u from contiguous time blocks"),
-    "C_p_autocorr": ("1", "time-averaged spatial autocorrelation of C_p, parcel-count noise at the case's Q"),
+    "C_p_autocorr": ("1", "time-averaged spatial autocorrelation of C_p, with the paper's "
+                     "parcel-count noise"),
     "C_p_st_peak": ("1", "peak over spatial lags of the correlation of C_p(t) and C_p(t + lag_t)"),
     "C_p_st_x": ("m", "streamwise position of that peak"),
     "C_p_st_y": ("m", "spanwise position of that peak"),
@@ -250,6 +273,7 @@ def _case_info(attrs: dict[str, Any]) -> dict[str, Any]:
         "air": case.get("air", {}) if isinstance(case, dict) else {},
         # parcels are q_multiplier x heavier than the case's Q (a cost knob); 1 when unknown
         "q_multiplier": float(fid.get("q_multiplier", 1.0)) if isinstance(fid, dict) else 1.0,
+        "Q_case": _f(case.get("particles", {}) if isinstance(case, dict) else {}, "Q"),
     }
 
 
@@ -280,6 +304,19 @@ def _tmean(a: np.ndarray | None, n: int) -> np.ndarray:
         return np.full(a.shape[1:], np.nan)
     with np.errstate(invalid="ignore"):
         return np.nanmean(a, axis=0)
+
+
+def _check_parcel_counts(planes, grains_per_parcel: float, area: float) -> None:
+    """Warn when C_p dx dy / w is not a whole number of parcels: samples.nc stores C_p, not the
+    counts, and the Poisson noise is derived from them with this parcel weight."""
+    if not (grains_per_parcel > 0 and area > 0) or len(planes) == 0:
+        return
+    n = np.asarray(planes[-1], dtype=np.float64) * area / grains_per_parcel
+    off = np.abs(n - np.rint(n))
+    if np.any(off > 1e-6 * np.maximum(1.0, np.abs(n))):
+        log.warning("C_p dx dy / Q is not a whole number of parcels (largest remainder %.3g): "
+                    "the parcel-count noise assumes parcels of %g grains", float(off.max()),
+                    grains_per_parcel)
 
 
 def _tsum(a: np.ndarray | None, n: int) -> np.ndarray:
@@ -453,8 +490,19 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("u_star_s_se", (), float(np.std(ok_i, ddof=1) / math.sqrt(ok_i.size)) if ok_i.size >= 2
         else math.nan)
     put("z_m", (), z_m, definition="tau_p first below 0.1 % of rho u_star_s^2 (log interpolation)")
-    rho_u2 = rho * u_norm ** 2 if math.isfinite(u_norm) else math.nan
-    put("tau_p_surface_fraction", (), tau_p[0] / rho_u2 if nz and rho_u2 > 0 else math.nan)
+    # tau_p at the bed over the total stress at the reference height (flux module doc)
+    bed = flux.bed_value(z_w, tau_p, flux.BED_FIT_FRACTION * z_m)
+    rho_u2_stress = rho * u0_stress ** 2 if math.isfinite(u0_stress) else math.nan
+    put("tau_p_bed", (), bed.value, layers_fitted=bed.n_layers)
+    put("tau_p_bed_decay_height", (), bed.height)
+    ok_norm = rho_u2_stress > 0
+    put("tau_p_surface_fraction", (), bed.value / rho_u2_stress if ok_norm else math.nan,
+        definition="tau_p_bed / (rho u_star_s_stress^2) (saltstudy.analysis.flux)")
+    put("tau_p_paper_cell_fraction", (), bed.layer_mean(paper_grid.PAPER_FIRST_LAYER) / rho_u2_stress
+        if ok_norm else math.nan)
+    uw_mean_w = _tmean(uw_w, nz + 1)
+    put("tau_p_surface_fraction_budget", (), flux.budget_bed_fraction(
+        float(uw_mean_w[0]), -u0_stress ** 2) if uw_mean_w.size == nz + 1 else math.nan)
 
     # ---------------- spin-up (particle-free) ----------------
     sp_z = np.asarray(sp_coords.get("z", z), dtype=np.float64)
@@ -583,49 +631,88 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     n_planes = int(C_w.shape[0]) if C_w is not None else 0
     put("n_planes", (), n_planes)
     put("n_samples", (), n_t)
-    # the parcel-count noise of heavier-than-the-case parcels is taken out of C_p statistics
-    f_noise = 1.0 - 1.0 / max(info["q_multiplier"], 1.0)
+    # parcel-count noise of C_p (streamers module doc): Poisson, from the mean count per column.
+    # The run's parcels weigh w grains on columns of dx dy; the paper's weigh the case's Q on
+    # its 0.1 m columns. The statistics keep the paper's noise: the difference is removed.
+    w_run = _f(attrs, "Q", info["Q_case"] * info["q_multiplier"])
+    Q_paper = info["Q_case"] if math.isfinite(info["Q_case"]) else w_run / info["q_multiplier"]
+    area = dx * dy
+
+    def noise_to_paper(planes) -> np.ndarray:
+        """Per-plane noise variance to remove so that the paper's remains (0 when unknown)."""
+        run = streamers.poisson_noise_variance(planes, w_run, area)
+        paper = streamers.poisson_noise_variance(planes, Q_paper, streamers.PAPER_CELL_AREA)
+        out = run - paper
+        return np.where(np.isfinite(out), out, 0.0)
+
     removed = np.zeros(n_planes)
+    n_col = n_col_paper = small_ratio = math.nan
     if C_w is not None and n_planes and nx >= 2 and ny >= 2:
         dev_c, var_c = streamers.deviation_planes(C_w)
-        noise_c = streamers.white_noise_variance(dev_c)
+        noise_run = streamers.poisson_noise_variance(C_w, w_run, area)
+        noise_run = np.where(np.isfinite(noise_run), noise_run, 0.0)
         has = var_c > 0
-        noise_frac = float(np.mean(noise_c[has] / var_c[has])) if has.any() else math.nan
-        removed = f_noise * noise_c    # the noise of the case's own Q stays in
+        noise_frac = float(np.mean(noise_run[has] / var_c[has])) if has.any() else math.nan
+        removed = noise_to_paper(C_w)
+        n_col = float(np.mean(streamers.parcels_per_cell(C_w, w_run, area)))
+        n_col_paper = float(np.mean(streamers.parcels_per_cell(C_w, Q_paper,
+                                                               streamers.PAPER_CELL_AREA)))
+        _check_parcel_counts(C_w, w_run, area)
+        poisson = noise_run[has]
+        if has.any() and np.all(poisson > 0):
+            small_ratio = float(np.mean(streamers.small_scale_power(dev_c[has]) / poisson))
+        del dev_c
         ac = streamers.autocorrelation_2d(C_w, noise=removed)
         lam_x = streamers.core_length(ac[:, ny // 2], dx)
         lam_y = streamers.core_length(ac[nx // 2, :], dy)
         ky, S_c, S_c_se = streamers.spanwise_spectrum(C_w, dy, noise=removed)
-        delta_y = 1.0 / streamers.spectral_peak(ky, S_c, S_c_se)
+        # the peak is judged on the spectrum with the run's noise in it: a flat floor moves
+        # neither the peak nor its prominence, and that noise is what it must stand out of
+        _, S_raw, _, S_blocks = streamers.spanwise_spectrum_blocks(C_w, dy)
+        delta_y = 1.0 / streamers.spectral_peak(ky, S_raw, S_blocks)
         ac_raw = streamers.autocorrelation_2d(C_w)
         lam_x_raw = streamers.core_length(ac_raw[:, ny // 2], dx)
         lam_y_raw = streamers.core_length(ac_raw[nx // 2, :], dy)
-        _, S_raw, S_raw_se = streamers.spanwise_spectrum(C_w, dy)
-        delta_y_raw = 1.0 / streamers.spectral_peak(ky, S_raw, S_raw_se)
+        ac_free = streamers.autocorrelation_2d(C_w, noise=noise_run)
+        lam_x_free = streamers.core_length(ac_free[:, ny // 2], dx)
+        lam_y_free = streamers.core_length(ac_free[nx // 2, :], dy)
         snap_c = np.asarray(C_w[-1], dtype=np.float64)
     else:
         ac = np.full((nx, ny), np.nan)
-        lam_x = lam_y = delta_y = lam_x_raw = lam_y_raw = delta_y_raw = noise_frac = math.nan
+        lam_x = lam_y = delta_y = lam_x_raw = lam_y_raw = noise_frac = math.nan
+        lam_x_free = lam_y_free = math.nan
         ky = np.arange(ny // 2 + 1) / Ly if ny else np.zeros(0)
         S_c = S_c_se = np.full(ky.size, np.nan)
         snap_c = np.full((nx, ny), np.nan)
     if U_w is not None and U_w.shape[0] and ny >= 2:
-        _, S_u, S_u_se = streamers.spanwise_spectrum(U_w, dy)
-        delta_y_u = 1.0 / streamers.spectral_peak(ky, S_u, S_u_se)
+        _, S_u, S_u_se, U_blocks = streamers.spanwise_spectrum_blocks(U_w, dy)
+        delta_y_u = 1.0 / streamers.spectral_peak(ky, S_u, U_blocks)
         snap_u = np.asarray(U_w[-1], dtype=np.float64)
     else:
         S_u = S_u_se = np.full(ky.size, np.nan)
         delta_y_u = math.nan
         snap_u = np.full((nx, ny), np.nan)
-    put("lambda_x", (), lam_x, definition="2 x lag where the autocorrelation of C_p drops below 0.4")
-    put("lambda_y", (), lam_y, definition="2 x lag where the autocorrelation of C_p drops below 0.4")
-    put("delta_y", (), delta_y, definition="1/ky of the prominent interior peak of S_c "
+    noise_def = (f"Poisson parcel-count noise mean(C_p) w / (dx dy) with w = {w_run:g} grains per "
+                 f"parcel, less the paper's mean(C_p) Q / {streamers.PAPER_CELL_AREA:g} m2 with "
+                 f"Q = {Q_paper:g} (saltstudy.analysis.streamers)")
+    put("lambda_x", (), lam_x, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
+        noise_removed=noise_def)
+    put("lambda_y", (), lam_y, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
+        noise_removed=noise_def)
+    put("delta_y", (), delta_y, definition="1/ky of the highest local maximum of the C_p spanwise "
+        "spectrum that stands PEAK_N_SE standard errors above its base "
         "(saltstudy.analysis.streamers.spectral_peak); NaN without one")
     put("delta_y_u", (), delta_y_u)
     put("lambda_x_raw", (), lam_x_raw)
     put("lambda_y_raw", (), lam_y_raw)
-    put("delta_y_raw", (), delta_y_raw)
-    put("C_p_noise_fraction", (), noise_frac, definition="saltstudy.analysis.streamers.white_noise_variance")
+    put("lambda_x_noise_free", (), lam_x_free)
+    put("lambda_y_noise_free", (), lam_y_free)
+    put("C_p_noise_fraction", (), noise_frac,
+        definition="saltstudy.analysis.streamers.poisson_noise_variance")
+    put("C_p_parcels_per_column", (), n_col, definition="mean(C_p) dx dy / w")
+    put("C_p_parcels_per_column_paper", (), n_col_paper, definition="mean(C_p) 0.01 m2 / Q")
+    put("C_p_small_scale_over_poisson", (), small_ratio,
+        definition="saltstudy.analysis.streamers.small_scale_power over poisson_noise_variance")
     put("C_p_autocorr", ("lag_x", "lag_y"), ac)
     put("S_c", ("ky",), S_c)
     put("S_c_stderr", ("ky",), S_c_se)
@@ -666,8 +753,7 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     u3 = get("u")
     Cs = get("C_p_s")
     if u3 is not None and Cs is not None and u3.ndim == 4 and Cs.ndim == 3 and u3.shape[0] == Cs.shape[0]:
-        noise_s = f_noise * streamers.white_noise_variance(streamers.deviation_planes(Cs)[0])
-        R_cu = correlation.correlation_profile(Cs, u3, noise=float(noise_s.mean()))
+        R_cu = correlation.correlation_profile(Cs, u3, noise=float(np.mean(noise_to_paper(Cs))))
     else:
         R_cu = np.full(nz, np.nan)
     put("R_cu", ("z",), R_cu)

@@ -6,9 +6,10 @@ R_cu(z) (section 4.2 [50], Fig. 11)
     C_p is ``C_p_s(time, x, y)`` (C_p at the 3-D sample times), u the cell-centred
     ``u(time, x, y, z)``. Accumulated sample by sample (float64) so the 3-D field is never
     copied. NaN at levels where either variance vanishes.
-    ``noise``: a white-noise variance of C_p to take out of ``<C_p'^2>`` (the parcel-count noise
-    of heavier-than-the-case parcels, :mod:`saltstudy.analysis.streamers`): it is uncorrelated
-    with u, so it lowers |R_cu| by sqrt(1 - noise/<C_p'^2>) and nothing else.
+    ``noise``: a white-noise variance of C_p to take out of ``<C_p'^2>`` (the Poisson
+    parcel-count noise of the run beyond the paper's own, :mod:`saltstudy.analysis.streamers`):
+    it is uncorrelated with u, so it lowers |R_cu| by sqrt(1 - noise/<C_p'^2>) and nothing
+    else.
 ``R_cu_upper``
     The mean of R_cu over the levels with ``0.6 z_m <= z <= z_m`` (the upper saltation layer,
     where the paper finds a constant value).

@@ -22,6 +22,37 @@ z_m (section 3.2 [37])
     positive). NaN if tau_p is below the threshold already at the lowest level (no resolved
     saltation layer) or never drops below it.
 
+tau_p(0): the grain-borne share of the momentum flux at the bed (section 3.2 [40], Fig. 6)
+    The paper: "At the surface, tau_p increases with u*s, to reach about 50% of the above flow
+    momentum flux in case 6", read from Fig. 6, tau_p / (rho u*s^2), whose lowest point is its
+    0-1 cm cell, and u*s the stress reading (``u*^2 = |<u'w'>|`` at 2 m, section 3.1 [33]).
+    Eq. 10 gives tau_p as the *mean over a layer*; a grid whose first layer is 2 cm thick
+    averages the steep near-bed profile over twice the depth and reads a different number for
+    the same flow. So the bed value is defined at z = 0, not at a level:
+    ``tau_p_bed`` (:func:`bed_value`) is ``A`` of the exponential ``tau_p(z) = A exp(-z/H)``
+    (the paper's "tau_p increases exponentially with depth", after Owen 1964) whose *layer
+    means* over the lowest layers match eq. 10's values -- the layers with their top face at or
+    below ``BED_FIT_FRACTION`` z_m (about 1.5 e-folding heights, the same depth of air on any
+    grid), at least the lowest two. Averaging the exponential over each layer exactly makes the
+    answer independent of the layers' thicknesses when the profile is exponential; when it is
+    not, the fit still spans the same physical depth on every grid. ``tau_p_surface_fraction``
+    = ``tau_p_bed / (rho u*^2)`` with ``u*`` the stress reading at the reference height
+    (extrapolated to the bed for the pressure-gradient drive, whose total stress falls
+    linearly), not the log-law fit. When the profile is steeper near the bed than the fitted
+    exponential (structure thinner than the layers), no layer data can show it: the fit then
+    reads low, but by the same amount on a 1 cm and a 2 cm first level (within ~3 % for two-
+    exponential profiles with a 5-20 mm near-bed part, where the lowest layer's means differ
+    by 15-20 %).
+    The paper's own reading is its first cell's mean, 0-1 cm, which for an exponential of
+    e-folding height H is ``H (1 - exp(-1 cm/H)) / 1 cm`` of the bed value (0.87 at H = 3.5 cm);
+    ``tau_p_paper_cell_fraction`` is that mean of the fitted exponential over
+    ``rho u*^2`` (:meth:`BedValue.layer_mean`), to set beside Fig. 6's lowest points.
+    A cross-check that assumes no profile shape (:func:`budget_bed_fraction`): in a steady,
+    horizontally uniform layer the total stress is the same at every height, and at the bed
+    it is carried by the air (the wall stress, ``uw`` at the bed face) and the grains; so
+    ``tau_p(0) / tau_total = 1 - tau_air(0) / tau_total``. It holds for the time mean only
+    as far as the run is steady over the sampling window.
+
 G, G_tot (eq. 11, section 3.2 [41]-[42])
     ``G(z) = <pmu>/(Lx Ly dz)`` [kg m-2 s-1], the horizontal and time mean of eq. 11;
     ``G_tot = sum_k G_k dz_k = <sum pmu>/(Lx Ly)`` [kg m-1 s-1].
@@ -44,17 +75,21 @@ sigma_G (section 4.3 [55])
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = ["tau_p_profile", "mass_flux_profile", "total_flux", "first_drop_height", "z_m_from_tau",
            "flux_height", "sigma_series", "sigma_local", "window_mask", "Z_M_FRACTION",
-           "FLUX_FRACTION", "decay_height", "pooled_mean_std"]
+           "FLUX_FRACTION", "decay_height", "pooled_mean_std", "bed_value", "BedValue",
+           "BED_FIT_FRACTION", "budget_bed_fraction"]
 
 #: tau_p threshold defining z_m, as a fraction of rho u*s^2 (paper: 0.1 %)
 Z_M_FRACTION = 1.0e-3
 #: fraction of G_tot below z_m_flux995
 FLUX_FRACTION = 0.995
+#: the exponential giving tau_p at the bed is fitted to the layers below this fraction of z_m
+BED_FIT_FRACTION = 0.25
 
 
 def _time_sum(a: np.ndarray) -> np.ndarray:
@@ -74,6 +109,98 @@ def tau_p_profile(pm: np.ndarray, pmu: np.ndarray, pmw: np.ndarray, pmuw: np.nda
     if n_t == 0:
         return np.full(np.shape(dz), np.nan)
     return -cov / (n_t * Lx * Ly * np.asarray(dz, dtype=np.float64))
+
+
+@dataclass(frozen=True)
+class BedValue:
+    """Bed value of an exponential fitted to layer means: ``value`` at z = 0, e-folding
+    ``height`` (negative for a profile growing with height), ``n_layers`` used."""
+    value: float
+    height: float
+    n_layers: int
+
+    def layer_mean(self, top: float) -> float:
+        """Mean of the fitted exponential over ``0 <= z <= top``."""
+        if not (math.isfinite(self.value) and top > 0):
+            return math.nan
+        b = 1.0 / self.height if math.isfinite(self.height) else 0.0
+        return float(self.value * math.exp(_log_layer_mean(b, np.zeros(1), np.array([top]))[0]))
+
+
+def _log_layer_mean(b: float, a: np.ndarray, h: np.ndarray) -> np.ndarray:
+    """ln of the mean of exp(-b z) over the layers [a, a + h] (b may be 0 or negative)."""
+    x = b * h
+    small = np.abs(x) < 1e-8
+    xs = np.where(small, 1.0, x)
+    shape = np.where(small, -0.5 * x, np.log(np.where(small, 1.0, -np.expm1(-xs) / xs)))
+    return -b * a + shape
+
+
+def bed_value(z_w: np.ndarray, layer_mean: np.ndarray, z_top: float = math.nan,
+              min_layers: int = 2) -> BedValue:
+    """Value at z = 0 of ``A exp(-z/H)`` whose layer means fit ``layer_mean`` (layer k between
+    ``z_w[k]`` and ``z_w[k+1]``) in the log, least squares, over the contiguous positive layers
+    from the bed whose top face is at or below ``z_top`` (at least ``min_layers``; the lowest
+    ``min_layers`` when ``z_top`` is NaN). Two layers determine the exponential exactly. NaN
+    with fewer positive layers from the bed than ``min_layers``."""
+    z_w = np.asarray(z_w, dtype=np.float64)
+    f = np.asarray(layer_mean, dtype=np.float64)
+    nan = BedValue(math.nan, math.nan, 0)
+    n_pos = 0
+    while n_pos < f.size and np.isfinite(f[n_pos]) and f[n_pos] > 0:
+        n_pos += 1
+    if n_pos < min_layers or z_w.size < f.size + 1:
+        return nan
+    n = min_layers
+    if math.isfinite(z_top):
+        tol = 1e-9 * max(1.0, abs(z_top))
+        n = max(n, int(np.sum(z_w[1:n_pos + 1] <= z_top + tol)))
+    n = min(n, n_pos)
+    a = z_w[:n]
+    h = np.diff(z_w[:n + 1])
+    y = np.log(f[:n])
+    h0 = float(h[0])
+    if not h0 > 0:
+        return nan
+
+    def cost(b: float) -> tuple[float, float]:
+        g = _log_layer_mean(b, a, h)
+        ln_A = float(np.mean(y - g))
+        return float(np.sum((y - ln_A - g) ** 2)), ln_A
+
+    # decay rates from a growth over 1/4 of the fitted depth to an e-folding of h0/200; a coarse
+    # scan, then a golden-section search around the best point
+    depth = float(a[-1] + h[-1])
+    grid = np.concatenate([-np.geomspace(4.0 / depth, 1e-3 / depth, 40), [0.0],
+                           np.geomspace(1e-3 / depth, 200.0 / h0, 400)])
+    costs = np.array([cost(b)[0] for b in grid])
+    i = int(np.argmin(costs))
+    lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+    phi = 0.5 * (math.sqrt(5.0) - 1.0)
+    c, d = hi - phi * (hi - lo), lo + phi * (hi - lo)
+    fc, fd = cost(c)[0], cost(d)[0]
+    for _ in range(200):
+        if fc < fd:
+            hi, d, fd = d, c, fc
+            c = hi - phi * (hi - lo)
+            fc = cost(c)[0]
+        else:
+            lo, c, fc = c, d, fd
+            d = lo + phi * (hi - lo)
+            fd = cost(d)[0]
+        if hi - lo <= 1e-13 * max(abs(lo), abs(hi), 1.0 / depth):
+            break
+    b = 0.5 * (lo + hi)
+    _, ln_A = cost(b)
+    return BedValue(float(math.exp(ln_A)), float(1.0 / b) if b != 0 else math.inf, int(n))
+
+
+def budget_bed_fraction(uw_bed: float, uw_total: float) -> float:
+    """``1 - tau_air(0) / tau_total`` from kinematic stresses (negative for a downward flux):
+    the grain-borne share at the bed in a steady layer (module docstring)."""
+    if not (math.isfinite(uw_bed) and math.isfinite(uw_total)) or uw_total == 0:
+        return math.nan
+    return 1.0 - uw_bed / uw_total
 
 
 def mass_flux_profile(pmu: np.ndarray, dz: np.ndarray, Lx: float, Ly: float) -> np.ndarray:
