@@ -57,7 +57,8 @@ def test_index_is_self_contained(full_report):
 def test_summary_keys_units_and_values(full_report):
     runs, out, _ = full_report
     s = json.loads((out / "summary.json").read_text())
-    assert set(s) >= {"study", "fidelity", "total_wall_time_s", "machine", "package_version", "cases", "units"}
+    assert set(s) >= {"study", "fidelity", "total_wall_time_s", "task_time_sum_s", "machine",
+                      "package_version", "cases", "units"}
     assert s["study"] == "unit-test-study" and s["fidelity"] == "reduced"
     assert s["package_version"] == "9.9.9"
     assert isinstance(s["machine"]["cores"], int) and s["machine"]["cores"] >= 1
@@ -65,7 +66,9 @@ def test_summary_keys_units_and_values(full_report):
     assert sorted(s["cases"], key=int) == [str(n) for n in range(1, 11)]
     assert s["units"]["u_star_s"] == "m s-1" and s["units"]["z_m"] == "m"
     assert s["units"]["G_tot"] == "kg m-1 s-1" and s["units"]["wall_time_s"] == "s"
-    assert s["total_wall_time_s"] == pytest.approx(10 * 120.0)
+    # built without a run: no elapsed time to tell; the task times are the archives' (120 s each)
+    assert s["total_wall_time_s"] is None and s["run_started"] is None
+    assert s["task_time_sum_s"] == pytest.approx(10 * 120.0)
     for n in (2, 7):
         ds = open_dataset(runs[f"case{n:02d}"])
         c = s["cases"][str(n)]
@@ -76,6 +79,35 @@ def test_summary_keys_units_and_values(full_report):
             v = float(ds[k].values)
             assert (c[k] is None) if math.isnan(v) else c[k] == pytest.approx(v), k
     assert s["cases"]["9"]["delta_y"] is None      # NaN in the archive -> null
+
+
+def test_summary_wall_time_is_elapsed_and_tasks_are_summed_once(tmp_path):
+    """total_wall_time_s: start of the run to the end of the report; task_time_sum_s: a spin-up
+    shared by several runs counted once; a rebuild without a run keeps the elapsed time."""
+    import time
+
+    runs = {}
+    for n, spin in ((2, "/cache/spinup/A/spinup.nc"), (9, "/cache/spinup/A/spinup.nc"),
+                    (1, "/cache/spinup/B/spinup.nc")):
+        ds = make_analysis_dataset(n, wall_time_s=100.0)     # spin-up 30 s + saltation 70 s
+        ds.attrs.update(spinup_wall_time_s=30.0, spinup_path=spin, analysis_seconds=2.0)
+        runs[f"case{n:02d}"] = write_dataset(ds, tmp_path / f"c{n}.nc")
+    out = tmp_path / "r"
+    t0 = time.time()
+    build_report("timed", runs, out, {"figure_formats": ["png"], "figure_dpi": 40,
+                                      "run_started": t0 - 100.0})
+    took = time.time() - t0
+    s = json.loads((out / "summary.json").read_text())
+    assert 100.0 <= s["total_wall_time_s"] <= 100.0 + took + 1.0
+    assert s["run_started"] and s["run_finished"]
+    assert s["task_times_s"] == pytest.approx({"spinup": 60.0, "saltation": 210.0, "analysis": 6.0})
+    assert s["task_time_sum_s"] == pytest.approx(276.0)
+    assert sum(c["wall_time_s"] for c in s["cases"].values()) == pytest.approx(300.0)
+    index = (out / "index.html").read_text()
+    assert "wall time, start to end" in index and "sum of task times" in index
+    build_report("timed", runs, out, {"figure_formats": ["png"], "figure_dpi": 40})  # figures only
+    s2 = json.loads((out / "summary.json").read_text())
+    assert s2["total_wall_time_s"] == s["total_wall_time_s"] and s2["run_started"] == s["run_started"]
 
 
 def test_summary_converts_to_si(tmp_path):

@@ -22,7 +22,7 @@ from .data import ReportContext, case_number_of, load_runs
 from .figures import CAPTIONS, error_figure, make_figures
 from .reference import PAPER_LABEL
 from .tables import results_html, table2_html, table2_markdown
-from .summary import write_summary
+from .summary import build_summary, finish_wall_time, write_summary
 
 __all__ = ["build_report"]
 
@@ -96,7 +96,7 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     (report_dir / "table2.html").write_text(
         _page(f"Table 2 — {study_name}", f"<h1>Table 2 — computed beside {PAPER_LABEL}</h1>{t2}"
                                          f"<h2>Results stated in the text</h2>{rs}"), encoding="utf-8")
-    summary = write_summary(ctx, report_dir / "summary.json")
+    summary = build_summary(ctx)      # written last, when the elapsed wall time is known
 
     # ---- optional sections --------------------------------------------------------------------
     wanted = set(meta.get("reports") or [])
@@ -141,6 +141,8 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                            f"not where it does not</h2><p>From <a href='{FINDINGS_FILE}'>{FINDINGS_FILE}</a>"
                            "; written by hand from this report's numbers.</p><pre class='findings'>"
                            + html.escape(findings.read_text(encoding="utf-8")) + "</pre>")
+    finish_wall_time(summary, meta, report_dir / "summary.json")
+    write_summary(ctx, report_dir / "summary.json", summary)
     index.write_text(_index(ctx, summary, fig_notes, t2, rs, sections, anim_html), encoding="utf-8")
     return index
 
@@ -176,6 +178,16 @@ def _fmt_s(v: Any) -> str:
     return f"{v:.1f} s"
 
 
+def _started(summary: dict[str, Any]) -> str:
+    a, b = summary.get("run_started"), summary.get("run_finished")
+    return f" ({html.escape(str(a))} to {html.escape(str(b))})" if a and b else ""
+
+
+def _task_split(summary: dict[str, Any]) -> str:
+    tt = summary.get("task_times_s") or {}
+    return ", ".join(f"{k} {_fmt_s(v)}" for k, v in tt.items())
+
+
 def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
     e = html.escape
     meta = ctx.meta
@@ -190,7 +202,10 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              f"<tr><th>study</th><td>{e(ctx.study)}</td></tr>",
              f"<tr><th>fidelity</th><td>{e(str(summary['fidelity']))}</td></tr>",
              f"<tr><th>package version</th><td>{e(str(summary['package_version']))}</td></tr>",
-             f"<tr><th>total wall time</th><td>{_fmt_s(summary['total_wall_time_s'])}</td></tr>",
+             f"<tr><th>wall time, start to end</th><td>{_fmt_s(summary['total_wall_time_s'])}"
+             f"{_started(summary)}</td></tr>",
+             f"<tr><th>sum of task times</th><td>{_fmt_s(summary['task_time_sum_s'])} "
+             f"({_task_split(summary)}; a shared spin-up counted once)</td></tr>",
              f"<tr><th>machine</th><td>{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})</td></tr>",
              "</table>",
              "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
@@ -215,8 +230,10 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
     parts.extend(sections)
     if anim_html:
         parts.append(anim_html)
-    parts.append("<h2 id='runs'>Runs and wall time</h2><table><thead><tr><th>run</th><th>case</th>"
-                 "<th>fidelity</th><th>status</th><th>wall time</th><th>archive</th></tr></thead><tbody>")
+    parts.append("<h2 id='runs'>Runs and wall time</h2><p>Solver time per run: its spin-up + its "
+                 "saltation run (a spin-up shared by several runs appears in each of them).</p>"
+                 "<table><thead><tr><th>run</th><th>case</th>"
+                 "<th>fidelity</th><th>status</th><th>solver time</th><th>archive</th></tr></thead><tbody>")
     for r in ctx.runs.values():
         parts.append(f"<tr><td>{e(r.label)}</td><td>{'' if r.case is None else r.case}</td>"
                      f"<td>{e(str(r.fidelity or '—'))}</td>"

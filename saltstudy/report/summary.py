@@ -2,7 +2,11 @@
 
 Layout::
 
-    {"study": ..., "fidelity": ..., "package_version": ..., "total_wall_time_s": ...,
+    {"study": ..., "fidelity": ..., "package_version": ...,
+     "total_wall_time_s": ...,   # elapsed, start to end of the run-all that built the report
+     "task_time_sum_s": ...,     # sum of the task times (a shared spin-up counted once)
+     "task_times_s": {"spinup": ..., "saltation": ..., "analysis": ...},
+     "run_started": "2026-11-25T08:00:00+00:00", "run_finished": ...,   # ISO 8601, UTC
      "machine": {"cores": ..., "processor": ..., "platform": ..., "python": ...},
      "units": {"u_star_s": "m s-1", ...},                 # unit of each scalar name
      "cases": {"2": {"label": "case02", "status": "ok", "fidelity": ..., "wall_time_s": ...,
@@ -10,19 +14,31 @@ Layout::
 
 A plain case is keyed by its number as a string; any other run (ladder rung, scene) by its label.
 NaN (undefined) is written as null; JSON has no NaN.
+
+Wall time. ``total_wall_time_s`` is what a stopwatch gives for ``saltstudy run-all``: from the
+command's start (``meta["run_started"]``, epoch seconds) to the end of the report, with the
+warm-up compile, the shared spin-up once and the tasks one after another as they ran; tasks found
+in the cache cost nothing in it. ``task_time_sum_s`` adds the recorded times of the study's tasks
+(from the archives: each distinct spin-up once, each saltation run, each analysis), whether they
+ran now or were cached; a ``cases`` entry's ``wall_time_s`` is that run's spin-up + saltation, so
+the per-case values add up to more than either when cases share a spin-up. Rebuilt without a run
+(``saltstudy figures``), the report keeps the elapsed time of the summary it replaces, else null.
 """
 from __future__ import annotations
 
+import datetime as _dt
 import json
 import math
 import os
 import platform
+import time
 from pathlib import Path
 from typing import Any
 
 from .data import SCALAR_UNITS, ReportContext, RunData, to_si
 
-__all__ = ["machine_info", "run_scalars", "build_summary", "write_summary", "run_key"]
+__all__ = ["machine_info", "run_scalars", "build_summary", "write_summary", "run_key",
+           "task_times", "finish_wall_time"]
 
 
 def machine_info() -> dict[str, Any]:
@@ -68,11 +84,32 @@ def run_key(run: RunData) -> str:
     return str(run.case) if run.plain_case and run.case is not None else run.label
 
 
+def task_times(ctx: ReportContext) -> dict[str, float]:
+    """Recorded task times per kind [s], from the analysis archives' attributes: a spin-up shared
+    by several runs (same ``spinup_path``) counted once. An archive without the spin-up's own time
+    counts its ``wall_time_s`` (spin-up + saltation) as saltation."""
+    out = {"spinup": 0.0, "saltation": 0.0, "analysis": 0.0}
+    spinups: dict[str, float] = {}
+    for run in ctx.runs.values():
+        if run.ds is None:
+            continue
+        wall, spin = run.wall_time_s, run.attr("spinup_wall_time_s")
+        if math.isfinite(spin) and math.isfinite(wall):
+            spinups.setdefault(str(run.ds.attrs.get("spinup_path") or run.label), spin)
+            out["saltation"] += wall - spin
+        elif math.isfinite(wall):
+            out["saltation"] += wall
+        a = run.attr("analysis_seconds")
+        if math.isfinite(a):
+            out["analysis"] += a
+    out["spinup"] = float(sum(spinups.values()))
+    return out
+
+
 def build_summary(ctx: ReportContext) -> dict[str, Any]:
     meta = ctx.meta
     cases: dict[str, Any] = {}
     units: dict[str, str] = {"wall_time_s": "s"}
-    total = 0.0
     for run in ctx.runs.values():
         vals, u = run_scalars(run)
         units.update(u)
@@ -82,18 +119,48 @@ def build_summary(ctx: ReportContext) -> dict[str, Any]:
                                  "wall_time_s": _clean(run.wall_time_s)}
         entry.update(vals)
         cases[run_key(run)] = entry
-        if math.isfinite(run.wall_time_s):
-            total += run.wall_time_s
     fids = sorted({r.fidelity for r in ctx.runs.values() if r.fidelity})
+    tt = task_times(ctx)
+    started = meta.get("run_started")
     return {
         "study": ctx.study,
         "fidelity": meta.get("fidelity") or (fids[0] if len(fids) == 1 else fids or None),
         "package_version": meta.get("package_version") or _package_version(),
-        "total_wall_time_s": total,
+        "total_wall_time_s": None,
+        "task_time_sum_s": float(sum(tt.values())),
+        "task_times_s": tt,
+        "run_started": _iso(started) if isinstance(started, (int, float)) else None,
+        "run_finished": None,
         "machine": machine_info(),
         "units": units,
         "cases": cases,
     }
+
+
+def _iso(epoch: float) -> str:
+    return _dt.datetime.fromtimestamp(epoch, _dt.timezone.utc).isoformat(timespec="seconds")
+
+
+def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Path | None = None,
+                     now: float | None = None) -> dict[str, Any]:
+    """Set ``total_wall_time_s`` and ``run_finished``: now − ``meta["run_started"]`` when the
+    report is built by a run; else carried over from ``previous`` (the summary.json being
+    replaced) if that holds one; else left null."""
+    started = meta.get("run_started")
+    if isinstance(started, (int, float)) and math.isfinite(started):
+        now = time.time() if now is None else now
+        summary["total_wall_time_s"] = max(0.0, now - float(started))
+        summary["run_finished"] = _iso(now)
+        return summary
+    if previous is not None and previous.is_file():
+        try:
+            old = json.loads(previous.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            old = {}
+        if isinstance(old.get("total_wall_time_s"), (int, float)) and old.get("run_started"):
+            for k in ("total_wall_time_s", "run_started", "run_finished"):
+                summary[k] = old.get(k)
+    return summary
 
 
 def _package_version() -> str:
@@ -101,7 +168,9 @@ def _package_version() -> str:
     return __version__
 
 
-def write_summary(ctx: ReportContext, path: Path) -> dict[str, Any]:
-    data = build_summary(ctx)
+def write_summary(ctx: ReportContext, path: Path, data: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Write ``data`` (default: :func:`build_summary` with the wall time finished) to ``path``."""
+    if data is None:
+        data = finish_wall_time(build_summary(ctx), ctx.meta, Path(path))
     path.write_text(json.dumps(data, indent=2, sort_keys=False, allow_nan=False) + "\n", encoding="utf-8")
     return data

@@ -48,6 +48,7 @@ def register(app: typer.Typer) -> None:
                                                   help="where the report goes (default: <project>/reports/<study>)"),
     ) -> None:
         """Run a whole study (spin-up, saltation, analysis per case; one report), reusing the cache."""
+        started = time.time()   # the origin of the report's elapsed wall time (summary.json)
         from ..config import load_study
         from . import keys as K
         from .graph import run_study
@@ -68,7 +69,7 @@ def register(app: typer.Typer) -> None:
         else:
             typer.echo(f"{len(todo)} of {3 * len(runs)} run tasks to compute")
         summary = run_study(st, out_dir, workers=workers, scheduler=scheduler, quiet=quiet,
-                            report_dir=report_dir)
+                            report_dir=report_dir, started=started)
         _print_summary(summary)
         if todo and not summary.solver_work:
             typer.echo("no solver work was needed (spin-ups and saltation runs all cached)")
