@@ -34,13 +34,18 @@ margin:1.5em auto;padding:0 1em;color:#222;line-height:1.4}
 h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.8em}
 table{border-collapse:collapse;font-size:.85em;margin:.6em 0}
 th,td{border:1px solid #ccc;padding:.25em .5em;text-align:right}
-th{background:#f3f3f3}td:first-child{text-align:left}
+th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}
 td.ref,th.ref{color:#777;background:#fafafa}td.missing{color:#b22;text-align:center;font-style:italic}
 td.bad{color:#b22;font-weight:bold}td.how{text-align:left;font-size:.9em;color:#555}
 figure{margin:1.2em 0}figure img{max-width:100%;border:1px solid #eee}
 figcaption{font-size:.9em;color:#444}.notes{color:#b22;font-size:.85em}.findings{white-space:pre-wrap;font-size:.9em}
 pre{background:#f6f6f6;padding:.8em;overflow:auto;font-size:.8em;max-height:30em}
 .meta td{text-align:left}
+table.t2{font-size:.8em;font-variant-numeric:tabular-nums;margin:.8em 0 1.2em}
+table.t2 caption{text-align:left;font-size:1.05em;color:#444;padding-bottom:.3em}
+table.t2 th{white-space:normal;vertical-align:bottom;padding:.2em .35em}
+table.t2 th.grp{text-align:center}table.t2 th.run,table.t2 td.run{text-align:left}
+table.t2 td{white-space:nowrap;padding:.2em .35em}table.t2 .se{color:#555;font-size:.9em}
 """
 
 

@@ -214,30 +214,46 @@ def results_markdown(ctx: ReportContext) -> str:
 
 
 def table2_html(ctx: ReportContext) -> str:
+    """Table 2 as two HTML tables that fit a 1280 px page: the columns the paper gives per case
+    (computed, paper, difference) and the computed-only columns. Headers wrap; numbers do not
+    (right-aligned in tabular figures: the CSS of report/build.py)."""
     rows = table2_rows(ctx)
     e = html.escape
-    out = ['<table class="t2"><thead><tr><th rowspan="2">run</th>']
-    for _, pkey, lab, unit in TABLE2_COLUMNS:
-        span = 3 if pkey else 1
-        out.append(f'<th colspan="{span}">{e(lab)} [{e(unit)}]</th>')
-    out.append("</tr><tr>")
-    for _, pkey, _, _ in TABLE2_COLUMNS:
-        out.append("<th>computed</th>" + ("<th class='ref'>paper</th><th>diff.</th>" if pkey else ""))
-    out.append("</tr></thead><tbody>")
-    ncols = sum(3 if p else 1 for _, p, _, _ in TABLE2_COLUMNS)
+    cols = [c for c in TABLE2_COLUMNS if c[1]]
+    only = [c for c in TABLE2_COLUMNS if not c[1]]
+    out = [f'<table class="t2"><caption>Computed beside {e(PAPER_LABEL)}: value, the paper\'s '
+           "value (grey) and the difference (computed − paper)/paper</caption>"
+           '<thead><tr><th rowspan="2" class="run">run</th>']
+    for _, _, lab, unit in cols:
+        out.append(f'<th colspan="3" class="grp">{e(lab)} [{e(unit)}]</th>')
+    out.append("</tr><tr>" + "<th>computed</th><th class='ref'>paper</th><th>diff.</th>" * len(cols)
+               + "</tr></thead><tbody>")
     for row in rows:
-        out.append(f"<tr><td>{e(row['name'])}</td>")
+        out.append(f"<tr><td class='run'>{e(row['name'])}</td>")
         if row["status"] != "ok":
-            out.append(f'<td class="missing" colspan="{ncols}">{e(row["status"])}</td></tr>')
+            out.append(f'<td class="missing" colspan="{3 * len(cols)}">{e(row["status"])}</td></tr>')
             continue
-        for var, pkey, _, _ in TABLE2_COLUMNS:
+        for var, _, _, _ in cols:
             c = row["cells"][var]
-            out.append(f"<td>{e(_computed(c))}</td>")
-            if pkey:
-                cls = "bad" if math.isfinite(c.rel) and abs(c.rel) > 0.25 else ""
-                out.append(f"<td class='ref'>{fmt(c.paper)}</td><td class='{cls}'>{_pct(c.rel)}</td>")
+            se = f"<span class='se'> ± {fmt(c.se, 2)}</span>" if math.isfinite(c.se) else ""
+            cls = "bad" if math.isfinite(c.rel) and abs(c.rel) > 0.25 else ""
+            out.append(f"<td>{fmt(c.computed)}{se}</td><td class='ref'>{fmt(c.paper)}</td>"
+                       f"<td class='{cls}'>{_pct(c.rel)}</td>")
         out.append("</tr>")
     out.append("</tbody></table>")
+    if only:
+        out.append('<table class="t2"><caption>Computed only (the paper does not give these per '
+                   'case)</caption><thead><tr><th class="run">run</th>')
+        out.extend(f"<th>{e(lab)} [{e(unit)}]</th>" for _, _, lab, unit in only)
+        out.append("</tr></thead><tbody>")
+        for row in rows:
+            out.append(f"<tr><td class='run'>{e(row['name'])}</td>")
+            if row["status"] != "ok":
+                out.append(f'<td class="missing" colspan="{len(only)}">{e(row["status"])}</td></tr>')
+                continue
+            out.extend(f"<td>{e(_computed(row['cells'][var]))}</td>" for var, _, _, _ in only)
+            out.append("</tr>")
+        out.append("</tbody></table>")
     return "".join(out)
 
 
