@@ -132,7 +132,10 @@ def _strain_norm(s11, s22, s33, s12, s13, s23):
 
 @device
 def filter_plane_2(src, dst, tmp):
-    """dst = the (1, 4, 1)/6 filter of the periodic plane src in x, then in y (width 2 cells)."""
+    """dst = the (1, 4, 1)/6 filter of the periodic plane src in x, then in y (width 2 cells).
+
+    The y pass runs over the contiguous axis with its two end points peeled off, so that the
+    interior loop has no index wrapping and vectorises (the wrapped loop cost twice as much)."""
     nx, ny = src.shape
     for i in range(nx):
         im = i - 1 if i > 0 else nx - 1
@@ -140,15 +143,22 @@ def filter_plane_2(src, dst, tmp):
         for j in range(ny):
             tmp[i, j] = (src[im, j] + 4.0 * src[i, j] + src[ip, j]) * (1.0 / 6.0)
     for i in range(nx):
-        for j in range(ny):
-            jm = j - 1 if j > 0 else ny - 1
-            jp = j + 1 if j < ny - 1 else 0
-            dst[i, j] = (tmp[i, jm] + 4.0 * tmp[i, j] + tmp[i, jp]) * (1.0 / 6.0)
+        dst[i, 0] = (tmp[i, ny - 1] + 4.0 * tmp[i, 0] + tmp[i, 1]) * (1.0 / 6.0)
+        for j in range(1, ny - 1):
+            dst[i, j] = (tmp[i, j - 1] + 4.0 * tmp[i, j] + tmp[i, j + 1]) * (1.0 / 6.0)
+        dst[i, ny - 1] = (tmp[i, ny - 2] + 4.0 * tmp[i, ny - 1] + tmp[i, 0]) * (1.0 / 6.0)
+
+
+@device
+def _y5(tmp, i, j1, j2, j, j4, j5):
+    return (tmp[i, j1] + 4.0 * tmp[i, j2] + 2.0 * tmp[i, j] + 4.0 * tmp[i, j4]
+            + tmp[i, j5]) * (1.0 / 12.0)
 
 
 @device
 def filter_plane_4(src, dst, tmp):
-    """dst = the (1, 4, 2, 4, 1)/12 filter of the periodic plane src in x, then in y (width 4 cells)."""
+    """dst = the (1, 4, 2, 4, 1)/12 filter of the periodic plane src in x, then in y (width 4
+    cells); the y pass peels its two end points on each side (see filter_plane_2)."""
     nx, ny = src.shape
     for i in range(nx):
         i1 = (i - 2) % nx
@@ -159,13 +169,13 @@ def filter_plane_4(src, dst, tmp):
             tmp[i, j] = (src[i1, j] + 4.0 * src[i2, j] + 2.0 * src[i, j] + 4.0 * src[i4, j]
                          + src[i5, j]) * (1.0 / 12.0)
     for i in range(nx):
-        for j in range(ny):
-            j1 = (j - 2) % ny
-            j2 = (j - 1) % ny
-            j4 = (j + 1) % ny
-            j5 = (j + 2) % ny
-            dst[i, j] = (tmp[i, j1] + 4.0 * tmp[i, j2] + 2.0 * tmp[i, j] + 4.0 * tmp[i, j4]
-                         + tmp[i, j5]) * (1.0 / 12.0)
+        dst[i, 0] = _y5(tmp, i, ny - 2, ny - 1, 0, 1, 2)
+        dst[i, 1] = _y5(tmp, i, ny - 1, 0, 1, 2, 3)
+        for j in range(2, ny - 2):
+            dst[i, j] = (tmp[i, j - 2] + 4.0 * tmp[i, j - 1] + 2.0 * tmp[i, j] + 4.0 * tmp[i, j + 1]
+                         + tmp[i, j + 2]) * (1.0 / 12.0)
+        dst[i, ny - 2] = _y5(tmp, i, ny - 4, ny - 3, ny - 2, ny - 1, 0)
+        dst[i, ny - 1] = _y5(tmp, i, ny - 3, ny - 2, ny - 1, 0, 1)
 
 
 @device
@@ -214,11 +224,11 @@ def germano_sums(u, v, w, rdx, rdy, rdzc, rdzf, rlog, a2_2, a2_4, out):
         top = k < nz - 1
         bot = k > 0
         for i in range(nx):
-            im = (i - 1) % nx
-            ip = (i + 1) % nx
+            im = i - 1 if i > 0 else nx - 1
+            ip = i + 1 if i < nx - 1 else 0
             for j in range(ny):
-                jm = (j - 1) % ny
-                jp = (j + 1) % ny
+                jm = j - 1 if j > 0 else ny - 1
+                jp = j + 1 if j < ny - 1 else 0
                 uc = 0.5 * (u[i, j, k] + u[ip, j, k])
                 vc = 0.5 * (v[i, j, k] + v[i, jp, k])
                 wc = 0.5 * (w[i, j, k] + w[i, j, k + 1])
@@ -331,6 +341,9 @@ class DynamicSmagorinsky:
                  c0_lagrangian: float | None = None):
         if interval < 1:
             raise ValueError(f"dynamic interval must be >= 1 step (got {interval})")
+        if min(grid.nx, grid.ny) < 5:
+            raise ValueError(f"the dynamic closure's 4 dx test filter spans 5 cells: the grid has "
+                             f"nx = {grid.nx}, ny = {grid.ny}")
         self.grid = grid
         self.interval = int(interval)
         self.rlog = float(rlog)
