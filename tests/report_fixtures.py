@@ -6,8 +6,8 @@ a streaky C_p field) so that the figures are readable, and each case differs fro
 They are deliberately *not* equal to the paper's values (a scale factor ``bias`` is applied), so
 a test comparing "computed" with "paper" exercises a non-zero difference.
 
-Until tests/analysis_fixtures.py (owned by the analysis engineer) exists, this builder is the
-report's own; it only needs xarray and numpy.
+The report tests build their archives here, apart from the analysis's own fixtures
+(tests/analysis_fixtures.py), so they need only xarray and numpy, not the analysis.
 """
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""`saltstudy bench flow|particles --json`: the fields the issues ask for, from real (short) runs.
+"""`saltstudy bench flow|particles --json`: the fields a benchmark reports, from real (short) runs.
 
 Timings are not asserted (a noisy machine would make that flaky); the structure and the sanity
 of the numbers are.

@@ -2,8 +2,9 @@
 
 Why: kernels that numba compiles in the running process give results that differ at round-off
 (~1e-13 after a few seconds of flow) from the same kernels loaded from its on-disk cache, while
-every process that loads them from the cache is bit-identical to every other (measured in
-session 7; README, "Running a study"). The turbulence amplifies a round-off difference into another realization.
+every process that loads them from the cache is bit-identical to every other (docs/USAGE.md, "The
+cache, reruns and resumes"; tests/test_workflow_run.py repeats it). The turbulence amplifies a
+round-off difference into another realization.
 Without a warm-up the first run of a new source (which compiles) and any rerun or resumed run
 (which loads) are different realizations; with it, every solver task loads from the cache and a
 rerun, or a run resumed from its checkpoint, repeats the first run.
