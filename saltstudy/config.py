@@ -149,6 +149,11 @@ class Closure(_Frozen):
         "isotropic", description="SGS eddy viscosity: one, with the filter length ('isotropic'), or "
         "a horizontal one with sqrt(dx dy) and a vertical one with dz ('anisotropic', the nu_th and "
         "nu_tv of the paper's eq. A1) (solver/sgs.py)")
+    two_part: bool = Field(
+        False, description="the two-part model of Sullivan, McWilliams & Moeng (1994): the fluctuating "
+        "eddy viscosity scaled by the isotropy factor gamma(z) and a mean-field viscosity that holds the "
+        "log law at the first level (solver/twopart.py); a departure from the paper's closure, on top "
+        "of either model; excludes near_wall (both are mean-field terms)")
     near_wall_layer: tuple[float, float] = Field(
         (1.0, 3.0), description="(a, b): the near-wall term acts fully below a dx and fades to zero "
         "at b dx (dx: the horizontal grid spacing) [-]")
@@ -166,6 +171,9 @@ class Closure(_Frozen):
         if self.model == "dynamic" and self.viscosity != "isotropic":
             raise ValueError("viscosity: the dynamic model has one eddy viscosity; "
                              "'anisotropic' goes with model = 'deardorff'")
+        if self.two_part and self.near_wall:
+            raise ValueError("two_part: the two-part model carries its own mean-field viscosity; "
+                             "set near_wall = false with it")
         return self
 
 

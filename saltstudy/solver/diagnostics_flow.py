@@ -126,8 +126,9 @@ def flow_profiles(model) -> dict:
     tke = 0.5 * (((uc - um) ** 2).mean(axis=(0, 1)) + ((vc - vm) ** 2).mean(axis=(0, 1))
                  + ((wc - wm) ** 2).mean(axis=(0, 1)))
     res, sgs = stress_profile(model)
-    if st.near_wall is not None:  # the near-wall mean-field part of the modelled stress
-        sgs = sgs - st.near_wall.stress_profile()
+    for mean_field in (st.near_wall, st.two_part):  # the mean-field part of the modelled stress
+        if mean_field is not None:
+            sgs = sgs - mean_field.stress_profile()
     nu = _nu(model)
     eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, st.rv, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c, g.rdz_f,
                                   st.rlog, st.ceps_l)

@@ -92,7 +92,8 @@ class Model:
                           near_wall_layer=(case.closure.near_wall_layer if case.closure.near_wall
                                            else None), delta=case.closure.delta,
                           viscosity=case.closure.viscosity, closure=case.closure.model,
-                          dynamic_interval=case.closure.dynamic_interval)
+                          dynamic_interval=case.closure.dynamic_interval,
+                          two_part=case.closure.two_part)
         state = FlowState.zeros(grid)
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,

@@ -60,6 +60,7 @@ device = jit_with(inline="always")
 __all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "wall_blend", "length_scale", "viscosity_lengths",
            "VISCOSITY_KINDS", "c_eps_profile", "delta_profile", "scotti_factor", "DELTA_KINDS",
            "eddy_viscosity", "diff_u_at", "diff_v_at", "diff_w_at", "tke_tendency_at",
+           "strain_sq_at", "strain_sq_fluct_at",
            "compute_nu", "sgs_stress_uw_profile"]
 
 C_M = 0.1            #: Deardorff (1980) / Moeng (1984) eddy-viscosity constant
@@ -216,7 +217,17 @@ def diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
 
 @device
 def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
-    """2 S_ij S_ij at the cell centre (i, j, k) [s^-2], split as (horizontal part, vertical part):
+    """2 S_ij S_ij at the cell centre (i, j, k) [s^-2]: ``strain_sq_fluct_at`` with nothing taken out."""
+    return strain_sq_fluct_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog,
+                              0.0, 0.0, 0.0, 0.0)
+
+
+@device
+def strain_sq_fluct_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog,
+                       mub, mvb, mut, mvt):
+    """2 s_ij s_ij at the cell centre (i, j, k) [s^-2] of the strain less the plane-mean shear
+    (mub, mvb) on the face below and (mut, mvt) on the face above [s^-1] (zeros: the whole strain;
+    the two-part model, twopart.py, takes the mean out), split as (horizontal part, vertical part):
     (2 S_11^2 + 2 S_22^2 + 4 S_12^2, 2 S_33^2 + 4 S_13^2 + 4 S_23^2), the parts that work against
     the horizontal and the vertical viscosity (module doc).
 
@@ -246,32 +257,39 @@ def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdz
         a1 = (u[ip, j, k] - u[ip, j, k - 1]) * rdz + (w[ip, j, k] - w[i, j, k]) * rdx
         b0 = (v[i, j, k] - v[i, j, k - 1]) * rdz + (w[i, j, k] - w[i, jm, k]) * rdy
         b1 = (v[i, jp, k] - v[i, jp, k - 1]) * rdz + (w[i, jp, k] - w[i, j, k]) * rdy
-        q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
     else:
         a0 = u[i, j, k] * rlog
         a1 = u[ip, j, k] * rlog
         b0 = v[i, j, k] * rlog
         b1 = v[i, jp, k] * rlog
-        q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
+    a0 -= mub
+    a1 -= mub
+    b0 -= mvb
+    b1 -= mvb
+    q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
     if top:
         kt = k + 1
         rdz = rdzf[kt]
-        a0 = (u[i, j, kt] - u[i, j, k]) * rdz + (w[i, j, kt] - w[im, j, kt]) * rdx
-        a1 = (u[ip, j, kt] - u[ip, j, k]) * rdz + (w[ip, j, kt] - w[i, j, kt]) * rdx
-        b0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy
-        b1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy
+        a0 = (u[i, j, kt] - u[i, j, k]) * rdz + (w[i, j, kt] - w[im, j, kt]) * rdx - mut
+        a1 = (u[ip, j, kt] - u[ip, j, k]) * rdz + (w[ip, j, kt] - w[i, j, kt]) * rdx - mut
+        b0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy - mvt
+        b1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy - mvt
         q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
     return acc, 2.0 * s33 * s33 + 0.25 * q
 
 
 @device
 def tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                    rlog, ceps_over_l_k):
+                    rlog, ceps_over_l_k, mdu, mdv):
     """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (eq. A1); horizontal
-    fluxes with nu, vertical ones with nu rv (as in A1's nu_th, nu_tv)."""
+    fluxes with nu, vertical ones with nu rv (as in A1's nu_th, nu_tv). The production works on the
+    strain less the plane-mean shears ``mdu``, ``mdv`` on the faces (nz+1,) [s^-1]: zeros, except
+    with the two-part model (twopart.py), whose e is the energy of the fluctuations."""
     ec = e[i, j, k]
     nuc = nu[i, j, k]
-    sh, sv = strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog)
+    kt = k + 1 if top else k
+    sh, sv = strain_sq_fluct_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog,
+                                mdu[k], mdv[k], mdu[kt], mdv[kt])
     nvc = nuc * rv[k]
     prod = nuc * sh + nvc * sv
     # transport 2 nu_t grad e, face viscosities as two-point means

@@ -103,16 +103,16 @@ def _momentum_stage(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rd
 
 @device
 def _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, rdzc,
-             rdzf, rlog, ceps_lk, e_min):
+             rdzf, rlog, ceps_lk, e_min, mdu, mdv):
     te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     te += tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                          rlog, ceps_lk)
+                          rlog, ceps_lk, mdu, mdv)
     val = eb[i, j, k] + cdt * te
     eo[i, j, k] = val if val > e_min else e_min
 
 
 @pjit
-def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min):
+def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min, mdu, mdv):
     """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above);
     rdzc, rdzf: 1/dz_c, 1/dz_f."""
     nx, ny, nz = e.shape
@@ -124,12 +124,12 @@ def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps
             jm = (j - 1) % ny
             jp = (j + 1) % ny
             _e_point(e, u, v, w, nu, rv, eb, eo, i, j, 0, im, ip, jm, jp, True, False, cdt, rdx, rdy,
-                     rdzc, rdzf, rlog, ceps_l[0], e_min)
+                     rdzc, rdzf, rlog, ceps_l[0], e_min, mdu, mdv)
             for k in range(1, nz - 1):
                 _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, True, True, cdt, rdx, rdy,
-                         rdzc, rdzf, rlog, ceps_l[k], e_min)
+                         rdzc, rdzf, rlog, ceps_l[k], e_min, mdu, mdv)
             _e_point(e, u, v, w, nu, rv, eb, eo, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, rdx,
-                     rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], e_min)
+                     rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], e_min, mdu, mdv)
 
 
 @pjit
@@ -149,7 +149,8 @@ class Stepper:
                  damping_timescale: float, workers: int | None = None, advection: bool = True,
                  sgs: bool = True, wall: bool = True, damp_u: bool = True, body_force: float = 0.0,
                  near_wall_layer: tuple[float, float] | None = None, delta: str = "scotti",
-                 viscosity: str = "isotropic", closure: str = "deardorff", dynamic_interval: int = 5):
+                 viscosity: str = "isotropic", closure: str = "deardorff", dynamic_interval: int = 5,
+                 two_part: bool = False):
         """``damp_u``: the Rayleigh layer acts on u (towards ``state.u_drive``; the top drive) or
         not (v and w only); ``body_force`` G [m s^-2]: uniform streamwise acceleration added to u
         everywhere (the mean pressure gradient drive, forcing.py); ``near_wall_layer`` (a, b): the
@@ -159,11 +160,14 @@ class Stepper:
         ("anisotropic", sgs.viscosity_lengths); ``closure``: the SGS model, "deardorff" (the
         paper's prognostic TKE, sgs.py) or "dynamic" (the plane-averaged scale-dependent dynamic
         Smagorinsky model with e diagnosed, dynamic_sgs.py; its coefficient recomputed every
-        ``dynamic_interval`` steps)."""
+        ``dynamic_interval`` steps); ``two_part``: the isotropy factor and mean-field viscosity of
+        Sullivan et al. (1994) on top of either closure (twopart.py; not with ``near_wall_layer``)."""
         if closure not in CLOSURES:
             raise ValueError(f"closure must be one of {CLOSURES} (got {closure!r})")
         if closure == "dynamic" and viscosity != "isotropic":
             raise ValueError("the dynamic closure has one eddy viscosity: viscosity must be 'isotropic'")
+        if two_part and near_wall_layer is not None:
+            raise ValueError("the two-part model carries its own mean-field viscosity: no near-wall layer")
         self.grid = grid
         nx, ny, nz = grid.shape
         self.z0, self.kappa, self.nu_mol = float(z0), float(kappa), float(nu_mol)
@@ -207,6 +211,19 @@ class Stepper:
         if near_wall_layer is not None and self.sgs and self.wall:
             from .nearwall import NearWallMeanViscosity
             self.near_wall = NearWallMeanViscosity(grid, self.kappa, near_wall_layer)
+        #: plane-mean shears on the faces that the TKE production takes out (two-part model only)
+        self.mdu = np.zeros(nz + 1)
+        self.mdv = np.zeros(nz + 1)
+        self.two_part = None
+        if two_part and self.sgs and self.wall:
+            from .twopart import TwoPartModel
+            self.two_part = TwoPartModel(grid, self.kappa, self.rlog)
+            self.mdu, self.mdv = self.two_part.mdu, self.two_part.mdv
+            if self.dynamic is None:
+                # the acting c_m l is gamma times the closure's own (updated in place every step)
+                self._cml_base = self.cml.copy()
+                self.cml = self._cml_base.copy()
+                self.cml_v = self.cml
 
     # ---- pieces ----------------------------------------------------------------------------
     def boundary(self, u, v, w, e) -> None:
@@ -237,11 +254,13 @@ class Stepper:
                         self.advection, self.sgs)
         if self.near_wall is not None:
             self.near_wall.apply(ou, ov, cdt)
+        if self.two_part is not None:
+            self.two_part.apply(ou, ov, cdt)
         if self.dynamic is not None:
             pass                # e is diagnosed from the new state at the end of the step
         elif self.sgs:
             _tke_stage(ge, gu, gv, gw, self.nu, self.rv, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f, self.rlog,
-                       self.ceps_l, E_MIN)
+                       self.ceps_l, E_MIN, self.mdu, self.mdv)
         elif oe is not be:
             oe[...] = be
         self.pressure.project(ou, ov, ow, p, cdt)
@@ -255,6 +274,8 @@ class Stepper:
             self._sink = state.tke_sink
         if self.near_wall is not None:  # held over the stages (a slow mean-field term)
             self.near_wall.update(state, self.cml_v, self.nu_mol, dt)
+        if self.two_part is not None:   # likewise: gamma, the mean shear and nu_T of this step
+            self._update_two_part(state, dt)
         self.stage(state, state, a, c1 * dt, state.u_drive)
         self.stage(a, state, b, c2 * dt, state.u_drive)
         self.stage(b, state, state, c3 * dt, state.u_drive, p=state.p)
@@ -264,6 +285,22 @@ class Stepper:
                                    state.e)
         elif state.tke_sink is not None:
             _apply_sink(state.e, state.tke_sink, dt, E_MIN)
+
+    def _update_two_part(self, state, dt: float) -> None:
+        from .twopart import wall_friction_velocity
+        tp = self.two_part
+        tp.update_gamma(state)
+        if self.dynamic is not None:
+            self.dynamic.set_scale(tp.gamma)
+        else:
+            np.multiply(self._cml_base, tp.gamma, out=self.cml)
+        # the plane mean of the gamma-scaled viscosity on face 1 (nu = c l sqrt(e) for both
+        # closures: the dynamic model's e is diagnosed from its viscosity)
+        e = state.e
+        nu1 = 0.5 * (self.cml[0] * float(np.sqrt(np.maximum(e[:, :, 0], 0.0)).mean())
+                     + self.cml[1] * float(np.sqrt(np.maximum(e[:, :, 1], 0.0)).mean()))
+        surface_stress_into(state.u, state.v, self.cd, self.taux, self.tauy)
+        tp.update_mean_viscosity(nu1, wall_friction_velocity(self.taux, self.tauy), dt)
 
     def close(self) -> None:
         self.pressure.close()
