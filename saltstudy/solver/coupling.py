@@ -56,6 +56,7 @@ parcel contributes to the cell that holds it, weighted by the fraction of the st
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import prange
@@ -64,9 +65,24 @@ from .._jit import jit, jit_borrow, pjit
 from .elementary import expm1_small, pow_0687
 from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 
-__all__ = ["C0_LAGRANGIAN", "face_inverse_masses", "lagrangian_time_coefficients", "chunk_bounds",
-           "chunk_assign", "chunk_ranges", "implicit_coefficients", "implicit_corrections",
-           "apply_exchange", "tke_rates", "grid_absmax", "N_CHUNKS"]
+__all__ = ["Parcels", "Flow", "Estimate", "C0_LAGRANGIAN", "face_inverse_masses",
+           "lagrangian_time_coefficients", "chunk_bounds", "chunk_assign", "chunk_ranges",
+           "implicit_coefficients", "implicit_corrections", "apply_exchange", "tke_rates",
+           "grid_absmax", "N_CHUNKS"]
+
+#: The records the grain kernels take (named tuples of arrays: numba passes each as one argument,
+#: its fields are static members, so reading them costs what separate arguments would).
+#: The parcels' arrays (length: capacity; the first n live; su, sv, sw length 0 without the SGS
+#: velocity):
+Parcels = namedtuple("Parcels", "x y z u v w d kd flag trem su sv sw")
+#: The air the parcels see, at the start of the step: u, v, w faces and the SGS TKE e (nx, ny, nz);
+#: tlc per level, T_L = tlc[k] / sqrt(e) (``lagrangian_time_coefficients``); two-way, the
+#: implicit change du, dv, dw on the lowest nk levels and U, V, W = u + du etc. there (placeholders
+#: of shape (1, 1, 1) one-way):
+Flow = namedtuple("Flow", "u v w e tlc U V W du dv dw")
+#: The implicit estimate per parcel (``implicit_coefficients``): drag rate k0, expm1(-k0 T) e0,
+#: c_p c0 and the vertical u~_p wtil:
+Estimate = namedtuple("Estimate", "k0 e0 c0 wtil")
 
 #: Lagrangian structure-function constant used in T_L (eq. A1); not given in the paper.
 C0_LAGRANGIAN = 2.1
@@ -251,19 +267,17 @@ def grid_absmax(f):
 
 
 @jit_borrow
-def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo, z_f,
-                    z_c, lut, pool, ranges, nk, k0, e0, c0, wtil):
+def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
     """Chunk c of implicit_coefficients (serial; helpers inlined; no reference counting, see
     ``_jit.jit_borrow``)."""
-    nx = uf.shape[0]
-    ny = uf.shape[1]
-    nz = uf.shape[2]
+    nx = F.u.shape[0]
+    ny = F.u.shape[1]
+    nz = F.u.shape[2]
     rho = prm[0]
     nu = prm[1]
     g = prm[2]
     rho_p = prm[3]
     Q = prm[4]
-    nc = ranges.shape[0]
     s = ranges[c, 0]
     L = ranges[c, 1]
     off = ranges[c, 2]
@@ -272,59 +286,53 @@ def _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, d
         pool[q] = 0.0
     for q in range(cstart[c], cstart[c + 1]):
         p = idx[q]
-        ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
-            x[p], y[p], z[p], geo, z_f, z_c, lut, nx, ny, nz)
-        dp = d[p]
+        st = locate(P.x[p], P.y[p], P.z[p], G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
+        dp = P.d[p]
         tp = rho_p * dp * dp / (18.0 * rho * nu)
-        k = kd[p]
+        k = P.kd[p]
         ou = 0.0
         ov = 0.0
-        if islog or k <= 0.0:
-            ur, vr, wr = interp_fluid(uf, vf, wf, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc,
-                                      fzc, kf, fzf, lfac, islog, nx, ny)
+        if st.islog or k <= 0.0:
+            ur, vr, wr = interp_fluid(F.u, F.v, F.w, st, nx, ny)
             if k <= 0.0:
-                rel = math.sqrt((ur - u[p]) ** 2 + (vr - v[p]) ** 2 + (wr - w[p]) ** 2)
+                rel = math.sqrt((ur - P.u[p]) ** 2 + (vr - P.v[p]) ** 2 + (wr - P.w[p]) ** 2)
                 k = drag_rate(rel, dp / nu, tp)
-            if islog:
-                u0, v0, w0 = interp_faces(uf, vf, wf, nz, nz + 1, ixf, fxf, ixc, fxc, jyf, fyf,
-                                          jyc, fyc, kc, fzc, kf, fzf, islog, nx, ny)
+            if st.islog:
+                u0, v0, w0 = interp_faces(F.u, F.v, F.w, nz, nz + 1, st, nx, ny)
                 ou = ur - u0
                 ov = vr - v0
-        k0[p] = k
-        T = dt + trem[p]  # the parcel's own step (time credit after a splash, particles.py)
+        E.k0[p] = k
+        T = dt + P.trem[p]  # the parcel's own step (time credit after a splash, particles.py)
         em = expm1_small(-k * T)
-        e0[p] = em  # particles.py reuses it (first drag evaluation, same k and T)
+        E.e0[p] = em  # particles.py reuses it (first drag evaluation, same k and T)
         ome = -em
         cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
-        wt = w[p] + g / k - g * T / ome
-        c0[p] = cp
-        wtil[p] = wt
-        if islog:
-            kc = 0
-            fzc = 0.0
-        pool_add_tri2(pool, off, s, nx, ny, nk, cp, cp * (u[p] - ou), ixf, fxf, jyc, fyc, kc,
-                      fzc)
-        pool_add_tri2(pool, off + csz, s, nx, ny, nk, cp, cp * (v[p] - ov), ixc, fxc, jyf,
-                      fyf, kc, fzc)
-        pool_add_tri2(pool, off + 2 * csz, s, nx, ny, nk, cp, cp * wt, ixc, fxc, jyc, fyc, kf,
-                      fzf)
+        wt = P.w[p] + g / k - g * T / ome
+        E.c0[p] = cp
+        E.wtil[p] = wt
+        pool_add_tri2(pool, off, s, nx, ny, nk, cp, cp * (P.u[p] - ou), st.ixf, st.fxf, st.jyc,
+                      st.fyc, st.kc, st.fzc)
+        pool_add_tri2(pool, off + csz, s, nx, ny, nk, cp, cp * (P.v[p] - ov), st.ixc, st.fxc,
+                      st.jyf, st.fyf, st.kc, st.fzc)
+        pool_add_tri2(pool, off + 2 * csz, s, nx, ny, nk, cp, cp * wt, st.ixc, st.fxc, st.jyc,
+                      st.fyc, st.kf, st.fzf)
 
 
 @pjit
-def implicit_coefficients(cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo,
-                          z_f, z_c, lut, pool, ranges, nk, k0, e0, c0, wtil):
+def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
     """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
     A[c, comp] += w c_p and B[c, comp] += w c_p (u~_p - o_p).
 
-    prm: [rho, nu, g, rho_p, Q]. A and B live interleaved in the chunk's pool range (``ranges``,
-    see ``chunk_ranges``): comp 0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs.
-    o_p is the log-law offset of a parcel below the first level (module doc), 0 elsewhere.
-    Stores per parcel the drag rate k0, expm1(-k0 T) in e0, c_p in c0 and the vertical u~_p in
-    wtil (particles.py uses them for the modelled impulse and its first drag evaluation).
+    Records: P :data:`Parcels`, F :data:`Flow` (its u, v, w: the air at the start of the step),
+    G :data:`interp.Geometry`, E :data:`Estimate` (filled). prm: [rho, nu, g, rho_p, Q].
+    A and B live interleaved in the chunk's pool range (``ranges``, see ``chunk_ranges``): comp
+    0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs. o_p is the log-law offset of a
+    parcel in the log region (module doc), 0 elsewhere. Stores per parcel the drag rate in
+    E.k0, expm1(-k0 T) in E.e0, c_p in E.c0 and the vertical u~_p in E.wtil (particles.py uses
+    them for the modelled impulse and its first drag evaluation).
     """
     for c in prange(ranges.shape[0]):
-        _implicit_chunk(c, cstart, idx, x, y, z, u, v, w, d, kd, trem, uf, vf, wf, dt, prm, geo,
-                        z_f, z_c, lut, pool, ranges, nk, k0, e0, c0, wtil)
+        _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E)
 
 
 @pjit

@@ -24,6 +24,7 @@ inlined into the parcel kernels.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -36,8 +37,20 @@ from .simd import fma2, fma4, load2
 #: structs on the stack cost ~25 ns per call, most of the parcel step.)
 ijit = jit_with(inline="always")
 
-__all__ = ["GridGeometry", "wrap_periodic", "locate", "interp_fluid", "interp_faces",
-           "deposit_faces", "level_of", "slab_of", "wrap_index", "pool_add_tri", "pool_add_tri2"]
+__all__ = ["GridGeometry", "Geometry", "Stencil", "wrap_periodic", "locate", "interp_fluid",
+           "interp_faces", "deposit_faces", "level_of", "slab_of", "wrap_index", "pool_add_tri",
+           "pool_add_tri2"]
+
+#: Where a point sits on the staggered grid (``locate``): the x index and fraction of the x-faces
+#: (u) and of the x-centres (v, w), the same in y, the lower centre level ``kc`` with fraction
+#: ``fzc`` (u, v), the lower face ``kf`` with fraction ``fzf`` (w), whether the point is in the
+#: log-law region (``islog``; then ``lfac`` is the log-law factor and ``kc``, ``fzc`` = 0, 0 the
+#: level its horizontal drag reaction goes to) and the level of the cell holding it (``kcell``).
+#: Indices ``ix + 1`` etc. are taken modulo n by the users. (A named tuple: numba passes it by
+#: value, its fields are static members.)
+Stencil = namedtuple("Stencil", "ixf fxf ixc fxc jyf fyf jyc fyc kc fzc kf fzf lfac islog kcell")
+#: The grid as the parcel kernels take it (``GridGeometry.record``)
+Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut")
 
 
 class GridGeometry:
@@ -65,6 +78,7 @@ class GridGeometry:
                              1.0 / math.log(self.z_c[1] / z0)], dtype=np.float64)
         if not z0 < self.z_c[0]:
             raise ValueError(f"z0 ({z0}) must lie below the first level ({self.z_c[0]})")
+        self.record = Geometry(self.geo, self.z_f, self.z_c, self.dz_c, self.lut)
 
 
 @ijit
@@ -108,14 +122,7 @@ def level_of(z: float, z_f: np.ndarray, lut: np.ndarray, lut_dz: float, nz: int)
 
 @ijit
 def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
-    """Stencil of a point for the three staggered components.
-
-    Returns (ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell):
-    x index/fraction for x-face (u) and x-centre (v, w) positions, same in y, the lower
-    centre level ``kc`` with fraction ``fzc`` (u, v), the lower face ``kf`` with fraction ``fzf``
-    (w), the log-law factor ``lfac`` (meaningful only if ``islog``) and the cell level ``kcell``.
-    Indices ``ix + 1`` etc. are taken modulo n by the callers.
-    """
+    """The :data:`Stencil` of a point for the three staggered components."""
     dx = geo[0]
     dy = geo[1]
     z0 = geo[4]
@@ -162,7 +169,7 @@ def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
             fzc = (z - z_c[kc]) / (z_c[kc + 1] - z_c[kc])
             if fzc > 1.0:
                 fzc = 1.0
-    return ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell
+    return Stencil(ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell)
 
 
 @ijit
@@ -202,35 +209,37 @@ def _bil(f, i0, fx, j0, fy, k, nx, ny):
 
 
 @ijit
-def interp_fluid(u, v, w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog,
-                 nx, ny):
-    """Resolved fluid velocity at a located point (trilinear; log law below the first level)."""
-    if islog:
-        uf = lfac * _bil(u, ixf, fxf, jyc, fyc, 1, nx, ny)
-        vf = lfac * _bil(v, ixc, fxc, jyf, fyf, 1, nx, ny)
+def interp_fluid(u, v, w, st, nx, ny):
+    """Resolved fluid velocity at a located point (Stencil ``st``; trilinear, log law in the log
+    region)."""
+    if st.islog:
+        uf = st.lfac * _bil(u, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
+        vf = st.lfac * _bil(v, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
     else:
-        uf = _tri(u, ixf, fxf, jyc, fyc, kc, fzc, nx, ny)
-        vf = _tri(v, ixc, fxc, jyf, fyf, kc, fzc, nx, ny)
-    wf = _tri(w, ixc, fxc, jyc, fyc, kf, fzf, nx, ny)
+        uf = _tri(u, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
+        vf = _tri(v, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)
+    wf = _tri(w, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny)
     return uf, vf, wf
 
 
 @ijit
-def interp_faces(du, dv, dw, nk_c, nk_w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf,
-                 islog, nx, ny):
+def interp_faces(du, dv, dw, nk_c, nk_w, st, nx, ny):
     """Interpolate face fields (limited to the lowest ``nk_c`` / ``nk_w`` levels) with the *deposit*
-    weights (log region: level 0, weights summing to one). Levels beyond the arrays read as 0."""
-    if islog:
+    weights of Stencil ``st`` (log region: level ``st.kc``, weights summing to one). Levels beyond
+    the arrays read as 0."""
+    kc = st.kc
+    fzc = st.fzc
+    if st.islog:  # as constants: the compiler folds the vertical weights
         kc = 0
         fzc = 0.0
     if kc + 1 < nk_c:
-        a = _tri(du, ixf, fxf, jyc, fyc, kc, fzc, nx, ny)
-        b = _tri(dv, ixc, fxc, jyf, fyf, kc, fzc, nx, ny)
+        a = _tri(du, st.ixf, st.fxf, st.jyc, st.fyc, kc, fzc, nx, ny)
+        b = _tri(dv, st.ixc, st.fxc, st.jyf, st.fyf, kc, fzc, nx, ny)
     else:
         a = 0.0
         b = 0.0
-    if kf + 1 < nk_w:
-        c = _tri(dw, ixc, fxc, jyc, fyc, kf, fzf, nx, ny)
+    if st.kf + 1 < nk_w:
+        c = _tri(dw, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny)
     else:
         c = 0.0
     return a, b, c
@@ -265,19 +274,16 @@ def _add_tri(buf, val, i0, fx, j0, fy, k0, fz, nx, ny, nk):
 
 
 @ijit
-def deposit_faces(bu, bv, bw, val_u, val_v, val_w, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc,
-                  kf, fzf, islog, nx, ny):
-    """Scatter (val_u, val_v, val_w) to the u, v, w face buffers with the interpolation weights.
+def deposit_faces(bu, bv, bw, val_u, val_v, val_w, st, nx, ny):
+    """Scatter (val_u, val_v, val_w) to the u, v, w face buffers with the deposit weights of
+    Stencil ``st``.
 
     ``bw`` level 0 is the bed face: what lands there is the bed's share (not added to the air).
     """
-    if islog:
-        kc = 0
-        fzc = 0.0
     nk_c = bu.shape[2]
-    _add_tri(bu, val_u, ixf, fxf, jyc, fyc, kc, fzc, nx, ny, nk_c)
-    _add_tri(bv, val_v, ixc, fxc, jyf, fyf, kc, fzc, nx, ny, nk_c)
-    _add_tri(bw, val_w, ixc, fxc, jyc, fyc, kf, fzf, nx, ny, bw.shape[2])
+    _add_tri(bu, val_u, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny, nk_c)
+    _add_tri(bv, val_v, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny, nk_c)
+    _add_tri(bw, val_w, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny, bw.shape[2])
 
 
 # ---- chunk-private deposit buffers limited to a range of x-slabs (coupling.py) ----------------

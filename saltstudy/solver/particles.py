@@ -72,14 +72,16 @@ from __future__ import annotations
 
 import json
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
-from .coupling import (N_CHUNKS, apply_exchange, chunk_assign, chunk_ranges, drag_rate,
-                       face_inverse_masses, grid_absmax, implicit_coefficients,
-                       implicit_corrections, lagrangian_time_coefficients, tke_rates)
+from .coupling import (N_CHUNKS, Estimate, Flow, Parcels, apply_exchange, chunk_assign,
+                       chunk_ranges, drag_rate, face_inverse_masses, grid_absmax,
+                       implicit_coefficients, implicit_corrections,
+                       lagrangian_time_coefficients, tke_rates)
 from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_0687
 from .grid import Grid
 from .interp import (GridGeometry, _bil, _tri, ijit, interp_fluid, level_of, locate,
@@ -100,11 +102,8 @@ DRAG_MAXIT = 40
 NEWTON_MAXIT = 12
 #: sub-steps per step at most (a parcel then moves more than a cell height in a sub-step)
 MAX_SUBSTEPS = 16
-#: parcels advanced together (in lockstep passes) by _advance_chunk, and the rows of its per-lane
-#: float and integer state
+#: parcels advanced together (in lockstep passes) by _advance_chunk (its lane rows: below)
 _LANES = 64
-_LANE_ROWS_F = 36
-_LANE_ROWS_I = 12
 #: the grains' main random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct
 #: from any stream the flow derives from the same seed with another key
 RNG_SPAWN_KEY = 0x5A17
@@ -224,396 +223,493 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
     return min(max(t, 0.0), h)
 
 
+# ---- one sub-step of one parcel, process by process (inlined into _advance_chunk) --------------
+# The lane scratch of a chunk (``Work.lane_f[c]``, ``Work.lane_i[c]``) holds one parcel per column
+# (lane) and one quantity per row. Float rows:
+_F_X, _F_Y, _F_Z, _F_U, _F_V, _F_W = range(6)  # the parcel's position and velocity
+_F_T = 6  # time done in the step
+_F_TEND = 7  # the parcel's step T: dt plus its time credit
+_F_K = 8  # drag rate k_p (the iteration's current value)
+_F_TP = 9  # response time T_p
+_F_ITP = 10  # 1 / T_p
+_F_QM = 11  # Q m_p
+_F_DNU = 12  # d / nu
+_F_US, _F_VS, _F_WS = 13, 14, 15  # the seen velocity (with the SGS part)
+_F_H = 16  # the sub-step h
+_F_MU, _F_MV, _F_MW = 17, 18, 19  # the modelled impulse of the implicit estimate (sub-step 0)
+_F_DU, _F_DV, _F_DW = 20, 21, 22  # the slip u_s - u_p at the start of the sub-step
+_F_IH = 23  # 1 / h
+_F_FXF, _F_FXC, _F_FYF, _F_FYC, _F_FZC, _F_FZF = range(24, 30)  # the stencil's fractions
+_F_KQ, _F_EMQ, _F_IRELQ, _F_RPQ = range(30, 34)  # the drag iteration's last evaluation
+# integer rows:
+_I_P = 0  # the parcel's index
+_I_NSUB = 1  # sub-steps done
+_I_XF, _I_XC, _I_YF, _I_YC, _I_KC, _I_KF = range(2, 8)  # the stencil's indices
+_I_LOG = 8  # 1 in the log region
+_I_KCELL = 9  # the level of the cell holding the parcel
+_I_E0 = 10  # 1: the first drag evaluation's expm1 is the implicit estimate's (Estimate.e0)
+_LANE_ROWS_F = 34
+_LANE_ROWS_I = 11
+
+#: the scalars of a step, as _advance_chunk reads them once from prm and geo
+_Step = namedtuple("_Step", "dt g h_imp tol Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb")
+#: the chunks' work: their parcels (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign), pool
+#: ranges (coupling.chunk_ranges) and pool, results (vmax, nhit per chunk) and lane scratch
+#: (lane_f (chunks, _LANE_ROWS_F, _LANES), lane_i (chunks, _LANE_ROWS_I + 2, _LANES))
+Work = namedtuple("Work", "cstart idx ranges pool vmax nhit lane_f lane_i")
+#: where a chunk deposits: its pool range (slab s, L slabs, offset off; csz entries per
+#: component), nk levels, comp ct the TKE sink's
+_Out = namedtuple("_Out", "pool s L off csz nk ct")
+
+
 @ijit
-def _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc,
-          kc, fzc, kf, fzf, lfac, islog, nx, ny):
-    """Seen resolved velocity: the fluid's (interp_fluid) plus, two-way, the implicit change delta
-    interpolated with the deposit weights (interp_faces; zero beyond the buffer levels nkb).
-    Above the log layer both use the same weights, so the sum is read from Uc = U + delta."""
-    if islog:
-        us = lfac * _bil(uf, ixf, fxf, jyc, fyc, 1, nx, ny)
-        vs = lfac * _bil(vf, ixc, fxc, jyf, fyf, 1, nx, ny)
-        if twoway and 1 < nkb:
-            us += _bil(du, ixf, fxf, jyc, fyc, 0, nx, ny)
-            vs += _bil(dv, ixc, fxc, jyf, fyf, 0, nx, ny)
-    elif twoway and kc + 1 < nkb:
-        us = _tri(Uc, ixf, fxf, jyc, fyc, kc, fzc, nx, ny)
-        vs = _tri(Vc, ixc, fxc, jyf, fyf, kc, fzc, nx, ny)
+def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
+    """The wind a parcel at (xp, yp, zp) sees, and its Stencil (interp.locate): the resolved
+    velocity interpolated trilinearly, with the log law in the log region (interp.py); two-way,
+    of the air after the implicit exchange: the fluid's plus the change delta interpolated with
+    the deposit weights (zero beyond the buffer levels S.nkb). Above the log region both use the
+    same weights, so the sum is read from U = u + delta."""
+    st = locate(xp, yp, zp, G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
+    if st.islog:
+        us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
+        vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
+        if S.twoway and 1 < S.nkb:
+            us += _bil(F.du, st.ixf, st.fxf, st.jyc, st.fyc, 0, nx, ny)
+            vs += _bil(F.dv, st.ixc, st.fxc, st.jyf, st.fyf, 0, nx, ny)
+    elif S.twoway and st.kc + 1 < S.nkb:
+        us = _tri(F.U, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
+        vs = _tri(F.V, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)
     else:
-        us = _tri(uf, ixf, fxf, jyc, fyc, kc, fzc, nx, ny)
-        vs = _tri(vf, ixc, fxc, jyf, fyf, kc, fzc, nx, ny)
-    if twoway and kf + 1 < nkb:
-        ws = _tri(Wc, ixc, fxc, jyc, fyc, kf, fzf, nx, ny)
+        us = _tri(F.u, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
+        vs = _tri(F.v, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)
+    if S.twoway and st.kf + 1 < S.nkb:
+        ws = _tri(F.W, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny)
     else:
-        ws = _tri(wf, ixc, fxc, jyc, fyc, kf, fzf, nx, ny)
-    return us, vs, ws
+        ws = _tri(F.w, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny)
+    return st, us, vs, ws
+
+
+@ijit
+def _substep_length(T, t, wp, dzk, nsub):
+    """The rest of the step T - t, cut so that the parcel moves at most one cell height dzk at its
+    vertical speed |wp| (but not below T / MAX_SUBSTEPS); the last allowed sub-step takes the
+    rest."""
+    h = T - t
+    if nsub < MAX_SUBSTEPS - 1:
+        awp = abs(wp) + 1e-30
+        if h * awp > dzk:
+            h = max(dzk / awp, T / MAX_SUBSTEPS)
+            if h > T - t:
+                h = T - t
+    return h
+
+
+@ijit
+def _load_lane(fx_, ix_, l, P, p, T, S):
+    """Lane l takes parcel p for its step T."""
+    dp = P.d[p]
+    tp = S.rho_p * dp * dp / (18.0 * S.rho * S.nu)
+    fx_[_F_X, l] = P.x[p]
+    fx_[_F_Y, l] = P.y[p]
+    fx_[_F_Z, l] = P.z[p]
+    fx_[_F_U, l] = P.u[p]
+    fx_[_F_V, l] = P.v[p]
+    fx_[_F_W, l] = P.w[p]
+    fx_[_F_T, l] = 0.0
+    fx_[_F_TEND, l] = T
+    fx_[_F_K, l] = P.kd[p]
+    fx_[_F_TP, l] = tp
+    fx_[_F_ITP, l] = 1.0 / tp
+    fx_[_F_QM, l] = S.Q * (math.pi / 6.0) * S.rho_p * dp * dp * dp
+    fx_[_F_DNU, l] = dp / S.nu
+    ix_[_I_P, l] = p
+    ix_[_I_NSUB, l] = 0
+
+
+@ijit
+def _begin_substep(fx_, ix_, l, P, F, G, E, S, nx, ny, nz):
+    """Pass 1 of a sub-step of lane l: the wind seen, the sub-step, the modelled impulse (first
+    sub-step, two-way: c_p (u_s - u~_p) of the implicit estimate, same k, dt and weights,
+    coupling.py), the slip, a first drag rate if the parcel has none; the stencil is kept for
+    the deposits."""
+    p = ix_[_I_P, l]
+    nsub = ix_[_I_NSUB, l]
+    up = fx_[_F_U, l]
+    vp = fx_[_F_V, l]
+    wp = fx_[_F_W, l]
+    T = fx_[_F_TEND, l]
+    k = fx_[_F_K, l]
+    st, us, vs, ws = _wind_seen(F, G, fx_[_F_X, l], fx_[_F_Y, l], fx_[_F_Z, l], S, nx, ny, nz)
+    h = _substep_length(T, fx_[_F_T, l], wp, G.dz_c[st.kcell], nsub)
+    first = S.twoway and nsub == 0
+    mu_ = 0.0
+    mv_ = 0.0
+    mw_ = 0.0
+    if first and E.c0[p] > 0.0:
+        cc = E.c0[p]
+        mu_ = cc * (us - up)
+        mv_ = cc * (vs - vp)
+        mw_ = cc * (ws - E.wtil[p])
+    if S.sgs:
+        us += P.su[p]
+        vs += P.sv[p]
+        ws += P.sw[p]
+    Du = us - up
+    Dv = vs - vp
+    Dw = ws - wp
+    if k <= 0.0:
+        rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
+        k = drag_rate(rel, fx_[_F_DNU, l], fx_[_F_TP, l])
+        fx_[_F_K, l] = k
+    fx_[_F_US, l] = us
+    fx_[_F_VS, l] = vs
+    fx_[_F_WS, l] = ws
+    fx_[_F_H, l] = h
+    fx_[_F_MU, l] = mu_
+    fx_[_F_MV, l] = mv_
+    fx_[_F_MW, l] = mw_
+    fx_[_F_DU, l] = Du
+    fx_[_F_DV, l] = Dv
+    fx_[_F_DW, l] = Dw
+    fx_[_F_IH, l] = 1.0 / h
+    fx_[_F_FXF, l] = st.fxf
+    fx_[_F_FXC, l] = st.fxc
+    fx_[_F_FYF, l] = st.fyf
+    fx_[_F_FYC, l] = st.fyc
+    fx_[_F_FZC, l] = st.fzc
+    fx_[_F_FZF, l] = st.fzf
+    # the last evaluation of the drag-rate iteration (none yet)
+    fx_[_F_KQ, l] = -1.0
+    fx_[_F_EMQ, l] = 0.0
+    fx_[_F_IRELQ, l] = 0.0
+    fx_[_F_RPQ, l] = 0.0
+    ix_[_I_XF, l] = st.ixf
+    ix_[_I_XC, l] = st.ixc
+    ix_[_I_YF, l] = st.jyf
+    ix_[_I_YC, l] = st.jyc
+    ix_[_I_KC, l] = st.kc
+    ix_[_I_KF, l] = st.kf
+    ix_[_I_LOG, l] = 1 if st.islog else 0
+    ix_[_I_KCELL, l] = st.kcell
+    # expm1(-k0 T) of the implicit estimate is the first evaluation's: the same number
+    ix_[_I_E0, l] = 1 if (first and h == T and k == E.k0[p]) else 0
+
+
+@ijit
+def _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
+    """One update of lane l's drag rate towards the fixed point k = F(k) (module doc): F(k) is
+    f(Re_p) / T_p at the slip E * (step-mean slip) + (1 - E) * (end slip) of the relaxation with
+    k frozen, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z. Safeguarded Newton (dF/dk
+    analytic) for the first NEWTON_MAXIT updates, else a plain fixed-point update. Returns whether
+    |F(k) - k| was already within the tolerance (S.tol k for a Newton update, tol_fp k for a
+    plain one), the update applied all the same."""
+    k = fx_[_F_K, l]
+    h = fx_[_F_H, l]
+    ih = fx_[_F_IH, l]
+    Du = fx_[_F_DU, l]
+    Dv = fx_[_F_DV, l]
+    Dw = fx_[_F_DW, l]
+    itp = fx_[_F_ITP, l]
+    ik = 1.0 / k
+    if it == 0 and ix_[_I_E0, l] != 0:
+        em = e0[ix_[_I_P, l]]
+    else:
+        em = _expm1_near(k, h, fx_[_F_KQ, l], fx_[_F_EMQ, l])
+    E = 1.0 + em
+    phi = -em * ik * ih
+    beta = E * (phi - em)
+    gk = S.g * ik
+    ax = Du * beta
+    ay = Dv * beta
+    az = gk + (Dw - gk) * beta
+    rel = math.sqrt(ax * ax + ay * ay + az * az)
+    rp = _re687_near(rel, fx_[_F_DNU, l], fx_[_F_IRELQ, l], fx_[_F_RPQ, l])
+    irel = 1.0 / rel if rel > 0.0 else 0.0
+    fx_[_F_KQ, l] = k
+    fx_[_F_EMQ, l] = em
+    fx_[_F_IRELQ, l] = irel
+    fx_[_F_RPQ, l] = rp
+    F = (1.0 + 0.15 * rp) * itp
+    G = F - k
+    kn = F
+    lim = tol_fp
+    if it < NEWTON_MAXIT and rel > 0.0:
+        # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
+        db = E * ((E - phi) * ik + h * E) - h * beta
+        daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
+        drel = ((ax * Du + ay * Dv) * db + az * daz) * irel
+        den = 1.0 - (0.15 * 0.687) * rp * drel * irel * itp
+        if den > 0.1:
+            kt = k + G / den
+            if kt > 0.0:
+                kn = kt
+                lim = S.tol
+    fx_[_F_K, l] = kn
+    return abs(G) <= lim * k
+
+
+@ijit
+def _drag_rates(fx_, ix_, itl, nit, e0, S):
+    """The drag rates of the nit lanes itl[:nit], iterated in lockstep (the long dependency chains
+    of independent parcels overlap in the CPU) until each is within the tolerance."""
+    tol_fp = S.tol * S.tol  # a plain fixed-point update must get as close as a Newton one from tol
+    for it in range(DRAG_MAXIT):
+        m = 0
+        for a in range(nit):
+            l = itl[a]
+            if not _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
+                itl[m] = l
+                m += 1
+        nit = m
+        if nit == 0:
+            break
+
+
+@ijit
+def _relax(em, ik, us, vs, wt, up, vp, wp):
+    """Drag: the exact relaxation over a sub-step with k (ik = 1/k) and the seen velocity frozen,
+    E = 1 + em = exp(-k h), towards (us, vs, wt), wt = ws - g/k: the velocities at the end and
+    (1 - E)/k, the displacement factor of the transient."""
+    E = 1.0 + em
+    ome_k = -em * ik
+    un = us + (up - us) * E
+    vn = vs + (vp - vs) * E
+    wn = wt + (wp - wt) * E
+    return un, vn, wn, ome_k
+
+
+@ijit
+def _height(zp, wt, wp, h, ome_k):
+    """z after h of the relaxation (_relax)."""
+    return zp + wt * h + (wp - wt) * ome_k
+
+
+@ijit
+def _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, h_imp):
+    """A sub-step that ends below the impact layer (zn < h_imp) is cut at the crossing
+    (_crossing_time): the cut sub-step and the parcel's velocities there."""
+    h = _crossing_time(zp, wt, wp - wt, k, h, h_imp, zn)
+    em = expm1_small(-k * h)
+    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
+    return h, un, vn, wn, ome_k
+
+
+@ijit
+def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
+    """Horizontal position after h of the relaxation, wrapped into the periodic domain; a parcel
+    above the lid is reflected. Returns (x, y, z, w) and the unwrapped (x, y)."""
+    xn = xp + us * h + (up - us) * ome_k
+    yn = yp + vs * h + (vp - vs) * ome_k
+    if zn > S.Lz:  # reflect at the lid
+        zn = 2.0 * S.Lz - zn
+        wn = -wn
+    return wrap_periodic(xn, S.Lx), wrap_periodic(yn, S.Ly), zn, wn
+
+
+@ijit
+def _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, g, h, nx, ny):
+    """Two-way: the air's impulse is minus the parcel's drag impulse, Q m_p (Delta u - g h), plus
+    (first sub-step) the modelled impulse, deposited with the stencil's weights (the log region:
+    the horizontal weights on one level, interp.py)."""
+    # (the order of these loads and the branch are the arithmetic's: fastmath's reassociation
+    # orders the products of the weights by where their factors are defined)
+    ixf = ix_[_I_XF, l]
+    ixc = ix_[_I_XC, l]
+    jyf = ix_[_I_YF, l]
+    jyc = ix_[_I_YC, l]
+    kf = ix_[_I_KF, l]
+    fxf = fx_[_F_FXF, l]
+    fxc = fx_[_F_FXC, l]
+    fyf = fx_[_F_FYF, l]
+    fyc = fx_[_F_FYC, l]
+    fzf = fx_[_F_FZF, l]
+    if ix_[_I_LOG, l] != 0:
+        kc = 0
+        fzc = 0.0
+    else:
+        kc = ix_[_I_KC, l]
+        fzc = fx_[_F_FZC, l]
+    pool_add_tri(O.pool, O.off, O.s, nx, ny, O.nk, fx_[_F_MU, l] - Qm * (un - up), ixf, fxf, jyc,
+                 fyc, kc, fzc)
+    pool_add_tri(O.pool, O.off + O.csz, O.s, nx, ny, O.nk, fx_[_F_MV, l] - Qm * (vn - vp), ixc,
+                 fxc, jyf, fyf, kc, fzc)
+    pool_add_tri(O.pool, O.off + 2 * O.csz, O.s, nx, ny, O.nk,
+                 fx_[_F_MW, l] - Qm * (wn - wp + g * h), ixc, fxc, jyc, fyc, kf, fzf)
+
+
+@ijit
+def _tke_sink(O, F, fx_, ix_, l, Qm, k, h, S, nx, ny):
+    """The parcel's share of the TKE-sink rate of the cell holding it (coupling.py, eq. A1),
+    weighted by the fraction h / dt of the step."""
+    kcell = ix_[_I_KCELL, l]
+    ic = ix_[_I_XF, l]  # the cell holding the parcel: floor(x / dx), as ixf
+    jc = ix_[_I_YF, l]
+    kk = kcell if kcell < O.nk else O.nk - 1
+    e = F.e[ic, jc, kcell]
+    if e > 0.0:
+        tp = fx_[_F_TP, l]
+        tl = F.tlc[kcell] / math.sqrt(e)
+        O.pool[O.off + ((O.ct * O.L + slab_of(ic, O.s, nx)) * ny + jc) * O.nk + kk] += (
+            Qm / S.rho * 2.0 * (k * tp) / (tp + tl) * (h / S.dt))
+
+
+@ijit
+def _hit(P, p, trem, nh):
+    """Impact bookkeeping: parcel p reached the impact layer with trem of its step left; it is
+    flagged for the bed events (_splash); returns the chunk's hit count."""
+    P.flag[p] = 1
+    P.trem[p] = trem
+    return nh + 1
+
+
+@ijit
+def _track_speed(vm, u, v):
+    """The chunk's largest horizontal parcel speed (max_dt)."""
+    sp = max(abs(u), abs(v))
+    return sp if sp > vm else vm
+
+
+@ijit
+def _end_substep(fx_, ix_, l, P, F, O, S, nx, ny):
+    """Pass 3 of a sub-step of lane l: drag (exact relaxation over h), bed crossing, move, the
+    reaction to the air and the TKE sink; a parcel at the end of its step or at the bed is
+    stored (and flagged if a hit). Returns (whether it goes on, hit, its time left)."""
+    p = ix_[_I_P, l]
+    zp = fx_[_F_Z, l]
+    up = fx_[_F_U, l]
+    vp = fx_[_F_V, l]
+    wp = fx_[_F_W, l]
+    T = fx_[_F_TEND, l]
+    k = fx_[_F_K, l]
+    us = fx_[_F_US, l]
+    vs = fx_[_F_VS, l]
+    ws = fx_[_F_WS, l]
+    h = fx_[_F_H, l]
+    ik = 1.0 / k
+    em = _expm1_near(k, h, fx_[_F_KQ, l], fx_[_F_EMQ, l])
+    wt = ws - S.g * ik
+    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
+    zn = _height(zp, wt, wp, h, ome_k)
+    hit = zn < S.h_imp
+    if hit:
+        h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp,
+                                             S.h_imp)
+        zn = S.h_imp
+    xn, yn, zn, wn = _move(fx_[_F_X, l], fx_[_F_Y, l], zn, wn, us, vs, up, vp, h, ome_k, S)
+    Qm = fx_[_F_QM, l]
+    if S.twoway:
+        _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, S.g, h, nx, ny)
+    if S.tke:
+        _tke_sink(O, F, fx_, ix_, l, Qm, k, h, S, nx, ny)
+    t = fx_[_F_T, l] + h
+    if hit or not t < T:
+        P.x[p] = xn
+        P.y[p] = yn
+        P.z[p] = zn
+        P.u[p] = un
+        P.v[p] = vn
+        P.w[p] = wn
+        P.kd[p] = k
+        return False, hit, T - t, un, vn
+    fx_[_F_X, l] = xn
+    fx_[_F_Y, l] = yn
+    fx_[_F_Z, l] = zn
+    fx_[_F_U, l] = un
+    fx_[_F_V, l] = vn
+    fx_[_F_W, l] = wn
+    fx_[_F_T, l] = t
+    ix_[_I_NSUB, l] += 1
+    return True, hit, T - t, un, vn
 
 
 @jit_borrow
-def _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf,
-                   wf, ef, Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c,
-                   dz_c, lut, tlc, vmax, k0, e0, c0, wtil, nhit, lane_f, lane_i):
-    """Integrate the parcels of chunk c (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign) over
-    dt (plus their time credit), see the module doc.
-    Hits (bed crossings) get flag 1 and their time left in trem; nhit[c] counts them.
+def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W):
+    """Integrate the parcels of chunk c (W.idx[W.cstart[c]:W.cstart[c+1]], coupling.chunk_assign)
+    over dt (plus their time credit), see the module doc. Hits (bed crossings) get flag 1 and
+    their time left in trem; W.nhit[c] counts them, W.vmax[c] is the chunk's largest horizontal
+    parcel speed.
 
-    Deposits in the chunk's pool range (``ranges[c]`` = first slab s, L slabs, offset off; comps
-    0-2 = u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk); zeroed here first) minus the
-    drag impulse and, if ``c0[p] > 0`` (the parcel was in the implicit estimate, coupling.py, with
-    c_p = c0, vertical u~_p = wtil), plus the modelled impulse c_p (u_s - u~_p) at the start (same
-    weights as the first sub-step's drag impulse: one deposit). su/sv/sw: SGS velocity (length 0
-    when off).
+    Records: P :data:`coupling.Parcels`, F :data:`coupling.Flow`, G :data:`interp.Geometry`, E
+    :data:`coupling.Estimate` (the implicit estimate, two-way: a parcel with ``E.c0[p] > 0``
+    adds the modelled impulse c_p (u_s - u~_p) on its first sub-step), W :data:`Work`.
 
-    Drag rate: the fixed point k = F(k) of the module doc, solved by safeguarded Newton (the
-    derivative of F is analytic: no extra transcendental), stopped when |F(k) - k| <= tol k; the
-    last Newton update is then applied (an error quadratically below the tolerance); a plain
-    fixed-point update is accepted only at tol^2.
-
-    Compiled without reference counting (``jit_borrow``): the lane scratch ``lane_f`` (chunks,
-    ``_LANE_ROWS_F``, ``_LANES``) and ``lane_i`` (chunks, ``_LANE_ROWS_I`` + 2, ``_LANES``) comes
-    from the caller.
+    Deposits in the chunk's pool range (``W.ranges[c]`` = first slab s, L slabs, offset off;
+    comps 0-2 = u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk); ``ncomp`` comps;
+    zeroed here first) minus the drag impulse plus the modelled impulse (same weights as the
+    first sub-step's drag impulse: one deposit).
 
     Serial, in blocks of ``_LANES`` parcels: a sub-step of every parcel of the block is done in
-    three passes (locate and interpolate; the drag-rate iterations of all lanes in lockstep;
-    update, bed crossing and deposits), so that the long dependency chains of independent parcels
-    overlap in the CPU (one parcel at a time left it waiting on latencies). Parcels that need
-    another sub-step go round again. Each parcel's arithmetic is the same as one at a time; only
-    the order of the deposits into the pool differs (round-off). The per-parcel helpers
-    (interp.py) are inlined here at numba-IR level; the prange over chunks is in _advance_all.
+    three passes (_begin_substep: locate and the wind seen; _drag_rates: the drag-rate
+    iterations of all lanes in lockstep; _end_substep: drag, bed crossing, move, deposits), so
+    that the long dependency chains of independent parcels overlap in the CPU (one parcel at a
+    time left it waiting on latencies). Parcels that need another sub-step go round again. Each
+    parcel's arithmetic is the same as one at a time; only the order of the deposits into the
+    pool differs (round-off). The helpers are inlined here at numba-IR level; the prange over
+    chunks is in _advance_all. Compiled without reference counting (``jit_borrow``): the lane
+    scratch comes from the caller.
     """
-    nx = uf.shape[0]
-    ny = uf.shape[1]
-    nzc = z_c.shape[0]
-    rho = prm[_RHO]
-    nu = prm[_NU]
-    g = prm[_G]
-    rho_p = prm[_RHOP]
-    Q = prm[_Q]
-    h_imp = prm[_HIMP]
-    tol = prm[_TOL]
-    tol_fp = tol * tol  # a plain fixed-point update must get as close as a Newton one from tol
-    Lz = prm[_LZ]
-    dtot = prm[_DT]
-    twoway = prm[_TWOWAY] != 0.0
-    tke = prm[_TKE] != 0.0
-    sgs = prm[_SGS] != 0.0
-    Lx = geo[2]
-    Ly = geo[3]
-    nkb = du.shape[2]
-    s = ranges[c, 0]
-    L = ranges[c, 1]
-    off = ranges[c, 2]
+    nx = F.u.shape[0]
+    ny = F.u.shape[1]
+    nz = G.z_c.shape[0]
+    S = _Step(prm[_DT], prm[_G], prm[_HIMP], prm[_TOL], G.geo[2], G.geo[3], prm[_LZ], prm[_RHO],
+              prm[_NU], prm[_RHOP], prm[_Q], prm[_TWOWAY] != 0.0, prm[_TKE] != 0.0,
+              prm[_SGS] != 0.0, F.du.shape[2])
+    s = W.ranges[c, 0]
+    L = W.ranges[c, 1]
+    off = W.ranges[c, 2]
     csz = L * ny * nk
+    O = _Out(W.pool, s, L, off, csz, nk, ct)
     for q in range(off, off + ncomp * csz):
-        pool[q] = 0.0
+        W.pool[q] = 0.0
     vm = 0.0
     nh = 0
-    B = _LANES
-    # lane state (the chunk's scratch, lane_f[c] and lane_i[c]): parcel (x, y, z, u, v, w), t, T,
-    # k, T_p, 1/T_p, Q m_p, d/nu | seen velocity, h, modelled impulse, slip, 1/h | stencil
-    # fractions | last drag evaluation (kq, emq, 1 / relq, rpq); integer rows 0-11 per lane,
-    # then the active lanes and the lanes still iterating
-    fx_ = lane_f[c]
-    ix_ = lane_i[c]
-    lanes = lane_i[c, _LANE_ROWS_I]
-    itl = lane_i[c, _LANE_ROWS_I + 1]
-    q0 = cstart[c]
-    qend = cstart[c + 1]
+    fx_ = W.lane_f[c]
+    ix_ = W.lane_i[c]
+    lanes = W.lane_i[c, _LANE_ROWS_I]  # the lanes in the block's current pass
+    itl = W.lane_i[c, _LANE_ROWS_I + 1]  # the lanes still iterating their drag rate
+    q0 = W.cstart[c]
+    qend = W.cstart[c + 1]
     while q0 < qend:
-        nb = min(B, qend - q0)
+        nb = min(_LANES, qend - q0)
         na = 0
         for l in range(nb):
-            p = idx[q0 + l]
-            T = dt + trem[p]  # time credit of a parcel that left the bed during the last step
-            trem[p] = 0.0
-            zp = z[p]
-            if zp < h_imp:  # already inside the impact layer: splash now
-                flag[p] = 1
-                trem[p] = T
-                nh += 1
-                sp = max(abs(u[p]), abs(v[p]))
-                if sp > vm:
-                    vm = sp
+            p = W.idx[q0 + l]
+            T = dt + P.trem[p]  # time credit of a parcel that left the bed during the last step
+            P.trem[p] = 0.0
+            if P.z[p] < S.h_imp:  # already inside the impact layer: splash now
+                nh = _hit(P, p, T, nh)
+                vm = _track_speed(vm, P.u[p], P.v[p])
                 continue
-            dp = d[p]
-            tp = rho_p * dp * dp / (18.0 * rho * nu)
-            fx_[0, l] = x[p]
-            fx_[1, l] = y[p]
-            fx_[2, l] = zp
-            fx_[3, l] = u[p]
-            fx_[4, l] = v[p]
-            fx_[5, l] = w[p]
-            fx_[6, l] = 0.0
-            fx_[7, l] = T
-            fx_[8, l] = kd[p]
-            fx_[9, l] = tp
-            fx_[10, l] = 1.0 / tp
-            fx_[11, l] = Q * (math.pi / 6.0) * rho_p * dp * dp * dp
-            fx_[12, l] = dp / nu
-            ix_[0, l] = p
-            ix_[1, l] = 0  # nsub
+            _load_lane(fx_, ix_, l, P, p, T, S)
             lanes[na] = l
             na += 1
         while na > 0:
-            # pass 1: stencil, seen velocity, sub-step length, modelled impulse, slip
             for a in range(na):
-                l = lanes[a]
-                p = ix_[0, l]
-                nsub = ix_[1, l]
-                xp = fx_[0, l]
-                yp = fx_[1, l]
-                zp = fx_[2, l]
-                up = fx_[3, l]
-                vp = fx_[4, l]
-                wp = fx_[5, l]
-                t = fx_[6, l]
-                T = fx_[7, l]
-                k = fx_[8, l]
-                ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = \
-                    locate(xp, yp, zp, geo, z_f, z_c, lut, nx, ny, nzc)
-                us, vs, ws = _seen(uf, vf, wf, Uc, Vc, Wc, du, dv, dw, nkb, twoway, ixf, fxf, ixc,
-                                   fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, nx, ny)
-                h = T - t
-                if nsub < MAX_SUBSTEPS - 1:
-                    awp = abs(wp) + 1e-30
-                    if h * awp > dz_c[kcell]:
-                        h = max(dz_c[kcell] / awp, T / MAX_SUBSTEPS)
-                        if h > T - t:
-                            h = T - t
-                mu_ = 0.0
-                mv_ = 0.0
-                mw_ = 0.0
-                if twoway and nsub == 0 and c0[p] > 0.0:
-                    # the modelled impulse of the implicit estimate (coupling.py), same k, dt and
-                    # weights
-                    cc = c0[p]
-                    mu_ = cc * (us - up)
-                    mv_ = cc * (vs - vp)
-                    mw_ = cc * (ws - wtil[p])
-                if sgs:
-                    us += su[p]
-                    vs += sv[p]
-                    ws += sw[p]
-                Du = us - up
-                Dv = vs - vp
-                Dw = ws - wp
-                if k <= 0.0:
-                    rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
-                    k = drag_rate(rel, fx_[12, l], fx_[9, l])
-                    fx_[8, l] = k
-                fx_[13, l] = us
-                fx_[14, l] = vs
-                fx_[15, l] = ws
-                fx_[16, l] = h
-                fx_[17, l] = mu_
-                fx_[18, l] = mv_
-                fx_[19, l] = mw_
-                fx_[20, l] = Du
-                fx_[21, l] = Dv
-                fx_[22, l] = Dw
-                fx_[23, l] = 1.0 / h
-                fx_[24, l] = fxf
-                fx_[25, l] = fxc
-                fx_[26, l] = fyf
-                fx_[27, l] = fyc
-                fx_[28, l] = fzc
-                fx_[29, l] = fzf
-                # the last evaluation of the drag-rate iteration (none yet)
-                fx_[30, l] = -1.0
-                fx_[31, l] = 0.0
-                fx_[32, l] = 0.0
-                fx_[33, l] = 0.0
-                ix_[2, l] = ixf
-                ix_[3, l] = ixc
-                ix_[4, l] = jyf
-                ix_[5, l] = jyc
-                ix_[6, l] = kc
-                ix_[7, l] = kf
-                ix_[8, l] = 1 if islog else 0
-                ix_[9, l] = kcell
-                # expm1(-k0 T) of the implicit estimate is the first evaluation's: the same number
-                ix_[10, l] = 1 if (twoway and nsub == 0 and h == T and k == k0[p]) else 0
-                itl[a] = l
-            # pass 2: drag rate at a blend of the step-mean and end-of-step slip (module doc):
-            # E * mean + (1 - E) * end, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z,
-            # all lanes in lockstep
-            nit = na
-            for _it in range(DRAG_MAXIT):
-                m = 0
-                for a in range(nit):
-                    l = itl[a]
-                    k = fx_[8, l]
-                    h = fx_[16, l]
-                    ih = fx_[23, l]
-                    Du = fx_[20, l]
-                    Dv = fx_[21, l]
-                    Dw = fx_[22, l]
-                    itp = fx_[10, l]
-                    ik = 1.0 / k
-                    if _it == 0 and ix_[10, l] != 0:
-                        em = e0[ix_[0, l]]
-                    else:
-                        em = _expm1_near(k, h, fx_[30, l], fx_[31, l])
-                    E = 1.0 + em
-                    phi = -em * ik * ih
-                    beta = E * (phi - em)
-                    gk = g * ik
-                    ax = Du * beta
-                    ay = Dv * beta
-                    az = gk + (Dw - gk) * beta
-                    rel = math.sqrt(ax * ax + ay * ay + az * az)
-                    rp = _re687_near(rel, fx_[12, l], fx_[32, l], fx_[33, l])
-                    irel = 1.0 / rel if rel > 0.0 else 0.0
-                    fx_[30, l] = k
-                    fx_[31, l] = em
-                    fx_[32, l] = irel
-                    fx_[33, l] = rp
-                    F = (1.0 + 0.15 * rp) * itp
-                    G = F - k
-                    kn = F
-                    lim = tol_fp
-                    if _it < NEWTON_MAXIT and rel > 0.0:
-                        # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
-                        db = E * ((E - phi) * ik + h * E) - h * beta
-                        daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
-                        drel = ((ax * Du + ay * Dv) * db + az * daz) * irel
-                        den = 1.0 - (0.15 * 0.687) * rp * drel * irel * itp
-                        if den > 0.1:
-                            kt = k + G / den
-                            if kt > 0.0:
-                                kn = kt
-                                lim = tol
-                    fx_[8, l] = kn
-                    if not abs(G) <= lim * k:
-                        itl[m] = l
-                        m += 1
-                nit = m
-                if nit == 0:
-                    break
-            # pass 3: exact update over h, bed crossing, lid, deposits; lanes that go on
+                _begin_substep(fx_, ix_, lanes[a], P, F, G, E, S, nx, ny, nz)
+                itl[a] = lanes[a]
+            _drag_rates(fx_, ix_, itl, na, E.e0, S)
             m = 0
             for a in range(na):
                 l = lanes[a]
-                p = ix_[0, l]
-                xp = fx_[0, l]
-                yp = fx_[1, l]
-                zp = fx_[2, l]
-                up = fx_[3, l]
-                vp = fx_[4, l]
-                wp = fx_[5, l]
-                t = fx_[6, l]
-                T = fx_[7, l]
-                k = fx_[8, l]
-                us = fx_[13, l]
-                vs = fx_[14, l]
-                ws = fx_[15, l]
-                h = fx_[16, l]
-                hit = False
-                ik = 1.0 / k
-                em = _expm1_near(k, h, fx_[30, l], fx_[31, l])
-                E = 1.0 + em
-                ome_k = -em * ik
-                wt = ws - g * ik
-                un = us + (up - us) * E
-                vn = vs + (vp - vs) * E
-                wn = wt + (wp - wt) * E
-                zn = zp + wt * h + (wp - wt) * ome_k
-                if zn < h_imp:
-                    h = _crossing_time(zp, wt, wp - wt, k, h, h_imp, zn)
-                    hit = True
-                    em = expm1_small(-k * h)
-                    E = 1.0 + em
-                    ome_k = -em * ik
-                    un = us + (up - us) * E
-                    vn = vs + (vp - vs) * E
-                    wn = wt + (wp - wt) * E
-                    zn = h_imp
-                xn = xp + us * h + (up - us) * ome_k
-                yn = yp + vs * h + (vp - vs) * ome_k
-                if zn > Lz:  # reflect at the lid
-                    zn = 2.0 * Lz - zn
-                    wn = -wn
-                Qm = fx_[11, l]
-                if twoway:
-                    # the air's impulse is minus the parcel's drag impulse: Q m_p (Delta u - g h),
-                    # plus (first sub-step) the modelled impulse
-                    ixf = ix_[2, l]
-                    ixc = ix_[3, l]
-                    jyf = ix_[4, l]
-                    jyc = ix_[5, l]
-                    kf = ix_[7, l]
-                    fxf = fx_[24, l]
-                    fxc = fx_[25, l]
-                    fyf = fx_[26, l]
-                    fyc = fx_[27, l]
-                    fzf = fx_[29, l]
-                    if ix_[8, l] != 0:
-                        kc = 0
-                        fzc = 0.0
-                    else:
-                        kc = ix_[6, l]
-                        fzc = fx_[28, l]
-                    pool_add_tri(pool, off, s, nx, ny, nk, fx_[17, l] - Qm * (un - up), ixf, fxf,
-                                 jyc, fyc, kc, fzc)
-                    pool_add_tri(pool, off + csz, s, nx, ny, nk, fx_[18, l] - Qm * (vn - vp), ixc,
-                                 fxc, jyf, fyf, kc, fzc)
-                    pool_add_tri(pool, off + 2 * csz, s, nx, ny, nk,
-                                 fx_[19, l] - Qm * (wn - wp + g * h), ixc, fxc, jyc, fyc, kf, fzf)
-                if tke:
-                    kcell = ix_[9, l]
-                    ic = ix_[2, l]  # the cell holding the parcel: floor(x / dx), as ixf
-                    jc = ix_[4, l]
-                    kk = kcell if kcell < nk else nk - 1
-                    e = ef[ic, jc, kcell]
-                    if e > 0.0:
-                        tp = fx_[9, l]
-                        tl = tlc[kcell] / math.sqrt(e)
-                        pool[off + ((ct * L + slab_of(ic, s, nx)) * ny + jc) * nk + kk] += (
-                            Qm / rho * 2.0 * (k * tp) / (tp + tl) * (h / dtot))
-                xp = wrap_periodic(xn, Lx)
-                yp = wrap_periodic(yn, Ly)
-                t += h
-                if hit or not t < T:
-                    x[p] = xp
-                    y[p] = yp
-                    z[p] = zn
-                    u[p] = un
-                    v[p] = vn
-                    w[p] = wn
-                    kd[p] = k
-                    if hit:
-                        flag[p] = 1
-                        trem[p] = T - t
-                        nh += 1
-                    sp = max(abs(un), abs(vn))
-                    if sp > vm:
-                        vm = sp
-                else:
-                    fx_[0, l] = xp
-                    fx_[1, l] = yp
-                    fx_[2, l] = zn
-                    fx_[3, l] = un
-                    fx_[4, l] = vn
-                    fx_[5, l] = wn
-                    fx_[6, l] = t
-                    ix_[1, l] += 1
+                going, hit, left, un, vn = _end_substep(fx_, ix_, l, P, F, O, S, nx, ny)
+                if going:
                     lanes[m] = l
                     m += 1
+                else:
+                    if hit:
+                        nh = _hit(P, ix_[_I_P, l], left, nh)
+                    vm = _track_speed(vm, un, vn)
             na = m
         q0 += nb
-    vmax[c] = vm
-    nhit[c] = nh
+    W.vmax[c] = vm
+    W.nhit[c] = nh
 
 
 @pjit
-def _advance_all(cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf, vf, wf, ef,
-                 Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo, z_f, z_c, dz_c,
-                 lut, tlc, vmax, k0, e0, c0, wtil, nhit, lane_f, lane_i):
+def _advance_all(dt, nk, ncomp, ct, prm, P, F, G, E, W):
     """All parcels over dt, chunk-parallel (see _advance_chunk)."""
-    for c in prange(ranges.shape[0]):
-        _advance_chunk(c, cstart, idx, dt, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, uf,
-                       vf, wf, ef, Uc, Vc, Wc, du, dv, dw, pool, ranges, nk, ncomp, ct, prm, geo,
-                       z_f, z_c, dz_c, lut, tlc, vmax, k0, e0, c0, wtil, nhit, lane_f, lane_i)
+    for c in prange(W.ranges.shape[0]):
+        _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W)
 
 
 @jit_borrow
@@ -888,6 +984,11 @@ class Saltation:
         else:
             self._su = self._sv = self._sw = np.zeros(0)
 
+    def _parcels(self) -> Parcels:
+        """The parcel arrays as the kernels take them (coupling.Parcels)."""
+        return Parcels(self._x, self._y, self._z, self._u, self._v, self._w, self._d, self._kd,
+                       self._flag, self._trem, self._su, self._sv, self._sw)
+
     @property
     def capacity(self) -> int:
         return self._x.shape[0]
@@ -1036,20 +1137,23 @@ class Saltation:
         chunk_assign(n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._hist,
                      self._slab_stats, self._bounds, self._cid, self._cstart, self._idx,
                      self._stats)
+        ef = state.e if (tke or self.sgs) else self._e_zero
         if two:
             du, dv, dw, Uc, Vc, Wc = self._grid_views(nk)
+        else:
+            du = dv = dw = Uc = Vc = Wc = self._e_zero
+        P = self._parcels()
+        F = Flow(state.u, state.v, state.w, ef, self.tlc, Uc, Vc, Wc, du, dv, dw)
+        E = Estimate(self._k0, self._e0, self._c0, self._wtil)
+        if two:
             self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
             self._layout(self._margin, 3 * 2 * ny * nk)
-            implicit_coefficients(self._cstart, self._idx, self._x, self._y, self._z, self._u,
-                                  self._v, self._w, self._d, self._kd, self._trem, state.u,
-                                  state.v, state.w, dt, self.prm, geo.geo, geo.z_f, geo.z_c,
-                                  geo.lut, self._pool, self._ranges, nk, self._k0, self._e0,
-                                  self._c0, self._wtil)
+            implicit_coefficients(self._cstart, self._idx, P, F, dt, self.prm, geo.record,
+                                  self._pool, self._ranges, nk, E)
             implicit_corrections(self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
                                  state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax)
             dumax = float(self._dmax.max())
         else:
-            du = dv = dw = Uc = Vc = Wc = self._e_zero
             dumax = 0.0
         # a parcel moves at most max(|u_p|, |u_seen|) (dt + credit) in x within the step
         if n > 0:
@@ -1061,13 +1165,9 @@ class Saltation:
             self._margin[:] = np.ceil(mg).astype(np.int64) + 2
         ncomp = 3 * int(two) + int(tke)
         self._layout(self._margin, ncomp * ny * nk)
-        ef = state.e if (tke or self.sgs) else self._e_zero
-        _advance_all(self._cstart, self._idx, dt, self._x, self._y, self._z, self._u, self._v,
-                     self._w, self._d, self._kd, self._flag, self._trem, self._su, self._sv,
-                     self._sw, state.u, state.v, state.w, ef, Uc, Vc, Wc, du, dv, dw, self._pool,
-                     self._ranges, nk, ncomp, 3 if two else 0, self.prm, geo.geo, geo.z_f,
-                     geo.z_c, geo.dz_c, geo.lut, self.tlc, self._vmaxc, self._k0, self._e0,
-                     self._c0, self._wtil, self._nhit, self._lane_f, self._lane_i)
+        W = Work(self._cstart, self._idx, self._ranges, self._pool, self._vmaxc, self._nhit,
+                 self._lane_f, self._lane_i)
+        _advance_all(dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, E, W)
         # bed events (self._splash). Rebounds and ejecta leave the bed at the impact point with the
         # rest of the step as a time credit: they are integrated over dt + credit in the next step,
         # inside its implicit exchange (integrating them now, outside it, would be an explicit
@@ -1273,10 +1373,8 @@ def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
     ny = uf.shape[1]
     nz = uf.shape[2]
     for p in range(lo, hi):
-        ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell = locate(
-            x[p], y[p], z[p], geo, z_f, z_c, lut, nx, ny, nz)
-        a, b, c = interp_fluid(uf, vf, wf, ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf,
-                               lfac, islog, nx, ny)
+        st = locate(x[p], y[p], z[p], geo, z_f, z_c, lut, nx, ny, nz)
+        a, b, c = interp_fluid(uf, vf, wf, st, nx, ny)
         out[0, p] = a
         out[1, p] = b
         out[2, p] = c
