@@ -52,6 +52,17 @@ def test_spanwise_spectrum_sums_to_the_variance_and_finds_a_streak_spacing(ny):
     assert spectral_peak_wavelength(spanwise_spectrum_u(SimpleNamespace(u=u2), k), Ly) == pytest.approx(0.5)
 
 
+def test_premultiplied_peak_finds_streaks_on_a_red_spectrum():
+    """A k^-2 spectrum with a bump at mode 6: the raw maximum is the box scale, the premultiplied
+    one the bump."""
+    m = np.arange(25, dtype=float)
+    p = np.zeros(25)
+    p[1:] = m[1:] ** -2.0
+    p[6] *= 8.0
+    assert spectral_peak_wavelength(p, 7.5) == pytest.approx(7.5)
+    assert spectral_peak_wavelength(p, 7.5, premultiplied=True) == pytest.approx(7.5 / 6)
+
+
 def test_roll_damping_removes_the_x_mean_circulation_and_keeps_the_divergence():
     from saltstudy.solver.pressure import PressureSolver, divergence
 

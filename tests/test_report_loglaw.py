@@ -58,7 +58,10 @@ def test_only_the_last_windows_count_and_the_peak_is_the_strongest_mode():
     s = summarise_probe(data, n_last=2)
     assert s["windows_used"] == [200.0, 300.0]
     assert s["all_pass"]
+    # the premultiplied peak (m P(m)) of a flat spectrum with a bump at mode 6: the bump (and of
+    # P itself too)
     assert s["u_spanwise"]["peak_wavelength"] == pytest.approx(7.5 / 6)
+    assert s["u_spanwise"]["peak_wavelength_raw"] == pytest.approx(7.5 / 6)
     assert s["u_spanwise"]["peak_over_dy"] == pytest.approx(48 / 6)
     assert math.isclose(s["fit_u_star_ratio"], 1.0)
 

@@ -35,6 +35,12 @@ KX0_MAX = 0.3
 FIT_KEY = "2.00"
 
 
+def _peak_wavelength(power, length: float, premultiplied: bool) -> float:
+    """length / m of the largest mode m >= 1 of P(m), or of m P(m) (energy per log band)."""
+    p = np.asarray(power, dtype=np.float64)[1:]
+    return length / (1 + int(np.argmax(p * np.arange(1, p.size + 1) if premultiplied else p)))
+
+
 def _mean(rows: list[dict], get) -> float | np.ndarray:
     vals = [np.asarray(get(r), dtype=float) for r in rows]
     return np.mean(vals, axis=0)
@@ -64,7 +70,9 @@ def summarise_probe(data: dict, z0_target: float = 1e-5, n_last: int = 2) -> dic
     power = _mean(rows, lambda r: r["u_spanwise"]["power"])
     Ly = data["L"][1]
     dy = Ly / data["grid"][1]
-    lam = Ly / (1 + int(np.argmax(np.asarray(power)[1:])))     # the most energetic mode, index >= 1
+    # the streak spacing: the peak of the premultiplied spectrum m P(m) (energy per log band)
+    lam = _peak_wavelength(power, Ly, premultiplied=True)
+    lam_raw = _peak_wavelength(power, Ly, premultiplied=False)
     checks: dict[str, tuple[float, bool]] = {}
     for zlo, zhi, lo, hi in BANDS:
         sel = (hs >= zlo - 1e-9) & (hs <= zhi + 1e-9)
@@ -82,7 +90,8 @@ def summarise_probe(data: dict, z0_target: float = 1e-5, n_last: int = 2) -> dic
            "paper_z0": paper_z0, "kx0_share": kx0,
            "phi_profile": {"z": zp.tolist(), "phi": np.asarray(phip).tolist()},
            "u_spanwise": {"power": np.asarray(power).tolist(), "Ly": Ly, "dy": dy,
-                          "peak_wavelength": lam, "peak_over_dy": lam / dy},
+                          "peak_wavelength": lam, "peak_over_dy": lam / dy,
+                          "peak_wavelength_raw": lam_raw},
            "windows_used": [r["t"] for r in rows],
            "checks": {k: {"value": v, "pass": p} for k, (v, p) in checks.items()},
            "all_pass": all(p for _, p in checks.values())}

@@ -18,9 +18,9 @@ reports the means over that window (one profile per second):
 - u* from the total (resolved + SGS) stress at the same heights over the expected u*(z);
 - the share of the resolved u'w' at ~0.8 m carried by motions uniform in x (kx = 0), from the
   streamwise cospectrum;
-- the spanwise spectrum of u on the level nearest 0.1 m (averaged over x and the window) and its
-  peak wavelength, against the horizontal spacing: the near-bed streaks whose spacing the grain
-  streamers follow;
+- the spanwise spectrum of u on the level nearest 0.1 m (averaged over x and the window) and the
+  peak wavelength of its premultiplied form k E(k) (and of E itself), against the horizontal
+  spacing: the near-bed streaks whose spacing the grain streamers follow;
 - phi(z) on every level below Lz/2 (``phi_profile``), for plots;
 - with the dynamic closure, its C_s(z) and beta(z) (window means; beta 0 where undefined).
 
@@ -84,11 +84,15 @@ def spanwise_spectrum_u(state, k: int) -> np.ndarray:
     return p
 
 
-def spectral_peak_wavelength(power: np.ndarray, length: float) -> float:
+def spectral_peak_wavelength(power: np.ndarray, length: float, premultiplied: bool = False) -> float:
     """Wavelength [m] of the largest entry of a one-sided spectrum over a periodic ``length`` [m]
-    (wavenumber index >= 1): length / index of the peak."""
-    i = 1 + int(np.argmax(np.asarray(power)[1:]))
-    return length / i
+    (wavenumber index m >= 1): length / m of the peak. ``premultiplied``: of m P(m), the energy per
+    logarithmic band, whose peak is the usual streak spacing (a red spectrum's raw maximum is at
+    the box scale whatever the streaks do)."""
+    p = np.asarray(power, dtype=np.float64)[1:]
+    if premultiplied:
+        p = p * np.arange(1, p.size + 1)
+    return length / (1 + int(np.argmax(p)))
 
 
 def damp_x_uniform_circulation(v: np.ndarray, w: np.ndarray, a: float) -> None:
@@ -196,7 +200,8 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         ust[inside] = np.sqrt(np.interp(hs[inside], zw, tau)) / us_exp[inside]
         co = acc["co"] / n
         sy = acc["sy"] / n
-        lam = spectral_peak_wavelength(sy, g.Ly)
+        lam = spectral_peak_wavelength(sy, g.Ly, premultiplied=True)
+        lam_raw = spectral_peak_wavelength(sy, g.Ly)
         low = z < 0.5 * Lz
         u0_paper = math.sqrt(float(np.interp(PAPER_Z_REF, zw, tau)))
         if pg:
@@ -210,7 +215,8 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
                "kx0_share": float(co[0] / co.sum()) if co.sum() != 0 else math.nan,
                "phi_profile": {"z": z[low].tolist(), "phi": phi_z[low].tolist()},
                "u_spanwise": {"z": float(g.z_c[k_st]), "power": sy.tolist(),
-                              "peak_wavelength": lam, "peak_over_dx": lam / g.dy},
+                              "peak_wavelength": lam, "peak_over_dx": lam / g.dy,
+                              "peak_wavelength_raw": lam_raw},
                "wall_s": time.perf_counter() - wall0}
         if "c_s" in acc:
             row["dynamic"] = {"z": z[low].tolist(), "c_s": (acc["c_s"] / n)[low].tolist(),
