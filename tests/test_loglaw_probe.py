@@ -137,3 +137,18 @@ def test_probe_reports_the_dynamic_coefficient():
     dyn = res["windows"][0]["dynamic"]
     assert len(dyn["z"]) == len(dyn["c_s"]) == len(dyn["beta"]) > 3
     assert all(0.0 <= c <= 0.35 for c in dyn["c_s"]) and max(dyn["c_s"]) > 0.0
+
+
+def test_out_file_is_rewritten_after_every_window(tmp_path):
+    """--out: the result so far replaces the file after each window, under a temporary name first."""
+    import json
+
+    from saltstudy.solver.loglaw_probe import _writer
+
+    target = tmp_path / "probe.json"
+    write = _writer(str(target))
+    write({"windows": [1]})
+    write({"windows": [1, 2]})
+    assert json.loads(target.read_text()) == {"windows": [1, 2]}
+    assert [p.name for p in tmp_path.iterdir()] == ["probe.json"]
+    assert _writer("") is None

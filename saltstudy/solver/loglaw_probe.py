@@ -132,7 +132,7 @@ def build_scene(case: int = 1, fidelity: str = "reduced", drive: str = "top",
 
 
 def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
-                 log=print) -> dict:
+                 log=print, on_window=None) -> dict:
     """Run ``scene`` without grains to ``t_end`` [s]; one summary per ``window`` [s] (module doc).
     Returns {"grid", "drive", "z_ref", "target", "windows": [...]}."""
     from ..physics.laws import z0_at_fixed_u_star
@@ -222,6 +222,8 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
             row["dynamic"] = {"z": z[low].tolist(), "c_s": (acc["c_s"] / n)[low].tolist(),
                               "beta": (acc["beta"] / n)[low].tolist()}
         out["windows"].append(row)
+        if on_window is not None:
+            on_window(out)
         fit_txt = "  ".join(f"fit 0.3-{k} m: {v['u_star_ratio']:.3f} (z0 {v['z0']:.2g} m)"
                             for k, v in row["fit"].items())
         log(f"t = {m.t - window:.0f}-{m.t:.0f} s  {fit_txt}  kx=0 share at {g.z_f[k_co]:.2f} m: "
@@ -238,6 +240,21 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         acc, n = {}, 0
         t_win += window
     return out
+
+
+def _writer(path: str):
+    """A callback writing the probe's result to ``path`` (temporary name, then renamed), or None."""
+    if not path:
+        return None
+    from pathlib import Path
+
+    target = Path(path)
+
+    def write(res: dict) -> None:
+        tmp = target.with_name(target.name + ".part")
+        tmp.write_text(json.dumps(res))
+        tmp.replace(target)
+    return write
 
 
 def register_probe(app) -> None:
@@ -258,11 +275,13 @@ def register_probe(app) -> None:
                overrides: str = typer.Option("", "--overrides", help="JSON merged into the case"),
                roll_damping: float = typer.Option(0.0, "--roll-damping",
                                                   help="diagnostic: damp x-uniform v, w at this rate, 1/s"),
-               as_json: bool = typer.Option(False, "--json", help="the result as one JSON object")) -> None:
+               as_json: bool = typer.Option(False, "--json", help="the result as one JSON object"),
+               out: str = typer.Option("", "--out", help="write the result as JSON to this file after "
+                                       "every window (a stopped run keeps its windows)")) -> None:
         """Windowed log-law fit, phi and stress of the particle-free surface layer."""
         try:
             scene = build_scene(case, fidelity, drive, grid, overrides)
-            res = probe_loglaw(scene, t_end, window, roll_damping,
+            res = probe_loglaw(scene, t_end, window, roll_damping, on_window=_writer(out),
                                log=(lambda s: typer.echo(s, err=True)) if as_json else typer.echo)
         except (ConfigError, ValueError) as exc:
             typer.echo(f"error: {exc}", err=True)
