@@ -14,7 +14,9 @@ Execution
   33.2 ms on 64x48x48), so two 1-thread tasks could gain at most ~15 % on the saltation runs.
 * ``scheduler=ADDRESS``: a ``dask.distributed`` Client connected to that scheduler; every worker
   must run the same checkout (checked: tasks carry the client's ``SOURCE_KEY``) and see the same
-  out dir (shared file system).
+  out dir (shared file system). The kernels are first compiled into the numba cache once per
+  worker host (:func:`warm_workers`), as locally, so a distributed run writes the same archives
+  as the local one (tests/test_workflow_distributed.py).
 
 A task that fails is recorded (``task.json``: state failed, error, traceback) and its dependents
 are skipped; the other runs go on. :func:`run_study` returns a summary whose ``exit_code`` is 1
@@ -239,13 +241,48 @@ def _record_runs(out_dir: Path, plan: StudyPlan, by_name: dict[str, Outcome]) ->
     write_json_atomic(runs_file(out_dir, plan.study.name), data)
 
 
+def _pending_scenes(runs, out_dir: Path) -> list[Scene]:
+    return [rk.scene for rk in runs
+            if not (is_complete(output_path(out_dir, "saltation", rk.saltation))
+                    and is_complete(output_path(out_dir, "spinup", rk.spinup)))]
+
+
 def warm_for(runs, out_dir: Path) -> None:
     """Compile the kernels of the runs that still need solver work in a child process, so that
     every task loads them from the cache (warmup.py: a rerun or a resumed run then repeats the
-    first run exactly). Local runs only: a dask.distributed worker compiles for itself."""
-    ensure_warm([rk.scene for rk in runs
-                 if not (is_complete(output_path(out_dir, "saltation", rk.saltation))
-                         and is_complete(output_path(out_dir, "spinup", rk.spinup)))], log=emit)
+    first run exactly)."""
+    ensure_warm(_pending_scenes(runs, out_dir), log=emit)
+
+
+def _warm_here(scenes: list[Scene]) -> str:
+    """Run on a dask worker: warm that machine's numba cache (warmup.py) for ``scenes``."""
+    import platform
+
+    ensure_warm(scenes)
+    return platform.node()
+
+
+def warm_workers(client, runs, out_dir: Path) -> None:
+    """:func:`warm_for` on the workers of a ``dask.distributed`` cluster, once per worker host
+    (the numba cache is per machine, or shared): without it a worker would compile in its own
+    process, and its archives would be another realization than a rerun's (warmup.py)."""
+    scenes = _pending_scenes(runs, out_dir)
+    if not scenes:
+        return
+    from distributed.comm import get_address_host
+
+    hosts: dict[str, str] = {}
+    for addr in client.nthreads():          # every worker's address
+        hosts.setdefault(get_address_host(addr), addr)
+    if not hosts:   # no worker yet: workers that join later compile for themselves
+        return
+    emit(f"[warm-up] numba kernels on {len(hosts)} worker host(s)")
+    futures = [client.submit(_warm_here, scenes, workers=[addr], allow_other_workers=False, pure=False)
+               for addr in hosts.values()]
+    try:
+        client.gather(futures)
+    except Exception as exc:  # noqa: BLE001 — the tasks then compile in-process, as without it
+        emit(f"[warm-up] on the workers failed ({type(exc).__name__}: {exc}); tasks compile in-process")
 
 
 def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | None = None,
@@ -274,6 +311,7 @@ def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | No
             from distributed import Client
 
             with Client(scheduler) as client:
+                warm_workers(client, plan.runs.values(), out_dir)
                 futures = client.compute([plan.graph[n] for n in names])
                 for n, f in zip(names, futures):
                     try:
