@@ -6,8 +6,9 @@ the drag impulse of every parcel, ``-Q m_p (Delta u_p - g Delta t)``, spread wit
 trilinear weights (summing to one) that interpolated the fluid velocity at the parcel. The sum over
 faces of the air's momentum change is therefore exactly minus the sum of the parcels' drag
 impulses: the exchange conserves total momentum to round-off. Exceptions, by design: the share of a
-vertical impulse that falls on the bed face (w, k = 0) goes into the ground, and parcels below the
-first level (log-law region) deposit on the lowest level with the horizontal weights.
+vertical impulse that falls on the bed face (w, k = 0) goes into the ground, and parcels in the
+log-law region (interp.py) deposit with the horizontal weights on one level: level 1, the level
+they read ("paper"), or level 0 ("blend").
 
 Point-implicit exchange (stiff, mass-loaded cells). Over a step ``dt`` a parcel with drag rate
 ``k_p = f(Re_p)/T_p`` (eqs. 3-4) relaxing exponentially towards the fluid velocity ``u_s`` it sees
@@ -27,11 +28,18 @@ slightly (drag-rate iteration, sub-steps, bed crossings); the difference (actual
 deposited with the trilinear weights as well, so total momentum is conserved to round-off. (An
 earlier version deposited the actual impulses with the weights and used the implicit estimate
 only for the seen velocity: that is *not* stable for modes the interpolation smooths; it blew up
-in the loading test.) Below the first level a parcel sees the log law of level 1 but deposits on
-level 0; its offset ``o_p = u_raw,p - sum_f w_pf U_f`` (level-0 weights) is subtracted from u~_p so
-that ``u_s,p`` is still its raw velocity plus the interpolated ``delta = U' - U``; level-0 modes
-are then damped by (1 + a lambda)/(1 + a) <= 1 per step (a = loading, lambda <= 1 the
-interpolation's smoothing factor).
+in the loading test.) In the log region a parcel sees ``l_p`` times the bilinear level-1 wind,
+``l_p = ln(z_p/z0) / ln(z_c[1]/z0) < 1``:
+
+* "paper" (it deposits on level 1 too): it sees ``u_s,p = l_p sum_f w_pf U_f'``, the log law of
+  the new air, so its weights are ``l_p w_pf`` in A: ``U_f' = (M_f U_f + sum_p w_pf c_p u~_p) /
+  (M_f + sum_p w_pf c_p l_p)``, a convex combination of U_f and the u~_p / l_p (the level-1 wind a
+  parcel in equilibrium implies), and the air's change is again exactly minus the modelled
+  impulses ``c_p (l_p sum_f w_pf U_f' - u~_p)``.
+* "blend" (it deposits on level 0): its offset ``o_p = u_raw,p - sum_f w_pf U_f`` (level-0
+  weights) is subtracted from u~_p so that ``u_s,p`` is still its raw velocity plus the
+  interpolated ``delta = U' - U``; level-0 modes are then damped by (1 + a lambda)/(1 + a) <= 1
+  per step (a = loading, lambda <= 1 the interpolation's smoothing factor).
 
 Buffers. Each of the ``N_CHUNKS`` parcel chunks deposits into its own buffers (no races; the
 chunks' buffers are summed in chunk order, so the result does not depend on the thread count).
@@ -51,7 +59,9 @@ with the SGS model's own wall-limited length ``l(z)`` and ``c_eps = 0.19 + 0.74 
 (:mod:`saltstudy.solver.sgs`), the local e of the cell, and ``C0 = 2.1``, a value
 widely used for the Lagrangian structure-function constant in stochastic particle models; the
 paper does not state its C0. Where ``e <= 0``, ``T_L`` is infinite and the sink vanishes. Each
-parcel contributes to the cell that holds it, weighted by the fraction of the step it spent there.
+parcel contributes to the cell that holds it (a parcel in the log region with "paper": the level-1
+cell above it, the one it read, with that cell's e and T_L), weighted by the fraction of the step
+it spent there.
 """
 from __future__ import annotations
 
@@ -278,6 +288,7 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
     g = prm[2]
     rho_p = prm[3]
     Q = prm[4]
+    paper = G.geo[9] != 0.0  # the log region deposits on level 1, the level it reads
     s = ranges[c, 0]
     L = ranges[c, 1]
     off = ranges[c, 2]
@@ -297,7 +308,7 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
             if k <= 0.0:
                 rel = math.sqrt((ur - P.u[p]) ** 2 + (vr - P.v[p]) ** 2 + (wr - P.w[p]) ** 2)
                 k = drag_rate(rel, dp / nu, tp)
-            if st.islog:
+            if st.islog and not paper:
                 u0, v0, w0 = interp_faces(F.u, F.v, F.w, nz, nz + 1, st, nx, ny)
                 ou = ur - u0
                 ov = vr - v0
@@ -310,9 +321,10 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
         wt = P.w[p] + g / k - g * T / ome
         E.c0[p] = cp
         E.wtil[p] = wt
-        pool_add_tri2(pool, off, s, nx, ny, nk, cp, cp * (P.u[p] - ou), st.ixf, st.fxf, st.jyc,
+        ah = cp * st.lfac if (st.islog and paper) else cp  # A's horizontal weight factor
+        pool_add_tri2(pool, off, s, nx, ny, nk, ah, cp * (P.u[p] - ou), st.ixf, st.fxf, st.jyc,
                       st.fyc, st.kc, st.fzc)
-        pool_add_tri2(pool, off + csz, s, nx, ny, nk, cp, cp * (P.v[p] - ov), st.ixc, st.fxc,
+        pool_add_tri2(pool, off + csz, s, nx, ny, nk, ah, cp * (P.v[p] - ov), st.ixc, st.fxc,
                       st.jyf, st.fyf, st.kc, st.fzc)
         pool_add_tri2(pool, off + 2 * csz, s, nx, ny, nk, cp, cp * wt, st.ixc, st.fxc, st.jyc,
                       st.fyc, st.kf, st.fzf)
@@ -321,15 +333,16 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
 @pjit
 def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
     """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
-    A[c, comp] += w c_p and B[c, comp] += w c_p (u~_p - o_p).
+    A[c, comp] += w c_p (u, v of a parcel in the log region with "paper": w c_p l_p) and
+    B[c, comp] += w c_p (u~_p - o_p).
 
     Records: P :data:`Parcels`, F :data:`Flow` (its u, v, w: the air at the start of the step),
     G :data:`interp.Geometry`, E :data:`Estimate` (filled). prm: [rho, nu, g, rho_p, Q].
     A and B live interleaved in the chunk's pool range (``ranges``, see ``chunk_ranges``): comp
     0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs. o_p is the log-law offset of a
-    parcel in the log region (module doc), 0 elsewhere. Stores per parcel the drag rate in
-    E.k0, expm1(-k0 T) in E.e0, c_p in E.c0 and the vertical u~_p in E.wtil (particles.py uses
-    them for the modelled impulse and its first drag evaluation).
+    parcel in the log region with "blend" (module doc), 0 elsewhere. Stores per parcel the drag
+    rate in E.k0, expm1(-k0 T) in E.e0, c_p in E.c0 and the vertical u~_p in E.wtil
+    (particles.py uses them for the modelled impulse and its first drag evaluation).
     """
     for c in prange(ranges.shape[0]):
         _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E)

@@ -8,15 +8,36 @@ Layout (``grid.py``): ``u[i, j, k]`` at ``(x_f[i], y_c[j], z_c[k])``, ``v[i, j, 
 ``(x_c[i], y_f[j], z_c[k])``, ``w[i, j, k]`` at ``(x_c[i], y_c[j], z_f[k])`` with ``w[..., 0] = 0``
 (the bed). Periodic in x and y by modular indices.
 
-Near the bed (paper section 2.1): below the first u, v level (``z < z_c[0]``) the horizontal fluid
-velocity is extrapolated from the *second* level with the log law::
+Near the bed: the log-law region. The horizontal fluid velocity there is extrapolated from the
+*second* level (k = 1) with the log law, bilinear in x, y at that level::
 
     u(z) = u(z_c[1]) ln(z / z0) / ln(z_c[1] / z0)           (z clipped to >= 1.0001 z0)
 
-bilinear in x, y at level 1. The *deposit* of the reaction of such a parcel goes, with the same
-horizontal weights, to the lowest level (k = 0), where the air it acts on lives. Vertical velocity
-is interpolated between the z-faces, so it goes linearly to ``w = 0`` at the bed (face 0); the part
-of a vertical reaction that falls on face 0 is taken by the bed (it does not enter the air).
+Where the region ends and where the drag reaction of a parcel in it goes is the case's
+``particles.near_bed_wind`` (``GridGeometry(grid, z0, near_bed)``):
+
+* ``"paper"``, the paper's [12] ("In the lower grid cell, the horizontal wind velocity components
+  at the particle position were extrapolated from the resolved fluid components of the second
+  grid cell using a logarithmic profile"): the region is the whole first cell, ``z < z_f[1]``,
+  and the reaction goes back to level 1, the level the parcel read, with the same horizontal
+  weights (momentum exact; the TKE sink likewise goes to the level-1 cell). From ``z_f[1]`` up
+  the usual trilinear interpolation, which between ``z_f[1]`` and ``z_c[1]`` is linear between
+  levels 0 and 1. The seen wind is *not* continuous at ``z_f[1]``: the linear value there is
+  ``(1 - f) u_0 + f u_1`` with ``f = (z_f[1] - z_c[0]) / (z_c[1] - z_c[0])`` (0.39 on the smoke
+  grid, 0.45 on the paper's, 0.50 on the reduced one), the log law's is
+  ``u_1 ln(z_f[1]/z0) / ln(z_c[1]/z0)``. In an exact log profile (z0 = 10 um) the linear value is
+  below the log law by 1.9 % (reduced grid) to 2.9 % (smoke grid; paper's 2.4 %); in the LES add
+  ``(1 - f)`` times the departure of the level-0 wind from the log law extrapolated to ``z_c[0]``
+  (about half of the "blend" jump below).
+* ``"blend"`` (a departure from the paper): the region is ``z < z_c[0]`` only, and the reaction
+  of a parcel in it goes, with the same horizontal weights, to level 0, a level it never read
+  (momentum still exact; coupling.py's implicit exchange carries the offset between the two).
+  From ``z_c[0]`` up, trilinear between levels 0 and 1, so the seen wind jumps at ``z_c[0]`` by the
+  level-0 wind's departure from the log law of level 1 (7-30 % in the LES).
+
+Vertical velocity is interpolated between the z-faces in both, so it goes linearly to ``w = 0``
+at the bed (face 0); the part of a vertical reaction that falls on face 0 is taken by the bed (it
+does not enter the air).
 
 Everything here is scalar numba code (``saltstudy._jit``'s flags with ``inline="always"``),
 inlined into the parcel kernels.
@@ -37,18 +58,24 @@ from .simd import fma2, fma4, load2
 #: structs on the stack cost ~25 ns per call, most of the parcel step.)
 ijit = jit_with(inline="always")
 
-__all__ = ["GridGeometry", "Geometry", "Stencil", "wrap_periodic", "locate", "interp_fluid",
+__all__ = ["GridGeometry", "Geometry", "Stencil", "NEAR_BED_WIND", "GEO_LOG_TOP", "GEO_LOG_LEVEL", "wrap_periodic", "locate", "interp_fluid",
            "interp_faces", "deposit_faces", "level_of", "slab_of", "wrap_index", "pool_add_tri",
            "pool_add_tri2"]
 
 #: Where a point sits on the staggered grid (``locate``): the x index and fraction of the x-faces
 #: (u) and of the x-centres (v, w), the same in y, the lower centre level ``kc`` with fraction
 #: ``fzc`` (u, v), the lower face ``kf`` with fraction ``fzf`` (w), whether the point is in the
-#: log-law region (``islog``; then ``lfac`` is the log-law factor and ``kc``, ``fzc`` = 0, 0 the
-#: level its horizontal drag reaction goes to) and the level of the cell holding it (``kcell``).
+#: log-law region (``islog``; then ``lfac`` is the log-law factor, ``kc`` the level its horizontal
+#: drag reaction goes to and ``fzc`` = 0) and the level of the cell holding it (``kcell``).
 #: Indices ``ix + 1`` etc. are taken modulo n by the users. (A named tuple: numba passes it by
 #: value, its fields are static members.)
 Stencil = namedtuple("Stencil", "ixf fxf ixc fxc jyf fyf jyc fyc kc fzc kf fzf lfac islog kcell")
+#: the settings of ``particles.near_bed_wind`` and the level the drag of a parcel in the log
+#: region goes to in each (the log law reads level 1 in both)
+NEAR_BED_WIND = {"blend": 0, "paper": 1}
+#: indices in ``GridGeometry.geo`` of the log region's top and of its deposit level (as a float)
+GEO_LOG_TOP = 8
+GEO_LOG_LEVEL = 9
 #: The grid as the parcel kernels take it (``GridGeometry.record``)
 Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut")
 
@@ -56,13 +83,15 @@ Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut")
 class GridGeometry:
     """The arrays and scalars the parcel kernels need, in numba-friendly form.
 
-    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[1] / z0)]; ``z_f (nz+1)``,
+    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[1] / z0), z_log, k_log]
+    with the log region ``z < z_log`` and ``k_log`` the level the drag of a parcel in it goes to
+    (module doc: ``near_bed`` "blend": z_c[0], 0; "paper": z_f[1], 1); ``z_f (nz+1)``,
     ``z_c (nz)``,
     ``lut`` int64: ``lut[m]`` is the face index k with ``z_f[k] <= m * lut_dz`` (a fast start for
     the vertical search on the stretched grid); ``log_den = ln(z_c[1] / z0)``.
     """
 
-    def __init__(self, grid: Grid, z0: float):
+    def __init__(self, grid: Grid, z0: float, near_bed: str = "blend"):
         self.nx, self.ny, self.nz = grid.shape
         self.z_f = np.ascontiguousarray(grid.z_f, dtype=np.float64)
         self.z_c = np.ascontiguousarray(grid.z_c, dtype=np.float64)
@@ -74,8 +103,14 @@ class GridGeometry:
         self.lut = np.clip(np.searchsorted(self.z_f, zs, side="right") - 1, 0, self.nz - 1).astype(np.int64)
         if self.nz < 2:
             raise ValueError("the log-law extrapolation needs at least two levels")
+        if near_bed not in NEAR_BED_WIND:
+            raise ValueError(f"near_bed: {near_bed!r} is none of {sorted(NEAR_BED_WIND)}")
+        self.near_bed = near_bed
+        k_log = NEAR_BED_WIND[near_bed]
+        z_log = self.z_f[1] if k_log == 1 else self.z_c[0]
         self.geo = np.array([grid.dx, grid.dy, grid.Lx, grid.Ly, z0, lut_dz, grid.Lz,
-                             1.0 / math.log(self.z_c[1] / z0)], dtype=np.float64)
+                             1.0 / math.log(self.z_c[1] / z0), z_log, float(k_log)],
+                            dtype=np.float64)
         if not z0 < self.z_c[0]:
             raise ValueError(f"z0 ({z0}) must lie below the first level ({self.z_c[0]})")
         self.record = Geometry(self.geo, self.z_f, self.z_c, self.dz_c, self.lut)
@@ -154,9 +189,9 @@ def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
     # centres: u, v between z_c[kc] and z_c[kc+1]
     islog = False
     lfac = 1.0
-    if z < z_c[0]:
+    if z < geo[8]:  # the log region (GEO_LOG_TOP)
         islog = True
-        kc = 0
+        kc = int(geo[9])  # its deposit level (GEO_LOG_LEVEL)
         fzc = 0.0
         zz = z if z > 1.0001 * z0 else 1.0001 * z0
         lfac = math.log(zz / z0) * geo[7]
@@ -229,8 +264,7 @@ def interp_faces(du, dv, dw, nk_c, nk_w, st, nx, ny):
     the arrays read as 0."""
     kc = st.kc
     fzc = st.fzc
-    if st.islog:  # as constants: the compiler folds the vertical weights
-        kc = 0
+    if st.islog:  # a constant: the compiler folds the vertical weights
         fzc = 0.0
     if kc + 1 < nk_c:
         a = _tri(du, st.ixf, st.fxf, st.jyc, st.fyc, kc, fzc, nx, ny)

@@ -37,8 +37,10 @@ start at the impact point with the rest of the step as a time credit and are int
 would exchange their momentum explicitly, which is unstable for small grains at high loading). A parcel reaching the lid
 is reflected (it does not happen at the cases' heights).
 
-Fluid velocity at a parcel: trilinear on the staggered grid, log law below the first level
-(:mod:`interp`). Two-way coupling, the point-implicit exchange and the TKE sink: :mod:`coupling`.
+Fluid velocity at a parcel: trilinear on the staggered grid, log law from the second level near
+the bed: in the whole first cell with the drag going back to the second level (the paper's [12],
+``particles.near_bed_wind = "paper"``) or below the first level only (``"blend"``), see
+:mod:`interp`. Two-way coupling, the point-implicit exchange and the TKE sink: :mod:`coupling`.
 
 Work split: the per-parcel integration is ``prange``-parallel over a fixed number of chunks with
 chunk-private deposit buffers (race-free, and reductions in a fixed order, so results do not
@@ -84,8 +86,8 @@ from .coupling import (N_CHUNKS, Estimate, Flow, Parcels, apply_exchange, chunk_
                        lagrangian_time_coefficients, tke_rates)
 from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_0687
 from .grid import Grid
-from .interp import (GridGeometry, _bil, _tri, ijit, interp_fluid, level_of, locate,
-                     pool_add_tri, slab_of, wrap_index, wrap_periodic)
+from .interp import (GEO_LOG_LEVEL, GridGeometry, _bil, _tri, ijit, interp_fluid, level_of,
+                     locate, pool_add_tri, slab_of, wrap_index, wrap_periodic)
 from .splash_kernels import (draw_diameter, ejecta_reserve, soil_arrays, splash_params,
                              splash_runs)
 from .state import FlowState
@@ -252,7 +254,9 @@ _LANE_ROWS_F = 34
 _LANE_ROWS_I = 11
 
 #: the scalars of a step, as _advance_chunk reads them once from prm and geo
-_Step = namedtuple("_Step", "dt g h_imp tol Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb")
+#: (paper: the log region deposits on klog = 1, the level it reads; blend: on klog = 0)
+_Step = namedtuple("_Step", "dt g h_imp tol Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb paper "
+                   "klog")
 #: the chunks' work: their parcels (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign), pool
 #: ranges (coupling.chunk_ranges) and pool, results (vmax, nhit per chunk) and lane scratch
 #: (lane_f (chunks, _LANE_ROWS_F, _LANES), lane_i (chunks, _LANE_ROWS_I + 2, _LANES))
@@ -267,10 +271,18 @@ def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
     """The wind a parcel at (xp, yp, zp) sees, and its Stencil (interp.locate): the resolved
     velocity interpolated trilinearly, with the log law in the log region (interp.py); two-way,
     of the air after the implicit exchange: the fluid's plus the change delta interpolated with
-    the deposit weights (zero beyond the buffer levels S.nkb). Above the log region both use the
-    same weights, so the sum is read from U = u + delta."""
+    the deposit weights (zero beyond the buffer levels S.nkb). Where both use the same weights
+    (above the log region; in it with "paper") the sum is read from U = u + delta."""
     st = locate(xp, yp, zp, G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
-    if st.islog:
+    if st.islog and S.paper:  # the log law of the (new) air at level 1, where the drag goes
+        if S.twoway and 1 < S.nkb:
+            us = st.lfac * _bil(F.U, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
+            vs = st.lfac * _bil(F.V, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
+        else:
+            us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
+            vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
+    elif st.islog:  # blend: the log law of level 1 plus the change delta of level 0, where the
+        # drag goes (coupling.py)
         us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
         vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
         if S.twoway and 1 < S.nkb:
@@ -507,7 +519,7 @@ def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
 
 
 @ijit
-def _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, g, h, nx, ny):
+def _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny):
     """Two-way: the air's impulse is minus the parcel's drag impulse, Q m_p (Delta u - g h), plus
     (first sub-step) the modelled impulse, deposited with the stencil's weights (the log region:
     the horizontal weights on one level, interp.py)."""
@@ -524,7 +536,7 @@ def _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, g, h, nx, ny):
     fyc = fx_[_F_FYC, l]
     fzf = fx_[_F_FZF, l]
     if ix_[_I_LOG, l] != 0:
-        kc = 0
+        kc = S.klog
         fzc = 0.0
     else:
         kc = ix_[_I_KC, l]
@@ -534,14 +546,17 @@ def _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, g, h, nx, ny):
     pool_add_tri(O.pool, O.off + O.csz, O.s, nx, ny, O.nk, fx_[_F_MV, l] - Qm * (vn - vp), ixc,
                  fxc, jyf, fyf, kc, fzc)
     pool_add_tri(O.pool, O.off + 2 * O.csz, O.s, nx, ny, O.nk,
-                 fx_[_F_MW, l] - Qm * (wn - wp + g * h), ixc, fxc, jyc, fyc, kf, fzf)
+                 fx_[_F_MW, l] - Qm * (wn - wp + S.g * h), ixc, fxc, jyc, fyc, kf, fzf)
 
 
 @ijit
 def _tke_sink(O, F, fx_, ix_, l, Qm, k, h, S, nx, ny):
-    """The parcel's share of the TKE-sink rate of the cell holding it (coupling.py, eq. A1),
-    weighted by the fraction h / dt of the step."""
+    """The parcel's share of the TKE-sink rate of the cell holding it (coupling.py, eq. A1; in the
+    log region that of the level its drag goes to), weighted by the fraction h / dt of the
+    step."""
     kcell = ix_[_I_KCELL, l]
+    if ix_[_I_LOG, l] != 0:
+        kcell = S.klog
     ic = ix_[_I_XF, l]  # the cell holding the parcel: floor(x / dx), as ixf
     jc = ix_[_I_YF, l]
     kk = kcell if kcell < O.nk else O.nk - 1
@@ -598,7 +613,7 @@ def _end_substep(fx_, ix_, l, P, F, O, S, nx, ny):
     xn, yn, zn, wn = _move(fx_[_F_X, l], fx_[_F_Y, l], zn, wn, us, vs, up, vp, h, ome_k, S)
     Qm = fx_[_F_QM, l]
     if S.twoway:
-        _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, S.g, h, nx, ny)
+        _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny)
     if S.tke:
         _tke_sink(O, F, fx_, ix_, l, Qm, k, h, S, nx, ny)
     t = fx_[_F_T, l] + h
@@ -653,7 +668,8 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W):
     nz = G.z_c.shape[0]
     S = _Step(prm[_DT], prm[_G], prm[_HIMP], prm[_TOL], G.geo[2], G.geo[3], prm[_LZ], prm[_RHO],
               prm[_NU], prm[_RHOP], prm[_Q], prm[_TWOWAY] != 0.0, prm[_TKE] != 0.0,
-              prm[_SGS] != 0.0, F.du.shape[2])
+              prm[_SGS] != 0.0, F.du.shape[2], G.geo[GEO_LOG_LEVEL] != 0.0,
+              int(G.geo[GEO_LOG_LEVEL]))
     s = W.ranges[c, 0]
     L = W.ranges[c, 1]
     off = W.ranges[c, 2]
@@ -925,7 +941,8 @@ class Saltation:
         self.tke_sink = bool(phys.tke_particle_sink)
         self.sgs = bool(phys.sgs_particle_velocity)
         self.entrainment = bool(phys.aerodynamic_entrainment)
-        self.geom = GridGeometry(grid, self.z0)
+        self.near_bed_wind = case.particles.near_bed_wind
+        self.geom = GridGeometry(grid, self.z0, self.near_bed_wind)
         self.sp = splash_params(case.splash, case.soil, self.g)
         self.h_imp = float(case.splash.impact_layer)
         self.cum, self.mu, self.lnsig = soil_arrays(case.soil)
