@@ -253,3 +253,21 @@ def test_bad_closure_model_names_the_field(tmp_path):
                    '[closure]\nmodel = "dynamic"\ndynamic_interval = 0\n')
     r = CliRunner().invoke(app, ["validate", str(bad)])
     assert r.exit_code == 2 and "closure.dynamic_interval" in r.output, r.output
+
+
+@pytest.mark.slow
+def test_coefficient_falls_toward_the_wall_in_a_spun_up_layer():
+    """Spun-up particle-free layer (quick grid, 150 s, case 1, the last 50 s averaged): the
+    plane-averaged C_s on the lowest levels, where the test filters reach into the production
+    range, is below its value in the layer above, and beta < 1 there (Porte-Agel et al. 2000)."""
+    from saltstudy.solver.loglaw_probe import build_scene, probe_loglaw
+
+    scene = build_scene(1, "quick", "top", None, '{"closure": {"model": "dynamic", "near_wall": false}}')
+    res = probe_loglaw(scene, 150.0, 50.0, log=lambda s: None)
+    dyn = res["windows"][-1]["dynamic"]
+    z, cs, beta = (np.asarray(dyn[k]) for k in ("z", "c_s", "beta"))
+    above = (z > 0.3) & (z < 1.5)
+    print("z", np.round(z, 3), "\nC_s", np.round(cs, 3), "\nbeta", np.round(beta, 2))
+    assert cs[:2].max() < 0.8 * cs[above].max()
+    assert np.all(np.diff(cs[:4]) > 0)                    # rising away from the bed
+    assert 0.0 < beta[0] < 1.0

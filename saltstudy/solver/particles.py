@@ -340,7 +340,7 @@ def _load_lane(fx_, ix_, l, P, p, T, S):
 
 @ijit
 def _begin_substep(fx_, ix_, l, P, F, G, E, S, nx, ny, nz):
-    """Pass 1 of a sub-step of lane l: the wind seen, the sub-step, the modelled impulse (first
+    """The first pass of a sub-step of lane l: the wind seen, the sub-step, the modelled impulse (first
     sub-step, two-way: c_p (u_s - u~_p) of the implicit estimate, same k, dt and weights,
     coupling.py), the slip, a first drag rate if the parcel has none; the stencil is kept for
     the deposits."""
@@ -586,7 +586,7 @@ def _track_speed(vm, u, v):
 
 @ijit
 def _end_substep(fx_, ix_, l, P, F, O, S, nx, ny):
-    """Pass 3 of a sub-step of lane l: drag (exact relaxation over h), bed crossing, move, the
+    """The third pass of a sub-step of lane l: drag (exact relaxation over h), bed crossing, move, the
     reaction to the air and the TKE sink; a parcel at the end of its step or at the bed is
     stored (and flagged if a hit). Returns (whether it goes on, hit, its time left)."""
     p = ix_[_I_P, l]
