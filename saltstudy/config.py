@@ -378,6 +378,10 @@ class Study(_Frozen):
     cases: tuple[int, ...] = ()
     scenes: tuple[SceneSpec, ...] = ()
     report: bool = True
+    flux_law: Literal["creyssels2009"] | None = Field(
+        None, description="a measured flux law the report holds each run's G_tot against, at the "
+        "run's own stress u* (report/fluxlaw.py): 'creyssels2009', the wind tunnel of Creyssels et "
+        "al. (2009) for 242 um grains of 2500 kg m^-3")
 
     @model_validator(mode="after")
     def _consistent(self) -> "Study":

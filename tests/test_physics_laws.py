@@ -161,3 +161,17 @@ def test_vectorised_equals_scalar():
         assert arr.shape == (3,), name
         for ui, ai in zip(u, arr):
             assert func(float(ui), UT) == pytest.approx(ai, rel=1e-14), name
+
+
+def test_creyssels_law_fits_its_measurements():
+    """Creyssels et al. (2009): the quadratic law against their six fluxes (a check of the
+    transcription: the law is the fit of these points, not a tuned value)."""
+    from saltstudy.physics.laws import CREYSSELS2009_Q, CREYSSELS2009_U_STAR, creyssels2009_flux
+
+    u = np.array(CREYSSELS2009_U_STAR)
+    ratio = creyssels2009_flux(u) / np.array(CREYSSELS2009_Q)
+    assert np.all(np.abs(ratio[2:] - 1) < 0.08)
+    assert 0.8 < ratio[1] < 0.9
+    assert creyssels2009_flux(0.2) == 0.0
+    # dimensional form: rho/g (u*^2 - u*th^2) in kg m^-1 s^-1
+    assert creyssels2009_flux(0.412) == pytest.approx(1.38 * 1.2 / 9.81 * (0.412 ** 2 - 0.206 ** 2))

@@ -123,6 +123,12 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                                       samples=meta.get("samples"))
         sections.append("<h2 id='stability'>Stability of the scenes</h2>" + stab["html"])
 
+    law = _study_field(meta, "flux_law")
+    if law:
+        from .fluxlaw import build_fluxlaw_report
+        fl = build_fluxlaw_report(ctx.runs, report_dir, law)
+        sections.append("<h2 id='fluxlaw'>Total flux against a measured flux law</h2>" + fl["html"])
+
     anim_html = ""
     anim_label = meta.get("animation_label") or _pick_animation(ctx)
     if anim_label:
@@ -150,6 +156,17 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     write_summary(ctx, report_dir / "summary.json", summary)
     index.write_text(_index(ctx, summary, fig_notes, t2, rs, sections, anim_html), encoding="utf-8")
     return index
+
+
+def _study_field(meta: dict[str, Any], name: str) -> Any:
+    """A field of the study's configuration (``meta["study_config"]``, a dict or its JSON)."""
+    cfg = meta.get("study_config")
+    if isinstance(cfg, str):
+        try:
+            cfg = json.loads(cfg)
+        except ValueError:
+            return None
+    return cfg.get(name) if isinstance(cfg, dict) else None
 
 
 def _samples_attr(run) -> str | None:
@@ -219,6 +236,7 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              + (" · <a href='#findings'>Findings</a>" if any("id='findings'" in s for s in sections) else "")
              + (" · <a href='#convergence'>Convergence</a>" if any("convergence" in s for s in sections) else "")
              + (" · <a href='#stability'>Stability</a>" if any("stability" in s for s in sections) else "")
+             + (" · <a href='#fluxlaw'>Flux law</a>" if any("id='fluxlaw'" in s for s in sections) else "")
              + "</p>",
              f"<h2 id='tables'>Table 2 — computed beside {PAPER_LABEL}</h2>",
              "<p>Per run: computed value, the paper's value (grey) and the relative difference "
