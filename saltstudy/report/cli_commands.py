@@ -68,3 +68,17 @@ def register(app: typer.Typer) -> None:
         for name, s in summary["probes"].items():
             typer.echo(f"{name}: {'all pass' if s['all_pass'] else 'fails'}")
         typer.echo(f"report: {Path(directory) / 'summary.md'}")
+
+    @app.command("variants-report")
+    def variants_report(
+        directory: Path = typer.Argument(..., help="a report directory with the summary.json of a "
+                                         "study whose runs are labelled c<case>_<variant>_s<seed>"),
+    ) -> None:
+        """Model variants replicated over seeds: mean, seed scatter and ratio to the baseline."""
+        from .variants import build_variants_report
+        try:
+            build_variants_report(directory)
+        except (ValueError, OSError) as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(2)
+        typer.echo(f"table: {Path(directory) / 'variants.md'}")

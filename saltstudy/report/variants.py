@@ -1,0 +1,172 @@
+"""Model variants replicated over seeds, side by side: the table of a study whose scene labels read
+``c<case>_<variant>_s<seed>`` (workflows/grainlayer.toml).
+
+    saltstudy variants-report reports/grainlayer      # reads summary.json, writes variants.{md,json}
+
+Per case and variant: the mean over seeds of each statistic and half the range between seeds (with
+two seeds, the seed-to-seed scatter: a difference between variants smaller than it is not a
+result), and the ratio of each variant's mean to the first variant's (the baseline, in the order
+the study lists them). Beside the analysis' scalars, from each run's analysis archive:
+
+* ``phi_air`` (2-25 cm): kappa z dU/dz / sqrt|<u'w'>_air|, the air's own non-dimensional shear in
+  the grain layer (1 for a log law of the air's stress), mean over the levels between 2 and 25 cm;
+* ``N_air``: the real grains in the air, mean parcel count x the parcel weight.
+"""
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["LABEL", "STATS", "variants_table", "build_variants_report", "phi_air"]
+
+#: c<case>_<variant>_s<seed>
+LABEL = re.compile(r"^c(?P<case>\d+)_(?P<variant>[A-Za-z0-9.\-]+)_s(?P<seed>\d+)$")
+#: the statistics of the table: key -> (heading, scale, unit)
+STATS: dict[str, tuple[str, float, str]] = {
+    "u_star_s_stress": ("u* at z_ref (stress)", 1.0, "m/s"),
+    "z0s_stress": ("z0s (stress reading)", 1e3, "mm"),
+    "z_m": ("z_m", 1.0, "m"),
+    "G_tot": ("G_tot", 1e3, "g/m/s"),
+    "G_decay_height": ("G e-folding height", 1e2, "cm"),
+    "N_air": ("grains in the air", 1e-6, "millions"),
+    "phi_air": ("phi_air 2-25 cm", 1.0, "-"),
+    "tau_p_surface_fraction": ("tau_p(0)/rho u*^2", 1.0, "-"),
+    "lambda_y": ("lambda_y", 1.0, "m"),
+    "delta_y": ("delta_y", 1.0, "m"),
+}
+KAPPA = 0.40
+
+
+def phi_air(archive: str | Path, z_lo: float = 0.02, z_hi: float = 0.25) -> float:
+    """Mean over the levels in [z_lo, z_hi] of kappa z dU/dz / sqrt|<u'w'>| of the air [-]."""
+    import xarray as xr
+
+    from ..ncio import NC_LOCK
+
+    with NC_LOCK, xr.open_dataset(archive) as ds:
+        z = np.asarray(ds["z"].values, dtype=float)
+        u = np.asarray(ds["u_mean"].values, dtype=float)
+        uw = ds["uw_flux"]
+        # on the cell centres, or on the faces z_w
+        tau = (np.abs(uw.values) if uw.dims == ("z",)
+               else np.abs(np.interp(z, ds[uw.dims[0]].values, uw.values)))
+    # z dU/dz = dU/d ln z: differences in ln z are exact for a log law on any stretched grid
+    phi = KAPPA * np.gradient(u, np.log(z)) / np.sqrt(np.maximum(tau, 1e-12))
+    sel = (z >= z_lo) & (z <= z_hi)
+    return float(phi[sel].mean()) if sel.any() else math.nan
+
+
+def _value(run: dict[str, Any], key: str, q_of: dict[str, float]) -> float:
+    if key == "phi_air":
+        arch = run.get("archive")
+        try:
+            return phi_air(arch) if arch else math.nan
+        except (OSError, KeyError, ValueError):
+            return math.nan
+    if key == "N_air":
+        n = run.get("n_parcels_mean")
+        q = q_of.get(run.get("label", ""), math.nan)
+        return float(n) * q if n is not None else math.nan
+    v = run.get(key)
+    return float(v) if isinstance(v, (int, float)) else math.nan
+
+
+def variants_table(summary: dict[str, Any], parcel_weight: dict[str, float] | None = None) -> dict:
+    """{"variants": [...], "cases": {case: {variant: {stat: {"mean", "half_range", "n", "ratio"}}}}}
+    from a study's summary.json (module doc). ``parcel_weight``: label -> real grains per parcel."""
+    q_of = parcel_weight or {}
+    groups: dict[int, dict[str, list[dict]]] = {}
+    order: list[str] = []
+    for run in summary.get("cases", {}).values():
+        m = LABEL.match(str(run.get("label", "")))
+        if not m or run.get("status") != "ok":
+            continue
+        case, variant = int(m["case"]), m["variant"]
+        if variant not in order:
+            order.append(variant)
+        groups.setdefault(case, {}).setdefault(variant, []).append(run)
+    out: dict[str, Any] = {"variants": order, "cases": {}}
+    for case in sorted(groups):
+        per: dict[str, Any] = {}
+        for variant in order:
+            runs = groups[case].get(variant, [])
+            stats = {}
+            for key in STATS:
+                vals = np.array([_value(r, key, q_of) for r in runs], dtype=float)
+                vals = vals[np.isfinite(vals)]
+                stats[key] = {"mean": float(vals.mean()) if vals.size else math.nan,
+                              "half_range": float(0.5 * np.ptp(vals)) if vals.size > 1 else math.nan,
+                              "n": int(vals.size), "values": vals.tolist()}
+            per[variant] = stats
+        base = per[order[0]] if order else {}
+        for variant in order:
+            for key, st in per[variant].items():
+                b = base.get(key, {}).get("mean", math.nan)
+                st["ratio"] = st["mean"] / b if (math.isfinite(b) and b != 0) else math.nan
+        out["cases"][case] = per
+    return out
+
+
+def _cell(st: dict[str, Any], scale: float) -> str:
+    m, h = st["mean"], st["half_range"]
+    if not math.isfinite(m):
+        return "—"
+    txt = f"{m * scale:.3g}"
+    if math.isfinite(h):
+        txt += f" ± {h * scale:.2g}"
+    return txt
+
+
+def build_variants_report(directory: str | Path, parcel_weight: dict[str, float] | None = None) -> dict:
+    """variants.json and variants.md in ``directory`` from its summary.json; returns the table."""
+    directory = Path(directory)
+    summary = json.loads((directory / "summary.json").read_text(encoding="utf-8"))
+    if parcel_weight is None:
+        parcel_weight = _parcel_weights(summary)
+    table = variants_table(summary, parcel_weight)
+    if not table["cases"]:
+        raise ValueError(f"{directory}: no run labelled c<case>_<variant>_s<seed> in summary.json")
+    (directory / "variants.json").write_text(json.dumps(table, indent=1), encoding="utf-8")
+    lines = ["Mean over seeds ± half the range between them; (×) the ratio to the first variant.", ""]
+    for case, per in table["cases"].items():
+        lines += [f"### Case {case}", "",
+                  "| statistic | " + " | ".join(table["variants"]) + " |",
+                  "|---|" + "---|" * len(table["variants"])]
+        for key, (head, scale, unit) in STATS.items():
+            cells = []
+            for i, v in enumerate(table["variants"]):
+                st = per[v][key]
+                c = _cell(st, scale)
+                if i and math.isfinite(st["ratio"]):
+                    c += f" (×{st['ratio']:.2f})"
+                cells.append(c)
+            lines.append(f"| {head} [{unit}] | " + " | ".join(cells) + " |")
+        lines.append("")
+    (directory / "variants.md").write_text("\n".join(lines), encoding="utf-8")
+    return table
+
+
+def _parcel_weights(summary: dict[str, Any]) -> dict[str, float]:
+    """label -> real grains per parcel, from each run's analysis archive (attribute ``Q``)."""
+    import xarray as xr
+
+    from ..ncio import NC_LOCK
+
+    out = {}
+    for run in summary.get("cases", {}).values():
+        arch = run.get("archive")
+        if not arch:
+            continue
+        try:
+            with NC_LOCK, xr.open_dataset(arch) as ds:
+                q = ds.attrs.get("Q")
+            if q is not None:
+                out[str(run.get("label"))] = float(q)
+        except OSError:
+            continue
+    return out

@@ -1,0 +1,63 @@
+"""The variants table: seeds grouped per case and variant, the scatter between seeds, ratios to
+the baseline, phi_air from the archive's profiles and the grains in the air."""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from report_fixtures import make_analysis_dataset
+from saltstudy.ncio import write_dataset
+from saltstudy.report.variants import build_variants_report, phi_air, variants_table
+
+
+def _archive(tmp_path, label, u_star, phi):
+    """An archive whose air has a log-law-like profile of slope phi u*/(kappa z), stress u*^2."""
+    ds = make_analysis_dataset(2, label=label)
+    z = ds["z"].values
+    ds["u_mean"] = (("z",), phi * u_star / 0.4 * np.log(z / 1e-4), {"units": "m s-1", "long_name": "u"})
+    ds["uw_flux"] = (("z",), -u_star ** 2 + 0 * z, {"units": "m2 s-2", "long_name": "u'w'"})
+    path = tmp_path / f"{label}.nc"
+    write_dataset(ds, path)
+    return str(path)
+
+
+def test_phi_air_of_a_scaled_log_law(tmp_path):
+    assert phi_air(_archive(tmp_path, "a", 0.5, 1.3)) == pytest.approx(1.3, rel=1e-6)
+
+
+def test_table_groups_seeds_and_compares_with_the_baseline(tmp_path):
+    runs = {}
+    for variant, zm, phi in (("base", (0.20, 0.24), 1.0), ("off", (0.30, 0.34), 1.25)):
+        for seed, z in zip((1, 2), zm):
+            label = f"c6_{variant}_s{seed}"
+            runs[label] = {"label": label, "status": "ok", "z_m": z, "n_parcels_mean": 100.0,
+                           "archive": _archive(tmp_path, label, 1.1, phi)}
+    runs["c6_off_s3"] = {"label": "c6_off_s3", "status": "failed"}          # left out
+    runs["case02"] = {"label": "case02", "status": "ok", "z_m": 9.0}        # not a variant label
+    t = variants_table({"cases": runs}, {l: 50.0 for l in runs})
+    assert t["variants"] == ["base", "off"] and list(t["cases"]) == [6]
+    st = t["cases"][6]["off"]["z_m"]
+    assert st["mean"] == pytest.approx(0.32) and st["half_range"] == pytest.approx(0.02) and st["n"] == 2
+    assert st["ratio"] == pytest.approx(0.32 / 0.22)
+    assert t["cases"][6]["off"]["phi_air"]["mean"] == pytest.approx(1.25, rel=1e-6)
+    assert t["cases"][6]["base"]["N_air"]["mean"] == pytest.approx(5000.0)
+    assert math.isnan(t["cases"][6]["base"]["lambda_y"]["mean"])
+
+
+def test_report_command_writes_the_tables(tmp_path):
+    from saltstudy.cli import app
+
+    runs = {f"c2_v_s{s}": {"label": f"c2_v_s{s}", "status": "ok", "G_tot": 0.02 * s,
+                           "archive": _archive(tmp_path, f"c2_v_s{s}", 0.5, 1.0)} for s in (1, 2)}
+    (tmp_path / "summary.json").write_text(json.dumps({"cases": runs}))
+    r = CliRunner().invoke(app, ["variants-report", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    md = (tmp_path / "variants.md").read_text()
+    assert "### Case 2" in md and "30 ± 10" in md                   # G_tot in g/m/s
+    (tmp_path / "summary.json").write_text(json.dumps({"cases": {}}))
+    r = CliRunner().invoke(app, ["variants-report", str(tmp_path)])
+    assert r.exit_code == 2 and "c<case>_<variant>_s<seed>" in r.output
