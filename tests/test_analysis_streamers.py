@@ -226,7 +226,7 @@ def test_delta_y_of_streaks_2p5_to_6_cells_apart_with_parcel_noise(spacing_cells
 
 
 def test_streaks_three_cells_apart_are_found_at_the_run_density():
-    """Three cells apart (shorter than the former 4-cell limit), weak contrast, 1.25 parcels per
+    """Three cells apart (below 4 cells), weak contrast, 1.25 parcels per
     column: the spectrum's own noise decides, and the peak stands out of it."""
     rng = np.random.default_rng(3)
     nx, ny = 64, 48

@@ -15,7 +15,7 @@ import numpy as np
 from .data import ReportContext, RunData, profile
 from .reference import CASES_WIND, PAPER_LABEL, TABLE2_COLUMNS, paper_results, paper_table2
 
-__all__ = ["Cell", "table2_rows", "scalar_results", "table2_markdown", "table2_html",
+__all__ = ["Cell", "model_departures", "table2_rows", "scalar_results", "table2_markdown", "table2_html",
            "results_markdown", "results_html", "st_below_one_height", "fmt", "rel_diff"]
 
 
@@ -43,6 +43,44 @@ class Cell:
     paper: float
     rel: float
     se: float = math.nan          # standard error of the computed value, where the analysis gives one
+
+
+def model_departures(scene: dict) -> list[str]:
+    """Where a run's model and cost depart from the paper's description, in words, from the run's
+    resolved scene (``{"case": ..., "fidelity": ...}`` as archived). Physics first, then cost."""
+    case, fid = scene.get("case", {}) or {}, scene.get("fidelity", {}) or {}
+    clo, par = case.get("closure", {}) or {}, case.get("particles", {}) or {}
+    out = []
+    if clo.get("model", "deardorff") != "deardorff":
+        out.append(f"SGS closure {clo['model']} (the paper: Deardorff's TKE model)")
+    if clo.get("near_wall", False):
+        out.append("a near-wall mixing-length eddy viscosity below 3 grid spacings "
+                   "(closure.near_wall, not in the paper)")
+    if clo.get("two_part", False):
+        out.append("the two-part SGS model of Sullivan et al. (1994) (closure.two_part)")
+    if par.get("near_bed_wind", "paper") != "paper":
+        out.append("below the first level the log law from level 1, blended into it above its "
+                   "centre (particles.near_bed_wind; the paper: from level 2 over the whole cell)")
+    if (case.get("forcing", {}) or {}).get("drive", "top") != "top":
+        out.append("a mean pressure-gradient drive (the paper: a top drive)")
+    q = fid.get("q_multiplier", 1.0)
+    if q != 1.0:
+        out.append(f"parcels {q:g}x heavier than the paper's Q")
+    if ((fid.get("relaxation", {}) or {}).get("gain", 0.0) or 0.0) > 0:
+        out.append("a column relaxation force over the first seconds of saltation")
+    return out
+
+
+def _departures_text(ctx: ReportContext) -> str:
+    """One sentence on the departures the study's runs share (the first run's, if they differ)."""
+    seen: list[str] = []
+    for run in ctx.runs.values():
+        for d in model_departures(run.scene):
+            if d not in seen:
+                seen.append(d)
+    if not seen:
+        return "Model as the paper describes it."
+    return "Departures from the paper's model, in some or all runs: " + "; ".join(seen) + "."
 
 
 #: Table 2 variables with a standard error in analysis.nc
@@ -183,7 +221,7 @@ def table2_markdown(ctx: ReportContext) -> str:
              "fit above the saltation layer; “u*s, stress at z_ref” is the paper's own reading "
              "(section 3.1: u* from ⟨u'w'⟩ at 2 m), a quantity the drive holds at the case's "
              "target, so it checks the drive rather than the profile; z0s with it is the "
-             "paper's roughness regression.", "",
+             "paper's roughness regression. " + _departures_text(ctx), "",
              "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
     for row in rows:
         if row["status"] != "ok":
@@ -222,7 +260,7 @@ def table2_html(ctx: ReportContext) -> str:
     cols = [c for c in TABLE2_COLUMNS if c[1]]
     only = [c for c in TABLE2_COLUMNS if not c[1]]
     out = [f'<table class="t2"><caption>Computed beside {e(PAPER_LABEL)}: value, the paper\'s '
-           "value (grey) and the difference (computed − paper)/paper</caption>"
+           f"value (grey) and the difference (computed − paper)/paper. {e(_departures_text(ctx))}</caption>"
            '<thead><tr><th rowspan="2" class="run">run</th>']
     for _, _, lab, unit in cols:
         out.append(f'<th colspan="3" class="grp">{e(lab)} [{e(unit)}]</th>')

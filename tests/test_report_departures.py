@@ -1,0 +1,24 @@
+"""Table 2's caption names where a run's model departs from the paper's description."""
+from saltstudy.config import load_case, load_fidelity, resolve_scene
+from saltstudy.report.tables import model_departures
+
+
+def _scene(overrides: dict | None = None, fidelity: str = "paper") -> dict:
+    case = load_case(2, overrides or {}) if overrides else load_case(2)
+    return resolve_scene(case, load_fidelity(fidelity)).model_dump(mode="json")
+
+
+def test_the_paper_model_at_the_paper_fidelity_departs_in_nothing():
+    paper_model = {"closure": {"near_wall": False}, "particles": {"near_bed_wind": "paper"}}
+    assert model_departures(_scene(paper_model)) == []
+
+
+def test_each_departure_is_named_by_its_config_field():
+    text = " ".join(model_departures(_scene({"closure": {"model": "dynamic", "near_wall": True},
+                                                  "particles": {"near_bed_wind": "blend"}},
+                                                 fidelity="reduced")))
+    assert "dynamic" in text
+    assert "closure.near_wall" in text
+    assert "particles.near_bed_wind" in text
+    assert "16x heavier" in text
+    assert "relaxation" in text
