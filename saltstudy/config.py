@@ -139,8 +139,10 @@ class Closure(_Frozen):
     dynamic_interval: int = Field(
         5, ge=1, le=100, description="steps between updates of the dynamic coefficient [-]")
     near_wall: bool = Field(
-        True, description="near-wall mean-field eddy viscosity (solver/nearwall.py): a mixing-length "
-        "closure of the mean shear where the horizontal grid cannot resolve the wall eddies")
+        False, description="near-wall mean-field eddy viscosity (solver/nearwall.py): a mixing-length "
+        "closure of the mean shear where the horizontal grid cannot resolve the wall eddies. Not in "
+        "the paper; off by default: in the grain layer it pins the air's non-dimensional shear to 1 "
+        "and quadruples z0s (case 2, reports/grainlayer/FINDINGS.md)")
     delta: Literal["scotti", "geometric"] = Field(
         "scotti", description="SGS filter width: (dx dy dz)^(1/3) times the anisotropy factor of "
         "Scotti, Meneveau & Lilly (1993) for flat cells ('scotti'), or without it ('geometric', "
@@ -202,7 +204,7 @@ class Particles(_Frozen):
     n_initial: int = Field(10_000, gt=0, description="parcels released at activation, per 300 m^2")
     release_depth: float = Field(0.3, gt=0, description="release layer depth above the bed [m]")
     near_bed_wind: Literal["blend", "paper"] = Field(
-        "blend", description="horizontal wind a grain sees in the first grid cell, and where its "
+        "paper", description="horizontal wind a grain sees in the first grid cell, and where its "
         "drag goes (solver/interp.py). 'paper' (the paper's [12]): anywhere below the cell's top "
         "face z_f[1], the log law from the second level, ln(z/z0)/ln(z_c[1]/z0) u(z_c[1]), and "
         "the drag (momentum and TKE sink) goes back to the second level; trilinear above. 'blend' "

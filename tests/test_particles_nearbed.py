@@ -189,7 +189,7 @@ def test_config_rejects_an_unknown_near_bed_wind_naming_the_field():
     """(d)"""
     with pytest.raises(ConfigError, match="near_bed_wind"):
         load_case(2, overrides={"particles": {"near_bed_wind": "log"}})
-    assert load_case(2).particles.near_bed_wind == "blend"
+    assert load_case(2).particles.near_bed_wind == "paper"
 
 
 def test_the_setting_keys_the_saltation_task_not_the_spinup():

@@ -156,6 +156,6 @@ def test_two_part_with_the_near_wall_term_is_refused(tmp_path):
 
     bad = tmp_path / "bad.toml"
     bad.write_text('number = 1\n[forcing]\nu_star_s = 0.4\n[particles]\nQ = 200\n'
-                   '[closure]\ntwo_part = true\n')
+                   '[closure]\ntwo_part = true\nnear_wall = true\n')
     r = CliRunner().invoke(app, ["validate", str(bad)])
     assert r.exit_code == 2 and "two_part" in r.output and "near_wall" in r.output, r.output
