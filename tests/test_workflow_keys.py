@@ -51,6 +51,15 @@ def test_what_changes_which_key():
     assert keys.run_keys("a", resolve_scene(load_case(1), f2)).saltation == base.saltation
 
 
+def test_a_scene_label_keys_its_saltation_but_not_its_spinup():
+    """The graph has one saltation node per label: two labels must not write one directory."""
+    from saltstudy.config import Study, study_runs
+    st = Study.model_validate({"name": "t", "description": "", "fidelity": "smoke",
+                               "scenes": [{"label": "x", "case": 1}, {"label": "y", "case": 1}]})
+    x, y = (keys.run_keys(r.label, r.scene) for r in study_runs(st))
+    assert x.spinup == y.spinup and x.saltation != y.saltation
+
+
 def test_cases_with_equal_wind_share_a_spinup():
     k = keys.study_keys(load_study("paper"))
     same = [l for l in k if k[l].spinup == k["case02"].spinup]

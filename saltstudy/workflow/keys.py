@@ -13,8 +13,11 @@ Python's ``hash()`` is never used (it changes with PYTHONHASHSEED), and pydantic
 with ``mode="json"`` so the text is the same in every process.
 
 What is left out of the slices, on purpose: descriptions, the run's label (the same case at the
-same fidelity is the same run in any study), and ``checkpoint_interval_wall`` (it changes when
-checkpoints are written, not the result: resume is bit-for-bit).
+same fidelity is the same run in any study of cases), and ``checkpoint_interval_wall`` (it changes
+when checkpoints are written, not the result: resume is bit-for-bit). A study's *scene* puts its
+label into the case's ``name``, which the saltation slice keeps: the graph has one saltation node
+per label, so two scenes that resolve to the same physics must not share a directory. The same
+scene under two labels therefore runs twice and gives the same archive bit for bit.
 """
 from __future__ import annotations
 
