@@ -344,6 +344,9 @@ class Fidelity(_Frozen):
     sampling: Sampling
     q_multiplier: float = Field(1.0, gt=0, description="Q is multiplied by this (fewer parcels)")
     checkpoint_interval_wall: float = Field(120.0, gt=0, description="wall-clock s between checkpoints")
+    saltation_dt_fixed: float | None = Field(
+        None, gt=0, description="fixed step of the saltation phase only [s] (None: adaptive); the "
+        "stability study's deliberately too large step, run from a spin-up made with a stable one")
     relaxation: Relaxation = Relaxation()
     outputs: Outputs = Outputs()
 
@@ -367,6 +370,9 @@ class SceneSpec(_Frozen):
     case: int = Field(..., ge=0)
     fidelity: str | None = None
     overrides: dict[str, Any] = Field(default_factory=dict)
+    expect: Literal["complete", "blow-up"] = Field(
+        "complete", description="'blow-up': the scene must stop with a solver blow-up (a stability "
+        "study's deliberately unstable step); run-all then fails if it completes instead")
 
 
 class Study(_Frozen):

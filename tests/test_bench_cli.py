@@ -93,3 +93,21 @@ def test_bench_particles_runs_as_the_module_its_doc_names():
     assert res.returncode == 0, res.stderr[-2000:]
     (r,) = json.loads(res.stdout.strip().splitlines()[-1])["runs"]
     assert r["n_parcels"] == 1000 and r["ns_per_parcel_step"] > 0
+
+
+def test_bench_scene_json_has_the_costs_and_an_extrapolation():
+    out = _json(["bench", "scene", "--case", "2", "--fidelity", "smoke", "--steps", "3",
+                 "--threads", "1", "--parcels", "3000", "--json"])
+    assert out["grid"] == [16, 12, 16] and out["cells"] == 16 * 12 * 16
+    (row,) = out["rows"]
+    assert row["threads"] == 1 and row["peak_rss_MB"] > 0
+    for part in ("flow", "grains"):
+        assert row[part]["s_per_step"] > 0 and 0 < row[part]["dt_mean"] <= 0.02
+        assert row[part]["steps_per_sim_s"] == pytest.approx(1.0 / row[part]["dt_mean"])
+    # the release is the requested count (rounded through n_initial per 300 m^2), less what
+    # deposited in the few steps
+    assert 2000 <= row["grains"]["parcels"] <= 3100
+    m = out["extrapolation"]["measured"]["1"]
+    assert m["saltation_s"] > 0 and m["spinup_s"][0] <= m["spinup_s"][1]
+    res = CliRunner().invoke(app, ["bench", "scene", "--steps", "0"])
+    assert res.exit_code == 2 and "--steps" in res.output

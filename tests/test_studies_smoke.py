@@ -69,22 +69,34 @@ def test_convergence_smoke_study_end_to_end(home, tmp_path):
 
 def test_stability_smoke_study_end_to_end(home, tmp_path):
     rep = tmp_path / "rep"
-    _run_all("stability-smoke", rep)
+    out = _run_all("stability-smoke", rep)       # exit 0: the one blow-up is the expected one
+    assert "blew up as the scene expects: saltation case02_dt_too_large" in out
     labels = [r.label for r in study_runs(load_study("stability-smoke"))]
-    assert len(labels) == 6
+    assert len(labels) == 8
     js = json.loads((rep / "stability.json").read_text())
-    rows = {r["label"]: r for r in js}
+    assert js["package_version"] and js["study"] == "stability-smoke"
+    rows = {r["label"]: r for r in js["scenes"]}
     assert sorted(rows) == sorted(labels)
+    bad = rows.pop("case02_dt_too_large")
+    assert bad["status"] == "blew up as expected" and bad["finite"] is False
+    assert "Courant number" in bad["error"] and "step" in bad["error"]
     for label, row in rows.items():
         assert row["status"] == "completed", (label, row)
+        assert row["finite"] is True
         assert 0 < row["max_cfl"] < 2.0, (label, row)
         assert math.isfinite(row["u_max"]) and math.isfinite(row["w_absmax"])
         assert row["wall_time_s"] > 0
+        # parcels are only created by release, splash and entrainment, removed by deposition
+        assert row["parcel_balance"] == 0, (label, row)
+        assert row["loading_max"] > 0 and row["dt_over_tau_c"] > 0
+        assert row["limiting_step"].split()[0] in ("courant", "diffusion", "grains", "dt_max")
         # on average the splash returns less kinetic energy than the impacts bring (paper, sect. 2)
         e = row.get("E_splash_over_E_impact")
         if e is not None:
             assert 0 < e <= 1.0, (label, e)
     # the largest-time-step scene ran near its (raised) CFL limit
     assert rows["case02_max_cfl"]["max_cfl"] > rows["case07_90um_Q28000"]["max_cfl"]
+    # parcels 4x heavier load the bed cells more than the case's own (same flow, same seed)
+    assert rows["case06_Qx4"]["loading_max"] > rows["case06_u1.10"]["loading_max"]
     text = (rep / "stability.md").read_text()
     assert all(label in text for label in labels)

@@ -21,6 +21,7 @@ from typer.testing import CliRunner
 from saltstudy.cli import app
 from saltstudy.config import load_case, load_fidelity, load_study, project_root, resolve_scene
 from saltstudy.ncio import is_complete, open_dataset
+from saltstudy.solver.state import SolverBlowUp
 from saltstudy.workflow import archives, keys
 from saltstudy.workflow.driver import Interrupted
 from saltstudy.workflow.paths import output_path, task_dir
@@ -147,6 +148,49 @@ def test_interrupt_and_resume_equals_uninterrupted(tmp_path):
     assert not (d / "checkpoint.npz").exists()
     assert resumed.attrs["n_steps"] == full.attrs["n_steps"]
     assert_same_data(resumed, full)
+
+
+def test_blowup_mid_run_keeps_the_last_checkpoint(tmp_path, monkeypatch):
+    """A field that turns non-finite mid-run (a NaN put into u before the 25th saltation step)
+    stops the run with the diagnostic and leaves the checkpoint of the last good state."""
+    from saltstudy.solver.model import Model
+
+    scene = resolve_scene(load_case(2), load_fidelity("smoke"))
+    sp = spinup_task(scene, tmp_path)
+    key = keys.saltation_key(scene, keys.spinup_key(scene))
+    d = task_dir(tmp_path, "saltation", key)
+    step, calls = Model.step, []
+
+    def poisoned(self, dt):
+        calls.append(dt)
+        if len(calls) == 25:
+            self.state.u[2, 3, 4] = np.nan
+        return step(self, dt)
+
+    monkeypatch.setattr(Model, "step", poisoned)
+    with pytest.raises(SolverBlowUp) as err:
+        saltation_task(scene, sp, tmp_path, checkpoint_interval=0.0)   # a checkpoint every step
+    assert "non-finite" in str(err.value) and len(err.value.index) == 3
+    tj = read_task_json(d)
+    assert tj["state"] == "failed" and "SolverBlowUp" in tj["error"] and "step" in tj["error"]
+    assert not output_path(tmp_path, "saltation", key).exists()
+    with np.load(d / "checkpoint.npz", allow_pickle=False) as z:
+        meta = json.loads(str(z["meta"]))
+        u = np.asarray(z["model:u"])
+    assert meta["n_steps"] == 24 and meta["t_since_activation"] > 0
+    assert np.isfinite(u).all()                     # the state before the NaN
+
+
+def test_too_large_saltation_step_stops_with_the_place(tmp_path):
+    """The stability study's deliberately unstable scene (smoke size): stopped by the Courant
+    check with the step, time, field and cell, not by a hang or a NaN."""
+    scene = resolve_scene(load_case(2), load_fidelity("smoke-dt-too-large"))
+    sp = spinup_task(scene, tmp_path)
+    with pytest.raises(SolverBlowUp) as err:
+        saltation_task(scene, sp, tmp_path)
+    msg = str(err.value)
+    assert "Courant number" in msg and "beyond sqrt(3)" in msg and "z = " in msg
+    assert err.value.step > 0 and np.isfinite(err.value.value)
 
 
 @pytest.mark.slow

@@ -119,8 +119,10 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     if "stability" in wanted or meta.get("failures") or meta.get("has_scenes") \
             or (_has_scenes(ctx) and not _is_ladder(ctx)):
         from .stability import build_stability_report
-        stab = build_stability_report(ctx.runs, report_dir, failures=meta.get("failures"),
-                                      samples=meta.get("samples"))
+        stab = build_stability_report(
+            ctx.runs, report_dir, failures=meta.get("failures"), samples=meta.get("samples"),
+            checkpoints=meta.get("checkpoints"), expect_blowup=set(meta.get("expect_blowup") or ()),
+            provenance={k: meta.get(k) for k in ("study", "package_version", "commit", "source_key")})
         sections.append("<h2 id='stability'>Stability of the scenes</h2>" + stab["html"])
 
     law = _study_field(meta, "flux_law")

@@ -1,9 +1,18 @@
 """Stability report for a study of extreme scenes: did each run complete, and how close to the edge.
 
-Per scene: completed / failed (with the workflow's failure message), max CFL, ranges of the velocity
-fields, momentum-budget closure, E_splash/E_impact and wall time. Values come from what exists: the
-analysis archive (scalars, attributes, copied series) and, optionally, the run's ``samples.nc``.
+Per scene: completed / blew up as the scene expects / failed (with the solver's diagnostic: step,
+time, field, place, and the checkpoint kept), whether every field stayed finite, the constraint
+that limits the step (workflow/health.py), the largest grain-to-air mass loading and the step over
+the coupled relaxation time, the balance errors (parcel bookkeeping; the column's total stress
+against its mean below the u* height), max CFL, ranges of the velocity fields, E_splash/E_impact
+and wall time. Values come from what exists: the analysis archive and the run's ``samples.nc``.
 Anything not found is written "n/a"; nothing is estimated.
+
+Column stress residual. In a steady, horizontally homogeneous layer driven from above with no
+pressure gradient, the total stress tau(z) = -rho <u'w'> (resolved + SGS) + tau_p (grains) is the
+same at every height below the drive. The residual is max |tau(z) / mean(tau) - 1| over the levels
+from the second to the u* height: it measures what the sampled window leaves unbalanced
+(unsteadiness and sampling noise), not round-off.
 """
 from __future__ import annotations
 
@@ -23,9 +32,11 @@ from .tables import fmt
 __all__ = ["stability_rows", "build_stability_report", "STABILITY_COLUMNS"]
 
 STABILITY_COLUMNS = (
-    ("status", "status"), ("max_cfl", "max CFL"), ("u_min", "u min [m s⁻¹]"),
-    ("u_max", "u max [m s⁻¹]"), ("w_absmax", "|w| max [m s⁻¹]"),
-    ("momentum_closure", "momentum budget residual [-]"),
+    ("status", "status"), ("finite", "finite"), ("limiting_step", "step limited by"),
+    ("dt_median", "median Δt [s]"), ("max_cfl", "max CFL"),
+    ("loading_max", "max mass loading [-]"), ("dt_over_tau_c", "max Δt/τ_c [-]"),
+    ("parcel_balance", "parcel balance [-]"), ("column_stress_residual", "column stress residual [-]"),
+    ("u_min", "u min [m s⁻¹]"), ("u_max", "u max [m s⁻¹]"), ("w_absmax", "|w| max [m s⁻¹]"),
     ("E_splash_over_E_impact", "E_splash/E_impact [-]"), ("wall_time_s", "wall time [s]"),
 )
 
@@ -81,6 +92,81 @@ def _from_ds(ds: xr.Dataset | None, out: dict[str, Any], source: str) -> None:
             put("E_splash_over_E_impact", float(es[-1] / ei[-1]), "E_splash/E_impact at the end")
 
 
+_LIMITS = ("courant", "diffusion", "grains", "dt_max")
+
+
+def _health(ds: xr.Dataset | None, out: dict[str, Any], dt_max: float | None,
+            dt_fixed: float | None) -> None:
+    """Step limits, loading, stiffness and parcel balance from the series (workflow/health.py)."""
+    if ds is None or "dt_courant" not in ds.variables:
+        return
+    src = out.setdefault("_sources", {})
+    cand = np.stack([np.asarray(ds[f"dt_{k}"].values, float) for k in ("courant", "diffusion", "grains")]
+                    + [np.full(ds["dt_courant"].shape, dt_max if dt_max else np.inf)])
+    cand = np.where(np.isfinite(cand), cand, np.inf)
+    ok = np.isfinite(cand).any(axis=0)
+    if dt_fixed is not None:
+        out["limiting_step"] = "fixed"
+        used = np.full(cand.shape[1], float(dt_fixed))
+    elif ok.any():
+        which = np.argmin(cand[:, ok], axis=0)
+        counts = np.bincount(which, minlength=len(_LIMITS))
+        k = int(np.argmax(counts))
+        out["limiting_step"] = f"{_LIMITS[k]} ({100.0 * counts[k] / which.size:.0f} %)"
+        out["limiting_step_shares"] = {_LIMITS[i]: float(counts[i] / which.size) for i in range(len(_LIMITS))}
+        used = cand.min(axis=0)
+    else:
+        return
+    src["limiting_step"] = "samples.nc: argmin of dt_courant, dt_diffusion, dt_grains, dt_max per record"
+    used = np.where(ok, used, np.nan)
+    if np.isfinite(used).any():
+        out["dt_median"] = float(np.nanmedian(used))
+    if "loading_max" in ds.variables:
+        lm = np.asarray(ds["loading_max"].values, float)
+        if np.isfinite(lm).any():
+            out["loading_max"] = float(np.nanmax(lm))
+            src["loading_max"] = "samples.nc: max over the run of loading_max"
+            # the release at rest in the lowest cells loads them most; later the layer is aloft
+            late = lm[lm.size // 2:]
+            if np.isfinite(late).any():
+                out["loading_max_second_half"] = float(np.nanmedian(late))
+        tc = np.asarray(ds["tau_c_min"].values, float)
+        r = used / tc
+        if np.isfinite(r).any():
+            out["dt_over_tau_c"] = float(np.nanmax(r))
+            src["dt_over_tau_c"] = "samples.nc: max over the run of (allowed step) / tau_c_min"
+    if "parcel_balance" in ds.variables:
+        pb = np.asarray(ds["parcel_balance"].values, float)
+        if np.isfinite(pb).any():
+            out["parcel_balance"] = float(np.nanmax(np.abs(pb)))
+            src["parcel_balance"] = "samples.nc: max |parcel_balance|"
+    fields = [v for v in ("u", "v", "w", "e") if v in ds.variables]
+    series = [v for v in ("dt_courant", "u_star_ref", "G_tot_series") if v in ds.variables]
+    if fields or series:
+        out["finite"] = bool(all(np.isfinite(ds[v].values).all() for v in fields)
+                             and all(np.isfinite(ds[v].values[1:]).all() for v in series))
+        src["finite"] = "samples.nc: " + ", ".join(fields + series)
+
+
+def _column_stress(ds: xr.Dataset | None, out: dict[str, Any]) -> None:
+    """Column stress residual (module docstring) from analysis.nc's uw_flux and tau_p."""
+    if ds is None or "uw_flux" not in ds.variables or "tau_p" not in ds.variables:
+        return
+    z = np.asarray(ds["z"].values, float)
+    rho = float(ds.attrs.get("rho", 1.2))
+    zr = float(ds.attrs.get("z_ref_eff", ds["z_ref_eff"].values if "z_ref_eff" in ds.variables else 2.0))
+    tau = -rho * np.asarray(ds["uw_flux"].values, float) + np.asarray(ds["tau_p"].values, float)
+    use = (z <= zr + 1e-9) & np.isfinite(tau)
+    use[:1] = False        # the first level's stress is the wall model's, not a resolved flux
+    if use.sum() < 3:
+        return
+    mean = float(np.mean(tau[use]))
+    if mean > 0:
+        out["column_stress_residual"] = float(np.max(np.abs(tau[use] / mean - 1.0)))
+        out.setdefault("_sources", {})["column_stress_residual"] = (
+            "analysis.nc: -rho uw_flux + tau_p, levels 2 to z_ref_eff")
+
+
 def _snapshot_fallback(ds: xr.Dataset | None, out: dict[str, Any]) -> None:
     """Last resort for the u range: the analysis keeps only the last u(0.1 m) plane."""
     if ds is None or "u_snapshot" not in ds.variables:
@@ -94,7 +180,9 @@ def _snapshot_fallback(ds: xr.Dataset | None, out: dict[str, Any]) -> None:
 
 def _open_samples(path: Path) -> xr.Dataset | None:
     """samples.nc may be large: read only the variables the table uses."""
-    keep = ("max_cfl", "u", "u_plane", "w", "E_splash", "E_impact") + _MOMENTUM_NAMES
+    keep = ("max_cfl", "u", "v", "u_plane", "w", "e", "E_splash", "E_impact", "dt_courant",
+            "dt_diffusion", "dt_grains", "loading_max", "tau_c_min", "parcel_balance", "u_star_ref",
+            "G_tot_series") + _MOMENTUM_NAMES
     try:
         with NC_LOCK:
             with xr.open_dataset(path, engine="netcdf4") as ds:
@@ -105,24 +193,48 @@ def _open_samples(path: Path) -> xr.Dataset | None:
         return None
 
 
+def _scene_time(r: RunData) -> tuple[float | None, float | None]:
+    """(dt_max, saltation_dt_fixed) of the run's fidelity, from the archive's case_json."""
+    fid = (r.scene or {}).get("fidelity") or {}
+    t = fid.get("time") or {}
+    return t.get("dt_max"), fid.get("saltation_dt_fixed") or t.get("dt_fixed")
+
+
 def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = None,
-                   samples: dict[str, str | Path | None] | None = None) -> list[dict[str, Any]]:
+                   samples: dict[str, str | Path | None] | None = None,
+                   checkpoints: dict[str, dict] | None = None,
+                   expect_blowup: set[str] | frozenset[str] = frozenset()) -> list[dict[str, Any]]:
     failures = failures or {}
     samples = samples or {}
+    checkpoints = checkpoints or {}
     rows = []
     for label, r in runs.items():
         row: dict[str, Any] = {"label": label}
-        if label in failures:
+        blew = label in failures and "SolverBlowUp" in str(failures[label])
+        if label in expect_blowup:
+            row["expected"] = "blow-up"
+            row["status"] = ("blew up as expected" if blew else
+                             "failed (not by a blow-up)" if label in failures else
+                             "completed: the expected blow-up did not happen")
+        elif label in failures:
             row["status"] = "failed"
-            row["error"] = str(failures[label])
         elif r.ok:
             row["status"] = "completed"
         else:
             row["status"] = f"no result ({r.status})"
+        if label in failures:
+            row["error"] = str(failures[label])
+            row["finite"] = False if blew else None
+        if label in checkpoints:
+            row["checkpoint_kept"] = checkpoints[label]
         _from_ds(r.ds, row, "analysis.nc")
         sp = samples.get(label) or (r.ds.attrs.get("samples_path") if r.ds is not None else None)
         if sp and Path(sp).is_file():
-            _from_ds(_open_samples(Path(sp)), row, "samples.nc")
+            sds = _open_samples(Path(sp))
+            _from_ds(sds, row, "samples.nc")
+            if r.scene:
+                _health(sds, row, *_scene_time(r))
+        _column_stress(r.ds, row)
         _snapshot_fallback(r.ds, row)
         if math.isfinite(r.wall_time_s):
             row["wall_time_s"] = r.wall_time_s
@@ -130,9 +242,21 @@ def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = N
     return rows
 
 
+def _ckpt_text(row: dict) -> str:
+    c = row.get("checkpoint_kept")
+    if not c:
+        return " No checkpoint was kept."
+    t = c.get("t_since_activation")
+    when = f" at {t:.3f} s after activation" if isinstance(t, (int, float)) and math.isfinite(t) else ""
+    return f" Checkpoint kept{when}: {c.get('path')}."
+
+
 def _cell(row: dict, key: str) -> str:
-    if key == "status":
-        return row["status"]
+    if key in ("status", "limiting_step"):
+        return str(row.get(key) or "n/a")
+    if key == "finite":
+        v = row.get("finite")
+        return "n/a" if v is None else ("yes" if v else "no")
     v = row.get(key)
     return fmt(v) if isinstance(v, (int, float)) and math.isfinite(v) else "n/a"
 
@@ -140,8 +264,14 @@ def _cell(row: dict, key: str) -> str:
 def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunData], report_dir: Path,
                            failures: dict[str, str] | None = None,
                            samples: dict[str, str | Path | None] | None = None,
-                           wall_times: dict[str, float] | None = None) -> dict[str, Any]:
-    """Write ``stability.md`` and ``stability.json`` in ``report_dir``; return {"rows", "html", "files"}."""
+                           wall_times: dict[str, float] | None = None,
+                           checkpoints: dict[str, dict] | None = None,
+                           expect_blowup: set[str] | frozenset[str] = frozenset(),
+                           provenance: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Write ``stability.md`` and ``stability.json`` in ``report_dir``; return {"rows", "html", "files"}.
+
+    ``stability.json`` is ``{"package_version", "commit", ..., "scenes": [row, ...]}`` with the
+    provenance given (the workflow passes the package version and the checkout's commit)."""
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
     if runs and all(isinstance(v, RunData) for v in runs.values()):
@@ -151,7 +281,7 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
     for label in failures or {}:
         if label not in loaded:
             loaded[label] = RunData(label, None, None, status="no archive")
-    rows = stability_rows(loaded, failures, samples)
+    rows = stability_rows(loaded, failures, samples, checkpoints, expect_blowup)
     heads = ["scene"] + [h for _, h in STABILITY_COLUMNS]
     md = ["# Stability of extreme scenes", "",
           "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
@@ -159,7 +289,8 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
         md.append("| " + " | ".join([row["label"]] + [_cell(row, k) for k, _ in STABILITY_COLUMNS]) + " |")
     errs = [r for r in rows if r.get("error")]
     if errs:
-        md += ["", "## Failures", ""] + [f"* **{r['label']}**: `{r['error']}`" for r in errs]
+        md += ["", "## Failures", ""] + [f"* **{r['label']}** ({r['status']}): `{r['error']}`"
+                                         + _ckpt_text(r) for r in errs]
     md += ["", "Sources of each value (n/a: not found in the archives):", ""]
     for row in rows:
         src = row.get("_sources", {})
@@ -168,18 +299,21 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
     (report_dir / "stability.md").write_text("\n".join(md) + "\n", encoding="utf-8")
     clean = [{k: (v if not (isinstance(v, float) and not math.isfinite(v)) else None)
               for k, v in row.items()} for row in rows]
-    (report_dir / "stability.json").write_text(json.dumps(clean, indent=2, allow_nan=False) + "\n",
+    doc = dict(provenance or {})
+    doc["scenes"] = clean
+    (report_dir / "stability.json").write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n",
                                                encoding="utf-8")
     e = html.escape
     h = ["<table><thead><tr>" + "".join(f"<th>{e(x)}</th>" for x in heads) + "</tr></thead><tbody>"]
     for row in rows:
-        cls = "bad" if row["status"] != "completed" else ""
+        cls = "" if row["status"] in ("completed", "blew up as expected") else "bad"
         h.append(f"<tr><td>{e(row['label'])}</td>" + "".join(
             f"<td class='{cls if k == 'status' else ''}'>{e(_cell(row, k))}</td>" for k, _ in STABILITY_COLUMNS)
             + "</tr>")
     h.append("</tbody></table>")
     if errs:
-        h.append("<ul>" + "".join(f"<li><b>{e(r['label'])}</b>: <code>{e(r['error'])}</code></li>"
+        h.append("<ul>" + "".join(f"<li><b>{e(r['label'])}</b> ({e(r['status'])}): "
+                                  f"<code>{e(r['error'])}</code>{e(_ckpt_text(r))}</li>"
                                   for r in errs) + "</ul>")
     return {"rows": rows, "html": "".join(h),
             "files": [report_dir / "stability.md", report_dir / "stability.json"]}

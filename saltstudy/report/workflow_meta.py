@@ -48,6 +48,7 @@ def study_meta(study_name: str) -> dict[str, Any]:
         "order": order or None,
         "reference": reference,
         "has_scenes": bool(study.scenes),
+        "expect_blowup": sorted(sc.label for sc in study.scenes if sc.expect == "blow-up"),
     }
 
 
@@ -73,6 +74,7 @@ def enrich_meta(study_name: str, runs: dict[str, Any], meta: dict[str, Any] | No
         return meta
     out_dir = Path(out_dir)
     failures = dict(meta.get("failures") or {})
+    checkpoints: dict[str, dict] = {}
     samples = dict(meta.get("samples") or {})
     for label, k in keys.items():
         if not isinstance(k, dict):
@@ -85,6 +87,9 @@ def enrich_meta(study_name: str, runs: dict[str, Any], meta: dict[str, Any] | No
             if tj.get("state") == "failed" and label not in failures:
                 failures[label] = f"{task}: {tj.get('error', 'failed')}"
         skey = k.get("saltation")
+        ck = _checkpoint(out_dir, skey) if skey else None
+        if ck is not None:
+            checkpoints[label] = ck
         if skey and label not in samples:
             try:
                 from ..workflow.paths import output_path
@@ -97,4 +102,41 @@ def enrich_meta(study_name: str, runs: dict[str, Any], meta: dict[str, Any] | No
         meta["failures"] = failures
     if samples:
         meta["samples"] = samples
+    if checkpoints:
+        meta["checkpoints"] = checkpoints
+    if not meta.get("commit"):
+        meta["commit"] = _commit()
     return meta
+
+
+def _checkpoint(out_dir: Path, key: str) -> dict[str, Any] | None:
+    """{"path", "t_since_activation"} of a saltation run's kept checkpoint, or None."""
+    try:
+        from ..workflow.paths import task_dir
+        p = Path(task_dir(out_dir, "saltation", key)) / "checkpoint.npz"
+    except Exception:
+        p = Path(out_dir) / "saltation" / key / "checkpoint.npz"
+    if not p.is_file():
+        return None
+    t = None
+    try:
+        import numpy as np
+        with np.load(p, allow_pickle=False) as z:
+            t = float(json.loads(str(z["meta"])).get("t_since_activation"))
+    except Exception:
+        pass
+    return {"path": str(p), "t_since_activation": t}
+
+
+def _commit() -> str | None:
+    """The checkout's commit (with "+dirty" if tracked files differ from it), or None."""
+    import subprocess
+    root = Path(__file__).resolve().parent.parent.parent
+    try:
+        sha = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
+                             text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+    except Exception:
+        return None
+    return sha + ("+dirty" if dirty else "") if sha else None

@@ -147,6 +147,10 @@ def check_courant(state, courant_rate: float, dt: float) -> float:
         c = (np.abs(state.u) / g.dx + np.abs(state.v) / g.dy
              + np.abs(state.w[..., :-1]) / g.dz_c)
         idx = tuple(int(q) for q in np.unravel_index(int(np.argmax(c)), c.shape))
+        i, j, k = idx
+        # four digits: a step just past the bound must not print as equal to it
         raise SolverBlowUp(state.step, state.t, "u", idx, float(state.u[idx]),
-                           reason=f"Courant number {cfl:.3g} beyond {CFL_RUNAWAY:.3g}")
+                           reason=f"Courant number {cfl:.4f} beyond sqrt(3) = {CFL_RUNAWAY:.4f} "
+                                  f"(cell centre x = {g.x_c[i]:.3g} m, y = {g.y_c[j]:.3g} m, "
+                                  f"z = {g.z_c[k]:.3g} m)")
     return cfl

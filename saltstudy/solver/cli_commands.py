@@ -38,6 +38,8 @@ def register(app: typer.Typer) -> None:
         hook = getattr(mod, "register_bench", None) or getattr(mod, "register", None)
         if hook is not None:
             hook(bench_app)
+    from .bench_scene import register_bench_scene
+    register_bench_scene(bench_app)
     app.add_typer(bench_app, name="bench")
     from .loglaw_probe import register_probe
     register_probe(app)

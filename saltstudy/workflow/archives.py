@@ -22,6 +22,7 @@ import xarray as xr
 
 from .. import SOURCE_KEY, __version__
 from ..config import Scene
+from .health import HEALTH_SERIES
 
 __all__ = ["META", "global_attrs", "plane_heights", "diameter_edges", "z_ref_eff", "coords_for",
            "spinup_dataset", "restart_from_dataset", "samples_dataset", "check_metadata"]
@@ -91,6 +92,7 @@ META: dict[str, tuple[str, str]] = {
     "max_cfl": ("1", "largest Courant number of the last step"),
     "E_impact": ("J", "cumulative kinetic energy of impacting grains"),
     "E_splash": ("J", "cumulative kinetic energy of rebounding and ejected grains"),
+    **HEALTH_SERIES,
 }
 
 PLANE_HEIGHTS = (0.02, 0.05, 0.1, 0.2, 0.4)
@@ -280,7 +282,8 @@ def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:
 # samples.nc
 # ------------------------------------------------------------------------------------------
 _SERIES_NAMES = ("n_parcels", "n_impacts", "n_rebounds", "n_ejections", "n_depositions",
-                 "G_tot_series", "u_star_ref", "u_drive", "dt", "max_cfl", "E_impact", "E_splash")
+                 "G_tot_series", "u_star_ref", "u_drive", "dt", "max_cfl", "E_impact", "E_splash",
+                 *HEALTH_SERIES)
 GRAIN_PROFILES = ("pm", "pmu", "pmv", "pmw", "pmuu", "pmuw", "pmww", "pmvv", "pn", "pdrag", "pmuf_up",
                   "pmuf", "pmuf_uf", "pmup_up")
 _PROFILE_Z = ("u_mean", "tke_res", "e_sgs", "eps_sgs", "sgs_transfer") + GRAIN_PROFILES

@@ -141,9 +141,15 @@ def _print_summary(summary) -> None:
         counts[o.status] = counts.get(o.status, 0) + 1
     typer.echo(f"study {summary.study}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
                + f" in {summary.wall_s:.1f} s")
+    expected = {id(o) for o in getattr(summary, "expected_blowups", [])}
     for o in summary.outcomes:
-        if o.status in ("failed", "skipped"):
+        if id(o) in expected:
+            typer.echo(f"  blew up as the scene expects: {o.task} {','.join(o.labels)}: {o.error}")
+        elif o.status in ("failed", "skipped"):
             typer.echo(f"  {o.status}: {o.task} {','.join(o.labels)}: {o.error}", err=o.status == "failed")
+    for label in getattr(summary, "unexpected_completions", []):
+        typer.echo(f"  {label}: expected a solver blow-up (scene expect = 'blow-up') but the run "
+                   "completed", err=True)
     if summary.report_dir is not None:
         typer.echo(f"report: {summary.report_dir}")
     else:

@@ -25,7 +25,7 @@ import numpy as np
 
 from .. import SOURCE_KEY
 from ..config import Scene
-from . import archives
+from . import archives, health
 
 __all__ = ["Recorder", "Schedule", "SaltationResult", "run_saltation", "save_checkpoint",
            "load_checkpoint", "Interrupted"]
@@ -52,6 +52,9 @@ class Recorder:
         n = len(self.times[group])
         for name, v in values.items():
             col = self.values[group].setdefault(name, [])
+            if not col and n:
+                # a record first written after a resume from an older checkpoint: NaN before it
+                col.extend(np.full(np.shape(v), np.nan) for _ in range(n))
             if len(col) != n:
                 raise ValueError(f"record '{group}.{name}' missing at earlier times")
             col.append(np.array(v, copy=True))
@@ -199,6 +202,7 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
     d_edges = archives.diameter_edges(scene)
     z_ref = archives.z_ref_eff(scene)
     full = scene.fidelity.outputs.full_snapshots
+    dt_forced = scene.fidelity.saltation_dt_fixed
 
     loaded = load_checkpoint(checkpoint_path)
     if loaded is not None:
@@ -230,6 +234,9 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
             "wall_time_s": wall_before + time.perf_counter() - t0_wall,
             "last_dt": last[0], "last_cfl": last[1]})
 
+    # what activation released (a component may round scene.n_initial)
+    n_released = int(getattr(model.components[0], "n_initial", 0)) if model.components else 0
+
     def record(groups: frozenset[str], t_rel: float) -> None:
         if "series" in groups:
             c = dpart.grain_counters(model)
@@ -238,7 +245,9 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                 "n_rebounds": c["n_rebounds"], "n_ejections": c["n_ejections"],
                 "n_depositions": c["n_depositions"], "G_tot_series": c["G_tot"],
                 "u_star_ref": dflow.u_star_at(model, z_ref), "u_drive": model.state.u_drive,
-                "dt": last[0], "max_cfl": last[1], "E_impact": c["E_impact"], "E_splash": c["E_splash"]})
+                "dt": last[0], "max_cfl": last[1], "E_impact": c["E_impact"], "E_splash": c["E_splash"],
+                **health.step_limits(model), **health.coupling_stiffness(model),
+                "parcel_balance": health.parcel_balance(c, n_released)})
         if "plane" in groups:
             gp = dpart.grain_planes(model)
             fp = dflow.flow_planes(model, z_plane)
@@ -269,6 +278,8 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
             target = t_act + t_event
             while _model_time(model) - t_act < t_event - TIME_EPS:
                 dt = model.next_dt(limit=target - _model_time(model))
+                if dt_forced is not None:
+                    dt = min(dt_forced, target - _model_time(model))
                 info = model.step(dt)
                 last = (float(info.dt), float(info.max_cfl))
                 n_steps += 1

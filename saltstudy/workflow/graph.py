@@ -202,10 +202,25 @@ class StudySummary:
     outcomes: list[Outcome] = field(default_factory=list)
     report_dir: Path | None = None
     wall_s: float = 0.0
+    expect_blowup: frozenset[str] = frozenset()
+
+    def _blew_up_as_expected(self, o: Outcome) -> bool:
+        return (o.task == "saltation" and bool(set(o.labels) & self.expect_blowup)
+                and (o.error or "").startswith("SolverBlowUp"))
 
     @property
     def failed(self) -> list[Outcome]:
-        return [o for o in self.outcomes if o.status == "failed"]
+        return [o for o in self.outcomes if o.status == "failed" and not self._blew_up_as_expected(o)]
+
+    @property
+    def expected_blowups(self) -> list[Outcome]:
+        return [o for o in self.outcomes if o.status == "failed" and self._blew_up_as_expected(o)]
+
+    @property
+    def unexpected_completions(self) -> list[str]:
+        """Scenes that should have blown up but whose saltation run completed."""
+        return sorted(l for o in self.outcomes if o.task == "saltation" and o.ok
+                      for l in o.labels if l in self.expect_blowup)
 
     @property
     def computed(self) -> list[Outcome]:
@@ -218,7 +233,7 @@ class StudySummary:
     @property
     def exit_code(self) -> int:
         # a task skipped because its input failed implies a failure already counted
-        return 1 if self.failed else 0
+        return 1 if (self.failed or self.unexpected_completions) else 0
 
 
 def _record_runs(out_dir: Path, plan: StudyPlan, by_name: dict[str, Outcome]) -> None:
@@ -329,4 +344,5 @@ def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | No
     rep = results.get("report")
     return StudySummary(study.name, list(seen.values()),
                         Path(rep.path) if rep is not None and rep.ok else None,
-                        time.time() - started)
+                        time.time() - started,
+                        frozenset(s.label for s in study.scenes if s.expect == "blow-up"))

@@ -74,6 +74,9 @@ def saltation_slice(scene: Scene) -> dict[str, Any]:
     fid = scene.fidelity.model_dump(mode="json")
     for k in ("description", "checkpoint_interval_wall"):
         fid.pop(k, None)
+    if fid.get("saltation_dt_fixed") is None:
+        # absent and None mean the same adaptive step: only a set value may change the key
+        fid.pop("saltation_dt_fixed", None)
     return {"case": case, "fidelity": fid}
 
 

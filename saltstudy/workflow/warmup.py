@@ -49,6 +49,8 @@ def warm_scene(scene: Scene) -> Scene:
     f["saltation_duration"] = _SALTATION_S
     f["sampling"].update(_SAMPLING)
     f["relaxation"]["until"] = min(f["relaxation"]["until"], _SAMPLING["start"])
+    # a fixed step chosen for the real grid is no step for this one (the kernels do not depend on it)
+    f["saltation_dt_fixed"] = None
     f["name"] = f"{f['name']}-warmup"
     return Scene(label=f"{scene.label}-warmup", case=scene.case,
                  fidelity=Fidelity.model_validate(f))

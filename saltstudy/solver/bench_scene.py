@@ -1,0 +1,153 @@
+"""What one scene costs per step, and what a whole run of it would cost: ``saltstudy bench scene``.
+
+For each numba thread count: the flow alone (the scene's model from its initial state, a few warm
+steps, then ``steps`` timed steps), and the flow with ``parcels`` parcels released at activation
+(the same, with the grain component). Reported: median wall time per step, the mean adaptive step
+``dt`` (hence steps per simulated second), the parcels aloft, peak resident memory.
+
+Extrapolation to the scene's own run: spin-up ``spinup.t_min``..``t_max`` seconds of flow alone and
+``saltation_duration`` seconds with grains, at the measured s/step and steps per simulated second.
+To N cores: Amdahl's law with the serial fraction f that the 1 -> 2 thread speed-up S2 implies
+(f = 2/S2 - 1); one measured point, and memory bandwidth ignored, so it is a best case.
+
+Caveats, stated with the numbers: the flow is the initial log-law profile with perturbations, not a
+spun-up one (its Courant rate is set by the mean wind; gusts of a spun-up flow shorten the step), and
+the parcels start at rest in the lowest layer rather than in an equilibrium layer (the cost per
+parcel-step differs little: `saltstudy bench particles` measures it on a frozen flow).
+"""
+from __future__ import annotations
+
+import json
+import resource
+import statistics
+import time
+
+import numba
+
+__all__ = ["bench_scene"]
+
+
+def _scene(case: int, fidelity: str, parcels: int | None):
+    from ..config import PAPER_AREA_M2, Scene, load_case, load_fidelity, resolve_scene
+    scene = resolve_scene(load_case(case), load_fidelity(fidelity))
+    if parcels:
+        g = scene.fidelity.grid
+        d = scene.model_dump()
+        # n_initial is given per 300 m^2 at the paper's Q: invert Scene.n_initial
+        d["case"]["particles"]["n_initial"] = max(1, int(round(
+            parcels * PAPER_AREA_M2 / (g.Lx * g.Ly) * scene.fidelity.q_multiplier)))
+        scene = Scene.model_validate(d)
+    return scene
+
+
+def _time_steps(model, steps: int, warm: int = 3) -> dict:
+    for _ in range(warm):
+        model.step(model.next_dt())
+    wall, dts = [], []
+    for _ in range(steps):
+        dt = model.next_dt()
+        t0 = time.perf_counter()
+        model.step(dt)
+        wall.append(time.perf_counter() - t0)
+        dts.append(dt)
+    return {"s_per_step": statistics.median(wall), "s_per_step_mean": statistics.fmean(wall),
+            "dt_mean": statistics.fmean(dts), "steps_per_sim_s": 1.0 / statistics.fmean(dts)}
+
+
+def measure(scene, steps: int, threads: int) -> dict:
+    from .model import Model
+    numba.set_num_threads(threads)
+    flow = Model.from_scene(scene, saltation=False)
+    out = {"threads": threads, "flow": _time_steps(flow, steps)}
+    del flow
+    if scene.case.physics.saltation:
+        m = Model.from_scene(scene, saltation=True)
+        m.activate_saltation()
+        res = _time_steps(m, steps)
+        res["parcels"] = int(m.components[0].n)
+        out["grains"] = res
+    out["peak_rss_MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return out
+
+
+def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32)) -> dict:
+    """Hours of one run of ``scene`` (spin-up + saltation) on each core count."""
+    by = {r["threads"]: r for r in rows}
+    f = scene.fidelity
+
+    def run_s(r: dict) -> dict:
+        spin = [f.spinup.t_min * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"],
+                f.spinup.t_max * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"]]
+        g = r.get("grains") or r["flow"]
+        salt = f.saltation_duration * g["steps_per_sim_s"] * g["s_per_step"]
+        return {"spinup_s": spin, "saltation_s": salt}
+
+    out: dict = {"measured": {t: run_s(r) for t, r in by.items()}}
+    if 1 in by and 2 in by:
+        key = "grains" if "grains" in by[1] else "flow"
+        s2 = by[1][key]["s_per_step"] / by[2][key]["s_per_step"]
+        serial = min(1.0, max(0.0, 2.0 / s2 - 1.0))
+        out["speedup_1_to_2"] = s2
+        out["serial_fraction"] = serial
+        base = run_s(by[1])
+        est = {}
+        for n in cores:
+            sp = 1.0 / (serial + (1.0 - serial) / n)
+            est[n] = {"speedup": sp, "saltation_h": base["saltation_s"] / sp / 3600.0,
+                      "spinup_h": [x / sp / 3600.0 for x in base["spinup_s"]]}
+        out["amdahl"] = est
+    return out
+
+
+def bench_scene(case: int = 2, fidelity: str = "paper", steps: int = 20,
+                threads: tuple[int, ...] = (1, 2), parcels: int | None = None,
+                as_json: bool = False) -> dict:
+    scene = _scene(case, fidelity, parcels)
+    g = scene.fidelity.grid
+    rows = [measure(scene, steps, t) for t in threads if t <= numba.config.NUMBA_NUM_THREADS]
+    res = {"case": case, "fidelity": fidelity, "grid": [g.nx, g.ny, g.nz],
+           "cells": g.nx * g.ny * g.nz, "steps": steps, "rows": rows,
+           "extrapolation": extrapolate(scene, rows)}
+    if as_json:
+        print(json.dumps(res))
+        return res
+    print(f"case {case} at fidelity {fidelity}: {g.nx}x{g.ny}x{g.nz} = {res['cells']:,} cells, "
+          f"{steps} timed steps (median)")
+    for r in rows:
+        fl = r["flow"]
+        line = (f"  {r['threads']} thread(s): flow {fl['s_per_step']:.3f} s/step, dt {fl['dt_mean'] * 1e3:.2f} ms")
+        if "grains" in r:
+            gr = r["grains"]
+            line += (f"; with {gr['parcels']:,} parcels {gr['s_per_step']:.3f} s/step, "
+                     f"dt {gr['dt_mean'] * 1e3:.2f} ms")
+        print(line + f"; peak {r['peak_rss_MB']:.0f} MB")
+    ex = res["extrapolation"]
+    for t, m in ex["measured"].items():
+        print(f"  one run on {t} thread(s): spin-up {m['spinup_s'][0] / 3600:.1f}-{m['spinup_s'][1] / 3600:.1f} h, "
+              f"saltation {m['saltation_s'] / 3600:.1f} h")
+    if "amdahl" in ex:
+        print(f"  speed-up 1 -> 2 threads {ex['speedup_1_to_2']:.2f} (serial fraction "
+              f"{ex['serial_fraction']:.2f}); Amdahl, best case:")
+        for n, e in ex["amdahl"].items():
+            print(f"    {n:3d} cores: x{e['speedup']:.1f}, saltation {e['saltation_h']:.1f} h, "
+                  f"spin-up {e['spinup_h'][0]:.1f}-{e['spinup_h'][1]:.1f} h")
+    return res
+
+
+def register_bench_scene(bench_app) -> None:
+    import typer
+
+    @bench_app.command("scene")
+    def scene_cmd(case: int = typer.Option(2, "--case", help="case number"),
+                  fidelity: str = typer.Option("paper", "--fidelity", help="fidelity name"),
+                  steps: int = typer.Option(20, "--steps", help="timed steps (median)"),
+                  threads: list[int] = typer.Option([1, 2], "--threads", help="numba threads; repeat"),
+                  parcels: int = typer.Option(0, "--parcels", help="parcels to release (0: the "
+                                              "scene's own n_initial)"),
+                  as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
+        """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N cores."""
+        if steps < 1:
+            typer.echo("error: --steps: must be at least 1", err=True)
+            raise typer.Exit(2)
+        bench_scene(case, fidelity, steps, tuple(threads), parcels or None, as_json)
+
