@@ -114,4 +114,5 @@ def test_stability_table(tmp_path):
     line = next(l for l in md.splitlines() if l.startswith("| crash |"))
     assert line.count("n/a") >= 6
     js = json.loads((tmp_path / "rep" / "stability.json").read_text())
-    assert {r["label"] for r in js} == {"gale", "fine_sand", "crash"}
+    assert {r["label"] for r in js["scenes"]} == {"gale", "fine_sand", "crash"}
+    assert rows["crash"]["finite"] is False             # a blow-up is by definition not finite

@@ -126,7 +126,8 @@ def _health(ds: xr.Dataset | None, out: dict[str, Any], dt_max: float | None,
         if np.isfinite(lm).any():
             out["loading_max"] = float(np.nanmax(lm))
             src["loading_max"] = "samples.nc: max over the run of loading_max"
-            # the release at rest in the lowest cells loads them most; later the layer is aloft
+            # the overshoot of the first seconds loads the cells most; the second half is the
+            # layer near its equilibrium
             late = lm[lm.size // 2:]
             if np.isfinite(late).any():
                 out["loading_max_second_half"] = float(np.nanmedian(late))
@@ -180,7 +181,7 @@ def _snapshot_fallback(ds: xr.Dataset | None, out: dict[str, Any]) -> None:
 
 def _open_samples(path: Path) -> xr.Dataset | None:
     """samples.nc may be large: read only the variables the table uses."""
-    keep = ("max_cfl", "u", "v", "u_plane", "w", "e", "E_splash", "E_impact", "dt_courant",
+    keep = ("max_cfl", "u", "v", "w", "e", "E_splash", "E_impact", "dt_courant",
             "dt_diffusion", "dt_grains", "loading_max", "tau_c_min", "parcel_balance", "u_star_ref",
             "G_tot_series") + _MOMENTUM_NAMES
     try:
@@ -251,6 +252,33 @@ def _ckpt_text(row: dict) -> str:
     return f" Checkpoint kept{when}: {c.get('path')}."
 
 
+def _figure(series: dict[str, xr.Dataset]):
+    """Per scene: the step each limit allows (a) and the most loaded cell's grain-to-air mass ratio
+    (b) over the saltation run. Returns None when no run recorded them."""
+    from matplotlib.figure import Figure
+    runs = {k: v for k, v in series.items() if v is not None and "dt_courant" in v.variables}
+    if not runs:
+        return None
+    fig = Figure(figsize=(11, 4.4), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2, sharex=True)
+    colours = [f"C{i}" for i in range(10)]
+    for (label, ds), c in zip(runs.items(), colours):
+        t = np.asarray(ds["time_series"].values, float)
+        ax1.plot(t, ds["dt_diffusion"].values, color=c, lw=1.2, label=label)
+        ax1.plot(t, ds["dt_courant"].values, color=c, lw=0.8, ls=":")
+        ax2.plot(t, ds["loading_max"].values, color=c, lw=1.0, label=label)
+    ax1.set_yscale("log")
+    ax1.set_xlabel("time since activation [s]")
+    ax1.set_ylabel("allowed step [s]")
+    ax1.set_title("(a) diffusion limit (solid), Courant limit (dotted)")
+    ax2.set_yscale("log")
+    ax2.set_xlabel("time since activation [s]")
+    ax2.set_ylabel("largest grain / air mass in a cell [-]")
+    ax2.set_title("(b) mass loading of the most loaded cell")
+    ax2.legend(fontsize=7, loc="upper right")
+    return fig
+
+
 def _cell(row: dict, key: str) -> str:
     if key in ("status", "limiting_step"):
         return str(row.get(key) or "n/a")
@@ -282,6 +310,20 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
         if label not in loaded:
             loaded[label] = RunData(label, None, None, status="no archive")
     rows = stability_rows(loaded, failures, samples, checkpoints, expect_blowup)
+    files = [report_dir / "stability.md", report_dir / "stability.json"]
+    fig_html = ""
+    opened = {}
+    for label, r in loaded.items():
+        sp = (samples or {}).get(label) or (r.ds.attrs.get("samples_path") if r.ds is not None else None)
+        if sp and Path(sp).is_file():
+            opened[label] = _open_samples(Path(sp))
+    fig = _figure(opened)
+    if fig is not None:
+        for ext in ("png", "pdf"):
+            fig.savefig(report_dir / f"stability.{ext}", dpi=110)
+            files.append(report_dir / f"stability.{ext}")
+        fig_html = ("<figure><a href='stability.pdf'><img src='stability.png' alt='allowed steps and "
+                    "mass loading per scene'></a></figure>")
     heads = ["scene"] + [h for _, h in STABILITY_COLUMNS]
     md = ["# Stability of extreme scenes", "",
           "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
@@ -315,5 +357,4 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
         h.append("<ul>" + "".join(f"<li><b>{e(r['label'])}</b> ({e(r['status'])}): "
                                   f"<code>{e(r['error'])}</code>{e(_ckpt_text(r))}</li>"
                                   for r in errs) + "</ul>")
-    return {"rows": rows, "html": "".join(h),
-            "files": [report_dir / "stability.md", report_dir / "stability.json"]}
+    return {"rows": rows, "html": fig_html + "".join(h), "files": files}
