@@ -182,3 +182,17 @@ def test_u_star_s_standard_error_from_per_sample_fits(tmp_path):
     assert np.allclose(out.u_star_s_samples.values, u_i, rtol=1e-6)
     assert float(out.u_star_s_se) == pytest.approx(np.std(u_i, ddof=1) / math.sqrt(3), rel=1e-6)
     assert out.u_star_s_se.attrs["units"] == "m s-1"
+
+
+def test_half_window_statistics_of_a_stationary_archive(tmp_path):
+    """A stationary synthetic run: each half of the window gives the whole window's u*s, z_m and
+    G_tot (its fields do not change in time), with units; fewer than four samples give none."""
+    samples, spinup, _ = build_archives(tmp_path, n_samples=6)
+    ds = open_dataset(analyse_case(samples, spinup, tmp_path / "analysis.nc"))
+    for name in ("u_star_s_stress", "z_m", "G_tot"):
+        h = ds[f"{name}_halves"]
+        assert h.dims == ("half",) and h.size == 2 and h.attrs["units"] == ds[name].attrs["units"]
+        assert np.allclose(h.values, float(ds[name]), rtol=1e-6), name
+    few_s, few_sp, _ = build_archives(tmp_path / "few", n_samples=3)
+    few = open_dataset(analyse_case(few_s, few_sp, tmp_path / "few.nc"))
+    assert "z_m_halves" not in few.variables

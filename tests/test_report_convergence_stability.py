@@ -34,14 +34,39 @@ def test_errors_against_finest_and_paper(ladder, tmp_path):
     # against the paper: Table 2 gives u*s = 0.54 and lambda_y = 0.3 for case 2; bias 1 matches
     assert rows["case02@fine"]["err_paper"]["u_star_s"] == pytest.approx(0.0, abs=1e-12)
     assert rows["case02@coarse"]["err_paper"]["lambda_y"] == pytest.approx(0.30)
-    assert np.isnan(rows["case02@fine"]["err_paper"]["z0s"])     # the paper gives no z0s per case
+    assert np.isnan(rows["case02@fine"]["err_paper"]["z0s_stress"])   # the paper gives no z0s per case
     assert res.cheapest["u_star_s"] == {"10%": "case02@mid", "25%": "case02@mid"}
     for f in ("convergence.png", "convergence.pdf", "convergence.md", "convergence.json"):
         assert (tmp_path / "rep" / f).is_file()
     md = (tmp_path / "rep" / "convergence.md").read_text()
-    assert "| u*s | case02@mid | case02@mid |" in md
+    assert "| u*s (free fit) | case02@mid | case02@mid |" in md
     js = json.loads((tmp_path / "rep" / "convergence.json").read_text())
     assert js["finest"] == "case02@fine"
+
+
+def test_error_bars_from_the_half_windows_decide_what_is_noise(tmp_path):
+    """A rung whose halves differ by more than its distance from the reference is within the
+    noise; one whose halves agree is not."""
+    import xarray as xr
+    runs = {}
+    for label, bias, wall, spread in (("case02@noisy", 1.05, 10.0, 0.2), ("case02@quiet", 1.05, 20.0, 0.0),
+                                      ("case02@ref", 1.00, 100.0, 0.0)):
+        p = write_analysis(tmp_path / f"{label}.nc", 2, bias=bias, wall_time_s=wall, label=label)
+        with xr.open_dataset(p) as ds:
+            ds = ds.load()
+        v = float(ds["lambda_y"])
+        ds["lambda_y_halves"] = (("half",), np.array([v * (1 - spread), v * (1 + spread)]),
+                                 {"units": "m", "long_name": "lambda_y over each half"})
+        ds.to_netcdf(p)
+        runs[label] = p
+    res = build_convergence_report(runs, tmp_path / "rep", reference="case02@ref")["result"]
+    rows = {r["label"]: r for r in res.rungs}
+    assert rows["case02@noisy"]["error_bar"]["lambda_y"] == pytest.approx(0.2 * 0.3 * 1.05, rel=0.2)
+    assert rows["case02@noisy"]["within_noise"]["lambda_y"] is True       # 5 % off, bar ~ 20 %
+    assert rows["case02@quiet"]["within_noise"]["lambda_y"] is False      # 5 % off, no bar
+    assert rows["case02@quiet"]["within_noise"]["z_m"] is None            # no halves recorded
+    js = json.loads((tmp_path / "rep" / "convergence.json").read_text())
+    assert js["rungs"][0]["error_bar"]["lambda_y"] > 0
 
 
 def test_declared_order_wins_over_wall_time(ladder, tmp_path):

@@ -36,7 +36,8 @@ from ..ncio import NC_LOCK, write_dataset
 from . import correlation, flux, paper_grid, profiles, series, sizes, stokes, streamers
 from ..physics import laws
 
-__all__ = ["analyse_case", "analyse_datasets", "SPEC", "REQUIRED_VARIABLES", "MAX_LAG_S",
+__all__ = ["analyse_case", "analyse_datasets", "half_window_statistics", "HALF_STATISTICS", "SPEC",
+           "REQUIRED_VARIABLES", "MAX_LAG_S",
            "SAMPLE_VARIABLES_USED"]
 
 log = logging.getLogger(__name__)
@@ -343,6 +344,12 @@ def analyse_case(samples_path: str | Path, spinup_path: str | Path | None, out_p
     else:
         sp_attrs, sp_coords, sp = {}, {}, {}
     ds = analyse_datasets(s_attrs, s_coords, s, sp_coords, sp)
+    for name, vals in half_window_statistics(s_attrs, s_coords, s, sp_coords, sp).items():
+        units = ds[name].attrs.get("units", SPEC.get(name, ("1", ""))[0])
+        ds[f"{name}_halves"] = xr.DataArray(
+            vals, dims=("half",), attrs={"units": units, "long_name": f"{name} over the first and "
+                                         "the second half of the sampling window (its 3-D samples "
+                                         "split in two; planes and series with them)"})
     attrs = {k: v for k, v in s_attrs.items() if k != "saltstudy_complete"}
     wt = wall_time_s if wall_time_s is not None else _f(s_attrs, "wall_time_s")
     attrs["wall_time_s"] = float(wt)
@@ -355,6 +362,84 @@ def analyse_case(samples_path: str | Path, spinup_path: str | Path | None, out_p
     attrs["analysis_seconds"] = float(_time.perf_counter() - t_start)
     ds.attrs = attrs
     return write_dataset(ds, out_path)
+
+
+#: statistics also computed over each half of the sampling window: their difference is the
+#: noise of one window (a difference between runs smaller than it is not a result)
+HALF_STATISTICS = ("u_star_s", "u_star_s_stress", "z0s", "z0s_stress", "z_m", "G_tot",
+                   "G_decay_height", "sigma_G_over_G_tot", "tau_p_surface_fraction", "lambda_x",
+                   "lambda_y", "delta_y", "R_cu_upper")
+_PLANE_VARIABLES = ("C_p", "G_col", "u_plane")
+_SERIES_VARIABLES = ("n_parcels", "G_tot_series", "u_star_ref", "E_impact", "E_splash")
+_WHOLE_VARIABLES = ("d_edges",)
+
+
+class _Rows:
+    """Rows ``start:stop`` of an array or a lazy variable (first axis), indexed like a whole one."""
+
+    def __init__(self, base, start: int, stop: int):
+        self.base, self.start, self.stop = base, int(start), int(stop)
+        self.shape = (self.stop - self.start,) + tuple(base.shape[1:])
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    def __getitem__(self, key):
+        k0, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
+        n = self.shape[0]
+        if isinstance(k0, slice):
+            a, b, st = k0.indices(n)
+            k0 = slice(self.start + a, self.start + b, st)
+        elif isinstance(k0, (int, np.integer)):
+            k0 = self.start + int(k0) % n
+        else:
+            arr = np.asarray(k0)
+            if arr.dtype == bool:
+                arr = np.flatnonzero(arr)
+            k0 = self.start + np.mod(arr, n)
+        return self.base[(k0,) + rest]
+
+
+def half_window_statistics(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: dict[str, Any],
+                           sp_coords: dict[str, np.ndarray], sp: dict[str, Any]) -> dict[str, np.ndarray]:
+    """HALF_STATISTICS over the first and the second half of the 3-D samples ({} if < 4 samples).
+
+    The first half takes samples [0, h) and the planes before sample h; the second the rest; the
+    series stay whole (the window statistics read them between the half's first and last sample).
+    """
+    t_s = np.asarray(coords.get("time", np.zeros(0)), dtype=np.float64)
+    if t_s.size < 4:
+        return {}
+    h = t_s.size // 2
+    t_p = np.asarray(coords.get("time_plane", np.zeros(0)), dtype=np.float64)
+    split = float(t_s[h]) - 1e-9
+    out: dict[str, list[float]] = {k: [] for k in HALF_STATISTICS}
+    for (a, b) in ((0, h), (h, t_s.size)):
+        pa, pb = ((0, int(np.searchsorted(t_p, split))) if a == 0
+                  else (int(np.searchsorted(t_p, split)), t_p.size))
+        c = dict(coords)
+        c["time"] = t_s[a:b]
+        c["time_plane"] = t_p[pa:pb]
+        sub: dict[str, Any] = {}
+        for name, v in s.items():
+            if v is None or name in _SERIES_VARIABLES or name in _WHOLE_VARIABLES:
+                sub[name] = v
+            elif name in _PLANE_VARIABLES:
+                sub[name] = v[pa:pb] if isinstance(v, np.ndarray) else _Rows(v, pa, pb)
+            else:
+                sub[name] = v[a:b] if isinstance(v, np.ndarray) else _Rows(v, a, b)
+        try:
+            ds = analyse_datasets(attrs, c, sub, sp_coords, sp)
+        except Exception as exc:  # noqa: BLE001 — a half too short for a statistic: NaN, not a crash
+            log.warning("half-window analysis failed: %s", exc)
+            ds = None
+        for k in HALF_STATISTICS:
+            val = math.nan
+            if ds is not None and k in ds.variables and ds[k].ndim == 0:
+                val = float(ds[k].values)
+            out[k].append(val)
+    return {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
 
 
 def rescale_spinup_profiles(sp: dict[str, Any], a: float) -> dict[str, Any]:
@@ -407,7 +492,7 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
 
     def get(name):
         a = s.get(name)
-        return a if a is None or isinstance(a, _LazyVar) else np.asarray(a)
+        return a if a is None or isinstance(a, (_LazyVar, _Rows)) else np.asarray(a)
 
     # sampling window: from the first to the last 3-D sample; one sample -> to the end of the run
     if n_t:

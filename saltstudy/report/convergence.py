@@ -1,13 +1,18 @@
 """Error against run time for a convergence ladder (one case at a ladder of fidelities).
 
-For each statistic (u*s, z0s, z_m, G_tot, sigma_G/G_tot, lambda_x, lambda_y, delta_y, the tau_p
-surface fraction and the airborne grain count N_air) and each rung:
+For each statistic (u*s read from the stress at 2 m and from the free log fit, z0s with the
+stress u*s, z_m, G_tot, z_q = G's e-folding height, sigma_G/G_tot, lambda_x, lambda_y, delta_y, the
+tau_p surface fraction, R_cu in the upper layer and the airborne grain count N_air) and each rung:
+* its value ± an error bar: half the difference between the statistic over the two halves of the
+  sampling window (analysis ``<stat>_halves``), and whether the difference from the reference lies
+  inside the two runs' bars added in quadrature (then it is not a result);
 * the relative difference from the *reference* rung: the study's ``reference`` fidelity when it
   names one (a sensitivity study: one-knob variants of a base fidelity), else the finest rung (the
   declared order's last, else the largest wall time);
 * the relative error against the paper (where the paper gives a value: Table 2 for u*s, lambda_x,
-  lambda_y, delta_y; the 10-20 % range for sigma_G/G_tot, where the error is the distance to the
-  nearer bound and 0 inside; the paper gives no per-case z0s, z_m, G_tot, tau_p fraction or N_air),
+  lambda_y, delta_y; its Fig. 4 line for z_m of cases 1-6; 0.3 for R_cu of cases 1-6; 0.5 for the
+  tau_p fraction of case 6; the 10-20 % range for sigma_G/G_tot, where the error is the distance to
+  the nearer bound and 0 inside; the paper gives no per-case z0s, G_tot, z_q or N_air),
 plotted against the wall-clock time of the rung (its spin-up + saltation run; the spin-up's share is
 listed beside it: rungs on the same grid share one spin-up, so a study pays it once); and a table naming the cheapest rung within 10 % and within
 25 % of the reference, per statistic.
@@ -35,12 +40,18 @@ __all__ = ["CONV_STATS", "ConvergenceResult", "convergence_analysis", "build_con
 
 #: statistic -> (label, paper Table 2 key or None)
 CONV_STATS: dict[str, tuple[str, str | None]] = {
-    "u_star_s": ("u*s", "u_star_s"), "z0s": ("z0s", None), "z_m": ("z_m", None),
-    "G_tot": ("G_tot", None), "sigma_G_over_G_tot": ("σG/G_tot", "range"),
+    "u_star_s_stress": ("u*s (stress at 2 m)", "u_star_s"), "u_star_s": ("u*s (free fit)", "u_star_s"),
+    "z0s_stress": ("z0s", None), "z_m": ("z_m", "fig4"),
+    "G_tot": ("G_tot", None), "G_decay_height": ("z_q", None),
+    "sigma_G_over_G_tot": ("σG/G_tot", "range"),
     "lambda_x": ("λx", "lambda_x_m"), "lambda_y": ("λy", "lambda_y_m"), "delta_y": ("δy", "delta_y_m"),
-    "tau_p_surface_fraction": ("τp(0)/ρu*s²", None), "N_air": ("N_air", None),
+    "tau_p_surface_fraction": ("τp(0)/ρu*s²", "tau_p6"), "R_cu_upper": ("R_cu upper", "rcu"),
+    "N_air": ("N_air", None),
 }
 THRESHOLDS = (0.10, 0.25)
+NOISE_NOTE = ("Each value ± half the difference between its two half-window values (the noise of "
+              "one sampling window); * marks a difference from the reference inside the two runs' "
+              "combined noise.")
 
 
 @dataclass
@@ -56,6 +67,15 @@ def _paper_error(stat: str, value: float, case: int | None) -> float:
     key = CONV_STATS[stat][1]
     if key is None or not math.isfinite(value):
         return math.nan
+    if key == "fig4":       # z_m on the paper's line for cases 1-6, at the paper's u*s
+        ref = _paper_z_m(case)
+        return abs(value - ref) / ref if math.isfinite(ref) else math.nan
+    if key == "rcu":
+        ref = float(paper_results().get("fig11_Rcu_upper_layer", math.nan))
+        return abs(value - ref) / ref if math.isfinite(ref) and (case or 0) <= 6 else math.nan
+    if key == "tau_p6":     # the paper states it for case 6 only
+        ref = float(paper_results().get("fig6_taup_surface_fraction_case6", math.nan))
+        return abs(value - ref) / ref if case == 6 and math.isfinite(ref) else math.nan
     if key == "range":
         lo, hi = paper_results().get("fig13_sigmaG_over_Gtot", [math.nan, math.nan])
         if lo <= value <= hi:
@@ -64,6 +84,27 @@ def _paper_error(stat: str, value: float, case: int | None) -> float:
         return abs(value - b) / b
     ref = paper_table2().get(case or -1, {}).get(key, math.nan)
     return abs(value - ref) / abs(ref) if math.isfinite(ref) and ref != 0 else math.nan
+
+
+def _paper_z_m(case: int | None) -> float:
+    """z_m on the paper's Fig. 4 line (cases 1-6: linear in u*s between its end points)."""
+    if case is None or not 1 <= case <= 6:
+        return math.nan
+    lo, hi = paper_results().get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan])
+    t2 = paper_table2()
+    u, u1, u6 = (t2.get(c, {}).get("u_star_s", math.nan) for c in (case, 1, 6))
+    return lo + (hi - lo) * (u - u1) / (u6 - u1)
+
+
+def _error_bar(r: RunData, stat: str) -> float:
+    """Half the difference between the statistic over the two halves of the sampling window
+    (analysis ``<stat>_halves``): the noise of one window. NaN where not recorded."""
+    ds = getattr(r, "ds", None)
+    name = f"{stat}_halves"
+    if ds is None or name not in ds.variables:
+        return math.nan
+    a = np.asarray(ds[name].values, dtype=np.float64)
+    return float(abs(a[1] - a[0]) / 2.0) if a.size == 2 and np.isfinite(a).all() else math.nan
 
 
 def _value(r: RunData, stat: str) -> float:
@@ -92,7 +133,8 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         row: dict[str, Any] = {"label": r.label, "fidelity": r.fidelity, "status": r.status,
                                "wall_time_s": r.wall_time_s,
                                "spinup_wall_time_s": r.attr("spinup_wall_time_s"),
-                               "values": {}, "err_finest": {}, "err_paper": {}}
+                               "values": {}, "error_bar": {}, "err_finest": {}, "err_paper": {},
+                               "within_noise": {}}
         case = r.case if r.case is not None else case_number_of(r.label)
         for s in CONV_STATS:
             v = _value(r, s)
@@ -101,6 +143,13 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
             row["err_finest"][s] = (abs(v - f) / abs(f)) if math.isfinite(v) and math.isfinite(f) and f != 0 \
                 else math.nan
             row["err_paper"][s] = _paper_error(s, v, case)
+            eb = _error_bar(r, s)
+            ebf = _error_bar(finest, s) if finest is not None else math.nan
+            row["error_bar"][s] = eb
+            # a difference from the reference inside the two runs' combined window noise is not one
+            noise = math.hypot(eb, ebf) if math.isfinite(eb) and math.isfinite(ebf) else math.nan
+            row["within_noise"][s] = (bool(abs(v - f) <= noise) if math.isfinite(noise)
+                                      and math.isfinite(v) and math.isfinite(f) else None)
         rungs.append(row)
     cheapest: dict[str, dict[str, str | None]] = {}
     for s in CONV_STATS:
@@ -123,9 +172,9 @@ def _rung_name(row: dict[str, Any]) -> str:
     return label.split("@", 1)[1] if "@" in label else (row["fidelity"] or label)
 
 
-_STAT_COLORS = dict(zip(CONV_STATS, ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd",
-                                     "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"),
-                        strict=True))
+_STAT_COLORS = dict(zip(CONV_STATS, ("#1f77b4", "#aec7e8", "#ff7f0e", "#2ca02c", "#d62728",
+                                     "#ff9896", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+                                     "#bcbd22", "#dbdb8d", "#17becf"), strict=True))
 
 
 def _figure(res: ConvergenceResult) -> Figure:
@@ -186,7 +235,8 @@ def _tables_md(res: ConvergenceResult) -> str:
                  fmt(row["spinup_wall_time_s"])]
         for s in CONV_STATS:
             ef, ep = row["err_finest"][s], row["err_paper"][s]
-            cells.append(f"{fmt(row['values'][s])} ({_p(ef)} / {_p(ep)})")
+            cells.append(f"{_pm(row['values'][s], row['error_bar'][s])} ({_p(ef)}"
+                         f"{'*' if row['within_noise'][s] else ''} / {_p(ep)})")
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "Cheapest rung within 10 % / 25 % of the reference:", "",
               "| statistic | within 10 % | within 25 % |", "|---|---|---|"]
@@ -194,6 +244,10 @@ def _tables_md(res: ConvergenceResult) -> str:
         c = res.cheapest[s]
         lines.append(f"| {CONV_STATS[s][0]} | {c['10%'] or 'none'} | {c['25%'] or 'none'} |")
     return "\n".join(lines)
+
+
+def _pm(v: float, eb: float) -> str:
+    return f"{fmt(v)} ± {fmt(eb)}" if math.isfinite(eb) else fmt(v)
 
 
 def _p(v: float) -> str:
@@ -212,8 +266,8 @@ def _tables_html(res: ConvergenceResult) -> str:
                    f"<td>{e(row['status'])}</td><td>{fmt(row['wall_time_s'])}</td>"
                    f"<td>{fmt(row['spinup_wall_time_s'])}</td>")
         for s in CONV_STATS:
-            out.append(f"<td>{fmt(row['values'][s])} ({_p(row['err_finest'][s])} / "
-                       f"{_p(row['err_paper'][s])})</td>")
+            out.append(f"<td>{_pm(row['values'][s], row['error_bar'][s])} ({_p(row['err_finest'][s])}"
+                       f"{'*' if row['within_noise'][s] else ''} / {_p(row['err_paper'][s])})</td>")
         out.append("</tr>")
     out.append("</tbody></table><h4>Cheapest rung within 10 % / 25 % of the reference</h4>"
                "<table><thead><tr><th>statistic</th><th>within 10 %</th><th>within 25 %</th></tr>"
@@ -252,14 +306,20 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
         p = report_dir / f"convergence.{ext}"
         fig.savefig(p, dpi=130)
         files.append(p)
-    md = ("# Error against run time\n\n" + f"Reference rung: {res.finest}.\n\n" + _tables_md(res) + "\n")
+    md = ("# Error against run time\n\n" + f"Reference rung: {res.finest}.\n\n" + NOISE_NOTE + "\n\n"
+          + _tables_md(res) + "\n")
     (report_dir / "convergence.md").write_text(md, encoding="utf-8")
     payload = {"finest": res.finest, "reference": res.finest, "cheapest": res.cheapest,
-               "rungs": [{**{k: v for k, v in row.items() if k not in ("values", "err_finest", "err_paper")},
+               "error_bar": "half the difference of the statistic over the two halves of the "
+                            "sampling window; within_noise: |value - reference| <= the two error "
+                            "bars added in quadrature",
+               "rungs": [{**{k: v for k, v in row.items()
+                             if k not in ("values", "error_bar", "err_finest", "err_paper", "within_noise")},
                           **{k: (row[k] if math.isfinite(row[k]) else None)
                              for k in ("wall_time_s", "spinup_wall_time_s")},
                           **{f"{k}": {s: (x if math.isfinite(x) else None) for s, x in row[k].items()}
-                             for k in ("values", "err_finest", "err_paper")}}
+                             for k in ("values", "error_bar", "err_finest", "err_paper")},
+                          "within_noise": row["within_noise"]}
                          for row in res.rungs]}
     (report_dir / "convergence.json").write_text(json.dumps(payload, indent=2, allow_nan=False) + "\n",
                                                   encoding="utf-8")
