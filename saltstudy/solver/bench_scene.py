@@ -70,8 +70,11 @@ def measure(scene, steps: int, threads: int) -> dict:
     return out
 
 
-def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32)) -> dict:
-    """Hours of one run of ``scene`` (spin-up + saltation) on each core count."""
+def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32),
+                saltation_dt: float | None = None) -> dict:
+    """Hours of one run of ``scene`` (spin-up + saltation) on each core count. ``saltation_dt``
+    [s]: the mean step of a real saltation run at this resolution, if known (the initial flow's
+    step is longer: the grain layer makes the near-bed diffusion limit stiffer)."""
     by = {r["threads"]: r for r in rows}
     f = scene.fidelity
 
@@ -79,10 +82,11 @@ def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32)) ->
         spin = [f.spinup.t_min * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"],
                 f.spinup.t_max * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"]]
         g = r.get("grains") or r["flow"]
-        salt = f.saltation_duration * g["steps_per_sim_s"] * g["s_per_step"]
+        rate = 1.0 / saltation_dt if saltation_dt else g["steps_per_sim_s"]
+        salt = f.saltation_duration * rate * g["s_per_step"]
         return {"spinup_s": spin, "saltation_s": salt}
 
-    out: dict = {"measured": {t: run_s(r) for t, r in by.items()}}
+    out: dict = {"measured": {t: run_s(r) for t, r in by.items()}, "saltation_dt": saltation_dt}
     if 1 in by and 2 in by:
         key = "grains" if "grains" in by[1] else "flow"
         s2 = by[1][key]["s_per_step"] / by[2][key]["s_per_step"]
@@ -101,13 +105,13 @@ def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32)) ->
 
 def bench_scene(case: int = 2, fidelity: str = "paper", steps: int = 20,
                 threads: tuple[int, ...] = (1, 2), parcels: int | None = None,
-                as_json: bool = False) -> dict:
+                as_json: bool = False, saltation_dt: float | None = None) -> dict:
     scene = _scene(case, fidelity, parcels)
     g = scene.fidelity.grid
     rows = [measure(scene, steps, t) for t in threads if t <= numba.config.NUMBA_NUM_THREADS]
     res = {"case": case, "fidelity": fidelity, "grid": [g.nx, g.ny, g.nz],
            "cells": g.nx * g.ny * g.nz, "steps": steps, "rows": rows,
-           "extrapolation": extrapolate(scene, rows)}
+           "extrapolation": extrapolate(scene, rows, saltation_dt=saltation_dt)}
     if as_json:
         print(json.dumps(res))
         return res
@@ -144,10 +148,17 @@ def register_bench_scene(bench_app) -> None:
                   threads: list[int] = typer.Option([1, 2], "--threads", help="numba threads; repeat"),
                   parcels: int = typer.Option(0, "--parcels", help="parcels to release (0: the "
                                               "scene's own n_initial)"),
+                  saltation_dt: float = typer.Option(0.0, "--saltation-dt", help="mean step [s] "
+                                                     "of a real saltation run at this resolution, "
+                                                     "for the extrapolation (0: the measured one)"),
                   as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
         """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N cores."""
         if steps < 1:
             typer.echo("error: --steps: must be at least 1", err=True)
             raise typer.Exit(2)
-        bench_scene(case, fidelity, steps, tuple(threads), parcels or None, as_json)
+        if saltation_dt < 0:
+            typer.echo("error: --saltation-dt: must be positive (or 0 for the measured step)", err=True)
+            raise typer.Exit(2)
+        bench_scene(case, fidelity, steps, tuple(threads), parcels or None, as_json,
+                    saltation_dt or None)
 
