@@ -109,5 +109,11 @@ def test_bench_scene_json_has_the_costs_and_an_extrapolation():
     assert 2000 <= row["grains"]["parcels"] <= 3100
     m = out["extrapolation"]["measured"]["1"]
     assert m["saltation_s"] > 0 and m["spinup_s"][0] <= m["spinup_s"][1]
+    slow = _json(["bench", "scene", "--case", "2", "--fidelity", "smoke", "--steps", "2",
+                  "--threads", "1", "--saltation-dt", "0.001", "--json"])
+    # a step 1 ms long costs the saltation 1 / (0.001 steps_per_sim_s) times more steps
+    g = slow["rows"][0]["grains"]
+    sm = slow["extrapolation"]["measured"]["1"]["saltation_s"]
+    assert sm == pytest.approx(2.0 / 0.001 * g["s_per_step"])      # smoke: 2 s of saltation
     res = CliRunner().invoke(app, ["bench", "scene", "--steps", "0"])
     assert res.exit_code == 2 and "--steps" in res.output

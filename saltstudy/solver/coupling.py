@@ -25,10 +25,9 @@ ones, whatever the mass loading and ``k_p dt`` (tested with grain mass 100x the 
 is given exactly ``U_f' - U_f``; summed over faces that is exactly minus the sum of the modelled
 parcel impulses ``c_p (u_s,p - u~_p)`` (sum_f w_pf = 1). The parcels' *actual* impulses differ
 slightly (drag-rate iteration, sub-steps, bed crossings); the difference (actual - modelled) is
-deposited with the trilinear weights as well, so total momentum is conserved to round-off. (An
-earlier version deposited the actual impulses with the weights and used the implicit estimate
-only for the seen velocity: that is *not* stable for modes the interpolation smooths; it blew up
-in the loading test.) In the log region a parcel sees ``l_p`` times the bilinear level-1 wind,
+deposited with the trilinear weights as well, so total momentum is conserved to round-off. (Depositing
+the actual impulses with the weights, with the implicit estimate used only for the seen velocity,
+is *not* stable for modes the interpolation smooths: it blows up in the loading test.) In the log region a parcel sees ``l_p`` times the bilinear level-1 wind,
 ``l_p = ln(z_p/z0) / ln(z_c[1]/z0) < 1``:
 
 * "paper" (it deposits on level 1 too): it sees ``u_s,p = l_p sum_f w_pf U_f'``, the log law of
