@@ -22,3 +22,10 @@ def test_each_departure_is_named_by_its_config_field():
     assert "particles.near_bed_wind" in text
     assert "16x heavier" in text
     assert "relaxation" in text
+
+
+def test_the_reduced_grid_is_named_and_the_fine_rungs_is_not():
+    reduced = " ".join(model_departures(_scene(fidelity="reduced-q4")))
+    assert "first level of 2 cm" in reduced and "horizontal spacing of 0.156 m" in reduced
+    fine = " ".join(model_departures(_scene(fidelity="fine")))
+    assert "first level" not in fine and "horizontal spacing" not in fine
