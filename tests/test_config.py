@@ -92,11 +92,12 @@ def test_scene_scales_release_with_area_and_q():
                                                                   abs=0.5 * red.Q / (g.Lx * g.Ly))
 
 
-@pytest.mark.parametrize("name", ["smoke", "reduced", "paper"])
-def test_studies_resolve(name):
+@pytest.mark.parametrize("name, fidelity", [("smoke", "smoke"), ("reduced", "reduced-q4"),
+                                            ("reduced-q16", "reduced"), ("paper", "paper")])
+def test_studies_resolve(name, fidelity):
     runs = study_runs(load_study(name))
     assert [r.scene.case.number for r in runs] == list(range(1, 11))
-    assert all(r.scene.fidelity.name == name for r in runs)
+    assert all(r.scene.fidelity.name == fidelity for r in runs)
 
 
 def _write_case(tmp_path: Path, body: str) -> Path:
