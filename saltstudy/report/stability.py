@@ -98,6 +98,7 @@ _LIMITS = ("courant", "diffusion", "grains", "dt_max")
 def _health(ds: xr.Dataset | None, out: dict[str, Any], dt_max: float | None,
             dt_fixed: float | None) -> None:
     """Step limits, loading, stiffness and parcel balance from the series (workflow/health.py)."""
+    from ..workflow.health import limiting_step
     if ds is None or "dt_courant" not in ds.variables:
         return
     src = out.setdefault("_sources", {})
@@ -109,11 +110,11 @@ def _health(ds: xr.Dataset | None, out: dict[str, Any], dt_max: float | None,
         out["limiting_step"] = "fixed"
         used = np.full(cand.shape[1], float(dt_fixed))
     elif ok.any():
-        which = np.argmin(cand[:, ok], axis=0)
-        counts = np.bincount(which, minlength=len(_LIMITS))
-        k = int(np.argmax(counts))
-        out["limiting_step"] = f"{_LIMITS[k]} ({100.0 * counts[k] / which.size:.0f} %)"
-        out["limiting_step_shares"] = {_LIMITS[i]: float(counts[i] / which.size) for i in range(len(_LIMITS))}
+        which = [limiting_step(*cand[:, i]) for i in np.flatnonzero(ok)]
+        shares = {k: which.count(k) / len(which) for k in _LIMITS}
+        k = max(shares, key=shares.get)
+        out["limiting_step"] = f"{k} ({100.0 * shares[k]:.0f} %)"
+        out["limiting_step_shares"] = shares
         used = cand.min(axis=0)
     else:
         return
@@ -201,13 +202,26 @@ def _scene_time(r: RunData) -> tuple[float | None, float | None]:
     return t.get("dt_max"), fid.get("saltation_dt_fixed") or t.get("dt_fixed")
 
 
+def _samples_of(runs: dict[str, RunData],
+                samples: dict[str, str | Path | None] | None) -> dict[str, xr.Dataset | None]:
+    """Each run's samples.nc (the table's variables only), opened once."""
+    out = {}
+    for label, r in runs.items():
+        sp = (samples or {}).get(label) or (r.ds.attrs.get("samples_path") if r.ds is not None else None)
+        if sp and Path(sp).is_file():
+            out[label] = _open_samples(Path(sp))
+    return out
+
+
 def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = None,
                    samples: dict[str, str | Path | None] | None = None,
                    checkpoints: dict[str, dict] | None = None,
-                   expect_blowup: set[str] | frozenset[str] = frozenset()) -> list[dict[str, Any]]:
+                   expect_blowup: set[str] | frozenset[str] = frozenset(),
+                   opened: dict[str, xr.Dataset | None] | None = None) -> list[dict[str, Any]]:
+    """One row per run; ``opened`` (label -> samples dataset) saves reopening what the caller has."""
     failures = failures or {}
-    samples = samples or {}
     checkpoints = checkpoints or {}
+    opened = _samples_of(runs, samples) if opened is None else opened
     rows = []
     for label, r in runs.items():
         row: dict[str, Any] = {"label": label}
@@ -229,9 +243,8 @@ def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = N
         if label in checkpoints:
             row["checkpoint_kept"] = checkpoints[label]
         _from_ds(r.ds, row, "analysis.nc")
-        sp = samples.get(label) or (r.ds.attrs.get("samples_path") if r.ds is not None else None)
-        if sp and Path(sp).is_file():
-            sds = _open_samples(Path(sp))
+        sds = opened.get(label)
+        if sds is not None:
             _from_ds(sds, row, "samples.nc")
             if r.scene:
                 _health(sds, row, *_scene_time(r))
@@ -309,14 +322,10 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
     for label in failures or {}:
         if label not in loaded:
             loaded[label] = RunData(label, None, None, status="no archive")
-    rows = stability_rows(loaded, failures, samples, checkpoints, expect_blowup)
+    opened = _samples_of(loaded, samples)
+    rows = stability_rows(loaded, failures, samples, checkpoints, expect_blowup, opened)
     files = [report_dir / "stability.md", report_dir / "stability.json"]
     fig_html = ""
-    opened = {}
-    for label, r in loaded.items():
-        sp = (samples or {}).get(label) or (r.ds.attrs.get("samples_path") if r.ds is not None else None)
-        if sp and Path(sp).is_file():
-            opened[label] = _open_samples(Path(sp))
     fig = _figure(opened)
     if fig is not None:
         for ext in ("png", "pdf"):
