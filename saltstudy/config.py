@@ -384,6 +384,9 @@ class Study(_Frozen):
     reference: str | None = Field(None, description="the fidelity of fidelities that the convergence "
                                   "report compares the others with (default: the last listed)")
     cases: tuple[int, ...] = ()
+    ladder_cases: dict[str, tuple[int, ...]] = Field(
+        default_factory=dict, description="a rung of fidelities that only some of cases run (a rung "
+        "too costly for all): fidelity -> cases; every other rung runs every case")
     scenes: tuple[SceneSpec, ...] = ()
     report: bool = True
     flux_law: Literal["creyssels2009"] | None = Field(
@@ -403,6 +406,12 @@ class Study(_Frozen):
         if self.reference is not None and self.reference not in self.fidelities:
             raise ValueError(f"reference: {self.reference!r} is not one of fidelities "
                              f"{list(self.fidelities)}")
+        for fname, subset in self.ladder_cases.items():
+            if fname not in self.fidelities:
+                raise ValueError(f"ladder_cases.{fname}: not one of fidelities {list(self.fidelities)}")
+            extra = sorted(set(subset) - set(self.cases))
+            if extra:
+                raise ValueError(f"ladder_cases.{fname}: cases {extra} are not in cases {list(self.cases)}")
         return self
 
 
@@ -615,6 +624,8 @@ def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
     for n in study.cases:
         case = load_case(n, root=root)
         for fname in ladder:
+            if n not in study.ladder_cases.get(fname, study.cases):
+                continue
             label = case.label if len(ladder) == 1 else f"{case.label}@{fname}"
             runs.append(RunSpec(label=label, scene=resolve_scene(case, fid(fname), label)))
     for s in study.scenes:

@@ -172,6 +172,20 @@ def test_study_reference_must_be_one_of_its_fidelities(tmp_path):
     assert res.exit_code == 0, res.output
 
 
+def test_ladder_cases_restrict_a_costly_rung(tmp_path):
+    from saltstudy.config import load_study, study_runs
+    p = tmp_path / "s.toml"
+    p.write_text('fidelities = ["smoke", "smoke-fine"]\ncases = [1, 2, 6]\n'
+                 '[ladder_cases]\n"smoke-fine" = [2]\n')
+    labels = [r.label for r in study_runs(load_study(p))]
+    assert labels == ["case01@smoke", "case02@smoke", "case02@smoke-fine", "case06@smoke"]
+    for body, words in (('[ladder_cases]\n"paper" = [2]\n', ("ladder_cases.paper", "not one of fidelities")),
+                        ('[ladder_cases]\n"smoke" = [3]\n', ("ladder_cases.smoke", "[3]", "not in cases"))):
+        p.write_text('fidelities = ["smoke", "smoke-fine"]\ncases = [1, 2]\n' + body)
+        res = runner.invoke(app, ["validate", str(p)])
+        assert res.exit_code == 2 and all(w in res.output for w in words), res.output
+
+
 def test_overrides_are_validated():
     with pytest.raises(ConfigError) as exc:
         load_case(2, overrides={"soil": {"modes": [{"mu": 2e-4, "sigma": 0.5}]}})

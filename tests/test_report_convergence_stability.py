@@ -106,6 +106,36 @@ def test_missing_rung_and_wall_time_override(ladder, tmp_path):
     assert np.isnan(rows["case02@huge"]["err_finest"]["u_star_s"])
 
 
+def test_each_case_is_compared_with_its_own_reference(tmp_path):
+    """A ladder run for two winds: case 6's coarse rung is held against case 6's fine run, not
+    case 2's; the case with more rungs heads the report."""
+    spec = {"case02@coarse": (2, 1.30, 10.0, 24), "case02@mid": (2, 1.05, 100.0, 48),
+            "case02@fine": (2, 1.00, 1000.0, 100), "case06@coarse": (6, 1.20, 12.0, 24),
+            "case06@fine": (6, 1.00, 1500.0, 100)}
+    runs = {l: write_analysis(tmp_path / f"{l}.nc", c, bias=b, wall_time_s=w, label=l, nx=nx)
+            for l, (c, b, w, nx) in spec.items()}
+    order = ["case02@coarse", "case06@coarse", "case02@mid", "case02@fine", "case06@fine"]
+    out = build_convergence_report(runs, tmp_path / "rep", order=order, reference="case02@fine")
+    assert list(out["results"]) == [2, 6]
+    r6 = out["results"][6]
+    assert r6.finest == "case06@fine" and r6.named_reference
+    rows6 = {r["label"]: r for r in r6.rungs}
+    assert rows6["case06@coarse"]["err_finest"]["lambda_y"] == pytest.approx(0.20)
+    assert rows6["case06@coarse"]["case"] == 6
+    js = json.loads((tmp_path / "rep" / "convergence.json").read_text())
+    assert js["primary_case"] == 2 and js["reference"] == "case02@fine"
+    assert js["cases"]["6"]["reference"] == "case06@fine"
+    by = {r["label"]: r for r in js["rungs"]}
+    assert set(by) == set(spec)
+    assert by["case06@coarse"]["reference"] == "case06@fine"
+    assert by["case02@fine"]["dx"] == pytest.approx(0.10)          # 10 m over 100 columns
+    assert by["case02@fine"]["dz_bottom"] == pytest.approx(0.0101, rel=5e-3)   # the fixture: 1 cm + stretching
+    for f in ("convergence.png", "convergence_case06.png", "convergence.md"):
+        assert (tmp_path / "rep" / f).is_file()
+    md = (tmp_path / "rep" / "convergence.md").read_text()
+    assert "## Case 6" in md and "Reference rung: case06@fine." in md
+
+
 def test_stability_table(tmp_path):
     ok = make_analysis_dataset(6, label="gale")
     ok["max_cfl"] = (("time",), np.linspace(0.2, 0.93, ok.sizes["time"]), {"units": "1"})

@@ -5,6 +5,7 @@ import json
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -152,3 +153,27 @@ def test_checkpoint_file_round_trip_and_corruption(tmp_path):
     path.write_bytes(path.read_bytes()[:200])
     assert load_checkpoint(path) is None
     assert load_checkpoint(tmp_path / "absent.npz") is None
+
+
+def test_source_key_follows_the_kernels_not_the_tools(tmp_path):
+    """An edit to a benchmark or a probe keeps every archive valid; an edit to a module a run
+    executes makes them stale."""
+    import shutil
+
+    import saltstudy
+    from saltstudy import TOOL_MODULES, _source_key
+    pkg = Path(saltstudy.__file__).resolve().parent
+    copy = tmp_path / "saltstudy"
+    for sub in ("physics", "solver"):
+        shutil.copytree(pkg / sub, copy / sub, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(pkg / "_jit.py", copy / "_jit.py")
+    base = _source_key(copy)
+    assert base == saltstudy.SOURCE_KEY
+    for name in sorted(TOOL_MODULES):
+        f = copy / "solver" / name
+        assert f.is_file(), name
+        f.write_text(f.read_text() + "\n# an edit\n")
+    assert _source_key(copy) == base
+    adv = copy / "solver" / "advection.py"
+    adv.write_text(adv.read_text() + "\n# an edit\n")
+    assert _source_key(copy) != base

@@ -19,6 +19,11 @@ listed beside it: rungs on the same grid share one spin-up, so a study pays it o
 
 ``N_air`` = mean parcel count over the sampling window x Q: the real grains in the air, the same
 physical quantity whatever the parcel weight, so Q-variants compare directly.
+
+A study may run its ladder for several cases (a wind's errors are not another's): each case is
+compared with its own run at the reference fidelity. ``convergence.png`` draws the case with the
+most rungs (the *primary* case, whose reference, cheapest rungs and figure head
+``convergence.json``); each other case gets ``convergence_caseNN.png`` and its own section.
 """
 from __future__ import annotations
 
@@ -36,7 +41,8 @@ from .data import RunData, case_number_of, load_runs
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
 from .tables import fmt
 
-__all__ = ["CONV_STATS", "ConvergenceResult", "convergence_analysis", "build_convergence_report"]
+__all__ = ["CONV_STATS", "ConvergenceResult", "convergence_analysis", "convergence_by_case",
+           "build_convergence_report"]
 
 #: statistic -> (label, paper Table 2 key or None)
 CONV_STATS: dict[str, tuple[str, str | None]] = {
@@ -113,6 +119,40 @@ def _value(r: RunData, stat: str) -> float:
     return r.scalar(stat)
 
 
+def _grid_of(r: RunData) -> dict[str, float]:
+    """The rung's cost knobs read from its archive: horizontal spacing, first-level thickness [m]
+    and real grains per parcel."""
+    dz1 = math.nan
+    ds = getattr(r, "ds", None)
+    if ds is not None and "z_w" in ds.coords and ds["z_w"].size > 1:
+        dz1 = float(ds["z_w"].values[1] - ds["z_w"].values[0])
+    elif ds is not None and "z" in ds.coords and ds["z"].size:
+        dz1 = 2.0 * float(ds["z"].values[0])       # the first level's centre is half its thickness
+    return {"dx": r.attr("dx"), "dy": r.attr("dy"), "dz_bottom": dz1, "Q": r.attr("Q")}
+
+
+def _case_of(r: RunData) -> int | None:
+    return r.case if r.case is not None else case_number_of(r.label)
+
+
+def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None,
+                        reference: str | None = None) -> dict[int | None, ConvergenceResult]:
+    """:func:`convergence_analysis` for each case's runs, primary case first (most rungs, then the
+    lowest case number). ``reference`` names one run; each case is compared with its run at the
+    same fidelity (the label's part after ``@``)."""
+    groups: dict[int | None, dict[str, RunData]] = {}
+    for label, r in runs.items():
+        groups.setdefault(_case_of(r), {})[label] = r
+    ref_rung = reference.split("@", 1)[1] if reference and "@" in reference else None
+    out: dict[int | None, ConvergenceResult] = {}
+    for case in sorted(groups, key=lambda c: (-len(groups[c]), c if c is not None else -1)):
+        grp = groups[case]
+        ref = reference if reference in grp else next(
+            (l for l in grp if ref_rung is not None and l.endswith("@" + ref_rung)), None)
+        out[case] = convergence_analysis(grp, [l for l in order or () if l in grp] or None, ref)
+    return out
+
+
 def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = None,
                          reference: str | None = None) -> ConvergenceResult:
     present = [r for r in runs.values() if r.ok]
@@ -130,12 +170,12 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         finest = max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
     rungs = []
     for r in ranked:
-        row: dict[str, Any] = {"label": r.label, "fidelity": r.fidelity, "status": r.status,
-                               "wall_time_s": r.wall_time_s,
+        row: dict[str, Any] = {"label": r.label, "case": _case_of(r), "fidelity": r.fidelity,
+                               "status": r.status, "wall_time_s": r.wall_time_s, **_grid_of(r),
                                "spinup_wall_time_s": r.attr("spinup_wall_time_s"),
                                "values": {}, "error_bar": {}, "err_finest": {}, "err_paper": {},
                                "within_noise": {}}
-        case = r.case if r.case is not None else case_number_of(r.label)
+        case = row["case"]
         for s in CONV_STATS:
             v = _value(r, s)
             f = _value(finest, s) if finest is not None else math.nan
@@ -177,10 +217,11 @@ _STAT_COLORS = dict(zip(CONV_STATS, ("#1f77b4", "#aec7e8", "#ff7f0e", "#2ca02c",
                                      "#bcbd22", "#dbdb8d", "#17becf"), strict=True))
 
 
-def _figure(res: ConvergenceResult) -> Figure:
+def _figure(res: ConvergenceResult, case: int | None) -> Figure:
     fig = Figure(figsize=(11, 4.8), layout="constrained")
     ax1, ax2 = fig.subplots(1, 2, sharex=True)
-    fig.suptitle("Error against wall-clock time (spin-up + saltation)")
+    fig.suptitle("Error against wall-clock time (spin-up + saltation)"
+                 + (f", case {case}" if case is not None else ""))
     t = res.data["wall_time_s"]
     labels = [row["label"] for row in res.rungs]
     not_finest = np.array([l != res.finest for l in labels])
@@ -212,7 +253,7 @@ def _figure(res: ConvergenceResult) -> Figure:
             ax.legend(fontsize=8)
     ax1.set_ylabel("|relative difference| [-]   (10 % dotted, 25 % dashed)")
     ax1.set_title(f"(a) against the reference rung ({res.finest})", loc="left", fontsize=9)
-    ax2.set_title(f"(b) against {PAPER_LABEL} (case 2; σG/G_tot: distance to 10–20 %)",
+    ax2.set_title(f"(b) against {PAPER_LABEL} (σG/G_tot: distance to 10–20 %)",
                   loc="left", fontsize=9, color="0.3")
     for row, tt in zip(res.rungs, t):
         if math.isfinite(tt):
@@ -226,13 +267,23 @@ def _figure(res: ConvergenceResult) -> Figure:
     return fig
 
 
+def _knobs(row: dict[str, Any]) -> str:
+    """Δx, first level, grains per parcel of a rung, as one short cell."""
+    dx, dz, q = row["dx"], row["dz_bottom"], row["Q"]
+    return (f"{fmt(dx)} m / {dz * 100:.3g} cm / {fmt(q)}" if math.isfinite(dz) else
+            f"{fmt(dx)} m / — / {fmt(q)}")
+
+
+_KNOBS_HEAD = "Δx / first level / grains per parcel"
+
+
 def _tables_md(res: ConvergenceResult) -> str:
-    lines = ["| rung | fidelity | status | wall time [s] | of which spin-up [s] | " +
+    lines = [f"| rung | fidelity | {_KNOBS_HEAD} | status | wall time [s] | of which spin-up [s] | " +
              " | ".join(f"{CONV_STATS[s][0]} (vs reference / paper)" for s in CONV_STATS) + " |",
-             "|" + "---|" * (5 + len(CONV_STATS))]
+             "|" + "---|" * (6 + len(CONV_STATS))]
     for row in res.rungs:
-        cells = [row["label"], str(row["fidelity"] or "—"), row["status"], fmt(row["wall_time_s"]),
-                 fmt(row["spinup_wall_time_s"])]
+        cells = [row["label"], str(row["fidelity"] or "—"), _knobs(row), row["status"],
+                 fmt(row["wall_time_s"]), fmt(row["spinup_wall_time_s"])]
         for s in CONV_STATS:
             ef, ep = row["err_finest"][s], row["err_paper"][s]
             cells.append(f"{_pm(row['values'][s], row['error_bar'][s])} ({_p(ef)}"
@@ -256,14 +307,14 @@ def _p(v: float) -> str:
 
 def _tables_html(res: ConvergenceResult) -> str:
     e = html.escape
-    out = ["<table><thead><tr><th>rung</th><th>fidelity</th><th>status</th>"
+    out = [f"<table><thead><tr><th>rung</th><th>fidelity</th><th>{e(_KNOBS_HEAD)}</th><th>status</th>"
            "<th>wall time [s]</th><th>of which spin-up [s]</th>"]
     out += [f"<th>{e(CONV_STATS[s][0])}<br><small>value (vs reference / paper)</small></th>"
             for s in CONV_STATS]
     out.append("</tr></thead><tbody>")
     for row in res.rungs:
         out.append(f"<tr><td>{e(row['label'])}</td><td>{e(str(row['fidelity'] or '—'))}</td>"
-                   f"<td>{e(row['status'])}</td><td>{fmt(row['wall_time_s'])}</td>"
+                   f"<td>{e(_knobs(row))}</td><td>{e(row['status'])}</td><td>{fmt(row['wall_time_s'])}</td>"
                    f"<td>{fmt(row['spinup_wall_time_s'])}</td>")
         for s in CONV_STATS:
             out.append(f"<td>{_pm(row['values'][s], row['error_bar'][s])} ({_p(row['err_finest'][s])}"
@@ -280,18 +331,35 @@ def _tables_html(res: ConvergenceResult) -> str:
     return "".join(out)
 
 
+def _payload_rows(res: ConvergenceResult) -> list[dict[str, Any]]:
+    per_stat = ("values", "error_bar", "err_finest", "err_paper")
+    rows = []
+    for row in res.rungs:
+        d = {k: v for k, v in row.items() if k not in per_stat + ("within_noise",)}
+        d.update({k: (row[k] if math.isfinite(row[k]) else None)
+                  for k in ("wall_time_s", "spinup_wall_time_s", "dx", "dy", "dz_bottom", "Q")})
+        d["reference"] = res.finest
+        d.update({k: {s: (x if math.isfinite(x) else None) for s, x in row[k].items()} for k in per_stat})
+        d["within_noise"] = row["within_noise"]
+        rows.append(d)
+    return rows
+
+
 def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunData], report_dir: Path,
                              fidelities: dict[str, str] | None = None,
                              wall_times: dict[str, float] | None = None,
                              order: list[str] | None = None,
                              reference: str | None = None) -> dict[str, Any]:
-    """Write ``convergence.png/.pdf``, ``convergence.md`` and ``convergence.json`` in ``report_dir``.
+    """Write ``convergence.png/.pdf``, ``convergence.md`` and ``convergence.json`` in ``report_dir``
+    (and ``convergence_caseNN.png/.pdf`` for each case after the primary one).
 
     ``runs``: label -> analysis path (or None), or already loaded :class:`RunData`. ``fidelities`` and
     ``wall_times`` per label override the archives' attributes; ``order`` (coarse -> fine) declares
     the ladder, else the rung with the largest wall time is the finest; ``reference`` (a label)
-    names the rung the others are compared with (default: the finest).
-    Returns {"result": ConvergenceResult, "html": str, "files": [...]}.
+    names the rung the others are compared with (default: the finest), and for every other case
+    its run at the same fidelity.
+    Returns {"result": the primary case's ConvergenceResult, "results": {case: result},
+    "html": str, "files": [...]}.
     """
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
@@ -299,29 +367,33 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
         loaded = dict(runs)  # type: ignore[arg-type]
     else:
         loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
-    res = convergence_analysis(loaded, order, reference)
-    fig = _figure(res)
+    results = convergence_by_case(loaded, order, reference)
+    primary = next(iter(results))
+    res = results[primary]
     files = []
-    for ext in ("png", "pdf"):
-        p = report_dir / f"convergence.{ext}"
-        fig.savefig(p, dpi=130)
-        files.append(p)
-    md = ("# Error against run time\n\n" + f"Reference rung: {res.finest}.\n\n" + NOISE_NOTE + "\n\n"
-          + _tables_md(res) + "\n")
-    (report_dir / "convergence.md").write_text(md, encoding="utf-8")
-    payload = {"finest": res.finest, "reference": res.finest, "cheapest": res.cheapest,
+    for case, r in results.items():
+        fig = _figure(r, case)
+        stem = "convergence" if case == primary else f"convergence_case{case:02d}"
+        for ext in ("png", "pdf"):
+            p = report_dir / f"{stem}.{ext}"
+            fig.savefig(p, dpi=130)
+            files.append(p)
+    md = ["# Error against run time", "", NOISE_NOTE, ""]
+    page = []
+    for case, r in results.items():
+        head = f"Case {case}" if case is not None else "Runs without a case number"
+        md += [f"## {head}", "", f"Reference rung: {r.finest}.", "", _tables_md(r), ""]
+        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "") + _tables_html(r))
+    (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
+    payload = {"primary_case": primary, "finest": res.finest, "reference": res.finest,
+               "cheapest": res.cheapest,
                "error_bar": "half the difference of the statistic over the two halves of the "
                             "sampling window; within_noise: |value - reference| <= the two error "
                             "bars added in quadrature",
-               "rungs": [{**{k: v for k, v in row.items()
-                             if k not in ("values", "error_bar", "err_finest", "err_paper", "within_noise")},
-                          **{k: (row[k] if math.isfinite(row[k]) else None)
-                             for k in ("wall_time_s", "spinup_wall_time_s")},
-                          **{f"{k}": {s: (x if math.isfinite(x) else None) for s, x in row[k].items()}
-                             for k in ("values", "error_bar", "err_finest", "err_paper")},
-                          "within_noise": row["within_noise"]}
-                         for row in res.rungs]}
+               "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest}
+                         for case, r in results.items()},
+               "rungs": [row for r in results.values() for row in _payload_rows(r)]}
     (report_dir / "convergence.json").write_text(json.dumps(payload, indent=2, allow_nan=False) + "\n",
                                                   encoding="utf-8")
     files += [report_dir / "convergence.md", report_dir / "convergence.json"]
-    return {"result": res, "html": _tables_html(res), "files": files}
+    return {"result": res, "results": results, "html": "".join(page), "files": files}
