@@ -203,7 +203,8 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
     for s in CONV_STATS:
         data[f"err_finest_{s}"] = np.array([row["err_finest"][s] for row in rungs], float)
         data[f"err_paper_{s}"] = np.array([row["err_paper"][s] for row in rungs], float)
-    named = finest is not None and finest.label == reference
+    # a reference that is the top of the declared ladder is its finest rung, not a base of variants
+    named = finest is not None and finest.label == reference and not (order and order[-1] == reference)
     return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data, named)
 
 
