@@ -124,15 +124,16 @@ def build_loglaw_report(directory: Path, n_last: int = 2) -> dict:
         s = summarise_probe(data, n_last=n_last)
         s["grid"] = data["grid"]
         s["L"] = data["L"]
+        s["drive"] = data.get("drive")
         s["closure"] = data.get("closure")
         s["wall_s"] = data["windows"][-1].get("wall_s")
         probes[_label(p, data)] = s
     summary = {"n_last_windows": n_last, "probes": probes}
     (directory / "summary.json").write_text(json.dumps(summary, indent=1))
 
-    lines = ["| probe | grid | dx [m] | " + " | ".join(next(iter(probes.values()))["checks"]) +
+    lines = ["| probe | grid | dx [m] | height [m] | drive | " + " | ".join(next(iter(probes.values()))["checks"]) +
              " | spanwise peak of u at 0.1 m [m] (/dy) | wall [s] |",
-             "|" + "---|" * (5 + len(next(iter(probes.values()))["checks"]))]
+             "|" + "---|" * (7 + len(next(iter(probes.values()))["checks"]))]
     for name, s in probes.items():
         cells = []
         for c in s["checks"].values():
@@ -141,6 +142,7 @@ def build_loglaw_report(directory: Path, n_last: int = 2) -> dict:
             cells.append(f"{txt} {'pass' if c['pass'] else 'FAIL'}")
         sp = s["u_spanwise"]
         lines.append(f"| {name} | {'x'.join(map(str, s['grid']))} | {s['L'][0] / s['grid'][0]:.3f} | "
+                     f"{s['L'][2]:g} | {s['drive'] or '—'} | "
                      + " | ".join(cells) + f" | {sp['peak_wavelength']:.2f} ({sp['peak_over_dy']:.1f}) | "
                      f"{s['wall_s']:.0f} |")
     lines.append("")
