@@ -134,6 +134,16 @@ def test_each_case_is_compared_with_its_own_reference(tmp_path):
         assert (tmp_path / "rep" / f).is_file()
     md = (tmp_path / "rep" / "convergence.md").read_text()
     assert "## Case 6" in md and "Reference rung: case06@fine." in md
+    assert "convergence_case06.png" in out["html"]
+
+
+def test_a_run_without_a_case_gets_its_own_section(ladder, tmp_path):
+    runs, _ = ladder
+    out = build_convergence_report({**runs, "orphan": None}, tmp_path / "rep")
+    assert list(out["results"]) == [2, None]
+    assert out["results"][None].rungs[0]["status"] == "no archive"
+    assert (tmp_path / "rep" / "convergence_nocase.png").is_file()
+    assert "Runs without a case number" in (tmp_path / "rep" / "convergence.md").read_text()
 
 
 def test_stability_table(tmp_path):

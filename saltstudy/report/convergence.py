@@ -246,6 +246,9 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
     for ax in (ax1, ax2):
         ax.set_xscale("log")
         ax.set_yscale("log")
+        if not ax.lines:           # nothing finite to draw (e.g. only a missing run): fixed limits
+            ax.set_xlim(1.0, 1e4)
+            ax.set_ylim(1e-4, 2.0)
         ax.set_xlabel("wall-clock time of the run [s]")
         ax.axhline(0.10, color="0.5", ls=":", lw=1)
         ax.axhline(0.25, color="0.5", ls="--", lw=1)
@@ -346,6 +349,13 @@ def _payload_rows(res: ConvergenceResult) -> list[dict[str, Any]]:
     return rows
 
 
+def _stem(case: int | None, primary: int | None) -> str:
+    """File stem of a case's figure: ``convergence`` for the primary case."""
+    if case == primary:
+        return "convergence"
+    return f"convergence_case{case:02d}" if case is not None else "convergence_nocase"
+
+
 def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunData], report_dir: Path,
                              fidelities: dict[str, str] | None = None,
                              wall_times: dict[str, float] | None = None,
@@ -374,7 +384,7 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     files = []
     for case, r in results.items():
         fig = _figure(r, case)
-        stem = "convergence" if case == primary else f"convergence_case{case:02d}"
+        stem = _stem(case, primary)
         for ext in ("png", "pdf"):
             p = report_dir / f"{stem}.{ext}"
             fig.savefig(p, dpi=130)
@@ -384,7 +394,11 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     for case, r in results.items():
         head = f"Case {case}" if case is not None else "Runs without a case number"
         md += [f"## {head}", "", f"Reference rung: {r.finest}.", "", _tables_md(r), ""]
-        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "") + _tables_html(r))
+        stem = _stem(case, primary)
+        fig_html = ("" if case == primary else
+                    f"<figure><a href='{stem}.pdf'><img src='{stem}.png' "
+                    f"alt='error against run time, {html.escape(head)}'></a></figure>")
+        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "") + fig_html + _tables_html(r))
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
     payload = {"primary_case": primary, "finest": res.finest, "reference": res.finest,
                "cheapest": res.cheapest,
