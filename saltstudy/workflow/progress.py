@@ -20,6 +20,10 @@ from .paths import write_json_atomic
 __all__ = ["ProgressFile", "read_progress", "ProgressDisplay", "TaskRef", "format_duration", "emit"]
 
 PROGRESS_NAME = "progress.json"
+#: [s] a "running" file not updated for this long belongs to a process that died (a killed
+#: run-all leaves its files "running"); the slowest step measured, the paper's grid with 2.5 M
+#: parcels on one thread, takes 1.2 s (docs/BENCHMARKS.md), and a callback writes every second.
+STALE_AFTER = 300.0
 
 _ACTIVE: "ProgressDisplay | None" = None
 _EMIT_LOCK = threading.Lock()
@@ -48,6 +52,7 @@ class ProgressFile:
         self.min_interval = min_interval
         self._last = 0.0
         self._t0 = time.time()
+        self._t_start: float | None = None  # simulated time when this process took the task up
         self.target = None
 
     def __call__(self, t: Any = None, target: Any = None, *args: Any, **kw: Any) -> None:
@@ -64,11 +69,13 @@ class ProgressFile:
         self.write(float(t), "running")
 
     def write(self, t: float, state: str, message: str = "") -> None:
+        if self._t_start is None:
+            self._t_start = t
         try:
             write_json_atomic(self.path, {
                 "task": self.task, "label": self.label, "phase": self.phase, "state": state,
-                "t": t, "target": self.target, "started": self._t0, "updated": time.time(),
-                "message": message})
+                "t": t, "t_start": self._t_start, "target": self.target, "started": self._t0,
+                "updated": time.time(), "message": message})
         except OSError:  # progress is best-effort; never fail a task because of it
             pass
 
@@ -140,15 +147,18 @@ class ProgressDisplay:
 
     def rows(self) -> list[str]:
         out = []
+        now = time.time()
         for ref in self.tasks:
             p = read_progress(ref.directory)
-            if p is None or p.get("state") != "running":
+            if p is None or p.get("state") != "running" or now - p.get("updated", 0.0) > STALE_AFTER:
                 continue
             t, target = p.get("t") or 0.0, p.get("target")
-            elapsed = time.time() - p.get("started", time.time())
+            elapsed = now - p.get("started", now)
             if target:
                 frac = min(max(t / target, 0.0), 1.0)
-                eta = elapsed * (1 - frac) / frac if frac > 0 else None
+                # the rate since this process took the task up: a resumed run starts part-way
+                done = t - (p.get("t_start") or 0.0)
+                eta = elapsed * (target - t) / done if done > 0 else None
                 out.append(f"{ref.name:<28} {p.get('phase', ''):<10} t = {t:8.2f} / {target:.2f} s "
                            f"({100 * frac:5.1f} %)  elapsed {format_duration(elapsed)}  "
                            f"ETA {format_duration(eta)}")

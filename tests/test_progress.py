@@ -1,0 +1,32 @@
+"""The live progress display: ETA of a resumed run and files left behind by a killed process."""
+import json
+import time
+
+from saltstudy.workflow.progress import STALE_AFTER, ProgressDisplay, ProgressFile, TaskRef
+
+
+def _display(tmp_path):
+    return ProgressDisplay([TaskRef("saltation case02", tmp_path)], quiet=True)
+
+
+def test_resumed_run_eta_uses_the_rate_since_resume(tmp_path, monkeypatch):
+    clock = [1000.0]
+    monkeypatch.setattr(time, "time", lambda: clock[0])
+    prog = ProgressFile(tmp_path, "saltation", "case02", "saltation", min_interval=0.0)
+    prog(60.0, 100.0)            # resumed from a checkpoint at 60 s of 100 s
+    clock[0] += 100.0
+    prog(70.0, 100.0)            # 10 simulated s in 100 wall s: 30 s left take 300 s
+    row = _display(tmp_path).rows()[0]
+    assert "( 70.0 %)" in row
+    assert "ETA 5m00s" in row, row
+
+
+def test_file_of_a_killed_process_is_not_shown_running(tmp_path):
+    prog = ProgressFile(tmp_path, "saltation", "case02", "saltation", min_interval=0.0)
+    prog(10.0, 100.0)
+    assert len(_display(tmp_path).rows()) == 1
+    p = tmp_path / "progress.json"
+    d = json.loads(p.read_text())
+    d["updated"] = time.time() - STALE_AFTER - 1.0   # the writer stopped long ago
+    p.write_text(json.dumps(d))
+    assert _display(tmp_path).rows() == []
