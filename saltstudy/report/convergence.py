@@ -57,7 +57,10 @@ CONV_STATS: dict[str, tuple[str, str | None]] = {
 THRESHOLDS = (0.10, 0.25)
 NOISE_NOTE = ("Each value ± half the difference between its two half-window values (the noise of "
               "one sampling window); * marks a difference from the reference inside the two runs' "
-              "combined noise.")
+              "combined noise. One realization's half windows understate its scatter: two windows "
+              "of the same run of case 2 differed by 10 % in u*s read at 2 m against bars of 2-5 % "
+              "(reports/knobs/FINDINGS.md); where a study repeats a rung with another seed, the "
+              "seeds' difference is the better noise.")
 
 
 @dataclass
