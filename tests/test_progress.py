@@ -30,3 +30,23 @@ def test_file_of_a_killed_process_is_not_shown_running(tmp_path):
     d["updated"] = time.time() - STALE_AFTER - 1.0   # the writer stopped long ago
     p.write_text(json.dumps(d))
     assert _display(tmp_path).rows() == []
+
+
+def test_status_tells_a_live_task_from_one_whose_process_died(tmp_path):
+    from saltstudy.workflow.status import _state
+    from saltstudy.workflow.paths import task_dir
+    from saltstudy.workflow.tasks import write_task_json
+
+    d = task_dir(tmp_path, "spinup", "k" * 20)
+    d.mkdir(parents=True)
+    write_task_json(d, task="spinup", state="running", started=time.time())
+    prog = ProgressFile(d, "spinup", "case01", "spin-up", min_interval=0.0)
+    prog(12.0, 90.0)
+    state, detail = _state(tmp_path, "spinup", "k" * 20, None)
+    assert state == "running" and "t = 12 s" in detail
+    p = d / "progress.json"
+    data = json.loads(p.read_text())
+    data["updated"] = time.time() - STALE_AFTER - 60.0
+    p.write_text(json.dumps(data))
+    state, detail = _state(tmp_path, "spinup", "k" * 20, None)
+    assert state == "stopped" and "died" in detail

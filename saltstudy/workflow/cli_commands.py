@@ -115,7 +115,7 @@ def register(app: typer.Typer) -> None:
         study: str = typer.Option(DEFAULT_STUDY, "--study", help="study name or file"),
         out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
     ) -> None:
-        """Per run and task: done / stale / failed / partial / running / missing."""
+        """Per run and task: done / stale / failed / partial / running / stopped / missing."""
         from ..config import load_study
         from .status import format_status, study_status
 

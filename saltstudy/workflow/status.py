@@ -3,11 +3,14 @@
 States: ``done`` (complete archive at the current key), ``stale`` (no output for the current
 configuration/code, but runs.json records an older complete one), ``failed`` (task.json at the
 current key says so, with the reason), ``partial`` (a saltation checkpoint to resume from),
-``running`` (task.json says running: in progress, or killed), ``missing``.
+``running`` (task.json says running and its progress file moved in the last few minutes),
+``stopped`` (task.json says running but nothing has moved for longer: the process died),
+``missing``.
 """
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,6 +20,7 @@ from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
 from .paths import output_path, read_runs_file, task_dir
+from .progress import STALE_AFTER, format_duration, read_progress
 from .tasks import read_task_json
 
 __all__ = ["StatusRow", "study_status", "format_status"]
@@ -42,6 +46,22 @@ def _checkpoint_time(d: Path) -> float | None:
         return None
 
 
+def _running(d: Path, tj: dict) -> tuple[str, str]:
+    """A task whose task.json says running: alive if its progress file moved recently; a killed
+    process leaves both files saying running."""
+    started = tj.get("started")
+    since = (time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(started))
+             if isinstance(started, (int, float)) else "?")
+    where = f"since {since} on {tj.get('host', '?')}"
+    p = read_progress(d)
+    if p is None or "updated" not in p:
+        return "running", f"{where} (or killed)"
+    quiet_for = time.time() - float(p["updated"])
+    if quiet_for > STALE_AFTER:
+        return "stopped", f"{where}; no progress for {format_duration(quiet_for)}: its process died"
+    return "running", f"{where}; t = {p.get('t', 0.0):.3g} s"
+
+
 def _state(out_dir: Path, task: str, key: str, old_key: str | None) -> tuple[str, str]:
     if is_complete(output_path(out_dir, task, key)):
         return "done", ""
@@ -56,7 +76,7 @@ def _state(out_dir: Path, task: str, key: str, old_key: str | None) -> tuple[str
     if tj.get("state") == "failed":
         return "failed", str(tj.get("error", ""))
     if tj.get("state") == "running":
-        return "running", f"since {tj.get('started', '?')} on {tj.get('host', '?')} (or killed)"
+        return _running(d, tj)
     if old_key and old_key != key and is_complete(output_path(out_dir, task, old_key)):
         return "stale", f"config or code changed; last done: {old_key}"
     return "missing", ""
