@@ -150,6 +150,28 @@ def test_interrupt_and_resume_equals_uninterrupted(tmp_path):
     assert_same_data(resumed, full)
 
 
+def test_spinup_interrupted_and_resumed_equals_uninterrupted(tmp_path):
+    """A spin-up killed twice (before and after t_min, where the steadiness test starts) resumes
+    from its checkpoint and writes the archive of an uninterrupted one, bit for bit."""
+    scene = resolve_scene(load_case(1), load_fidelity("smoke"))
+    a, b = tmp_path / "a", tmp_path / "b"
+    full = open_dataset(spinup_task(scene, a))
+    key = keys.spinup_key(scene)
+    d = task_dir(b, "spinup", key)
+    for n in (30, 25):                    # records of 0.02 s: stops at 0.6 s, then at 1.1 s
+        with pytest.raises(Interrupted):
+            spinup_task(scene, b, checkpoint_interval=1e9, interrupt_after_records=n)
+        assert (d / "checkpoint.npz").is_file()
+        assert not output_path(b, "spinup", key).exists()
+    status = {(r.label, r.task): r.state for r in
+              study_status(load_study("smoke"), b) if r.label == "case01"}
+    assert status[("case01", "spinup")] == "partial"
+    resumed = open_dataset(spinup_task(scene, b))
+    assert not (d / "checkpoint.npz").exists()
+    assert resumed.attrs["t_end"] == full.attrs["t_end"]
+    assert_same_data(resumed, full)
+
+
 def test_blowup_mid_run_keeps_the_last_checkpoint(tmp_path, monkeypatch):
     """A field that turns non-finite mid-run (a NaN put into u before the 25th saltation step)
     stops the run with the diagnostic and leaves the checkpoint of the last good state."""

@@ -217,9 +217,10 @@ class Model:
             out[kd[0]:] = self.state.u[:, :, kd[0]:].mean(axis=(0, 1))
         return out
 
-    def spinup(self, progress=None) -> SpinupResult:
-        """Flow-only spin-up until steady or t_max (spinup.py); progress(t, t_max) per record."""
-        return run_spinup(self, progress=progress)
+    def spinup(self, progress=None, history: dict | None = None) -> SpinupResult:
+        """Flow-only spin-up until steady or t_max (spinup.py); progress(t, t_max) per record;
+        ``history`` holds its resumable state (``run_spinup``)."""
+        return run_spinup(self, progress=progress, history=history)
 
     # ---- saltation ---------------------------------------------------------------------------
     def activate_saltation(self) -> None:

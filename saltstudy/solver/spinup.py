@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["SpinupResult", "initial_flow", "smooth_noise", "window_steadiness", "run_spinup"]
+__all__ = ["SpinupResult", "initial_flow", "smooth_noise", "window_steadiness", "run_spinup",
+           "HISTORY_KEYS"]
 
 
 @dataclass
@@ -97,26 +98,55 @@ def window_steadiness(t: np.ndarray, series: dict[str, np.ndarray], t_now: float
     return out
 
 
-def run_spinup(model, progress=None, record_every: float | None = None) -> SpinupResult:
-    """Step ``model`` (flow only) until steady or t_max (see module docstring)."""
+#: the spin-up's record series (``SpinupResult.history``)
+HISTORY_KEYS = ("t", "u_star", "tke", "u_drive")
+
+
+def run_spinup(model, progress=None, record_every: float | None = None,
+               history: dict | None = None) -> SpinupResult:
+    """Step ``model`` (flow only) until steady or t_max (see module docstring).
+
+    ``history``: a dict the spin-up keeps its state in: ``t0`` (the model time it started at) and
+    the lists of HISTORY_KEYS, appended in place at every record, so that a caller may checkpoint
+    it with the model from ``progress`` (called right after each record). Passed back non-empty
+    with the model restored from that checkpoint, the spin-up resumes where it stopped and ends
+    as the uninterrupted one would (the model's restart is bit for bit)."""
     from .diagnostics_flow import resolved_tke_volume_mean, u_star_at
 
     sp = model.scene.fidelity.spinup
-    t0 = model.state.t
     every = record_every if record_every is not None else min(sp.window / 50.0, 1.0)
     z_ref = model.z_ref
-    ts, us, ks, ud = [], [], [], []
+    h = history if history is not None else {}
+    resumed = bool(h.get("t"))
+    if not resumed:
+        h["t0"] = float(model.state.t)
+        h.update({k: [] for k in HISTORY_KEYS})
+    t0 = h["t0"]
 
     def record() -> None:
-        ts.append(model.state.t - t0)
-        us.append(u_star_at(model, z_ref))
-        ks.append(resolved_tke_volume_mean(model))
-        ud.append(model.state.u_drive)
+        h["t"].append(model.state.t - t0)
+        h["u_star"].append(u_star_at(model, z_ref))
+        h["tke"].append(resolved_tke_volume_mean(model))
+        h["u_drive"].append(model.state.u_drive)
 
-    record()
-    next_rec = every
-    converged, reason = False, f"t_max = {sp.t_max:g} s reached"
-    while True:
+    def steady(t_rel: float) -> str | None:
+        if t_rel < sp.t_min - 1e-9:
+            return None
+        ch = window_steadiness(np.asarray(h["t"]), {"u_star": np.asarray(h["u_star"]),
+                                                    "tke": np.asarray(h["tke"])}, t_rel, sp.window)
+        if ch is None or max(ch.values()) >= sp.tolerance:
+            return None
+        return (f"steady at t = {t_rel:.1f} s: window-mean change of u* {100 * ch['u_star']:.2f} %, "
+                f"resolved TKE {100 * ch['tke']:.2f} % (< {100 * sp.tolerance:g} %)")
+
+    if resumed:
+        # the checkpoint was taken after its last record, before that record's steadiness test
+        next_rec = h["t"][-1] + every
+        why = steady(h["t"][-1])
+    else:
+        record()
+        next_rec, why = every, None
+    while why is None:
         t_rel = model.state.t - t0
         if t_rel >= sp.t_max - 1e-9:
             break
@@ -128,15 +158,7 @@ def run_spinup(model, progress=None, record_every: float | None = None) -> Spinu
             next_rec = t_rel + every
             if progress is not None:
                 progress(t_rel, sp.t_max)
-            if t_rel >= sp.t_min - 1e-9:
-                ch = window_steadiness(np.asarray(ts), {"u_star": np.asarray(us), "tke": np.asarray(ks)},
-                                       t_rel, sp.window)
-                if ch is not None and max(ch.values()) < sp.tolerance:
-                    converged = True
-                    reason = (f"steady at t = {t_rel:.1f} s: window-mean change of u* "
-                              f"{100 * ch['u_star']:.2f} %, resolved TKE {100 * ch['tke']:.2f} % "
-                              f"(< {100 * sp.tolerance:g} %)")
-                    break
-    hist = {"t": np.asarray(ts), "u_star": np.asarray(us), "tke": np.asarray(ks),
-            "u_drive": np.asarray(ud)}
-    return SpinupResult(converged=converged, t=float(model.state.t - t0), reason=reason, history=hist)
+            why = steady(t_rel)
+    hist = {k: np.asarray(h[k]) for k in HISTORY_KEYS}
+    return SpinupResult(converged=why is not None, t=float(model.state.t - t0),
+                        reason=why or f"t_max = {sp.t_max:g} s reached", history=hist)

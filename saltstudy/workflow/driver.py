@@ -44,9 +44,9 @@ class Interrupted(RuntimeError):
 class Recorder:
     """In-memory records, by group; each group is a list of times and a list per variable."""
 
-    def __init__(self) -> None:
-        self.times: dict[str, list[float]] = {g: [] for g in GROUPS}
-        self.values: dict[str, dict[str, list[np.ndarray]]] = {g: {} for g in GROUPS}
+    def __init__(self, groups: tuple[str, ...] = GROUPS) -> None:
+        self.times: dict[str, list[float]] = {g: [] for g in groups}
+        self.values: dict[str, dict[str, list[np.ndarray]]] = {g: {} for g in groups}
 
     def add(self, group: str, t: float, values: dict[str, Any]) -> None:
         n = len(self.times[group])
@@ -66,7 +66,7 @@ class Recorder:
 
     def checkpoint(self) -> dict[str, np.ndarray]:
         out: dict[str, np.ndarray] = {}
-        for g in GROUPS:
+        for g in self.times:
             t, vals = self.stacked(g)
             out[f"rec:{g}:__times__"] = t
             for k, v in vals.items():
@@ -74,9 +74,9 @@ class Recorder:
         return out
 
     @classmethod
-    def restore(cls, flat: dict[str, np.ndarray]) -> "Recorder":
-        r = cls()
-        for g in GROUPS:
+    def restore(cls, flat: dict[str, np.ndarray], groups: tuple[str, ...] = GROUPS) -> "Recorder":
+        r = cls(groups)
+        for g in groups:
             r.times[g] = [float(x) for x in flat.get(f"rec:{g}:__times__", [])]
             prefix = f"rec:{g}:"
             for k, v in flat.items():
@@ -143,9 +143,11 @@ def save_checkpoint(path: Path, model_ckpt: dict[str, Any], recorder: Recorder,
     os.replace(tmp, path)
 
 
-def load_checkpoint(path: Path) -> tuple[dict[str, Any], Recorder, dict[str, Any]] | None:
-    """(model checkpoint, recorder, meta), or None if the file is absent, unreadable or was
-    written by other numerical code (then it cannot resume bit-for-bit and is ignored)."""
+def load_checkpoint(path: Path, groups: tuple[str, ...] = GROUPS
+                    ) -> tuple[dict[str, Any], Recorder, dict[str, Any]] | None:
+    """(model checkpoint, recorder of ``groups``, meta), or None if the file is absent,
+    unreadable or was written by other numerical code (then it cannot resume bit-for-bit and is
+    ignored)."""
     if not path.is_file():
         return None
     try:
@@ -160,7 +162,7 @@ def load_checkpoint(path: Path) -> tuple[dict[str, Any], Recorder, dict[str, Any
             "str": lambda a: str(a), "none": lambda a: None, "array": lambda a: np.ascontiguousarray(a)}
     model_ckpt = {k[len("model:"):]: conv[meta["model_kinds"][k[len("model:"):]]](v)
                   for k, v in flat.items() if k.startswith("model:")}
-    rec = Recorder.restore({k: v for k, v in flat.items() if k.startswith("rec:")})
+    rec = Recorder.restore({k: v for k, v in flat.items() if k.startswith("rec:")}, groups)
     return model_ckpt, rec, meta
 
 

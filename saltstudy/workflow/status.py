@@ -2,7 +2,7 @@
 
 States: ``done`` (complete archive at the current key), ``stale`` (no output for the current
 configuration/code, but runs.json records an older complete one), ``failed`` (task.json at the
-current key says so, with the reason), ``partial`` (a saltation checkpoint to resume from),
+current key says so, with the reason), ``partial`` (a spin-up or saltation checkpoint to resume from),
 ``running`` (task.json says running and its progress file moved in the last few minutes),
 ``stopped`` (task.json says running but nothing has moved for longer: the process died),
 ``missing``.
@@ -41,7 +41,10 @@ def _checkpoint_time(d: Path) -> float | None:
     try:
         with np.load(d / "checkpoint.npz", allow_pickle=False) as z:
             meta = json.loads(str(z["meta"]))
-        return None if meta is None else float(meta.get("t_since_activation", np.nan))
+        if meta is None:
+            return None
+        # saltation: time since activation; spin-up: time since its start
+        return float(meta.get("t_since_activation", meta.get("t_spinup", np.nan)))
     except Exception:
         return None
 
@@ -67,7 +70,7 @@ def _state(out_dir: Path, task: str, key: str, old_key: str | None) -> tuple[str
         return "done", ""
     d = task_dir(out_dir, task, key)
     tj = read_task_json(d) or {}
-    if task == "saltation" and (d / "checkpoint.npz").is_file():
+    if task in ("spinup", "saltation") and (d / "checkpoint.npz").is_file():
         # interrupted or failed, but a rerun resumes from the checkpoint
         t = _checkpoint_time(d)
         where = f" at t = {t:.3g} s" if t is not None and t == t else ""

@@ -26,7 +26,10 @@ from ..config import Scene, Study
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
 from ..solver.similarity import rescale_restart
-from .driver import run_saltation
+from .driver import Interrupted, Recorder, load_checkpoint, run_saltation, save_checkpoint
+
+#: the spin-up checkpoint's record groups: the steadiness series and the profile samples
+SPINUP_GROUPS = ("history", "profile")
 from .paths import output_path, task_dir, write_json_atomic
 from .progress import ProgressFile
 
@@ -101,8 +104,17 @@ def _close(model) -> None:
 
 
 # ------------------------------------------------------------------------------------------
-def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None) -> Path:
-    """Flow-only spin-up of ``scene`` -> ``<out>/spinup/<key>/spinup.nc``."""
+def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
+                checkpoint_interval: float | None = None,
+                interrupt_after_records: int | None = None) -> Path:
+    """Flow-only spin-up of ``scene`` -> ``<out>/spinup/<key>/spinup.nc``.
+
+    Every ``fidelity.checkpoint_interval_wall`` seconds of wall time (at a record of the
+    steadiness series) it writes ``checkpoint.npz``: the model, the series and the profile samples
+    of the last window. A rerun resumes from it and ends as the uninterrupted spin-up would; the
+    paper's grid needs 6-55 h of it (docs/BENCHMARKS.md), longer than many batch queues allow.
+    ``interrupt_after_records`` is a test hook: checkpoint and raise Interrupted at that record.
+    """
     key = keys.spinup_key(scene)
     path = output_path(out_dir, "spinup", key)
     if is_complete(path):
@@ -110,32 +122,69 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None) -> P
     check_source_key(source_key)
     from ..solver import diagnostics_flow as dflow
     from ..solver.model import Model
+    from ..solver.spinup import HISTORY_KEYS
 
     scene = scene.spinup_scene()   # at fidelity.spinup.u_star_ref when set (solver.similarity)
+    interval = (scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None
+                else checkpoint_interval)
 
     d = task_dir(out_dir, "spinup", key)
+    ckpt_path = d / "checkpoint.npz"
     with _Running(d, "spinup", key=key, label=scene.label, config=scene.spinup_slice()):
         t0 = time.perf_counter()
         sp = scene.fidelity.spinup
-        model = Model.from_scene(scene, saltation=False)
-        t_start = float(getattr(model, "t", model.state.t))
-        prog = ProgressFile(d, "spinup", scene.label, "spin-up")
-        prog.target = sp.t_max  # the solver reports (t since start of spin-up, t_max)
         # Profiles averaged over the last spin-up window: keep samples of the last `window`
         # seconds (every window/20), since when the steadiness test stops is not known ahead.
         window, every = sp.window, sp.window / 20.0
         samples: deque[tuple[float, dict[str, np.ndarray]]] = deque()
+        history: dict[str, Any] = {}
+        wall_before = 0.0
+        loaded = load_checkpoint(ckpt_path, SPINUP_GROUPS)
+        if loaded is not None:
+            model_ckpt, rec, meta = loaded
+            model = Model.from_scene(scene, saltation=False, restart=model_ckpt)
+            t_h, series = rec.stacked("history")
+            history = {"t0": float(meta["t0"]), "t": t_h.tolist(),
+                       **{k: series[k].tolist() for k in HISTORY_KEYS if k != "t"}}
+            t_p, prof = rec.stacked("profile")
+            samples.extend((float(t), {k: v[i] for k, v in prof.items()}) for i, t in enumerate(t_p))
+            wall_before = float(meta["wall_time_s"])
+        else:
+            model = Model.from_scene(scene, saltation=False)
+        t_start = float(history.get("t0", getattr(model, "t", model.state.t)))
+        prog = ProgressFile(d, "spinup", scene.label, "spin-up")
+        prog.target = sp.t_max  # the solver reports (t since start of spin-up, t_max)
+        last_ckpt = time.perf_counter()
+        n_records = 0
+
+        def write_ckpt() -> None:
+            rec = Recorder(SPINUP_GROUPS)
+            for i, t in enumerate(history["t"]):
+                rec.add("history", t, {k: history[k][i] for k in HISTORY_KEYS if k != "t"})
+            for t, prof in samples:
+                rec.add("profile", t, prof)
+            save_checkpoint(ckpt_path, model.checkpoint(), rec, {
+                "t0": history["t0"], "t_spinup": history["t"][-1],
+                "wall_time_s": wall_before + time.perf_counter() - t0})
 
         def on_progress(*args: Any, **kw: Any) -> None:
+            nonlocal last_ckpt, n_records
             prog(*args, **kw)
             t = float(getattr(model, "t", model.state.t))
             if not samples or t - samples[-1][0] >= every - 1e-12:
                 samples.append((t, {k: np.array(v) for k, v in dflow.flow_profiles(model).items()}))
                 while samples and samples[0][0] < t - window - 1e-9:
                     samples.popleft()
+            n_records += 1
+            hook = interrupt_after_records is not None and n_records >= interrupt_after_records
+            if time.perf_counter() - last_ckpt >= interval or hook:
+                write_ckpt()
+                last_ckpt = time.perf_counter()
+            if hook:
+                raise Interrupted(f"test hook: stopped after {n_records} records")
 
         try:
-            res = model.spinup(progress=on_progress)
+            res = model.spinup(progress=on_progress, history=history)
             t_end = float(getattr(model, "t", model.state.t))
             last = {k: np.array(v) for k, v in dflow.flow_profiles(model).items()}
             ckpt = model.checkpoint()
@@ -148,10 +197,12 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None) -> P
         ds = archives.spinup_dataset(
             scene, model.state.grid, ckpt, profiles, dict(res.history),
             converged=bool(res.converged), reason=str(res.reason), u_drive=float(model.state.u_drive),
-            t_end=t_end, wall_time_s=time.perf_counter() - t0, key=key,
+            t_end=t_end, wall_time_s=wall_before + time.perf_counter() - t0, key=key,
             profile_window=(min(t for t, _ in samples if t >= t_end - window - 1e-9), t_end, len(use)))
         write_dataset(ds, path)
         prog.write(t_end - t_start, "done")
+    # only now is the checkpoint redundant (spinup.nc is complete and renamed into place)
+    ckpt_path.unlink(missing_ok=True)
     return path
 
 
