@@ -27,11 +27,11 @@ from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
 from ..solver.similarity import rescale_restart
 from .driver import Interrupted, Recorder, load_checkpoint, run_saltation, save_checkpoint
+from .paths import output_path, task_dir, write_json_atomic
+from .progress import ProgressFile
 
 #: the spin-up checkpoint's record groups: the steadiness series and the profile samples
 SPINUP_GROUPS = ("history", "profile")
-from .paths import output_path, task_dir, write_json_atomic
-from .progress import ProgressFile
 
 __all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "read_attrs",
            "write_task_json", "read_task_json", "report_done", "check_source_key", "SourceMismatch"]
