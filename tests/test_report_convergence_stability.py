@@ -79,6 +79,17 @@ def test_declared_order_wins_over_wall_time(ladder, tmp_path):
     assert rows["case02@mid"]["err_finest"]["u_star_s"] == 0.0
 
 
+def test_cheapest_rung_comes_from_the_ladder_not_from_extra_scenes(ladder, tmp_path):
+    runs, _ = ladder
+    # a second seed of the coarse rung that happens to land on the reference, and cheap
+    seed2 = write_analysis(tmp_path / "c2_seed2.nc", 2, bias=1.0, wall_time_s=5.0, label="c2_seed2")
+    out = build_convergence_report({**runs, "c2_seed2": seed2}, tmp_path / "rep",
+                                   order=["case02@coarse", "case02@mid", "case02@fine"])
+    res = out["result"]
+    assert res.cheapest["u_star_s"] == {"10%": "case02@mid", "25%": "case02@mid"}
+    assert "c2_seed2" in {r["label"] for r in res.rungs}    # still listed and compared
+
+
 def test_named_reference_rung_wins(ladder, tmp_path):
     # a sensitivity study compares one-knob variants with their base, not with the dearest variant
     runs, _ = ladder

@@ -194,12 +194,15 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
             row["within_noise"][s] = (bool(abs(v - f) <= noise) if math.isfinite(noise)
                                       and math.isfinite(v) and math.isfinite(f) else None)
         rungs.append(row)
+    # the cheapest rung is read off the declared ladder: a study's extra scenes (a knob's
+    # variant, a second seed) are rows to compare, not cheaper ways to the reference
+    on_ladder = set(order) if order else {row["label"] for row in rungs}
     cheapest: dict[str, dict[str, str | None]] = {}
     for s in CONV_STATS:
         cheapest[s] = {}
         for th in THRESHOLDS:
-            ok = [row for row in rungs if row["status"] == "ok" and math.isfinite(row["err_finest"][s])
-                  and row["err_finest"][s] <= th]
+            ok = [row for row in rungs if row["label"] in on_ladder and row["status"] == "ok"
+                  and math.isfinite(row["err_finest"][s]) and row["err_finest"][s] <= th]
             ok.sort(key=lambda row: row["wall_time_s"] if math.isfinite(row["wall_time_s"]) else math.inf)
             cheapest[s][f"{th:.0%}"] = ok[0]["label"] if ok else None
     data = {"wall_time_s": np.array([row["wall_time_s"] for row in rungs], float)}
