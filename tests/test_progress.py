@@ -50,3 +50,23 @@ def test_status_tells_a_live_task_from_one_whose_process_died(tmp_path):
     p.write_text(json.dumps(data))
     state, detail = _state(tmp_path, "spinup", "k" * 20, None)
     assert state == "stopped" and "died" in detail
+
+
+def test_status_of_a_checkpointed_task_running_or_killed(tmp_path):
+    from saltstudy.workflow.status import _state
+    from saltstudy.workflow.paths import task_dir
+    from saltstudy.workflow.tasks import write_task_json
+
+    d = task_dir(tmp_path, "saltation", "s" * 20)
+    d.mkdir(parents=True)
+    write_task_json(d, task="saltation", state="running", started=time.time())
+    ProgressFile(d, "saltation", "case02", "saltation", min_interval=0.0)(30.0, 42.0)
+    (d / "checkpoint.npz").write_bytes(b"")          # a running task checkpoints as it goes
+    assert _state(tmp_path, "saltation", "s" * 20, None)[0] == "running"
+    p = d / "progress.json"
+    data = json.loads(p.read_text())
+    data["updated"] = time.time() - STALE_AFTER - 60.0
+    p.write_text(json.dumps(data))
+    state, detail = _state(tmp_path, "saltation", "s" * 20, None)
+    assert state == "partial" and "died" in detail   # resumable from its checkpoint
+

@@ -70,16 +70,20 @@ def _state(out_dir: Path, task: str, key: str, old_key: str | None) -> tuple[str
         return "done", ""
     d = task_dir(out_dir, task, key)
     tj = read_task_json(d) or {}
+    live = _running(d, tj) if tj.get("state") == "running" else None
+    if live is not None and live[0] == "running":
+        return live   # a running task writes checkpoints as it goes
     if task in ("spinup", "saltation") and (d / "checkpoint.npz").is_file():
         # interrupted or failed, but a rerun resumes from the checkpoint
         t = _checkpoint_time(d)
         where = f" at t = {t:.3g} s" if t is not None and t == t else ""
-        why = f" (stopped by {tj['error']})" if tj.get("state") == "failed" else ""
+        why = (f" (stopped by {tj['error']})" if tj.get("state") == "failed"
+               else " (its process died)" if live is not None else "")
         return "partial", f"checkpoint to resume from{where}{why}"
     if tj.get("state") == "failed":
         return "failed", str(tj.get("error", ""))
-    if tj.get("state") == "running":
-        return _running(d, tj)
+    if live is not None:
+        return live
     if old_key and old_key != key and is_complete(output_path(out_dir, task, old_key)):
         return "stale", f"config or code changed; last done: {old_key}"
     return "missing", ""
