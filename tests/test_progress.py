@@ -9,6 +9,26 @@ def _display(tmp_path):
     return ProgressDisplay([TaskRef("saltation case02", tmp_path)], quiet=True)
 
 
+def _writer_stopped(task_dir, seconds_ago=STALE_AFTER + 60.0):
+    """Date the task's progress file back, as if its writer had died that long ago."""
+    p = task_dir / "progress.json"
+    data = json.loads(p.read_text())
+    data["updated"] = time.time() - seconds_ago
+    p.write_text(json.dumps(data))
+
+
+def _running_task(out_dir, task, key, t, target):
+    """A task directory as a live process leaves it: task.json running, progress at t."""
+    from saltstudy.workflow.paths import task_dir
+    from saltstudy.workflow.tasks import write_task_json
+
+    d = task_dir(out_dir, task, key)
+    d.mkdir(parents=True)
+    write_task_json(d, task=task, state="running", started=time.time())
+    ProgressFile(d, task, "case", task, min_interval=0.0)(t, target)
+    return d
+
+
 def test_resumed_run_eta_uses_the_rate_since_resume(tmp_path, monkeypatch):
     clock = [1000.0]
     monkeypatch.setattr(time, "time", lambda: clock[0])
@@ -25,48 +45,27 @@ def test_file_of_a_killed_process_is_not_shown_running(tmp_path):
     prog = ProgressFile(tmp_path, "saltation", "case02", "saltation", min_interval=0.0)
     prog(10.0, 100.0)
     assert len(_display(tmp_path).rows()) == 1
-    p = tmp_path / "progress.json"
-    d = json.loads(p.read_text())
-    d["updated"] = time.time() - STALE_AFTER - 1.0   # the writer stopped long ago
-    p.write_text(json.dumps(d))
+    _writer_stopped(tmp_path, STALE_AFTER + 1.0)
     assert _display(tmp_path).rows() == []
 
 
 def test_status_tells_a_live_task_from_one_whose_process_died(tmp_path):
     from saltstudy.workflow.status import _state
-    from saltstudy.workflow.paths import task_dir
-    from saltstudy.workflow.tasks import write_task_json
 
-    d = task_dir(tmp_path, "spinup", "k" * 20)
-    d.mkdir(parents=True)
-    write_task_json(d, task="spinup", state="running", started=time.time())
-    prog = ProgressFile(d, "spinup", "case01", "spin-up", min_interval=0.0)
-    prog(12.0, 90.0)
+    d = _running_task(tmp_path, "spinup", "k" * 20, 12.0, 90.0)
     state, detail = _state(tmp_path, "spinup", "k" * 20, None)
     assert state == "running" and "t = 12 s" in detail
-    p = d / "progress.json"
-    data = json.loads(p.read_text())
-    data["updated"] = time.time() - STALE_AFTER - 60.0
-    p.write_text(json.dumps(data))
+    _writer_stopped(d)
     state, detail = _state(tmp_path, "spinup", "k" * 20, None)
     assert state == "stopped" and "died" in detail
 
 
 def test_status_of_a_checkpointed_task_running_or_killed(tmp_path):
     from saltstudy.workflow.status import _state
-    from saltstudy.workflow.paths import task_dir
-    from saltstudy.workflow.tasks import write_task_json
 
-    d = task_dir(tmp_path, "saltation", "s" * 20)
-    d.mkdir(parents=True)
-    write_task_json(d, task="saltation", state="running", started=time.time())
-    ProgressFile(d, "saltation", "case02", "saltation", min_interval=0.0)(30.0, 42.0)
+    d = _running_task(tmp_path, "saltation", "s" * 20, 30.0, 42.0)
     (d / "checkpoint.npz").write_bytes(b"")          # a running task checkpoints as it goes
     assert _state(tmp_path, "saltation", "s" * 20, None)[0] == "running"
-    p = d / "progress.json"
-    data = json.loads(p.read_text())
-    data["updated"] = time.time() - STALE_AFTER - 60.0
-    p.write_text(json.dumps(data))
+    _writer_stopped(d)
     state, detail = _state(tmp_path, "saltation", "s" * 20, None)
     assert state == "partial" and "died" in detail   # resumable from its checkpoint
-

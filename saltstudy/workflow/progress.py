@@ -17,7 +17,7 @@ from typing import Any
 
 from .paths import write_json_atomic
 
-__all__ = ["ProgressFile", "read_progress", "ProgressDisplay", "TaskRef", "format_duration", "emit"]
+__all__ = ["ProgressFile", "read_progress", "is_stale", "ProgressDisplay", "TaskRef", "format_duration", "emit"]
 
 PROGRESS_NAME = "progress.json"
 #: [s] a "running" file not updated for this long belongs to a process that died (a killed
@@ -87,6 +87,11 @@ def read_progress(task_dir: Path) -> dict | None:
         return None
 
 
+def is_stale(p: dict, now: float | None = None) -> bool:
+    """True if a progress record has not moved for STALE_AFTER seconds (its writer died)."""
+    return (time.time() if now is None else now) - p.get("updated", 0.0) > STALE_AFTER
+
+
 def format_duration(s: float | None) -> str:
     if s is None or s != s or s < 0:
         return "?"
@@ -150,7 +155,7 @@ class ProgressDisplay:
         now = time.time()
         for ref in self.tasks:
             p = read_progress(ref.directory)
-            if p is None or p.get("state") != "running" or now - p.get("updated", 0.0) > STALE_AFTER:
+            if p is None or p.get("state") != "running" or is_stale(p, now):
                 continue
             t, target = p.get("t") or 0.0, p.get("target")
             elapsed = now - p.get("started", now)
