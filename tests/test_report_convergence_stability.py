@@ -192,3 +192,59 @@ def test_stability_table(tmp_path):
     js = json.loads((tmp_path / "rep" / "stability.json").read_text())
     assert {r["label"] for r in js["scenes"]} == {"gale", "fine_sand", "crash"}
     assert rows["crash"]["finite"] is False             # a blow-up is by definition not finite
+
+
+def _with_scene(tmp_path, label, bias, wall, seed, *, duration=30.0, ly=7.5, knob=None):
+    """An analysis whose scene carries a seed and a sampling window (and optionally one knob)."""
+    from report_fixtures import make_analysis_dataset
+    ds = make_analysis_dataset(2, bias=bias, wall_time_s=wall, label=label, ly=ly)
+    scene = json.loads(ds.attrs["case_json"])
+    scene["case"]["seed"] = seed
+    scene["case"]["name"] = label
+    scene["fidelity"]["sampling"] = {"start": 12.0, "interval": duration / 12, "count": 13}
+    if knob is not None:
+        scene["case"]["forcing"]["controller_timescale"] = knob
+    ds.attrs["case_json"] = json.dumps(scene)
+    return write_dataset(ds, tmp_path / f"{label}.nc")
+
+
+def test_seed_replicates_set_the_noise_of_every_rung(tmp_path):
+    """Two runs alike but for the seed give a bar that every rung of the case inherits, scaled by
+    its sampled extent; a run that differs in a setting is not a replicate."""
+    runs = {"case02@coarse": _with_scene(tmp_path, "case02@coarse", 1.00, 10.0, 1),
+            "c2_seed2": _with_scene(tmp_path, "c2_seed2", 1.20, 10.0, 2),
+            "c2_knob": _with_scene(tmp_path, "c2_knob", 1.50, 10.0, 3, knob=60.0),
+            "case02@fine": _with_scene(tmp_path, "case02@fine", 1.15, 1000.0, 1,
+                                       duration=120.0, ly=1.875)}
+    out = build_convergence_report(runs, tmp_path / "rep", order=["case02@coarse", "case02@fine"])
+    res = out["result"]
+    assert res.seed_groups == [["c2_seed2", "case02@coarse"]]
+    rows = {r["label"]: r for r in res.rungs}
+    a, b = (rows[l]["values"]["lambda_y"] for l in ("case02@coarse", "c2_seed2"))
+    rel = abs(a - b) / np.sqrt(2) / ((a + b) / 2)
+    assert rows["case02@coarse"]["seed_bar"]["lambda_y"] == pytest.approx(rel * a)
+    # the fine run samples 4x as long on a quarter of the area: the same extent, the same relative bar
+    f = rows["case02@fine"]["values"]["lambda_y"]
+    assert rows["case02@fine"]["seed_bar"]["lambda_y"] == pytest.approx(rel * f)
+    # these archives record no half windows: the seed bar (~12 % of the value at both rungs, ~17 %
+    # in quadrature) is the whole bar, and holds the coarse rung's 13 % difference from fine
+    assert np.isnan(rows["case02@coarse"]["half_window_bar"]["lambda_y"])
+    assert rows["case02@coarse"]["error_bar"]["lambda_y"] == rows["case02@coarse"]["seed_bar"]["lambda_y"]
+    assert rows["case02@coarse"]["within_noise"]["lambda_y"] is True
+    # the knob variant (50 % off) stays outside it
+    assert rows["c2_knob"]["within_noise"]["lambda_y"] is False
+    js = json.loads((tmp_path / "rep" / "convergence.json").read_text())
+    assert js["cases"]["2"]["seed_replicates"] == [["c2_seed2", "case02@coarse"]]
+    assert "Seed replicates: c2_seed2 and case02@coarse" in (tmp_path / "rep" / "convergence.md").read_text()
+
+
+def test_without_replicates_the_half_windows_alone_are_the_bar(ladder, tmp_path):
+    runs, _ = ladder
+    res = build_convergence_report(runs, tmp_path / "rep")["result"]
+    assert res.seed_groups == []
+    for row in res.rungs:
+        assert all(np.isnan(v) for v in row["seed_bar"].values())
+        for s, eb in row["error_bar"].items():
+            hw = row["half_window_bar"][s]
+            assert (np.isnan(eb) and np.isnan(hw)) or eb == hw
+    assert "No run of this case is repeated" in (tmp_path / "rep" / "convergence.md").read_text()

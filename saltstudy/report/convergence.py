@@ -3,9 +3,11 @@
 For each statistic (u*s read from the stress at 2 m and from the free log fit, z0s with the
 stress u*s, z_m, G_tot, z_q = G's e-folding height, sigma_G/G_tot, lambda_x, lambda_y, delta_y, the
 tau_p surface fraction, R_cu in the upper layer and the airborne grain count N_air) and each rung:
-* its value ± an error bar: half the difference between the statistic over the two halves of the
-  sampling window (analysis ``<stat>_halves``), and whether the difference from the reference lies
-  inside the two runs' bars added in quadrature (then it is not a result);
+* its value ± an error bar, the larger of two estimates of one run's noise: half the difference
+  between the statistic over the two halves of the sampling window (analysis ``<stat>_halves``),
+  and, where the study repeats a run with only the seed changed, the seeds' scatter (see
+  :func:`seed_noise`); and whether the difference from the reference lies inside the two runs'
+  bars added in quadrature (then it is not a result);
 * the relative difference from the *reference* rung: the study's ``reference`` fidelity when it
   names one (a sensitivity study: one-knob variants of a base fidelity), else the finest rung (the
   declared order's last, else the largest wall time);
@@ -27,10 +29,11 @@ most rungs (the *primary* case, whose reference, cheapest rungs and figure head
 """
 from __future__ import annotations
 
+import copy
 import html
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -55,12 +58,14 @@ CONV_STATS: dict[str, tuple[str, str | None]] = {
     "N_air": ("N_air", None),
 }
 THRESHOLDS = (0.10, 0.25)
-NOISE_NOTE = ("Each value ± half the difference between its two half-window values (the noise of "
-              "one sampling window); * marks a difference from the reference inside the two runs' "
-              "combined noise. One realization's half windows understate its scatter: two windows "
-              "of the same run of case 2 differed by 10 % in u*s read at 2 m against bars of 2-5 % "
-              "(reports/knobs/FINDINGS.md); where a study repeats a rung with another seed, the "
-              "seeds' difference is the better noise.")
+NOISE_NOTE = ("Each value ± the larger of two estimates of one run's noise: half the difference "
+              "between its two half-window values, and, for a case whose study repeats a run with "
+              "only the seed changed, the seeds' standard deviation scaled to the run's sampled "
+              "extent (duration x box area; variance taken inversely proportional to it). * marks a "
+              "difference from the reference inside the two runs' bars added in quadrature. The "
+              "half windows alone understate the scatter: two windows of the same run of case 2 "
+              "differed by 10 % in u*s read at 2 m against bars of 2-5 % "
+              "(reports/knobs/FINDINGS.md).")
 
 
 @dataclass
@@ -70,6 +75,7 @@ class ConvergenceResult:
     cheapest: dict[str, dict[str, str | None]]  # stat -> {"10%": label, "25%": label}
     data: dict[str, np.ndarray]
     named_reference: bool = False              # a sensitivity study: rungs are not a sequence
+    seed_groups: list[list[str]] = field(default_factory=list)  # runs differing only in the seed
 
 
 def _paper_error(stat: str, value: float, case: int | None) -> float:
@@ -114,6 +120,77 @@ def _error_bar(r: RunData, stat: str) -> float:
         return math.nan
     a = np.asarray(ds[name].values, dtype=np.float64)
     return float(abs(a[1] - a[0]) / 2.0) if a.size == 2 and np.isfinite(a).all() else math.nan
+
+
+def sampled_extent(r: RunData) -> float:
+    """The run's sampled duration x horizontal box area [s m2], read from its scene: the number of
+    roughly independent pieces of turbulence a window average holds grows with it. NaN if the
+    archive does not say."""
+    fid = r.scene.get("fidelity", {}) if isinstance(r.scene, dict) else {}
+    smp, grid = fid.get("sampling") or {}, fid.get("grid") or {}
+    try:
+        dur = float(smp["interval"]) * (int(smp["count"]) - 1)
+        area = float(grid["Lx"]) * float(grid["Ly"])
+    except (KeyError, TypeError, ValueError):
+        return math.nan
+    return dur * area if dur > 0 and area > 0 else math.nan
+
+
+def _replicate_key(r: RunData) -> str | None:
+    """The run's configuration without its seed and names: equal keys and different seeds make
+    two realizations of one run."""
+    if not r.ok or not isinstance(r.scene, dict) or "case" not in r.scene or "fidelity" not in r.scene:
+        return None
+    sc = copy.deepcopy(r.scene)
+    sc.pop("label", None)
+    for k in ("seed", "name", "description"):
+        sc["case"].pop(k, None)
+    return json.dumps(sc, sort_keys=True, default=str)
+
+
+def _seed(r: RunData) -> object:
+    return r.scene.get("case", {}).get("seed") if isinstance(r.scene, dict) else None
+
+
+def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[str]]]:
+    """The seeds' scatter per statistic, as a relative variance per unit sampled extent.
+
+    Runs sharing every setting but the seed are realizations of one run; their sample standard
+    deviation s (n - 1 in the denominator: |a - b| / sqrt(2) for two) over the magnitude of their
+    mean, squared and multiplied by the sampled extent E (:func:`sampled_extent`), is pooled over
+    the groups (mean). A run of extent E' then has the bar |value| sqrt(pooled / E'): the variance
+    of a space-time average falls as 1/E once the window and box hold many correlation lengths
+    and times (an assumption beyond the run that was repeated: it is exact only for it).
+    Returns ({stat: pooled relative variance x extent}, [labels of each group])."""
+    groups: dict[str, list[RunData]] = {}
+    for r in runs.values():
+        k = _replicate_key(r)
+        if k is not None:
+            groups.setdefault(k, []).append(r)
+    reps = [g for g in groups.values()
+            if len({json.dumps(_seed(r), default=str) for r in g}) >= 2 and len(g) >= 2]
+    pooled: dict[str, float] = {}
+    for s in CONV_STATS:
+        acc = []
+        for g in reps:
+            v = np.array([_value(r, s) for r in g], float)
+            ext = sampled_extent(g[0])
+            if np.isfinite(v).all() and math.isfinite(ext) and abs(v.mean()) > 0:
+                acc.append(float(np.var(v, ddof=1)) / v.mean() ** 2 * ext)
+        pooled[s] = float(np.mean(acc)) if acc else math.nan
+    return pooled, [sorted(r.label for r in g) for g in reps]
+
+
+def _seed_bar(r: RunData, v: float, pooled: float) -> float:
+    ext = sampled_extent(r)
+    if not (math.isfinite(pooled) and math.isfinite(ext) and math.isfinite(v)):
+        return math.nan
+    return abs(v) * math.sqrt(pooled / ext)
+
+
+def _noise(bars: tuple[float, ...]) -> float:
+    finite = [b for b in bars if math.isfinite(b)]
+    return max(finite) if finite else math.nan
 
 
 def _value(r: RunData, stat: str) -> float:
@@ -171,13 +248,15 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
     if finest is None and present:
         timed = [r for r in present if math.isfinite(r.wall_time_s)]
         finest = max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
+    pooled, seed_groups = seed_noise(runs)
     rungs = []
     for r in ranked:
         row: dict[str, Any] = {"label": r.label, "case": _case_of(r), "fidelity": r.fidelity,
                                "status": r.status, "wall_time_s": r.wall_time_s, **_grid_of(r),
                                "spinup_wall_time_s": r.attr("spinup_wall_time_s"),
-                               "values": {}, "error_bar": {}, "err_finest": {}, "err_paper": {},
-                               "within_noise": {}}
+                               "sampled_extent_s_m2": sampled_extent(r),
+                               "values": {}, "error_bar": {}, "half_window_bar": {}, "seed_bar": {},
+                               "err_finest": {}, "err_paper": {}, "within_noise": {}}
         case = row["case"]
         for s in CONV_STATS:
             v = _value(r, s)
@@ -186,10 +265,12 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
             row["err_finest"][s] = (abs(v - f) / abs(f)) if math.isfinite(v) and math.isfinite(f) and f != 0 \
                 else math.nan
             row["err_paper"][s] = _paper_error(s, v, case)
-            eb = _error_bar(r, s)
-            ebf = _error_bar(finest, s) if finest is not None else math.nan
-            row["error_bar"][s] = eb
-            # a difference from the reference inside the two runs' combined window noise is not one
+            hw, sb = _error_bar(r, s), _seed_bar(r, v, pooled[s])
+            row["half_window_bar"][s], row["seed_bar"][s] = hw, sb
+            eb = row["error_bar"][s] = _noise((hw, sb))
+            ebf = (_noise((_error_bar(finest, s), _seed_bar(finest, f, pooled[s])))
+                   if finest is not None else math.nan)
+            # a difference from the reference inside the two runs' combined noise is not one
             noise = math.hypot(eb, ebf) if math.isfinite(eb) and math.isfinite(ebf) else math.nan
             row["within_noise"][s] = (bool(abs(v - f) <= noise) if math.isfinite(noise)
                                       and math.isfinite(v) and math.isfinite(f) else None)
@@ -211,7 +292,7 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         data[f"err_paper_{s}"] = np.array([row["err_paper"][s] for row in rungs], float)
     # a reference that is the top of the declared ladder is its finest rung, not a base of variants
     named = finest is not None and finest.label == reference and not (order and order[-1] == reference)
-    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data, named)
+    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data, named, seed_groups)
 
 
 def _rung_name(row: dict[str, Any]) -> str:
@@ -342,17 +423,25 @@ def _tables_html(res: ConvergenceResult) -> str:
 
 
 def _payload_rows(res: ConvergenceResult) -> list[dict[str, Any]]:
-    per_stat = ("values", "error_bar", "err_finest", "err_paper")
+    per_stat = ("values", "error_bar", "half_window_bar", "seed_bar", "err_finest", "err_paper")
     rows = []
     for row in res.rungs:
         d = {k: v for k, v in row.items() if k not in per_stat + ("within_noise",)}
         d.update({k: (row[k] if math.isfinite(row[k]) else None)
-                  for k in ("wall_time_s", "spinup_wall_time_s", "dx", "dy", "dz_bottom", "Q")})
+                  for k in ("wall_time_s", "spinup_wall_time_s", "dx", "dy", "dz_bottom", "Q",
+                            "sampled_extent_s_m2")})
         d["reference"] = res.finest
         d.update({k: {s: (x if math.isfinite(x) else None) for s, x in row[k].items()} for k in per_stat})
         d["within_noise"] = row["within_noise"]
         rows.append(d)
     return rows
+
+
+def _seed_sentence(res: ConvergenceResult) -> str:
+    if not res.seed_groups:
+        return "No run of this case is repeated with another seed: its bars are the half windows' only."
+    groups = "; ".join(" and ".join(g) for g in res.seed_groups)
+    return f"Seed replicates: {groups} (their scatter sets the seed bars)."
 
 
 def _stem(case: int | None, primary: int | None) -> str:
@@ -399,19 +488,24 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     page = []
     for case, r in results.items():
         head = f"Case {case}" if case is not None else "Runs without a case number"
-        md += [f"## {head}", "", f"Reference rung: {r.finest}.", "", _tables_md(r), ""]
+        md += [f"## {head}", "", f"Reference rung: {r.finest}. {_seed_sentence(r)}", "", _tables_md(r), ""]
         stem = _stem(case, primary)
         fig_html = ("" if case == primary else
                     f"<figure><a href='{stem}.pdf'><img src='{stem}.png' "
                     f"alt='error against run time, {html.escape(head)}'></a></figure>")
-        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "") + fig_html + _tables_html(r))
+        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "") + fig_html
+                    + f"<p>{html.escape(_seed_sentence(r))}</p>" + _tables_html(r))
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
     payload = {"primary_case": primary, "finest": res.finest, "reference": res.finest,
                "cheapest": res.cheapest,
-               "error_bar": "half the difference of the statistic over the two halves of the "
-                            "sampling window; within_noise: |value - reference| <= the two error "
-                            "bars added in quadrature",
-               "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest}
+               "error_bar": "the larger of half_window_bar (half the difference of the statistic "
+                            "over the two halves of the sampling window) and seed_bar (the seeds' "
+                            "relative standard deviation in this case's seed replicates, scaled by "
+                            "sqrt(their sampled extent / this run's), extent = sampled duration x "
+                            "box area); within_noise: |value - reference| <= the two error bars "
+                            "added in quadrature",
+               "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
+                                     "seed_replicates": r.seed_groups}
                          for case, r in results.items()},
                "rungs": [row for r in results.values() for row in _payload_rows(r)]}
     (report_dir / "convergence.json").write_text(json.dumps(payload, indent=2, allow_nan=False) + "\n",
