@@ -52,6 +52,10 @@ def test_convergence_smoke_study_end_to_end(home, tmp_path):
     labels = [r["label"] for r in js["rungs"]]
     assert labels == ["case02@smoke", "case02@smoke-fine"]
     assert js["finest"] == "case02@smoke-fine"
+    # produced by this code: the report says which
+    from saltstudy import __version__
+    assert js["study"] == "convergence-smoke" and js["package_version"] == __version__
+    assert "commit" in js
     by = {r["label"]: r for r in js["rungs"]}
     for label in labels:
         assert by[label]["status"] == "ok"

@@ -105,11 +105,12 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
 
     # ---- optional sections --------------------------------------------------------------------
     wanted = set(meta.get("reports") or [])
+    provenance = {k: meta.get(k) for k in ("study", "package_version", "commit", "source_key")}
     sections: list[str] = []
     if "convergence" in wanted or _is_ladder(ctx):
         from .convergence import build_convergence_report
         conv = build_convergence_report(ctx.runs, report_dir, order=meta.get("order"),
-                                        reference=meta.get("reference"))
+                                        reference=meta.get("reference"), provenance=provenance)
         sections.append("<h2 id='convergence'>Error against run time</h2>"
                         "<p>Relative difference of each statistic from the reference rung and error "
                         "against the paper, versus the wall-clock time of the run (spin-up + saltation). Reference "
@@ -122,7 +123,7 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
         stab = build_stability_report(
             ctx.runs, report_dir, failures=meta.get("failures"), samples=meta.get("samples"),
             checkpoints=meta.get("checkpoints"), expect_blowup=set(meta.get("expect_blowup") or ()),
-            provenance={k: meta.get(k) for k in ("study", "package_version", "commit", "source_key")})
+            provenance=provenance)
         sections.append("<h2 id='stability'>Stability of the scenes</h2>" + stab["html"])
 
     law = _study_field(meta, "flux_law")

@@ -462,7 +462,8 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
                              fidelities: dict[str, str] | None = None,
                              wall_times: dict[str, float] | None = None,
                              order: list[str] | None = None,
-                             reference: str | None = None) -> dict[str, Any]:
+                             reference: str | None = None,
+                             provenance: dict[str, Any] | None = None) -> dict[str, Any]:
     """Write ``convergence.png/.pdf``, ``convergence.md`` and ``convergence.json`` in ``report_dir``
     (and ``convergence_caseNN.png/.pdf`` for each case after the primary one).
 
@@ -471,6 +472,8 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     the ladder, else the rung with the largest wall time is the finest; ``reference`` (a label)
     names the rung the others are compared with (default: the finest), and for every other case
     its run at the same fidelity.
+    ``provenance`` (study, package version, commit, source key: the workflow passes them) heads
+    ``convergence.json``.
     Returns {"result": the primary case's ConvergenceResult, "results": {case: result},
     "html": str, "files": [...]}.
     """
@@ -503,7 +506,7 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
         page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "") + fig_html
                     + f"<p>{html.escape(_seed_sentence(r))}</p>" + _tables_html(r))
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
-    payload = {"primary_case": primary, "finest": res.finest, "reference": res.finest,
+    payload = {**(provenance or {}), "primary_case": primary, "finest": res.finest, "reference": res.finest,
                "cheapest": res.cheapest,
                "error_bar": "the larger of half_window_bar (half the difference of the statistic "
                             "over the two halves of the sampling window) and seed_bar (the seeds' "
