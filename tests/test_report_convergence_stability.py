@@ -36,6 +36,13 @@ def test_errors_against_finest_and_paper(ladder, tmp_path):
     assert rows["case02@coarse"]["err_paper"]["lambda_y"] == pytest.approx(0.30)
     assert np.isnan(rows["case02@fine"]["err_paper"]["z0s_stress"])   # the paper gives no z0s per case
     assert res.cheapest["u_star_s"] == {"10%": "case02@mid", "25%": "case02@mid"}
+    # the St height is read off the St profile as Table 2's page reads it, against the paper's
+    # ~0.1 z_m for a 200 um soil
+    from saltstudy.report.data import load_runs
+    from saltstudy.report.tables import st_below_one_height
+    h = st_below_one_height(load_runs({"f": runs["case02@fine"]})["f"])
+    assert np.isfinite(h) and rows["case02@fine"]["values"]["St_height"] == h
+    assert rows["case02@fine"]["err_paper"]["St_height"] == pytest.approx(abs(h - 0.1) / 0.1)
     for f in ("convergence.png", "convergence.pdf", "convergence.md", "convergence.json"):
         assert (tmp_path / "rep" / f).is_file()
     md = (tmp_path / "rep" / "convergence.md").read_text()
