@@ -226,6 +226,12 @@ def test_seed_replicates_set_the_noise_of_every_rung(tmp_path):
     out = build_convergence_report(runs, tmp_path / "rep", order=["case02@coarse", "case02@fine"])
     res = out["result"]
     assert res.seed_groups == [["c2_seed2", "case02@coarse"]]
+    # the same realization listed twice is one seed, not a third
+    twice = build_convergence_report({**runs, "case02@again": runs["case02@coarse"]}, tmp_path / "rep2",
+                                     order=["case02@coarse", "case02@fine"])["result"]
+    assert len(twice.seed_groups[0]) == 2
+    assert ({r["label"]: r for r in twice.rungs}["case02@coarse"]["seed_bar"]
+            == {r["label"]: r for r in res.rungs}["case02@coarse"]["seed_bar"])
     rows = {r["label"]: r for r in res.rungs}
     a, b = (rows[l]["values"]["lambda_y"] for l in ("case02@coarse", "c2_seed2"))
     rel = abs(a - b) / np.sqrt(2) / ((a + b) / 2)

@@ -167,13 +167,14 @@ def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[st
     of a space-time average falls as 1/E once the window and box hold many correlation lengths
     and times (an assumption beyond the run that was repeated: it is exact only for it).
     Returns ({stat: pooled relative variance x extent}, [labels of each group])."""
-    groups: dict[str, list[RunData]] = {}
+    groups: dict[str, dict[str, RunData]] = {}
     for r in runs.values():
         k = _replicate_key(r)
         if k is not None:
-            groups.setdefault(k, []).append(r)
-    reps = [g for g in groups.values()
-            if len({json.dumps(_seed(r), default=str) for r in g}) >= 2 and len(g) >= 2]
+            # one run per seed: a run listed twice (e.g. an archive kept under two labels) is the
+            # same realization and would shrink the scatter
+            groups.setdefault(k, {}).setdefault(json.dumps(_seed(r), default=str), r)
+    reps = [list(g.values()) for g in groups.values() if len(g) >= 2]
     pooled: dict[str, float] = {}
     for s in CONV_STATS:
         acc = []
