@@ -8,7 +8,7 @@ import pytest
 
 from report_fixtures import make_analysis_dataset, write_analysis
 from saltstudy.ncio import write_dataset
-from saltstudy.report.convergence import build_convergence_report
+from saltstudy.report.convergence import build_convergence_report, ladder_summary
 from saltstudy.report.stability import build_stability_report
 
 
@@ -140,7 +140,14 @@ def test_each_case_is_compared_with_its_own_reference(tmp_path):
     rows6 = {r["label"]: r for r in r6.rungs}
     assert rows6["case06@coarse"]["err_finest"]["lambda_y"] == pytest.approx(0.20)
     assert rows6["case06@coarse"]["case"] == 6
+    # the summary: case 2's coarse rung is 30 % off in every statistic, its mid rung 5 %
+    summ = {r["rung"]: r for r in ladder_summary(out["results"][2])}
+    assert set(summ) == {"coarse", "mid"}
+    assert summ["coarse"]["median_error"] == pytest.approx(0.30, rel=1e-6)
+    assert summ["coarse"]["share_within_25"] < 0.5 <= summ["mid"]["share_within_10"]
+    assert (tmp_path / "rep" / "convergence_summary.png").is_file()
     js = json.loads((tmp_path / "rep" / "convergence.json").read_text())
+    assert [r["rung"] for r in js["cases"]["6"]["ladder_summary"]] == ["coarse"]
     assert js["primary_case"] == 2 and js["reference"] == "case02@fine"
     assert js["cases"]["6"]["reference"] == "case06@fine"
     by = {r["label"]: r for r in js["rungs"]}

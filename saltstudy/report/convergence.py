@@ -28,6 +28,7 @@ A study may run its ladder for several cases (a wind's errors are not another's)
 compared with its own run at the reference fidelity. ``convergence.png`` draws the case with the
 most rungs (the *primary* case, whose reference, cheapest rungs and figure head
 ``convergence.json``); each other case gets ``convergence_caseNN.png`` and its own section.
+``convergence_summary.png`` puts every case's ladder in one figure (:func:`ladder_summary`).
 """
 from __future__ import annotations
 
@@ -78,6 +79,7 @@ class ConvergenceResult:
     data: dict[str, np.ndarray]
     named_reference: bool = False              # a sensitivity study: rungs are not a sequence
     seed_groups: list[list[str]] = field(default_factory=list)  # runs differing only in the seed
+    on_ladder: list[str] = field(default_factory=list)   # the declared rungs (not extra scenes)
 
 
 def _paper_error(stat: str, value: float, case: int | None, mu1: float = math.nan) -> float:
@@ -300,7 +302,8 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         data[f"err_paper_{s}"] = np.array([row["err_paper"][s] for row in rungs], float)
     # a reference that is the top of the declared ladder is its finest rung, not a base of variants
     named = finest is not None and finest.label == reference and not (order and order[-1] == reference)
-    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data, named, seed_groups)
+    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data, named, seed_groups,
+                             [row["label"] for row in rungs if row["label"] in on_ladder])
 
 
 def _rung_name(row: dict[str, Any]) -> str:
@@ -370,6 +373,82 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
              fontsize=7, color=PAPER_COLOR)
     ax1.text(0.02, 0.02, "hollow markers: inside the two runs' noise (not an error)",
              transform=ax1.transAxes, fontsize=7, color="0.3")
+    return fig
+
+
+def ladder_summary(res: ConvergenceResult) -> list[dict[str, Any]]:
+    """Per declared rung (the reference excluded): its wall time, the median over the statistics of
+    its relative difference from the reference and of the two runs' combined relative noise, and
+    the share of statistics within 10 % and 25 % of the reference (of those both runs give)."""
+    ref = next((row for row in res.rungs if row["label"] == res.finest), None)
+    out = []
+    for row in res.rungs:
+        if row["label"] not in res.on_ladder or ref is None or row is ref:
+            continue
+        errs, noise = [], []
+        for s in CONV_STATS:
+            e, f = row["err_finest"][s], ref["values"][s]
+            if not math.isfinite(e):
+                continue
+            errs.append(e)
+            eb, ebf = row["error_bar"][s], ref["error_bar"][s]
+            if math.isfinite(eb) and math.isfinite(ebf) and f != 0:
+                noise.append(math.hypot(eb, ebf) / abs(f))
+        e = np.array(errs)
+        out.append({"label": row["label"], "rung": _rung_name(row), "wall_time_s": row["wall_time_s"],
+                    "n_stats": int(e.size),
+                    "median_error": float(np.median(e)) if e.size else math.nan,
+                    "median_noise": float(np.median(noise)) if noise else math.nan,
+                    "share_within_10": float(np.mean(e <= 0.10)) if e.size else math.nan,
+                    "share_within_25": float(np.mean(e <= 0.25)) if e.size else math.nan})
+    return out
+
+
+def _summary_figure(results: dict[int | None, ConvergenceResult]) -> Figure:
+    """Every case's ladder in one figure: the typical error of a rung against what it costs."""
+    fig = Figure(figsize=(11, 4.6), layout="constrained")
+    ax1, ax2 = fig.subplots(1, 2, sharex=True)
+    fig.suptitle("The ladder at a glance: typical difference from the reference rung against wall-clock time")
+    colors = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
+    for i, (case, res) in enumerate(results.items()):
+        rows = [r for r in ladder_summary(res) if math.isfinite(r["wall_time_s"])]
+        if not rows:
+            continue
+        rows.sort(key=lambda r: r["wall_time_s"])
+        col = colors[i % len(colors)]
+        name = f"case {case}" if case is not None else "no case"
+        t = np.array([r["wall_time_s"] for r in rows])
+        med = np.array([r["median_error"] for r in rows])
+        ax1.plot(t, med, "o-", color=col, label=f"{name}: median over the statistics")
+        ax1.plot(t, [r["median_noise"] for r in rows], ":", color=col, label=f"{name}: median noise")
+        for r, tt, m in zip(rows, t, med):
+            if math.isfinite(m) and m > 0:
+                ax1.annotate(r["rung"], (tt, m), textcoords="offset points", xytext=(3, 3), fontsize=7,
+                             color=col)
+        ax2.plot(t, [r["share_within_25"] for r in rows], "o-", color=col, label=f"{name}: within 25 %")
+        ax2.plot(t, [r["share_within_10"] for r in rows], "s--", color=col, label=f"{name}: within 10 %")
+        # what the reference itself costs, for the eye to measure the saving against
+        t_ref = next((row["wall_time_s"] for row in res.rungs if row["label"] == res.finest), math.nan)
+        if math.isfinite(t_ref):
+            for ax in (ax1, ax2):
+                ax.axvline(t_ref, color=col, ls="-.", lw=0.9)
+                ax.annotate(f"{name}: reference", (t_ref, 0.5), xycoords=("data", "axes fraction"),
+                            rotation=90, fontsize=7, color=col, ha="right", va="center")
+    for y in (0.10, 0.25):
+        ax1.axhline(y, color="0.5", ls=":" if y < 0.2 else "--", lw=1)
+    ax1.set_yscale("log")
+    ax1.set_ylabel("|relative difference from the reference| [-]")
+    ax1.set_title("(a) median over the statistics; dotted: the two runs' median noise",
+                  loc="left", fontsize=9)
+    ax2.set_ylim(-0.03, 1.03)
+    ax2.set_ylabel("share of the statistics [-]")
+    ax2.set_title("(b) statistics within 10 % / 25 % of the reference", loc="left", fontsize=9)
+    for ax in (ax1, ax2):
+        ax.set_xscale("log")
+        ax.set_xlabel("wall-clock time of the run [s] (spin-up + saltation)")
+        ax.grid(alpha=0.3, which="both")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
     return fig
 
 
@@ -473,7 +552,8 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
                              reference: str | None = None,
                              provenance: dict[str, Any] | None = None) -> dict[str, Any]:
     """Write ``convergence.png/.pdf``, ``convergence.md`` and ``convergence.json`` in ``report_dir``
-    (and ``convergence_caseNN.png/.pdf`` for each case after the primary one).
+    (and ``convergence_caseNN.png/.pdf`` for each case after the primary one, and, for a ladder,
+    ``convergence_summary.png/.pdf``: every case's median error against wall time).
 
     ``runs``: label -> analysis path (or None), or already loaded :class:`RunData`. ``fidelities`` and
     ``wall_times`` per label override the archives' attributes; ``order`` (coarse -> fine) declares
@@ -502,8 +582,21 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
             p = report_dir / f"{stem}.{ext}"
             fig.savefig(p, dpi=130)
             files.append(p)
+    if not any(r.named_reference for r in results.values()):
+        fig = _summary_figure(results)
+        for ext in ("png", "pdf"):
+            fig.savefig(report_dir / f"convergence_summary.{ext}", dpi=130)
+            files.append(report_dir / f"convergence_summary.{ext}")
     md = ["# Error against run time", "", NOISE_NOTE, ""]
     page = []
+    if (report_dir / "convergence_summary.png") in files:
+        md += ["![the ladder at a glance](convergence_summary.png)", ""]
+        page.append("<figure><a href='convergence_summary.pdf'><img src='convergence_summary.png' "
+                    "alt='the ladder at a glance: median error against wall time'></a>"
+                    "<figcaption>The ladder at a glance: per rung, the median over the statistics "
+                    "of the relative difference from the reference rung and of the two runs' noise "
+                    "(a), and the share of statistics within 10 % and 25 % of it (b).</figcaption>"
+                    "</figure>")
     for case, r in results.items():
         head = f"Case {case}" if case is not None else "Runs without a case number"
         md += [f"## {head}", "", f"Reference rung: {r.finest}. {_seed_sentence(r)}", "", _tables_md(r), ""]
@@ -523,7 +616,10 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
                             "box area); within_noise: |value - reference| <= the two error bars "
                             "added in quadrature",
                "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
-                                     "seed_replicates": r.seed_groups}
+                                     "seed_replicates": r.seed_groups,
+                                     "ladder_summary": [{k: (v if not isinstance(v, float) or math.isfinite(v)
+                                                             else None) for k, v in row.items()}
+                                                        for row in ladder_summary(r)]}
                          for case, r in results.items()},
                "rungs": [row for r in results.values() for row in _payload_rows(r)]}
     (report_dir / "convergence.json").write_text(json.dumps(payload, indent=2, allow_nan=False) + "\n",
