@@ -66,9 +66,13 @@ def test_convergence_smoke_study_end_to_end(home, tmp_path):
     assert coarse is not None and math.isfinite(coarse) and coarse >= 0
     # against the paper: case 2 has u*s = 0.54 in Table 2
     assert math.isfinite(by["case02@smoke"]["err_paper"]["u_star_s"])
-    for f in ("convergence.png", "convergence.pdf", "convergence.md", "index.html", "fig02.png"):
+    for f in ("convergence.png", "convergence.pdf", "convergence.md", "index.html", "fig02.png",
+              "convergence_summary.png"):
         assert (rep / f).is_file(), f
-    assert "Error against run time" in (rep / "index.html").read_text()
+    page = (rep / "index.html").read_text()
+    assert "Error against run time" in page
+    # the summary figure heads the section
+    assert page.index("convergence_summary.png") < page.index("src='convergence.png'")
 
 
 def test_stability_smoke_study_end_to_end(home, tmp_path):

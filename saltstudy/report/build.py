@@ -111,7 +111,7 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
         from .convergence import build_convergence_report
         conv = build_convergence_report(ctx.runs, report_dir, order=meta.get("order"),
                                         reference=meta.get("reference"), provenance=provenance)
-        sections.append("<h2 id='convergence'>Error against run time</h2>"
+        sections.append("<h2 id='convergence'>Error against run time</h2>" + conv["summary_html"] +
                         "<p>Relative difference of each statistic from the reference rung and error "
                         "against the paper, versus the wall-clock time of the run (spin-up + saltation). Reference "
                         f"rung: <b>{html.escape(str(conv['result'].finest))}</b> (the study's "

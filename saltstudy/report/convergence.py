@@ -563,7 +563,8 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     ``provenance`` (study, package version, commit, source key: the workflow passes them) heads
     ``convergence.json``.
     Returns {"result": the primary case's ConvergenceResult, "results": {case: result},
-    "html": str, "files": [...]}.
+    "html": str (tables, and each further case's figure), "summary_html": str (the summary
+    figure, or ""), "files": [...]}.
     """
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
@@ -589,14 +590,15 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
             files.append(report_dir / f"convergence_summary.{ext}")
     md = ["# Error against run time", "", NOISE_NOTE, ""]
     page = []
+    summary_html = ""
     if (report_dir / "convergence_summary.png") in files:
         md += ["![the ladder at a glance](convergence_summary.png)", ""]
-        page.append("<figure><a href='convergence_summary.pdf'><img src='convergence_summary.png' "
-                    "alt='the ladder at a glance: median error against wall time'></a>"
-                    "<figcaption>The ladder at a glance: per rung, the median over the statistics "
-                    "of the relative difference from the reference rung and of the two runs' noise "
-                    "(a), and the share of statistics within 10 % and 25 % of it (b).</figcaption>"
-                    "</figure>")
+        summary_html = ("<figure><a href='convergence_summary.pdf'><img src='convergence_summary.png' "
+                        "alt='the ladder at a glance: median error against wall time'></a>"
+                        "<figcaption>The ladder at a glance: per rung, the median over the statistics "
+                        "of the relative difference from the reference rung and of the two runs' "
+                        "noise (a), and the share of statistics within 10 % and 25 % of it (b)."
+                        "</figcaption></figure>")
     for case, r in results.items():
         head = f"Case {case}" if case is not None else "Runs without a case number"
         md += [f"## {head}", "", f"Reference rung: {r.finest}. {_seed_sentence(r)}", "", _tables_md(r), ""]
@@ -625,4 +627,5 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     (report_dir / "convergence.json").write_text(json.dumps(payload, indent=2, allow_nan=False) + "\n",
                                                   encoding="utf-8")
     files += [report_dir / "convergence.md", report_dir / "convergence.json"]
-    return {"result": res, "results": results, "html": "".join(page), "files": files}
+    return {"result": res, "results": results, "html": "".join(page), "summary_html": summary_html,
+            "files": files}
