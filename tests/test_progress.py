@@ -39,6 +39,10 @@ def test_resumed_run_eta_uses_the_rate_since_resume(tmp_path, monkeypatch):
     row = _display(tmp_path).rows()[0]
     assert "( 70.0 %)" in row
     assert "ETA 5m00s" in row, row
+    # `saltstudy status` says the same of a running task
+    from saltstudy.workflow.status import _running
+    state, detail = _running(tmp_path, {"started": 900.0})
+    assert state == "running" and "t = 70 / 100 s, ETA 5m00s" in detail, detail
 
 
 def test_file_of_a_killed_process_is_not_shown_running(tmp_path):
@@ -54,7 +58,7 @@ def test_status_tells_a_live_task_from_one_whose_process_died(tmp_path):
 
     d = _running_task(tmp_path, "spinup", "k" * 20, 12.0, 90.0)
     state, detail = _state(tmp_path, "spinup", "k" * 20, None)
-    assert state == "running" and "t = 12 s" in detail
+    assert state == "running" and "t = 12 / 90 s" in detail
     _writer_stopped(d)
     state, detail = _state(tmp_path, "spinup", "k" * 20, None)
     assert state == "stopped" and "died" in detail

@@ -92,6 +92,17 @@ def is_stale(p: dict, now: float | None = None) -> bool:
     return (time.time() if now is None else now) - p.get("updated", 0.0) > STALE_AFTER
 
 
+def eta(p: dict, now: float | None = None) -> float | None:
+    """Seconds left for a running task at the rate since its process took it up (a resumed run
+    starts part-way, so the rate since t = 0 would promise too little); None if unknown."""
+    t, target = p.get("t") or 0.0, p.get("target")
+    now = time.time() if now is None else now
+    done = t - (p.get("t_start") or 0.0)
+    if not target or done <= 0:
+        return None
+    return (now - p.get("started", now)) * (target - t) / done
+
+
 def format_duration(s: float | None) -> str:
     if s is None or s != s or s < 0:
         return "?"
@@ -161,12 +172,9 @@ class ProgressDisplay:
             elapsed = now - p.get("started", now)
             if target:
                 frac = min(max(t / target, 0.0), 1.0)
-                # the rate since this process took the task up: a resumed run starts part-way
-                done = t - (p.get("t_start") or 0.0)
-                eta = elapsed * (target - t) / done if done > 0 else None
                 out.append(f"{ref.name:<28} {p.get('phase', ''):<10} t = {t:8.2f} / {target:.2f} s "
                            f"({100 * frac:5.1f} %)  elapsed {format_duration(elapsed)}  "
-                           f"ETA {format_duration(eta)}")
+                           f"ETA {format_duration(eta(p, now))}")
             else:
                 out.append(f"{ref.name:<28} {p.get('phase', ''):<10} t = {t:8.2f} s  "
                            f"elapsed {format_duration(elapsed)}")

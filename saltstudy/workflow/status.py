@@ -20,7 +20,7 @@ from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
 from .paths import output_path, read_runs_file, task_dir
-from .progress import format_duration, is_stale, read_progress
+from .progress import eta, format_duration, is_stale, read_progress
 from .tasks import read_task_json
 
 __all__ = ["StatusRow", "study_status", "format_status"]
@@ -62,7 +62,11 @@ def _running(d: Path, tj: dict) -> tuple[str, str]:
     if is_stale(p):
         quiet_for = time.time() - float(p["updated"])
         return "stopped", f"{where}; no progress for {format_duration(quiet_for)}: its process died"
-    return "running", f"{where}; t = {p.get('t', 0.0):.3g} s"
+    target = p.get("target")
+    if not target:
+        return "running", f"{where}; t = {p.get('t', 0.0):.3g} s"
+    return "running", (f"{where}; t = {p.get('t', 0.0):.3g} / {target:.3g} s, "
+                       f"ETA {format_duration(eta(p))}")
 
 
 def _state(out_dir: Path, task: str, key: str, old_key: str | None) -> tuple[str, str]:
