@@ -48,7 +48,7 @@ from .reference import PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
 from .tables import fmt, st_below_one_height
 
 __all__ = ["CONV_STATS", "ConvergenceResult", "convergence_analysis", "convergence_by_case",
-           "build_convergence_report"]
+           "build_convergence_report", "ladder_summary", "sampled_extent", "seed_noise"]
 
 #: statistic -> (label, paper Table 2 key or None)
 CONV_STATS: dict[str, tuple[str, str | None]] = {
@@ -167,7 +167,9 @@ def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[st
     mean, squared and multiplied by the sampled extent E (:func:`sampled_extent`), is pooled over
     the groups (mean). A run of extent E' then has the bar |value| sqrt(pooled / E'): the variance
     of a space-time average falls as 1/E once the window and box hold many correlation lengths
-    and times (an assumption beyond the run that was repeated: it is exact only for it).
+    and times. That is an assumption beyond the run that was repeated (exact only for it): it
+    fails for boxes a few streamers wide (smoke, quick), and it keeps the repeated run's parcel
+    noise, so it overstates the bar of a run with lighter parcels (a lower Q multiplier).
     Returns ({stat: pooled relative variance x extent}, [labels of each group])."""
     groups: dict[str, dict[str, RunData]] = {}
     for r in runs.values():
