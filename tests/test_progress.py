@@ -73,3 +73,27 @@ def test_status_of_a_checkpointed_task_running_or_killed(tmp_path):
     _writer_stopped(d)
     state, detail = _state(tmp_path, "saltation", "s" * 20, None)
     assert state == "partial" and "died" in detail   # resumable from its checkpoint
+
+
+def test_a_killed_writer_on_this_host_is_seen_at_once(tmp_path):
+    """The process that wrote a progress file is asked directly when it ran on this host, so a
+    killed run-all's task stops showing as running without waiting STALE_AFTER."""
+    import subprocess
+    import sys
+
+    from saltstudy.workflow.status import _state
+
+    d = _running_task(tmp_path, "saltation", "g" * 20, 5.0, 42.0)
+    assert _state(tmp_path, "saltation", "g" * 20, None)[0] == "running"   # this process: alive
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    p = d / "progress.json"
+    data = json.loads(p.read_text())
+    data["pid"] = dead.pid
+    p.write_text(json.dumps(data))
+    state, detail = _state(tmp_path, "saltation", "g" * 20, None)
+    assert state == "stopped" and f"({dead.pid}) is gone" in detail, detail
+    assert ProgressDisplay([TaskRef("saltation case02", d)], quiet=True).rows() == []
+    data["host"] = "another-host"          # a cluster worker's file: only the clock can tell
+    p.write_text(json.dumps(data))
+    assert _state(tmp_path, "saltation", "g" * 20, None)[0] == "running"

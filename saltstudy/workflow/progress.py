@@ -8,6 +8,8 @@ a second (atomically), so the cost is nil.
 from __future__ import annotations
 
 import json
+import os
+import socket
 import sys
 import threading
 import time
@@ -17,7 +19,7 @@ from typing import Any
 
 from .paths import write_json_atomic
 
-__all__ = ["ProgressFile", "read_progress", "is_stale", "ProgressDisplay", "TaskRef", "format_duration", "emit"]
+__all__ = ["ProgressFile", "read_progress", "is_stale", "writer_gone", "ProgressDisplay", "TaskRef", "format_duration", "emit"]
 
 PROGRESS_NAME = "progress.json"
 #: [s] a "running" file not updated for this long belongs to a process that died (a killed
@@ -75,7 +77,8 @@ class ProgressFile:
             write_json_atomic(self.path, {
                 "task": self.task, "label": self.label, "phase": self.phase, "state": state,
                 "t": t, "t_start": self._t_start, "target": self.target, "started": self._t0,
-                "updated": time.time(), "message": message})
+                "updated": time.time(), "message": message,
+                "host": socket.gethostname(), "pid": os.getpid()})
         except OSError:  # progress is best-effort; never fail a task because of it
             pass
 
@@ -87,8 +90,28 @@ def read_progress(task_dir: Path) -> dict | None:
         return None
 
 
+def writer_gone(p: dict) -> bool:
+    """True if the record was written on this host by a process that no longer exists.
+
+    Only this host's processes can be asked; a record from a cluster worker (or one without a
+    pid) falls back on the STALE_AFTER clock."""
+    pid = p.get("pid")
+    if not isinstance(pid, int) or p.get("host") != socket.gethostname():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # exists but belongs to someone else
+        return False
+    return False
+
+
 def is_stale(p: dict, now: float | None = None) -> bool:
-    """True if a progress record has not moved for STALE_AFTER seconds (its writer died)."""
+    """True if a progress record's writer died: its process is gone from this host, or the record
+    has not moved for STALE_AFTER seconds."""
+    if writer_gone(p):
+        return True
     return (time.time() if now is None else now) - p.get("updated", 0.0) > STALE_AFTER
 
 

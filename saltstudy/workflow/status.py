@@ -20,7 +20,7 @@ from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
 from .paths import output_path, read_runs_file, task_dir
-from .progress import eta, format_duration, is_stale, read_progress
+from .progress import eta, format_duration, is_stale, read_progress, writer_gone
 from .tasks import read_task_json
 
 __all__ = ["StatusRow", "study_status", "format_status"]
@@ -59,6 +59,8 @@ def _running(d: Path, tj: dict) -> tuple[str, str]:
     p = read_progress(d)
     if p is None or "updated" not in p:
         return "running", f"{where} (or killed)"
+    if writer_gone(p):
+        return "stopped", f"{where}; its process ({p['pid']}) is gone: it died or was killed"
     if is_stale(p):
         quiet_for = time.time() - float(p["updated"])
         return "stopped", f"{where}; no progress for {format_duration(quiet_for)}: its process died"
