@@ -12,11 +12,26 @@ from saltstudy.report.convergence import build_convergence_report, ladder_summar
 from saltstudy.report.stability import build_stability_report
 
 
+def _with_halves(path, spread, stats=("u_star_s", "lambda_y")):
+    """Give ``stats`` two half-window values ±``spread`` (relative) around the whole window's."""
+    import xarray as xr
+    with xr.open_dataset(path) as ds:
+        ds = ds.load()
+    for name in stats:
+        v = float(ds[name])
+        ds[f"{name}_halves"] = (("half",), np.array([v * (1 - spread), v * (1 + spread)]),
+                                {"units": ds[name].attrs.get("units", "1"),
+                                 "long_name": f"{name} over each half"})
+    ds.to_netcdf(path)
+    return path
+
+
 @pytest.fixture()
 def ladder(tmp_path):
-    # bias multiplies every statistic; finest rung (largest wall time) has bias 1.0
+    # bias multiplies every statistic; finest rung (largest wall time) has bias 1.0; each run's
+    # half windows differ by 2 % in u*s (free fit) and lambda_y
     spec = {"case02@coarse": (1.30, 10.0), "case02@mid": (1.05, 100.0), "case02@fine": (1.00, 1000.0)}
-    runs = {l: write_analysis(tmp_path / f"{l}.nc", 2, bias=b, wall_time_s=w, label=l)
+    runs = {l: _with_halves(write_analysis(tmp_path / f"{l}.nc", 2, bias=b, wall_time_s=w, label=l), 0.01)
             for l, (b, w) in spec.items()}
     return runs, spec
 
@@ -47,6 +62,8 @@ def test_errors_against_finest_and_paper(ladder, tmp_path):
         assert (tmp_path / "rep" / f).is_file()
     md = (tmp_path / "rep" / "convergence.md").read_text()
     assert "| u*s (free fit) | case02@mid | case02@mid |" in md
+    # z_m has no half windows here, so no rung can show it is within a threshold
+    assert "| z_m | none | none |" in md
     js = json.loads((tmp_path / "rep" / "convergence.json").read_text())
     assert js["finest"] == "case02@fine"
 
@@ -268,3 +285,16 @@ def test_without_replicates_the_half_windows_alone_are_the_bar(ladder, tmp_path)
             hw = row["half_window_bar"][s]
             assert (np.isnan(eb) and np.isnan(hw)) or eb == hw
     assert "No run of this case is repeated" in (tmp_path / "rep" / "convergence.md").read_text()
+
+
+def test_a_rung_noisier_than_the_threshold_is_not_named_cheapest(ladder, tmp_path):
+    """A cheap run that lands 5 % from the reference with a ±15 % bar agrees by chance: it may be
+    named within 25 % but not within 10 %."""
+    runs, _ = ladder
+    lucky = _with_halves(write_analysis(tmp_path / "lucky.nc", 2, bias=1.05, wall_time_s=1.0,
+                                        label="case02@lucky"), 0.15)
+    res = build_convergence_report({"case02@lucky": lucky, **runs}, tmp_path / "rep",
+                                   order=["case02@lucky", "case02@coarse", "case02@mid", "case02@fine"])["result"]
+    rows = {r["label"]: r for r in res.rungs}
+    assert rows["case02@lucky"]["err_finest"]["u_star_s"] == pytest.approx(0.05)
+    assert res.cheapest["u_star_s"] == {"10%": "case02@mid", "25%": "case02@lucky"}
