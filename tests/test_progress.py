@@ -97,3 +97,10 @@ def test_a_killed_writer_on_this_host_is_seen_at_once(tmp_path):
     data["host"] = "another-host"          # a cluster worker's file: only the clock can tell
     p.write_text(json.dumps(data))
     assert _state(tmp_path, "saltation", "g" * 20, None)[0] == "running"
+    # a progress file that does not name its process: task.json's host and pid are asked
+    del data["host"], data["pid"]
+    p.write_text(json.dumps(data))
+    tj = json.loads((d / "task.json").read_text())
+    (d / "task.json").write_text(json.dumps({**tj, "pid": dead.pid}))
+    state, detail = _state(tmp_path, "saltation", "g" * 20, None)
+    assert state == "stopped" and f"({dead.pid}) is gone" in detail, detail

@@ -71,18 +71,11 @@ def test_errors_against_finest_and_paper(ladder, tmp_path):
 def test_error_bars_from_the_half_windows_decide_what_is_noise(tmp_path):
     """A rung whose halves differ by more than its distance from the reference is within the
     noise; one whose halves agree is not."""
-    import xarray as xr
     runs = {}
     for label, bias, wall, spread in (("case02@noisy", 1.05, 10.0, 0.2), ("case02@quiet", 1.05, 20.0, 0.0),
                                       ("case02@ref", 1.00, 100.0, 0.0)):
         p = write_analysis(tmp_path / f"{label}.nc", 2, bias=bias, wall_time_s=wall, label=label)
-        with xr.open_dataset(p) as ds:
-            ds = ds.load()
-        v = float(ds["lambda_y"])
-        ds["lambda_y_halves"] = (("half",), np.array([v * (1 - spread), v * (1 + spread)]),
-                                 {"units": "m", "long_name": "lambda_y over each half"})
-        ds.to_netcdf(p)
-        runs[label] = p
+        runs[label] = _with_halves(p, spread, ("lambda_y",))
     res = build_convergence_report(runs, tmp_path / "rep", reference="case02@ref")["result"]
     rows = {r["label"]: r for r in res.rungs}
     assert rows["case02@noisy"]["error_bar"]["lambda_y"] == pytest.approx(0.2 * 0.3 * 1.05, rel=0.2)

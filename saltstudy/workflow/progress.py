@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import json
 import os
-import socket
+import platform
 import sys
 import threading
 import time
@@ -56,6 +56,7 @@ class ProgressFile:
         self._t0 = time.time()
         self._t_start: float | None = None  # simulated time when this process took the task up
         self.target = None
+        self._writer = {"host": platform.node(), "pid": os.getpid()}   # as task.json names it
 
     def __call__(self, t: Any = None, target: Any = None, *args: Any, **kw: Any) -> None:
         if t is not None and not isinstance(t, (int, float)):
@@ -77,8 +78,7 @@ class ProgressFile:
             write_json_atomic(self.path, {
                 "task": self.task, "label": self.label, "phase": self.phase, "state": state,
                 "t": t, "t_start": self._t_start, "target": self.target, "started": self._t0,
-                "updated": time.time(), "message": message,
-                "host": socket.gethostname(), "pid": os.getpid()})
+                "updated": time.time(), "message": message, **self._writer})
         except OSError:  # progress is best-effort; never fail a task because of it
             pass
 
@@ -91,12 +91,13 @@ def read_progress(task_dir: Path) -> dict | None:
 
 
 def writer_gone(p: dict) -> bool:
-    """True if the record was written on this host by a process that no longer exists.
+    """True if the record (progress.json or task.json: both carry ``host`` and ``pid``) was written
+    on this host by a process that no longer exists.
 
     Only this host's processes can be asked; a record from a cluster worker (or one without a
     pid) falls back on the STALE_AFTER clock."""
     pid = p.get("pid")
-    if not isinstance(pid, int) or p.get("host") != socket.gethostname():
+    if not isinstance(pid, int) or p.get("host") != platform.node():
         return False
     try:
         os.kill(pid, 0)

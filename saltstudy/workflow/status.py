@@ -59,8 +59,9 @@ def _running(d: Path, tj: dict) -> tuple[str, str]:
     p = read_progress(d)
     if p is None or "updated" not in p:
         return "running", f"{where} (or killed)"
-    if writer_gone(p):
-        return "stopped", f"{where}; its process ({p['pid']}) is gone: it died or was killed"
+    writer = p if "pid" in p else tj   # progress files written before they named their process
+    if writer_gone(writer):
+        return "stopped", f"{where}; its process ({writer['pid']}) is gone: it died or was killed"
     if is_stale(p):
         quiet_for = time.time() - float(p["updated"])
         return "stopped", f"{where}; no progress for {format_duration(quiet_for)}: its process died"
