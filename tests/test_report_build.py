@@ -215,3 +215,28 @@ def test_scene_study_does_not_crash(tmp_path):
     st = (out / "stability.md").read_text()
     assert "SolverBlowUp" in st and "failed" in st
     assert "stability" in (out / "index.html").read_text()
+
+
+def test_report_names_the_solver_source_of_its_archives(tmp_path):
+    """A report redrawn by ``figures`` records the source key in the archives' task.json."""
+    from saltstudy.report.workflow_meta import enrich_meta
+    from saltstudy.workflow.paths import task_dir
+
+    def archive(task, key, source):
+        d = task_dir(tmp_path, task, key)
+        d.mkdir(parents=True, exist_ok=True)
+        (d / "task.json").write_text(json.dumps({"state": "done", "source_key": source}))
+
+    archive("spinup", "s1", "abc123")
+    archive("saltation", "r1", "abc123")
+    archive("saltation", "r2", "abc123")
+    keys = {"a": {"spinup": "s1", "saltation": "r1"}, "b": {"spinup": "s1", "saltation": "r2"}}
+    meta = enrich_meta("no-such-study", {}, {"out_dir": str(tmp_path), "keys": keys})
+    assert meta["source_key"] == "abc123"
+
+    archive("saltation", "r2", "def456")     # archives from two solver sources: both named
+    meta = enrich_meta("no-such-study", {}, {"out_dir": str(tmp_path), "keys": keys})
+    assert meta["source_key"] == ["abc123", "def456"]
+    # the workflow passes the running code's key: that one is kept
+    meta = enrich_meta("no-such-study", {}, {"out_dir": str(tmp_path), "keys": keys, "source_key": "live"})
+    assert meta["source_key"] == "live"

@@ -7,7 +7,10 @@ this module adds, where absent:
 * ``case_numbers``, ``fidelities``, ``study_config`` and ``fidelity``: from ``workflows/<study>.toml``
   (saltstudy.config), if the study file exists;
 * ``failures``: label -> error of the first failed task of the run (its ``task.json``);
-* ``samples``: label -> ``samples.nc`` of the run, if present (stability report, animation).
+* ``samples``: label -> ``samples.nc`` of the run, if present (stability report, animation);
+* ``source_key``: the solver-source key the archives were computed with (their ``task.json``), one
+  string when they agree, else the sorted distinct keys: a report redrawn later by ``figures``
+  names the code that made its numbers, not only the code that drew them (``commit``).
 
 Paths come from :mod:`saltstudy.workflow.paths`, imported lazily; without it these are skipped.
 """
@@ -76,6 +79,7 @@ def enrich_meta(study_name: str, runs: dict[str, Any], meta: dict[str, Any] | No
     failures = dict(meta.get("failures") or {})
     checkpoints: dict[str, dict] = {}
     samples = dict(meta.get("samples") or {})
+    made_by: set[str] = set()
     for label, k in keys.items():
         if not isinstance(k, dict):
             continue
@@ -84,6 +88,8 @@ def enrich_meta(study_name: str, runs: dict[str, Any], meta: dict[str, Any] | No
             if not key:
                 continue
             tj = _task_json(out_dir, task, key)
+            if task != "analysis" and tj.get("source_key"):
+                made_by.add(str(tj["source_key"]))
             if tj.get("state") == "failed" and label not in failures:
                 failures[label] = f"{task}: {tj.get('error', 'failed')}"
         skey = k.get("saltation")
@@ -106,6 +112,8 @@ def enrich_meta(study_name: str, runs: dict[str, Any], meta: dict[str, Any] | No
         meta["checkpoints"] = checkpoints
     if not meta.get("commit"):
         meta["commit"] = _commit()
+    if not meta.get("source_key") and made_by:
+        meta["source_key"] = made_by.pop() if len(made_by) == 1 else sorted(made_by)
     return meta
 
 
