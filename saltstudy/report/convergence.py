@@ -361,7 +361,8 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
         ax.axhline(0.25, color="0.5", ls="--", lw=1)
         ax.grid(alpha=0.3, which="both")
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8)
+            # (b)'s corner below is its note on the errors drawn at the floor: keep it readable
+            ax.legend(fontsize=8, loc="center left" if ax is ax2 else "best")
     ax1.set_ylabel("|relative difference| [-]   (10 % dotted, 25 % dashed)")
     ax1.set_title(f"(a) against the reference rung ({res.finest})", loc="left", fontsize=9)
     ax2.set_title(f"(b) against {PAPER_LABEL} (σG/G_tot: distance to 10–20 %)",
