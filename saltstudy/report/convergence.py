@@ -221,6 +221,8 @@ def _grid_of(r: RunData) -> dict[str, float]:
         dz1 = float(ds["z_w"].values[1] - ds["z_w"].values[0])
     elif ds is not None and "z" in ds.coords and ds["z"].size:
         dz1 = 2.0 * float(ds["z"].values[0])       # the first level's centre is half its thickness
+    # a level's thickness is a difference of stretched heights: 0.010000000000000021 is 1 cm
+    dz1 = float(f"{dz1:.10g}") if math.isfinite(dz1) else dz1
     return {"dx": r.attr("dx"), "dy": r.attr("dy"), "dz_bottom": dz1, "Q": r.attr("Q")}
 
 
