@@ -314,7 +314,10 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
 
 def _rung_name(row: dict[str, Any]) -> str:
     label = row["label"]
-    return label.split("@", 1)[1] if "@" in label else (row["fidelity"] or label)
+    if "@" in label:
+        return label.split("@", 1)[1]
+    # a named scene (a seed replicate) shares its rung's fidelity: name both, or two rungs read alike
+    return f"{row['fidelity']} ({label})" if row.get("fidelity") else label
 
 
 _STAT_COLORS = dict(zip(CONV_STATS, ("#1f77b4", "#aec7e8", "#ff7f0e", "#2ca02c", "#d62728",
@@ -323,7 +326,7 @@ _STAT_COLORS = dict(zip(CONV_STATS, ("#1f77b4", "#aec7e8", "#ff7f0e", "#2ca02c",
 
 
 def _figure(res: ConvergenceResult, case: int | None) -> Figure:
-    fig = Figure(figsize=(11, 4.8), layout="constrained")
+    fig = Figure(figsize=(11, 5.4), layout="constrained")
     ax1, ax2 = fig.subplots(1, 2, sharex=True)
     fig.suptitle("Error against wall-clock time (spin-up + saltation)"
                  + (f", case {case}" if case is not None else ""))
@@ -362,9 +365,15 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
         ax.axhline(0.10, color="0.5", ls=":", lw=1)
         ax.axhline(0.25, color="0.5", ls="--", lw=1)
         ax.grid(alpha=0.3, which="both")
-        if ax.get_legend_handles_labels()[0]:
-            # (b)'s corner below is its note on the errors drawn at the floor: keep it readable
-            ax.legend(fontsize=8, loc="center left" if ax is ax2 else "best")
+    # one key for both panels (a statistic has the same colour and marker in each), below them:
+    # inside, fourteen entries hid the rungs that cost about the same
+    handles: dict[str, Any] = {}
+    for ax in (ax1, ax2):
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, h)
+    if handles:
+        fig.legend(list(handles.values()), list(handles.keys()), loc="outside lower center",
+                   ncol=min(7, len(handles)), fontsize=8)
     ax1.set_ylabel("|relative difference| [-]   (10 % dotted, 25 % dashed)")
     ax1.set_title(f"(a) against the reference rung ({res.finest})", loc="left", fontsize=9)
     ax2.set_title(f"(b) against {PAPER_LABEL} (σG/G_tot: distance to 10–20 %)",
