@@ -240,3 +240,16 @@ def test_report_names_the_solver_source_of_its_archives(tmp_path):
     # the workflow passes the running code's key: that one is kept
     meta = enrich_meta("no-such-study", {}, {"out_dir": str(tmp_path), "keys": keys, "source_key": "live"})
     assert meta["source_key"] == "live"
+
+
+def test_wall_time_of_a_resumed_study_says_it_is_the_last_leg():
+    """A study finished from the cache: its page must not present the last leg as the cost."""
+    from saltstudy.report.build import _resumed_note
+
+    machine = {"cores": 2}
+    resumed = {"total_wall_time_s": 52.0, "task_time_sum_s": 52_000.0, "machine": machine}
+    assert "last run-all only" in _resumed_note(resumed)
+    # two cores busy for the whole run: every task ran in it
+    whole = {"total_wall_time_s": 1000.0, "task_time_sum_s": 1900.0, "machine": machine}
+    assert _resumed_note(whole) == ""
+    assert _resumed_note({"total_wall_time_s": None, "task_time_sum_s": 5.0}) == ""

@@ -208,6 +208,19 @@ def _started(summary: dict[str, Any]) -> str:
     return f" ({html.escape(str(a))} to {html.escape(str(b))})" if a and b else ""
 
 
+def _resumed_note(summary: dict[str, Any]) -> str:
+    """Say so when the wall time is one leg of a resumed study: its tasks' recorded times exceed
+    what the machine's cores could have run in it, so most of them came from the cache."""
+    total, tasks = summary.get("total_wall_time_s"), summary.get("task_time_sum_s")
+    cores = (summary.get("machine") or {}).get("cores") or 1
+    try:
+        resumed = float(tasks) > 1.05 * float(total) * float(cores)
+    except (TypeError, ValueError):
+        return ""
+    return (" — the last run-all only: the rest came from the cache, computed earlier "
+            "(the sum of task times below is the study's cost)") if resumed else ""
+
+
 def _task_split(summary: dict[str, Any]) -> str:
     tt = summary.get("task_times_s") or {}
     return ", ".join(f"{k} {_fmt_s(v)}" for k, v in tt.items())
@@ -228,7 +241,7 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              f"<tr><th>fidelity</th><td>{e(str(summary['fidelity']))}</td></tr>",
              f"<tr><th>package version</th><td>{e(str(summary['package_version']))}</td></tr>",
              f"<tr><th>wall time, start to end</th><td>{_fmt_s(summary['total_wall_time_s'])}"
-             f"{_started(summary)}</td></tr>",
+             f"{_started(summary)}{_resumed_note(summary)}</td></tr>",
              f"<tr><th>sum of task times</th><td>{_fmt_s(summary['task_time_sum_s'])} "
              f"({_task_split(summary)}; a shared spin-up counted once)</td></tr>",
              f"<tr><th>machine</th><td>{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})</td></tr>",
