@@ -12,21 +12,16 @@ from pathlib import Path
 __version__ = "0.1.0"
 
 
-#: modules under solver/ that measure or probe the model but never run inside a cached task: an
-#: edit to a benchmark or a probe must not make every archive stale and recompile the kernels.
-TOOL_MODULES = frozenset({"bench.py", "bench_particles.py", "bench_scene.py", "cli_commands.py",
-                          "loglaw_probe.py"})
-
-
 def _source_key(here: Path | None = None) -> str:
-    """Hash of the numerical sources that a run executes (``_jit.py``, ``physics/``, ``solver/``
-    less :data:`TOOL_MODULES`): the workflow's cache keys and numba's on-disk cache (``_jit.py``)
-    are keyed by it."""
+    """Hash of the numerical sources that a run executes (``_jit.py``, ``physics/``, ``solver/``;
+    the instruments that measure the model live outside them, so an edit to a benchmark or a probe
+    makes no archive stale and recompiles no kernel): the workflow's cache keys and numba's
+    on-disk cache (``_jit.py``) are keyed by it."""
     here = here or Path(__file__).resolve().parent
     h = hashlib.sha256(__version__.encode())
     for sub in ("_jit.py", "physics", "solver"):
         p = here / sub
-        files = [p] if p.is_file() else sorted(f for f in p.rglob("*.py") if f.name not in TOOL_MODULES)
+        files = [p] if p.is_file() else sorted(p.rglob("*.py"))
         for f in files:
             h.update(f.name.encode())
             h.update(f.read_bytes())

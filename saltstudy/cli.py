@@ -88,7 +88,7 @@ def validate(path: Path = typer.Argument(..., help="a case, fidelity or study TO
 
 
 for _area in ("saltstudy.workflow.cli_commands", "saltstudy.analysis.cli_commands",
-              "saltstudy.report.cli_commands", "saltstudy.solver.cli_commands"):
+              "saltstudy.report.cli_commands", "saltstudy.instruments.cli_commands"):
     try:
         _mod = importlib.import_module(_area)
     except ModuleNotFoundError as _exc:  # an area not yet present in this checkout

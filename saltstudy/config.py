@@ -277,12 +277,24 @@ class GridSpec(_Frozen):
 
 
 class TimeStepping(_Frozen):
-    """Adaptive time step: Delta t = min(CFL limit, diffusion limit, dt_max)."""
+    """Adaptive time step: Delta t = min(CFL limit, diffusion limit, dt_max), and how the vertical
+    SGS diffusion is integrated (numerics: a case means the same with either)."""
     scheme: Literal["rk3"] = "rk3"
     cfl: float = Field(0.8, gt=0, le=1.5, description="advective Courant number")
-    diffusion_number: float = Field(0.4, gt=0, le=0.5, description="explicit diffusion limit")
+    diffusion_number: float = Field(
+        0.4, gt=0, le=0.5, description="explicit diffusion limit: dt <= diffusion_number / "
+        "max 2 nu (dx^-2 + dy^-2 [+ dz^-2 when the vertical diffusion is explicit])")
     dt_max: float = Field(0.05, gt=0, description="largest step [s]")
     dt_fixed: float | None = Field(None, gt=0, description="fixed step [s] (None: adaptive)")
+    vertical_diffusion: Literal["explicit", "implicit"] = Field(
+        "explicit", description="vertical SGS diffusion of u, v, w, e (and the SGS dissipation): "
+        "'explicit' in the RK3 stages, its limit from the thinnest levels; 'implicit', a "
+        "tridiagonal solve per column in each stage (solver/vertical_diffusion.py), no vertical "
+        "diffusion limit")
+    implicit_weight: float = Field(
+        0.5, ge=0.5, le=1.0, description="theta of the implicit vertical diffusion: 0.5 "
+        "Crank-Nicolson in each stage (second order), 1 backward Euler (first order, damps the "
+        "stiff modes at once)")
 
 
 class SpinUp(_Frozen):

@@ -22,6 +22,22 @@ def with_closure(scene, **closure):
     return scene.model_copy(update={"case": case})
 
 
+def make_stepper(grid, *, z0=1e-5, kappa=0.4, nu_mol=1.5e-5, wall=True, sgs=True,
+                 vertical_diffusion="explicit", implicit_weight=0.5, advection=True,
+                 damping_depth=0.0, damping_timescale=10.0, **closure):
+    """A flow stepper on ``grid`` with the case closure ``closure`` fields (config.Closure) and no
+    damping layer by default."""
+    from saltstudy.config import Closure
+    from saltstudy.solver.closure import make_closure
+    from saltstudy.solver.stepper import Boundaries, FlowNumerics, Stepper
+    clo = make_closure(grid, Closure(**closure), kappa=kappa, z0=z0, nu_mol=nu_mol, wall=wall,
+                       enabled=sgs)
+    return Stepper(grid, clo, Boundaries(z0=z0, kappa=kappa, wall=wall, damping_depth=damping_depth,
+                                         damping_timescale=damping_timescale),
+                   FlowNumerics(vertical_diffusion=vertical_diffusion,
+                                implicit_weight=implicit_weight, advection=advection))
+
+
 def stretched_grid(nx=16, ny=12, nz=14, Lx=2.0, Ly=1.5, Lz=3.0, dz_bottom=0.02) -> Grid:
     return Grid(nx, ny, nz, Lx, Ly, stretched_levels(Lz, nz, dz_bottom))
 

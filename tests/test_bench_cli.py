@@ -47,7 +47,8 @@ def test_bench_particles_json_has_the_runs_fields():
 
 
 def test_bench_particles_phases_sum_within_the_step_and_leave_the_solver_as_it_was():
-    from saltstudy.solver import bench_particles, particles
+    from saltstudy.instruments import bench_particles
+    from saltstudy.solver import particles
 
     before = {k: getattr(particles, k) for k in bench_particles.PHASE_KERNELS}
     out = _json(["bench", "particles", "--n", "3000", "--steps", "12", "--phases", "--json"])
@@ -83,12 +84,12 @@ def test_bench_particles_against_an_unknown_revision_is_a_clear_error():
 
 
 def test_bench_particles_runs_as_the_module_its_doc_names():
-    """``python -m saltstudy.solver.bench_particles`` (the module doc's first form): the module is
+    """``python -m saltstudy.instruments.bench_particles`` (the module doc's first form): the module is
     then ``__main__``, and the package it benchmarks must still be saltstudy."""
     import subprocess
     import sys
 
-    res = subprocess.run([sys.executable, "-m", "saltstudy.solver.bench_particles", "--n", "1000",
+    res = subprocess.run([sys.executable, "-m", "saltstudy.instruments.bench_particles", "--n", "1000",
                           "--steps", "2", "--json"], capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr[-2000:]
     (r,) = json.loads(res.stdout.strip().splitlines()[-1])["runs"]

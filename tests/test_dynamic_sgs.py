@@ -14,12 +14,12 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from solver_helpers import random_velocity, smoke_scene, stretched_grid, with_closure
+from solver_helpers import make_stepper, random_velocity, smoke_scene, stretched_grid, with_closure
 from turbulence_field import KOLMOGOROV_C, evolved_field, staggered_sample
 from saltstudy.solver import dynamic_sgs as dyn
 from saltstudy.solver import sgs
 from saltstudy.solver.grid import Grid
-from saltstudy.solver.stepper import Stepper, _momentum_stage
+from saltstudy.solver.stepper import _momentum_stage
 
 #: Lilly (1967): C_s = (1/pi) (3 C_K / 2)^(-3/4) for a sharp cut-off in a k^-5/3 range
 C_S_LILLY = (1.0 / math.pi) * (1.5 * KOLMOGOROV_C) ** -0.75
@@ -181,20 +181,19 @@ def test_sgs_stress_divergence_conserves_momentum():
     """Horizontal mean of the SGS momentum tendency = -d tau_13/dz of the diagnosed SGS stress, to
     round-off, with the dynamic viscosity."""
     g = stretched_grid()
-    st = Stepper(g, z0=1e-5, kappa=0.4, nu_mol=1.5e-5, damping_depth=0.0, damping_timescale=10.0,
-                 closure="dynamic")
+    st = make_stepper(g, model="dynamic")
     u, v, w = random_velocity(g, seed=3, mean_u=2.0)
     u += np.linspace(0.0, 3.0, g.nz)[None, None, :]
-    st.dynamic.update(u, v, w)
-    assert np.any(st.dynamic.cs2d2 > 0)
+    st.closure.dynamic.update(u, v, w)
+    assert np.any(st.closure.dynamic.cs2d2 > 0)
     e = np.zeros(g.shape)
     st.boundary(u, v, w, e)
     zero_c, zero_f = np.zeros(g.nz), np.zeros(g.nz + 1)
     ou, ov, ow = np.zeros_like(u), np.zeros_like(v), np.zeros_like(w)
-    _momentum_stage(u, v, w, st.nu, st.rv, st.taux, st.tauy, np.zeros_like(u), np.zeros_like(v),
+    _momentum_stage(u, v, w, st.nu, st.closure.rv, st.taux, st.tauy, np.zeros_like(u), np.zeros_like(v),
                     np.zeros_like(w), ou, ov, ow, 1.0, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, g.dz_f,
                     zero_c, zero_c, zero_f, 0.0, 0.0, False, True)
-    tau = sgs.sgs_stress_uw_profile(u, w, st.nu, st.rv, st.taux, g.dz_f, 1.0 / g.dx)
+    tau = sgs.sgs_stress_uw_profile(u, w, st.nu, st.closure.rv, st.taux, g.dz_f, 1.0 / g.dx)
     want = -(tau[1:] - tau[:-1]) / g.dz_c
     got = ou.mean(axis=(0, 1))
     assert np.abs(want).max() > 1e-3
@@ -222,8 +221,8 @@ def test_restart_is_bit_for_bit_between_coefficient_updates():
         c.step(c.next_dt())
     for name in ("u", "v", "w", "e", "p"):
         assert np.array_equal(getattr(a.state, name), getattr(c.state, name)), name
-    assert np.array_equal(a.stepper.dynamic.cs2d2, c.stepper.dynamic.cs2d2)
-    assert a.stepper.dynamic.n_updates == 3 and np.any(a.stepper.dynamic.cs2d2 > 0)
+    assert np.array_equal(a.stepper.closure.dynamic.cs2d2, c.stepper.closure.dynamic.cs2d2)
+    assert a.stepper.closure.dynamic.n_updates == 3 and np.any(a.stepper.closure.dynamic.cs2d2 > 0)
     for m in (a, b, c):
         m.close()
 
@@ -260,7 +259,7 @@ def test_coefficient_falls_toward_the_wall_in_a_spun_up_layer():
     """Spun-up particle-free layer (quick grid, 150 s, case 1, the last 50 s averaged): the
     plane-averaged C_s on the lowest levels, where the test filters reach into the production
     range, is below its value in the layer above, and beta < 1 there (Porte-Agel et al. 2000)."""
-    from saltstudy.solver.loglaw_probe import build_scene, probe_loglaw
+    from saltstudy.instruments.loglaw_probe import build_scene, probe_loglaw
 
     scene = build_scene(1, "quick", "top", None, '{"closure": {"model": "dynamic", "near_wall": false}}')
     res = probe_loglaw(scene, 150.0, 50.0, log=lambda s: None)

@@ -1,4 +1,4 @@
-"""The windowed log-law probe (solver/loglaw_probe.py): its cospectrum, its roll-damping
+"""The windowed log-law probe (instruments/loglaw_probe.py): its cospectrum, its roll-damping
 diagnostic, its input errors and a short run on the smoke grid."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from solver_helpers import random_velocity, stretched_grid  # (solver_helpers imports saltstudy first)
 from saltstudy.config import ConfigError
-from saltstudy.solver.loglaw_probe import (HEIGHTS, build_scene, damp_x_uniform_circulation,
+from saltstudy.instruments.loglaw_probe import (HEIGHTS, build_scene, damp_x_uniform_circulation,
                                            probe_loglaw, spanwise_spectrum_u,
                                            spectral_peak_wavelength, streamwise_cospectrum_uw)
 
@@ -143,7 +143,7 @@ def test_out_file_is_rewritten_after_every_window(tmp_path):
     """--out: the result so far replaces the file after each window, under a temporary name first."""
     import json
 
-    from saltstudy.solver.loglaw_probe import _writer
+    from saltstudy.instruments.loglaw_probe import _writer
 
     target = tmp_path / "probe.json"
     write = _writer(str(target))

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver_helpers import random_velocity, stretched_grid
+from solver_helpers import make_stepper, random_velocity, stretched_grid
 from saltstudy.solver.advection import advection_tendencies, scalar_advection
 from saltstudy.solver.pressure import PressureSolver
 
@@ -48,10 +48,8 @@ def test_uniform_flow_is_not_advected_and_scalar_is_conserved():
 def test_inviscid_rk3_keeps_kinetic_energy():
     """No SGS, no wall, no damping: RK3 + centred advection loses energy only at O(dt^4)."""
     from saltstudy.solver.state import FlowState
-    from saltstudy.solver.stepper import Stepper
     g = stretched_grid(nx=16, ny=12, nz=12, dz_bottom=0.05)
-    st = Stepper(g, z0=1e-5, kappa=0.4, nu_mol=0.0, damping_depth=0.0, damping_timescale=1.0,
-                 sgs=False, wall=False)
+    st = make_stepper(g, nu_mol=0.0, sgs=False, wall=False)
     s = FlowState.zeros(g)
     s.u[...], s.v[...], s.w[...] = random_velocity(g, seed=7, mean_u=1.0)
     st.pressure.project(s.u, s.v, s.w)

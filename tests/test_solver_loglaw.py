@@ -25,7 +25,7 @@ import pytest
 
 from solver_helpers import smoke_scene  # noqa: F401  (imports saltstudy first)
 from saltstudy.config import load_case, load_fidelity, resolve_scene
-from saltstudy.solver.loglaw_probe import CO_HEIGHT, streamwise_cospectrum_uw
+from saltstudy.instruments.loglaw_probe import CO_HEIGHT, streamwise_cospectrum_uw
 
 # the column leaves its initial log law over ~H U / u*^2 ~ 400 s (module doc: 240 s flattered)
 T_SPIN = 600.0

@@ -53,7 +53,7 @@ def test_wall_stress_and_length_scale():
     delta = delta_profile(m.grid)          # the filter width, with the Scotti factor by default
     assert np.all(l <= delta) and np.all(l <= 3.7 * 0.4 * m.grid.z_c + 1e-15)
     assert l[0] < 0.5 * delta[0]          # wall-limited near the bed
-    assert np.allclose(m.stepper.l, l)    # the model uses the case's (default) filter width
+    assert np.allclose(m.stepper.closure.l, l)    # the model uses the case's (default) filter width
 
 
 def test_drive_feed_forward_and_diagnostics_shapes():

@@ -112,11 +112,11 @@ def test_model_builds_it_only_when_asked():
     on = resolve_scene(load_case(1, overrides={"closure": {"near_wall": True}}), load_fidelity("smoke"))
     off = resolve_scene(load_case(1, overrides={"closure": {"near_wall": False}}), load_fidelity("smoke"))
     m_on, m_off = Model.from_scene(on), Model.from_scene(off)
-    assert m_on.stepper.near_wall is not None and m_off.stepper.near_wall is None
+    assert m_on.stepper.closure.near_wall is not None and m_off.stepper.closure.near_wall is None
     for _ in range(3):
         m_on.step(m_on.next_dt())
-    assert np.all(np.isfinite(m_on.state.u)) and m_on.stepper.near_wall.nu_T.max() >= 0
-    assert np.all(np.isfinite(m_on.stepper.near_wall.stress_profile()))
+    assert np.all(np.isfinite(m_on.state.u)) and m_on.stepper.closure.near_wall.nu_T.max() >= 0
+    assert np.all(np.isfinite(m_on.stepper.closure.near_wall.stress_profile()))
 
 
 def test_bad_layer_is_rejected_naming_the_field():

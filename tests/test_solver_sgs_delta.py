@@ -37,6 +37,6 @@ def test_model_uses_the_case_choice():
     assert s.case.closure.delta == "scotti"
     g_over = with_closure(s, delta="geometric")
     m1, m2 = Model.from_scene(s), Model.from_scene(g_over)
-    assert np.all(m1.stepper.l >= m2.stepper.l) and m1.stepper.l[0] > m2.stepper.l[0]
+    assert np.all(m1.stepper.closure.l >= m2.stepper.closure.l) and m1.stepper.closure.l[0] > m2.stepper.closure.l[0]
     m1.close()
     m2.close()

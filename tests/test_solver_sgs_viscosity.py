@@ -12,11 +12,11 @@ import math
 import numpy as np
 import pytest
 
-from solver_helpers import random_velocity, smoke_scene, stretched_grid, with_closure
+from solver_helpers import make_stepper, random_velocity, smoke_scene, stretched_grid, with_closure
 from saltstudy.solver import sgs
 from saltstudy.solver.forcing import total_stress_at_face
 from saltstudy.solver.nearwall import mean_flux_profiles
-from saltstudy.solver.stepper import Stepper, _momentum_stage
+from saltstudy.solver.stepper import _momentum_stage
 
 
 def test_viscosity_lengths_follow_the_choice():
@@ -39,8 +39,8 @@ def test_viscosity_lengths_follow_the_choice():
 def test_vertical_flux_diagnostics_match_the_momentum_kernel(viscosity):
     g = stretched_grid()
     # nu_mol = 0: the kernels scale the molecular part of nu by rv as well (stepper.py)
-    st = Stepper(g, z0=1e-5, kappa=0.4, nu_mol=0.0, damping_depth=0.0, damping_timescale=10.0,
-                 wall=False, viscosity=viscosity)
+    stepper = make_stepper(g, nu_mol=0.0, wall=False, viscosity=viscosity)
+    st = stepper.closure
     assert np.all(st.rv == 1.0) == (viscosity == "isotropic")
     u, v, w = random_velocity(g, seed=3, mean_u=2.0)
     u += np.linspace(0.0, 3.0, g.nz)[None, None, :]       # a mean shear for a mean flux
@@ -69,7 +69,7 @@ def test_vertical_flux_diagnostics_match_the_momentum_kernel(viscosity):
         _, s_face = total_stress_at_face(u, w, e, k, st.cml_v, st.nu_mol, g.dz_f, 1.0 / g.dx,
                                          tau0)
         assert s_face == pytest.approx(tau[k], rel=1e-10)
-    st.close()
+    stepper.close()
 
 
 def test_bad_viscosity_names_the_field():
@@ -87,9 +87,9 @@ def test_model_uses_the_case_choice():
     assert s.case.closure.viscosity == "isotropic"
     an = with_closure(s, viscosity="anisotropic")
     m1, m2 = Model.from_scene(s), Model.from_scene(an)
-    assert np.all(m1.stepper.rv == 1.0)
-    assert np.allclose(m2.stepper.cml_v, m2.stepper.cml * m2.stepper.rv, rtol=1e-14)
-    assert np.any(m2.stepper.rv < 0.9)
+    assert np.all(m1.stepper.closure.rv == 1.0)
+    assert np.allclose(m2.stepper.closure.cml_v, m2.stepper.closure.cml * m2.stepper.closure.rv, rtol=1e-14)
+    assert np.any(m2.stepper.closure.rv < 0.9)
     m1.step(0.01)
     m2.step(0.01)
     assert np.isfinite(m2.state.u).all() and not np.array_equal(m1.state.u, m2.state.u)

@@ -135,8 +135,8 @@ def test_two_part_model_runs_and_restarts_bit_for_bit():
         a = Model.from_scene(sc)
         for _ in range(6):
             a.step(a.next_dt())
-        tp = a.stepper.two_part
-        assert tp is not None and a.stepper.near_wall is None
+        tp = a.stepper.closure.two_part
+        assert tp is not None and a.stepper.closure.near_wall is None
         assert np.all((tp.gamma >= GAMMA_MIN) & (tp.gamma <= 1.0)) and tp.gamma.min() < 1.0
         assert tp.nu_T_star >= 0.0
         b = Model.from_scene(sc)

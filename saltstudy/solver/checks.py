@@ -108,11 +108,14 @@ def _health(u, v, w, e, rdx, rdy, dzc, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
     return part.max(), dpart.max(), bad.sum()
 
 
-def health(grid, state, cml, cml_v, nu_mol) -> tuple[float, float, int]:
+def health(grid, state, cml, cml_v, nu_mol, vertical: bool = True) -> tuple[float, float, int]:
     """(Courant rate, diffusion rate [s^-1], count of non-finite values) in one pass; cml, cml_v:
-    c_m times the horizontal and vertical viscosity lengths per level (sgs.viscosity_lengths)."""
+    c_m times the horizontal and vertical viscosity lengths per level (sgs.viscosity_lengths).
+    ``vertical`` False: the diffusion rate of the horizontal directions only (the vertical
+    diffusion is implicit, vertical_diffusion.py)."""
+    rdz2 = 1.0 / grid.dz_c**2 if vertical else np.zeros(grid.nz)
     c, d, n = _health(state.u, state.v, state.w, state.e, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c,
-                      cml, cml_v, nu_mol, 1.0 / grid.dx**2, 1.0 / grid.dy**2, 1.0 / grid.dz_c**2)
+                      cml, cml_v, nu_mol, 1.0 / grid.dx**2, 1.0 / grid.dy**2, rdz2)
     return float(c), float(d), int(n)
 
 

@@ -44,8 +44,8 @@ def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None 
 
 
 def _nu(model) -> np.ndarray:
-    st = model.stepper
-    return st.cml[None, None, :] * np.sqrt(np.maximum(model.state.e, 0.0)) + st.nu_mol
+    clo = model.stepper.closure
+    return clo.cml[None, None, :] * np.sqrt(np.maximum(model.state.e, 0.0)) + clo.nu_mol
 
 
 def cell_centred_velocity(model):
@@ -70,7 +70,8 @@ def _resolved_uw(model) -> np.ndarray:
 def _sgs_uw(model) -> np.ndarray:
     s, st = model.state, model.stepper
     taux, _ = surface_stress(s.u, s.v, st.cd) if st.wall else (np.zeros(s.u.shape[:2]), None)
-    return sgs_stress_uw_profile(s.u, s.w, _nu(model), st.rv, taux, s.grid.dz_f, 1.0 / s.grid.dx)
+    return sgs_stress_uw_profile(s.u, s.w, _nu(model), st.closure.rv, taux, s.grid.dz_f,
+                                 1.0 / s.grid.dx)
 
 
 def stress_profile(model) -> tuple[np.ndarray, np.ndarray]:
@@ -118,7 +119,7 @@ def _sgs_profiles(e, u, v, w, nu, rv, rdx, rdy, rdzc, rdzf, rlog, ceps_l):
 def flow_profiles(model) -> dict:
     """Horizontal-mean profiles: z, z_w, u, v (centres), uw_res, uw_sgs (faces), tke_res, e_sgs,
     eps_sgs, sgs_transfer (centres). Units: m s^-1, m^2 s^-2, m^2 s^-3."""
-    s, st, g = model.state, model.stepper, model.state.grid
+    s, clo, g = model.state, model.stepper.closure, model.state.grid
     uc, vc, wc = cell_centred_velocity(model)
     um = uc.mean(axis=(0, 1))
     vm = vc.mean(axis=(0, 1))
@@ -126,12 +127,12 @@ def flow_profiles(model) -> dict:
     tke = 0.5 * (((uc - um) ** 2).mean(axis=(0, 1)) + ((vc - vm) ** 2).mean(axis=(0, 1))
                  + ((wc - wm) ** 2).mean(axis=(0, 1)))
     res, sgs = stress_profile(model)
-    for mean_field in (st.near_wall, st.two_part):  # the mean-field part of the modelled stress
+    for mean_field in (clo.near_wall, clo.two_part):  # the mean-field part of the modelled stress
         if mean_field is not None:
             sgs = sgs - mean_field.stress_profile()
     nu = _nu(model)
-    eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, st.rv, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c, g.rdz_f,
-                                  st.rlog, st.ceps_l)
+    eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, clo.rv, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c,
+                                  g.rdz_f, clo.rlog, clo.ceps_l)
     return {"z": g.z_c.copy(), "z_w": g.z_f.copy(), "u": s.u.mean(axis=(0, 1)), "v": s.v.mean(axis=(0, 1)),
             "uw_res": res, "uw_sgs": sgs, "tke_res": tke, "e_sgs": s.e.mean(axis=(0, 1)),
             "eps_sgs": eps, "sgs_transfer": transfer}

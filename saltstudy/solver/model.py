@@ -30,7 +30,8 @@ from .forcing import DriveController, pressure_gradient_force, z_ref_effective
 from .grid import Grid
 from .spinup import SpinupResult, initial_flow, run_spinup
 from .state import FlowState, SolverBlowUp
-from .stepper import Stepper
+from .closure import make_closure
+from .stepper import Boundaries, FlowNumerics, Stepper
 from .wall import surface_stress_into
 
 __all__ = ["Model", "StepInfo", "SolverBlowUp", "CHECKPOINT_FORMAT"]
@@ -41,7 +42,8 @@ _FIELDS = ("u", "v", "w", "e", "p")
 
 @dataclass(frozen=True)
 class StepInfo:
-    """What one step did: step number and time after it, dt [s], Courant number, drive and u*."""
+    """What one step did: step number and time after it, dt [s], Courant number, drive and u*,
+    its wall time [s] and the part of it spent in the components (the grains)."""
     step: int
     t: float
     dt: float
@@ -49,6 +51,21 @@ class StepInfo:
     u_drive: float
     u_star_ref: float
     wall_time: float
+    wall_components: float = 0.0
+
+
+def build_stepper(scene, grid: Grid, workers: int | None = None) -> Stepper:
+    """The flow stepper of a scene: the case's closure (closure.make_closure), its bed, lid and
+    drive, and the fidelity's numerics."""
+    case, fid = scene.case, scene.fidelity
+    pg = case.forcing.drive == "pressure_gradient"
+    closure = make_closure(grid, case.closure, kappa=case.air.kappa, z0=case.surface.z0,
+                           nu_mol=case.air.nu)
+    bounds = Boundaries(z0=case.surface.z0, kappa=case.air.kappa, damping_depth=scene.damping_depth,
+                        damping_timescale=fid.grid.damping_timescale, damp_u=not pg,
+                        body_force=(pressure_gradient_force(case.forcing.u_star_s, grid.Lz)
+                                    if pg else 0.0))
+    return Stepper(grid, closure, bounds, FlowNumerics.from_time(fid.time), workers=workers)
 
 
 class Model:
@@ -85,15 +102,8 @@ class Model:
         grid = Grid.from_spec(fid.grid)
         pg = case.forcing.drive == "pressure_gradient"
         depth = scene.damping_depth
-        G = pressure_gradient_force(case.forcing.u_star_s, grid.Lz) if pg else 0.0
-        stepper = Stepper(grid, z0=case.surface.z0, kappa=case.air.kappa, nu_mol=case.air.nu,
-                          damping_depth=depth, damping_timescale=fid.grid.damping_timescale,
-                          workers=workers, damp_u=not pg, body_force=G,
-                          near_wall_layer=(case.closure.near_wall_layer if case.closure.near_wall
-                                           else None), delta=case.closure.delta,
-                          viscosity=case.closure.viscosity, closure=case.closure.model,
-                          dynamic_interval=case.closure.dynamic_interval,
-                          two_part=case.closure.two_part)
+        stepper = build_stepper(scene, grid, workers)
+        G = stepper.body_force
         state = FlowState.zeros(grid)
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
@@ -104,9 +114,9 @@ class Model:
         if saltation and case.physics.saltation:
             from .particles import Saltation
             components.append(Saltation(grid, scene))
-            if stepper.dynamic is not None:
+            if stepper.closure.dynamic is not None:
                 # the grain sink's Lagrangian time T_L = tlc / sqrt(e) follows the coefficient
-                components[-1].tlc = stepper.dynamic.tlc
+                components[-1].tlc = stepper.closure.dynamic.tlc
         model = cls(scene, grid, stepper, state, controller, rng, components)
         rl = fid.relaxation
         if components and rl.gain > 0 and rl.until > 0:
@@ -139,8 +149,10 @@ class Model:
         SolverBlowUp if a field holds a non-finite value."""
         if self._rate_cache is not None and self._rate_cache[0] == self.state.step:
             return self._rate_cache[1]
-        st = self.stepper
-        c, d, nbad = health(self.grid, self.state, st.cml, st.cml_v, st.nu_mol)
+        st, clo = self.stepper, self.stepper.closure
+        # the implicit vertical diffusion has no limit: only the horizontal rate counts
+        c, d, nbad = health(self.grid, self.state, clo.cml, clo.cml_v, clo.nu_mol,
+                            vertical=not st.implicit)
         if nbad:
             locate_nonfinite(self.state)
         self._rate_cache = (self.state.step, (c, d))
@@ -180,6 +192,7 @@ class Model:
         s = self.state
         for c in self.components:
             c.dynamics(s, dt)
+        t_comp = time.perf_counter() - t0
         self.stepper.step(s, dt)
         s.t += dt
         s.step += 1
@@ -196,7 +209,8 @@ class Model:
         if self.drive == "top":
             self.controller.update(s, dt, self._damped_mean_u(), tau)
         return StepInfo(step=s.step, t=s.t, dt=dt, max_cfl=cfl, u_drive=s.u_drive,
-                        u_star_ref=math.sqrt(abs(tau)), wall_time=time.perf_counter() - t0)
+                        u_star_ref=math.sqrt(abs(tau)), wall_time=time.perf_counter() - t0,
+                        wall_components=t_comp)
 
     def _measure_stress(self) -> float:
         s, st = self.state, self.stepper
@@ -207,7 +221,7 @@ class Model:
             f = getattr(c, "stress_at", None)
             if f is not None:
                 extra += float(f(s, self.z_ref))
-        return self.controller.measure(s, st.cml_v, st.nu_mol, st.taux, extra)
+        return self.controller.measure(s, st.closure.cml_v, st.closure.nu_mol, st.taux, extra)
 
     def _damped_mean_u(self) -> np.ndarray:
         """Horizontal-mean u on the levels the drive sees (zeros elsewhere: weight zero there)."""
@@ -255,9 +269,8 @@ class Model:
             out["tke_sink"] = np.array(s.tke_sink, copy=True)
         for k, v in self.controller.checkpoint().items():
             out[f"controller/{k}"] = v
-        if self.stepper.dynamic is not None:
-            for k, v in self.stepper.dynamic.checkpoint().items():
-                out[f"closure/{k}"] = v
+        for k, v in self.stepper.closure.checkpoint().items():
+            out[f"closure/{k}"] = v
         for c in self._checkpointed_parts():
             for k, v in c.checkpoint().items():
                 out[f"{c.name}/{k}"] = v
@@ -292,8 +305,8 @@ class Model:
         if ctl:
             self.controller.restore(ctl)
         clo = {k.split("/", 1)[1]: v for k, v in ck.items() if k.startswith("closure/")}
-        if clo and self.stepper.dynamic is not None:
-            self.stepper.dynamic.restore(clo)
+        if clo:
+            self.stepper.closure.restore(clo)
         for c in self._checkpointed_parts():
             pre = f"{c.name}/"
             data = {k[len(pre):]: v for k, v in ck.items() if k.startswith(pre)}

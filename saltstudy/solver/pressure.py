@@ -66,8 +66,9 @@ def _thomas(hat, a, inv_den, cprime):
 
 
 @pjit
-def _correct(u, v, w, phi, rdx, rdy, dzf, p, rdt):
-    """u -= G phi; p = phi / dt_stage (skipped when rdt == 0)."""
+def _correct(u, v, w, phi, rdx, rdy, dzf, p, rdt, keep):
+    """u -= G phi; p = keep p + phi / dt_stage (skipped when rdt == 0; keep = 1: the pressure
+    increment of an incremental projection)."""
     nx, ny, nz = u.shape
     for i in prange(nx):
         im = (i - 1) % nx
@@ -79,7 +80,7 @@ def _correct(u, v, w, phi, rdx, rdy, dzf, p, rdt):
                 u[i, j, k] -= (pc - phi[k, im, j]) * rdx
                 v[i, j, k] -= (pc - phi[k, i, jm]) * rdy
                 if rdt != 0.0:
-                    p[i, j, k] = pc * rdt
+                    p[i, j, k] = keep * p[i, j, k] + pc * rdt
                 if k > 0:
                     w[i, j, k] -= (pc - phi[k - 1, i, j]) * rdz
 
@@ -151,15 +152,18 @@ class PressureSolver:
         self._fft_inverse()
 
     # ---- public ---------------------------------------------------------------------------
-    def project(self, u, v, w, p=None, dt_stage: float = 0.0) -> None:
-        """Make (u, v, w) discretely divergence-free in place; p = phi/dt_stage if given [m^2 s^-2]."""
+    def project(self, u, v, w, p=None, dt_stage: float = 0.0, increment: bool = False) -> None:
+        """Make (u, v, w) discretely divergence-free in place; p = phi/dt_stage if given
+        [m^2 s^-2], or p += phi/dt_stage with ``increment`` (the stage already carried the
+        gradient of p)."""
         g = self.grid
         _divergence_kzxy(u, v, w, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, self.rhs)
         self.solve_rhs_inplace()
         if p is None or dt_stage <= 0.0:
-            _correct(u, v, w, self.rhs, 1.0 / g.dx, 1.0 / g.dy, g.dz_f, u, 0.0)
+            _correct(u, v, w, self.rhs, 1.0 / g.dx, 1.0 / g.dy, g.dz_f, u, 0.0, 0.0)
         else:
-            _correct(u, v, w, self.rhs, 1.0 / g.dx, 1.0 / g.dy, g.dz_f, p, 1.0 / dt_stage)
+            _correct(u, v, w, self.rhs, 1.0 / g.dx, 1.0 / g.dy, g.dz_f, p, 1.0 / dt_stage,
+                     1.0 if increment else 0.0)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """phi (nx, ny, nz) with L phi = rhs (rhs at cell centres, zero volume-weighted mean)."""

@@ -60,6 +60,8 @@ device = jit_with(inline="always")
 __all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "wall_blend", "length_scale", "viscosity_lengths",
            "VISCOSITY_KINDS", "c_eps_profile", "delta_profile", "scotti_factor", "DELTA_KINDS",
            "eddy_viscosity", "diff_u_at", "diff_v_at", "diff_w_at", "tke_tendency_at",
+           "diff_u_split_at", "diff_v_split_at", "diff_w_split_at", "tke_split_at",
+           "vertical_coupling",
            "strain_sq_at", "strain_sq_fluct_at",
            "compute_nu", "sgs_stress_uw_profile"]
 
@@ -146,9 +148,14 @@ def compute_nu(e, cml, nu_mol, nu):
 
 
 @device
-def diff_u_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
-    """d T_1j / dx_j at the u point [m s^-2]; bed flux T_13 = -taux (wall.py). ``nu`` is the
-    horizontal viscosity, ``rv[k]`` the vertical over the horizontal one per level (module doc)."""
+def diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
+    """d T_1j / dx_j at the u point split for a vertically implicit scheme: (the part that stays
+    explicit [m s^-2], a, c [s^-1]) with d T_1j / dx_j = explicit + c (u_k+1 - u_k) - a (u_k - u_k-1).
+
+    Explicit: T_11, T_12 and the dw/dx part of T_13, and the bed flux T_13 = -taux (wall.py) below
+    the first level; a, c: the du/dz part of T_13 on the faces below and above, nu_face / (dz_f dz_c)
+    (zero at the bed and under the free-slip lid). ``nu`` is the horizontal viscosity, ``rv[k]`` the
+    vertical over the horizontal one per level (module doc)."""
     uc = u[i, j, k]
     t11e = 2.0 * nu[i, j, k] * (u[ip, j, k] - uc) * rdx
     t11w = 2.0 * nu[im, j, k] * (uc - u[im, j, k]) * rdx
@@ -156,23 +163,28 @@ def diff_u_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy
     t12n = nun * ((u[i, jp, k] - uc) * rdy + (v[i, jp, k] - v[im, jp, k]) * rdx)
     nus = 0.25 * (nu[im, jm, k] + nu[i, jm, k] + nu[im, j, k] + nu[i, j, k])
     t12s = nus * ((uc - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx)
-    t13t = 0.0
+    rdz = 1.0 / dzc[k]
+    xt = 0.0
+    c = 0.0
     if top:
         nut = 0.25 * ((nu[im, j, k] + nu[i, j, k]) * rv[k]
                       + (nu[im, j, k + 1] + nu[i, j, k + 1]) * rv[k + 1])
-        t13t = nut * ((u[i, j, k + 1] - uc) / dzf[k + 1] + (w[i, j, k + 1] - w[im, j, k + 1]) * rdx)
+        xt = nut * (w[i, j, k + 1] - w[im, j, k + 1]) * rdx
+        c = nut / dzf[k + 1] * rdz
+    a = 0.0
     if bot:
         nub = 0.25 * ((nu[im, j, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
                       + (nu[im, j, k] + nu[i, j, k]) * rv[k])
-        t13b = nub * ((uc - u[i, j, k - 1]) / dzf[k] + (w[i, j, k] - w[im, j, k]) * rdx)
+        xb = nub * (w[i, j, k] - w[im, j, k]) * rdx
+        a = nub / dzf[k] * rdz
     else:
-        t13b = -taux[i, j]
-    return (t11e - t11w) * rdx + (t12n - t12s) * rdy + (t13t - t13b) / dzc[k]
+        xb = -taux[i, j]
+    return (t11e - t11w) * rdx + (t12n - t12s) * rdy + (xt - xb) * rdz, a, c
 
 
 @device
-def diff_v_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
-    """d T_2j / dx_j at the v point [m s^-2]; bed flux T_23 = -tauy."""
+def diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
+    """d T_2j / dx_j at the v point split as ``diff_u_split_at`` (bed flux T_23 = -tauy)."""
     vc = v[i, j, k]
     nue = 0.25 * (nu[i, jm, k] + nu[ip, jm, k] + nu[i, j, k] + nu[ip, j, k])
     t12e = nue * ((u[ip, j, k] - u[ip, jm, k]) * rdy + (v[ip, j, k] - vc) * rdx)
@@ -180,24 +192,61 @@ def diff_v_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy
     t12w = nuw * ((u[i, j, k] - u[i, jm, k]) * rdy + (vc - v[im, j, k]) * rdx)
     t22n = 2.0 * nu[i, j, k] * (v[i, jp, k] - vc) * rdy
     t22s = 2.0 * nu[i, jm, k] * (vc - v[i, jm, k]) * rdy
-    t23t = 0.0
+    rdz = 1.0 / dzc[k]
+    xt = 0.0
+    c = 0.0
     if top:
         nut = 0.25 * ((nu[i, jm, k] + nu[i, j, k]) * rv[k]
                       + (nu[i, jm, k + 1] + nu[i, j, k + 1]) * rv[k + 1])
-        t23t = nut * ((v[i, j, k + 1] - vc) / dzf[k + 1] + (w[i, j, k + 1] - w[i, jm, k + 1]) * rdy)
+        xt = nut * (w[i, j, k + 1] - w[i, jm, k + 1]) * rdy
+        c = nut / dzf[k + 1] * rdz
+    a = 0.0
     if bot:
         nub = 0.25 * ((nu[i, jm, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
                       + (nu[i, jm, k] + nu[i, j, k]) * rv[k])
-        t23b = nub * ((vc - v[i, j, k - 1]) / dzf[k] + (w[i, j, k] - w[i, jm, k]) * rdy)
+        xb = nub * (w[i, j, k] - w[i, jm, k]) * rdy
+        a = nub / dzf[k] * rdz
     else:
-        t23b = -tauy[i, j]
-    return (t12e - t12w) * rdx + (t22n - t22s) * rdy + (t23t - t23b) / dzc[k]
+        xb = -tauy[i, j]
+    return (t12e - t12w) * rdx + (t22n - t22s) * rdy + (xt - xb) * rdz, a, c
 
 
 @device
-def diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
-    """d T_3j / dx_j at the interior w point (1 <= k <= nz-1) [m s^-2]. Every T_3j is a vertical
-    flux: all carry the vertical viscosity nu rv."""
+def vertical_coupling(f, i, j, k, a, c, top, bot):
+    """c (f_k+1 - f_k) - a (f_k - f_k-1) on the column (i, j) [units of f s^-1]: the vertical part
+    of a split diffusion (``*_split_at``), for the explicit scheme or the explicit share of the
+    Crank-Nicolson one."""
+    fc = f[i, j, k]
+    r = 0.0
+    if top:
+        r += c * (f[i, j, k + 1] - fc)
+    if bot:
+        r -= a * (fc - f[i, j, k - 1])
+    return r
+
+
+@device
+def diff_u_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
+    """d T_1j / dx_j at the u point [m s^-2]; bed flux T_13 = -taux (wall.py). ``nu`` is the
+    horizontal viscosity, ``rv[k]`` the vertical over the horizontal one per level (module doc)."""
+    x, a, c = diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
+                              dzc, dzf)
+    return x + vertical_coupling(u, i, j, k, a, c, top, bot)
+
+
+@device
+def diff_v_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
+    """d T_2j / dx_j at the v point [m s^-2]; bed flux T_23 = -tauy."""
+    x, a, c = diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
+                              dzc, dzf)
+    return x + vertical_coupling(v, i, j, k, a, c, top, bot)
+
+
+@device
+def diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
+    """d T_3j / dx_j at the interior w point (1 <= k <= nz-1) split as ``diff_u_split_at``:
+    explicit T_13, T_23 (x and y derivatives), and a, c of T_33 = 2 nu_v dw/dz on the centres below
+    and above. Every T_3j is a vertical flux: all carry the vertical viscosity nu rv."""
     wc = w[i, j, k]
     rdzf = 1.0 / dzf[k]
     r0 = 0.25 * rv[k - 1]
@@ -210,9 +259,17 @@ def diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
     t23n = nun * ((v[i, jp, k] - v[i, jp, k - 1]) * rdzf + (w[i, jp, k] - wc) * rdy)
     nus = r0 * (nu[i, jm, k - 1] + nu[i, j, k - 1]) + r1 * (nu[i, jm, k] + nu[i, j, k])
     t23s = nus * ((v[i, j, k] - v[i, j, k - 1]) * rdzf + (wc - w[i, jm, k]) * rdy)
-    t33t = 2.0 * nu[i, j, k] * rv[k] * (w[i, j, k + 1] - wc) / dzc[k]
-    t33b = 2.0 * nu[i, j, k - 1] * rv[k - 1] * (wc - w[i, j, k - 1]) / dzc[k - 1]
-    return (t13e - t13w) * rdx + (t23n - t23s) * rdy + (t33t - t33b) * rdzf
+    c = 2.0 * nu[i, j, k] * rv[k] / dzc[k] * rdzf
+    a = 2.0 * nu[i, j, k - 1] * rv[k - 1] / dzc[k - 1] * rdzf
+    return (t13e - t13w) * rdx + (t23n - t23s) * rdy, a, c
+
+
+@device
+def diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
+    """d T_3j / dx_j at the interior w point (1 <= k <= nz-1) [m s^-2] (w = 0 on the bed and the
+    lid, faces 0 and nz)."""
+    x, a, c = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
+    return x + vertical_coupling(w, i, j, k, a, c, True, True)
 
 
 @device
@@ -279,10 +336,15 @@ def strain_sq_fluct_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdz
 
 
 @device
-def tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                    rlog, ceps_over_l_k, mdu, mdv):
-    """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (eq. A1); horizontal
-    fluxes with nu, vertical ones with nu rv (as in A1's nu_th, nu_tv). The production works on the
+def tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
+                 rlog, ceps_over_l_k, mdu, mdv):
+    """de/dt at the centre without advection (eq. A1) split for a vertically implicit scheme:
+    (P + horizontal transport [m^2 s^-3], a, c [s^-1] of the vertical transport, r [s^-1] of the
+    dissipation) with de/dt = P + transport_h + c (e_k+1 - e_k) - a (e_k - e_k-1) - r e_k and
+    r = c_eps e^{1/2} / l, so that r e = eps = c_eps e^{3/2} / l.
+
+    Horizontal fluxes with nu, vertical ones with nu rv (as in A1's nu_th, nu_tv); the transport
+    is 2 nu_t grad e with the face viscosities as two-point means. The production works on the
     strain less the plane-mean shears ``mdu``, ``mdv`` on the faces (nz+1,) [s^-1]: zeros, except
     with the two-part model (twopart.py), whose e is the energy of the fluctuations."""
     ec = e[i, j, k]
@@ -292,21 +354,30 @@ def tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, 
                                 mdu[k], mdv[k], mdu[kt], mdv[kt])
     nvc = nuc * rv[k]
     prod = nuc * sh + nvc * sv
-    # transport 2 nu_t grad e, face viscosities as two-point means
     fe = (nuc + nu[ip, j, k]) * (e[ip, j, k] - ec) * rdx
     fw = (nu[im, j, k] + nuc) * (ec - e[im, j, k]) * rdx
     fn = (nuc + nu[i, jp, k]) * (e[i, jp, k] - ec) * rdy
     fs = (nu[i, jm, k] + nuc) * (ec - e[i, jm, k]) * rdy
-    ft = 0.0
-    fb = 0.0
+    c = 0.0
+    a = 0.0
     if top:
-        ft = (nvc + nu[i, j, k + 1] * rv[k + 1]) * (e[i, j, k + 1] - ec) * rdzf[k + 1]
+        c = (nvc + nu[i, j, k + 1] * rv[k + 1]) * rdzf[k + 1] * rdzc[k]
     if bot:
-        fb = (nu[i, j, k - 1] * rv[k - 1] + nvc) * (ec - e[i, j, k - 1]) * rdzf[k]
-    trans = (fe - fw) * rdx + (fn - fs) * rdy + (ft - fb) * rdzc[k]
+        a = (nu[i, j, k - 1] * rv[k - 1] + nvc) * rdzf[k] * rdzc[k]
     ep = ec if ec > 0.0 else 0.0
-    eps = ceps_over_l_k * ep * math.sqrt(ep)
-    return prod + trans - eps
+    return prod + (fe - fw) * rdx + (fn - fs) * rdy, a, c, ceps_over_l_k * math.sqrt(ep)
+
+
+@device
+def tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
+                    rlog, ceps_over_l_k, mdu, mdv):
+    """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (eq. A1, all
+    explicit; ``tke_split_at``)."""
+    x, a, c, r = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
+                              rdzf, rlog, ceps_over_l_k, mdu, mdv)
+    ec = e[i, j, k]
+    ep = ec if ec > 0.0 else 0.0
+    return x + vertical_coupling(e, i, j, k, a, c, top, bot) - r * ep
 
 
 @pjit

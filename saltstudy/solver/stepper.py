@@ -4,41 +4,83 @@ stage.
     phi(1) = phi(n) + dt/3 F(phi(n)),  phi(2) = phi(n) + dt/2 F(phi(1)),  phi(n+1) = phi(n) + dt F(phi(2))
 
 for phi = (u, v, w, e), each stage followed by the pressure projection of (u, v, w) (pressure.py).
-Per stage: boundary (bed stress, eddy viscosity from the stage's e) -> one fused kernel for
-advection + SGS diffusion + Rayleigh damping + drive (u_drive through the damping layer, or a
-uniform body force G) of u, v, w -> one fused kernel for the SGS TKE
-equation (advection, production, transport, dissipation) -> projection. The particle sink of e (paper
-eq. A1, rates in ``state.tke_sink`` [s^-1]) is applied once per step, implicitly:
-e <- e / (1 + rate dt), which is unconditionally stable for any rate.
+Per stage: boundary (bed stress, eddy viscosity of the stage input from the closure) -> one fused
+kernel for advection + SGS diffusion + Rayleigh damping + drive (u_drive through the damping layer,
+or a uniform body force G) of u, v, w -> the closure's mean-field part, if any -> one fused kernel
+for the SGS TKE equation (advection, production, transport, dissipation) when the closure carries
+e -> projection. The closure's ``end_step`` then applies the particle sink of e (paper eq. A1,
+rates in ``state.tke_sink`` [s^-1]) implicitly, e <- e / (1 + rate dt), unconditionally stable
+for any rate, or diagnoses e (dynamic closure, closure.py).
 
-With the dynamic closure (dynamic_sgs.py) e is not prognostic: the coefficient (C_s Delta)^2(z) is
-refreshed at the start of every ``dynamic_interval``-th step, nu_t comes from each stage's strain,
-there is no TKE kernel, and e (with the grain sink inside its equilibrium) is diagnosed from the
-new state at the end of the step.
+The vertical SGS diffusion is explicit or implicit (``FlowNumerics.vertical_diffusion``, from the
+fidelity's ``time`` section): implicit, each stage solves one tridiagonal system per column for
+u, v, w and e (vertical_diffusion.py), and the step is no longer limited by the vertical diffusion
+of the thin first levels (Model.next_dt).
 
 Memory: the base fields phi(n) stay in the state arrays (stage 3 writes them point by point after
-reading them), so two extra sets of (u, v, w, e) suffice; no array is allocated inside a step.
+reading them, or column by column after solving), so two extra sets of (u, v, w, e) suffice; no
+field-sized array is allocated inside a step.
 """
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import prange
 
 from .._jit import jit_with, pjit
 from .advection import adv_scalar_at, adv_u_at, adv_v_at, adv_w_at
+from .closure import CLOSURES, NoClosure
 from .damping import damping_profiles
 from .pressure import PressureSolver
-from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, diff_u_at, diff_v_at, diff_w_at,
-                  length_scale, tke_tendency_at, viscosity_lengths)
+from .sgs import E_MIN, diff_u_at, diff_v_at, diff_w_at, tke_tendency_at
+from .vertical_diffusion import VERTICAL_DIFFUSION, momentum_stage_implicit, tke_stage_implicit
 from .wall import drag_coefficient, surface_stress_into
 
-__all__ = ["Stepper", "RK3_COEFFS", "CLOSURES"]
+__all__ = ["Stepper", "FlowNumerics", "Boundaries", "RK3_COEFFS", "CLOSURES"]
 
 RK3_COEFFS = (1.0 / 3.0, 0.5, 1.0)
-#: the SGS closures a stepper can carry
-CLOSURES = ("deardorff", "dynamic")
+
+
+@dataclass(frozen=True)
+class FlowNumerics:
+    """How the flow is integrated (cost and accuracy, not physics): the fidelity's choice.
+
+    ``vertical_diffusion``: "explicit" or "implicit" (vertical_diffusion.py); ``implicit_weight``
+    theta in [1/2, 1] of the implicit scheme (1/2: Crank-Nicolson in each stage, second order; 1:
+    backward Euler in each stage); ``advection``: off only in tests of the other terms."""
+    vertical_diffusion: str = "implicit"
+    implicit_weight: float = 0.5
+    advection: bool = True
+
+    def __post_init__(self):
+        if self.vertical_diffusion not in VERTICAL_DIFFUSION:
+            raise ValueError(f"vertical_diffusion must be one of {VERTICAL_DIFFUSION} "
+                             f"(got {self.vertical_diffusion!r})")
+        if not 0.5 <= self.implicit_weight <= 1.0:
+            raise ValueError(f"implicit_weight must lie in [0.5, 1] (got {self.implicit_weight!r})")
+
+    @classmethod
+    def from_time(cls, ts) -> "FlowNumerics":
+        """From a fidelity's ``time`` section (config.TimeStepping)."""
+        return cls(vertical_diffusion=ts.vertical_diffusion, implicit_weight=ts.implicit_weight)
+
+
+@dataclass(frozen=True)
+class Boundaries:
+    """The bed, the lid and the drive: log-law bed stress with roughness z0 [m] (``wall`` False:
+    a free-slip bed), a Rayleigh layer of ``damping_depth`` [m] with time scale
+    ``damping_timescale`` [s] at the lid acting on u too (``damp_u``, the top drive) or on v and w
+    only, and a uniform streamwise body force ``body_force`` G [m s^-2] (the pressure-gradient
+    drive, forcing.py)."""
+    z0: float = 1.0e-5
+    kappa: float = 0.4
+    wall: bool = True
+    damping_depth: float = 0.0
+    damping_timescale: float = 5.0
+    damp_u: bool = True
+    body_force: float = 0.0
+
 
 device = jit_with(inline="always")
 
@@ -132,175 +174,90 @@ def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps
                      rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], e_min, mdu, mdv)
 
 
-@pjit
-def _apply_sink(e, rate, dt, e_min):
-    nx, ny, nz = e.shape
-    for i in prange(nx):
-        for j in range(ny):
-            for k in range(nz):
-                val = e[i, j, k] / (1.0 + rate[i, j, k] * dt)
-                e[i, j, k] = val if val > e_min else e_min
-
-
 class Stepper:
-    """RK3 flow stepper for one grid and one scene's flow parameters (work arrays preallocated)."""
+    """RK3 flow stepper for one grid: ``Stepper(grid, closure, boundaries, numerics)``.
 
-    def __init__(self, grid, *, z0: float, kappa: float, nu_mol: float, damping_depth: float,
-                 damping_timescale: float, workers: int | None = None, advection: bool = True,
-                 sgs: bool = True, wall: bool = True, damp_u: bool = True, body_force: float = 0.0,
-                 near_wall_layer: tuple[float, float] | None = None, delta: str = "scotti",
-                 viscosity: str = "isotropic", closure: str = "deardorff", dynamic_interval: int = 5,
-                 two_part: bool = False):
-        """``damp_u``: the Rayleigh layer acts on u (towards ``state.u_drive``; the top drive) or
-        not (v and w only); ``body_force`` G [m s^-2]: uniform streamwise acceleration added to u
-        everywhere (the mean pressure gradient drive, forcing.py); ``near_wall_layer`` (a, b): the
-        near-wall mean-field eddy viscosity of nearwall.py over that layer (in dx), None: none;
-        ``delta``: the SGS filter width, "scotti" or "geometric" (sgs.delta_profile);
-        ``viscosity``: one eddy viscosity ("isotropic") or separate horizontal and vertical ones
-        ("anisotropic", sgs.viscosity_lengths); ``closure``: the SGS model, "deardorff" (the
-        paper's prognostic TKE, sgs.py) or "dynamic" (the plane-averaged scale-dependent dynamic
-        Smagorinsky model with e diagnosed, dynamic_sgs.py; its coefficient recomputed every
-        ``dynamic_interval`` steps); ``two_part``: the isotropy factor and mean-field viscosity of
-        Sullivan et al. (1994) on top of either closure (twopart.py; not with ``near_wall_layer``)."""
-        if closure not in CLOSURES:
-            raise ValueError(f"closure must be one of {CLOSURES} (got {closure!r})")
-        if closure == "dynamic" and viscosity != "isotropic":
-            raise ValueError("the dynamic closure has one eddy viscosity: viscosity must be 'isotropic'")
-        if two_part and near_wall_layer is not None:
-            raise ValueError("the two-part model carries its own mean-field viscosity: no near-wall layer")
+    ``closure``: the SGS closure object (closure.make_closure); ``boundaries``: bed, lid and drive
+    (``Boundaries``); ``numerics``: ``FlowNumerics``. Work arrays are preallocated."""
+
+    def __init__(self, grid, closure=None, boundaries: Boundaries = Boundaries(),
+                 numerics: FlowNumerics = FlowNumerics(), workers: int | None = None):
         self.grid = grid
         nx, ny, nz = grid.shape
-        self.z0, self.kappa, self.nu_mol = float(z0), float(kappa), float(nu_mol)
-        self.advection, self.sgs, self.wall = bool(advection), bool(sgs), bool(wall)
-        self.l = length_scale(grid, kappa, delta=delta)   # the dissipation length
-        l_h, l_v = viscosity_lengths(grid, kappa, viscosity, delta)
-        self.cml = np.ascontiguousarray(C_M * l_h)          # nu_h = cml sqrt(e) (+ nu_mol)
-        self.cml_v = np.ascontiguousarray(C_M * l_v)        # nu_v = cml_v sqrt(e)
-        # the vertical viscosity is nu rv: the kernels carry one field (nu_mol rides along, a
-        # relative 1e-5 - 1e-3 of nu_t)
-        self.rv = np.ascontiguousarray(l_v / l_h)
-        self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l, delta) / self.l)
-        z1 = float(grid.z_c[0])
-        self.cd = drag_coefficient(z1, self.z0, self.kappa) if self.wall else 0.0
-        # log-law shear at the first level per unit first-level velocity: 1/(z1 ln(z1/z0)) [m^-1]
-        self.rlog = 1.0 / (z1 * math.log(z1 / self.z0)) if self.wall else 0.0
-        self.closure = closure
-        self.dynamic = None
-        if closure == "dynamic" and self.sgs:
-            from .dynamic_sgs import DynamicSmagorinsky
-            self.dynamic = DynamicSmagorinsky(grid, self.kappa, self.rlog, delta, dynamic_interval)
-            # nu = C_K l sqrt(e) with the diagnosed e, so every reader of (cml, e) gets the acting
-            # viscosity; c_eps/l follows the coefficient (shared arrays, updated in place)
-            self.cml = self.dynamic.ckl
-            self.cml_v = self.dynamic.ckl
-            self.ceps_l = self.dynamic.ceps_l
-        self.f_c, self.f_f = damping_profiles(grid, damping_depth, damping_timescale)
-        self.f_cu = self.f_c if damp_u else np.zeros_like(self.f_c)
-        self.body_force = float(body_force)
+        self.closure = closure if closure is not None else NoClosure(grid)
+        self.bounds = boundaries
+        self.numerics = numerics
+        self.z0, self.kappa = float(boundaries.z0), float(boundaries.kappa)
+        self.wall = bool(boundaries.wall)
+        self.cd = drag_coefficient(float(grid.z_c[0]), self.z0, self.kappa) if self.wall else 0.0
+        self.f_c, self.f_f = damping_profiles(grid, boundaries.damping_depth,
+                                              boundaries.damping_timescale)
+        self.f_cu = self.f_c if boundaries.damp_u else np.zeros_like(self.f_c)
+        self.body_force = float(boundaries.body_force)
         self.pressure = PressureSolver(grid, workers=workers)
+        self.diffusing = bool(self.closure.diffuses)
+        self.implicit = self.diffusing and numerics.vertical_diffusion == "implicit"
+        self.theta = float(numerics.implicit_weight)
         shp, shw = (nx, ny, nz), (nx, ny, nz + 1)
         self.buf = [dict(u=np.zeros(shp), v=np.zeros(shp), w=np.zeros(shw), e=np.zeros(shp))
                     for _ in range(2)]
         self.nu = np.zeros(shp)
-        #: the grain sink rate of eq. A1 [s^-1] seen by the dynamic closure's e (set per step)
-        self._sink = None
-        self._e_stage = np.zeros(shp) if self.dynamic is not None else None
         self.taux = np.zeros((nx, ny))
         self.tauy = np.zeros((nx, ny))
-        self.near_wall = None
-        if near_wall_layer is not None and self.sgs and self.wall:
-            from .nearwall import NearWallMeanViscosity
-            self.near_wall = NearWallMeanViscosity(grid, self.kappa, near_wall_layer)
-        #: plane-mean shears on the faces that the TKE production takes out (two-part model only)
-        self.mdu = np.zeros(nz + 1)
-        self.mdv = np.zeros(nz + 1)
-        self.two_part = None
-        if two_part and self.sgs and self.wall:
-            from .twopart import TwoPartModel
-            self.two_part = TwoPartModel(grid, self.kappa, self.rlog)
-            self.mdu, self.mdv = self.two_part.mdu, self.two_part.mdv
-            if self.dynamic is None:
-                # the acting c_m l is gamma times the closure's own (updated in place every step)
-                self._cml_base = self.cml.copy()
-                self.cml = self._cml_base.copy()
-                self.cml_v = self.cml
 
     # ---- pieces ----------------------------------------------------------------------------
     def boundary(self, u, v, w, e) -> None:
-        """Bed stress from the first level and nu_t (from e, or from the strain with the dynamic
-        closure) for one stage input."""
+        """Bed stress from the first level and the closure's nu_t for one stage input."""
         if self.wall:
             surface_stress_into(u, v, self.cd, self.taux, self.tauy)
         else:
             self.taux[...] = 0.0
             self.tauy[...] = 0.0
-        if self.dynamic is not None:
-            self.dynamic.viscosity(u, v, w, self._sink, self.nu_mol, self.nu, self._e_stage)
-        elif self.sgs:
-            compute_nu(e, self.cml, self.nu_mol, self.nu)
-        else:
-            self.nu[...] = 0.0
+        self.closure.viscosity(u, v, w, e, self.nu)
 
-    def stage(self, inp, base, out, cdt: float, u_drive: float, p=None) -> None:
-        """out = base + cdt F(inp), then projected (inp/base/out: objects or dicts with u, v, w, e)."""
-        g = self.grid
+    def stage(self, inp, base, out, cdt: float, u_drive: float, p, store_p: bool = False) -> None:
+        """out = base + cdt F(inp), then projected (inp/base/out: objects or dicts with u, v, w, e).
+
+        ``p`` [m^2 s^-2]: the pressure of the last step. The implicit stages carry its gradient
+        (an incremental projection: the vertical diffusion then acts on a nearly solenoidal
+        tendency, and the splitting of projection and implicit diffusion stays second order;
+        vertical_diffusion.py); with ``store_p`` the stage's pressure is written into p."""
+        g, clo = self.grid, self.closure
         gu, gv, gw, ge = (_get(inp, n) for n in "uvwe")
         bu, bv, bw, be = (_get(base, n) for n in "uvwe")
         ou, ov, ow, oe = (_get(out, n) for n in "uvwe")
         self.boundary(gu, gv, gw, ge)
         rdx, rdy = 1.0 / g.dx, 1.0 / g.dy
-        _momentum_stage(gu, gv, gw, self.nu, self.rv, self.taux, self.tauy, bu, bv, bw, ou, ov, ow, cdt, rdx,
-                        rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive, self.body_force,
-                        self.advection, self.sgs)
-        if self.near_wall is not None:
-            self.near_wall.apply(ou, ov, cdt)
-        if self.two_part is not None:
-            self.two_part.apply(ou, ov, cdt)
-        if self.dynamic is not None:
-            pass                # e is diagnosed from the new state at the end of the step
-        elif self.sgs:
-            _tke_stage(ge, gu, gv, gw, self.nu, self.rv, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f, self.rlog,
-                       self.ceps_l, E_MIN, self.mdu, self.mdv)
-        elif oe is not be:
+        adv = self.numerics.advection
+        if self.implicit:
+            momentum_stage_implicit(gu, gv, gw, self.nu, clo.rv, self.taux, self.tauy, bu, bv, bw, ou,
+                                    ov, ow, p, cdt, self.theta, rdx, rdy, g.dz_c, g.dz_f, self.f_c,
+                                    self.f_cu, self.f_f, u_drive, self.body_force, adv)
+        else:
+            _momentum_stage(gu, gv, gw, self.nu, clo.rv, self.taux, self.tauy, bu, bv, bw, ou, ov, ow,
+                            cdt, rdx, rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive,
+                            self.body_force, adv, self.diffusing)
+        clo.mean_field(ou, ov, cdt)
+        if clo.prognostic_e and self.implicit:
+            tke_stage_implicit(ge, gu, gv, gw, self.nu, clo.rv, be, oe, cdt, self.theta, rdx, rdy,
+                               g.rdz_c, g.rdz_f, clo.rlog, clo.ceps_l, E_MIN, clo.mdu, clo.mdv)
+        elif clo.prognostic_e:
+            _tke_stage(ge, gu, gv, gw, self.nu, clo.rv, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f,
+                       clo.rlog, clo.ceps_l, E_MIN, clo.mdu, clo.mdv)
+        elif oe is not be and self.closure.dynamic is None:
             oe[...] = be
-        self.pressure.project(ou, ov, ow, p, cdt)
+        self.pressure.project(ou, ov, ow, p if store_p else None, cdt, increment=self.implicit)
 
     def step(self, state, dt: float) -> None:
-        """Advance (u, v, w, e) of ``state`` by dt in place (clock untouched)."""
+        """Advance (u, v, w, e) of ``state`` by dt in place (clock untouched); state.p becomes
+        the step's pressure."""
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
-        if self.dynamic is not None:
-            self.dynamic.maybe_update(state)
-            self._sink = state.tke_sink
-        if self.near_wall is not None:  # held over the stages (a slow mean-field term)
-            self.near_wall.update(state, self.cml_v, self.nu_mol, dt)
-        if self.two_part is not None:   # likewise: gamma, the mean shear and nu_T of this step
-            self._update_two_part(state, dt)
-        self.stage(state, state, a, c1 * dt, state.u_drive)
-        self.stage(a, state, b, c2 * dt, state.u_drive)
-        self.stage(b, state, state, c3 * dt, state.u_drive, p=state.p)
-        if self.dynamic is not None:
-            # e of the new state, in equilibrium with its strain and the grains' sink
-            self.dynamic.viscosity(state.u, state.v, state.w, self._sink, self.nu_mol, self.nu,
-                                   state.e)
-        elif state.tke_sink is not None:
-            _apply_sink(state.e, state.tke_sink, dt, E_MIN)
-
-    def _update_two_part(self, state, dt: float) -> None:
-        from .twopart import wall_friction_velocity
-        tp = self.two_part
-        tp.update_gamma(state)
-        if self.dynamic is not None:
-            self.dynamic.set_scale(tp.gamma)
-        else:
-            np.multiply(self._cml_base, tp.gamma, out=self.cml)
-        # the plane mean of the gamma-scaled viscosity on face 1 (nu = c l sqrt(e) for both
-        # closures: the dynamic model's e is diagnosed from its viscosity)
-        e = state.e
-        nu1 = 0.5 * (self.cml[0] * float(np.sqrt(np.maximum(e[:, :, 0], 0.0)).mean())
-                     + self.cml[1] * float(np.sqrt(np.maximum(e[:, :, 1], 0.0)).mean()))
-        surface_stress_into(state.u, state.v, self.cd, self.taux, self.tauy)
-        tp.update_mean_viscosity(nu1, wall_friction_velocity(self.taux, self.tauy), dt)
+        self.closure.begin_step(state, dt, self.cd)
+        self.stage(state, state, a, c1 * dt, state.u_drive, state.p)
+        self.stage(a, state, b, c2 * dt, state.u_drive, state.p)
+        self.stage(b, state, state, c3 * dt, state.u_drive, state.p, store_p=True)
+        self.closure.end_step(state, dt, self.nu)
 
     def close(self) -> None:
         self.pressure.close()

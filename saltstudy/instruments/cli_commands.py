@@ -1,9 +1,6 @@
-"""The solver's commands: ``saltstudy bench flow`` (and ``bench particles`` when
-``solver/bench_particles.py`` is present: it registers itself through its ``register_bench``), and
-``saltstudy probe loglaw`` (loglaw_probe.py)."""
+"""The instruments' commands: ``saltstudy bench flow|particles|scene`` and ``saltstudy probe
+loglaw``."""
 from __future__ import annotations
-
-import importlib
 
 import typer
 
@@ -21,7 +18,7 @@ def register(app: typer.Typer) -> None:
                                                help="SGS closure (closure.model); repeat to compare")) -> None:
         """Median wall time per LES step on 64x48x48 and 200x150x100, per cell-step, vs the FFT floor."""
         from .bench import main
-        from .stepper import CLOSURES
+        from ..solver.closure import CLOSURES
         bad = [c for c in closure if c not in CLOSURES]
         if bad:
             typer.echo(f"error: --closure: unknown closure {bad[0]!r} (known: {', '.join(CLOSURES)})",
@@ -29,15 +26,8 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(2)
         main(steps=steps, big=big, as_json=as_json, closures=closure)
 
-    try:
-        mod = importlib.import_module("saltstudy.solver.bench_particles")
-    except ModuleNotFoundError as exc:
-        if exc.name != "saltstudy.solver.bench_particles":
-            raise
-    else:
-        hook = getattr(mod, "register_bench", None) or getattr(mod, "register", None)
-        if hook is not None:
-            hook(bench_app)
+    from .bench_particles import register_bench
+    register_bench(bench_app)
     from .bench_scene import register_bench_scene
     register_bench_scene(bench_app)
     app.add_typer(bench_app, name="bench")

@@ -1,7 +1,7 @@
 """Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow.
 
-    python -m saltstudy.solver.bench_particles [--json] [--phases] [--steps N] [--n 1e5 --n 1e6]
-    saltstudy bench particles ...          (registered by the solver's cli_commands via register_bench)
+    python -m saltstudy.instruments.bench_particles [--json] [--phases] [--steps N] [--n 1e5 --n 1e6]
+    saltstudy bench particles ...          (registered by instruments/cli_commands.py via register_bench)
 
 The flow is a frozen synthetic log-law wind (u*s of case 2) with smooth periodic perturbations of
 30% u* in u, v, w; the parcels are spread in the lowest 0.3 m with random velocities, so they
@@ -92,7 +92,7 @@ PHASE_KERNELS = ("implicit_coefficients", "implicit_corrections", "_advance_all"
 def _timed_kernels(acc: dict, component):
     """Accumulate wall seconds per kernel in ``acc`` while inside (and the parcel reordering,
     ``component._sort``, as "_sort"); restores the originals on exit."""
-    from . import particles
+    from ..solver import particles
 
     saved = {name: getattr(particles, name) for name in PHASE_KERNELS}
 

@@ -40,7 +40,7 @@ def _median_time(f, n: int) -> float:
 
 def bench_grid(fidelity: str, steps: int = 10, closure: str = "deardorff") -> dict:
     from ..config import load_case, load_fidelity, resolve_scene
-    from .model import Model
+    from ..solver.model import Model
 
     scene = resolve_scene(load_case(1, overrides={"closure": {"model": closure}}),
                           load_fidelity(fidelity))

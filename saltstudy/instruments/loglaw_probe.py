@@ -136,8 +136,8 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     """Run ``scene`` without grains to ``t_end`` [s]; one summary per ``window`` [s] (module doc).
     Returns {"grid", "drive", "z_ref", "target", "windows": [...]}."""
     from ..physics.laws import z0_at_fixed_u_star
-    from .diagnostics_flow import fit_log_law, flow_profiles
-    from .model import Model
+    from ..solver.diagnostics_flow import fit_log_law, flow_profiles
+    from ..solver.model import Model
 
     if not (window > 0 and t_end >= window):
         raise ValueError(f"window = {window} s, t_end = {t_end} s: need 0 < window <= t_end")
@@ -181,9 +181,9 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
             acc[key] = acc.get(key, 0.0) + p[key]
         acc["co"] = acc.get("co", 0.0) + streamwise_cospectrum_uw(m.state, k_co)
         acc["sy"] = acc.get("sy", 0.0) + spanwise_spectrum_u(m.state, k_st)
-        if m.stepper.dynamic is not None:
-            acc["c_s"] = acc.get("c_s", 0.0) + m.stepper.dynamic.c_s
-            acc["beta"] = acc.get("beta", 0.0) + np.nan_to_num(m.stepper.dynamic.beta)
+        if m.stepper.closure.dynamic is not None:
+            acc["c_s"] = acc.get("c_s", 0.0) + m.stepper.closure.dynamic.c_s
+            acc["beta"] = acc.get("beta", 0.0) + np.nan_to_num(m.stepper.closure.dynamic.beta)
         n += 1
         t_next += 1.0
         if m.t < t_win - 1e-9:

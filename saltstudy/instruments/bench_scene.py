@@ -1,0 +1,310 @@
+"""What one scene costs per step, and what a whole run of it would cost: ``saltstudy bench scene``.
+
+For each numba thread count: the flow alone (the scene's model from its initial state, a few warm
+steps, then ``steps`` timed steps), and the flow with ``parcels`` parcels released at activation
+(the same, with the grain component). Reported: median wall time per step, the mean adaptive step
+``dt`` (hence steps per simulated second), the parcels aloft, peak resident memory.
+
+Extrapolation to the scene's own run: spin-up ``spinup.t_min``..``t_max`` seconds of flow alone and
+``saltation_duration`` seconds with grains, at the measured s/step and steps per simulated second.
+To N cores: Amdahl's law with the serial fraction f that the 1 -> 2 thread speed-up S2 implies
+(f = 2/S2 - 1); one measured point, and memory bandwidth ignored, so it is a best case.
+
+Caveats, stated with the numbers: the flow is the initial log-law profile with perturbations, not a
+spun-up one (its Courant rate is set by the mean wind; gusts of a spun-up flow shorten the step), and
+the parcels start at rest in the lowest layer rather than in an equilibrium layer (the cost per
+parcel-step differs little: `saltstudy bench particles` measures it on a frozen flow).
+
+With ``saltation_seconds`` S (``--saltation-seconds``) nothing is extrapolated: from the scene's
+spin-up (the workflow's archive in the cache, computed there if absent) each vertical-diffusion
+scheme (``--vertical-diffusion``, repeatable; default the fidelity's) runs the first S seconds of
+the scene's real saltation run: the same release, the same column relaxation, the same adaptive
+step. Per scheme: steps and wall seconds per simulated second (all, the flow, the grains), which
+limit set each step (health.limiting_step), the process's peak memory after it. With ``rounds`` >
+1 the schemes alternate (the order flipped every round) and the medians over rounds are
+reported: separate runs on a machine whose speed drifts scatter by tens of per cent.
+"""
+from __future__ import annotations
+
+import json
+import resource
+import statistics
+import time
+
+import numba
+
+__all__ = ["bench_scene", "bench_schemes"]
+
+
+def _scene(case: int, fidelity: str, parcels: int | None):
+    from ..config import PAPER_AREA_M2, Scene, load_case, load_fidelity, resolve_scene
+    scene = resolve_scene(load_case(case), load_fidelity(fidelity))
+    if parcels:
+        g = scene.fidelity.grid
+        d = scene.model_dump()
+        # n_initial is given per 300 m^2 at the paper's Q: invert Scene.n_initial
+        d["case"]["particles"]["n_initial"] = max(1, int(round(
+            parcels * PAPER_AREA_M2 / (g.Lx * g.Ly) * scene.fidelity.q_multiplier)))
+        scene = Scene.model_validate(d)
+    return scene
+
+
+def _time_steps(model, steps: int, warm: int = 3) -> dict:
+    for _ in range(warm):
+        model.step(model.next_dt())
+    wall, dts = [], []
+    for _ in range(steps):
+        dt = model.next_dt()
+        t0 = time.perf_counter()
+        model.step(dt)
+        wall.append(time.perf_counter() - t0)
+        dts.append(dt)
+    return {"s_per_step": statistics.median(wall), "s_per_step_mean": statistics.fmean(wall),
+            "dt_mean": statistics.fmean(dts), "steps_per_sim_s": 1.0 / statistics.fmean(dts)}
+
+
+def measure(scene, steps: int, threads: int) -> dict:
+    from ..solver.model import Model
+    numba.set_num_threads(threads)
+    flow = Model.from_scene(scene, saltation=False)
+    out = {"threads": threads, "flow": _time_steps(flow, steps)}
+    del flow
+    if scene.case.physics.saltation:
+        m = Model.from_scene(scene, saltation=True)
+        m.activate_saltation()
+        res = _time_steps(m, steps)
+        res["parcels"] = int(m.components[0].n)
+        out["grains"] = res
+    out["peak_rss_MB"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return out
+
+
+def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32),
+                saltation_dt: float | None = None) -> dict:
+    """Hours of one run of ``scene`` (spin-up + saltation) on each core count. ``saltation_dt``
+    [s]: the mean step of a real saltation run at this resolution, if known (the initial flow's
+    step is longer: the grain layer makes the near-bed diffusion limit stiffer)."""
+    by = {r["threads"]: r for r in rows}
+    f = scene.fidelity
+
+    def run_s(r: dict) -> dict:
+        spin = [f.spinup.t_min * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"],
+                f.spinup.t_max * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"]]
+        g = r.get("grains") or r["flow"]
+        rate = 1.0 / saltation_dt if saltation_dt else g["steps_per_sim_s"]
+        salt = f.saltation_duration * rate * g["s_per_step"]
+        return {"spinup_s": spin, "saltation_s": salt}
+
+    out: dict = {"measured": {t: run_s(r) for t, r in by.items()}, "saltation_dt": saltation_dt}
+    if 1 in by and 2 in by:
+        key = "grains" if "grains" in by[1] else "flow"
+        s2 = by[1][key]["s_per_step"] / by[2][key]["s_per_step"]
+        serial = min(1.0, max(0.0, 2.0 / s2 - 1.0))
+        out["speedup_1_to_2"] = s2
+        out["serial_fraction"] = serial
+        base = run_s(by[1])
+        est = {}
+        for n in cores:
+            sp = 1.0 / (serial + (1.0 - serial) / n)
+            est[n] = {"speedup": sp, "saltation_h": base["saltation_s"] / sp / 3600.0,
+                      "spinup_h": [x / sp / 3600.0 for x in base["spinup_s"]]}
+        out["amdahl"] = est
+    return out
+
+
+def bench_scene(case: int = 2, fidelity: str = "paper", steps: int = 20,
+                threads: tuple[int, ...] = (1, 2), parcels: int | None = None,
+                as_json: bool = False, saltation_dt: float | None = None,
+                vertical_diffusion: str | None = None) -> dict:
+    scene = _scene(case, fidelity, parcels)
+    if vertical_diffusion:
+        scene = _with_scheme(scene, vertical_diffusion)
+    g = scene.fidelity.grid
+    rows = [measure(scene, steps, t) for t in threads if t <= numba.config.NUMBA_NUM_THREADS]
+    res = {"case": case, "fidelity": fidelity, "grid": [g.nx, g.ny, g.nz],
+           "cells": g.nx * g.ny * g.nz, "steps": steps, "rows": rows,
+           "extrapolation": extrapolate(scene, rows, saltation_dt=saltation_dt)}
+    if as_json:
+        print(json.dumps(res))
+        return res
+    print(f"case {case} at fidelity {fidelity}: {g.nx}x{g.ny}x{g.nz} = {res['cells']:,} cells, "
+          f"{steps} timed steps (median)")
+    for r in rows:
+        fl = r["flow"]
+        line = (f"  {r['threads']} thread(s): flow {fl['s_per_step']:.3f} s/step, dt {fl['dt_mean'] * 1e3:.2f} ms")
+        if "grains" in r:
+            gr = r["grains"]
+            line += (f"; with {gr['parcels']:,} parcels {gr['s_per_step']:.3f} s/step, "
+                     f"dt {gr['dt_mean'] * 1e3:.2f} ms")
+        print(line + f"; peak {r['peak_rss_MB']:.0f} MB")
+    ex = res["extrapolation"]
+    for t, m in ex["measured"].items():
+        print(f"  one run on {t} thread(s): spin-up {m['spinup_s'][0] / 3600:.1f}-{m['spinup_s'][1] / 3600:.1f} h, "
+              f"saltation {m['saltation_s'] / 3600:.1f} h")
+    if "amdahl" in ex:
+        print(f"  speed-up 1 -> 2 threads {ex['speedup_1_to_2']:.2f} (serial fraction "
+              f"{ex['serial_fraction']:.2f}); Amdahl, best case:")
+        for n, e in ex["amdahl"].items():
+            print(f"    {n:3d} cores: x{e['speedup']:.1f}, saltation {e['saltation_h']:.1f} h, "
+                  f"spin-up {e['spinup_h'][0]:.1f}-{e['spinup_h'][1]:.1f} h")
+    return res
+
+
+def _with_scheme(scene, scheme: str):
+    from ..config import Scene
+    d = scene.model_dump()
+    d["fidelity"]["time"]["vertical_diffusion"] = scheme
+    return Scene.model_validate(d)
+
+
+def _saltation_seconds(scene, restart: dict, seconds: float) -> dict:
+    """The first ``seconds`` of ``scene``'s saltation run from ``restart``: counts and wall."""
+    from ..solver.model import Model
+    from ..workflow.health import limiting_step, step_limits
+    m = Model.from_scene(scene, saltation=True, restart=restart)
+    m.activate_saltation()
+    ts = scene.fidelity.time
+    t_end = m.t + seconds
+    limits: dict[str, int] = {}
+    steps, wall, wall_grains = 0, 0.0, 0.0
+    try:
+        while m.t < t_end - 1e-9:
+            lim = step_limits(m)
+            which = limiting_step(lim["dt_courant"], lim["dt_diffusion"], lim["dt_grains"],
+                                  ts.dt_max, ts.dt_fixed)
+            dt = m.next_dt(limit=t_end - m.t)
+            if dt < min(v for v in (*lim.values(), ts.dt_max)) * (1 - 1e-9):
+                which = "end"           # the last step, cut to land on t_end
+            limits[which] = limits.get(which, 0) + 1
+            info = m.step(dt)
+            steps += 1
+            wall += info.wall_time
+            wall_grains += info.wall_components
+        n = int(m.components[0].n) if m.components else 0
+    finally:
+        m.close()
+    return {"steps": steps, "steps_per_simulated_s": steps / seconds,
+            "wall_per_simulated_s": wall / seconds,
+            "wall_per_simulated_s_flow": (wall - wall_grains) / seconds,
+            "wall_per_simulated_s_grains": wall_grains / seconds,
+            "limits": {k: v / steps for k, v in sorted(limits.items())},
+            "parcels_at_end": n,
+            "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
+
+
+def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ...] = (),
+                  saltation_seconds: float = 5.0, rounds: int = 1, out_dir=None,
+                  as_json: bool = False) -> dict:
+    """Each vertical-diffusion scheme over the first ``saltation_seconds`` of the scene's saltation
+    run from its spin-up (module doc). Returns {"case", "fidelity", "saltation_seconds",
+    "rounds", "threads", "spinup", "schemes": {NAME: {"steps_per_simulated_s",
+    "wall_per_simulated_s", "wall_per_simulated_s_flow", "wall_per_simulated_s_grains",
+    "limits", "peak_rss_MB", "rounds"}}}."""
+    from pathlib import Path
+
+    from ..ncio import open_dataset
+    from ..solver.similarity import rescale_restart
+    from ..workflow import archives
+    from ..workflow.paths import default_out_dir
+    from ..workflow.tasks import spinup_task
+    scene = _scene(case, fidelity, None)
+    schemes = tuple(schemes) or (scene.fidelity.time.vertical_diffusion,)
+    # the workflow's own spin-up archive (returned at once when the cache holds it)
+    sp_path = spinup_task(scene, Path(out_dir) if out_dir else default_out_dir())
+    sp = open_dataset(sp_path)
+    restart = archives.restart_from_dataset(sp)
+    u_spin = float(sp.attrs.get("u_star_target", scene.case.forcing.u_star_s))
+    restart = rescale_restart(restart, scene.case.forcing.u_star_s / u_spin)
+    per: dict[str, list[dict]] = {k: [] for k in schemes}
+    for r in range(rounds):
+        order = schemes if r % 2 == 0 else tuple(reversed(schemes))
+        for name in order:
+            per[name].append(_saltation_seconds(_with_scheme(scene, name), restart,
+                                                saltation_seconds))
+    out = {"case": case, "fidelity": fidelity, "saltation_seconds": saltation_seconds,
+           "rounds": rounds, "threads": int(numba.get_num_threads()), "spinup": str(sp_path),
+           "schemes": {}}
+    for name, rows in per.items():
+        med = {k: statistics.median(x[k] for x in rows) for k in
+               ("steps_per_simulated_s", "wall_per_simulated_s", "wall_per_simulated_s_flow",
+                "wall_per_simulated_s_grains")}
+        keys = sorted({k for x in rows for k in x["limits"]})
+        med["limits"] = {k: statistics.fmean(x["limits"].get(k, 0.0) for x in rows) for k in keys}
+        med["peak_rss_MB"] = max(x["peak_rss_MB"] for x in rows)
+        med["rounds"] = rows
+        out["schemes"][name] = med
+    if as_json:
+        print(json.dumps(out))
+        return out
+    print(f"case {case} at fidelity {fidelity}: the first {saltation_seconds:g} s of saltation from "
+          f"the spin-up, {out['threads']} numba thread(s), {rounds} round(s), medians")
+    for name, m in out["schemes"].items():
+        lim = ", ".join(f"{k} {100 * v:.0f} %" for k, v in m["limits"].items())
+        print(f"  {name:9s}: {m['steps_per_simulated_s']:7.1f} steps per simulated s, "
+              f"{m['wall_per_simulated_s']:8.2f} s wall per simulated s (flow "
+              f"{m['wall_per_simulated_s_flow']:.2f}, grains {m['wall_per_simulated_s_grains']:.2f}); "
+              f"step set by: {lim}; peak {m['peak_rss_MB']:.0f} MB")
+    if len(schemes) == 2:
+        a, b = (out["schemes"][k] for k in schemes)
+        print(f"  {schemes[0]} / {schemes[1]}: wall x{a['wall_per_simulated_s'] / b['wall_per_simulated_s']:.2f}, "
+              f"flow x{a['wall_per_simulated_s_flow'] / b['wall_per_simulated_s_flow']:.2f}, "
+              f"steps x{a['steps_per_simulated_s'] / b['steps_per_simulated_s']:.2f}")
+    return out
+
+
+def register_bench_scene(bench_app) -> None:
+    import typer
+
+    @bench_app.command("scene")
+    def scene_cmd(case: int = typer.Option(2, "--case", help="case number"),
+                  fidelity: str = typer.Option("paper", "--fidelity", help="fidelity name"),
+                  steps: int = typer.Option(20, "--steps", help="timed steps (median)"),
+                  threads: list[int] = typer.Option([1, 2], "--threads", help="numba threads; repeat"),
+                  parcels: int = typer.Option(0, "--parcels", help="parcels to release (0: the "
+                                              "scene's own n_initial)"),
+                  saltation_dt: float = typer.Option(0.0, "--saltation-dt", help="mean step [s] "
+                                                     "of a real saltation run at this resolution, "
+                                                     "for the extrapolation (0: the measured one)"),
+                  vertical_diffusion: list[str] = typer.Option(
+                      [], "--vertical-diffusion", help="vertical diffusion scheme (explicit, "
+                      "implicit); repeat to compare, alternating (default: the fidelity's)"),
+                  saltation_seconds: float = typer.Option(
+                      0.0, "--saltation-seconds", help="time this many seconds of the scene's real "
+                      "saltation run from its spin-up (from the cache, or computed) instead of "
+                      "extrapolating from a few steps"),
+                  rounds: int = typer.Option(1, "--rounds", help="alternating rounds of the "
+                                             "schemes (--saltation-seconds)"),
+                  out: str = typer.Option(None, "--out", help="cache directory holding (or to hold) "
+                                          "the spin-up (--saltation-seconds)"),
+                  as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
+        """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N
+        cores; or, with --saltation-seconds, the real cost of each vertical-diffusion scheme."""
+        from ..solver.vertical_diffusion import VERTICAL_DIFFUSION
+        bad = [v for v in vertical_diffusion if v not in VERTICAL_DIFFUSION]
+        if bad:
+            typer.echo(f"error: --vertical-diffusion: unknown scheme {bad[0]!r} (known: "
+                       f"{', '.join(VERTICAL_DIFFUSION)})", err=True)
+            raise typer.Exit(2)
+        if saltation_seconds < 0 or rounds < 1:
+            typer.echo("error: --saltation-seconds must be positive and --rounds at least 1",
+                       err=True)
+            raise typer.Exit(2)
+        if saltation_seconds > 0:
+            from pathlib import Path
+            bench_schemes(case, fidelity, tuple(vertical_diffusion), saltation_seconds, rounds,
+                          Path(out) if out else None, as_json)
+            return
+        if len(vertical_diffusion) > 1:
+            typer.echo("error: --vertical-diffusion: comparing schemes needs --saltation-seconds",
+                       err=True)
+            raise typer.Exit(2)
+        if steps < 1:
+            typer.echo("error: --steps: must be at least 1", err=True)
+            raise typer.Exit(2)
+        if saltation_dt < 0:
+            typer.echo("error: --saltation-dt: must be positive (or 0 for the measured step)", err=True)
+            raise typer.Exit(2)
+        bench_scene(case, fidelity, steps, tuple(threads), parcels or None, as_json,
+                    saltation_dt or None,
+                    vertical_diffusion[0] if vertical_diffusion else None)
+

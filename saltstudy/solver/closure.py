@@ -1,0 +1,244 @@
+"""The SGS closure as one object (MicroHH's diffusion group): the eddy viscosity of each RK3 stage,
+the SGS TKE it carries, and the optional mean-field parts, built by ``make_closure`` from a case's
+``closure`` section.
+
+* ``DeardorffClosure``: the paper's 1.5-order prognostic TKE (sgs.py); the stepper integrates e.
+* ``DynamicClosure``: the plane-averaged scale-dependent dynamic Smagorinsky model
+  (dynamic_sgs.py): nu from each stage's strain, e diagnosed at the end of the step (its grain sink
+  inside its local equilibrium).
+* ``NoClosure``: no SGS stress (inviscid tests, advection checks); it costs nothing.
+
+Either SGS model may carry one mean-field part on the plane-mean shear: the near-wall mixing-length
+viscosity (nearwall.py) or the two-part model of Sullivan et al. (1994) (twopart.py). A part that
+is off is not constructed.
+
+What the stepper reads: ``nu_mol``, the per-level arrays ``l`` (dissipation length), ``cml`` and
+``cml_v`` (c_m times the horizontal and vertical viscosity lengths: nu_h = cml sqrt(e) + nu_mol),
+``rv`` (vertical over horizontal viscosity), ``ceps_l`` (c_eps / l), ``mdu``, ``mdv`` (plane-mean
+shears the TKE production takes out; zeros but with the two-part model) and ``rlog`` (the log-law
+shear at the first level per unit first-level velocity, 1/(z_1 ln(z_1/z0)) [m^-1]); and the hooks
+``begin_step``, ``viscosity``, ``mean_field``, ``end_step``.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from .._jit import pjit
+from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, length_scale, viscosity_lengths)
+from .wall import surface_stress_into
+
+__all__ = ["make_closure", "DeardorffClosure", "DynamicClosure", "NoClosure", "CLOSURES",
+           "log_shear_factor", "apply_sink"]
+
+#: the SGS models a case can name (config.Closure.model)
+CLOSURES = ("deardorff", "dynamic")
+
+
+@pjit
+def apply_sink(e, rate, dt, e_min):
+    """e <- max(e / (1 + rate dt), e_min): the grain sink of eq. A1, implicit (stable for any rate)."""
+    nx, ny, nz = e.shape
+    for i in prange(nx):
+        for j in range(ny):
+            for k in range(nz):
+                val = e[i, j, k] / (1.0 + rate[i, j, k] * dt)
+                e[i, j, k] = val if val > e_min else e_min
+
+
+def log_shear_factor(grid, z0: float) -> float:
+    """1 / (z_1 ln(z_1 / z0)) [m^-1]: the log-law shear at the first level z_1 per unit velocity
+    there (the strain on the bed face, where the resolved difference does not exist)."""
+    z1 = float(grid.z_c[0])
+    return 1.0 / (z1 * math.log(z1 / z0))
+
+
+class NoClosure:
+    """No SGS stress and no SGS TKE (nu = 0 everywhere)."""
+
+    prognostic_e = False
+    #: whether it carries an SGS stress (False: the stepper integrates no diffusion)
+    diffuses = False
+    dynamic = None
+    near_wall = None
+    two_part = None
+
+    def __init__(self, grid, nu_mol: float = 0.0, rlog: float = 0.0):
+        nz = grid.nz
+        self.nu_mol = float(nu_mol)
+        self.rlog = float(rlog)
+        self.l = np.zeros(nz)
+        self.cml = np.zeros(nz)
+        self.cml_v = np.zeros(nz)
+        self.rv = np.ones(nz)
+        self.ceps_l = np.zeros(nz)
+        self.mdu = np.zeros(nz + 1)
+        self.mdv = np.zeros(nz + 1)
+
+    def begin_step(self, state, dt: float, wall_cd: float) -> None:
+        pass
+
+    def viscosity(self, u, v, w, e, nu) -> None:
+        nu[...] = 0.0
+
+    def mean_field(self, u, v, cdt: float) -> None:
+        pass
+
+    def end_step(self, state, dt: float, nu) -> None:
+        pass
+
+    def checkpoint(self) -> dict:
+        return {}
+
+    def restore(self, data: dict) -> None:
+        pass
+
+
+class _EddyViscosityClosure(NoClosure):
+    """What both SGS models share: the lengths, and the optional mean-field part."""
+
+    diffuses = True
+
+    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, wall: bool):
+        super().__init__(grid, nu_mol, rlog)
+        self.grid = grid
+        self.kappa = float(kappa)
+        self.l = length_scale(grid, kappa, delta=spec.delta)
+        l_h, l_v = viscosity_lengths(grid, kappa, spec.viscosity, spec.delta)
+        self.cml = np.ascontiguousarray(C_M * l_h)
+        self.cml_v = np.ascontiguousarray(C_M * l_v)
+        # the vertical viscosity is nu rv: the kernels carry one field (nu_mol rides along, a
+        # relative 1e-5 - 1e-3 of nu_t)
+        self.rv = np.ascontiguousarray(l_v / l_h)
+        self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l, spec.delta) / self.l)
+        self.near_wall = None
+        self.two_part = None
+        if spec.near_wall and wall:
+            from .nearwall import NearWallMeanViscosity
+            self.near_wall = NearWallMeanViscosity(grid, self.kappa, spec.near_wall_layer)
+        if spec.two_part and wall:
+            from .twopart import TwoPartModel
+            self.two_part = TwoPartModel(grid, self.kappa, self.rlog)
+            self.mdu, self.mdv = self.two_part.mdu, self.two_part.mdv
+
+    def mean_field(self, u, v, cdt: float) -> None:
+        if self.near_wall is not None:
+            self.near_wall.apply(u, v, cdt)
+        if self.two_part is not None:
+            self.two_part.apply(u, v, cdt)
+
+    def _begin_mean_field(self, state, dt: float, wall_cd: float) -> None:
+        """The mean-field part's slow terms, held over the stages of the step."""
+        if self.near_wall is not None:
+            self.near_wall.update(state, self.cml_v, self.nu_mol, dt)
+        if self.two_part is not None:
+            from .twopart import wall_friction_velocity
+            tp = self.two_part
+            tp.update_gamma(state)
+            self._scale_by_gamma(tp.gamma)
+            # the plane mean of the gamma-scaled viscosity on face 1 (nu = c l sqrt(e) for both
+            # closures: the dynamic model's e is diagnosed from its viscosity)
+            e = state.e
+            nu1 = 0.5 * (self.cml[0] * float(np.sqrt(np.maximum(e[:, :, 0], 0.0)).mean())
+                         + self.cml[1] * float(np.sqrt(np.maximum(e[:, :, 1], 0.0)).mean()))
+            nx, ny = state.grid.nx, state.grid.ny
+            taux, tauy = np.empty((nx, ny)), np.empty((nx, ny))
+            surface_stress_into(state.u, state.v, wall_cd, taux, tauy)
+            tp.update_mean_viscosity(nu1, wall_friction_velocity(taux, tauy), dt)
+
+    def _scale_by_gamma(self, gamma) -> None:
+        raise NotImplementedError
+
+
+class DeardorffClosure(_EddyViscosityClosure):
+    """The paper's closure (its Appendix A): nu_t = c_m l sqrt(e), e prognostic (sgs.py); the grain
+    sink of eq. A1 is applied once per step, e <- e / (1 + rate dt), stable for any rate."""
+
+    prognostic_e = True
+
+    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, wall: bool):
+        super().__init__(grid, spec, kappa, nu_mol, rlog, wall)
+        if self.two_part is not None:
+            # the acting c_m l is gamma times the closure's own (updated in place every step)
+            self._cml_base = self.cml.copy()
+            self.cml = self._cml_base.copy()
+            self.cml_v = self.cml
+
+    def begin_step(self, state, dt: float, wall_cd: float) -> None:
+        self._begin_mean_field(state, dt, wall_cd)
+
+    def _scale_by_gamma(self, gamma) -> None:
+        np.multiply(self._cml_base, gamma, out=self.cml)
+
+    def viscosity(self, u, v, w, e, nu) -> None:
+        compute_nu(e, self.cml, self.nu_mol, nu)
+
+    def end_step(self, state, dt: float, nu) -> None:
+        if state.tke_sink is not None:
+            apply_sink(state.e, state.tke_sink, dt, E_MIN)
+
+
+class DynamicClosure(_EddyViscosityClosure):
+    """The scale-dependent dynamic Smagorinsky model (dynamic_sgs.py): its coefficient refreshed
+    every ``dynamic_interval`` steps, nu from each stage's strain, e diagnosed from the new state
+    at the end of the step (with the grain sink inside its equilibrium)."""
+
+    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, wall: bool):
+        if spec.viscosity != "isotropic":
+            raise ValueError("the dynamic closure has one eddy viscosity: viscosity must be 'isotropic'")
+        super().__init__(grid, spec, kappa, nu_mol, rlog, wall)
+        from .dynamic_sgs import DynamicSmagorinsky
+        self.dynamic = DynamicSmagorinsky(grid, self.kappa, self.rlog, spec.delta,
+                                          spec.dynamic_interval)
+        # nu = C_K l sqrt(e) with the diagnosed e, so every reader of (cml, e) gets the acting
+        # viscosity; c_eps/l follows the coefficient (shared arrays, updated in place)
+        self.cml = self.dynamic.ckl
+        self.cml_v = self.dynamic.ckl
+        self.ceps_l = self.dynamic.ceps_l
+        #: the grain sink rate of eq. A1 [s^-1] seen by the diagnosed e (set per step)
+        self._sink = None
+        self._e_stage = np.zeros(grid.shape)
+
+    def begin_step(self, state, dt: float, wall_cd: float) -> None:
+        self.dynamic.maybe_update(state)
+        self._sink = state.tke_sink
+        self._begin_mean_field(state, dt, wall_cd)
+
+    def _scale_by_gamma(self, gamma) -> None:
+        self.dynamic.set_scale(gamma)
+
+    def viscosity(self, u, v, w, e, nu) -> None:
+        self.dynamic.viscosity(u, v, w, self._sink, self.nu_mol, nu, self._e_stage)
+
+    def end_step(self, state, dt: float, nu) -> None:
+        # e of the new state, in equilibrium with its strain and the grains' sink
+        self.dynamic.viscosity(state.u, state.v, state.w, self._sink, self.nu_mol, nu, state.e)
+
+    def checkpoint(self) -> dict:
+        return self.dynamic.checkpoint()
+
+    def restore(self, data: dict) -> None:
+        if data:
+            self.dynamic.restore(data)
+
+
+def make_closure(grid, spec=None, *, kappa: float = 0.4, z0: float = 1e-5, nu_mol: float = 1.5e-5,
+                 wall: bool = True, enabled: bool = True):
+    """The closure object of a case's ``closure`` section (config.Closure; None: the defaults).
+
+    ``wall``: the bed carries the log-law stress (the strain on the bed face is the log-law shear;
+    the mean-field parts need it); ``enabled`` = False gives ``NoClosure``."""
+    if spec is None:
+        from ..config import Closure
+        spec = Closure()
+    rlog = log_shear_factor(grid, z0) if wall else 0.0
+    if not enabled:
+        return NoClosure(grid, nu_mol, rlog)
+    if spec.model not in CLOSURES:
+        raise ValueError(f"closure must be one of {CLOSURES} (got {spec.model!r})")
+    if spec.two_part and spec.near_wall:
+        raise ValueError("the two-part model carries its own mean-field viscosity: no near-wall layer")
+    cls = DynamicClosure if spec.model == "dynamic" else DeardorffClosure
+    return cls(grid, spec, kappa, nu_mol, rlog, wall)

@@ -1,0 +1,206 @@
+"""Vertically implicit SGS diffusion: the RK3 stage with the vertical diffusion of u, v, w and e
+(and the SGS dissipation) solved per column, everything else explicit.
+
+Why. On the stretched grid the first centimetres are 1 cm thick while dx is 0.1-0.16 m, so the
+explicit limit dt < diffusion_number / (2 nu dz^-2) of the lowest levels sets 88-100 % of the steps
+of every scene (reports/stability) at about a third of the advective (Courant) step. Treating the
+vertical part implicitly (the option of the paper's model ARPS for thin vertical spacings, Xue et al.
+2000, Meteorol. Atmos. Phys. 75, 161) leaves the step to the Courant number, the horizontal
+diffusion and the grains.
+
+Time discretisation. Each Wicker-Skamarock stage restarts from the base state phi(n),
+
+    phi(k) = phi(n) + c_k dt [ E(phi(k-1)) + (1 - theta) D phi(n) + theta D phi(k) ],
+
+with E the explicit tendencies (advection, horizontal and cross SGS fluxes, the bed stress,
+damping, drive) of the stage input and D the vertical diffusion operator with the stage input's
+eddy viscosity. theta = 1/2 (Crank-Nicolson in each stage, the default) keeps the scheme second
+order: for y' = (A + B) y the last stage gives y(n+1) = y(n) + dt (A + B) y(n) + dt^2/2 (A + B)^2 y(n)
++ O(dt^3) whatever the first two stages do to O(dt^2). Its amplification for a pure diffusion
+mode, (1 - theta z)/(1 + theta z) (z = c_k dt |lambda|), stays inside the unit circle for any z, but
+tends to -1 for stiff modes (they ring, slowly damped: -0.6 at z = 8); theta = 1 (backward Euler
+in each stage) damps them at once, at first order in time. The stiff modes of this grid are the
+first levels' grid-scale ones; their z is of order 1-10 at the Courant step.
+
+The pressure. The stage's tendency carries the gradient of the last step's pressure p, and the
+projection after the stage finds only its increment (p += phi / (c_k dt) in the last stage): the
+implicit diffusion then acts on a nearly solenoidal tendency. Without it, the vertical diffusion
+(not divergence-free by itself: T_33 carries 2 nu, and nu varies) acts on the part of the
+tendency that the projection removes afterwards, and one step is off by O(dt^2), a first-order
+scheme (measured: tests/test_solver_vertical_diffusion.py).
+
+The SGS dissipation eps = c_eps e^{3/2} / l is linearised about the stage input and taken fully
+implicit, eps(k) = (c_eps e_in^{1/2} / l) e(k): a sink of rate r with (1 + c_k dt r) on the
+diagonal keeps e >= 0 for any r dt (near the bed r reaches ~10^2 s^-1) and leaves the local
+equilibrium P = eps exact; its time error is first order (e relaxes on 1/r, ~10 ms there, shorter
+than any step the Courant number allows, so it is slaved to its equilibrium either way). The bed
+stress stays explicit (the bottom flux, from the stage input: its rate C_d |U_1| / dz_1 is a few
+s^-1); with it, the column integral of u changes by exactly dt times the bed stress plus the
+explicit tendencies (the implicit fluxes telescope). The lid is free slip (no flux). w is solved on
+the interior faces with w = 0 at the bed and the lid, and projected after the stage.
+
+Each column's right-hand side is built in scratch and written only after its solve, because in
+the last stage the output *is* the base state (stepper.py), and the Crank-Nicolson part reads the
+base state's vertical neighbours.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import prange
+
+from .._jit import jit_with, pjit
+from .advection import adv_scalar_at, adv_u_at, adv_v_at, adv_w_at
+from .sgs import diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at, vertical_coupling
+
+__all__ = ["momentum_stage_implicit", "tke_stage_implicit", "solve_tridiagonal",
+           "VERTICAL_DIFFUSION"]
+
+#: the vertical diffusion schemes a fidelity can name (config.TimeStepping.vertical_diffusion)
+VERTICAL_DIFFUSION = ("explicit", "implicit")
+
+device = jit_with(inline="always")
+
+
+@device
+def solve_tridiagonal(lo, di, up, r, cp, k0, k1):
+    """Solve lo[k] x[k-1] + di[k] x[k] + up[k] x[k+1] = r[k] for k0 <= k < k1 (lo[k0], up[k1-1]
+    unused) in place of r (Thomas algorithm; stable here, the matrices being diagonally
+    dominant: di = 1 + |lo| + |up| + a sink). cp: scratch."""
+    b = di[k0]
+    cp[k0] = up[k0] / b
+    r[k0] = r[k0] / b
+    for k in range(k0 + 1, k1):
+        m = di[k] - lo[k] * cp[k - 1]
+        cp[k] = up[k] / m
+        r[k] = (r[k] - lo[k] * r[k - 1]) / m
+    for k in range(k1 - 2, k0 - 1, -1):
+        r[k] -= cp[k] * r[k + 1]
+
+
+@device
+def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, top, bot, cdt, theta,
+             rdx, rdy, dzc, dzf, fck, fcuk, srck, with_adv, S):
+    """Row k of the u and v systems of column (i, j) into the scratch S: right-hand side,
+    sub-, main and super-diagonal (S[0:4] for u, S[4:8] for v); p: the reference pressure."""
+    r = 1.0 / dzc[k]
+    pc = p[i, j, k]
+    tu = srck - fcuk * u[i, j, k] - (pc - p[im, j, k]) * rdx
+    tv = -fck * v[i, j, k] - (pc - p[i, jm, k]) * rdy
+    if with_adv:
+        tu += adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
+        tv += adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
+    xu, au, cu = diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
+                                 dzc, dzf)
+    xv, av, cv = diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
+                                 dzc, dzf)
+    ex = 1.0 - theta
+    S[0, k] = ub[i, j, k] + cdt * (tu + xu + ex * vertical_coupling(ub, i, j, k, au, cu, top, bot))
+    S[4, k] = vb[i, j, k] + cdt * (tv + xv + ex * vertical_coupling(vb, i, j, k, av, cv, top, bot))
+    ct = cdt * theta
+    S[1, k] = -ct * au
+    S[2, k] = 1.0 + ct * (au + cu)
+    S[3, k] = -ct * cu
+    S[5, k] = -ct * av
+    S[6, k] = 1.0 + ct * (av + cv)
+    S[7, k] = -ct * cv
+
+
+@pjit
+def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, p, cdt, theta, rdx,
+                            rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, with_adv):
+    """uo = ub + cdt (E(u) - G p + (1 - theta) D ub + theta D uo) for u, v and the interior w
+    (module doc): E the explicit tendencies of the stage input (u, v, w) (advection, horizontal
+    and cross SGS fluxes, bed stress, damping with rates fc, fcu, ff towards 0 / u_drive, body
+    force gx), p the reference pressure [m^2 s^-2] (its increment is the projection's), D the
+    vertical SGS diffusion with the input's viscosity, a tridiagonal solve per column."""
+    nx, ny, nz = u.shape
+    for i in prange(nx):
+        im = (i - 1) % nx
+        ip = (i + 1) % nx
+        S = np.empty((12, nz + 1))
+        cp = np.empty(nz + 1)
+        for j in range(ny):
+            jm = (j - 1) % ny
+            jp = (j + 1) % ny
+            _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, 0, im, ip, jm, jp, True, False, cdt,
+                     theta, rdx, rdy, dzc, dzf, fc[0], fcu[0], gx + fcu[0] * u_drive, with_adv, S)
+            for k in range(1, nz - 1):
+                _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, True, True,
+                         cdt, theta, rdx, rdy, dzc, dzf, fc[k], fcu[k], gx + fcu[k] * u_drive,
+                         with_adv, S)
+            _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, nz - 1, im, ip, jm, jp, False, True,
+                     cdt, theta, rdx, rdy, dzc, dzf, fc[nz - 1], fcu[nz - 1],
+                     gx + fcu[nz - 1] * u_drive, with_adv, S)
+            # interior w faces 1..nz-1 (w = 0 on faces 0 and nz: their couplings drop out)
+            ct = cdt * theta
+            ex = 1.0 - theta
+            for k in range(1, nz):
+                tw = -ff[k] * w[i, j, k] - (p[i, j, k] - p[i, j, k - 1]) / dzf[k]
+                if with_adv:
+                    hzm = 0.5 * dzc[k - 1] / dzf[k]
+                    hzp = 0.5 * dzc[k] / dzf[k]
+                    tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+                xw, aw, cw = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc,
+                                             dzf)
+                S[8, k] = wb[i, j, k] + cdt * (tw + xw + ex * vertical_coupling(wb, i, j, k, aw, cw,
+                                                                                True, True))
+                S[9, k] = -ct * aw
+                S[10, k] = 1.0 + ct * (aw + cw)
+                S[11, k] = -ct * cw
+            solve_tridiagonal(S[1], S[2], S[3], S[0], cp, 0, nz)
+            solve_tridiagonal(S[5], S[6], S[7], S[4], cp, 0, nz)
+            for k in range(nz):
+                uo[i, j, k] = S[0, k]
+                vo[i, j, k] = S[4, k]
+            wo[i, j, 0] = 0.0
+            wo[i, j, nz] = 0.0
+            if nz > 1:
+                solve_tridiagonal(S[9], S[10], S[11], S[8], cp, 1, nz)
+                for k in range(1, nz):
+                    wo[i, j, k] = S[8, k]
+
+
+@device
+def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, theta, rdx, rdy, rdzc,
+            rdzf, rlog, ceps_lk, mdu, mdv, S):
+    """Row k of the e system of column (i, j) into S[0:4] (right-hand side, sub-, main and
+    super-diagonal): advection, production and horizontal transport explicit, the vertical
+    transport theta-weighted, the dissipation implicit about the input's e (module doc)."""
+    te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
+    x, a, c, rd = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
+                               rdzf, rlog, ceps_lk, mdu, mdv)
+    S[0, k] = eb[i, j, k] + cdt * (te + x + (1.0 - theta) * vertical_coupling(eb, i, j, k, a, c, top,
+                                                                                bot))
+    ct = cdt * theta
+    S[1, k] = -ct * a
+    S[2, k] = 1.0 + ct * (a + c) + cdt * rd
+    S[3, k] = -ct * c
+
+
+@pjit
+def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, rdzf, rlog, ceps_l,
+                       e_min, mdu, mdv):
+    """eo = max(eb + cdt (advection + P + transport_h + (1 - theta) D eb + theta D eo - r eo),
+    e_min) with r = c_eps e^{1/2} / l of the input e, a tridiagonal solve per column (module
+    doc); rdzc, rdzf: 1/dz_c, 1/dz_f."""
+    nx, ny, nz = e.shape
+    for ii in prange(nx):
+        i = np.int64(ii)  # signed: strain_sq_at indexes with i directly
+        im = (i - 1) % nx
+        ip = (i + 1) % nx
+        S = np.empty((4, nz))
+        cp = np.empty(nz)
+        for j in range(ny):
+            jm = (j - 1) % ny
+            jp = (j + 1) % ny
+            _e_rows(e, u, v, w, nu, rv, eb, i, j, 0, im, ip, jm, jp, True, False, cdt, theta, rdx,
+                    rdy, rdzc, rdzf, rlog, ceps_l[0], mdu, mdv, S)
+            for k in range(1, nz - 1):
+                _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, True, True, cdt, theta, rdx,
+                        rdy, rdzc, rdzf, rlog, ceps_l[k], mdu, mdv, S)
+            _e_rows(e, u, v, w, nu, rv, eb, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, theta,
+                    rdx, rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], mdu, mdv, S)
+            solve_tridiagonal(S[1], S[2], S[3], S[0], cp, 0, nz)
+            for k in range(nz):
+                val = S[0, k]
+                eo[i, j, k] = val if val > e_min else e_min
