@@ -203,15 +203,19 @@ class Particles(_Frozen):
     Q: float = Field(..., gt=0, description="real grains per computational parcel [-]")
     n_initial: int = Field(10_000, gt=0, description="parcels released at activation, per 300 m^2")
     release_depth: float = Field(0.3, gt=0, description="release layer depth above the bed [m]")
-    near_bed_wind: Literal["blend", "paper"] = Field(
+    near_bed_wind: Literal["paper", "cell-drag", "first-level", "blend"] = Field(
         "paper", description="horizontal wind a grain sees in the first grid cell, and where its "
         "drag goes (solver/interp.py). 'paper' (the paper's [12]): anywhere below the cell's top "
         "face z_f[1], the log law from the second level, ln(z/z0)/ln(z_c[1]/z0) u(z_c[1]), and "
-        "the drag (momentum and TKE sink) goes back to the second level; trilinear above. 'blend' "
-        "(a departure from the paper): that log law only below the first level z_c[0], with the "
-        "drag on the first level, which the grain never read, and trilinear between the first "
-        "two levels from z_c[0] up, so the seen wind jumps at z_c[0] by the first level's "
-        "departure from the log law")
+        "the drag (momentum and TKE sink) goes back to the second level; trilinear above. "
+        "'cell-drag' (the same wind, eq. 2's sum over the particles in each cell read literally): "
+        "the drag of a first-cell grain goes to the first level, which it does not read. "
+        "'first-level' ([12] in the indexing of the paper's model, ARPS, which counts a level "
+        "below the ground): below the first level z_c[0] the log law from the first level, the drag "
+        "there; trilinear above. 'blend' (a departure from the paper): that log law of the second "
+        "level only below the first level z_c[0], with the drag on the first level, which the "
+        "grain never read, and trilinear between the first two levels from z_c[0] up, so the seen "
+        "wind jumps at z_c[0] by the first level's departure from the log law")
 
 
 class Case(_Frozen):

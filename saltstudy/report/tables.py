@@ -50,6 +50,15 @@ PAPER_DZ_BOTTOM = 0.01
 PAPER_DX = 0.10
 
 
+#: how Table 2's caption names each reading of the paper's near-bed wind other than "paper"
+NEAR_BED_WIND_CAPTIONS = {
+    "cell-drag": "the drag of a first-cell grain in the first cell, which it does not read",
+    "first-level": "below the first level the log law from the first level, its drag there",
+    "blend": "below the first level the log law from the second level, blended into it above "
+             "the first level, the drag on the first level",
+}
+
+
 def model_departures(scene: dict) -> list[str]:
     """Where a run's model and cost depart from the paper's description, in words, from the run's
     resolved scene (``{"case": ..., "fidelity": ...}`` as archived). Physics first, then cost."""
@@ -63,9 +72,10 @@ def model_departures(scene: dict) -> list[str]:
                    "(closure.near_wall, not in the paper)")
     if clo.get("two_part", False):
         out.append("the two-part SGS model of Sullivan et al. (1994) (closure.two_part)")
-    if par.get("near_bed_wind", "paper") != "paper":
-        out.append("below the first level the log law from level 1, blended into it above its "
-                   "centre (particles.near_bed_wind; the paper: from level 2 over the whole cell)")
+    nbw = par.get("near_bed_wind", "paper")
+    if nbw != "paper":
+        out.append(NEAR_BED_WIND_CAPTIONS[nbw] + " (particles.near_bed_wind; the paper's [12]: "
+                   "the log law from the second level over the whole first cell, its drag there)")
     if (case.get("forcing", {}) or {}).get("drive", "top") != "top":
         out.append("a mean pressure-gradient drive (the paper: a top drive)")
     q = fid.get("q_multiplier", 1.0)

@@ -287,7 +287,7 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
     g = prm[2]
     rho_p = prm[3]
     Q = prm[4]
-    paper = G.geo[9] != 0.0  # the log region deposits on level 1, the level it reads
+    paper = G.geo[9] == G.geo[10]  # the log region deposits on the level it reads
     s = ranges[c, 0]
     L = ranges[c, 1]
     off = ranges[c, 2]

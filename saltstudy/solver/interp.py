@@ -8,13 +8,14 @@ Layout (``grid.py``): ``u[i, j, k]`` at ``(x_f[i], y_c[j], z_c[k])``, ``v[i, j, 
 ``(x_c[i], y_f[j], z_c[k])``, ``w[i, j, k]`` at ``(x_c[i], y_c[j], z_f[k])`` with ``w[..., 0] = 0``
 (the bed). Periodic in x and y by modular indices.
 
-Near the bed: the log-law region. The horizontal fluid velocity there is extrapolated from the
-*second* level (k = 1) with the log law, bilinear in x, y at that level::
+Near the bed: the log-law region. The horizontal fluid velocity there is extrapolated from one
+level k_r (the second, k = 1, but in "first-level") with the log law, bilinear in x, y at that
+level::
 
-    u(z) = u(z_c[1]) ln(z / z0) / ln(z_c[1] / z0)           (z clipped to >= 1.0001 z0)
+    u(z) = u(z_c[k_r]) ln(z / z0) / ln(z_c[k_r] / z0)           (z clipped to >= 1.0001 z0)
 
-Where the region ends and where the drag reaction of a parcel in it goes is the case's
-``particles.near_bed_wind`` (``GridGeometry(grid, z0, near_bed)``):
+Where the region ends, which level it reads and where the drag reaction of a parcel in it goes is
+the case's ``particles.near_bed_wind`` (``GridGeometry(grid, z0, near_bed)``):
 
 * ``"paper"``, the paper's [12] ("In the lower grid cell, the horizontal wind velocity components
   at the particle position were extrapolated from the resolved fluid components of the second
@@ -29,13 +30,22 @@ Where the region ends and where the drag reaction of a parcel in it goes is the 
   below the log law by 1.9 % (reduced grid) to 2.9 % (smoke grid; paper's 2.4 %); in the LES add
   ``(1 - f)`` times the departure of the level-0 wind from the log law extrapolated to ``z_c[0]``
   (about half of the "blend" jump below).
+* ``"cell-drag"``, [12]'s wind with eq. 2's sum "over the particles in the grid cell" read
+  literally: the wind as in "paper", the reaction of a parcel of the first cell to level 0, the
+  cell holding it, which it does not read (momentum exact; coupling.py's implicit exchange
+  carries the offset between the two levels, as for "blend").
+* ``"first-level"``, [12] read in the paper's model's own indexing: ARPS counts a level below the
+  ground (Xue et al. 2000), so its "second grid cell" is the first level above the bed. The region
+  is ``z < z_c[0]``, below the first level, the log law extrapolates the first level's wind
+  (continuous at z_c[0]), and the reaction goes back to level 0, the level read and the cell
+  holding the parcel. Trilinear from z_c[0] up.
 * ``"blend"`` (a departure from the paper): the region is ``z < z_c[0]`` only, and the reaction
   of a parcel in it goes, with the same horizontal weights, to level 0, a level it never read
   (momentum still exact; coupling.py's implicit exchange carries the offset between the two).
   From ``z_c[0]`` up, trilinear between levels 0 and 1, so the seen wind jumps at ``z_c[0]`` by the
   level-0 wind's departure from the log law of level 1 (7-30 % in the LES).
 
-Vertical velocity is interpolated between the z-faces in both, so it goes linearly to ``w = 0``
+Vertical velocity is interpolated between the z-faces in all, so it goes linearly to ``w = 0``
 at the bed (face 0); the part of a vertical reaction that falls on face 0 is taken by the bed (it
 does not enter the air).
 
@@ -58,7 +68,8 @@ from .simd import fma2, fma4, load2
 #: structs on the stack cost ~25 ns per call, most of the parcel step.)
 ijit = jit_with(inline="always")
 
-__all__ = ["GridGeometry", "Geometry", "Stencil", "NEAR_BED_WIND", "GEO_LOG_TOP", "GEO_LOG_LEVEL", "wrap_periodic", "locate", "interp_fluid",
+__all__ = ["GridGeometry", "Geometry", "Stencil", "NEAR_BED_WIND", "GEO_LOG_TOP", "GEO_LOG_LEVEL",
+           "GEO_LOG_READ", "wrap_periodic", "locate", "interp_fluid",
            "interp_faces", "deposit_faces", "level_of", "slab_of", "wrap_index", "pool_add_tri",
            "pool_add_tri2"]
 
@@ -69,13 +80,17 @@ __all__ = ["GridGeometry", "Geometry", "Stencil", "NEAR_BED_WIND", "GEO_LOG_TOP"
 #: drag reaction goes to and ``fzc`` = 0) and the level of the cell holding it (``kcell``).
 #: Indices ``ix + 1`` etc. are taken modulo n by the users. (A named tuple: numba passes it by
 #: value, its fields are static members.)
-Stencil = namedtuple("Stencil", "ixf fxf ixc fxc jyf fyf jyc fyc kc fzc kf fzf lfac islog kcell")
-#: the settings of ``particles.near_bed_wind`` and the level the drag of a parcel in the log
-#: region goes to in each (the log law reads level 1 in both)
-NEAR_BED_WIND = {"blend": 0, "paper": 1}
-#: indices in ``GridGeometry.geo`` of the log region's top and of its deposit level (as a float)
+Stencil = namedtuple("Stencil", "ixf fxf ixc fxc jyf fyf jyc fyc kc fzc kf fzf lfac islog kcell kread")
+#: the settings of ``particles.near_bed_wind``: (top of the log region: "face1" z_f[1] or
+#: "centre0" z_c[0]; the level whose wind the log law extrapolates; the level the drag of a parcel
+#: in the log region goes to)
+NEAR_BED_WIND = {"paper": ("face1", 1, 1), "cell-drag": ("face1", 1, 0),
+                 "first-level": ("centre0", 0, 0), "blend": ("centre0", 1, 0)}
+#: indices in ``GridGeometry.geo`` of the log region's top, of its deposit level and of the level
+#: it reads (the levels as floats)
 GEO_LOG_TOP = 8
 GEO_LOG_LEVEL = 9
+GEO_LOG_READ = 10
 #: The grid as the parcel kernels take it (``GridGeometry.record``)
 Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut")
 
@@ -83,9 +98,10 @@ Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut")
 class GridGeometry:
     """The arrays and scalars the parcel kernels need, in numba-friendly form.
 
-    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[1] / z0), z_log, k_log]
-    with the log region ``z < z_log`` and ``k_log`` the level the drag of a parcel in it goes to
-    (module doc: ``near_bed`` "blend": z_c[0], 0; "paper": z_f[1], 1); ``z_f (nz+1)``,
+    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[k_read] / z0), z_log, k_log,
+    k_read] with the log region ``z < z_log``, ``k_read`` the level whose wind its log law
+    extrapolates and ``k_log`` the level the drag of a parcel in it goes to (module doc,
+    :data:`NEAR_BED_WIND`); ``z_f (nz+1)``,
     ``z_c (nz)``,
     ``lut`` int64: ``lut[m]`` is the face index k with ``z_f[k] <= m * lut_dz`` (a fast start for
     the vertical search on the stretched grid); ``log_den = ln(z_c[1] / z0)``.
@@ -106,11 +122,11 @@ class GridGeometry:
         if near_bed not in NEAR_BED_WIND:
             raise ValueError(f"near_bed: {near_bed!r} is none of {sorted(NEAR_BED_WIND)}")
         self.near_bed = near_bed
-        k_log = NEAR_BED_WIND[near_bed]
-        z_log = self.z_f[1] if k_log == 1 else self.z_c[0]
+        top, k_read, k_log = NEAR_BED_WIND[near_bed]
+        z_log = self.z_f[1] if top == "face1" else self.z_c[0]
         self.geo = np.array([grid.dx, grid.dy, grid.Lx, grid.Ly, z0, lut_dz, grid.Lz,
-                             1.0 / math.log(self.z_c[1] / z0), z_log, float(k_log)],
-                            dtype=np.float64)
+                             1.0 / math.log(self.z_c[k_read] / z0), z_log, float(k_log),
+                             float(k_read)], dtype=np.float64)
         if not z0 < self.z_c[0]:
             raise ValueError(f"z0 ({z0}) must lie below the first level ({self.z_c[0]})")
         self.record = Geometry(self.geo, self.z_f, self.z_c, self.dz_c, self.lut)
@@ -204,7 +220,8 @@ def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
             fzc = (z - z_c[kc]) / (z_c[kc + 1] - z_c[kc])
             if fzc > 1.0:
                 fzc = 1.0
-    return Stencil(ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell)
+    return Stencil(ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell,
+                   int(geo[10]))
 
 
 @ijit
@@ -248,8 +265,8 @@ def interp_fluid(u, v, w, st, nx, ny):
     """Resolved fluid velocity at a located point (Stencil ``st``; trilinear, log law in the log
     region)."""
     if st.islog:
-        uf = st.lfac * _bil(u, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
-        vf = st.lfac * _bil(v, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
+        uf = st.lfac * _bil(u, st.ixf, st.fxf, st.jyc, st.fyc, st.kread, nx, ny)
+        vf = st.lfac * _bil(v, st.ixc, st.fxc, st.jyf, st.fyf, st.kread, nx, ny)
     else:
         uf = _tri(u, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
         vf = _tri(v, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)

@@ -86,7 +86,7 @@ from .coupling import (N_CHUNKS, Estimate, Flow, Parcels, apply_exchange, chunk_
                        lagrangian_time_coefficients, tke_rates)
 from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_0687
 from .grid import Grid
-from .interp import (GEO_LOG_LEVEL, GridGeometry, _bil, _tri, ijit, interp_fluid, level_of,
+from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, _bil, _tri, ijit, interp_fluid, level_of,
                      locate, pool_add_tri, slab_of, wrap_index, wrap_periodic)
 from .splash_kernels import (draw_diameter, ejecta_reserve, soil_arrays, splash_params,
                              splash_runs)
@@ -254,7 +254,7 @@ _LANE_ROWS_F = 34
 _LANE_ROWS_I = 11
 
 #: the scalars of a step, as _advance_chunk reads them once from prm and geo
-#: (paper: the log region deposits on klog = 1, the level it reads; blend: on klog = 0)
+#: (paper: the log region deposits on klog, the level it reads; otherwise on another level)
 _Step = namedtuple("_Step", "dt g h_imp tol Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb paper "
                    "klog")
 #: the chunks' work: their parcels (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign), pool
@@ -274,20 +274,21 @@ def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
     the deposit weights (zero beyond the buffer levels S.nkb). Where both use the same weights
     (above the log region; in it with "paper") the sum is read from U = u + delta."""
     st = locate(xp, yp, zp, G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
-    if st.islog and S.paper:  # the log law of the (new) air at level 1, where the drag goes
-        if S.twoway and 1 < S.nkb:
-            us = st.lfac * _bil(F.U, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
-            vs = st.lfac * _bil(F.V, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
+    kr = st.kread
+    if st.islog and S.paper:  # the log law of the (new) air at the level read, where the drag goes
+        if S.twoway and kr < S.nkb:
+            us = st.lfac * _bil(F.U, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
+            vs = st.lfac * _bil(F.V, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
         else:
-            us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
-            vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
-    elif st.islog:  # blend: the log law of level 1 plus the change delta of level 0, where the
-        # drag goes (coupling.py)
-        us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, 1, nx, ny)
-        vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, 1, nx, ny)
-        if S.twoway and 1 < S.nkb:
-            us += _bil(F.du, st.ixf, st.fxf, st.jyc, st.fyc, 0, nx, ny)
-            vs += _bil(F.dv, st.ixc, st.fxc, st.jyf, st.fyf, 0, nx, ny)
+            us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
+            vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
+    elif st.islog:  # blend, cell-drag: the log law of the level read plus the change delta of
+        # the level the drag goes to (coupling.py)
+        us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
+        vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
+        if S.twoway and S.klog < S.nkb:
+            us += _bil(F.du, st.ixf, st.fxf, st.jyc, st.fyc, S.klog, nx, ny)
+            vs += _bil(F.dv, st.ixc, st.fxc, st.jyf, st.fyf, S.klog, nx, ny)
     elif S.twoway and st.kc + 1 < S.nkb:
         us = _tri(F.U, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
         vs = _tri(F.V, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)
@@ -668,7 +669,7 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W):
     nz = G.z_c.shape[0]
     S = _Step(prm[_DT], prm[_G], prm[_HIMP], prm[_TOL], G.geo[2], G.geo[3], prm[_LZ], prm[_RHO],
               prm[_NU], prm[_RHOP], prm[_Q], prm[_TWOWAY] != 0.0, prm[_TKE] != 0.0,
-              prm[_SGS] != 0.0, F.du.shape[2], G.geo[GEO_LOG_LEVEL] != 0.0,
+              prm[_SGS] != 0.0, F.du.shape[2], G.geo[GEO_LOG_LEVEL] == G.geo[GEO_LOG_READ],
               int(G.geo[GEO_LOG_LEVEL]))
     s = W.ranges[c, 0]
     L = W.ranges[c, 1]
