@@ -102,6 +102,11 @@ class Splash(_Frozen):
     ej_angle_h_mean: float = Field(0.0, ge=-90, le=90, description="<alpha_hej> [deg]")
     ej_angle_h_std: float = Field(10.0, ge=0, description="sigma of alpha_hej [deg]")
     impact_layer: float = Field(5.0e-4, gt=0, lt=0.01, description="impact layer depth [m] (0.5 mm)")
+    ejection_rounding: Literal["stochastic", "floor", "nearest"] = Field(
+        "stochastic", description="how eq. 8's N_ej = a v_imp / sqrt(g <d>) becomes a whole number "
+        "of ejected parcels, which the paper does not say: 'stochastic' rounding (floor plus one "
+        "with probability the fraction: the mean is eq. 8's), its 'floor' (no ejecta below "
+        "N_ej = 1, v_imp = 1.48 m/s for 200 um grains), or the 'nearest' integer")
 
 
 class Threshold(_Frozen):

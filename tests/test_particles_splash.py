@@ -123,3 +123,89 @@ def test_splash_runs_keep_the_books_of_a_step_with_many_impacts():
     state = np.stack([s.x, s.y, s.z, s.u, s.v, s.w, s.d], axis=1)
     assert np.unique(state, axis=0).shape[0] == s.n
     assert np.any((s.x == 1.0) & (s.y == 0.5) & (s.z < 0.2))
+
+
+def test_impact_record_gives_the_replacement_number_of_eqs_6_and_8():
+    """A synthetic set of impacts at three speeds (one step, every grain at the bed): the record
+    counts each impact in its speed and angle bin, and per speed bin the rebounds and ejecta per
+    impact (the replacement number) match P_reb + N_ej of eqs. 6 and 8 within the binomial
+    noise; the totals equal the step's counters."""
+    from saltstudy.solver.splash_kernels import IMPACT_ANGLE_BIN, IMPACT_SPEED_BIN
+
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
+    s, st = component(sc, gravity=False)
+    rng = np.random.default_rng(5)
+    speeds, angle = (0.55, 1.55, 3.05), 13.0       # bin centres of 0.1 m/s and 2 deg bins
+    m = 4000
+    for v in speeds:
+        a = math.radians(angle)
+        s.add_parcels(rng.uniform(0, 2.4, m), rng.uniform(0, 1.6, m), np.full(m, 5.5e-4),
+                      u=v * math.cos(a), w=-v * math.sin(a), d=2e-4)
+    s.dynamics(st, 1e-3)
+    rec, c = s.impact_record(), s.last_step
+    assert rec["impact_outcomes"][:, 0].sum() == c["n_impacts"] == 3 * m
+    assert rec["impact_outcomes"][:, 1].sum() == c["n_rebounds"]
+    assert rec["impact_outcomes"][:, 2].sum() == c["n_ejections"]
+    assert rec["impact_hist"].sum() == 3 * m
+    ia = int(angle / IMPACT_ANGLE_BIN)
+    g, dmean = sc.case.air.g, sc.case.soil.mean_diameter
+    for v in speeds:
+        iv = int(v / IMPACT_SPEED_BIN)
+        # the grains slow a little in the 1e-3 s before they cross the layer: one bin
+        row = rec["impact_outcomes"][iv]
+        assert row[0] == m and rec["impact_hist"][iv, ia] == m
+        p = 0.95 * (1 - math.exp(-2.0 * v))
+        nbar = 0.03 * v / math.sqrt(g * dmean)
+        sd = math.sqrt((p * (1 - p) + 0.25) / m)
+        assert row[1] / m + row[2] / m == pytest.approx(p + nbar, abs=4 * sd)
+    assert rec["hop_time_hist"].sum() == 0    # these grains were not launched by a splash
+
+
+def test_impact_record_measures_the_hops_a_splash_launched():
+    """Grains launched by a rebound or an ejection and landing again: their hops are counted
+    once each, with flight times and lengths of a short hop; the record survives a checkpoint."""
+    from saltstudy.solver.splash_kernels import HOP_LENGTH_BIN, HOP_TIME_BIN
+
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
+    s, st = component(sc)
+    rng = np.random.default_rng(2)
+    m = 2000
+    s.add_parcels(rng.uniform(0, 2.4, m), rng.uniform(0, 1.6, m), np.full(m, 6e-4), u=2.0,
+                  w=-1.0, d=2e-4)
+    for _ in range(150):                      # 0.3 s in still air: every launched grain lands
+        s.dynamics(st, 2e-3)
+        st.t += 2e-3                          # (Model.step advances the clock)
+    rec = s.impact_record()
+    out = rec["impact_outcomes"].sum(axis=0)
+    launched_and_landed = out[0] - m          # impacts by grains a splash launched
+    assert launched_and_landed > 0
+    assert rec["hop_time_hist"].sum() == rec["hop_length_hist"].sum() == launched_and_landed
+    t = (np.arange(rec["hop_time_hist"].size) + 0.5) * HOP_TIME_BIN
+    mean_t = float(np.sum(t * rec["hop_time_hist"]) / rec["hop_time_hist"].sum())
+    # rebounds leave at ~0.6 x 1 m/s and 30 deg, ejecta slower: flights of order 2 w / g
+    assert 0.005 < mean_t < 0.1
+    L = (np.arange(rec["hop_length_hist"].size) + 0.5) * HOP_LENGTH_BIN
+    assert float(np.sum(L * rec["hop_length_hist"]) / rec["hop_length_hist"].sum()) < 0.05
+    s2, _ = component(sc)
+    s2.restore(s.checkpoint())
+    for k, v in s2.impact_record().items():
+        assert np.array_equal(v, rec[k]), k
+
+
+@pytest.mark.parametrize("rounding", ["floor", "nearest"])
+def test_ejection_rounding_readings_of_eq_8(rounding):
+    """N_ej of eq. 8 as its floor or its nearest integer: whole, no draw, and zero below the
+    speed at which eq. 8 reaches 1 (floor) or 1/2 (nearest); stochastic rounding keeps the mean."""
+    case = load_case(2, overrides={"splash": {"ejection_rounding": rounding}})
+    sp = splash_params(case.splash, case.soil, case.air.g)
+    cum, mu, lns = soil_arrays(case.soil)
+    k = 0.03 / math.sqrt(case.air.g * case.soil.mean_diameter)      # eq. 8: N_ej = k v_imp
+    rng = np.random.Generator(np.random.PCG64(3))
+    for v in (0.4, 0.9, 1.3, 1.6, 2.4, 3.9):
+        n = 2000
+        _, _, nej, _, _ = sample_impacts(rng, v, 2e-4, n, sp, cum, mu, lns)
+        want = math.floor(k * v) if rounding == "floor" else math.floor(k * v + 0.5)
+        assert nej == want * n, (v, nej / n, want)
+    v1 = 1.0 / k if rounding == "floor" else 0.5 / k
+    assert sample_impacts(rng, 0.99 * v1, 2e-4, 500, sp, cum, mu, lns)[2] == 0
+    assert sample_impacts(rng, 1.01 * v1, 2e-4, 500, sp, cum, mu, lns)[2] == 500

@@ -60,4 +60,19 @@ def test_report_command_writes_the_tables(tmp_path):
     assert "### Case 2" in md and "30 ± 10" in md                   # G_tot in g/m/s
     (tmp_path / "summary.json").write_text(json.dumps({"cases": {}}))
     r = CliRunner().invoke(app, ["variants-report", str(tmp_path)])
-    assert r.exit_code == 2 and "c<case>_<variant>_s<seed>" in r.output
+    assert r.exit_code == 2 and "[c<case>_]<variant>_s<seed>" in r.output
+
+
+def test_labels_without_a_case_take_the_runs_case_number():
+    """``<variant>_s<seed>`` labels (a study of one case's scenes) group by the run's own case
+    number; a label of neither form is left out."""
+    runs = {"paper_s1": {"label": "paper_s1", "case_number": 2, "status": "ok", "G_tot": 0.02},
+            "paper_s2": {"label": "paper_s2", "case_number": 2, "status": "ok", "G_tot": 0.04},
+            "alt_s1": {"label": "alt_s1", "case_number": 2, "status": "ok", "G_tot": 0.09},
+            "other": {"label": "other", "case_number": 2, "status": "ok", "G_tot": 1.0}}
+    t = variants_table({"cases": runs})
+    assert t["variants"] == ["paper", "alt"]
+    g = t["cases"][2]
+    assert g["paper"]["G_tot"]["mean"] == pytest.approx(0.03)
+    assert g["paper"]["G_tot"]["half_range"] == pytest.approx(0.01)
+    assert g["alt"]["G_tot"]["ratio"] == pytest.approx(3.0)

@@ -33,7 +33,7 @@ import numpy as np
 import xarray as xr
 
 from ..ncio import NC_LOCK, write_dataset
-from . import correlation, flux, paper_grid, profiles, series, sizes, stokes, streamers
+from . import correlation, flux, layer, paper_grid, profiles, series, sizes, stokes, streamers
 from ..physics import laws
 
 __all__ = ["analyse_case", "analyse_datasets", "half_window_statistics", "HALF_STATISTICS", "SPEC",
@@ -64,6 +64,44 @@ SPEC: dict[str, tuple[str, str]] = {
     "z_band": ("m", "height band centre"),
     "x": ("m", "streamwise position of the cell centres"),
     "y": ("m", "spanwise position of the cell centres"),
+    "height_band": ("1", "height band: 0 the first grid cell, 1 from there to 5 cm, 2 above "
+                    "(analysis/layer.py)"),
+    "v_imp": ("m s-1", "impact speed bin centre"),
+    "impact_angle": ("degree", "impact angle to the bed, bin centre"),
+    "hop_time": ("s", "hop flight time bin centre"),
+    "hop_length": ("m", "hop streamwise length bin centre"),
+    # the layer's anatomy (analysis/layer.py)
+    "band_edges": ("m", "edges of the height bands"),
+    "band_parcels_per_m2_at_Q": ("m-2", "airborne grains per m2 of bed in the band over the case's "
+                                 "Q (parcels per m2 at the case's parcel weight), mean over the "
+                                 "3-D samples"),
+    "band_mass_per_m2": ("kg m-2", "airborne grain mass per m2 of bed in the band"),
+    "band_flux": ("kg m-1 s-1", "the band's part of the total streamwise mass flux G_tot"),
+    "band_speed": ("m s-1", "mass-weighted mean streamwise grain velocity in the band"),
+    "band_wind_seen": ("m s-1", "mass-weighted mean streamwise fluid velocity at the grains in "
+                       "the band"),
+    "first_cell_parcel_fraction": ("1", "share of the airborne grains in the first grid cell"),
+    "impact_speed_pdf": ("s m-1", "probability density of the impact speed over the sampling "
+                         "window"),
+    "impact_angle_pdf": ("degree-1", "probability density of the impact angle to the bed"),
+    "impacts_by_speed": ("1", "parcel impacts over the sampling window by impact speed"),
+    "replacement_by_speed": ("1", "rebounds + ejected parcels per impact, by impact speed"),
+    "impact_speed_mean": ("m s-1", "mean impact speed over the sampling window"),
+    "impact_speed_median": ("m s-1", "median impact speed over the sampling window"),
+    "impact_angle_mean": ("degree", "mean impact angle to the bed"),
+    "replacement_mean": ("1", "rebounds + ejected parcels per impact over the sampling window "
+                         "(1 in a steady layer)"),
+    "rebound_fraction": ("1", "rebounds per impact over the sampling window"),
+    "ejecta_per_impact": ("1", "ejected parcels per impact over the sampling window"),
+    "hop_time_pdf": ("s-1", "probability density of the flight time of the hops a splash launched"),
+    "hop_length_pdf": ("m-1", "probability density of the streamwise length of the hops a splash "
+                       "launched"),
+    "hop_time_mean": ("s", "mean flight time of the hops a splash launched"),
+    "hop_time_median": ("s", "median flight time of the hops a splash launched"),
+    "hop_length_mean": ("m", "mean streamwise length of the hops a splash launched"),
+    "hop_length_median": ("m", "median streamwise length of the hops a splash launched"),
+    "hop_height_ballistic_median": ("m", "g t^2 / 8 at the median flight time: the height of a "
+                                    "ballistic hop of that flight time (an upper estimate)"),
     # scalars
     "u_star_s": ("m s-1", "saltation friction velocity u*s from the log-law fit above the saltation layer"),
     "z0s": ("m", "saltation roughness length z0s from the log-law fit"),
@@ -121,6 +159,8 @@ SPEC: dict[str, tuple[str, str]] = {
                                       "momentum budget of a steady layer)"),
     "R_cu_upper": ("1", "mean R_cu over 0.6 z_m <= z <= z_m"),
     "n_parcels_mean": ("1", "mean number of parcels over the sampling window"),
+    "airborne_mass_per_m2": ("kg m-2", "mass of the airborne grains per unit bed area, sum over "
+                             "the column of sum Q m_p / (Lx Ly), mean over the 3-D samples"),
     "n_parcels_peak": ("1", "largest number of parcels after activation"),
     "overshoot_ratio": ("1", "n_parcels_peak / n_parcels_mean"),
     "t_equilibrium": ("s", "time after activation when the parcel count settles within 10 % of its plateau"),
@@ -191,7 +231,8 @@ REQUIRED_COORDS = ("z", "time", "time_sample", "time_plane", "ky", "lag_x", "lag
 SAMPLE_VARIABLES_USED = (
     "u", "C_p_s", "uw_res", "uw_sgs", "u_mean", "tke_res", "e_sgs", "sgs_transfer", "pm", "pmu",
     "pmw", "pmuw", "pdrag", "pmuf_up", "pmuf", "size_hist", "d_edges", "C_p", "G_col", "u_plane",
-    "n_parcels", "G_tot_series", "u_star_ref", "E_impact", "E_splash",
+    "n_parcels", "G_tot_series", "u_star_ref", "E_impact", "E_splash", "pn", "impact_hist",
+    "impact_outcomes", "hop_time_hist", "hop_length_hist",
 )
 
 
@@ -869,6 +910,35 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
 
     put("u_star_t", (), _u_star_t(info, rho, rho_p, g))
 
+    # ---------------- the layer's anatomy (analysis/layer.py) ----------------
+    q_case = info["Q_case"] if math.isfinite(info["Q_case"]) else _f(attrs, "Q", 1.0)
+    anat = layer.band_anatomy(z, z_w, get("pn"), get("pm"), get("pmu"), get("pmuf"), q_case,
+                              Lx * Ly)
+    band_e = anat.pop("band_edges")
+    put("band_edges", ("height_band_edge",), band_e)
+    for name, val in anat.items():
+        put(name, ("height_band",), val)
+    nb = anat["band_parcels_per_m2_at_Q"]
+    put("first_cell_parcel_fraction", (), float(nb[0] / np.nansum(nb))
+        if np.nansum(nb) > 0 else math.nan)
+    # the impact record's bins are the archive's coordinates (their lower edges, equal widths)
+    def edges(name):
+        lo = np.asarray(coords.get(name, np.zeros(0)), dtype=np.float64)
+        if lo.size < 2:
+            return np.zeros(1)
+        return np.append(lo, lo[-1] + (lo[1] - lo[0]))
+
+    ev, ea, et, el = (edges(k) for k in ("v_imp", "impact_angle", "hop_time", "hop_length"))
+    imp = layer.impact_statistics(get("impact_hist"), get("impact_outcomes"), get("hop_time_hist"),
+                                  get("hop_length_hist"), ev, ea, et, el, g)
+    for name, val in imp.items():
+        dims = {"impact_speed_pdf": ("v_imp",), "replacement_by_speed": ("v_imp",),
+                "impacts_by_speed": ("v_imp",), "impact_angle_pdf": ("impact_angle",),
+                "hop_time_pdf": ("hop_time",), "hop_length_pdf": ("hop_length",)}.get(name, ())
+        put(name, dims, val)
+    impact_centres = {"v_imp": 0.5 * (ev[1:] + ev[:-1]), "impact_angle": 0.5 * (ea[1:] + ea[:-1]),
+                      "hop_time": 0.5 * (et[1:] + et[:-1]), "hop_length": 0.5 * (el[1:] + el[:-1])}
+
     # ---------------- dataset ----------------
     n_band = band_edges.size - 1
     coord_values = {
@@ -876,7 +946,7 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
         "ky": ky, "lag_x": streamers.centred_lags(nx, dx), "lag_y": streamers.centred_lags(ny, dy),
         "lag_t": lag_t, "z_plane": z_plane, "d_bin": d_bin,
         "z_band": 0.5 * (band_edges[1:] + band_edges[:-1]) if n_band > 0 else np.zeros(0),
-        "x": x, "y": y,
+        "x": x, "y": y, "height_band": np.arange(band_e.size - 1), **impact_centres,
     }
     out = xr.Dataset()
     for name, val in coord_values.items():

@@ -24,15 +24,16 @@ CASES_SOIL = (2, 7, 8, 9, 10)
 
 #: Table 2 columns: (analysis.nc scalar, paper key in [[table2]] or None, label, unit)
 TABLE2_COLUMNS = (
-    ("u_star_s", "u_star_s", "u*s", "m s-1"),
-    # the paper's own reading (section 3.1 [33]): sqrt|<u'w'>| at z_ref, which the drive holds
+    # the paper's own reading (section 3.1 [33]): sqrt|<u'w'>| at z_ref, which the drive holds;
+    # it leads, and the free log-law fit stands beside it as a diagnostic
     ("u_star_s_stress", "u_star_s", "u*s, stress at z_ref", "m s-1"),
+    ("u_star_s", "u_star_s", "u*s, free log fit", "m s-1"),
     ("u_star_t", "u_star_t", "u*t", "m s-1"),
     ("lambda_x", "lambda_x_m", "λx", "m"),
     ("lambda_y", "lambda_y_m", "λy", "m"),
-    ("delta_y", "delta_y_m", "δy", "m"),
-    ("z0s", None, "z0s", "m"),
+    ("delta_y", "delta_y_m", "δy (premultiplied)", "m"),
     ("z0s_stress", None, "z0s with the stress u*s", "m"),
+    ("z0s", None, "z0s, free log fit", "m"),
     ("z_m", None, "z_m", "m"),
     ("G_tot", None, "G_tot", "kg m-1 s-1"),
     ("sigma_G_over_G_tot", None, "σG/G_tot", "1"),

@@ -76,6 +76,10 @@ def model_departures(scene: dict) -> list[str]:
     if nbw != "paper":
         out.append(NEAR_BED_WIND_CAPTIONS[nbw] + " (particles.near_bed_wind; the paper's [12]: "
                    "the log law from the second level over the whole first cell, its drag there)")
+    rounding = (case.get("splash", {}) or {}).get("ejection_rounding", "stochastic")
+    if rounding != "stochastic":
+        out.append(f"eq. 8's number of ejecta as its {'floor' if rounding == 'floor' else 'nearest integer'}"
+                   " (splash.ejection_rounding; the paper does not say how it becomes whole)")
     if (case.get("forcing", {}) or {}).get("drive", "top") != "top":
         out.append("a mean pressure-gradient drive (the paper: a top drive)")
     q = fid.get("q_multiplier", 1.0)

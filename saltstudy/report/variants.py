@@ -1,5 +1,6 @@
 """Model variants replicated over seeds, side by side: the table of a study whose scene labels read
-``c<case>_<variant>_s<seed>`` (workflows/grainlayer.toml).
+``c<case>_<variant>_s<seed>`` (workflows/grainlayer.toml), or ``<variant>_s<seed>`` with the case
+from the run's own case number (workflows/equilibrium-screen.toml).
 
     saltstudy variants-report reports/grainlayer      # reads summary.json, writes variants.{md,json}
 
@@ -24,8 +25,8 @@ import numpy as np
 
 __all__ = ["LABEL", "STATS", "variants_table", "build_variants_report", "phi_air"]
 
-#: c<case>_<variant>_s<seed>
-LABEL = re.compile(r"^c(?P<case>\d+)_(?P<variant>[A-Za-z0-9.\-]+)_s(?P<seed>\d+)$")
+#: c<case>_<variant>_s<seed>, or <variant>_s<seed>
+LABEL = re.compile(r"^(?:c(?P<case>\d+)_)?(?P<variant>[A-Za-z0-9.\-]+)_s(?P<seed>\d+)$")
 #: the statistics of the table: key -> (heading, scale, unit)
 STATS: dict[str, tuple[str, float, str]] = {
     "u_star_s_stress": ("u* at z_ref (stress)", 1.0, "m/s"),
@@ -34,6 +35,12 @@ STATS: dict[str, tuple[str, float, str]] = {
     "G_tot": ("G_tot", 1e3, "g/m/s"),
     "G_decay_height": ("G e-folding height", 1e2, "cm"),
     "N_air": ("grains in the air", 1e-6, "millions"),
+    "n_parcels_per_m2_at_Q": ("airborne parcels per m2 at the case's Q", 1.0, "m-2"),
+    "first_cell_parcel_fraction": ("share of them in the first cell", 1.0, "-"),
+    "impact_speed_mean": ("mean impact speed", 1.0, "m/s"),
+    "replacement_mean": ("grains back per impact", 1.0, "-"),
+    "hop_time_median": ("median hop flight time", 1e3, "ms"),
+    "hop_length_median": ("median hop length", 1e2, "cm"),
     "phi_air": ("phi_air 2-25 cm", 1.0, "-"),
     "tau_p_surface_fraction": ("tau_p(0)/rho u*^2", 1.0, "-"),
     "lambda_y": ("lambda_y", 1.0, "m"),
@@ -86,7 +93,10 @@ def variants_table(summary: dict[str, Any], parcel_weight: dict[str, float] | No
         m = LABEL.match(str(run.get("label", "")))
         if not m or run.get("status") != "ok":
             continue
-        case, variant = int(m["case"]), m["variant"]
+        number = m["case"] if m["case"] is not None else run.get("case_number")
+        if number is None:
+            continue
+        case, variant = int(number), m["variant"]
         if variant not in order:
             order.append(variant)
         groups.setdefault(case, {}).setdefault(variant, []).append(run)
@@ -130,7 +140,7 @@ def build_variants_report(directory: str | Path, parcel_weight: dict[str, float]
         parcel_weight = _parcel_weights(summary)
     table = variants_table(summary, parcel_weight)
     if not table["cases"]:
-        raise ValueError(f"{directory}: no run labelled c<case>_<variant>_s<seed> in summary.json")
+        raise ValueError(f"{directory}: no run labelled [c<case>_]<variant>_s<seed> in summary.json")
     (directory / "variants.json").write_text(json.dumps(table, indent=1), encoding="utf-8")
     lines = ["Mean over seeds ± half the range between them; (×) the ratio to the first variant.", ""]
     for case, per in table["cases"].items():

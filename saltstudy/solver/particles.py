@@ -88,8 +88,8 @@ from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_
 from .grid import Grid
 from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, _bil, _tri, ijit, interp_fluid, level_of,
                      locate, pool_add_tri, slab_of, wrap_index, wrap_periodic)
-from .splash_kernels import (draw_diameter, ejecta_reserve, soil_arrays, splash_params,
-                             splash_runs)
+from .splash_kernels import (NO_LAUNCH, ImpactLog, draw_diameter, ejecta_reserve,
+                             impact_log_arrays, soil_arrays, splash_params, splash_runs)
 from .state import FlowState
 
 __all__ = ["Saltation", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN_KEY",
@@ -741,7 +741,7 @@ def _collect_events(n, flag, ev):
 
 
 @jit_borrow
-def _compact(dead, n_dead, n, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw):
+def _compact(dead, n_dead, n, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw, tl, xl, yl):
     """Swap-remove the dead parcels; ``dead`` sorted in decreasing order. Returns the new count."""
     has_sgs = su.shape[0] > 0
     for i in range(n_dead):
@@ -758,6 +758,9 @@ def _compact(dead, n_dead, n, x, y, z, u, v, w, d, kd, flag, trem, su, sv, sw):
             kd[q] = kd[last]
             flag[q] = flag[last]
             trem[q] = trem[last]
+            tl[q] = tl[last]
+            xl[q] = xl[last]
+            yl[q] = yl[last]
             if has_sgs:
                 su[q] = su[last]
                 sv[q] = sv[last]
@@ -974,6 +977,10 @@ class Saltation:
         self.E_splash = 0.0
         self.momentum_to_air = np.zeros(3)
         self.momentum_to_bed = 0.0
+        #: cumulative impact record since activation, one slab per run of impacts
+        #: (splash_kernels.ImpactLog: hist, outc, hop_t, hop_l); see impact_record()
+        self.impact_counts = impact_log_arrays(N_SPLASH_RUNS)
+        self._log_prm = np.array([0.0, grid.Lx, grid.Ly])
         self.last_step: dict = {}
         self._steps = 0
         self._vmax = 0.0
@@ -987,7 +994,9 @@ class Saltation:
                                    self.Q, self.h_imp])
 
     # ---- storage ---------------------------------------------------------------------------
-    _FIELDS = ("x", "y", "z", "u", "v", "w", "d", "kd", "trem")
+    #: per parcel: position, velocity, diameter, drag rate, time credit, and the time and place
+    #: of its launch from the bed (splash_kernels.ImpactLog; NO_LAUNCH if released or entrained)
+    _FIELDS = ("x", "y", "z", "u", "v", "w", "d", "kd", "trem", "tl", "xl", "yl")
 
     def _alloc(self, cap: int) -> None:
         for f in self._FIELDS + ("k0", "e0", "c0", "wtil"):
@@ -1055,6 +1064,7 @@ class Saltation:
         self._kd[sl] = 0.0
         self._flag[sl] = 0
         self._trem[sl] = 0.0
+        self._tl[sl] = NO_LAUNCH
         if self.sgs:
             self._su[sl] = self._sv[sl] = self._sw[sl] = 0.0
         self.n += m
@@ -1068,6 +1078,7 @@ class Saltation:
         """
         m = self.n_initial
         self._grow(self.n + m)
+        self._tl[self.n:self.n + m] = NO_LAUNCH
         _release(self.rng, self.n, m, self._x, self._y, self._z, self._u, self._v, self._w,
                  self._d, self._kd, self._flag, self._trem, self.grid.Lx, self.grid.Ly, self.h_imp,
                  self.release_depth, self.cum, self.mu, self.lnsig)
@@ -1191,6 +1202,7 @@ class Saltation:
         # inside its implicit exchange (integrating them now, outside it, would be an explicit
         # exchange: unstable for small grains at high loading).
         n_ev = int(self._nhit.sum())
+        self._log_prm[0] = state.t + dt  # the impacts' times are counted back from the step's end
         cnt = self._cnt
         en = self._en
         cnt[:] = 0
@@ -1203,7 +1215,7 @@ class Saltation:
             dead = np.sort(self._dead[:n_dead])[::-1].copy()
             self.n = _compact(dead, n_dead, self.n, self._x, self._y, self._z, self._u, self._v,
                               self._w, self._d, self._kd, self._flag, self._trem, self._su,
-                              self._sv, self._sw)
+                              self._sv, self._sw, self._tl, self._xl, self._yl)
         # momentum to the air, TKE sink
         if two:
             tot = self._tot
@@ -1249,9 +1261,10 @@ class Saltation:
         cnt_r = np.zeros((nr, 4), dtype=np.int64)
         en_r = np.zeros((nr, 2))
         out = np.zeros((nr, 3), dtype=np.int64)
+        log = ImpactLog(self._tl, self._xl, self._yl, *self.impact_counts, self._log_prm)
         splash_runs(self.splash_rngs, ev, lo, base, self._x, self._y, self._z, self._u, self._v,
                     self._w, self._d, self._kd, self._flag, self._trem, self._dead, self.sp,
-                    self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out)
+                    self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out, log)
         # close up the runs' ejecta stretches, in run order; the dead lists likewise
         dst = n
         dead = []
@@ -1307,6 +1320,7 @@ class Saltation:
             self._grow(2 * self.capacity)
         if self.sgs:
             self._su[n0:n] = self._sv[n0:n] = self._sw[n0:n] = 0.0
+        self._tl[n0:n] = NO_LAUNCH
         self.n = n
         return n - n0
 
@@ -1319,6 +1333,14 @@ class Saltation:
         out["E_splash"] = self.E_splash
         out["momentum_to_air"] = self.momentum_to_air.copy()
         return out
+
+    def impact_record(self) -> dict:
+        """The cumulative impact record since activation (splash_kernels.ImpactLog), summed over
+        the runs: ``impact_hist`` (speed bin, angle bin), ``impact_outcomes`` (speed bin,
+        [impacts, rebounds, ejecta]), ``hop_time_hist``, ``hop_length_hist`` (counts)."""
+        hist, outc, hop_t, hop_l = self.impact_counts
+        return {"impact_hist": hist.sum(axis=0), "impact_outcomes": outc.sum(axis=0),
+                "hop_time_hist": hop_t.sum(axis=0), "hop_length_hist": hop_l.sum(axis=0)}
 
     def fluid_at_parcels(self, state: FlowState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Resolved fluid velocity (u_f, v_f, w_f) interpolated at every live parcel."""
@@ -1354,13 +1376,18 @@ class Saltation:
         data["grain_momentum_to_bed"] = self.momentum_to_bed
         data["grain_vmax"] = self._vmax
         data["grain_steps"] = int(self._steps)
+        for name, a in zip(("hist", "outc", "hop_t", "hop_l"), self.impact_counts):
+            data[f"grain_impact_{name}"] = a.copy()
         return data
 
     def restore(self, data: dict) -> None:
         n = int(data["grain_n"])
         self._alloc(max(1024, 2 * n, self.capacity))
         for f in self._FIELDS:
-            getattr(self, "_" + f)[:n] = np.asarray(data[f"grain_{f}"], dtype=np.float64)
+            if f"grain_{f}" in data:
+                getattr(self, "_" + f)[:n] = np.asarray(data[f"grain_{f}"], dtype=np.float64)
+            elif f == "tl":   # a checkpoint without launch records: no hop ends known
+                self._tl[:n] = NO_LAUNCH
         if self.sgs and "grain_su" in data:
             for f in ("su", "sv", "sw"):
                 getattr(self, "_" + f)[:n] = np.asarray(data[f"grain_{f}"], dtype=np.float64)
@@ -1383,6 +1410,9 @@ class Saltation:
         self.momentum_to_bed = float(data["grain_momentum_to_bed"])
         self._vmax = float(data["grain_vmax"])
         self._steps = int(data.get("grain_steps", 0))
+        for name, a in zip(("hist", "outc", "hop_t", "hop_l"), self.impact_counts):
+            if f"grain_impact_{name}" in data:
+                a[...] = np.asarray(data[f"grain_impact_{name}"], dtype=np.int64).reshape(a.shape)
 
 
 @jit_borrow

@@ -22,7 +22,10 @@ Draws per impact, in this order:
    alpha_v ~ N(30 deg, 15 deg) redrawn outside (0, 180) deg (the grain must leave the bed),
    alpha_h ~ N(0, 10 deg) relative to the impactor's horizontal direction of motion
 3. N_ej = floor(nbar) + Bernoulli(nbar - floor(nbar)), nbar = a v_imp / sqrt(g <d_p>)  (eq. 8)
-   (stochastic rounding: E[N_ej] = nbar exactly)
+   (stochastic rounding: E[N_ej] = nbar exactly). The paper gives N_ej as "the number of newly
+   ejected particles" without saying how it becomes whole; ``splash.ejection_rounding`` also
+   offers the floor and the nearest integer (no draw), which eject nothing below
+   1 / (a / sqrt(g <d>)) (1.48 m/s for 200 um) and half that
 4. per ejectum: d from the soil (eq. 5), v_ej ~ Exp(mean 0.08 v_imp)                   (eq. 9)
    alpha_v ~ N(60, 15) deg redrawn outside (0, 180), alpha_h ~ N(0, 10) deg
 
@@ -34,10 +37,18 @@ smaller for sigma = 1.2). We follow the paper.
 
 The rebound and the ejecta start at the impact point, on the impact layer, and are integrated for
 the rest of the step by the caller.
+
+The impact record (``ImpactLog``): every impact is counted by its speed and its angle to the bed
+(``impact_hist``), with the rebounds and ejecta it gave (``impact_outcomes``: the replacement number
+against impact speed), and, when the grain was launched at a known time and place (by a rebound
+or an ejection; released and entrained grains are not), the hop that ended there: its flight time
+and its streamwise length (``hop_time_hist``, ``hop_length_hist``). Counts only; the bins are the
+``*_BIN`` constants below.
 """
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import prange
@@ -46,12 +57,46 @@ from .._jit import jit, jit_borrow, pjit
 from ..physics.splash import ejection_number_mean, rebound_probability
 
 __all__ = ["splash_params", "soil_arrays", "draw_diameter", "draw_rebound", "draw_n_ejecta",
-           "draw_ejectum", "bed_events", "ejecta_reserve", "splash_runs", "sample_impacts", "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN",
-           "SP_RHO_P"]
+           "draw_ejectum", "bed_events", "ejecta_reserve", "splash_runs", "sample_impacts",
+           "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN", "SP_RHO_P", "ImpactLog", "impact_log_arrays",
+           "IMPACT_SPEED_BIN", "N_SPEED_BINS", "IMPACT_ANGLE_BIN", "N_ANGLE_BINS", "HOP_TIME_BIN",
+           "HOP_LENGTH_BIN", "N_HOP_BINS", "NO_LAUNCH"]
+
+#: impact speed bins [m s^-1]: [i, i+1) x IMPACT_SPEED_BIN, the last bin open above
+IMPACT_SPEED_BIN = 0.1
+N_SPEED_BINS = 80
+#: impact angle to the bed [deg], bins of IMPACT_ANGLE_BIN from 0 to 90
+IMPACT_ANGLE_BIN = 2.0
+N_ANGLE_BINS = 45
+#: hop flight time [s] and streamwise length [m] bins, the last bin open above (a length below
+#: zero, a grain blown back, counts in the first bin)
+HOP_TIME_BIN = 0.005
+HOP_LENGTH_BIN = 0.01
+N_HOP_BINS = 300
+#: launch time of a grain not launched from the bed by a splash (released, entrained)
+NO_LAUNCH = -1.0e30
+
+#: what ``bed_events`` records of each impact (module doc): per-parcel launch time ``tl`` [s] and
+#: place ``xl``, ``yl`` [m]; counts ``hist`` (speed bin, angle bin), ``outc`` (speed bin,
+#: [impacts, rebounds, ejecta]), ``hop_t``, ``hop_l``; ``prm`` = [time at the end of the step,
+#: Lx, Ly]
+ImpactLog = namedtuple("ImpactLog", "tl xl yl hist outc hop_t hop_l prm")
+
+
+def impact_log_arrays(runs: int):
+    """Zeroed counts (hist, outc, hop_t, hop_l), one slab per run of impacts."""
+    return (np.zeros((runs, N_SPEED_BINS, N_ANGLE_BINS), dtype=np.int64),
+            np.zeros((runs, N_SPEED_BINS, 3), dtype=np.int64),
+            np.zeros((runs, N_HOP_BINS), dtype=np.int64),
+            np.zeros((runs, N_HOP_BINS), dtype=np.int64))
 
 # indices into the splash parameter vector
 SP_PMAX, SP_GAMMA, SP_REB_M, SP_REB_S, SP_RAV_M, SP_RAV_S, SP_RAH_M, SP_RAH_S = range(8)
 SP_A, SP_EJ_M, SP_EAV_M, SP_EAV_S, SP_EAH_M, SP_EAH_S, SP_IMPACT_LAYER, SP_G, SP_DMEAN, SP_RHO_P = range(8, 18)
+SP_EJ_ROUND = 18
+#: how eq. 8's N_ej becomes a whole number of ejected parcels (config.Splash.ejection_rounding),
+#: coded in the parameter vector: stochastic rounding, the floor, the nearest integer
+EJECTION_ROUNDING = {"stochastic": 0.0, "floor": 1.0, "nearest": 2.0}
 
 
 def splash_params(splash, soil, g: float) -> np.ndarray:
@@ -63,6 +108,7 @@ def splash_params(splash, soil, g: float) -> np.ndarray:
         r(splash.reb_angle_h_std), splash.a_ej, splash.ej_speed_mean, r(splash.ej_angle_v_mean),
         r(splash.ej_angle_v_std), r(splash.ej_angle_h_mean), r(splash.ej_angle_h_std),
         splash.impact_layer, g, soil.mean_diameter, soil.rho_p,
+        EJECTION_ROUNDING[splash.ejection_rounding],
     ], dtype=np.float64)
 
 
@@ -117,9 +163,16 @@ def draw_rebound(rng, v_imp, sp):
 
 @jit
 def draw_n_ejecta(rng, v_imp, sp) -> int:
-    """N_ej with mean a v_imp / sqrt(g <d>) (eq. 8) by stochastic rounding."""
+    """N_ej of eq. 8, a v_imp / sqrt(g <d>), as a whole number: by stochastic rounding (its mean
+    is eq. 8's; one uniform draw), its floor or the nearest integer (no draw), as
+    ``sp[SP_EJ_ROUND]`` says (config.Splash.ejection_rounding)."""
     nbar = ejection_number_mean(v_imp, sp[SP_A], sp[SP_G], sp[SP_DMEAN])
     n0 = int(math.floor(nbar))
+    mode = sp[SP_EJ_ROUND]
+    if mode == 1.0:
+        return n0
+    if mode == 2.0:
+        return n0 + 1 if nbar - n0 >= 0.5 else n0
     if rng.random() < nbar - n0:
         n0 += 1
     return n0
@@ -165,8 +218,34 @@ def ejecta_reserve(ev, n_ev, u, v, w, sp, lo, res):
 
 
 @jit_borrow
+def _bin(value, width, n):
+    """Index of the bin of ``value`` [0, n): bins of ``width`` from 0, the ends open."""
+    b = int(value / width) if value > 0.0 else 0
+    return b if b < n else n - 1
+
+
+@jit_borrow
+def _record_impact(L, r, p, up, vp, wp, v_imp, x, y, tr):
+    """Count an impact of run r in the log (module doc); the hop it ends if its launch is known."""
+    vh = math.sqrt(up * up + vp * vp)
+    angle = math.degrees(math.atan2(-wp, vh)) if (vh > 0.0 or wp != 0.0) else 0.0
+    iv = _bin(v_imp, IMPACT_SPEED_BIN, N_SPEED_BINS)
+    L.hist[r, iv, _bin(angle, IMPACT_ANGLE_BIN, N_ANGLE_BINS)] += 1
+    L.outc[r, iv, 0] += 1
+    t_imp = L.prm[0] - tr
+    t0 = L.tl[p]
+    if t0 > NO_LAUNCH:
+        Lx = L.prm[1]
+        dxh = x - L.xl[p]
+        dxh -= Lx * math.floor(dxh / Lx + 0.5)    # the shorter way round the periodic domain
+        L.hop_t[r, _bin(t_imp - t0, HOP_TIME_BIN, N_HOP_BINS)] += 1
+        L.hop_l[r, _bin(dxh, HOP_LENGTH_BIN, N_HOP_BINS)] += 1
+    return iv, t_imp
+
+
+@jit_borrow
 def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, trem, dead, n_dead,
-               sp, cum, mu, lnsig, Q, cnt, en):
+               sp, cum, mu, lnsig, Q, cnt, en, L, r):
     """Splash every parcel listed in ``ev[cursor:n_ev]`` (each sits on the impact layer with its
     impact velocity and ``trem`` seconds of the step left).
 
@@ -179,7 +258,8 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
     Capacity: before an impact is drawn, room for its largest possible ejecta count is checked;
     if there is none (index ``n_end``) the kernel returns early, and the caller can make room and
     call again with the returned cursor (no draw is lost or repeated). Returns
-    (cursor, n, n_dead).
+    (cursor, n, n_dead). Each impact is recorded in the ImpactLog ``L`` (slab ``r``), and the
+    rebound and the ejecta get its time and place as their launch.
     """
     cap = n_end
     h_imp = sp[SP_IMPACT_LAYER]
@@ -200,6 +280,7 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
         xp = x[p]
         yp = y[p]
         tr = trem[p]
+        iv, t_imp = _record_impact(L, r, p, up, vp, wp, v_imp, xp, yp, tr)
         reb, vr, av, ah = draw_rebound(rng, v_imp, sp)
         if reb:
             a, b, c = _launch(vr, av, phi + ah)
@@ -209,6 +290,10 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             z[p] = h_imp
             kd[p] = 0.0  # velocity jumped: the drag rate is re-estimated from scratch
             flag[p] = 0
+            L.tl[p] = t_imp
+            L.xl[p] = xp
+            L.yl[p] = yp
+            L.outc[r, iv, 1] += 1
             cnt[1] += 1
             en[1] += Q * 0.5 * mp * vr * vr
         else:
@@ -233,6 +318,10 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             kd[q] = 0.0
             flag[q] = 0
             trem[q] = tr
+            L.tl[q] = t_imp
+            L.xl[q] = xp
+            L.yl[q] = yp
+            L.outc[r, iv, 2] += 1
             cnt[2] += 1
             en[1] += Q * 0.5 * (math.pi / 6.0 * sp[SP_RHO_P] * dq ** 3) * ve * ve
     return n_ev, n, n_dead
@@ -240,17 +329,17 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
 
 @pjit
 def splash_runs(rngs, ev, lo, base, x, y, z, u, v, w, d, kd, flag, trem, dead, sp, cum, mu, lnsig,
-                Q, cnt, en, out):
+                Q, cnt, en, out, L):
     """bed_events for each run r of impacts ev[lo[r]:lo[r+1]] (ejecta_reserve), in parallel, with
     the run's own Generator rngs[r]: its ejecta go to [base[r], base[r+1]), its dead list to
     dead[lo[r]:]; cnt[r], en[r] get its counts and energies and out[r] = (impacts done, end of
-    its ejecta, dead count)."""
+    its ejecta, dead count); run r counts its impacts in slab r of the ImpactLog L."""
     for r in prange(lo.shape[0] - 1):
         a = lo[r]
         b = lo[r + 1]
         cursor, end, nd = bed_events(rngs[r], ev[a:b], b - a, 0, base[r], base[r + 1], x, y, z, u,
                                      v, w, d, kd, flag, trem, dead[a:b], 0, sp, cum, mu, lnsig, Q,
-                                     cnt[r], en[r])
+                                     cnt[r], en[r], L, r)
         out[r, 0] = cursor
         out[r, 1] = end
         out[r, 2] = nd

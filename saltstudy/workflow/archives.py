@@ -79,6 +79,19 @@ META: dict[str, tuple[str, str]] = {
     "pmuf_uf": ("kg m2 s-2", "sum of m_p |u_f|^2 in the layer"),
     "pmup_up": ("kg m2 s-2", "sum of m_p |u_p|^2 in the layer"),
     "size_hist": ("1", "grains per layer and diameter bin (Q-weighted)"),
+    # impacts since activation (cumulative parcel counts: a window is a difference of two samples)
+    "v_imp": ("m s-1", "impact speed bin, lower edge"),
+    "impact_angle": ("degree", "impact angle to the bed bin, lower edge"),
+    "outcome": ("1", "0: impacts, 1: rebounds, 2: ejected parcels"),
+    "hop_time": ("s", "hop flight time bin, lower edge"),
+    "hop_length": ("m", "hop streamwise length bin, lower edge"),
+    "impact_hist": ("1", "cumulative parcel impacts since activation by impact speed and angle"),
+    "impact_outcomes": ("1", "cumulative impacts, rebounds and ejected parcels since activation by "
+                        "impact speed"),
+    "hop_time_hist": ("1", "cumulative hops ended since activation by flight time (hops launched "
+                      "by a splash)"),
+    "hop_length_hist": ("1", "cumulative hops ended since activation by streamwise length (hops "
+                        "launched by a splash)"),
     # series
     "n_parcels": ("1", "computational parcels aloft"),
     "n_impacts": ("1", "cumulative parcel impacts since activation"),
@@ -325,6 +338,22 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
     for name in _PROFILE_Z:
         data[name] = _var(("time", "z"), samples[name], name, np.float64)
     data["size_hist"] = _var(("time", "z", "d_bin"), samples["size_hist"], "size_hist", np.float64)
+    if "impact_hist" in samples:
+        from ..solver.diagnostics_particles import impact_bins
+        bins = impact_bins()
+        coords["v_imp"] = _var(("v_imp",), bins["v_imp_edges"][:-1], "v_imp")
+        coords["impact_angle"] = _var(("impact_angle",), bins["angle_edges"][:-1], "impact_angle")
+        coords["outcome"] = _var(("outcome",), np.arange(3), "outcome")
+        coords["hop_time"] = _var(("hop_time",), bins["hop_time_edges"][:-1], "hop_time")
+        coords["hop_length"] = _var(("hop_length",), bins["hop_length_edges"][:-1], "hop_length")
+        data["impact_hist"] = _var(("time", "v_imp", "impact_angle"), samples["impact_hist"],
+                                   "impact_hist", np.int64)
+        data["impact_outcomes"] = _var(("time", "v_imp", "outcome"), samples["impact_outcomes"],
+                                       "impact_outcomes", np.int64)
+        data["hop_time_hist"] = _var(("time", "hop_time"), samples["hop_time_hist"],
+                                     "hop_time_hist", np.int64)
+        data["hop_length_hist"] = _var(("time", "hop_length"), samples["hop_length_hist"],
+                                       "hop_length_hist", np.int64)
     attrs = global_attrs(scene, wall_time_s, key)
     attrs.update({"t_activation": float(t_activation), "n_steps": int(n_steps),
                   "planes_cover": "whole run" if scene.fidelity.outputs.animation

@@ -264,7 +264,8 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                    "uw_res": fp["uw_res"], "uw_sgs": fp["uw_sgs"], "u_mean": fp["u"],
                    "tke_res": fp["tke_res"], "e_sgs": fp["e_sgs"], "eps_sgs": fp["eps_sgs"],
                    "sgs_transfer": fp["sgs_transfer"],
-                   "size_hist": dpart.grain_size_hist(model, d_edges)}
+                   "size_hist": dpart.grain_size_hist(model, d_edges),
+                   **dpart.impact_record(model)}
             missing = [k for k in archives.GRAIN_PROFILES if k not in gp]
             if missing:
                 raise KeyError(f"grain_profiles() lacks {missing} required by samples.nc")

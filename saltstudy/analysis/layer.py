@@ -1,0 +1,151 @@
+"""The saltation layer's anatomy: where the airborne grains are and how they hit the bed.
+
+By height band (``BAND_NAMES``: the first grid cell, up to 5 cm, above), from the layer sums of
+the 3-D samples (``pn``, ``pm``, ``pmu``, ``pmuf``: Q-weighted grain count, mass, streamwise
+momentum and the mass-weighted fluid velocity at the grains), mean over the samples:
+
+* ``band_parcels_per_m2_at_Q``: grains aloft per m^2 of bed over the case's Q, i.e. parcels per
+  m^2 at the case's own parcel weight (the paper's count, its [28] and [31]: ~2,000 in each case);
+* ``band_mass_per_m2`` [kg m^-2], ``band_flux`` [kg m^-1 s^-1] (the band's share of G_tot),
+  ``band_speed`` = sum m u_p / sum m [m s^-1], ``band_wind_seen`` = sum m u_f / sum m [m s^-1].
+
+From the impact record (the cumulative counts of samples.nc, differenced over the sampling
+window; solver/splash_kernels.py): the distribution of impact speeds and angles, the replacement
+number (rebounds + ejecta per impact) against impact speed and its mean over all impacts (1 in a
+steady layer), and the hops a splash launched: their flight time, streamwise length and the
+height g t^2 / 8 a ballistic hop of that flight time reaches (an estimate: drag shortens the rise
+more than the fall, so it is an upper bound for a grain launched into still air).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["BAND_NAMES", "band_edges_for", "band_anatomy", "window_counts", "impact_statistics"]
+
+#: the height bands: the first grid cell (to z_f[1]), from there to 5 cm, above 5 cm
+BAND_NAMES = ("first cell", "first cell - 5 cm", "above 5 cm")
+
+
+def band_edges_for(z_w: np.ndarray) -> np.ndarray:
+    """Band edges [m]: 0, the first cell's top z_w[1], 5 cm (or z_w[1] if that is higher), top."""
+    top1 = float(z_w[1])
+    return np.array([0.0, top1, max(0.05, top1), float(z_w[-1])])
+
+
+def _band_index(z: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """The band of each layer (by its centre z)."""
+    return np.clip(np.searchsorted(edges, z, side="right") - 1, 0, edges.size - 2)
+
+
+def band_anatomy(z: np.ndarray, z_w: np.ndarray, pn, pm, pmu, pmuf, Q_case: float, area: float
+                 ) -> dict[str, np.ndarray]:
+    """Per band (module doc), means over the samples; the layer sums are (samples, nz)."""
+    edges = band_edges_for(z_w)
+    nb = edges.size - 1
+    out = {k: np.full(nb, np.nan) for k in ("band_parcels_per_m2_at_Q", "band_mass_per_m2",
+                                             "band_flux", "band_speed", "band_wind_seen")}
+    out["band_edges"] = edges
+    if pn is None or pm is None or pmu is None:
+        return out
+    band = _band_index(z, edges)
+
+    def per_band(a):
+        a = np.asarray(a, dtype=np.float64)
+        a = a.mean(axis=0) if a.ndim == 2 else a
+        return np.bincount(band, weights=np.nan_to_num(a), minlength=nb)[:nb]
+
+    n, m, mu = per_band(pn), per_band(pm), per_band(pmu)
+    out["band_parcels_per_m2_at_Q"] = n / area / Q_case
+    out["band_mass_per_m2"] = m / area
+    out["band_flux"] = mu / area
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["band_speed"] = np.where(m > 0, mu / m, np.nan)
+        if pmuf is not None:
+            out["band_wind_seen"] = np.where(m > 0, per_band(pmuf) / m, np.nan)
+    return out
+
+
+def window_counts(cumulative) -> np.ndarray | None:
+    """Counts over the sampling window from cumulative counts at the samples (last minus first),
+    or None if there are fewer than two samples."""
+    if cumulative is None:
+        return None
+    a = np.asarray(cumulative, dtype=np.float64)
+    if a.ndim < 1 or a.shape[0] < 2:
+        return None
+    return a[-1] - a[0]
+
+
+def _mean_of(hist: np.ndarray, edges: np.ndarray) -> float:
+    tot = float(hist.sum())
+    if tot <= 0:
+        return math.nan
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    return float(np.sum(centres * hist) / tot)
+
+
+def _median_of(hist: np.ndarray, edges: np.ndarray) -> float:
+    tot = float(hist.sum())
+    if tot <= 0:
+        return math.nan
+    c = np.cumsum(hist) / tot
+    i = int(np.searchsorted(c, 0.5))
+    lo = c[i - 1] if i > 0 else 0.0
+    f = (0.5 - lo) / (c[i] - lo) if c[i] > lo else 0.5
+    return float(edges[i] + f * (edges[i + 1] - edges[i]))
+
+
+def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hist,
+                      v_edges: np.ndarray, angle_edges: np.ndarray, t_edges: np.ndarray,
+                      l_edges: np.ndarray, g: float = 9.81) -> dict[str, object]:
+    """Impact and hop statistics over the sampling window (module doc) from the cumulative counts
+    of samples.nc (first axis: the samples). Scalars NaN and arrays NaN where nothing was
+    recorded."""
+    nv = max(v_edges.size - 1, 0)
+    out: dict[str, object] = {
+        "impact_speed_pdf": np.full(nv, np.nan),
+        "impact_angle_pdf": np.full(max(angle_edges.size - 1, 0), np.nan),
+        "replacement_by_speed": np.full(nv, np.nan), "impacts_by_speed": np.zeros(nv),
+        "impact_speed_mean": math.nan, "impact_speed_median": math.nan,
+        "impact_angle_mean": math.nan, "replacement_mean": math.nan,
+        "rebound_fraction": math.nan, "ejecta_per_impact": math.nan,
+        "hop_time_mean": math.nan, "hop_time_median": math.nan, "hop_length_mean": math.nan,
+        "hop_length_median": math.nan, "hop_height_ballistic_median": math.nan,
+        "hop_time_pdf": np.full(max(t_edges.size - 1, 0), np.nan),
+        "hop_length_pdf": np.full(max(l_edges.size - 1, 0), np.nan),
+    }
+    if nv == 0:     # an archive without the impact record
+        return out
+    H = window_counts(impact_hist)
+    O = window_counts(impact_outcomes)
+    if H is not None and H.sum() > 0:
+        sv = H.sum(axis=1)
+        sa = H.sum(axis=0)
+        out["impact_speed_pdf"] = sv / sv.sum() / np.diff(v_edges)
+        out["impact_angle_pdf"] = sa / sa.sum() / np.diff(angle_edges)
+        out["impact_speed_mean"] = _mean_of(sv, v_edges)
+        out["impact_speed_median"] = _median_of(sv, v_edges)
+        out["impact_angle_mean"] = _mean_of(sa, angle_edges)
+    if O is not None and O[:, 0].sum() > 0:
+        imp = O[:, 0]
+        out["impacts_by_speed"] = imp
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["replacement_by_speed"] = np.where(imp > 0, (O[:, 1] + O[:, 2]) / imp, np.nan)
+        out["replacement_mean"] = float((O[:, 1].sum() + O[:, 2].sum()) / imp.sum())
+        out["rebound_fraction"] = float(O[:, 1].sum() / imp.sum())
+        out["ejecta_per_impact"] = float(O[:, 2].sum() / imp.sum())
+    T = window_counts(hop_time_hist)
+    Lh = window_counts(hop_length_hist)
+    if T is not None and T.sum() > 0:
+        out["hop_time_pdf"] = T / T.sum() / np.diff(t_edges)
+        out["hop_time_mean"] = _mean_of(T, t_edges)
+        tm = _median_of(T, t_edges)
+        out["hop_time_median"] = tm
+        out["hop_height_ballistic_median"] = g * tm * tm / 8.0
+    if Lh is not None and Lh.sum() > 0:
+        out["hop_length_pdf"] = Lh / Lh.sum() / np.diff(l_edges)
+        out["hop_length_mean"] = _mean_of(Lh, l_edges)
+        out["hop_length_median"] = _median_of(Lh, l_edges)
+    return out
