@@ -388,12 +388,23 @@ class Fidelity(_Frozen):
 class SceneSpec(_Frozen):
     """An extra run of a study: a case with overrides (e.g. an extreme scene)."""
     label: str = Field(..., pattern=r"^[A-Za-z0-9_.\-]+$")
-    case: int = Field(..., ge=0)
+    case: int | str = Field(
+        ..., description="a case number (cases/caseNN.toml) or the path of a case file; a relative "
+        "path is relative to the directory of the study file (load_study makes it absolute)")
     fidelity: str | None = None
     overrides: dict[str, Any] = Field(default_factory=dict)
     expect: Literal["complete", "blow-up"] = Field(
         "complete", description="'blow-up': the scene must stop with a solver blow-up (a stability "
         "study's deliberately unstable step); run-all then fails if it completes instead")
+
+    @field_validator("case")
+    @classmethod
+    def _case_ref(cls, v: int | str) -> int | str:
+        if isinstance(v, int) and v < 0:
+            raise ValueError(f"case = {v}: a case number is >= 0")
+        if isinstance(v, str) and not v.strip():
+            raise ValueError("case: an empty path; give a case number or a case file")
+        return v
 
 
 class Study(_Frozen):
@@ -541,6 +552,8 @@ def _read_toml(path: Path) -> dict[str, Any]:
         raise ConfigError(f"{path}: no such file") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML ({exc})") from None
+    except OSError as exc:   # a directory, no permission
+        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
 
 
 def validate_model(cls: type[BaseModel], data: dict[str, Any], source: str) -> Any:
@@ -621,14 +634,57 @@ def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
 
 
 def load_study(ref: str | Path, root: Path | None = None) -> Study:
+    """Load a study by name or path. A scene's ``case`` that is a relative file path is taken
+    relative to the directory of the study file and stored absolute, so that the study means the
+    same case file from any working directory; an absolute path (``~`` expanded) is kept as is."""
     path = _named_file("study", ref, (root or project_root()) / "workflows")
     data = _read_toml(path)
     data.setdefault("name", path.stem)
+    scenes = data.get("scenes")
+    if isinstance(scenes, list):
+        data["scenes"] = [_scene_case_from(path, s) for s in scenes]
     return validate_model(Study, data, str(path))
+
+
+def _scene_case_from(study_path: Path, scene: Any) -> Any:
+    """``scene`` with a case file path made absolute against the study file's directory."""
+    if not isinstance(scene, dict):
+        return scene
+    ref = scene.get("case")
+    if not isinstance(ref, str) or not ref.strip() or ref.strip().isdigit():
+        return scene
+    p = Path(ref).expanduser()
+    if not p.is_absolute():
+        p = Path(os.path.abspath(study_path.parent / p))
+    return {**scene, "case": str(p)}
 
 
 def resolve_scene(case: Case, fidelity: Fidelity, label: str | None = None) -> Scene:
     return Scene(label=label or case.label, case=case, fidelity=fidelity)
+
+
+def _scene_case(study: Study, scene: SceneSpec, root: Path | None) -> Case:
+    """The case of a study's scene, its overrides applied. A reference that names no valid case
+    is a ConfigError naming ``scenes.<label>.case``; overrides that make the case invalid, one
+    naming ``scenes.<label>.overrides``."""
+    where = f"study '{study.name}': scenes.{scene.label}"
+    ref = scene.case
+    if isinstance(ref, str) and not ref.strip().isdigit():
+        p = Path(ref).expanduser()
+        if not p.exists():
+            raise ConfigError(f"{where}.case: no such case file {p}")
+        if not p.is_file():
+            raise ConfigError(f"{where}.case: {p} is not a file")
+    try:
+        case = load_case(ref, root=root)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}.case: {exc}") from None
+    if not scene.overrides:
+        return case
+    try:
+        return load_case(ref, overrides=scene.overrides, root=root)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}.overrides: {exc}") from None
 
 
 def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
@@ -650,7 +706,7 @@ def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
             label = case.label if len(ladder) == 1 else f"{case.label}@{fname}"
             runs.append(RunSpec(label=label, scene=resolve_scene(case, fid(fname), label)))
     for s in study.scenes:
-        case = load_case(s.case, overrides=s.overrides, root=root)
+        case = _scene_case(study, s, root)
         case = case.model_validate({**case.model_dump(), "name": s.label})
         runs.append(RunSpec(label=s.label, scene=resolve_scene(case, fid(s.fidelity or study.fidelity), s.label)))
     labels = [r.label for r in runs]

@@ -348,6 +348,7 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
         "lambda_x_noise_free": streamers.core_length(ac_true[:, ny // 2], dx),
         "lambda_y_noise_free": streamers.core_length(ac_true[nx // 2, :], dy),
         "sigma_G": g_amp, "n_parcels_peak": float(n_par.max()), "n_parcels_mean": P,
+        "airborne_mass_per_m2": float(np.sum(rho_m * dz)),
         "E_splash_over_E_impact": 0.6, "streak_spacing": spacing, "streak_speed": streak_speed,
         # T_p of the mass-weighted mean diameter of the lognormal bed, mu exp(ln^2 sigma / 2)
         "T_p": RHO_P * (mu * math.exp(0.5 * math.log(sigma) ** 2)) ** 2 / (18 * RHO * NU),

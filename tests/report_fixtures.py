@@ -121,7 +121,8 @@ def make_analysis_dataset(case: int, *, bias: float = 1.07, seed: int | None = N
                       "soil": {"modes": [{"mass_fraction": 1.0, "mu": mu1, "sigma": 1.2}],
                                "rho_p": RHO_P},
                       "particles": {"Q": q}},
-             "fidelity": {"name": fidelity, "grid": {"Lx": lx, "Ly": ly, "Lz": lz, "nx": nx,
+             "fidelity": {"name": fidelity, "q_multiplier": 4.0,
+                          "grid": {"Lx": lx, "Ly": ly, "Lz": lz, "nx": nx,
                                                      "ny": ny, "nz": nz,
                                                      "damping_depth": damping_depth}}}
     sc = {
@@ -133,12 +134,20 @@ def make_analysis_dataset(case: int, *, bias: float = 1.07, seed: int | None = N
         "lambda_y": ({1: .4, 2: .3, 3: .4, 4: .4, 5: .3, 6: .3, 7: .2, 8: .2, 9: .4, 10: 2.1}[case]
                      * bias, "m"),
         "delta_y": (dy_c if case <= 8 else np.nan, "m"), "delta_y_u": (0.9 * dy_c, "m"),
+        "delta_y_premultiplied": (dy_c if case <= 8 else np.nan, "m"),
+        "delta_y_density": (1.1 * dy_c if case <= 8 else np.nan, "m"),
+        "delta_y_correlation": (1.2 * dy_c, "m"), "delta_y_u_premultiplied": (0.9 * dy_c, "m"),
+        "delta_y_u_density": (np.nan, "m"), "delta_y_u_correlation": (1.1 * dy_c, "m"),
         "u_star_t": (ut, "m s-1"), "tau_p_surface_fraction": (float(tau_p[0] / (RHO * us ** 2)), "1"),
         "R_cu_upper": (float(r_cu[zeta >= 0.6][zeta[zeta >= 0.6] <= 1].mean()), "1"),
         "n_parcels_mean": (float(n_par[t > 30].mean()), "1"), "n_parcels_peak": (float(n_par.max()), "1"),
         "overshoot_ratio": (float(n_par.max() / n_par[t > 30].mean()), "1"),
         "t_equilibrium": (25.0, "s"), "streamer_lifetime": (0.8, "s"), "streamer_speed": (3.0, "m s-1"),
         "E_splash_over_E_impact": (0.55, "1"), "fit_z_min": (0.3, "m"), "fit_z_max": (1.5, "m"),
+        # the drive holds the stress reading near the case's u*s
+        "u_star_s_stress": (us_in * (0.5 + 0.5 * bias), "m s-1"),
+        "airborne_mass_per_m2": (float(n_par[t > 30].mean()) * 4 * q * RHO_P * np.pi * mu1 ** 3 / 6
+                                 / area, "kg m-2"),
     }
     data_vars: dict = {k: ((), float(v), {"units": u}) for k, (v, u) in sc.items()}
     prof = {"u_mean": (u_mean, "m s-1"), "u_mean_spinup": (u_spin, "m s-1"),

@@ -68,8 +68,19 @@ def test_end_to_end_schema_and_known_answers(tmp_path):
     assert float(ds.sigma_G) == pytest.approx(truth["sigma_G"], rel=0.05)
     assert float(ds.n_parcels_peak) == truth["n_parcels_peak"]
     assert float(ds.n_parcels_mean) == pytest.approx(truth["n_parcels_mean"], rel=0.01)
+    # the grain mass over the bed: the column integral of the layers' mass density
+    assert float(ds.airborne_mass_per_m2) == pytest.approx(truth["airborne_mass_per_m2"], rel=1e-9)
+    assert ds.airborne_mass_per_m2.attrs["units"] == "kg m-2"
     assert float(ds.E_splash_over_E_impact) == pytest.approx(0.6)
     assert float(ds.delta_y) == pytest.approx(truth["streak_spacing"], abs=float(ds.attrs["dy"]))
+    # delta_y[_u] is the premultiplied reading, each reading under its own name too
+    # (docs/STREAMERS.md)
+    for field in ("delta_y", "delta_y_u"):
+        assert float(ds[field]) == float(ds[f"{field}_premultiplied"]), field
+        for reading in ("premultiplied", "density", "correlation"):
+            assert ds[f"{field}_{reading}"].dims == () and ds[f"{field}_{reading}"].attrs["units"] == "m"
+    assert float(ds.delta_y_density) == pytest.approx(truth["streak_spacing"],
+                                                      abs=float(ds.attrs["dy"]))
     assert float(ds.streamer_speed) == pytest.approx(truth["streak_speed"], rel=0.02)
     eps = truth["eps_sgs"] + truth["eps_drag"]
     assert np.allclose(ds.eps_tot.values, eps, rtol=1e-9)

@@ -221,3 +221,56 @@ def test_fidelity_based_on_errors_name_the_field(tmp_path, text, needle):
     _write_fidelity(tmp_path, "b", 'based_on = "a"\n')
     with pytest.raises(ConfigError, match=re.escape(needle)):
         load_fidelity("a", root=tmp_path)
+
+
+def _case_file(path: Path, u_star_s: float) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"number = 2\n[forcing]\nu_star_s = {u_star_s}\n[particles]\nQ = 600\n")
+    return path
+
+
+def test_scene_case_file_is_relative_to_the_study_file(tmp_path, monkeypatch):
+    """Rule: a scene's relative case path is taken from the study file's directory, whatever the
+    working directory; an absolute one is used as is."""
+    own = _case_file(tmp_path / "studies" / "mine" / "breeze.toml", 0.33)
+    other = _case_file(tmp_path / "elsewhere" / "gust.toml", 0.77)
+    study = tmp_path / "studies" / "s.toml"
+    study.write_text('fidelity = "smoke"\n'
+                     '[[scenes]]\nlabel = "breeze"\ncase = "mine/breeze.toml"\n'
+                     f'[[scenes]]\nlabel = "gust"\ncase = "{other}"\n'
+                     '[[scenes]]\nlabel = "gale"\ncase = "mine/breeze.toml"\n'
+                     'overrides = { forcing = { u_star_s = 1.2 } }\n')
+    monkeypatch.chdir(tmp_path / "elsewhere")       # a gust.toml here must not be the one read
+    (tmp_path / "elsewhere" / "mine").mkdir()
+    _case_file(tmp_path / "elsewhere" / "mine" / "breeze.toml", 0.99)
+    st = load_study(study)
+    assert st.scenes[0].case == str(own)
+    runs = {r.label: r.scene for r in study_runs(st)}
+    assert runs["breeze"].case.forcing.u_star_s == 0.33
+    assert runs["gust"].case.forcing.u_star_s == 0.77
+    assert runs["gale"].case.forcing.u_star_s == 1.2 and runs["gale"].case.particles.Q == 600
+    assert runs["breeze"].case.name == "breeze"
+    res = runner.invoke(app, ["validate", str(study)])
+    assert res.exit_code == 0, res.output
+
+
+@pytest.mark.parametrize("case, overrides, needles", [
+    ('"nowhere/mycase.toml"', "", ("scenes.mine.case", "no such case file", "nowhere/mycase.toml")),
+    ('"sub"', "", ("scenes.mine.case", "is not a file")),
+    ('"notacase.toml"', "", ("scenes.mine.case", "forcing", "Field required")),
+    ("42", "", ("scenes.mine.case", "case 42", "unknown case")),
+    ("-1", "", ("scenes.0.case", "a case number is >= 0")),
+    ("2", "overrides = { forcing = { u_star_s = -1.0 } }",
+     ("scenes.mine.overrides", "forcing.u_star_s", "greater than 0")),
+])
+def test_bad_scene_case_exits_2_naming_the_field(tmp_path, case, overrides, needles):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "notacase.toml").write_text("[particles]\nQ = 600\n")
+    study = tmp_path / "s.toml"
+    study.write_text(f'fidelity = "smoke"\n[[scenes]]\nlabel = "mine"\ncase = {case}\n{overrides}\n')
+    for args in (["validate", str(study)],
+                 ["run-all", "--study", str(study), "--out", str(tmp_path / "out"), "--quiet"]):
+        res = runner.invoke(app, args)
+        assert res.exit_code == 2, (args, res.output)
+        assert all(n in res.output for n in needles), (args, res.output)
+    assert not (tmp_path / "out").exists()          # rejected before the cache is touched

@@ -79,6 +79,11 @@ def test_summary_keys_units_and_values(full_report):
             v = float(ds[k].values)
             assert (c[k] is None) if math.isnan(v) else c[k] == pytest.approx(v), k
     assert s["cases"]["9"]["delta_y"] is None      # NaN in the archive -> null
+    # every reading of delta_y, for C_p and for u, under its own name (docs/STREAMERS.md)
+    for field in ("delta_y", "delta_y_u"):
+        for reading in ("premultiplied", "density", "correlation"):
+            assert f"{field}_{reading}" in s["cases"]["2"] and s["units"][f"{field}_{reading}"] == "m"
+    assert s["cases"]["2"]["delta_y"] == s["cases"]["2"]["delta_y_premultiplied"]
 
 
 def test_summary_wall_time_is_elapsed_and_tasks_are_summed_once(tmp_path):

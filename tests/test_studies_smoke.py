@@ -108,3 +108,45 @@ def test_stability_smoke_study_end_to_end(home, tmp_path):
     assert rows["case06_Qx4"]["loading_max"] > rows["case06_u1.10"]["loading_max"]
     text = (rep / "stability.md").read_text()
     assert all(label in text for label in labels)
+
+
+def test_scene_study_below_threshold_end_to_end(home, tmp_path):
+    """A study of one's own: a scene of case 2 below the fluid threshold and a scene from a case
+    file beside the study file. Table 2 has a row per run under its label; the calm scene is
+    marked, with its numbers, as holding no saltation; summary.json carries the grains per m²."""
+    d = tmp_path / "mystudy"
+    (d / "mycases").mkdir(parents=True)
+    (d / "mycases" / "breeze.toml").write_text(
+        "number = 2\n[forcing]\nu_star_s = 0.60\n[particles]\nQ = 600\n")
+    study = d / "mine.toml"
+    study.write_text('fidelity = "smoke"\ncases = [2]\n'
+                     '[[scenes]]\nlabel = "calm_u0.20"\ncase = 2\n'
+                     'overrides = { forcing = { u_star_s = 0.20 } }\n'
+                     '[[scenes]]\nlabel = "breeze"\ncase = "mycases/breeze.toml"\n')
+    rep = tmp_path / "rep"
+    _run_all(str(study), rep)
+    md = (rep / "table2.md").read_text()
+    rows = {l.split("|")[1].strip(): l for l in md.splitlines() if l.startswith("| ")
+            and not l.startswith("| run ") and not l.startswith("| quantity")}
+    assert {"case 2", "calm_u0.20", "breeze"} <= set(rows)
+    calm = rows["calm_u0.20"]
+    assert r"**no sustained saltation**: u\*s = 0.200 m s-1 below the fluid threshold u\*t = 0.262" in calm
+    assert "released at activation" in calm
+    assert "no sustained saltation" not in rows["case 2"] + rows["breeze"]
+    assert " / 0.54 (" in rows["case 2"]                  # the paper's case 2, its values beside
+    assert " / " not in rows["breeze"]                    # a case of one's own: none
+    assert "calm_u0.20" in (rep / "table2.html").read_text()
+    s = json.loads((rep / "summary.json").read_text())
+    assert s["units"]["n_parcels_per_m2_at_Q"] == "m-2"
+    assert s["units"]["airborne_mass_per_m2"] == "kg m-2"
+    c = s["cases"]["calm_u0.20"]
+    assert c["saltation"]["status"] == "no sustained saltation"
+    assert c["saltation"]["u_star_s"] == 0.20 and c["saltation"]["u_star_t"] < 0.27
+    assert c["saltation"]["n_parcels_released"] >= 1
+    for key in ("2", "calm_u0.20", "breeze"):
+        e = s["cases"][key]
+        # smoke: parcels 20x the case's Q on a 2.4 m x 1.6 m bed
+        assert e["n_parcels_per_m2_at_Q"] == pytest.approx(e["n_parcels_mean"] * 20 / (2.4 * 1.6))
+        assert e["airborne_mass_per_m2"] is not None and e["airborne_mass_per_m2"] >= 0
+    assert s["cases"]["2"]["saltation"]["status"] == "sustained"
+    assert s["cases"]["2"]["airborne_mass_per_m2"] > s["cases"]["calm_u0.20"]["airborne_mass_per_m2"]

@@ -131,8 +131,15 @@ SPEC: dict[str, tuple[str, str]] = {
                  "with the paper's parcel-count noise"),
     "lambda_y": ("m", "streamer width: spanwise extent of the C_p autocorrelation > 0.4, "
                  "with the paper's parcel-count noise"),
-    "delta_y": ("m", "mean spanwise spacing of streamers: 1/ky at the peak of the C_p spanwise spectrum "
-                "that stands out of the spectrum's sampling noise"),
+    "delta_y": ("m", "mean spanwise spacing of streamers, Table 2's reading (docs/STREAMERS.md): "
+                "delta_y_premultiplied"),
+    "delta_y_premultiplied": ("m", "1/ky at the peak of the premultiplied spanwise spectrum ky S_c(ky) "
+                              "of C_p (with the paper's parcel-count noise) on a log wavelength "
+                              "axis that stands out of the spectrum's sampling noise"),
+    "delta_y_density": ("m", "1/ky at the peak of the spanwise spectral density of C_p (with the "
+                        "run's parcel-count noise) that stands out of the spectrum's sampling noise"),
+    "delta_y_correlation": ("m", "twice the lag of the first minimum of the spanwise autocorrelation "
+                            "of C_p, averaged over x and time, that stands out of its sampling noise"),
     "lambda_x_raw": ("m", "lambda_x with the run's own parcel-count noise"),
     "lambda_y_raw": ("m", "lambda_y with the run's own parcel-count noise"),
     "lambda_x_noise_free": ("m", "lambda_x with all the Poisson parcel-count noise removed"),
@@ -145,7 +152,16 @@ SPEC: dict[str, tuple[str, str]] = {
     "C_p_small_scale_over_poisson": ("1", "mean power of C_p at wavelengths under 4 cells in both "
                                      "directions over the Poisson noise level (1: independent "
                                      "parcels and no pattern there)"),
-    "delta_y_u": ("m", "mean spanwise spacing of streaks: 1/ky at the peak of the u spanwise spectrum"),
+    "delta_y_u": ("m", "mean spanwise spacing of streaks of u at the 0.1 m plane, Table 2's reading "
+                  "(docs/STREAMERS.md): delta_y_u_premultiplied"),
+    "delta_y_u_premultiplied": ("m", "1/ky at the peak of the premultiplied spanwise spectrum "
+                                "ky S_u(ky) of u at the 0.1 m plane on a log wavelength axis that "
+                                "stands out of the spectrum's sampling noise"),
+    "delta_y_u_density": ("m", "1/ky at the peak of the spanwise spectral density of u at the 0.1 m "
+                          "plane that stands out of the spectrum's sampling noise"),
+    "delta_y_u_correlation": ("m", "twice the lag of the first minimum of the spanwise "
+                              "autocorrelation of u at the 0.1 m plane, averaged over x and time, "
+                              "that stands out of its sampling noise"),
     "u_star_t": ("m s-1", "threshold friction velocity (Shao and Lu 2000) of the soil's mean diameter"),
     "tau_p_surface_fraction": ("1", "grain-borne share of the momentum flux at the bed: tau_p at z = 0 "
                                "over the total stress rho u*^2 at the reference height"),
@@ -571,10 +587,12 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
         tau_p = flux.tau_p_profile(pm, pmu, pmw, pmuw, dz, Lx, Ly)
         G = flux.mass_flux_profile(pmu, dz, Lx, Ly)
         G_tot_sample = np.nansum(np.asarray(pmu, dtype=np.float64), axis=1) / (Lx * Ly)
+        airborne_mass = float(np.mean(np.nansum(np.asarray(pm, dtype=np.float64), axis=1))) / (Lx * Ly)
     else:
         tau_p = np.full(nz, np.nan)
         G = np.full(nz, np.nan)
         G_tot_sample = np.full(n_t, np.nan)
+        airborne_mass = math.nan
 
     z_m = flux.z_m_from_tau(z, tau_p, rho, u_star_stress)
     fit = profiles.log_law_fit(z, u_mean, *rng_fit(z_m), kappa, H=H)
@@ -674,6 +692,7 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     G_tot = flux.total_flux(G, dz)
     put("G", ("z",), G)
     put("G_tot", (), G_tot)
+    put("airborne_mass_per_m2", (), airborne_mass)
     put("z_m_flux995", (), flux.flux_height(z_w, G))
     put("G_decay_height", (), flux.decay_height(z, G, z_m))
     G_series = get("G_tot_series")
@@ -791,11 +810,8 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
         ac = streamers.autocorrelation_2d(C_w, noise=removed)
         lam_x = streamers.core_length(ac[:, ny // 2], dx)
         lam_y = streamers.core_length(ac[nx // 2, :], dy)
-        ky, S_c, S_c_se = streamers.spanwise_spectrum(C_w, dy, noise=removed)
-        # the peak is judged on the spectrum with the run's noise in it: a flat floor moves
-        # neither the peak nor its prominence, and that noise is what it must stand out of
-        _, S_raw, _, S_blocks = streamers.spanwise_spectrum_blocks(C_w, dy)
-        delta_y = 1.0 / streamers.spectral_peak(ky, S_raw, S_blocks)
+        # S_c carries the paper's parcel noise; each reading's error is the run's own
+        ky, S_c, S_c_se, spacing_c = streamers.spanwise_spacing(C_w, dy, noise=removed)
         ac_raw = streamers.autocorrelation_2d(C_w)
         lam_x_raw = streamers.core_length(ac_raw[:, ny // 2], dx)
         lam_y_raw = streamers.core_length(ac_raw[nx // 2, :], dy)
@@ -805,18 +821,18 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
         snap_c = np.asarray(C_w[-1], dtype=np.float64)
     else:
         ac = np.full((nx, ny), np.nan)
-        lam_x = lam_y = delta_y = lam_x_raw = lam_y_raw = noise_frac = math.nan
+        lam_x = lam_y = lam_x_raw = lam_y_raw = noise_frac = math.nan
+        spacing_c = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
         lam_x_free = lam_y_free = math.nan
         ky = np.arange(ny // 2 + 1) / Ly if ny else np.zeros(0)
         S_c = S_c_se = np.full(ky.size, np.nan)
         snap_c = np.full((nx, ny), np.nan)
     if U_w is not None and U_w.shape[0] and ny >= 2:
-        _, S_u, S_u_se, U_blocks = streamers.spanwise_spectrum_blocks(U_w, dy)
-        delta_y_u = 1.0 / streamers.spectral_peak(ky, S_u, U_blocks)
+        _, S_u, S_u_se, spacing_u = streamers.spanwise_spacing(U_w, dy)
         snap_u = np.asarray(U_w[-1], dtype=np.float64)
     else:
         S_u = S_u_se = np.full(ky.size, np.nan)
-        delta_y_u = math.nan
+        spacing_u = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
         snap_u = np.full((nx, ny), np.nan)
     noise_def = (f"Poisson parcel-count noise mean(C_p) w / (dx dy) with w = {w_run:g} grains per "
                  f"parcel, less the paper's mean(C_p) Q / {streamers.PAPER_CELL_AREA:g} m2 with "
@@ -825,10 +841,17 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
         noise_removed=noise_def)
     put("lambda_y", (), lam_y, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
         noise_removed=noise_def)
-    put("delta_y", (), delta_y, definition="1/ky of the highest local maximum of the C_p spanwise "
-        "spectrum that stands PEAK_N_SE standard errors above its base "
-        "(saltstudy.analysis.streamers.spectral_peak); NaN without one")
-    put("delta_y_u", (), delta_y_u)
+    # Table 2 reads the premultiplied spectrum (docs/STREAMERS.md); the other readings stay
+    # beside it so that what the choice does to each case can be seen
+    for field, spacing in (("delta_y", spacing_c), ("delta_y_u", spacing_u)):
+        put(field, (), spacing.chosen, reading="premultiplied",
+            definition="saltstudy.analysis.streamers.premultiplied_peak; docs/STREAMERS.md")
+        put(f"{field}_premultiplied", (), spacing.premultiplied,
+            definition="saltstudy.analysis.streamers.premultiplied_peak")
+        put(f"{field}_density", (), spacing.density,
+            definition="saltstudy.analysis.streamers.spectral_peak")
+        put(f"{field}_correlation", (), spacing.correlation,
+            definition="saltstudy.analysis.streamers.correlation_minimum")
     put("lambda_x_raw", (), lam_x_raw)
     put("lambda_y_raw", (), lam_y_raw)
     put("lambda_x_noise_free", (), lam_x_free)

@@ -64,16 +64,32 @@ lambda_x, lambda_y (section 4.1 [46], Table 2)
     the bracketing lags). NaN if it stays above 0.4 up to half the domain (the core then spans
     the periodic domain and has no measurable length).
 
-delta_y (section 4.1 [46], Fig. 10)
+delta_y (section 4.1 [46], [49], Fig. 10; the reading: docs/STREAMERS.md)
     "The two-dimensional Fourier transform of C_p averaged in time and over longitudinal
     wavelengths shows a well-defined maximum ... corresponding to the mean lateral spacing
     delta_y between streamers". By Parseval in x, the 2-D power spectrum averaged over kx equals
     the 1-D spanwise spectrum averaged over x rows; :func:`spanwise_spectrum` returns it as a
     one-sided density in ky (cycles m-1; ``sum S dky`` = variance), with the spectra of
     ``N_BLOCKS`` contiguous time blocks (:func:`spanwise_spectrum_blocks`) for its sampling
-    error. ``delta_y = 1/ky_peak`` with the peak found by :func:`spectral_peak`, judged against
-    the spectrum's own sampling noise, with no limit on the wavelength but the grid's (a local
-    maximum needs a neighbour on each side, so the shortest spacing is just over 2 cells):
+    error. :func:`spanwise_spacing` reads delta_y three ways, each judged against that error:
+
+    * premultiplied (Table 2's reading, ``delta_y``): ``1/ky`` at the peak of ``ky S(ky)`` on a
+      logarithmic wavelength axis (:func:`premultiplied_peak`), read on the spectrum with the
+      paper's parcel noise (S_c): white noise rises as ky there, and heavier parcels must not
+      tilt it. A k^-1 density is flat in this form and has no peak;
+    * density: ``1/ky`` at the peak of ``S(ky)`` (:func:`spectral_peak`), read on the spectrum
+      with the run's noise in it: a flat floor moves neither the peak nor its prominence;
+    * correlation: twice the lag of the first minimum of the spanwise autocorrelation
+      (averaged over x and time, from S: :func:`spanwise_autocovariance`) after which the
+      correlation rises again by ``CORRELATION_N_SE`` standard errors
+      (:func:`correlation_minimum`). It reads the alternation of high and low values, and
+      individually varying streaks (each with its own amplitude) add a bump at zero lag of the
+      streaks' own width, which moves the first minimum out: over such streaks it reads a
+      longer spacing than the spectra.
+
+    The spectral peaks share one criterion (:func:`_prominent_maximum`), with no limit on the
+    wavelength but the grid's (a local maximum needs a neighbour on each side, so the shortest
+    spacing is just over 2 cells):
 
     * candidates are interior local maxima, modes ``2 <= m < M`` (not the domain-scale mode
       m = 1, whose "spacing" is the domain width, and not the last mode M);
@@ -92,15 +108,42 @@ delta_y (section 4.1 [46], Fig. 10)
       whose count intensity varies by 11 % (spatial standard deviation over mean) is found,
       at the right spacing, in 34 records of 40 at 1.25 parcels per column over 100 planes
       (4.0 standard errors: 10 false peaks in 400; 5.0: 25 of 40 found);
-    * the test is on the spectrum with the run's noise in it (the "raw" spectrum): taking out a
-      flat floor moves neither the peak nor its prominence, and the noise it stands out of is
-      the run's. A heavier-parcel run therefore finds a peak only where it stands out of its own
-      (larger) noise;
+    * the standard errors are those of the spectrum with the run's noise in it (the "raw"
+      spectrum; for the premultiplied reading times ky): removing a known floor shifts a
+      spectrum, not its scatter, and the noise a peak stands out of is the run's. A
+      heavier-parcel run therefore finds a peak only where it stands out of its own (larger)
+      noise. In the premultiplied reading ``ky S_raw`` grows along the spectrum, so a valley
+      floor at long wavelengths has a small error and the higher floor need not be the one a
+      peak stands least out of: the peak must stand out of both floors;
+    * measured on the same records of pure Poisson noise (both densities): the premultiplied
+      reading accepts a peak in none of 1200 records of 64 x 48 columns (20, 100 or 300
+      planes) and none of 400 of 64 x 150 (20 or 60 planes); the density reading in 8 of 1200
+      and 6 of 400 (the false rate grows with the number of modes searched). A faint lattice
+      (coherent streaks 3-6 cells apart, intensity standard deviation 5 % of the mean, 64 x 60
+      columns, 100 planes, 1.25 parcels per column) is found at its spacing in 72 records of 80
+      by the density reading and 26 of 80 by the premultiplied one: white noise rises as ky in
+      premultiplied form and lifts the floor on a peak's short-wavelength side;
+    * the Nyquist mode of an even number of cells holds the density of half a bin (so that
+      ``sum S dky`` is the variance); the premultiplied reading doubles it to a point density,
+      or a spectrum rising to the Nyquist mode would show a false peak one mode before it;
     * with fewer than ``MIN_BLOCKS`` blocks (fewer than 4 planes) there is no error estimate and
       a peak must stand ``PEAK_FALLBACK_MARGIN`` (20 %) above its base;
     * of the accepted peaks the highest wins; its ky is refined by a parabola through the three
-      points around it. A monotonically decaying spectrum (or one whose only maximum is the
-      domain mode), or white noise, has no accepted peak: ``delta_y`` is NaN.
+      points around it (in ln ky for the premultiplied reading). A monotonically decaying
+      density (or one whose only maximum is the domain mode), or white noise, has no accepted
+      density peak; a premultiplied spectrum that is flat or monotonic up to either end, or
+      white noise, has no accepted premultiplied peak: the reading is NaN. A decaying density
+      with a knee (white at long wavelengths, steeper than k^-1 at short ones) has a
+      premultiplied peak at the knee and no density peak: there the readings part.
+
+    The correlation minimum is judged on the autocovariance of the blocks: its standard error
+    at each lag is the blocks' standard deviation over sqrt(nb), squared and pooled over
+    ``PEAK_POOL_MODES`` lags on either side. On the pure-noise records above it accepts a
+    minimum in none of 1200 (64 x 48) and 1 of 400 (64 x 150); one lag's own 7 degrees of
+    freedom would let 3 and 4 pass. Only the first local minimum is judged: a periodic
+    pattern's later minima are as deep as its first, and one of them standing out where the
+    first does not would read a multiple of the spacing. On the faint lattice above it finds
+    the spacing in 1 record of 80: it is the least sensitive reading.
 
 Streamer lifetime and propagation speed (beyond the paper; compare Baas and Sherman 2005,
 quoted in section 4.1 [46]: lifetime 0.5-1 s, speed 3.6 m s-1)
@@ -125,8 +168,10 @@ __all__ = ["CORE_LEVEL", "PEAK_N_SE", "PEAK_POOL_MODES", "PEAK_FALLBACK_MARGIN",
            "MIN_BLOCKS", "SMALL_SCALE_K", "PAPER_CELL_AREA",
            "deviation_planes", "parcels_per_cell", "poisson_noise_variance", "small_scale_power",
            "centred_lags", "autocorrelation_2d", "core_length", "spanwise_spectrum",
-           "spanwise_spectrum_blocks", "spectral_peak", "SpaceTime", "space_time_correlation",
-           "speed_and_lifetime"]
+           "spanwise_spectrum_blocks", "spectral_peak", "premultiplied_peak",
+           "spanwise_autocovariance", "correlation_minimum", "CORRELATION_N_SE",
+           "CORRELATION_FALLBACK_RISE", "SpanwiseSpacing", "spanwise_spacing", "SpaceTime",
+           "space_time_correlation", "speed_and_lifetime"]
 
 CORE_LEVEL = 0.4
 #: a spectral peak must stand this many standard errors above its base
@@ -135,6 +180,10 @@ PEAK_N_SE = 4.5
 PEAK_POOL_MODES = 3
 #: relative height over its base of a peak in a record too short for an error estimate
 PEAK_FALLBACK_MARGIN = 0.2
+#: the spanwise correlation must rise this many standard errors after a minimum
+CORRELATION_N_SE = 5.0
+#: that rise, in correlation units, in a record too short for an error estimate
+CORRELATION_FALLBACK_RISE = 0.1
 #: contiguous time blocks of the spanwise spectrum's error estimate
 N_BLOCKS = 8
 #: fewest blocks with which the error estimate is used
@@ -310,9 +359,9 @@ def spanwise_spectrum(planes: np.ndarray, dy: float, n_blocks: int = N_BLOCKS,
     return ky, S, se
 
 
-def _prominence_base(S: np.ndarray, m: int) -> int:
-    """Index of the higher of the two valley floors between mode m and a higher point (or the
-    ends of the spectrum, modes 1..M) on either side."""
+def _valley_floors(S: np.ndarray, m: int) -> tuple[int, int]:
+    """Indices of the two valley floors between mode m and a higher point (or the ends of the
+    spectrum, modes 1..M) on its left and on its right."""
     M = S.size - 1
     j = m - 1
     while j >= 1 and S[j] <= S[m]:
@@ -322,54 +371,235 @@ def _prominence_base(S: np.ndarray, m: int) -> int:
     while j <= M and S[j] <= S[m]:
         j += 1
     right = np.arange(m + 1, min(j, M + 1))
-    kl = left[np.argmin(S[left])]
-    kr = right[np.argmin(S[right])]
-    return int(kl if S[kl] >= S[kr] else kr)
+    return int(left[np.argmin(S[left])]), int(right[np.argmin(S[right])])
+
+
+def _prominence_base(S: np.ndarray, m: int) -> int:
+    """Index of the higher of the two valley floors of mode m (:func:`_valley_floors`)."""
+    kl, kr = _valley_floors(S, m)
+    return kl if S[kl] >= S[kr] else kr
+
+
+def _relative_block_variance(S: np.ndarray, blocks: np.ndarray | None) -> np.ndarray | None:
+    """Squared relative standard error of each mode of ``S`` from the scatter of the block
+    spectra it is the mean of; None with fewer than ``MIN_BLOCKS`` usable blocks."""
+    bm = None if blocks is None else np.asarray(blocks, dtype=np.float64)
+    if not (bm is not None and bm.ndim == 2 and bm.shape[0] >= MIN_BLOCKS
+            and bm.shape[1] == S.size and np.all(np.isfinite(bm[:, 1:]))):
+        return None
+    nb = bm.shape[0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(S > 0, bm.var(axis=0, ddof=1) / (nb * S * S), np.nan)
+
+
+def _prominent_maximum(F: np.ndarray, scale: np.ndarray, rel2: np.ndarray | None,
+                       n_se: float, pool: int, fallback_margin: float,
+                       both_valleys: bool = False) -> int:
+    """Mode of the highest interior maximum of ``F`` (modes ``2 <= m < M``) that stands out of
+    its topographic base (module docstring); -1 when none does.
+
+    The standard error of ``F`` at mode i is ``sqrt(r2) scale[i]``, r2 the mean of ``rel2``
+    over the ``pool`` modes on either side of the candidate (a periodogram average scatters in
+    proportion to its mean, ``scale``). With ``both_valleys`` the peak must stand out of each
+    of its two valley floors, not only the higher: where ``scale`` varies along the spectrum
+    the higher floor need not be the one the peak stands least out of. Without ``rel2`` a peak
+    must stand ``fallback_margin`` times its base's magnitude above it."""
+    M = F.size - 1
+    best_m, best_f = -1, -math.inf
+    for m in range(2, M):
+        if not (F[m] > F[m - 1] and F[m] >= F[m + 1]):
+            continue
+        kb = _prominence_base(F, m)
+        base = F[kb]
+        if rel2 is not None:
+            r2 = rel2[max(1, m - pool): min(M, m + pool) + 1]
+            r2 = r2[np.isfinite(r2)]
+            if r2.size == 0:
+                continue
+            floors = _valley_floors(F, m) if both_valleys else (kb,)
+            ok = all(F[m] - F[k] >= n_se * math.sqrt(float(r2.mean())
+                                                     * (scale[m] ** 2 + scale[k] ** 2))
+                     for k in floors)
+        else:
+            ok = F[m] - base >= fallback_margin * abs(base)
+        if ok and F[m] > best_f:
+            best_m, best_f = m, F[m]
+    return best_m
 
 
 def spectral_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None = None,
                   n_se: float = PEAK_N_SE, pool: int = PEAK_POOL_MODES,
                   fallback_margin: float = PEAK_FALLBACK_MARGIN) -> float:
-    """ky of the spectral peak of ``S`` (criterion in the module docstring); NaN when there is
-    none. ``blocks`` (nb, nky): the block spectra S is the mean of (from
-    :func:`spanwise_spectrum_blocks`, with the noise left in); with fewer than ``MIN_BLOCKS`` of
-    them the fallback margin applies."""
+    """ky [cycles m-1] of the peak of the spectral density ``S`` (the density reading of
+    delta_y; criterion in the module docstring); NaN when there is none. ``blocks`` (nb, nky):
+    the block spectra S is the mean of (from :func:`spanwise_spectrum_blocks`, with the noise
+    left in); with fewer than ``MIN_BLOCKS`` of them the fallback margin applies."""
     ky = np.asarray(ky, dtype=np.float64)
     S = np.asarray(S, dtype=np.float64)
     M = S.size - 1
     if M < 3 or not np.all(np.isfinite(S[1:])) or not np.any(S[1:] > 0):
         return math.nan
-    bm = None if blocks is None else np.asarray(blocks, dtype=np.float64)
-    use_se = (bm is not None and bm.ndim == 2 and bm.shape[0] >= MIN_BLOCKS
-              and bm.shape[1] == S.size and np.all(np.isfinite(bm[:, 1:])))
-    if use_se:
-        nb = bm.shape[0]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            # squared relative standard error of each mode's mean
-            rel2 = np.where(S > 0, bm.var(axis=0, ddof=1) / (nb * S * S), np.nan)
-    best_m, best_s = -1, -math.inf
-    for m in range(2, M):
-        if not (S[m] > S[m - 1] and S[m] >= S[m + 1]):
-            continue
-        kb = _prominence_base(S, m)
-        base = S[kb]
-        if use_se:
-            r2 = rel2[max(1, m - pool): min(M, m + pool) + 1]
-            r2 = r2[np.isfinite(r2)]
-            if r2.size == 0:
-                continue
-            ok = S[m] - base >= n_se * math.sqrt(float(r2.mean()) * (S[m] ** 2 + base ** 2))
-        else:
-            ok = S[m] >= (1.0 + fallback_margin) * base
-        if ok and S[m] > best_s:
-            best_m, best_s = m, S[m]
-    if best_m < 0:
+    m = _prominent_maximum(S, S, _relative_block_variance(S, blocks), n_se, pool,
+                           fallback_margin)
+    if m < 0:
         return math.nan
-    m = best_m
     denom = S[m - 1] - 2.0 * S[m] + S[m + 1]
     shift = 0.5 * (S[m - 1] - S[m + 1]) / denom if denom < 0 else 0.0
     shift = float(np.clip(shift, -0.5, 0.5))
     return float(ky[m] + shift * (ky[1] - ky[0]))
+
+
+def premultiplied_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None = None,
+                       S_raw: np.ndarray | None = None, nyquist_half_bin: bool = False,
+                       n_se: float = PEAK_N_SE, pool: int = PEAK_POOL_MODES,
+                       fallback_margin: float = PEAK_FALLBACK_MARGIN) -> float:
+    """ky [cycles m-1] of the peak of the premultiplied spectrum ``ky S(ky)`` on a logarithmic
+    wavelength axis (the reading of delta_y that Table 2 uses, docs/STREAMERS.md); NaN when
+    there is none.
+
+    ``S`` [variance m]: the density to read (for C_p, the one carrying the paper's parcel
+    noise). ``blocks`` (nb, nky) and ``S_raw``: the block spectra of the record with all its
+    noise in, and their mean (default ``S``); the standard error of ``ky S`` at a mode is
+    ``ky`` times that of ``S_raw`` (removing a known noise floor shifts the spectrum, not its
+    scatter). The peak must stand out of its base as in :func:`spectral_peak`; the longest
+    resolved wavelength (mode 1) and the Nyquist mode are never peaks, so a premultiplied
+    spectrum that is flat (a k^-1 density) or rises or falls to either end has none. The
+    position is refined by a parabola through the three modes around the maximum in ln ky.
+
+    ``nyquist_half_bin``: the last mode is the Nyquist mode of an even number of cells, where
+    :func:`spanwise_spectrum_blocks` gives the density of a half bin (so that ``sum S dky`` is
+    the variance); it is doubled to the point density, else a spectrum rising to the Nyquist
+    mode (white noise, premultiplied) would show a false peak one mode before it."""
+    ky = np.asarray(ky, dtype=np.float64)
+    S = np.array(S, dtype=np.float64)
+    S_raw = S.copy() if S_raw is None else np.array(S_raw, dtype=np.float64)
+    bm = None if blocks is None else np.array(blocks, dtype=np.float64)
+    if nyquist_half_bin:
+        S[-1] *= 2.0
+        S_raw[-1] *= 2.0
+        if bm is not None and bm.ndim == 2 and bm.shape[1] == S.size:
+            bm[:, -1] *= 2.0
+    M = S.size - 1
+    if (M < 3 or S_raw.shape != S.shape or not np.all(np.isfinite(S[1:]))
+            or not np.all(np.isfinite(S_raw[1:])) or not np.any(S[1:] > 0)):
+        return math.nan
+    F = ky * S
+    # ky S_raw grows along the spectrum, so a floor at low ky has a small error: both floors
+    m = _prominent_maximum(F, ky * S_raw, _relative_block_variance(S_raw, bm), n_se, pool,
+                           fallback_margin, both_valleys=True)
+    if m < 0:
+        return math.nan
+    # vertex of the parabola through (ln k, F) at modes m-1, m, m+1 (unevenly spaced in ln k)
+    x0, x1, x2 = np.log(ky[m - 1: m + 2])
+    f0, f1, f2 = F[m - 1: m + 2]
+    a, b = x0 - x1, x2 - x1
+    d0, d2 = f0 - f1, f2 - f1
+    curv = (d0 * b - d2 * a) / (a * b * (a - b))       # second-order coefficient
+    slope = (d0 - curv * a * a) / a
+    shift = -0.5 * slope / curv if curv < 0 else 0.0
+    shift = float(np.clip(shift, 0.5 * a, 0.5 * b))
+    return float(math.exp(x1 + shift))
+
+
+def spanwise_autocovariance(ky: np.ndarray, S: np.ndarray, dy: float
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """(lag [m], C(lag)) of the spanwise autocovariance whose one-sided density ``S`` is (the
+    inverse of :func:`spanwise_spectrum_blocks`): ``C(j dy) = sum_m S_m dky cos(2 pi ky_m j dy)``
+    for j = 0 .. ny//2, ny = Ly/dy. ``S`` may be (nky,) or (nb, nky) (then C is (nb, nlag))."""
+    ky = np.asarray(ky, dtype=np.float64)
+    S = np.asarray(S, dtype=np.float64)
+    dky = float(ky[1] - ky[0])
+    ny = int(round(1.0 / (dky * dy)))
+    lag = np.arange(ny // 2 + 1) * dy
+    basis = np.cos(2.0 * np.pi * np.outer(ky, lag)) * dky          # (nky, nlag)
+    return lag, S @ basis
+
+
+def correlation_minimum(ky: np.ndarray, S: np.ndarray, dy: float,
+                        blocks: np.ndarray | None = None, n_se: float = CORRELATION_N_SE,
+                        pool: int = PEAK_POOL_MODES,
+                        fallback_rise: float = CORRELATION_FALLBACK_RISE) -> float:
+    """Lag [m] of the first minimum of the spanwise autocorrelation that stands out of the
+    sampling noise (delta_y of the correlation reading is twice it); NaN when there is none.
+
+    The autocovariance C and its standard error come from ``S`` and the block spectra
+    (:func:`spanwise_autocovariance`; the error is the blocks' standard deviation over
+    sqrt(nb), its square pooled over the ``pool`` lags on either side). A local minimum at lag
+    j (0 < j < ny//2: the half-domain lag, where every periodic correlation is stationary, is
+    not one) counts if the correlation rises from it again, before the half-domain lag, by
+    ``n_se`` standard errors of the difference: the alternation of high and low values that a
+    spacing is. It need not be negative: a red background (motions larger than the spacing)
+    lifts the whole correlation without moving the alternation. Only the first local minimum
+    is judged (a later one standing out where the first does not would be a multiple of the
+    spacing); it is refined by a parabola through its neighbours. With fewer than
+    ``MIN_BLOCKS`` blocks the rise must be ``fallback_rise`` in correlation units."""
+    ky = np.asarray(ky, dtype=np.float64)
+    S = np.asarray(S, dtype=np.float64)
+    if S.size < 4 or not np.all(np.isfinite(S)):
+        return math.nan
+    lag, C = spanwise_autocovariance(ky, S, dy)
+    J = lag.size - 1
+    if J < 2 or not C[0] > 0:
+        return math.nan
+    bm = None if blocks is None else np.asarray(blocks, dtype=np.float64)
+    se = None
+    if (bm is not None and bm.ndim == 2 and bm.shape[0] >= MIN_BLOCKS
+            and bm.shape[1] == S.size and np.all(np.isfinite(bm))):
+        Cb = spanwise_autocovariance(ky, bm, dy)[1]
+        var = Cb.var(axis=0, ddof=1) / bm.shape[0]
+        # pooled over neighbouring lags (not the zero lag, whose scatter is of another kind):
+        # one lag's 7 degrees of freedom would let an underestimated error pass a noise dip
+        se = np.array([math.sqrt(float(var[max(1, j - pool): min(J, j + pool) + 1].mean()))
+                       for j in range(J + 1)])
+    for j in range(1, J):
+        if not (C[j] < C[j - 1] and C[j] <= C[j + 1]):
+            continue
+        i = j + 1 + int(np.argmax(C[j + 1:]))
+        if se is None:
+            rise = fallback_rise * C[0]
+        else:
+            rise = n_se * math.sqrt(se[j] ** 2 + se[i] ** 2)
+        if C[i] - C[j] >= rise:
+            return float(lag[j] + _parabolic(-C[j - 1], -C[j], -C[j + 1]) * dy)
+        # a periodic pattern's later minima are as deep as its first: passing over a first
+        # minimum lost in the noise would read a multiple of the spacing
+        return math.nan
+    return math.nan
+
+
+@dataclass(frozen=True)
+class SpanwiseSpacing:
+    """delta_y [m] of one field by the three readings (docs/STREAMERS.md); NaN where a reading
+    finds no spacing. ``chosen`` is the reading Table 2 uses."""
+    premultiplied: float
+    density: float
+    correlation: float
+
+    @property
+    def chosen(self) -> float:
+        return self.premultiplied
+
+
+def spanwise_spacing(planes: np.ndarray, dy: float, noise: np.ndarray | None = None,
+                     n_blocks: int = N_BLOCKS
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, SpanwiseSpacing]:
+    """(ky, S, standard error of S, delta_y by the three readings) of (nt, nx, ny) planes.
+
+    ``S`` is the spanwise density with ``noise`` (nt,) removed (:func:`spanwise_spectrum`; for
+    C_p, the run's parcel noise less the paper's). The premultiplied peak is read on it; the
+    density peak on the spectrum with all the record's noise in (a flat floor moves neither a
+    peak of the density nor its prominence); the correlation minimum on ``S`` (white noise
+    touches only the zero lag). Every reading's sampling error comes from the blocks of the
+    record with all its noise in: that is the scatter a spacing must stand out of."""
+    ky, S, se, blocks = spanwise_spectrum_blocks(planes, dy, n_blocks, noise)
+    S_raw = S
+    if noise is not None:
+        _, S_raw, _, blocks = spanwise_spectrum_blocks(planes, dy, n_blocks)
+    even = np.shape(planes)[2] % 2 == 0
+    spacing = SpanwiseSpacing(premultiplied=1.0 / premultiplied_peak(ky, S, blocks, S_raw, even),
+                              density=1.0 / spectral_peak(ky, S_raw, blocks),
+                              correlation=2.0 * correlation_minimum(ky, S, dy, blocks))
+    return ky, S, se, spacing
 
 
 def _parabolic(fm: float, f0: float, fp: float) -> float:

@@ -22,7 +22,8 @@ from .data import ReportContext, case_number_of, load_runs
 from .figures import CAPTIONS, error_figure, make_figures
 from .reference import PAPER_LABEL
 from .tables import results_html, table2_html, table2_markdown
-from .summary import build_summary, finish_wall_time, write_summary
+from .saltation import NO_SALTATION
+from .summary import build_summary, finish_wall_time, run_key, write_summary
 
 __all__ = ["build_report"]
 
@@ -36,6 +37,7 @@ table{border-collapse:collapse;font-size:.85em;margin:.6em 0}
 th,td{border:1px solid #ccc;padding:.25em .5em;text-align:right}
 th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}
 td.ref,th.ref{color:#777;background:#fafafa}td.missing{color:#b22;text-align:center;font-style:italic}
+table.t2 td.nosalt{color:#8a5a00;text-align:left;font-style:italic;white-space:normal}
 td.bad{color:#b22;font-weight:bold}td.how{text-align:left;font-size:.9em;color:#555}
 figure{margin:1.2em 0}figure img{max-width:100%;border:1px solid #eee}
 figcaption{font-size:.9em;color:#444}.notes{color:#b22;font-size:.85em}.findings{white-space:pre-wrap;font-size:.9em}
@@ -255,8 +257,11 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              + (" · <a href='#fluxlaw'>Flux law</a>" if any("id='fluxlaw'" in s for s in sections) else "")
              + "</p>",
              f"<h2 id='tables'>Table 2 — computed beside {PAPER_LABEL}</h2>",
-             "<p>Per run: computed value, the paper's value (grey) and the relative difference "
-             "(computed − paper)/paper; red when larger than 25 %. The paper gives no per-case z0s, "
+             "<p>One row per run: computed value, the paper's value (grey) and the relative "
+             "difference (computed − paper)/paper, red when larger than 25 %; the paper's value "
+             "only beside a run that is one of its cases unchanged. A run without sustained "
+             "saltation (u*s below u*t, or fewer parcels aloft than released) shows the numbers "
+             "that say so instead of statistics. The paper gives no per-case z0s, "
              "z_m, G_tot or σG/G_tot (only figures).</p>", t2,
              "<h3>Results stated in the paper's text</h3>", rs,
              "<h2 id='figures'>Figures</h2>"]
@@ -274,9 +279,12 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
                  "<table><thead><tr><th>run</th><th>case</th>"
                  "<th>fidelity</th><th>status</th><th>solver time</th><th>archive</th></tr></thead><tbody>")
     for r in ctx.runs.values():
+        salt = (summary.get("cases", {}).get(run_key(r), {}) or {}).get("saltation") or {}
+        status = r.status + (f", {salt['status']}" if r.ok and salt.get("status") == NO_SALTATION else "")
         parts.append(f"<tr><td>{e(r.label)}</td><td>{'' if r.case is None else r.case}</td>"
                      f"<td>{e(str(r.fidelity or '—'))}</td>"
-                     f"<td class='{'' if r.ok else 'bad'}'>{e(r.status)}</td><td>{_fmt_s(r.wall_time_s)}</td>"
+                     f"<td class='{'' if r.ok and status == r.status else 'bad'}'>{e(status)}</td>"
+                     f"<td>{_fmt_s(r.wall_time_s)}</td>"
                      f"<td style='text-align:left'>{e(str(r.path) if r.path else '—')}</td></tr>")
     parts.append("</tbody></table>")
     cfg = meta.get("study_config")

@@ -19,16 +19,19 @@ import xarray as xr
 from ..ncio import open_dataset
 
 __all__ = ["RunData", "ReportContext", "load_runs", "SCALAR_UNITS", "to_si", "case_number_of",
-           "is_plain_case_label"]
+           "is_plain_case_label", "paper_case_of"]
 
 #: units of the scalars of analysis.nc (used when the archive does not carry a ``units`` attribute)
 SCALAR_UNITS: dict[str, str] = {
     "u_star_s": "m s-1", "u_star_s_se": "m s-1", "z0s": "m", "u_star_0": "m s-1", "z0_0": "m", "z_m": "m",
     "z_m_flux995": "m", "G_tot": "kg m-1 s-1", "sigma_G": "kg m-1 s-1", "sigma_G_over_G_tot": "1",
     "lambda_x": "m", "lambda_y": "m", "delta_y": "m", "delta_y_u": "m", "u_star_t": "m s-1",
+    "delta_y_premultiplied": "m", "delta_y_density": "m", "delta_y_correlation": "m",
+    "delta_y_u_premultiplied": "m", "delta_y_u_density": "m", "delta_y_u_correlation": "m",
     "tau_p_surface_fraction": "1", "R_cu_upper": "1", "n_parcels_mean": "1", "n_parcels_peak": "1",
     "overshoot_ratio": "1", "t_equilibrium": "s", "streamer_lifetime": "s", "streamer_speed": "m s-1",
     "E_splash_over_E_impact": "1", "fit_z_min": "m", "fit_z_max": "m", "wall_time_s": "s",
+    "airborne_mass_per_m2": "kg m-2", "n_parcels_per_m2_at_Q": "m-2",
 }
 
 # non-SI units an archive might carry -> (factor to SI, SI unit)
@@ -63,6 +66,48 @@ def case_number_of(label: str) -> int | None:
     return int(m.group(1)) if m else None
 
 
+_UNREADABLE = object()
+
+#: what a run may change and still be the paper's case: its name, its description, and the seed
+#: (another realization of the same case)
+_FREE_IN_A_PAPER_CASE = ("name", "description", "seed")
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)) \
+            and not isinstance(a, bool) and not isinstance(b, bool):
+        return math.isclose(a, b, rel_tol=1e-9, abs_tol=0.0)
+    return a == b
+
+
+def paper_case_of(case: dict) -> Any:
+    """The paper's case (Table 2) that ``case`` (a case as archived, ``config.Case`` JSON) is,
+    unchanged: the number of the row whose u*s, µ1 and Q it has, with every other setting the
+    paper's (the package's defaults); name, description and seed aside. None if it is no paper
+    case; ``_UNREADABLE`` if the package cannot read it as a case."""
+    from ..config import Case
+    from .reference import paper_table2
+    try:
+        mine = Case.model_validate(case).model_dump(mode="json")
+    except Exception:  # noqa: BLE001 - fields config.Case does not know
+        return _UNREADABLE
+    row = paper_table2().get(int(mine["number"]))
+    if row is None:
+        return None
+    paper = Case.model_validate({
+        "number": mine["number"], "forcing": {"u_star_s": row["u_star_s"]},
+        "soil": {"modes": [{"mu": row["mu1_um"] * 1e-6}]}, "particles": {"Q": row["Q"]},
+    }).model_dump(mode="json")
+    for k in _FREE_IN_A_PAPER_CASE:
+        mine.pop(k, None)
+        paper.pop(k, None)
+    return int(mine["number"]) if _same(mine, paper) else None
+
+
 def _finite(x: Any) -> bool:
     try:
         return math.isfinite(float(x))
@@ -89,6 +134,19 @@ class RunData:
     @property
     def plain_case(self) -> bool:
         return is_plain_case_label(self.label)
+
+    @property
+    def paper_case(self) -> int | None:
+        """The number of the paper's case this run is, unchanged (:func:`paper_case_of` of its
+        archived case); None for a case of one's own. An archived case that ``config.Case``
+        cannot read (fields it does not know) counts as a paper case when its label is one
+        (``caseNN``, ``caseNN@rung``)."""
+        case = self.scene.get("case") if isinstance(self.scene, dict) else None
+        if isinstance(case, dict) and case:
+            n = paper_case_of(case)
+            if n is not _UNREADABLE:
+                return n
+        return case_number_of(self.label)
 
     # -- access ------------------------------------------------------------------------------
     def scalar(self, name: str) -> float:

@@ -6,7 +6,7 @@ notes it printed (missing cases, undefined quantities). The paper's own numbers 
 reference marks labelled "Dupont et al. 2013".
 
 Axes, normalisations and case groupings follow the paper's captions:
-  1 parcel count vs t (case 2)                    8 G_tot vs u*s/u*t with G_tot laws (200 um)
+  1 parcels per m2 at Q vs t (every case)        8 G_tot vs u*s/u*t with G_tot laws (200 um)
   2 <u>/u_ref and <u'w'> vs z, with/without grains 9 C_p/C_pmax and u/u_max at 0.1 m, cases 1, 4, 6
   3 z0s vs u*s/u*t with z0s laws                  10 spanwise spectra of C_p and u(0.1 m)
   4 z_m vs u*s/u*t                                11 R_cu vs z/z_m
@@ -29,6 +29,8 @@ from matplotlib.figure import Figure
 from .data import ReportContext, RunData, profile
 from .laws import evaluate_law, load_laws
 from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
+from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_Q,
+                        paper_parcels_per_m2, parcels_per_m2_at_Q, saltation_state)
 
 __all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "figure_data_digest"]
 
@@ -47,6 +49,8 @@ _WIND_COLORS = {n: c for n, c in zip(CASES_WIND, ("#1b9e77", "#66a61e", "#e6ab02
                                                     "#e7298a", "#7570b3"))}
 _SOIL_COLORS = {2: "#66a61e", 7: "#a6761d", 8: "#e41a1c", 9: "#377eb8", 10: "#222222"}
 _MARKERS = {"200": "o", "other": "s", "scene": "^"}
+#: colours of runs that are no paper case (Fig. 1), apart from the cases' own
+_OWN_COLORS = ("#17becf", "#bcbd22", "#8c564b", "#9467bd", "#ff7f0e", "#1f77b4")
 
 
 def _color(n: int | None, soil: bool = False) -> str:
@@ -110,7 +114,9 @@ def _empty(ax, message: str) -> None:
 
 
 def _ratio(r: RunData) -> float:
-    us, ut = r.scalar("u_star_s"), r.scalar("u_star_t")
+    """u*s/u*t with the paper's u*s reading: √|total stress| at the reference height (its [33],
+    Table 2's "u*s, stress at z_ref"), not the free log-law fit."""
+    us, ut = r.scalar("u_star_s_stress"), r.scalar("u_star_t")
     return us / ut if math.isfinite(us) and math.isfinite(ut) and ut > 0 else math.nan
 
 
@@ -127,45 +133,70 @@ def _paper_ratio(n: int) -> float:
 # Fig 1
 # ------------------------------------------------------------------------------------------------
 def fig01(ctx: ReportContext) -> FigureResult:
-    fig, axes = _new()
+    """Airborne parcels per m² of bed against time since activation, every case at its own Q
+    (report/saltation.py), beside the paper's ≈ 2,000 per m² that all its cases hold ([28], [31])."""
+    runs = ctx.scatter_runs()
+    # the legend sits below the axes, one line per run (two columns past six)
+    fig, axes = _new(size=(7.2, 5.0 + 0.1 * len(runs)))
     ax = axes[0, 0]
     res = FigureResult(fig)
-    r = ctx.by_case(2)
-    ax.set_title("Fig. 1 — resolved parcels in the domain, case 2")
-    if r is None or not r.ok or not r.has("n_parcels"):
-        note = ctx.missing_note(2) or "case 2: no n_parcels series"
-        res.notes.append(note)
-        _empty(ax, note)
+    ax.set_title("Fig. 1 — airborne parcels per m² of bed, each case at its own Q", fontsize=10)
+    drawn: list[str] = []
+    means: list[float] = []
+    for r in runs:
+        if not r.has("n_parcels"):
+            res.notes.append(f"{r.label}: no n_parcels series")
+            continue
+        n = r.var("n_parcels")
+        t = np.asarray(r.ds[n.dims[0]].values, float)
+        y = parcels_per_m2_at_Q(r, n.values)
+        if not np.isfinite(y).any():
+            res.notes.append(f"{r.label}: domain area or parcel weight unknown")
+            continue
+        name = f"case {r.case}" if r.case is not None and r.plain_case else r.label
+        m = n_parcels_per_m2_at_Q(r)
+        state = saltation_state(r)
+        tail = f", {NO_SALTATION}" if state.status == NO_SALTATION else ""
+        # a case of one's own gets a colour of its own: it may share a paper case's number
+        col = _color(r.paper_case) if r.paper_case is not None else \
+            _OWN_COLORS[sum(1 for d in drawn if ctx.runs[d].paper_case is None) % len(_OWN_COLORS)]
+        ax.plot(t, y, color=col, lw=1.2, ls=":" if tail else "-",
+                label=f"{name}: mean {m:.3g} m⁻²{tail}")
+        res.data[f"t_{r.label}"] = t
+        res.data[f"per_m2_{r.label}"] = y
+        drawn.append(r.label)
+        means.append(m)
+    for n in (2,):
+        note = ctx.missing_note(n)
+        if note and not drawn:
+            res.notes.append(note)
+    if not drawn:
+        _empty(ax, "\n".join(res.notes) or "no run with an n_parcels series")
         return res
-    n = r.var("n_parcels")
-    t = np.asarray(r.ds[n.dims[0]].values, float)
-    y = np.asarray(n.values, float)
-    ax.plot(t / 60.0, y, color="k", lw=1.2, label=f"{r.label} (this run)")
-    res.data.update(t=t, n_parcels=y)
-    nm = r.scalar("n_parcels_mean")
-    if math.isfinite(nm):
-        ax.axhline(nm, color="tab:blue", ls="--", lw=1, label=f"mean at equilibrium: {nm:.3g}")
-        res.data["n_parcels_mean"] = np.array([nm])
-    # paper: ~6e5 parcels in 20 m x 15 m at Q = 600; scale to this domain and this Q
+    for label, m in zip(drawn, means):
+        res.data[f"mean_per_m2_{label}"] = np.array([m])
     ref = paper_results()
-    lx, ly, q = r.attr("Lx"), r.attr("Ly"), r.attr("Q")
-    q_paper = paper_table2().get(2, {}).get("Q", math.nan)
-    n_paper = ref.get("fig1_equilibrium_particles_case2", math.nan)
-    if all(math.isfinite(v) for v in (lx, ly, q, q_paper, n_paper)) and q > 0:
-        scaled = n_paper * (lx * ly / 300.0) * (q_paper / q)
-        ax.axhline(scaled, color=PAPER_COLOR, lw=3, alpha=0.6,
-                   label=f"{PAPER_LABEL}: ≈6×10⁵ in 300 m² at Q=600,\nscaled to {lx:g}×{ly:g} m², "
-                         f"Q={q:g}: {scaled:.3g}")
+    per_m2 = paper_parcels_per_m2()
+    if math.isfinite(per_m2):
+        res.data["paper_per_m2"] = np.array([per_m2])
+        ax.axhline(per_m2, color=PAPER_COLOR, lw=3, alpha=0.6,
+                   label=f"{PAPER_PARCELS_SOURCE}: ≈{per_m2:,.0f} parcels per m² at each case's Q\n"
+                         "(≈6×10⁵ on 20 × 15 m² in case 2, [31]; similar in all cases, [28])")
     teq = ref.get("fig1_equilibrium_reached_after_s")
-    if teq:
-        ax.axvline(teq / 60.0, color=PAPER_COLOR, ls=":", lw=1.5,
-                   label=f"{PAPER_LABEL}: equilibrium after ≈{teq / 60:.1f} min")
-    ax.set_xlabel("time since saltation activation t [min]")
-    ax.set_ylabel("number of resolved parcels [-]")
+    t_end = max(float(np.nanmax(res.data[f"t_{l}"])) for l in drawn)
+    if teq and teq <= t_end:
+        ax.axvline(teq, color=PAPER_COLOR, ls=":", lw=1.5,
+                   label=f"{PAPER_LABEL}: equilibrium after ≈{teq:g} s (case 2)")
+    elif teq:   # said, not drawn: a line past the runs' end would squeeze them to the left
+        ax.plot([], [], ls="none", label=f"{PAPER_LABEL}: equilibrium after ≈{teq:g} s (case 2), "
+                                         f"past these runs' {t_end:g} s")
+    ax.set_xlabel("time since saltation activation t [s]")
+    ax.set_ylabel("airborne parcels (of the case's Q) per m² [m⁻²]")
     ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
-    _legend(ax, fontsize=8, loc="best")
+    _legend(ax, below=True, fontsize=7, ncol=2 if len(drawn) > 6 else 1)
+    _notes(ax, res.notes, "upper right")
     ax.grid(alpha=0.3)
     return res
 
@@ -259,9 +290,12 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
     others: dict[str, str] = {}
     seen_groups: set[str] = set()
     for r in ctx.scatter_runs():
+        if saltation_state(r).status == NO_SALTATION:
+            res.notes.append(f"{r.label}: {NO_SALTATION}, not drawn")
+            continue
         x, y = _ratio(r), r.scalar(var)
         if not (math.isfinite(x) and math.isfinite(y)):
-            res.notes.append(f"{r.label}: {var} or u*s/u*t undefined")
+            res.notes.append(f"{r.label}: {var} or u*s(z_ref)/u*t undefined")
             continue
         if r.case is not None and r.plain_case or (r.case is not None and "@" in r.label):
             group = "200" if _is200(r) else "other"
@@ -288,7 +322,7 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
         note = ctx.missing_note(n)
         if note and ctx.by_case(n) is not None:
             res.notes.append(note)
-    ax.set_xlabel(r"$u_{*s}/u_{*t}$ [-]")
+    ax.set_xlabel(r"$u_{*s}/u_{*t}$ [-], $u_{*s}$ from the total stress at $z_{ref}$")
     ax.grid(alpha=0.3, which="both")
 
 
@@ -616,9 +650,13 @@ def fig09(ctx: ReportContext) -> FigureResult:
 # Fig 10
 # ------------------------------------------------------------------------------------------------
 def fig10(ctx: ReportContext) -> FigureResult:
+    """The premultiplied spanwise spectra ky S(ky) against wavelength on a log axis, the form
+    Table 2's delta_y is read from (docs/STREAMERS.md), over the variance: the area under each
+    curve against ln(wavelength) is 1."""
     fig, axes = _new(2, 2, size=(11, 8.5))
     res = FigureResult(fig)
-    fig.suptitle("Fig. 10 — spanwise spectra of (a) C_p and (b) u at z = 0.1 m, averaged in x and t")
+    fig.suptitle("Fig. 10 — premultiplied spanwise spectra of (a) C_p and (b) u at z = 0.1 m, "
+                 "averaged in x and t")
     table = paper_table2()
     for row, (cases, soil, rtitle) in enumerate(((CASES_WIND, False, "cases 1–6"),
                                                  (CASES_SOIL, True, "cases 2, 7–10"))):
@@ -635,14 +673,25 @@ def fig10(ctx: ReportContext) -> FigureResult:
                     continue
                 v = r.var(var)
                 ky = np.asarray(r.ds[v.dims[0]].values, float)
-                s = np.asarray(v.values, float)
+                s = np.asarray(v.values, float).copy()
+                variance = math.nan
+                if ky.size > 1:
+                    variance = float(np.nansum(s)) * (ky[1] - ky[0])
+                    # an even grid's Nyquist entry is the density of half a bin (so that the sum
+                    # is the variance); the reading doubles it to the point density, as does the
+                    # plot, and without the grid's size the entry is left out
+                    Ly, dy = r.attr("Ly"), r.attr("dy")
+                    if not (math.isfinite(Ly) and dy > 0):
+                        ky, s = ky[:-1], s[:-1]
+                    elif round(Ly / dy) == 2 * (ky.size - 1):
+                        s[-1] *= 2.0
                 ok = (ky > 0) & np.isfinite(s)
                 ky, s = ky[ok], s[ok]
-                area = np.trapezoid(s, ky) if ky.size > 1 else np.nan
-                sn = s / area if area and math.isfinite(area) and area > 0 else s
+                pre = ky * s
+                pn = pre / variance if math.isfinite(variance) and variance > 0 else pre
                 c = _color(n, soil)
-                ax.plot(1.0 / ky, sn, color=c, lw=1.5, label=_case_label(r, soil))
-                res.data[f"{var}_case{n}"] = sn
+                ax.plot(1.0 / ky, pn, color=c, lw=1.5, label=_case_label(r, soil))
+                res.data[f"{var}_case{n}"] = pn
                 dyv = r.scalar(dvar)
                 if math.isfinite(dyv):
                     ax.axvline(dyv, color=c, lw=0.8, ls=":")
@@ -655,13 +704,13 @@ def fig10(ctx: ReportContext) -> FigureResult:
                             label=f"{PAPER_LABEL}: δy (Table 2)")
             if any(k.startswith(var) for k in res.data if k.endswith(tuple(f"case{n}" for n in cases))):
                 ax.set_xscale("log")
-                ax.set_yscale("log")
                 _plain_log(ax, "x")
             ax.set_xlabel(r"spanwise wavelength $1/k_y$ [m]")
-            ax.set_ylabel(f"$S_{{{vlab}}}(k_y) / \\int S_{{{vlab}}}\\,dk_y$ [m]")
-            ax.set_title(f"({'ab'[col]}) {vlab}, {rtitle}  (dotted: computed peak)", loc="left", fontsize=9)
+            ax.set_ylabel(f"$k_y S_{{{vlab}}}(k_y) / \\sigma_{{{vlab}}}^2$ [-]")
+            ax.set_title(f"({'ab'[col]}) {vlab}, {rtitle}  (dotted: computed δy)", loc="left",
+                         fontsize=9)
             ax.grid(alpha=0.3, which="both")
-            _legend(ax, fontsize=7, loc="lower right")
+            _legend(ax, fontsize=7, loc="upper right")
             _notes(ax, notes, "upper left")
             res.notes.extend(notes)
     return res
@@ -674,18 +723,23 @@ FIGURES: dict[str, Callable[[ReportContext], FigureResult]] = {
 }
 
 CAPTIONS = {
-    "fig01": "Number of resolved parcels in the domain vs time since activation, case 2.",
+    "fig01": "Airborne parcels per m² of bed vs time since activation, every case converted to "
+             "parcels of its own Q, beside the paper's ≈ 2,000 per m² (its Q makes all cases "
+             "hold a similar number).",
     "fig02": "(a) ⟨u⟩/u_ref and (b) ⟨u′w′⟩ vs height, case 2, with and without saltation; grey: "
              "saltation layer (z < z_m).",
-    "fig03": "Saltation roughness length z0s vs u*s/u*t (dots) with semi-empirical laws (lines).",
+    "fig03": "Saltation roughness length z0s vs u*s/u*t (dots; u*s read from the total stress "
+             "at z_ref, as the paper) with semi-empirical laws (lines).",
     "fig04": "Saltation height z_m vs u*s/u*t.",
     "fig05": "Grain-size distribution in the saltation layer vs the bed for µ1 = 90, 200, 400 µm.",
     "fig06": "τp/(ρu*s²) vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
     "fig07": "⟨G⟩/⟨G_tot⟩ vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
-    "fig08": "Total saltation flux G_tot vs u*s/u*t (dots) with semi-empirical laws for 200 µm (lines).",
+    "fig08": "Total saltation flux G_tot vs u*s/u*t (dots; u*s read from the total stress at "
+             "z_ref, as the paper) with semi-empirical laws for 200 µm (lines).",
     "fig09": "Snapshots of C_p/C_pmax and u/u_max at z = 0.1 m for cases 1, 4, 6.",
-    "fig10": "Spanwise spectra of C_p and u(0.1 m), normalised by their integral: top cases 1–6, "
-             "bottom cases 2, 7–10.",
+    "fig10": "Premultiplied spanwise spectra k_y S(k_y) of C_p and u(0.1 m) over their variance "
+             "against wavelength (Table 2's δy is read at their peak): top cases 1–6, bottom "
+             "cases 2, 7–10.",
     "fig11": "Zero-lag correlation R_cu between C_p and u(z) vs z/z_m.",
     "fig12": "Stokes number St vs z/z_m.",
     "fig13": "σ_G/⟨G_tot⟩ vs u*s/u*t.",

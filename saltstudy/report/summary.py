@@ -10,10 +10,18 @@ Layout::
      "machine": {"cores": ..., "processor": ..., "platform": ..., "python": ...},
      "units": {"u_star_s": "m s-1", ...},                 # unit of each scalar name
      "cases": {"2": {"label": "case02", "status": "ok", "fidelity": ..., "wall_time_s": ...,
-                     "archive": ".../analysis.nc", "u_star_s": 0.55, ...}, ...}}
+                     "archive": ".../analysis.nc", "u_star_s": 0.55, ...,
+                     "n_parcels_per_m2_at_Q": 1.4e4,      # m-2, report/saltation.py
+                     "airborne_mass_per_m2": 0.02,        # kg m-2, from analysis.nc
+                     "saltation": {"status": "sustained", "reason": "...", "u_star_s": 0.54,
+                                   "u_star_t": 0.262, "n_parcels_released": 6,
+                                   "n_parcels_mean": 2648, "n_parcels_end": 2575,
+                                   "units": {"u_star_s": "m s-1", ...}}}, ...}}
 
 A plain case is keyed by its number as a string; any other run (ladder rung, scene) by its label.
-NaN (undefined) is written as null; JSON has no NaN.
+NaN (undefined) is written as null; JSON has no NaN. ``saltation.status`` is "sustained", "no
+sustained saltation" (the run's statistics are not of saltation: u*s below u*t, or fewer parcels
+aloft than released; report/saltation.py) or "undefined" (no archive or no counts).
 
 Wall time. ``total_wall_time_s`` is what a stopwatch gives for ``saltstudy run-all``: from the
 command's start (``meta["run_started"]``, epoch seconds) to the end of the report, with the
@@ -36,6 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from .data import SCALAR_UNITS, ReportContext, RunData, to_si
+from .saltation import n_parcels_per_m2_at_Q, saltation_state
 
 __all__ = ["machine_info", "run_scalars", "build_summary", "write_summary", "run_key",
            "task_times", "finish_wall_time"]
@@ -109,7 +118,8 @@ def task_times(ctx: ReportContext) -> dict[str, float]:
 def build_summary(ctx: ReportContext) -> dict[str, Any]:
     meta = ctx.meta
     cases: dict[str, Any] = {}
-    units: dict[str, str] = {"wall_time_s": "s"}
+    units: dict[str, str] = {"wall_time_s": "s", "n_parcels_per_m2_at_Q": "m-2",
+                             "airborne_mass_per_m2": "kg m-2"}
     for run in ctx.runs.values():
         vals, u = run_scalars(run)
         units.update(u)
@@ -118,6 +128,10 @@ def build_summary(ctx: ReportContext) -> dict[str, Any]:
                                  "archive": str(run.path) if run.path else None,
                                  "wall_time_s": _clean(run.wall_time_s)}
         entry.update(vals)
+        # present in every entry, null when undefined: the run's grains in the paper's terms
+        entry["n_parcels_per_m2_at_Q"] = _clean(n_parcels_per_m2_at_Q(run)) if run.ok else None
+        entry.setdefault("airborne_mass_per_m2", None)
+        entry["saltation"] = saltation_state(run).to_json()
         cases[run_key(run)] = entry
     fids = sorted({r.fidelity for r in ctx.runs.values() if r.fidelity})
     tt = task_times(ctx)

@@ -1,8 +1,10 @@
 """Table 2 beside the paper, and the scalar results the paper's text states, computed vs paper.
 
-Every row holds the computed value (from analysis.nc), the paper's value (from the package's copy of
-the paper's numbers, reference only) and the relative difference (computed - paper) / paper. Missing
-archives are rows saying so; values the paper does not give are "—".
+Table 2 has a row per run of the study. A row holds the computed value (from analysis.nc) and,
+where the run is one of the paper's cases unchanged, the paper's value (from the package's copy of
+the paper's numbers, reference only) and the relative difference (computed - paper) / paper.
+Missing archives are rows saying so; values the paper does not give are "—"; a run without
+sustained saltation (report/saltation.py) is a row giving the numbers that show it.
 """
 from __future__ import annotations
 
@@ -12,8 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .data import ReportContext, RunData, profile
+from .data import ReportContext, RunData, case_number_of, profile
 from .reference import CASES_WIND, PAPER_LABEL, TABLE2_COLUMNS, paper_results, paper_table2
+from .saltation import NO_SALTATION, saltation_state
 
 __all__ = ["Cell", "model_departures", "table2_rows", "scalar_results", "table2_markdown", "table2_html",
            "results_markdown", "results_html", "st_below_one_height", "fmt", "rel_diff"]
@@ -121,32 +124,43 @@ def _computed(c: Cell) -> str:
     return fmt(c.computed) + (f" ± {fmt(c.se, 2)}" if math.isfinite(c.se) else "")
 
 
+def _row_order(ctx: ReportContext) -> list[RunData]:
+    """Every run of the study once: those labelled as a paper case (``caseNN``, ``caseNN@rung``)
+    by case number, a ladder's rungs in the study's order; then the others in the study's order."""
+    runs = list(ctx.runs.values())
+    cased = [r for r in runs if case_number_of(r.label) is not None]
+    return sorted(cased, key=lambda r: case_number_of(r.label)) + \
+        [r for r in runs if case_number_of(r.label) is None]
+
+
 def table2_rows(ctx: ReportContext) -> list[dict]:
-    """One row per case 1-10 present in the study (and per other run), in case order."""
+    """One row per run of the study, named by its label (a plain case: "case N"). The paper's
+    values stand beside a run only where it is one of the paper's cases unchanged
+    (``RunData.paper_case``); a run of one's own gets none. ``saltation`` says whether the run
+    holds saltation (report/saltation.py); a run without is no result."""
     table = paper_table2()
     rows = []
-    seen = set()
-    numbers = sorted({r.case for r in ctx.runs.values() if r.case is not None})
-    order: list[tuple[str, RunData | None, int | None]] = []
-    for n in numbers:
-        r = ctx.by_case(n)
-        order.append((f"case {n}" if r is None or r.plain_case else r.label, r, n))
-        if r is not None:
-            seen.add(r.label)
-    for r in ctx.runs.values():
-        if r.label not in seen and r.case is None:
-            order.append((r.label, r, None))
-    for name, r, n in order:
-        row = {"name": name, "case": n, "label": r.label if r else None,
-               "status": r.status if r is not None else "not in study", "cells": {}}
-        prow = table.get(n, {}) if (r is not None and (r.plain_case or "@" in r.label)) else {}
+    for r in _row_order(ctx):
+        n = r.paper_case
+        name = f"case {r.case}" if r.plain_case and r.case is not None else r.label
+        row = {"name": name, "case": r.case, "label": r.label, "paper_case": n, "status": r.status,
+               "saltation": saltation_state(r), "cells": {}}
+        prow = table.get(n, {}) if n is not None else {}
         for var, pkey, _, _ in TABLE2_COLUMNS:
-            c = r.scalar(var) if r is not None else math.nan
+            c = r.scalar(var)
             p = prow.get(pkey, math.nan) if pkey else math.nan
-            se = r.scalar(TABLE2_SE[var]) if r is not None and var in TABLE2_SE else math.nan
+            se = r.scalar(TABLE2_SE[var]) if var in TABLE2_SE else math.nan
             row["cells"][var] = Cell(c, p, rel_diff(c, p), se)
         rows.append(row)
     return rows
+
+
+def _no_saltation(row: dict) -> bool:
+    return row["status"] == "ok" and row["saltation"].status == NO_SALTATION
+
+
+def _no_saltation_text(row: dict) -> str:
+    return f"{NO_SALTATION}: {row['saltation'].reason}"
 
 
 def st_below_one_height(run: RunData) -> float:
@@ -196,26 +210,28 @@ def scalar_results(ctx: ReportContext) -> list[dict]:
                      "unit": unit, "how": how,
                      "computed_value": computed, "paper_value": paper})
 
-    zms = [ctx.by_case(n).scalar("z_m") for n in CASES_WIND
-           if ctx.by_case(n) is not None and ctx.by_case(n).ok]
+    def result(r: RunData | None) -> bool:
+        """A run whose statistics are of saltation (report/saltation.py)."""
+        return r is not None and r.ok and saltation_state(r).status != NO_SALTATION
+
+    zms = [ctx.by_case(n).scalar("z_m") for n in CASES_WIND if result(ctx.by_case(n))]
     zms = [z for z in zms if math.isfinite(z)]
-    z1 = ctx.by_case(1).scalar("z_m") if ctx.by_case(1) and ctx.by_case(1).ok else math.nan
-    z6 = ctx.by_case(6).scalar("z_m") if ctx.by_case(6) and ctx.by_case(6).ok else math.nan
+    z1 = ctx.by_case(1).scalar("z_m") if result(ctx.by_case(1)) else math.nan
+    z6 = ctx.by_case(6).scalar("z_m") if result(ctx.by_case(6)) else math.nan
     add("z_m, case 1 – case 6", [z1, z6], ref.get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan]), "m",
         f"z_m of case 1 and case 6 (cases 1–6 present with z_m: {len(zms)})")
-    sg = [r.scalar("sigma_G_over_G_tot") for r in ctx.scatter_runs()]
+    sg = [r.scalar("sigma_G_over_G_tot") for r in ctx.scatter_runs() if result(r)]
     sg = [v for v in sg if math.isfinite(v)]
     add("σG/G_tot, range over cases", [min(sg), max(sg)] if sg else [math.nan, math.nan],
         ref.get("fig13_sigmaG_over_Gtot", [math.nan, math.nan]), "1",
         f"min and max over the {len(sg)} runs with a value")
     r6 = ctx.by_case(6)
     add("τp surface fraction, case 6",
-        r6.scalar("tau_p_surface_fraction") if r6 is not None and r6.ok else math.nan,
+        r6.scalar("tau_p_surface_fraction") if result(r6) else math.nan,
         ref.get("fig6_taup_surface_fraction_case6", math.nan), "1",
         "τp at the bed (exponential fit of the lowest layers) / ρu*² at the reference height "
         "(analysis scalar tau_p_surface_fraction)")
-    rc = [(n, ctx.by_case(n).scalar("R_cu_upper")) for n in CASES_WIND
-          if ctx.by_case(n) is not None and ctx.by_case(n).ok]
+    rc = [(n, ctx.by_case(n).scalar("R_cu_upper")) for n in CASES_WIND if result(ctx.by_case(n))]
     rc = [(n, v) for n, v in rc if math.isfinite(v)]
     add("R_cu in the upper layer (z ≥ 0.6 z_m), mean of cases 1–6",
         float(np.mean([v for _, v in rc])) if rc else math.nan,
@@ -224,7 +240,7 @@ def scalar_results(ctx: ReportContext) -> list[dict]:
         + (f"; per case {', '.join(f'{v:.2f}' for _, v in rc)}" if rc else ""))
     hs = []
     for r in ctx.scatter_runs():
-        if math.isfinite(r.mu1) and r.mu1 >= 200e-6 - 1e-9:
+        if result(r) and math.isfinite(r.mu1) and r.mu1 >= 200e-6 - 1e-9:
             h = st_below_one_height(r)
             if math.isfinite(h):
                 hs.append((r, h))
@@ -245,8 +261,13 @@ def table2_markdown(ctx: ReportContext) -> str:
     for _, pkey, lab, unit in TABLE2_COLUMNS:
         heads.append(f"{lab} [{unit}]")
     lines = [f"# Table 2 — computed beside {PAPER_LABEL}", "",
-             f"Study `{ctx.study}`. Each cell: computed / paper (relative difference). "
-             "“—”: not given by the paper or undefined in the run. u*s ± its standard error "
+             f"Study `{ctx.study}`. One row per run. Each cell: computed / paper (relative "
+             "difference); the paper's value only beside a run that is one of its cases "
+             "unchanged (a different seed aside), none beside a case of one's own. "
+             "“—”: not given by the paper or undefined in the run. A run whose u*s is below the "
+             f"fluid threshold u*t, or whose parcels aloft fall below those released, is marked "
+             f"“{NO_SALTATION}” with the numbers that show it, not its statistics. "
+             "u*s ± its standard error "
              "over the 3-D samples (the scatter of the per-sample fits). u*s is the free log-law "
              "fit above the saltation layer; “u*s, stress at z_ref” is the paper's own reading "
              "(section 3.1: u* from ⟨u'w'⟩ at 2 m), a quantity the drive holds at the case's "
@@ -257,11 +278,17 @@ def table2_markdown(ctx: ReportContext) -> str:
         if row["status"] != "ok":
             lines.append(f"| {row['name']} | " + " | ".join([f"*{row['status']}*"] + [""] * (len(heads) - 2)) + " |")
             continue
+        if _no_saltation(row):
+            # u*s, u*t: escaped, or their asterisks would open emphasis
+            why = row["saltation"].reason.replace("*", "\\*")
+            lines.append(f"| {row['name']} | " + " | ".join(
+                [f"**{NO_SALTATION}**: {why}"] + [""] * (len(heads) - 2)) + " |")
+            continue
         cells = [row["name"]]
         for var, pkey, _, _ in TABLE2_COLUMNS:
             c = row["cells"][var]
             s = _computed(c)
-            if pkey:
+            if pkey and row["paper_case"] is not None:
                 s += f" / {fmt(c.paper)}"
                 if math.isfinite(c.rel):
                     s += f" ({_pct(c.rel)})"
@@ -290,16 +317,23 @@ def table2_html(ctx: ReportContext) -> str:
     cols = [c for c in TABLE2_COLUMNS if c[1]]
     only = [c for c in TABLE2_COLUMNS if not c[1]]
     out = [f'<table class="t2"><caption>Computed beside {e(PAPER_LABEL)}: value, the paper\'s '
-           f"value (grey) and the difference (computed − paper)/paper. {e(_departures_text(ctx))}</caption>"
+           f"value (grey) and the difference (computed − paper)/paper, the paper's only beside a "
+           f"run that is one of its cases unchanged. {e(_departures_text(ctx))}</caption>"
            '<thead><tr><th rowspan="2" class="run">run</th>']
     for _, _, lab, unit in cols:
         out.append(f'<th colspan="3" class="grp">{e(lab)} [{e(unit)}]</th>')
     out.append("</tr><tr>" + "<th>computed</th><th class='ref'>paper</th><th>diff.</th>" * len(cols)
                + "</tr></thead><tbody>")
     for row in rows:
-        out.append(f"<tr><td class='run'>{e(row['name'])}</td>")
+        own = "<span class='se'> (own case)</span>" \
+            if row["paper_case"] is None and row["status"] == "ok" else ""
+        out.append(f"<tr><td class='run'>{e(row['name'])}{own}</td>")
         if row["status"] != "ok":
             out.append(f'<td class="missing" colspan="{3 * len(cols)}">{e(row["status"])}</td></tr>')
+            continue
+        if _no_saltation(row):
+            out.append(f'<td class="nosalt" colspan="{3 * len(cols)}">{e(_no_saltation_text(row))}'
+                       "</td></tr>")
             continue
         for var, _, _, _ in cols:
             c = row["cells"][var]
@@ -318,6 +352,9 @@ def table2_html(ctx: ReportContext) -> str:
             out.append(f"<tr><td class='run'>{e(row['name'])}</td>")
             if row["status"] != "ok":
                 out.append(f'<td class="missing" colspan="{len(only)}">{e(row["status"])}</td></tr>')
+                continue
+            if _no_saltation(row):
+                out.append(f'<td class="nosalt" colspan="{len(only)}">{e(NO_SALTATION)}</td></tr>')
                 continue
             out.extend(f"<td>{e(_computed(row['cells'][var]))}</td>" for var, _, _, _ in only)
             out.append("</tr>")

@@ -1,0 +1,190 @@
+"""Whether a run holds saltation, and its airborne grains in the paper's terms.
+
+**No sustained saltation.** A run's statistics describe saltation only if grains stay aloft.
+The model has no aerodynamic entrainment (as the paper): after the release at activation, grains
+stay in the air only by rebounding and splashing others out of the bed. A run is marked
+``no sustained saltation`` when either
+
+* the case's friction velocity u*s (the wind the drive holds at the reference height) is below
+  the fluid threshold u*t of Shao & Lu (2000) (analysis scalar ``u_star_t``): the wind cannot
+  carry saltation on this bed; or
+* fewer parcels are aloft on average over the sampling window (``n_parcels_mean``) than were
+  released at activation: the splash does not replace the grains that land, so the saltation
+  dies out. In sustained saltation the count grows far past the release (the paper's case 2
+  holds ≈ 60 times its release at equilibrium: 6 × 10⁵ against 10⁴ parcels, [31]).
+
+Its statistics (G_tot, z_m, ...) are then of a few decaying hops, not of saltation, and the report
+shows the numbers above instead of them.
+
+**Airborne parcels at the case's Q.** A run at a fidelity with ``q_multiplier`` M carries parcels
+of Q M grains; its count in the paper's parcels (of Q grains) is M times larger. Per m² of bed:
+``n_parcels_per_m2_at_Q = n_parcels_mean × M / (Lx Ly)`` [m⁻²]. The paper holds ≈ 6 × 10⁵
+parcels on its 20 m × 15 m bed in case 2 ([31], Fig. 1) and chose Q so that all cases hold a
+similar number ([28]): ≈ 2,000 per m², a reference drawn beside the computed values only.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from ..config import PAPER_AREA_M2
+from .data import RunData
+from .reference import paper, paper_results
+
+__all__ = ["SUSTAINED", "NO_SALTATION", "UNDEFINED", "SaltationState", "saltation_state",
+           "q_multiplier", "bed_area", "parcels_per_m2_at_Q", "n_parcels_per_m2_at_Q",
+           "n_parcels_released", "paper_parcels_per_m2", "PAPER_PARCELS_SOURCE", "STATE_UNITS"]
+
+SUSTAINED = "sustained"
+NO_SALTATION = "no sustained saltation"
+UNDEFINED = "undefined"
+
+#: where the paper's number of parcels per m² comes from
+PAPER_PARCELS_SOURCE = "Dupont et al. 2013 [28], [31]"
+
+#: units of the numbers of a :class:`SaltationState`
+STATE_UNITS = {"u_star_s": "m s-1", "u_star_t": "m s-1", "n_parcels_released": "1",
+               "n_parcels_mean": "1", "n_parcels_end": "1"}
+
+
+def paper_parcels_per_m2() -> float:
+    """The paper's resolved parcels per m² of bed at equilibrium [m⁻²]: ≈ 6 × 10⁵ in case 2 on
+    its 20 m × 15 m bed ([31]), a similar number in every case at its own Q ([28])."""
+    lx, ly = (paper().get("setup", {}).get("domain_m") or [math.nan, math.nan])[:2]
+    n = paper_results().get("fig1_equilibrium_particles_case2", math.nan)
+    return float(n) / (float(lx) * float(ly))
+
+
+def _case(run: RunData) -> dict:
+    c = run.scene.get("case", {}) if isinstance(run.scene, dict) else {}
+    return c if isinstance(c, dict) else {}
+
+
+def q_multiplier(run: RunData) -> float:
+    """M [1]: the run's parcels hold M times the case's Q grains. From the archive's parcel weight
+    (attribute ``Q``) over the case's Q, else the fidelity's ``q_multiplier``, else 1."""
+    q_run = run.attr("Q")
+    q_case = (_case(run).get("particles", {}) or {}).get("Q")
+    try:
+        q_case = float(q_case)
+    except (TypeError, ValueError):
+        q_case = math.nan
+    if math.isfinite(q_run) and math.isfinite(q_case) and q_run > 0 and q_case > 0:
+        return q_run / q_case
+    fid = run.scene.get("fidelity", {}) if isinstance(run.scene, dict) else {}
+    try:
+        return float((fid or {}).get("q_multiplier", 1.0))
+    except (TypeError, ValueError):
+        return 1.0
+
+
+def bed_area(run: RunData) -> float:
+    """Lx Ly [m²] of the run's domain (archive attributes, else the archived grid); NaN if unknown."""
+    lx, ly = run.attr("Lx"), run.attr("Ly")
+    if not (math.isfinite(lx) and math.isfinite(ly)):
+        grid = (run.scene.get("fidelity", {}) or {}).get("grid", {}) if isinstance(run.scene, dict) else {}
+        try:
+            lx, ly = float(grid["Lx"]), float(grid["Ly"])
+        except (KeyError, TypeError, ValueError):
+            return math.nan
+    return lx * ly if lx > 0 and ly > 0 else math.nan
+
+
+def parcels_per_m2_at_Q(run: RunData, n):
+    """Parcel count(s) ``n`` of the run as parcels of the case's Q per m² of bed [m⁻²]."""
+    return np.asarray(n, dtype=float) * q_multiplier(run) / bed_area(run)
+
+
+def n_parcels_per_m2_at_Q(run: RunData) -> float:
+    """Mean airborne parcels over the sampling window per m² of bed, at the case's Q [m⁻²]."""
+    return float(parcels_per_m2_at_Q(run, run.scalar("n_parcels_mean")))
+
+
+def n_parcels_released(run: RunData) -> float:
+    """Parcels released at activation [1]: the case's ``n_initial`` per 300 m², scaled to the
+    bed and divided by M (``config.Scene.n_initial``); NaN if the area is unknown."""
+    n0 = (_case(run).get("particles", {}) or {}).get("n_initial", 10_000)
+    area = bed_area(run)
+    try:
+        n = float(n0) * area / PAPER_AREA_M2 / q_multiplier(run)
+    except (TypeError, ValueError, ZeroDivisionError):
+        return math.nan
+    return float(max(1, round(n))) if math.isfinite(n) else math.nan
+
+
+def _case_u_star_s(run: RunData) -> float:
+    """The case's u*s [m s⁻¹]: what the drive holds at the reference height."""
+    v = (_case(run).get("forcing", {}) or {}).get("u_star_s")
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return run.attr("u_star_target")
+
+
+@dataclass
+class SaltationState:
+    """Whether a run holds saltation (module docstring) and the numbers that say so."""
+    status: str                  # SUSTAINED | NO_SALTATION | UNDEFINED
+    reason: str
+    u_star_s: float = math.nan   # the case's u*s [m s-1]
+    u_star_t: float = math.nan   # fluid threshold [m s-1]
+    n_parcels_released: float = math.nan   # [1]
+    n_parcels_mean: float = math.nan       # over the sampling window [1]
+    n_parcels_end: float = math.nan        # last record of the run [1]
+
+    @property
+    def sustained(self) -> bool:
+        return self.status == SUSTAINED
+
+    def to_json(self) -> dict:
+        d = asdict(self)
+        for k, v in d.items():
+            if isinstance(v, float) and not math.isfinite(v):
+                d[k] = None
+        d["units"] = dict(STATE_UNITS)
+        return d
+
+
+def _g(v: float) -> str:
+    """A count: whole above 100, three significant digits below."""
+    if not math.isfinite(v):
+        return "?"
+    return f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}"
+
+
+def _ms(v: float) -> str:
+    return f"{v:.3f}" if math.isfinite(v) else "?"
+
+
+def saltation_state(run: RunData) -> SaltationState:
+    """The run's :class:`SaltationState` (criterion: module docstring)."""
+    if not run.ok:
+        return SaltationState(UNDEFINED, run.status)
+    us, ut = _case_u_star_s(run), run.scalar("u_star_t")
+    released, mean = n_parcels_released(run), run.scalar("n_parcels_mean")
+    end = math.nan
+    series = run.var("n_parcels")
+    if series is not None and series.size:
+        vals = np.asarray(series.values, dtype=float)
+        vals = vals[np.isfinite(vals)]
+        end = float(vals[-1]) if vals.size else math.nan
+    nums = dict(u_star_s=us, u_star_t=ut, n_parcels_released=released, n_parcels_mean=mean,
+                n_parcels_end=end)
+    below = math.isfinite(us) and math.isfinite(ut) and us < ut
+    dies = math.isfinite(mean) and math.isfinite(released) and mean < released
+    wind = (f"u*s = {_ms(us)} m s-1 {'below' if below else 'at or above'} the fluid threshold "
+            f"u*t = {_ms(ut)} m s-1 (Shao & Lu 2000)")
+    count = (f"{_g(mean)} parcels aloft on average over the sampling window against "
+             f"{_g(released)} released at activation ({_g(end)} at the end of the run)")
+    if below or dies:
+        why = [wind] if below else []
+        if dies:
+            why.append(count + ": the splash does not replace the grains that land")
+        elif math.isfinite(mean):
+            why.append(count)
+        return SaltationState(NO_SALTATION, "; ".join(why), **nums)
+    if not (math.isfinite(us) and math.isfinite(ut) and math.isfinite(mean) and math.isfinite(released)):
+        return SaltationState(UNDEFINED, f"{wind}; {count}", **nums)
+    return SaltationState(SUSTAINED, f"{wind}; {count}", **nums)
