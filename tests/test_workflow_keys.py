@@ -52,13 +52,27 @@ def test_what_changes_which_key():
     assert keys.run_keys("a", resolve_scene(load_case(1), f2)).saltation == base.saltation
 
 
-def test_a_scene_label_keys_its_saltation_but_not_its_spinup():
-    """The graph has one saltation node per label: two labels must not write one directory."""
+def test_scenes_of_the_same_physics_share_one_run_under_two_labels(tmp_path):
+    """A scene's label (its case's name) and the fidelity's name key nothing: two scenes that
+    resolve to the same physics share one saltation and one analysis node of the graph, and the
+    report gets both labels; another seed is another run."""
     from saltstudy.config import Study, study_runs
+    from saltstudy.workflow.graph import build_graph
     st = Study.model_validate({"name": "t", "description": "", "fidelity": "smoke",
-                               "scenes": [{"label": "x", "case": 1}, {"label": "y", "case": 1}]})
-    x, y = (keys.run_keys(r.label, r.scene) for r in study_runs(st))
-    assert x.spinup == y.spinup and x.saltation != y.saltation
+                               "scenes": [{"label": "x", "case": 1}, {"label": "y", "case": 1},
+                                          {"label": "z", "case": 1, "overrides": {"seed": 5}}]})
+    x, y, z = (keys.run_keys(r.label, r.scene) for r in study_runs(st))
+    assert x.spinup == y.spinup and x.saltation == y.saltation and x.analysis == y.analysis
+    assert z.saltation != x.saltation
+    renamed = load_fidelity("smoke").model_copy(update={"name": "smoke-copy"})
+    assert keys.run_keys("x", resolve_scene(load_case(1), renamed)).saltation == keys.run_keys(
+        "x", resolve_scene(load_case(1), load_fidelity("smoke"))).saltation
+    plan = build_graph(st, tmp_path, report_dir=tmp_path / "rep")
+    assert plan.graph["saltation:x"] is plan.graph["saltation:y"]
+    assert plan.graph["analysis:x"] is plan.graph["analysis:y"]
+    assert plan.graph["saltation:z"] is not plan.graph["saltation:x"]
+    assert [r.name for r in plan.task_refs].count("saltation x") == 1
+    assert not any(r.name == "saltation y" for r in plan.task_refs)
 
 
 def test_cases_with_equal_wind_share_a_spinup():

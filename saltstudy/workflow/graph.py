@@ -129,10 +129,12 @@ def _analysis(label: str, key: str, spin: Outcome, salt: Outcome, out_dir: Path)
                  analysis_task, Path(salt.path), Path(spin.path), out_dir, key)
 
 
-def _report(study: Study, analyses: list[Outcome], out_dir: Path, report_dir: Path,
+def _report(study: Study, analyses: list[tuple[str, Outcome]], out_dir: Path, report_dir: Path,
             meta: dict[str, Any]) -> Outcome:
-    runs = {a.labels[0]: (Path(a.path) if a.ok else None) for a in analyses}
-    rkey = K.report_key(study, {a.labels[0]: (a.key if a.ok else None) for a in analyses})
+    """The study's report over (label, analysis outcome) pairs: two labels of the same physics
+    share one outcome."""
+    runs = {label: (Path(a.path) if a.ok else None) for label, a in analyses}
+    rkey = K.report_key(study, {label: (a.key if a.ok else None) for label, a in analyses})
     if report_done(out_dir, rkey, report_dir):
         return Outcome("report", rkey, [study.name], "cached", str(report_dir))
     return _call("report", rkey, [study.name], Path(report_dir), report_task, study, runs, out_dir,
@@ -162,6 +164,8 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
     report_dir = Path(report_dir) if report_dir else default_report_dir(study.name)
     runs = K.study_keys(study, root)
     spin_nodes: dict[str, Any] = {}
+    salt_nodes: dict[str, Any] = {}
+    an_nodes: dict[str, Any] = {}
     refs: list[TaskRef] = []
     sharing: dict[str, list[str]] = {}
     for label, rk in runs.items():
@@ -176,15 +180,20 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
             refs.append(TaskRef(f"spinup {'+'.join(sharing[rk.spinup])}",
                                 task_dir(out_dir, "spinup", rk.spinup)))
         sp = spin_nodes[rk.spinup]
-        sa = dask.delayed(_saltation, pure=False)(rk.scene, rk.saltation, sp, out_dir, SOURCE_KEY,
-                                                  numba_threads, dask_key_name=f"saltation-{rk.saltation}-{label}")
-        an = dask.delayed(_analysis, pure=False)(label, rk.analysis, sp, sa, out_dir,
-                                                 dask_key_name=f"analysis-{rk.analysis}-{label}")
-        refs.append(TaskRef(f"saltation {label}", task_dir(out_dir, "saltation", rk.saltation)))
+        # scenes of the same physics under two labels share one run (its key leaves names out)
+        if rk.saltation not in salt_nodes:
+            salt_nodes[rk.saltation] = dask.delayed(_saltation, pure=False)(
+                rk.scene, rk.saltation, sp, out_dir, SOURCE_KEY, numba_threads,
+                dask_key_name=f"saltation-{rk.saltation}-{label}")
+            an_nodes[rk.analysis] = dask.delayed(_analysis, pure=False)(
+                label, rk.analysis, sp, salt_nodes[rk.saltation], out_dir,
+                dask_key_name=f"analysis-{rk.analysis}-{label}")
+            refs.append(TaskRef(f"saltation {label}", task_dir(out_dir, "saltation", rk.saltation)))
+        sa, an = salt_nodes[rk.saltation], an_nodes[rk.analysis]
         finals[f"spinup:{label}"] = sp
         finals[f"saltation:{label}"] = sa
         finals[f"analysis:{label}"] = an
-        analyses.append(an)
+        analyses.append((label, an))
     if study.report:
         meta = {"study": study.name, "out_dir": str(out_dir), "package_version": __version__,
                 "source_key": SOURCE_KEY, "run_started": run_started,

@@ -12,12 +12,12 @@ key = SHA-256 of the JSON (sorted keys) of
 Python's ``hash()`` is never used (it changes with PYTHONHASHSEED), and pydantic models are dumped
 with ``mode="json"`` so the text is the same in every process.
 
-What is left out of the slices, on purpose: descriptions, the run's label (the same case at the
-same fidelity is the same run in any study of cases), and ``checkpoint_interval_wall`` (it changes
-when checkpoints are written, not the result: resume is bit-for-bit). A study's *scene* puts its
-label into the case's ``name``, which the saltation slice keeps: the graph has one saltation node
-per label, so two scenes that resolve to the same physics must not share a directory. The same
-scene under two labels therefore runs twice and gives the same archive bit for bit.
+What is left out of the slices, on purpose: descriptions, names (the run's label, which a study's
+scene puts into the case's ``name``, and the fidelity's name: the same case at the same cost is
+the same run in any study, so a ladder rung and a scene of the same physics share one archive),
+and ``checkpoint_interval_wall`` (it changes when checkpoints are written, not the result: resume
+is bit-for-bit). Two scenes of one study that resolve to the same physics share one graph node
+(workflow/graph.py), so they never write the same directory twice.
 """
 from __future__ import annotations
 
@@ -70,9 +70,11 @@ def spinup_key(scene: Scene) -> str:
 def saltation_slice(scene: Scene) -> dict[str, Any]:
     """The whole resolved scene minus what cannot change the samples (see module docstring)."""
     case = scene.case.model_dump(mode="json")
-    case.pop("description", None)
+    # names are labels: two studies that run the same case at the same cost share its archives
+    for k in ("description", "name"):
+        case.pop(k, None)
     fid = scene.fidelity.model_dump(mode="json")
-    for k in ("description", "checkpoint_interval_wall"):
+    for k in ("description", "checkpoint_interval_wall", "name"):
         fid.pop(k, None)
     if fid.get("saltation_dt_fixed") is None:
         # absent and None mean the same adaptive step: only a set value may change the key
