@@ -102,6 +102,13 @@ class Splash(_Frozen):
     ej_angle_h_mean: float = Field(0.0, ge=-90, le=90, description="<alpha_hej> [deg]")
     ej_angle_h_std: float = Field(10.0, ge=0, description="sigma of alpha_hej [deg]")
     impact_layer: float = Field(5.0e-4, gt=0, lt=0.01, description="impact layer depth [m] (0.5 mm)")
+    detection_step: float = Field(
+        0.0, ge=0, lt=0.01, description="[s] 0: a grain's crossing of the impact layer's top is "
+        "located exactly and its rebound and ejecta leave from there; > 0: the bed is met as a code "
+        "stepping by this much meets it (the paper's model steps by 0.2 ms, its section 2.4): the "
+        "grain is splashed where it is found inside the layer, its rebound and ejecta start there, "
+        "and one still inside after the next such step is splashed again at its launch velocity "
+        "(solver/splash_kernels.py)")
     ejection_rounding: Literal["stochastic", "floor", "nearest"] = Field(
         "stochastic", description="how eq. 8's N_ej = a v_imp / sqrt(g <d>) becomes a whole number "
         "of ejected parcels, which the paper does not say: 'stochastic' rounding (floor plus one "

@@ -79,6 +79,11 @@ def model_departures(scene: dict) -> list[str]:
     if nbw != "paper":
         out.append(NEAR_BED_WIND_CAPTIONS[nbw] + " (particles.near_bed_wind; the paper's [12]: "
                    "the log law from the second level over the whole first cell, its drag there)")
+    dstep = (case.get("splash", {}) or {}).get("detection_step", 0.0) or 0.0
+    if dstep > 0:
+        out.append(f"the bed met at the end of {1e3 * dstep:g} ms steps, a grain splashed where it "
+                   "is found inside the impact layer and again if it has not left it "
+                   "(splash.detection_step; the paper's text: when it reaches the layer)")
     rounding = (case.get("splash", {}) or {}).get("ejection_rounding", "stochastic")
     if rounding != "stochastic":
         out.append(f"eq. 8's number of ejecta as its {'floor' if rounding == 'floor' else 'nearest integer'}"

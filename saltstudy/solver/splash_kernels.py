@@ -36,7 +36,11 @@ soil's mass, not like its grain count (the count median would be mu_j exp(-3 ln^
 smaller for sigma = 1.2). We follow the paper.
 
 The rebound and the ejecta start at the impact point, on the impact layer, and are integrated for
-the rest of the step by the caller.
+the rest of the step by the caller. With ``splash.detection_step`` dt_d > 0 the bed is met as a
+code stepping by dt_d meets it: a grain that crossed the layer's top is found |w| U dt_d below it
+(U uniform), its rebound and ejecta start there, and one that is not above the top after the next
+dt_d (w_launch dt_d < depth) is left inside, where the next step splashes it again at its launch
+velocity (the particle kernel splashes a grain found inside the layer before moving it).
 
 The impact record (``ImpactLog``): every impact is counted by its speed and its angle to the bed
 (``impact_hist``), with the rebounds and ejecta it gave (``impact_outcomes``: the replacement number
@@ -94,6 +98,7 @@ def impact_log_arrays(runs: int):
 SP_PMAX, SP_GAMMA, SP_REB_M, SP_REB_S, SP_RAV_M, SP_RAV_S, SP_RAH_M, SP_RAH_S = range(8)
 SP_A, SP_EJ_M, SP_EAV_M, SP_EAV_S, SP_EAH_M, SP_EAH_S, SP_IMPACT_LAYER, SP_G, SP_DMEAN, SP_RHO_P = range(8, 18)
 SP_EJ_ROUND = 18
+SP_DETECT = 19
 #: how eq. 8's N_ej becomes a whole number of ejected parcels (config.Splash.ejection_rounding),
 #: coded in the parameter vector: stochastic rounding, the floor, the nearest integer
 EJECTION_ROUNDING = {"stochastic": 0.0, "floor": 1.0, "nearest": 2.0}
@@ -108,7 +113,7 @@ def splash_params(splash, soil, g: float) -> np.ndarray:
         r(splash.reb_angle_h_std), splash.a_ej, splash.ej_speed_mean, r(splash.ej_angle_v_mean),
         r(splash.ej_angle_v_std), r(splash.ej_angle_h_mean), r(splash.ej_angle_h_std),
         splash.impact_layer, g, soil.mean_diameter, soil.rho_p,
-        EJECTION_ROUNDING[splash.ejection_rounding],
+        EJECTION_ROUNDING[splash.ejection_rounding], splash.detection_step,
     ], dtype=np.float64)
 
 
@@ -244,6 +249,30 @@ def _record_impact(L, r, p, up, vp, wp, v_imp, x, y, tr):
 
 
 @jit_borrow
+def _depth_found(rng, z_p, w_p, h_imp, dstep):
+    """How far below the impact layer's top [m] a grain is when a code stepping by ``dstep``
+    finds it there: a grain still inside from an earlier splash is where it is; one that has just
+    crossed is found at the end of the step in which it crossed, |w| U dstep deep, U uniform
+    (where the crossing falls in that step). 0 with the crossing located exactly (dstep = 0)."""
+    if dstep <= 0.0:
+        return 0.0
+    if z_p < h_imp:
+        return h_imp - z_p
+    return abs(w_p) * rng.random() * dstep
+
+
+@jit_borrow
+def _launch_height(w_l, depth, dstep, h_imp):
+    """Height [m] a grain launched at vertical speed w_l from ``depth`` below the layer's top is
+    found at the end of the next step of ``dstep``: above the top (it flies: launched from the
+    top, as with the exact crossing), or still inside, where it is splashed again at its launch
+    velocity in the next step."""
+    if depth > 0.0 and w_l * dstep < depth:
+        return h_imp - (depth - w_l * dstep)
+    return h_imp
+
+
+@jit_borrow
 def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, trem, dead, n_dead,
                sp, cum, mu, lnsig, Q, cnt, en, L, r):
     """Splash every parcel listed in ``ev[cursor:n_ev]`` (each sits on the impact layer with its
@@ -280,6 +309,7 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
         xp = x[p]
         yp = y[p]
         tr = trem[p]
+        depth = _depth_found(rng, z[p], wp, h_imp, sp[SP_DETECT])
         iv, t_imp = _record_impact(L, r, p, up, vp, wp, v_imp, xp, yp, tr)
         reb, vr, av, ah = draw_rebound(rng, v_imp, sp)
         if reb:
@@ -287,7 +317,7 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             u[p] = a
             v[p] = b
             w[p] = c
-            z[p] = h_imp
+            z[p] = _launch_height(c, depth, sp[SP_DETECT], h_imp)
             kd[p] = 0.0  # velocity jumped: the drag rate is re-estimated from scratch
             flag[p] = 0
             L.tl[p] = t_imp
@@ -310,7 +340,7 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             a, b, c = _launch(ve, av, phi + ah)
             x[q] = xp
             y[q] = yp
-            z[q] = h_imp
+            z[q] = _launch_height(c, depth, sp[SP_DETECT], h_imp)
             u[q] = a
             v[q] = b
             w[q] = c
