@@ -14,8 +14,8 @@ for any rate, or diagnoses e (dynamic closure, closure.py).
 
 The vertical SGS diffusion is explicit or implicit (``FlowNumerics.vertical_diffusion``, from the
 fidelity's ``time`` section): implicit, each stage solves one tridiagonal system per column for
-u, v, w and e (vertical_diffusion.py), and the step is no longer limited by the vertical diffusion
-of the thin first levels (Model.next_dt).
+u, v, w and e (vertical_diffusion.py), and the vertical diffusion of the thin first levels sets
+no limit on the step (Model.next_dt).
 
 Memory: the base fields phi(n) stay in the state arrays (stage 3 writes them point by point after
 reading them, or column by column after solving), so two extra sets of (u, v, w, e) suffice; no
