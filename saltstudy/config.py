@@ -311,6 +311,11 @@ class TimeStepping(_Frozen):
         0.5, ge=0.5, le=1.0, description="theta of the implicit vertical diffusion: 0.5 "
         "Crank-Nicolson in each stage (second order), 1 backward Euler (first order, damps the "
         "stiff modes at once)")
+    advection_order: Literal[2, 4] = Field(
+        2, description="horizontal order of the advection (momentum and SGS TKE) and of the "
+        "projection's divergence and gradient: 2, or 4 (Morinishi et al. 1998, fully conservative; "
+        "the paper's model ARPS advects momentum at fourth order); an integer because it is the "
+        "order of the differences; the vertical stays second order (solver/advection.py)")
 
 
 class SpinUp(_Frozen):

@@ -38,6 +38,15 @@ def test_bench_flow_compares_closures_and_rejects_an_unknown_one():
     assert res.exit_code == 2 and "--closure" in res.output
 
 
+def test_bench_flow_compares_advection_orders_and_rejects_an_unknown_one():
+    out = _json(["bench", "flow", "--steps", "2", "--no-big", "--json", "--advection-order", "2",
+                 "--advection-order", "4"])
+    assert [g["advection_order"] for g in out["grids"]] == [2, 4]
+    assert all(g["ns_per_cell_step"] > 0 for g in out["grids"])
+    res = CliRunner().invoke(app, ["bench", "flow", "--advection-order", "3", "--no-big"])
+    assert res.exit_code == 2 and "--advection-order" in res.output
+
+
 def test_bench_particles_json_has_the_runs_fields():
     out = _json(["bench", "particles", "--n", "2000", "--n", "4000", "--steps", "3", "--json"])
     assert [r["n_parcels"] for r in out["runs"]] == [2000, 4000]

@@ -5,7 +5,9 @@ couple of steps to compile the kernels and leave the initial state, then ``steps
 one by one; the median is reported as ns per cell-step (wall time / (nx ny nz)), and the mean beside
 it (the dynamic closure refreshes its coefficient every ``closure.dynamic_interval`` steps, a cost
 the median leaves out and the mean over a multiple of that interval includes). ``closures`` runs
-the same grids with each SGS closure in turn (``--closure``, repeated), in one process. The *pressure
+the same grids with each SGS closure in turn (``--closure``, repeated), and ``orders`` with each
+horizontal advection order (``--advection-order 2 --advection-order 4``: the fidelity's
+``time.advection_order``, which sets the projection's order too), in one process. The *pressure
 floor* is the median time of the FFT pair + tridiagonal solve alone (``PressureSolver.solve_rhs_inplace``),
 three per step (one per RK3 stage), in the same units; ``ratio`` = step / floor says how far the whole
 step is above that irreducible cost. Peak resident memory (ru_maxrss) is reported after the largest grid.
@@ -38,12 +40,15 @@ def _median_time(f, n: int) -> float:
     return statistics.median(_times(f, n))
 
 
-def bench_grid(fidelity: str, steps: int = 10, closure: str = "deardorff") -> dict:
-    from ..config import load_case, load_fidelity, resolve_scene
+def bench_grid(fidelity: str, steps: int = 10, closure: str = "deardorff",
+               advection_order: int = 2) -> dict:
+    from ..config import TimeStepping, load_case, load_fidelity, resolve_scene
     from ..solver.model import Model
 
+    fid = load_fidelity(fidelity)
+    ts = TimeStepping.model_validate({**fid.time.model_dump(), "advection_order": advection_order})
     scene = resolve_scene(load_case(1, overrides={"closure": {"model": closure}}),
-                          load_fidelity(fidelity))
+                          fid.model_copy(update={"time": ts}))
     m = Model.from_scene(scene)
     for _ in range(2):
         m.step(m.next_dt())
@@ -56,16 +61,17 @@ def bench_grid(fidelity: str, steps: int = 10, closure: str = "deardorff") -> di
     ns_step = t_step / n * 1e9
     floor = 3.0 * t_p / n * 1e9
     m.close()
-    return {"shape": list(m.grid.shape), "fidelity": fidelity, "closure": closure, "steps": steps,
+    return {"shape": list(m.grid.shape), "fidelity": fidelity, "closure": closure,
+            "advection_order": advection_order, "steps": steps,
             "ns_per_cell_step": ns_step, "mean_ns_per_cell_step": statistics.fmean(ts) / n * 1e9,
             "ms_per_step": t_step * 1e3, "pressure_floor_ns_per_cell": floor, "ratio": ns_step / floor}
 
 
-def bench_flow(steps: int = 10, big: bool = True, closures=("deardorff",)) -> dict:
+def bench_flow(steps: int = 10, big: bool = True, closures=("deardorff",), orders=(2,)) -> dict:
     """Run the benchmark; returns {"threads", "grids": [...], "max_rss_mb"} (one entry of grids
-    per grid and closure)."""
-    grids = [bench_grid(fid, steps, c) for label, fid in GRIDS if big or fid != "paper"
-             for c in closures]
+    per grid, closure and advection order)."""
+    grids = [bench_grid(fid, steps, c, o) for label, fid in GRIDS if big or fid != "paper"
+             for c in closures for o in orders]
     rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0   # Linux: kB
     return {"threads": numba.get_num_threads(), "threading_layer": _layer(), "grids": grids,
             "max_rss_mb": rss_mb}
@@ -82,7 +88,8 @@ def format_report(res: dict) -> str:
     lines = [f"numba threads: {res['threads']} (layer {res['threading_layer']})"]
     for g in res["grids"]:
         nx, ny, nz = g["shape"]
-        lines.append(f"{nx}x{ny}x{nz} {g['closure']}: {g['ms_per_step']:.1f} ms/step (median of "
+        lines.append(f"{nx}x{ny}x{nz} {g['closure']} order {g['advection_order']}: "
+                     f"{g['ms_per_step']:.1f} ms/step (median of "
                      f"{g['steps']}), {g['ns_per_cell_step']:.0f} ns/cell-step (mean "
                      f"{g['mean_ns_per_cell_step']:.0f}); pressure floor (3 x FFT pair + "
                      f"tridiagonal) {g['pressure_floor_ns_per_cell']:.0f} ns/cell; ratio {g['ratio']:.2f}")
@@ -90,8 +97,9 @@ def format_report(res: dict) -> str:
     return "\n".join(lines)
 
 
-def main(steps: int = 10, big: bool = True, as_json: bool = False, closures=("deardorff",)) -> None:
-    res = bench_flow(steps, big, tuple(closures))
+def main(steps: int = 10, big: bool = True, as_json: bool = False, closures=("deardorff",),
+         orders=(2,)) -> None:
+    res = bench_flow(steps, big, tuple(closures), tuple(orders))
     print(json.dumps(res) if as_json else format_report(res))
 
 

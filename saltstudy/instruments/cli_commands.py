@@ -15,16 +15,25 @@ def register(app: typer.Typer) -> None:
              big: bool = typer.Option(True, "--big/--no-big", help="include the paper's 200x150x100 grid"),
              as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout"),
              closure: list[str] = typer.Option(["deardorff"], "--closure",
-                                               help="SGS closure (closure.model); repeat to compare")) -> None:
+                                               help="SGS closure (closure.model); repeat to compare"),
+             advection_order: list[int] = typer.Option(
+                 [2], "--advection-order",
+                 help="horizontal advection order (time.advection_order); repeat to compare")) -> None:
         """Median wall time per LES step on 64x48x48 and 200x150x100, per cell-step, vs the FFT floor."""
         from .bench import main
+        from ..solver.advection import ADVECTION_ORDERS
         from ..solver.closure import CLOSURES
         bad = [c for c in closure if c not in CLOSURES]
         if bad:
             typer.echo(f"error: --closure: unknown closure {bad[0]!r} (known: {', '.join(CLOSURES)})",
                        err=True)
             raise typer.Exit(2)
-        main(steps=steps, big=big, as_json=as_json, closures=closure)
+        bad_order = [o for o in advection_order if o not in ADVECTION_ORDERS]
+        if bad_order:
+            typer.echo(f"error: --advection-order: {bad_order[0]} is not one of {ADVECTION_ORDERS}",
+                       err=True)
+            raise typer.Exit(2)
+        main(steps=steps, big=big, as_json=as_json, closures=closure, orders=advection_order)
 
     from .bench_particles import register_bench
     register_bench(bench_app)

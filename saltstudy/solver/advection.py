@@ -1,4 +1,5 @@
-"""Second-order, energy-conserving centred advection on the staggered grid stretched in z.
+"""Energy-conserving centred advection on the staggered grid stretched in z: second order, or
+fourth order in x and y.
 
 Flux form on each staggered control volume (Harlow & Welch 1965; Morinishi et al. 1998, J. Comput.
 Phys. 143, 90, for the energy argument; Verstappen & Veldman 2003 for non-uniform grids): the
@@ -17,6 +18,40 @@ face k (1..nz-1) has volume dx dy dz_f[k] with dz_f[k] = (dz_c[k-1] + dz_c[k]) /
 volume flux through the side of a w volume is the thickness-weighted sum of the two u (v) half faces,
 which is what makes the w-volume continuity the mean of the two cell divergences.
 
+Fourth order in x and y (``*4_at``; ``FlowNumerics.advection_order`` = 4): the fully conservative
+staggered scheme of Morinishi et al. (1998; their fourth-order divergence form), the paper's model
+(ARPS, Xue et al. 2000) advecting momentum at fourth order in the horizontal. In x_j = x or y, with
+delta_n f / delta_n x_j = (f(x_j + n h/2) - f(x_j - n h/2)) / (n h) and the interpolation
+f^{n x_j} = (f(x_j + n h/2) + f(x_j - n h/2)) / 2,
+
+    -A_i = 9/8 delta_1(F_j u_i^{1 x_j}) / delta_1 x_j - 1/8 delta_3(F_j u_i^{3 x_j}) / delta_3 x_j
+           + delta_z(F_z u_i^{z}) / dz                 (second order in z, as above),
+    F_j = 9/8 u_j^{1 x_i} - 1/8 u_j^{3 x_i}            (the advecting velocity, fourth-order
+                                                         interpolated in the advected component's
+                                                         direction x_i when x_i is horizontal),
+
+and for w (x_i = z) F_j is the thickness-weighted z mean of u_j of the second-order scheme. The wide
+differences reach three points either side (u[i-3] ... u[i+3]). The leading errors of the two
+products (h^2/8 and 9 h^2/8 times (F u_i'')') cancel between the 9/8 and 1/8 terms, so the x and y
+parts are fourth order; the z part stays second order on the stretched grid. The same summation by
+parts gives
+
+    sum_cv V u_i A_i = -sum_cv V (u_i^2 / 2) I_i(D4)   with D4 = 9/8 delta_1 u/delta_1 x
+                       - 1/8 delta_3 u/delta_3 x + (the same in y) + delta_z w / dz_c
+
+(I_i: the fourth-order interpolation in x or y for u, v; the thickness-weighted z mean for w), so
+the advection conserves kinetic energy to round-off when D4 = 0 at every cell centre, the
+divergence the fourth-order projection enforces (pressure.PressureSolver with ``order=4``), and
+momentum (the flux form) always. With the second-order projection (D2 = 0, D4 != 0) it does not:
+the energy rate is 2.5e-4 of sum|V u_i A_i| in a random solenoidal field, 7e-6 in the smoke flow
+after 40 steps (tests/test_solver_advection4.py). Not exact: the time scheme (RK3 with a
+projection per stage; in the inviscid test the loss over a fixed time falls 4.7-5.2x per halving
+of dt, at either order), and the second-order divergence D2, O(dx^2) but not zero after the
+fourth-order projection. The SGS TKE follows (``adv_scalar4_at``): u, v on the faces need no
+interpolation, the flux form conserves e, and with D4 = 0 it conserves sum(V e^2) and leaves a
+uniform e uniform (the second-order scalar flux of a D4-free flow would not: its tendency of a
+uniform e is -e D2 u, measured 0.18 |u|max/dx in a random solenoidal field).
+
 The ``*_at`` functions are per-point kernels (inlined into the fused stage kernel of stepper.py);
 ``advection_tendencies`` evaluates them over the whole grid (tests, diagnostics). Units: m s^-2
 (momentum), m^2 s^-3 (SGS TKE e).
@@ -32,8 +67,17 @@ from .._jit import jit_with, pjit
 #: a dozen array arguments per grid point costs more than the stencil itself)
 device = jit_with(inline="always")
 
-__all__ = ["adv_u_at", "adv_v_at", "adv_w_at", "adv_scalar_at", "advection_tendencies",
-           "scalar_advection"]
+__all__ = ["adv_u_at", "adv_v_at", "adv_w_at", "adv_scalar_at", "adv_u4_at", "adv_v4_at",
+           "adv_w4_at", "adv_scalar4_at", "wrap_down", "wrap_up", "ADVECTION_ORDERS",
+           "advection_tendencies", "scalar_advection"]
+
+#: the horizontal orders of the advection (config.TimeStepping.advection_order)
+ADVECTION_ORDERS = (2, 4)
+
+#: Morinishi et al.'s weights: 9/8 on the narrow difference (or interpolation), 1/8 on the wide
+#: one; C3 = 1/8 * 1/3 folds the wide difference's 1/(3 h) in
+C1 = 9.0 / 8.0
+C3 = 1.0 / 24.0
 
 
 @device
@@ -120,8 +164,170 @@ def adv_scalar_at(s, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_
     return -((fe - fw) * rdx + (fn - fs) * rdy + (ft - fb) * rdzc_k)
 
 
+@device
+def wrap_down(im, n):
+    """(im - 1) mod n for 0 <= im < n, without an integer division in the inner loops."""
+    return im - 1 if im > 0 else n - 1
+
+
+@device
+def wrap_up(ip, n):
+    """(ip + 1) mod n for 0 <= ip < n."""
+    return ip + 1 if ip + 1 < n else 0
+
+
+@device
+def _mid4(a, b, c, d):
+    """Fourth-order interpolation to the midpoint of b and c (a, d: the outer neighbours):
+    9/8 (b + c)/2 - 1/8 (a + d)/2."""
+    return 0.5 * (C1 * (b + c) - 0.125 * (a + d))
+
+
+@device
+def _div4(fm3, fm1, fp1, fp3, qm3, qm1, qc, qp1, qp3):
+    """9/8 delta_1(F q^1) - 1/8 delta_3(F q^3) times h (divide by h): F the advecting velocity at
+    -3h/2, -h/2, +h/2, +3h/2 from the point, q the advected quantity at -3h, -h, 0, +h, +3h."""
+    return (C1 * (fp1 * (qc + qp1) - fm1 * (qm1 + qc))
+            - C3 * (fp3 * (qc + qp3) - fm3 * (qm3 + qc))) * 0.5
+
+
+@device
+def adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
+    """-div(u u) at the u point (i, j, k) [m s^-2], fourth order in x and y (module doc): the
+    advecting u at the cell centres i-2 ... i+1 and v, w at x_f[i], fourth-order interpolated in x.
+    Arguments as adv_u_at; the second and third neighbours are found here (the stage kernels'
+    per-point calls are at numba's 30-argument limit for inlining)."""
+    nx, ny = u.shape[0], u.shape[1]
+    im2 = wrap_down(im, nx)
+    im3 = wrap_down(im2, nx)
+    ip2 = wrap_up(ip, nx)
+    ip3 = wrap_up(ip2, nx)
+    jm2 = wrap_down(jm, ny)
+    jm3 = wrap_down(jm2, ny)
+    jp2 = wrap_up(jp, ny)
+    jp3 = wrap_up(jp2, ny)
+    uc = u[i, j, k]
+    # x: u advects u; centres i-2, i-1, i, i+1 lie at -3/2, -1/2, +1/2, +3/2 dx
+    um3 = u[im3, j, k]
+    um2 = u[im2, j, k]
+    um1 = u[im, j, k]
+    up1 = u[ip, j, k]
+    up2 = u[ip2, j, k]
+    up3 = u[ip3, j, k]
+    ax = _div4(_mid4(um3, um2, um1, uc), _mid4(um2, um1, uc, up1), _mid4(um1, uc, up1, up2),
+               _mid4(uc, up1, up2, up3), um3, um1, uc, up1, up3)
+    # y: v at the faces y_f[j-1], y_f[j], y_f[j+1], y_f[j+2] interpolated to x_f[i]
+    ay = _div4(_mid4(v[im2, jm, k], v[im, jm, k], v[i, jm, k], v[ip, jm, k]),
+               _mid4(v[im2, j, k], v[im, j, k], v[i, j, k], v[ip, j, k]),
+               _mid4(v[im2, jp, k], v[im, jp, k], v[i, jp, k], v[ip, jp, k]),
+               _mid4(v[im2, jp2, k], v[im, jp2, k], v[i, jp2, k], v[ip, jp2, k]),
+               u[i, jm3, k], u[i, jm, k], uc, u[i, jp, k], u[i, jp3, k])
+    ft = 0.0
+    fb = 0.0
+    if top:
+        ft = _mid4(w[im2, j, k + 1], w[im, j, k + 1], w[i, j, k + 1], w[ip, j, k + 1]) * 0.5 * (
+            uc + u[i, j, k + 1])
+    if bot:
+        fb = _mid4(w[im2, j, k], w[im, j, k], w[i, j, k], w[ip, j, k]) * 0.5 * (u[i, j, k - 1] + uc)
+    return -(ax * rdx + ay * rdy + (ft - fb) * rdzc_k)
+
+
+@device
+def adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
+    """-div(u v) at the v point (i, j, k) [m s^-2], fourth order in x and y (adv_u4_at with x and
+    y exchanged)."""
+    nx, ny = v.shape[0], v.shape[1]
+    im2 = wrap_down(im, nx)
+    im3 = wrap_down(im2, nx)
+    ip2 = wrap_up(ip, nx)
+    ip3 = wrap_up(ip2, nx)
+    jm2 = wrap_down(jm, ny)
+    jm3 = wrap_down(jm2, ny)
+    jp2 = wrap_up(jp, ny)
+    jp3 = wrap_up(jp2, ny)
+    vc = v[i, j, k]
+    # x: u at the faces x_f[i-1], x_f[i], x_f[i+1], x_f[i+2] interpolated to y_f[j]
+    ax = _div4(_mid4(u[im, jm2, k], u[im, jm, k], u[im, j, k], u[im, jp, k]),
+               _mid4(u[i, jm2, k], u[i, jm, k], u[i, j, k], u[i, jp, k]),
+               _mid4(u[ip, jm2, k], u[ip, jm, k], u[ip, j, k], u[ip, jp, k]),
+               _mid4(u[ip2, jm2, k], u[ip2, jm, k], u[ip2, j, k], u[ip2, jp, k]),
+               v[im3, j, k], v[im, j, k], vc, v[ip, j, k], v[ip3, j, k])
+    # y: v advects v; centres j-2, j-1, j, j+1 lie at -3/2, -1/2, +1/2, +3/2 dy
+    vm3 = v[i, jm3, k]
+    vm2 = v[i, jm2, k]
+    vm1 = v[i, jm, k]
+    vp1 = v[i, jp, k]
+    vp2 = v[i, jp2, k]
+    vp3 = v[i, jp3, k]
+    ay = _div4(_mid4(vm3, vm2, vm1, vc), _mid4(vm2, vm1, vc, vp1), _mid4(vm1, vc, vp1, vp2),
+               _mid4(vc, vp1, vp2, vp3), vm3, vm1, vc, vp1, vp3)
+    ft = 0.0
+    fb = 0.0
+    if top:
+        ft = _mid4(w[i, jm2, k + 1], w[i, jm, k + 1], w[i, j, k + 1], w[i, jp, k + 1]) * 0.5 * (
+            vc + v[i, j, k + 1])
+    if bot:
+        fb = _mid4(w[i, jm2, k], w[i, jm, k], w[i, j, k], w[i, jp, k]) * 0.5 * (v[i, j, k - 1] + vc)
+    return -(ax * rdx + ay * rdy + (ft - fb) * rdzc_k)
+
+
+@device
+def adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
+    """-div(u w) at the interior w point (i, j, k), 1 <= k <= nz-1 [m s^-2], fourth order in x and
+    y: the advecting u (v) on the faces x_f[i-1] ... x_f[i+2] (y_f[j-1] ... y_f[j+2]) as the
+    thickness-weighted z mean of adv_w_at (hzm, hzp as there), the z part as adv_w_at."""
+    nx, ny = w.shape[0], w.shape[1]
+    im2 = wrap_down(im, nx)
+    im3 = wrap_down(im2, nx)
+    ip2 = wrap_up(ip, nx)
+    ip3 = wrap_up(ip2, nx)
+    jm2 = wrap_down(jm, ny)
+    jm3 = wrap_down(jm2, ny)
+    jp2 = wrap_up(jp, ny)
+    jp3 = wrap_up(jp2, ny)
+    wc = w[i, j, k]
+    ax = _div4(hzm * u[im, j, k - 1] + hzp * u[im, j, k],
+               hzm * u[i, j, k - 1] + hzp * u[i, j, k],
+               hzm * u[ip, j, k - 1] + hzp * u[ip, j, k],
+               hzm * u[ip2, j, k - 1] + hzp * u[ip2, j, k],
+               w[im3, j, k], w[im, j, k], wc, w[ip, j, k], w[ip3, j, k])
+    ay = _div4(hzm * v[i, jm, k - 1] + hzp * v[i, jm, k],
+               hzm * v[i, j, k - 1] + hzp * v[i, j, k],
+               hzm * v[i, jp, k - 1] + hzp * v[i, jp, k],
+               hzm * v[i, jp2, k - 1] + hzp * v[i, jp2, k],
+               w[i, jm3, k], w[i, jm, k], wc, w[i, jp, k], w[i, jp3, k])
+    wt = 0.5 * (wc + w[i, j, k + 1])
+    wb = 0.5 * (w[i, j, k - 1] + wc)
+    return -(ax * rdx + ay * rdy + (wt * wt - wb * wb) * rdzf_k)
+
+
+@device
+def adv_scalar4_at(s, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
+    """-div(u s) for a cell-centred scalar, fourth order in x and y: u on the faces x_f[i-1] ...
+    x_f[i+2] carries s^{1x} and s^{3x} (module doc); z as adv_scalar_at."""
+    nx, ny = s.shape[0], s.shape[1]
+    im3 = wrap_down(wrap_down(im, nx), nx)
+    ip2 = wrap_up(ip, nx)
+    ip3 = wrap_up(ip2, nx)
+    jm3 = wrap_down(wrap_down(jm, ny), ny)
+    jp2 = wrap_up(jp, ny)
+    jp3 = wrap_up(jp2, ny)
+    sc = s[i, j, k]
+    ax = _div4(u[im, j, k], u[i, j, k], u[ip, j, k], u[ip2, j, k],
+               s[im3, j, k], s[im, j, k], sc, s[ip, j, k], s[ip3, j, k])
+    ay = _div4(v[i, jm, k], v[i, j, k], v[i, jp, k], v[i, jp2, k],
+               s[i, jm3, k], s[i, jm, k], sc, s[i, jp, k], s[i, jp3, k])
+    ft = 0.0
+    fb = 0.0
+    if top:
+        ft = w[i, j, k + 1] * 0.5 * (sc + s[i, j, k + 1])
+    if bot:
+        fb = w[i, j, k] * 0.5 * (s[i, j, k - 1] + sc)
+    return -(ax * rdx + ay * rdy + (ft - fb) * rdzc_k)
+
+
 @pjit
-def _advection_kernel(u, v, w, dx, dy, dzc, dzf, au, av, aw):
+def _advection_kernel(u, v, w, dx, dy, dzc, dzf, au, av, aw, order):
     nx, ny, nz = u.shape
     rdx = 1.0 / dx
     rdy = 1.0 / dy
@@ -133,19 +339,31 @@ def _advection_kernel(u, v, w, dx, dy, dzc, dzf, au, av, aw):
             jp = (j + 1) % ny
             for k in range(nz):
                 r = 1.0 / dzc[k]
-                au[i, j, k] = adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1, k > 0, rdx, rdy, r)
-                av[i, j, k] = adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1, k > 0, rdx, rdy, r)
+                if order == 4:
+                    au[i, j, k] = adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1, k > 0, rdx,
+                                            rdy, r)
+                    av[i, j, k] = adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1, k > 0, rdx,
+                                            rdy, r)
+                else:
+                    au[i, j, k] = adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1, k > 0, rdx,
+                                           rdy, r)
+                    av[i, j, k] = adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1, k > 0, rdx,
+                                           rdy, r)
             aw[i, j, 0] = 0.0
             aw[i, j, nz] = 0.0
             for k in range(1, nz):
                 hzm = 0.5 * dzc[k - 1] / dzf[k]
                 hzp = 0.5 * dzc[k] / dzf[k]
-                aw[i, j, k] = adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp,
-                                       1.0 / dzf[k])
+                if order == 4:
+                    aw[i, j, k] = adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp,
+                                            1.0 / dzf[k])
+                else:
+                    aw[i, j, k] = adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp,
+                                           1.0 / dzf[k])
 
 
 @pjit
-def _scalar_kernel(s, u, v, w, dx, dy, dzc, out):
+def _scalar_kernel(s, u, v, w, dx, dy, dzc, out, order):
     nx, ny, nz = s.shape
     for i in prange(nx):
         im = (i - 1) % nx
@@ -154,21 +372,33 @@ def _scalar_kernel(s, u, v, w, dx, dy, dzc, out):
             jm = (j - 1) % ny
             jp = (j + 1) % ny
             for k in range(nz):
-                out[i, j, k] = adv_scalar_at(s, u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1, k > 0, 1.0 / dx,
-                                             1.0 / dy, 1.0 / dzc[k])
+                if order == 4:
+                    out[i, j, k] = adv_scalar4_at(s, u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1,
+                                                  k > 0, 1.0 / dx, 1.0 / dy, 1.0 / dzc[k])
+                else:
+                    out[i, j, k] = adv_scalar_at(s, u, v, w, i, j, k, im, ip, jm, jp, k < nz - 1,
+                                                 k > 0, 1.0 / dx, 1.0 / dy, 1.0 / dzc[k])
 
 
-def advection_tendencies(grid, u, v, w):
-    """(A_u, A_v, A_w) = -div(u u_i) on the u, v, w points [m s^-2] (A_w zero at the end faces)."""
+def _check_order(order: int) -> int:
+    if order not in ADVECTION_ORDERS:
+        raise ValueError(f"advection order must be one of {ADVECTION_ORDERS} (got {order!r})")
+    return int(order)
+
+
+def advection_tendencies(grid, u, v, w, order: int = 2):
+    """(A_u, A_v, A_w) = -div(u u_i) on the u, v, w points [m s^-2] (A_w zero at the end faces);
+    ``order``: 2, or 4 in x and y (module doc)."""
     au = np.empty_like(u)
     av = np.empty_like(v)
     aw = np.empty_like(w)
-    _advection_kernel(u, v, w, grid.dx, grid.dy, grid.dz_c, grid.dz_f, au, av, aw)
+    _advection_kernel(u, v, w, grid.dx, grid.dy, grid.dz_c, grid.dz_f, au, av, aw,
+                      _check_order(order))
     return au, av, aw
 
 
-def scalar_advection(grid, s, u, v, w):
-    """-div(u s) for a cell-centred scalar."""
+def scalar_advection(grid, s, u, v, w, order: int = 2):
+    """-div(u s) for a cell-centred scalar; ``order``: 2, or 4 in x and y."""
     out = np.empty_like(s)
-    _scalar_kernel(s, u, v, w, grid.dx, grid.dy, grid.dz_c, out)
+    _scalar_kernel(s, u, v, w, grid.dx, grid.dy, grid.dz_c, out, _check_order(order))
     return out

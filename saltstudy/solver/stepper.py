@@ -29,7 +29,8 @@ import numpy as np
 from numba import prange
 
 from .._jit import jit_with, pjit
-from .advection import adv_scalar_at, adv_u_at, adv_v_at, adv_w_at
+from .advection import (ADVECTION_ORDERS, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at,
+                        adv_v4_at, adv_v_at, adv_w4_at, adv_w_at)
 from .closure import CLOSURES, NoClosure
 from .damping import damping_profiles
 from .pressure import PressureSolver
@@ -48,10 +49,14 @@ class FlowNumerics:
 
     ``vertical_diffusion``: "explicit" or "implicit" (vertical_diffusion.py); ``implicit_weight``
     theta in [1/2, 1] of the implicit scheme (1/2: Crank-Nicolson in each stage, second order; 1:
-    backward Euler in each stage); ``advection``: off only in tests of the other terms."""
+    backward Euler in each stage); ``advection``: off only in tests of the other terms;
+    ``advection_order``: 2, or 4 in x and y (Morinishi et al. 1998, advection.py) with the
+    projection's divergence and gradient of the same order in x and y (pressure.py), under which
+    the advection of momentum and of the SGS TKE conserves their quadratic invariants exactly."""
     vertical_diffusion: str = "implicit"
     implicit_weight: float = 0.5
     advection: bool = True
+    advection_order: int = 2
 
     def __post_init__(self):
         if self.vertical_diffusion not in VERTICAL_DIFFUSION:
@@ -59,11 +64,15 @@ class FlowNumerics:
                              f"(got {self.vertical_diffusion!r})")
         if not 0.5 <= self.implicit_weight <= 1.0:
             raise ValueError(f"implicit_weight must lie in [0.5, 1] (got {self.implicit_weight!r})")
+        if self.advection_order not in ADVECTION_ORDERS:
+            raise ValueError(f"advection_order must be one of {ADVECTION_ORDERS} "
+                             f"(got {self.advection_order!r})")
 
     @classmethod
     def from_time(cls, ts) -> "FlowNumerics":
         """From a fidelity's ``time`` section (config.TimeStepping)."""
-        return cls(vertical_diffusion=ts.vertical_diffusion, implicit_weight=ts.implicit_weight)
+        return cls(vertical_diffusion=ts.vertical_diffusion, implicit_weight=ts.implicit_weight,
+                   advection_order=ts.advection_order)
 
 
 @dataclass(frozen=True)
@@ -87,13 +96,17 @@ device = jit_with(inline="always")
 
 @device
 def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, top, bot, cdt,
-              rdx, rdy, dzc, dzf, fck, fcuk, srck, with_adv, with_diff):
+              rdx, rdy, dzc, dzf, fck, fcuk, srck, adv, with_diff):
     # srck = gx + fcuk u_drive (drive and damping target folded: CPython passes calls of more
-    # than 30 arguments as a tuple, which numba cannot inline)
+    # than 30 arguments as a tuple, which numba cannot inline); adv: the horizontal order of the
+    # advection, 2 or 4, 0 for none (one argument for both switches, for the same reason)
     r = 1.0 / dzc[k]
     tu = srck - fcuk * u[i, j, k]
     tv = -fck * v[i, j, k]
-    if with_adv:
+    if adv == 4:
+        tu += adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
+        tv += adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
+    elif adv == 2:
         tu += adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
         tv += adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
     if with_diff:
@@ -103,60 +116,100 @@ def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, 
     vo[i, j, k] = vb[i, j, k] + cdt * tv
 
 
+@device
+def _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt, rdx, rdy, dzc,
+                dzf, fc, fcu, ff, u_drive, gx, adv, with_diff):
+    # one column of _momentum_stage; the kernel calls it with a literal adv = 4, so that each
+    # inner k loop is compiled for one order: with the order tested inside the k loops the
+    # second-order step cost 150 against 116 ns per cell-step (reduced grid, one thread,
+    # `saltstudy bench flow --no-big`), most of it in _tke_stage (6.3 -> 15.5 ns per cell and stage)
+    ny, nz = u.shape[1], u.shape[2]
+    jm = j - 1 if j > 0 else ny - 1
+    jp = j + 1 if j + 1 < ny else 0
+    _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, 0, im, ip, jm, jp, True, False,
+              cdt, rdx, rdy, dzc, dzf, fc[0], fcu[0], gx + fcu[0] * u_drive, adv, with_diff)
+    for k in range(1, nz - 1):
+        _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, True,
+                  True, cdt, rdx, rdy, dzc, dzf, fc[k], fcu[k], gx + fcu[k] * u_drive, adv,
+                  with_diff)
+    _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, nz - 1, im, ip, jm, jp, False,
+              True, cdt, rdx, rdy, dzc, dzf, fc[nz - 1], fcu[nz - 1], gx + fcu[nz - 1] * u_drive,
+              adv, with_diff)
+    wo[i, j, 0] = 0.0
+    wo[i, j, nz] = 0.0
+    for k in range(1, nz):
+        tw = -ff[k] * w[i, j, k]
+        if adv == 4:
+            hzm = 0.5 * dzc[k - 1] / dzf[k]
+            hzp = 0.5 * dzc[k] / dzf[k]
+            tw += adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+        elif adv == 2:
+            hzm = 0.5 * dzc[k - 1] / dzf[k]
+            hzp = 0.5 * dzc[k] / dzf[k]
+            tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+        if with_diff:
+            tw += diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
+        wo[i, j, k] = wb[i, j, k] + cdt * tw
+
+
 @pjit
 def _momentum_stage(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, rdy, dzc, dzf,
-                    fc, fcu, ff, u_drive, gx, with_adv, with_diff):
+                    fc, fcu, ff, u_drive, gx, with_adv, with_diff, order=2):
     """uo = ub + cdt (advection + SGS diffusion + damping + drive)(u) for u, v, w (interior w only).
 
     Damping rates: fcu for u (towards u_drive), fc for v (towards 0) at the centres, ff for w at the
-    faces; gx [m s^-2] a uniform streamwise body force (mean pressure gradient, -1/rho dP/dx).
+    faces; gx [m s^-2] a uniform streamwise body force (mean pressure gradient, -1/rho dP/dx);
+    order: the horizontal order of the advection, 2 or 4 (advection.py).
 
     The first and last levels are peeled off with literal top/bot flags, so that the interior
     k loop is branch-free.
     """
     nx, ny, nz = u.shape
+    adv = order if with_adv else 0
     for i in prange(nx):
         im = (i - 1) % nx
         ip = (i + 1) % nx
         for j in range(ny):
-            jm = (j - 1) % ny
-            jp = (j + 1) % ny
-            _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, 0, im, ip, jm, jp, True, False,
-                      cdt, rdx, rdy, dzc, dzf, fc[0], fcu[0], gx + fcu[0] * u_drive, with_adv, with_diff)
-            for k in range(1, nz - 1):
-                _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, True,
-                          True, cdt, rdx, rdy, dzc, dzf, fc[k], fcu[k], gx + fcu[k] * u_drive, with_adv,
-                          with_diff)
-            _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, nz - 1, im, ip, jm, jp, False,
-                      True, cdt, rdx, rdy, dzc, dzf, fc[nz - 1], fcu[nz - 1], gx + fcu[nz - 1] * u_drive,
-                      with_adv, with_diff)
-            wo[i, j, 0] = 0.0
-            wo[i, j, nz] = 0.0
-            for k in range(1, nz):
-                tw = -ff[k] * w[i, j, k]
-                if with_adv:
-                    hzm = 0.5 * dzc[k - 1] / dzf[k]
-                    hzp = 0.5 * dzc[k] / dzf[k]
-                    tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
-                if with_diff:
-                    tw += diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
-                wo[i, j, k] = wb[i, j, k] + cdt * tw
+            if adv == 4:
+                _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt,
+                            rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, 4, with_diff)
+            else:
+                _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt,
+                            rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, adv, with_diff)
 
 
 @device
 def _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, rdzc,
-             rdzf, rlog, ceps_lk, e_min, mdu, mdv):
-    te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
+             rdzf, rlog, ceps_lk, e_min, mdu, mdv, order):
+    if order == 4:
+        te = adv_scalar4_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
+    else:
+        te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     te += tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
                           rlog, ceps_lk, mdu, mdv)
     val = eb[i, j, k] + cdt * te
     eo[i, j, k] = val if val > e_min else e_min
 
 
+@device
+def _e_column(e, u, v, w, nu, rv, eb, eo, i, j, im, ip, jm, jp, cdt, rdx, rdy, rdzc, rdzf, rlog,
+              ceps_l, e_min, mdu, mdv, order):
+    # one column, levels peeled; the stage kernel calls it with a literal order (as _uvw_column)
+    nz = e.shape[2]
+    _e_point(e, u, v, w, nu, rv, eb, eo, i, j, 0, im, ip, jm, jp, True, False, cdt, rdx, rdy, rdzc,
+             rdzf, rlog, ceps_l[0], e_min, mdu, mdv, order)
+    for k in range(1, nz - 1):
+        _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, True, True, cdt, rdx, rdy, rdzc,
+                 rdzf, rlog, ceps_l[k], e_min, mdu, mdv, order)
+    _e_point(e, u, v, w, nu, rv, eb, eo, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, rdx, rdy,
+             rdzc, rdzf, rlog, ceps_l[nz - 1], e_min, mdu, mdv, order)
+
+
 @pjit
-def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min, mdu, mdv):
+def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min, mdu, mdv,
+               order=2):
     """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above);
-    rdzc, rdzf: 1/dz_c, 1/dz_f."""
+    rdzc, rdzf: 1/dz_c, 1/dz_f; order: the horizontal order of the advection, 2 or 4."""
     nx, ny, nz = e.shape
     for ii in prange(nx):
         i = np.int64(ii)  # signed: strain_sq_at indexes with i directly
@@ -165,13 +218,12 @@ def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps
         for j in range(ny):
             jm = (j - 1) % ny
             jp = (j + 1) % ny
-            _e_point(e, u, v, w, nu, rv, eb, eo, i, j, 0, im, ip, jm, jp, True, False, cdt, rdx, rdy,
-                     rdzc, rdzf, rlog, ceps_l[0], e_min, mdu, mdv)
-            for k in range(1, nz - 1):
-                _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, True, True, cdt, rdx, rdy,
-                         rdzc, rdzf, rlog, ceps_l[k], e_min, mdu, mdv)
-            _e_point(e, u, v, w, nu, rv, eb, eo, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, rdx,
-                     rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], e_min, mdu, mdv)
+            if order == 4:
+                _e_column(e, u, v, w, nu, rv, eb, eo, i, j, im, ip, jm, jp, cdt, rdx, rdy, rdzc, rdzf,
+                          rlog, ceps_l, e_min, mdu, mdv, 4)
+            else:
+                _e_column(e, u, v, w, nu, rv, eb, eo, i, j, im, ip, jm, jp, cdt, rdx, rdy, rdzc, rdzf,
+                          rlog, ceps_l, e_min, mdu, mdv, 2)
 
 
 class Stepper:
@@ -194,7 +246,8 @@ class Stepper:
                                               boundaries.damping_timescale)
         self.f_cu = self.f_c if boundaries.damp_u else np.zeros_like(self.f_c)
         self.body_force = float(boundaries.body_force)
-        self.pressure = PressureSolver(grid, workers=workers)
+        self.order = int(numerics.advection_order)
+        self.pressure = PressureSolver(grid, workers=workers, order=self.order)
         self.diffusing = bool(self.closure.diffuses)
         self.implicit = self.diffusing and numerics.vertical_diffusion == "implicit"
         self.theta = float(numerics.implicit_weight)
@@ -232,18 +285,19 @@ class Stepper:
         if self.implicit:
             momentum_stage_implicit(gu, gv, gw, self.nu, clo.rv, self.taux, self.tauy, bu, bv, bw, ou,
                                     ov, ow, p, cdt, self.theta, rdx, rdy, g.dz_c, g.dz_f, self.f_c,
-                                    self.f_cu, self.f_f, u_drive, self.body_force, adv)
+                                    self.f_cu, self.f_f, u_drive, self.body_force, adv, self.order)
         else:
             _momentum_stage(gu, gv, gw, self.nu, clo.rv, self.taux, self.tauy, bu, bv, bw, ou, ov, ow,
                             cdt, rdx, rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive,
-                            self.body_force, adv, self.diffusing)
+                            self.body_force, adv, self.diffusing, self.order)
         clo.mean_field(ou, ov, cdt)
         if clo.prognostic_e and self.implicit:
             tke_stage_implicit(ge, gu, gv, gw, self.nu, clo.rv, be, oe, cdt, self.theta, rdx, rdy,
-                               g.rdz_c, g.rdz_f, clo.rlog, clo.ceps_l, E_MIN, clo.mdu, clo.mdv)
+                               g.rdz_c, g.rdz_f, clo.rlog, clo.ceps_l, E_MIN, clo.mdu, clo.mdv,
+                               self.order)
         elif clo.prognostic_e:
             _tke_stage(ge, gu, gv, gw, self.nu, clo.rv, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f,
-                       clo.rlog, clo.ceps_l, E_MIN, clo.mdu, clo.mdv)
+                       clo.rlog, clo.ceps_l, E_MIN, clo.mdu, clo.mdv, self.order)
         elif oe is not be and self.closure.dynamic is None:
             oe[...] = be
         self.pressure.project(ou, ov, ow, p if store_p else None, cdt, increment=self.implicit)

@@ -49,7 +49,8 @@ import numpy as np
 from numba import prange
 
 from .._jit import jit_with, pjit
-from .advection import adv_scalar_at, adv_u_at, adv_v_at, adv_w_at
+from .advection import (C1, C3, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at, adv_v4_at,
+                        adv_v_at, adv_w4_at, adv_w_at, wrap_down)
 from .sgs import diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at, vertical_coupling
 
 __all__ = ["momentum_stage_implicit", "tke_stage_implicit", "solve_tridiagonal",
@@ -79,14 +80,29 @@ def solve_tridiagonal(lo, di, up, r, cp, k0, k1):
 
 @device
 def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, top, bot, cdt, theta,
-             rdx, rdy, dzc, dzf, fck, fcuk, srck, with_adv, S):
+             rdx, rdy, dzc, dzf, fck, fcuk, srck, horder, S):
     """Row k of the u and v systems of column (i, j) into the scratch S: right-hand side,
-    sub-, main and super-diagonal (S[0:4] for u, S[4:8] for v); p: the reference pressure."""
+    sub-, main and super-diagonal (S[0:4] for u, S[4:8] for v); p: the reference pressure.
+    horder: the horizontal order (2 or 4) of the advection and of the carried pressure gradient,
+    which must be the projection's (pressure.py); negative: the same order without advection
+    (one argument for both: a call of more than 30 arguments cannot be inlined)."""
     r = 1.0 / dzc[k]
     pc = p[i, j, k]
-    tu = srck - fcuk * u[i, j, k] - (pc - p[im, j, k]) * rdx
-    tv = -fck * v[i, j, k] - (pc - p[i, jm, k]) * rdy
-    if with_adv:
+    if horder == 4 or horder == -4:
+        # G4 of the projection: the carried gradient is then one the projection can remove
+        im2 = wrap_down(im, p.shape[0])
+        jm2 = wrap_down(jm, p.shape[1])
+        gpx = C1 * (pc - p[im, j, k]) - C3 * (p[ip, j, k] - p[im2, j, k])
+        gpy = C1 * (pc - p[i, jm, k]) - C3 * (p[i, jp, k] - p[i, jm2, k])
+        tu = srck - fcuk * u[i, j, k] - gpx * rdx
+        tv = -fck * v[i, j, k] - gpy * rdy
+    else:
+        tu = srck - fcuk * u[i, j, k] - (pc - p[im, j, k]) * rdx
+        tv = -fck * v[i, j, k] - (pc - p[i, jm, k]) * rdy
+    if horder == 4:
+        tu += adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
+        tv += adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
+    elif horder == 2:
         tu += adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
         tv += adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
     xu, au, cu = diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
@@ -105,48 +121,69 @@ def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, to
     S[7, k] = -ct * cv
 
 
+@device
+def _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, cdt, theta, rdx, rdy,
+                     dzc, dzf, fc, fcu, ff, u_drive, gx, horder, S):
+    # the rows of the u, v and w systems of column (i, j) into S; the kernel calls it with a
+    # literal horder = 4, so that each inner k loop is compiled for one order (as
+    # stepper._uvw_column, where the measurement is)
+    ny, nz = u.shape[1], u.shape[2]
+    jm = j - 1 if j > 0 else ny - 1
+    jp = j + 1 if j + 1 < ny else 0
+    _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, 0, im, ip, jm, jp, True, False, cdt,
+             theta, rdx, rdy, dzc, dzf, fc[0], fcu[0], gx + fcu[0] * u_drive, horder, S)
+    for k in range(1, nz - 1):
+        _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, True, True,
+                 cdt, theta, rdx, rdy, dzc, dzf, fc[k], fcu[k], gx + fcu[k] * u_drive,
+                 horder, S)
+    _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, nz - 1, im, ip, jm, jp, False, True,
+             cdt, theta, rdx, rdy, dzc, dzf, fc[nz - 1], fcu[nz - 1],
+             gx + fcu[nz - 1] * u_drive, horder, S)
+    # interior w faces 1..nz-1 (w = 0 on faces 0 and nz: their couplings drop out)
+    ct = cdt * theta
+    ex = 1.0 - theta
+    for k in range(1, nz):
+        tw = -ff[k] * w[i, j, k] - (p[i, j, k] - p[i, j, k - 1]) / dzf[k]
+        if horder == 4:
+            hzm = 0.5 * dzc[k - 1] / dzf[k]
+            hzp = 0.5 * dzc[k] / dzf[k]
+            tw += adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+        elif horder == 2:
+            hzm = 0.5 * dzc[k - 1] / dzf[k]
+            hzp = 0.5 * dzc[k] / dzf[k]
+            tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+        xw, aw, cw = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc,
+                                     dzf)
+        S[8, k] = wb[i, j, k] + cdt * (tw + xw + ex * vertical_coupling(wb, i, j, k, aw, cw,
+                                                                        True, True))
+        S[9, k] = -ct * aw
+        S[10, k] = 1.0 + ct * (aw + cw)
+        S[11, k] = -ct * cw
+
+
 @pjit
 def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, p, cdt, theta, rdx,
-                            rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, with_adv):
+                            rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, with_adv, order=2):
     """uo = ub + cdt (E(u) - G p + (1 - theta) D ub + theta D uo) for u, v and the interior w
     (module doc): E the explicit tendencies of the stage input (u, v, w) (advection, horizontal
     and cross SGS fluxes, bed stress, damping with rates fc, fcu, ff towards 0 / u_drive, body
     force gx), p the reference pressure [m^2 s^-2] (its increment is the projection's), D the
-    vertical SGS diffusion with the input's viscosity, a tridiagonal solve per column."""
+    vertical SGS diffusion with the input's viscosity, a tridiagonal solve per column; order: the
+    horizontal order, 2 or 4, of the advection and of G (the projection's, pressure.py)."""
     nx, ny, nz = u.shape
+    horder = order if with_adv else -order
     for i in prange(nx):
         im = (i - 1) % nx
         ip = (i + 1) % nx
         S = np.empty((12, nz + 1))
         cp = np.empty(nz + 1)
         for j in range(ny):
-            jm = (j - 1) % ny
-            jp = (j + 1) % ny
-            _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, 0, im, ip, jm, jp, True, False, cdt,
-                     theta, rdx, rdy, dzc, dzf, fc[0], fcu[0], gx + fcu[0] * u_drive, with_adv, S)
-            for k in range(1, nz - 1):
-                _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, True, True,
-                         cdt, theta, rdx, rdy, dzc, dzf, fc[k], fcu[k], gx + fcu[k] * u_drive,
-                         with_adv, S)
-            _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, nz - 1, im, ip, jm, jp, False, True,
-                     cdt, theta, rdx, rdy, dzc, dzf, fc[nz - 1], fcu[nz - 1],
-                     gx + fcu[nz - 1] * u_drive, with_adv, S)
-            # interior w faces 1..nz-1 (w = 0 on faces 0 and nz: their couplings drop out)
-            ct = cdt * theta
-            ex = 1.0 - theta
-            for k in range(1, nz):
-                tw = -ff[k] * w[i, j, k] - (p[i, j, k] - p[i, j, k - 1]) / dzf[k]
-                if with_adv:
-                    hzm = 0.5 * dzc[k - 1] / dzf[k]
-                    hzp = 0.5 * dzc[k] / dzf[k]
-                    tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
-                xw, aw, cw = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc,
-                                             dzf)
-                S[8, k] = wb[i, j, k] + cdt * (tw + xw + ex * vertical_coupling(wb, i, j, k, aw, cw,
-                                                                                True, True))
-                S[9, k] = -ct * aw
-                S[10, k] = 1.0 + ct * (aw + cw)
-                S[11, k] = -ct * cw
+            if horder == 4:
+                _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, cdt,
+                                 theta, rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, 4, S)
+            else:
+                _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, cdt,
+                                 theta, rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, horder, S)
             solve_tridiagonal(S[1], S[2], S[3], S[0], cp, 0, nz)
             solve_tridiagonal(S[5], S[6], S[7], S[4], cp, 0, nz)
             for k in range(nz):
@@ -162,11 +199,15 @@ def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo,
 
 @device
 def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, theta, rdx, rdy, rdzc,
-            rdzf, rlog, ceps_lk, mdu, mdv, S):
+            rdzf, rlog, ceps_lk, mdu, mdv, order, S):
     """Row k of the e system of column (i, j) into S[0:4] (right-hand side, sub-, main and
-    super-diagonal): advection, production and horizontal transport explicit, the vertical
-    transport theta-weighted, the dissipation implicit about the input's e (module doc)."""
-    te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
+    super-diagonal): advection (horizontal order 2 or 4), production and horizontal transport
+    explicit, the vertical transport theta-weighted, the dissipation implicit about the input's
+    e (module doc)."""
+    if order == 4:
+        te = adv_scalar4_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
+    else:
+        te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     x, a, c, rd = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
                                rdzf, rlog, ceps_lk, mdu, mdv)
     S[0, k] = eb[i, j, k] + cdt * (te + x + (1.0 - theta) * vertical_coupling(eb, i, j, k, a, c, top,
@@ -177,12 +218,29 @@ def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, thet
     S[3, k] = -ct * c
 
 
+@device
+def _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, rdzc, rdzf, rlog,
+                   ceps_l, mdu, mdv, order, S):
+    # the rows of the e system of column (i, j); called with a literal order = 4 (as
+    # _uvw_column_rows)
+    ny, nz = e.shape[1], e.shape[2]
+    jm = j - 1 if j > 0 else ny - 1
+    jp = j + 1 if j + 1 < ny else 0
+    _e_rows(e, u, v, w, nu, rv, eb, i, j, 0, im, ip, jm, jp, True, False, cdt, theta, rdx,
+            rdy, rdzc, rdzf, rlog, ceps_l[0], mdu, mdv, order, S)
+    for k in range(1, nz - 1):
+        _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, True, True, cdt, theta, rdx,
+                rdy, rdzc, rdzf, rlog, ceps_l[k], mdu, mdv, order, S)
+    _e_rows(e, u, v, w, nu, rv, eb, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, theta,
+            rdx, rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], mdu, mdv, order, S)
+
+
 @pjit
 def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, rdzf, rlog, ceps_l,
-                       e_min, mdu, mdv):
+                       e_min, mdu, mdv, order=2):
     """eo = max(eb + cdt (advection + P + transport_h + (1 - theta) D eb + theta D eo - r eo),
     e_min) with r = c_eps e^{1/2} / l of the input e, a tridiagonal solve per column (module
-    doc); rdzc, rdzf: 1/dz_c, 1/dz_f."""
+    doc); rdzc, rdzf: 1/dz_c, 1/dz_f; order: the horizontal order of the advection, 2 or 4."""
     nx, ny, nz = e.shape
     for ii in prange(nx):
         i = np.int64(ii)  # signed: strain_sq_at indexes with i directly
@@ -191,15 +249,12 @@ def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, r
         S = np.empty((4, nz))
         cp = np.empty(nz)
         for j in range(ny):
-            jm = (j - 1) % ny
-            jp = (j + 1) % ny
-            _e_rows(e, u, v, w, nu, rv, eb, i, j, 0, im, ip, jm, jp, True, False, cdt, theta, rdx,
-                    rdy, rdzc, rdzf, rlog, ceps_l[0], mdu, mdv, S)
-            for k in range(1, nz - 1):
-                _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, True, True, cdt, theta, rdx,
-                        rdy, rdzc, rdzf, rlog, ceps_l[k], mdu, mdv, S)
-            _e_rows(e, u, v, w, nu, rv, eb, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, theta,
-                    rdx, rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], mdu, mdv, S)
+            if order == 4:
+                _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, rdzc,
+                               rdzf, rlog, ceps_l, mdu, mdv, 4, S)
+            else:
+                _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, rdzc,
+                               rdzf, rlog, ceps_l, mdu, mdv, order, S)
             solve_tridiagonal(S[1], S[2], S[3], S[0], cp, 0, nz)
             for k in range(nz):
                 val = S[0, k]
