@@ -204,56 +204,64 @@ def _layer_curves(archive: str | Path) -> dict[str, np.ndarray] | None:
 
 
 def layer_figure(summary: dict[str, Any], path: Path) -> Path | None:
-    """Per variant (colour) and seed (line style): the airborne parcels per m2 at the case's Q by
-    height band, the impact-speed density, the grains back per impact against impact speed (1:
-    a steady layer) and the hop flight-time density; the paper's ~2,000 parcels per m2 ([28],
-    [31]) beside the bands' sum. None when no run carries the anatomy."""
+    """One row per case; per variant (colour) and seed (line style, bar shade): the airborne
+    parcels per m2 at the case's Q by height band, the impact-speed density, the grains back per
+    impact against impact speed (1: a steady layer) and the hop flight-time density; the paper's
+    ~2,000 parcels per m2 ([28], [31]) beside the bands. None when no run carries the anatomy."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     from .saltation import paper_parcels_per_m2
 
-    runs = []
+    runs: dict[int, list] = {}
     for run in summary.get("cases", {}).values():
         m = LABEL.match(str(run.get("label", "")))
         if not m or run.get("status") != "ok" or not run.get("archive"):
             continue
+        number = m["case"] if m["case"] is not None else run.get("case_number")
         cur = _layer_curves(run["archive"])
-        if cur is not None:
-            runs.append((m["variant"], int(m["seed"]), cur))
+        if cur is not None and number is not None:
+            runs.setdefault(int(number), []).append((m["variant"], int(m["seed"]), cur))
     if not runs:
         return None
-    variants = list(dict.fromkeys(v for v, _, _ in runs))
+    variants = list(dict.fromkeys(v for rows in runs.values() for v, _, _ in rows))
     colours = {v: f"C{i}" for i, v in enumerate(variants)}
-    fig, ax = plt.subplots(1, 4, figsize=(16, 3.8), constrained_layout=True)
-    width = 0.8 / len(variants)
-    seeds = sorted({s for _, s, _ in runs})
-    for v, seed, c in runs:
-        i, k = variants.index(v), seeds.index(seed)
-        ls = ("-", "--", ":", "-.")[k % 4]
-        b = c["band_parcels_per_m2_at_Q"]
-        x = np.arange(b.size) + (i - 0.5 * (len(variants) - 1)) * width
-        ax[0].bar(x, b, width / len(seeds), align="edge" if k else "center", color=colours[v],
-                  alpha=0.9 if k == 0 else 0.55, label=f"{v} (total {np.nansum(b):,.0f})"
-                  if k == 0 else None)
-        ax[1].plot(c["v_imp"], c["impact_speed_pdf"], ls, color=colours[v])
-        ok = np.isfinite(c["replacement_by_speed"])
-        ax[2].plot(c["v_imp"][ok], c["replacement_by_speed"][ok], ls, color=colours[v], lw=1)
-        ax[3].plot(1e3 * c["hop_time"], c["hop_time_pdf"] / 1e3, ls, color=colours[v])
-    ax[0].axhline(paper_parcels_per_m2(), color="0.4", lw=2, ls="--",
-                  label="Dupont et al. 2013 [28], [31]: ~2,000 (all heights)")
-    ax[0].set_xticks(range(3), ["first cell", "to 5 cm", "above"])
-    ax[0].set_ylabel("airborne parcels per m$^2$ at the case's Q")
-    ax[0].legend(fontsize=7)
-    ax[1].set(xlabel="impact speed [m s$^{-1}$]", ylabel="probability density [s m$^{-1}$]",
-              xlim=(0, 5))
-    ax[2].axhline(1.0, color="0.5", lw=0.8)
-    ax[2].set(xlabel="impact speed [m s$^{-1}$]", ylabel="grains back per impact", xlim=(0, 5),
-              ylim=(0, 5))
-    ax[3].set(xlabel="hop flight time [ms]", ylabel="probability density [ms$^{-1}$]",
-              xscale="log")
-    fig.suptitle("The saltation layer by variant (colour) and seed (line style)", fontsize=10)
-    fig.savefig(path, dpi=110)
+    seeds = sorted({s for rows in runs.values() for _, s, _ in rows})
+    cases = sorted(runs)
+    fig, axes = plt.subplots(len(cases), 4, figsize=(16, 3.4 * len(cases)), squeeze=False,
+                             constrained_layout=True)
+    nbar = len(variants) * len(seeds)
+    width = 0.8 / nbar
+    for row, case in enumerate(cases):
+        ax = axes[row]
+        for v, seed, c in sorted(runs[case], key=lambda r: (variants.index(r[0]), r[1])):
+            k = variants.index(v) * len(seeds) + seeds.index(seed)
+            ls = ("-", "--", ":", "-.")[seeds.index(seed) % 4]
+            b = c["band_parcels_per_m2_at_Q"]
+            x = np.arange(b.size) - 0.4 + (k + 0.5) * width
+            ax[0].bar(x, b, width, color=colours[v], alpha=1.0 if seeds.index(seed) == 0 else 0.55,
+                      label=f"{v} s{seed} (total {np.nansum(b):,.0f})")
+            ax[1].plot(c["v_imp"], c["impact_speed_pdf"], ls, color=colours[v])
+            ok = np.isfinite(c["replacement_by_speed"])
+            ax[2].plot(c["v_imp"][ok], c["replacement_by_speed"][ok], ls, color=colours[v], lw=1)
+            ax[3].plot(1e3 * c["hop_time"], c["hop_time_pdf"] / 1e3, ls, color=colours[v],
+                       label=f"{v} s{seed}")
+        ax[0].axhline(paper_parcels_per_m2(), color="0.4", lw=2, ls="--",
+                      label="Dupont et al. 2013 [28], [31]: ~2,000 (all heights)")
+        ax[0].set_xticks(range(3), ["first cell", "to 5 cm", "above"])
+        ax[0].set_ylabel(f"case {case}: airborne parcels\nper m$^2$ at the case's Q")
+        ax[0].legend(fontsize=7)
+        ax[1].set(xlabel="impact speed [m s$^{-1}$]", ylabel="probability density [s m$^{-1}$]",
+                  xlim=(0, 5))
+        ax[2].axhline(1.0, color="0.5", lw=0.8)
+        ax[2].set(xlabel="impact speed [m s$^{-1}$]", ylabel="grains back per impact",
+                  xlim=(0, 5), ylim=(0, 5))
+        ax[3].set(xlabel="hop flight time [ms]", ylabel="probability density [ms$^{-1}$]",
+                  xscale="log")
+        ax[3].legend(fontsize=7)
+    fig.suptitle("The saltation layer by case (row), variant (colour) and seed (line style, bar "
+                 "shade)", fontsize=10)
+    fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
