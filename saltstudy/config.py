@@ -303,7 +303,7 @@ class TimeStepping(_Frozen):
     dt_max: float = Field(0.05, gt=0, description="largest step [s]")
     dt_fixed: float | None = Field(None, gt=0, description="fixed step [s] (None: adaptive)")
     vertical_diffusion: Literal["explicit", "implicit"] = Field(
-        "explicit", description="vertical SGS diffusion of u, v, w, e (and the SGS dissipation): "
+        "implicit", description="vertical SGS diffusion of u, v, w, e (and the SGS dissipation): "
         "'explicit' in the RK3 stages, its limit from the thinnest levels; 'implicit', a "
         "tridiagonal solve per column in each stage (solver/vertical_diffusion.py), no vertical "
         "diffusion limit")

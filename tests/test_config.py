@@ -92,12 +92,22 @@ def test_scene_scales_release_with_area_and_q():
                                                                   abs=0.5 * red.Q / (g.Lx * g.Ly))
 
 
-@pytest.mark.parametrize("name, fidelity", [("smoke", "smoke"), ("reduced", "reduced-q4"),
-                                            ("reduced-q16", "reduced"), ("paper", "paper")])
+@pytest.mark.parametrize("name, fidelity", [("smoke", "smoke"), ("reduced", "reduced"),
+                                            ("paper", "paper")])
 def test_studies_resolve(name, fidelity):
     runs = study_runs(load_study(name))
     assert [r.scene.case.number for r in runs] == list(range(1, 11))
     assert all(r.scene.fidelity.name == fidelity for r in runs)
+
+
+def test_laptop_fidelity_has_the_papers_first_level_and_implicit_vertical_diffusion():
+    """`reduced` is the 1 cm grid with the implicit scheme (the default); `reduced-2cm`, the grid
+    of the studies made before, keeps its 2 cm level and explicit scheme."""
+    red, old = load_fidelity("reduced"), load_fidelity("reduced-2cm")
+    assert red.grid.dz_bottom == pytest.approx(0.01) and red.time.vertical_diffusion == "implicit"
+    assert old.grid.dz_bottom == pytest.approx(0.02) and old.time.vertical_diffusion == "explicit"
+    assert load_fidelity("reduced-q4-dz").time.vertical_diffusion == "explicit"
+    assert load_fidelity("smoke").time.vertical_diffusion == "implicit"
 
 
 def _write_case(tmp_path: Path, body: str) -> Path:
@@ -195,10 +205,10 @@ def test_overrides_are_validated():
 
 
 def test_fidelity_based_on_inherits_and_the_file_wins():
-    red = load_fidelity("reduced").model_dump()
-    mx = load_fidelity("reduced-maxcfl").model_dump()
+    red = load_fidelity("reduced-short").model_dump()
+    mx = load_fidelity("reduced-short-maxcfl").model_dump()
     assert mx["time"]["cfl"] == 1.5 != red["time"]["cfl"]
-    assert mx["name"] == "reduced-maxcfl"
+    assert mx["name"] == "reduced-short-maxcfl"
     for key in ("grid", "sampling", "relaxation", "spinup", "saltation_duration", "q_multiplier"):
         assert mx[key] == red[key], key
     assert {k: v for k, v in mx["time"].items() if k != "cfl"} == \
