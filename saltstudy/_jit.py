@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numba
 import numba.core.cpu
+from llvmlite import binding as _llvm
 
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
@@ -33,3 +34,22 @@ def jit_with(**overrides):
 #: (measured by callgrind on the bench; a micro-benchmark of one such helper: 11 ns -> 3 ns per
 #: call). Falls back to the plain flags if numba no longer has the (private) option.
 jit_borrow = jit_with(_nrt=False) if hasattr(numba.core.cpu.CPUTargetOptions, "_nrt") else jit
+
+
+#: LLVM's inliner threshold for every kernel compiled in this process. The per-point functions of
+#: the stencils (advection, SGS fluxes, the peeled levels of a column) and of the parcel step are
+#: small but take many arrays, which numba passes as structs: above LLVM's default threshold (275)
+#: they stay out-of-line calls. Numba's own IR inlining (``inline="always"``) inlines them but
+#: re-types each copy, and each stage kernel took 3-9 minutes to compile. Measured on a 2-core
+#: VM, IR inlining against LLVM inlining at this threshold: `saltstudy bench flow --steps 10
+#: --no-big` from an empty cache 236 s against 59 s, 226 against 205 ns per cell-step; Stepper.step
+#: on the reduced grid (median of 10 steps, the first step for the compile), all four stages
+#: (explicit/implicit x advection order 2/4) compiled in 860 s against 81 s and ran at
+#: 177/195/277/346 against 117/142/187/248 ns per cell-step; the grain step (`saltstudy bench
+#: particles`, three alternating runs each) the same within the runs' +-15 % scatter.
+LLVM_INLINE_THRESHOLD = 20000
+_llvm.set_option("saltstudy", f"-inline-threshold={LLVM_INLINE_THRESHOLD}")
+
+#: small per-point helpers called from the kernels (inlined by LLVM, see above); compiled without
+#: reference counting, so that the inlined copies carry no reference-count traffic either
+device = jit_borrow

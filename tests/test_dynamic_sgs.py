@@ -192,7 +192,7 @@ def test_sgs_stress_divergence_conserves_momentum():
     ou, ov, ow = np.zeros_like(u), np.zeros_like(v), np.zeros_like(w)
     _momentum_stage(u, v, w, st.nu, st.closure.rv, st.taux, st.tauy, np.zeros_like(u), np.zeros_like(v),
                     np.zeros_like(w), ou, ov, ow, 1.0, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, g.dz_f,
-                    zero_c, zero_c, zero_f, 0.0, 0.0, False, True)
+                    zero_c, zero_c, zero_f, 0.0, 0.0, False, True, 2)
     tau = sgs.sgs_stress_uw_profile(u, w, st.nu, st.closure.rv, st.taux, g.dz_f, 1.0 / g.dx)
     want = -(tau[1:] - tau[:-1]) / g.dz_c
     got = ou.mean(axis=(0, 1))

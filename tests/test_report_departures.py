@@ -20,7 +20,7 @@ def test_each_departure_is_named_by_its_config_field():
     assert "dynamic" in text
     assert "closure.near_wall" in text
     assert "particles.near_bed_wind" in text
-    assert "16x heavier" in text
+    assert f"{load_fidelity('reduced').q_multiplier:g}x heavier" in text
     assert "relaxation" in text
 
 

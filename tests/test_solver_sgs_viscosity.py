@@ -52,7 +52,7 @@ def test_vertical_flux_diagnostics_match_the_momentum_kernel(viscosity):
     ou, ov, ow = np.zeros_like(u), np.zeros_like(v), np.zeros_like(w)
     _momentum_stage(u, v, w, nu, st.rv, tau0, tau0, np.zeros_like(u), np.zeros_like(v),
                     np.zeros_like(w), ou, ov, ow, 1.0, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, g.dz_f,
-                    zero_c, zero_c, zero_f, 0.0, 0.0, False, True)
+                    zero_c, zero_c, zero_f, 0.0, 0.0, False, True, 2)
     # horizontal mean of du/dt = -d tau_13 / dz, tau_13 the diagnosed SGS stress on the faces
     tau = sgs.sgs_stress_uw_profile(u, w, nu, st.rv, tau0, g.dz_f, 1.0 / g.dx)
     want = -(tau[1:] - tau[:-1]) / g.dz_c

@@ -12,14 +12,14 @@ def register(app: typer.Typer) -> None:
 
     @bench_app.command("flow")
     def flow(steps: int = typer.Option(10, "--steps", help="timed steps per grid (median reported)"),
-             big: bool = typer.Option(True, "--big/--no-big", help="include the paper's 200x150x100 grid"),
+             big: bool = typer.Option(True, "--big/--no-big", help="include the paper's grid (200x150x100)"),
              as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout"),
              closure: list[str] = typer.Option(["deardorff"], "--closure",
                                                help="SGS closure (closure.model); repeat to compare"),
              advection_order: list[int] = typer.Option(
                  [2], "--advection-order",
                  help="horizontal advection order (time.advection_order); repeat to compare")) -> None:
-        """Median wall time per LES step on 64x48x48 and 200x150x100, per cell-step, vs the FFT floor."""
+        """Median wall time per LES step on the reduced grid and the paper's, per cell-step, vs the FFT floor."""
         from .bench import main
         from ..solver.advection import ADVECTION_ORDERS
         from ..solver.closure import CLOSURES

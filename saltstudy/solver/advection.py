@@ -61,11 +61,10 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .._jit import jit_with, pjit
+from .._jit import device, pjit
 
-#: per-point kernels: inlined in numba IR into the fused stage kernels (an out-of-line call with
-#: a dozen array arguments per grid point costs more than the stencil itself)
-device = jit_with(inline="always")
+#: per-point kernels (``device``): inlined by LLVM into the fused stage kernels (an out-of-line call
+#: with a dozen array arguments per grid point costs more than the stencil itself)
 
 __all__ = ["adv_u_at", "adv_v_at", "adv_w_at", "adv_scalar_at", "adv_u4_at", "adv_v4_at",
            "adv_w4_at", "adv_scalar4_at", "wrap_down", "wrap_up", "ADVECTION_ORDERS",

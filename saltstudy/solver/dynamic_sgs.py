@@ -63,14 +63,13 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import jit_with, pjit
+from .._jit import device, pjit
 from .sgs import C_M, E_MIN, length_scale
 
 __all__ = ["DynamicSmagorinsky", "strain_at_centre", "germano_sums", "coefficient_profile",
            "smagorinsky_viscosity", "filter_plane_2", "filter_plane_4", "CS_MAX", "BETA_MIN",
            "TEST_ALPHA_SQ"]
 
-device = jit_with(inline="always")
 
 #: upper bound of C_s (about twice the Smagorinsky-Lilly value 0.17)
 CS_MAX = 0.35

@@ -49,8 +49,7 @@ Vertical velocity is interpolated between the z-faces in all, so it goes linearl
 at the bed (face 0); the part of a vertical reaction that falls on face 0 is taken by the bed (it
 does not enter the air).
 
-Everything here is scalar numba code (``saltstudy._jit``'s flags with ``inline="always"``),
-inlined into the parcel kernels.
+Everything here is scalar numba code (``saltstudy._jit.device``), inlined into the parcel kernels.
 """
 from __future__ import annotations
 
@@ -59,14 +58,14 @@ from collections import namedtuple
 
 import numpy as np
 
-from .._jit import jit, jit_with
+from .._jit import device, jit
 from .grid import Grid
 from .simd import fma2, fma4, load2
 
-#: small helpers of the parcel kernels: inlined into the callers at numba-IR level. (LLVM does not
-#: inline across numba's per-function libraries: an out-of-line call that passes the arrays as
-#: structs on the stack cost ~25 ns per call, most of the parcel step.)
-ijit = jit_with(inline="always")
+#: small helpers of the parcel kernels, inlined into the callers by LLVM (``saltstudy._jit.device``:
+#: at LLVM's default threshold they stayed out-of-line calls passing the arrays as structs on the
+#: stack, ~25 ns per call, most of the parcel step)
+ijit = device
 
 __all__ = ["GridGeometry", "Geometry", "Stencil", "NEAR_BED_WIND", "GEO_LOG_TOP", "GEO_LOG_LEVEL",
            "GEO_LOG_READ", "wrap_periodic", "locate", "interp_fluid",

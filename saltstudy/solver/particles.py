@@ -660,7 +660,7 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W):
     that the long dependency chains of independent parcels overlap in the CPU (one parcel at a
     time left it waiting on latencies). Parcels that need another sub-step go round again. Each
     parcel's arithmetic is the same as one at a time; only the order of the deposits into the
-    pool differs (round-off). The helpers are inlined here at numba-IR level; the prange over
+    pool differs (round-off). The helpers are inlined here by LLVM (``_jit.device``); the prange over
     chunks is in _advance_all. Compiled without reference counting (``jit_borrow``): the lane
     scratch comes from the caller.
     """

@@ -51,11 +51,10 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import jit_with, pjit
+from .._jit import device, pjit
 
-#: per-point kernels: inlined in numba IR into the fused stage kernels (an out-of-line call with
-#: a dozen array arguments per grid point costs more than the stencil itself)
-device = jit_with(inline="always")
+#: per-point kernels (``device``): inlined by LLVM into the fused stage kernels (an out-of-line call
+#: with a dozen array arguments per grid point costs more than the stencil itself)
 
 __all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "wall_blend", "length_scale", "viscosity_lengths",
            "VISCOSITY_KINDS", "c_eps_profile", "delta_profile", "scotti_factor", "DELTA_KINDS",

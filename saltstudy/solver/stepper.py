@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import prange
 
-from .._jit import jit_with, pjit
+from .._jit import device, jit, pjit
 from .advection import (ADVECTION_ORDERS, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at,
                         adv_v4_at, adv_v_at, adv_w4_at, adv_w_at)
 from .closure import CLOSURES, NoClosure
@@ -91,15 +91,11 @@ class Boundaries:
     body_force: float = 0.0
 
 
-device = jit_with(inline="always")
-
-
 @device
 def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, top, bot, cdt,
               rdx, rdy, dzc, dzf, fck, fcuk, srck, adv, with_diff):
-    # srck = gx + fcuk u_drive (drive and damping target folded: CPython passes calls of more
-    # than 30 arguments as a tuple, which numba cannot inline); adv: the horizontal order of the
-    # advection, 2 or 4, 0 for none (one argument for both switches, for the same reason)
+    # srck = gx + fcuk u_drive (drive and damping target folded into one argument); adv: the
+    # horizontal order of the advection, 2 or 4, 0 for none (one argument for both switches)
     r = 1.0 / dzc[k]
     tu = srck - fcuk * u[i, j, k]
     tv = -fck * v[i, j, k]
@@ -154,7 +150,7 @@ def _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, i
 
 @pjit
 def _momentum_stage(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, rdy, dzc, dzf,
-                    fc, fcu, ff, u_drive, gx, with_adv, with_diff, order=2):
+                    fc, fcu, ff, u_drive, gx, with_adv, with_diff, order):
     """uo = ub + cdt (advection + SGS diffusion + damping + drive)(u) for u, v, w (interior w only).
 
     Damping rates: fcu for u (towards u_drive), fc for v (towards 0) at the centres, ff for w at the
@@ -164,18 +160,25 @@ def _momentum_stage(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rd
     The first and last levels are peeled off with literal top/bot flags, so that the interior
     k loop is branch-free.
     """
-    nx, ny, nz = u.shape
+    nx = u.shape[0]
     adv = order if with_adv else 0
     for i in prange(nx):
-        im = (i - 1) % nx
-        ip = (i + 1) % nx
-        for j in range(ny):
-            if adv == 4:
-                _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt,
-                            rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, 4, with_diff)
-            else:
-                _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt,
-                            rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, adv, with_diff)
+        _uvw_slab(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, (i - 1) % nx, (i + 1) % nx,
+                  cdt, rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, adv, with_diff)
+
+
+@jit
+def _uvw_slab(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, im, ip, cdt, rdx, rdy, dzc,
+              dzf, fc, fcu, ff, u_drive, gx, adv, with_diff):
+    # one x-slab, a serial function: the parallel region's body stays one call, which numba's
+    # parfor passes analyse quickly, and LLVM inlines the columns here with their literal order
+    for j in range(u.shape[1]):
+        if adv == 4:
+            _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt,
+                        rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, 4, with_diff)
+        else:
+            _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt,
+                        rdx, rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, adv, with_diff)
 
 
 @device
@@ -207,7 +210,7 @@ def _e_column(e, u, v, w, nu, rv, eb, eo, i, j, im, ip, jm, jp, cdt, rdx, rdy, r
 
 @pjit
 def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min, mdu, mdv,
-               order=2):
+               order):
     """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above);
     rdzc, rdzf: 1/dz_c, 1/dz_f; order: the horizontal order of the advection, 2 or 4."""
     nx, ny, nz = e.shape

@@ -48,7 +48,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .._jit import jit_with, pjit
+from .._jit import device, pjit
 from .advection import (C1, C3, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at, adv_v4_at,
                         adv_v_at, adv_w4_at, adv_w_at, wrap_down)
 from .sgs import diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at, vertical_coupling
@@ -59,7 +59,6 @@ __all__ = ["momentum_stage_implicit", "tke_stage_implicit", "solve_tridiagonal",
 #: the vertical diffusion schemes a fidelity can name (config.TimeStepping.vertical_diffusion)
 VERTICAL_DIFFUSION = ("explicit", "implicit")
 
-device = jit_with(inline="always")
 
 
 @device
@@ -85,7 +84,7 @@ def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, to
     sub-, main and super-diagonal (S[0:4] for u, S[4:8] for v); p: the reference pressure.
     horder: the horizontal order (2 or 4) of the advection and of the carried pressure gradient,
     which must be the projection's (pressure.py); negative: the same order without advection
-    (one argument for both: a call of more than 30 arguments cannot be inlined)."""
+    (one argument for both: fewer arguments to pass where a call is not inlined)."""
     r = 1.0 / dzc[k]
     pc = p[i, j, k]
     if horder == 4 or horder == -4:
@@ -163,7 +162,7 @@ def _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, c
 
 @pjit
 def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, p, cdt, theta, rdx,
-                            rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, with_adv, order=2):
+                            rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, with_adv, order):
     """uo = ub + cdt (E(u) - G p + (1 - theta) D ub + theta D uo) for u, v and the interior w
     (module doc): E the explicit tendencies of the stage input (u, v, w) (advection, horizontal
     and cross SGS fluxes, bed stress, damping with rates fc, fcu, ff towards 0 / u_drive, body
@@ -237,7 +236,7 @@ def _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, r
 
 @pjit
 def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, rdzf, rlog, ceps_l,
-                       e_min, mdu, mdv, order=2):
+                       e_min, mdu, mdv, order):
     """eo = max(eb + cdt (advection + P + transport_h + (1 - theta) D eb + theta D eo - r eo),
     e_min) with r = c_eps e^{1/2} / l of the input e, a tridiagonal solve per column (module
     doc); rdzc, rdzf: 1/dz_c, 1/dz_f; order: the horizontal order of the advection, 2 or 4."""
