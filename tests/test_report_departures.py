@@ -29,3 +29,10 @@ def test_the_reduced_grid_is_named_and_the_fine_rungs_is_not():
     assert "first level of 2 cm" in reduced and "horizontal spacing of 0.156 m" in reduced
     fine = " ".join(model_departures(_scene(fidelity="fine")))
     assert "first level" not in fine and "horizontal spacing" not in fine
+
+
+def test_second_order_advection_is_named_and_the_papers_fourth_order_is_not():
+    assert any("second-order horizontal advection" in d
+               for d in model_departures(_scene(fidelity="reduced")))
+    assert not any("advection" in d for d in model_departures(_scene(fidelity="paper")))
+    assert not any("advection" in d for d in model_departures(_scene(fidelity="reduced-adv4")))

@@ -106,6 +106,11 @@ def model_departures(scene: dict) -> list[str]:
         dx = math.nan
     if math.isfinite(dx) and dx > PAPER_DX * 1.001:
         out.append(f"a horizontal spacing of {dx:.3g} m (the paper's: 0.10 m)")
+    # the paper's text is silent on the scheme; its model, ARPS 5.1.5, advects momentum with
+    # fourth-order quadratically conservative differences (Xue et al. 2000)
+    if int((fid.get("time", {}) or {}).get("advection_order", 2) or 2) != 4:
+        out.append("second-order horizontal advection (time.advection_order; the paper's ARPS: "
+                   "fourth order)")
     return out
 
 
