@@ -76,3 +76,26 @@ def test_labels_without_a_case_take_the_runs_case_number():
     assert g["paper"]["G_tot"]["mean"] == pytest.approx(0.03)
     assert g["paper"]["G_tot"]["half_range"] == pytest.approx(0.01)
     assert g["alt"]["G_tot"]["ratio"] == pytest.approx(3.0)
+
+
+def test_stokes_budget_reads_where_st_falls_below_one_and_the_drag_share(tmp_path):
+    """St = 3 below 0.25 z_m and 0.5 above: St < 1 above the first level past 0.25 z_m; a drag
+    share of eps_tot falling as exp(-z/z_m) read at 0.1 z_m; both enter the variants table."""
+    from saltstudy.report.variants import stokes_budget
+
+    ds = make_analysis_dataset(2, label="a")
+    z = ds["z"].values
+    zm = float(ds["z_m"].values)
+    ds["St"] = (("z",), np.where(z / zm <= 0.25, 3.0, 0.5), {"units": "1", "long_name": "St"})
+    share = 0.6 * np.exp(-z / zm)
+    ds["eps_tot"] = (("z",), 0.1 / (z + 0.1), {"units": "m2 s-3", "long_name": "eps_tot"})
+    ds["eps_drag"] = (("z",), share * ds["eps_tot"].values, {"units": "m2 s-3", "long_name": "eps_drag"})
+    path = tmp_path / "a.nc"
+    write_dataset(ds, path)
+    b = stokes_budget(path)
+    zeta = z / zm
+    assert b["St_height"] == pytest.approx(zeta[zeta > 0.25].min())
+    assert b["eps_drag_share"] == pytest.approx(0.6 * math.exp(-0.1), rel=0.02)
+    runs = {"c2_v_s1": {"label": "c2_v_s1", "status": "ok", "archive": str(path)}}
+    t = variants_table({"cases": runs})
+    assert t["cases"][2]["v"]["St_height"]["mean"] == pytest.approx(b["St_height"])

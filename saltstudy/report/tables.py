@@ -176,11 +176,18 @@ def _no_saltation_text(row: dict) -> str:
 def st_below_one_height(run: RunData) -> float:
     """Lowest z/z_m in (0, 1] above which St < 1 everywhere up to z_m; NaN if undefined."""
     p = profile(run, "St")
-    zm = run.scalar("z_m")
-    if p is None or not (math.isfinite(zm) and zm > 0):
+    if p is None:
         return math.nan
-    z, st = p
-    zeta = z / zm
+    return st_height(p[0], p[1], run.scalar("z_m"))
+
+
+def st_height(z: np.ndarray, st: np.ndarray, zm: float) -> float:
+    """Lowest z/z_m in (0, 1] above which the profile ``st`` at heights ``z`` [m] stays below 1
+    up to z_m [m]; the lowest level inside if St < 1 everywhere, NaN if undefined."""
+    if not (math.isfinite(zm) and zm > 0):
+        return math.nan
+    zeta = np.asarray(z, dtype=float) / zm
+    st = np.asarray(st, dtype=float)
     inside = (zeta > 0) & (zeta <= 1.0) & np.isfinite(st)
     if not inside.any():
         return math.nan

@@ -11,7 +11,9 @@ the study lists them). Beside the analysis' scalars, from each run's analysis ar
 
 * ``phi_air`` (2-25 cm): kappa z dU/dz / sqrt|<u'w'>_air|, the air's own non-dimensional shear in
   the grain layer (1 for a log law of the air's stress), mean over the levels between 2 and 25 cm;
-* ``N_air``: the real grains in the air, mean parcel count x the parcel weight.
+* ``N_air``: the real grains in the air, mean parcel count x the parcel weight;
+* ``St_height`` and ``eps_drag_share``: where the Stokes number of section 4.2 falls below 1 and
+  which of eq. 13's two sinks makes the eddies short-lived at 0.1 z_m (``stokes_budget``).
 """
 from __future__ import annotations
 
@@ -23,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["LABEL", "STATS", "variants_table", "build_variants_report", "phi_air", "layer_figure"]
+__all__ = ["LABEL", "STATS", "variants_table", "build_variants_report", "phi_air", "stokes_budget",
+           "layer_figure"]
 
 #: c<case>_<variant>_s<seed>, or <variant>_s<seed>
 LABEL = re.compile(r"^(?:c(?P<case>\d+)_)?(?P<variant>[A-Za-z0-9.\-]+)_s(?P<seed>\d+)$")
@@ -43,6 +46,8 @@ STATS: dict[str, tuple[str, float, str]] = {
     "hop_length_median": ("median hop length", 1e2, "cm"),
     "phi_air": ("phi_air 2-25 cm", 1.0, "-"),
     "tau_p_surface_fraction": ("tau_p(0)/rho u*^2", 1.0, "-"),
+    "St_height": ("St < 1 above", 1.0, "z/z_m"),
+    "eps_drag_share": ("eps_drag/eps_tot at 0.1 z_m", 1.0, "-"),
     "lambda_y": ("lambda_y", 1.0, "m"),
     "delta_y": ("delta_y", 1.0, "m"),
 }
@@ -68,7 +73,36 @@ def phi_air(archive: str | Path, z_lo: float = 0.02, z_hi: float = 0.25) -> floa
     return float(phi[sel].mean()) if sel.any() else math.nan
 
 
+def stokes_budget(archive: str | Path, at: float = 0.1) -> dict[str, float]:
+    """From an analysis archive: ``St_height``, the lowest z/z_m above which St < 1 up to z_m
+    (the paper's Fig. 12 reading: ≈ 0.1 for grains of 200 µm and more), and ``eps_drag_share``,
+    the grains' drag's part eps_drag/eps_tot of eq. 13's dissipation at ``at`` z_m (log-linear
+    between the levels) [-]."""
+    import xarray as xr
+
+    from ..ncio import NC_LOCK
+    from .tables import st_height
+
+    with NC_LOCK, xr.open_dataset(archive) as ds:
+        z = np.asarray(ds["z"].values, dtype=float)
+        st = np.asarray(ds["St"].values, dtype=float)
+        e_d = np.asarray(ds["eps_drag"].values, dtype=float)
+        e_t = np.asarray(ds["eps_tot"].values, dtype=float)
+        zm = float(ds["z_m"].values)
+    share = math.nan
+    ok = np.isfinite(e_d) & np.isfinite(e_t) & (e_t > 0)
+    if ok.sum() >= 2 and math.isfinite(zm) and zm > 0:
+        share = float(np.interp(math.log(at * zm), np.log(z[ok]), e_d[ok] / e_t[ok]))
+    return {"St_height": st_height(z, st, zm), "eps_drag_share": share}
+
+
 def _value(run: dict[str, Any], key: str, q_of: dict[str, float]) -> float:
+    if key in ("St_height", "eps_drag_share"):
+        arch = run.get("archive")
+        try:
+            return stokes_budget(arch)[key] if arch else math.nan
+        except (OSError, KeyError, ValueError):
+            return math.nan
     if key == "phi_air":
         arch = run.get("archive")
         try:
