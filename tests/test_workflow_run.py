@@ -65,6 +65,9 @@ def test_run_all_caches_and_reruns_only_what_changed(home, tmp_path):
     assert starts(r.output, "spinup") == ["case02,case09"]        # shared spin-up, run once
     assert sorted(starts(r.output, "saltation")) == ["case02", "case09"]
     assert "report:" in r.output
+    summary = home / "reports" / "two" / "summary.json"
+    s = json.loads(summary.read_text())
+    assert (s["tasks_from_cache"], s["tasks_total"]) == (0, 5)     # one spin-up, two runs, two analyses
 
     # archives: complete, readable by xarray, every variable described, global attributes present
     st = load_study("two")
@@ -104,6 +107,7 @@ def test_run_all_caches_and_reruns_only_what_changed(home, tmp_path):
     assert r.exit_code == 0, r.output
     assert starts(r.output, "spinup") == []
     assert starts(r.output, "saltation") == ["case09"] and starts(r.output, "analysis") == ["case09"]
+    assert json.loads(summary.read_text())["tasks_from_cache"] == 3
     try:
         import saltstudy.report as rep
         has_report = hasattr(rep, "build_report")

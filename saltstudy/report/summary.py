@@ -7,6 +7,7 @@ Layout::
      "task_time_sum_s": ...,     # sum of the task times (a shared spin-up counted once)
      "task_times_s": {"spinup": ..., "saltation": ..., "analysis": ...},
      "run_started": "2026-11-25T08:00:00+00:00", "run_finished": ...,   # ISO 8601, UTC
+     "tasks_from_cache": 0, "tasks_total": 21,   # the study's distinct tasks found done / all
      "machine": {"cores": ..., "processor": ..., "platform": ..., "python": ...},
      "units": {"u_star_s": "m s-1", ...},                 # unit of each scalar name
      "cases": {"2": {"label": "case02", "status": "ok", "fidelity": ..., "wall_time_s": ...,
@@ -26,7 +27,8 @@ aloft than released; report/saltation.py) or "undefined" (no archive or no count
 Wall time. ``total_wall_time_s`` is what a stopwatch gives for ``saltstudy run-all``: from the
 command's start (``meta["run_started"]``, epoch seconds) to the end of the report, with the
 warm-up compile, the shared spin-up once and the tasks one after another as they ran; tasks found
-in the cache cost nothing in it. ``task_time_sum_s`` adds the recorded times of the study's tasks
+in the cache cost nothing in it (``tasks_from_cache`` of ``tasks_total`` distinct tasks were found
+done when the run began: 0 for a stopwatch of the whole study). ``task_time_sum_s`` adds the recorded times of the study's tasks
 (from the archives: each distinct spin-up once, each saltation run, each analysis), whether they
 ran now or were cached; a ``cases`` entry's ``wall_time_s`` is that run's spin-up + saltation, so
 the per-case values add up to more than either when cases share a spin-up. Rebuilt without a run
@@ -145,6 +147,8 @@ def build_summary(ctx: ReportContext) -> dict[str, Any]:
         "task_times_s": tt,
         "run_started": _iso(started) if isinstance(started, (int, float)) else None,
         "run_finished": None,
+        "tasks_from_cache": meta.get("tasks_from_cache"),
+        "tasks_total": meta.get("tasks_total"),
         "machine": machine_info(),
         "units": units,
         "cases": cases,
@@ -172,7 +176,8 @@ def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Pa
         except (OSError, ValueError):
             old = {}
         if isinstance(old.get("total_wall_time_s"), (int, float)) and old.get("run_started"):
-            for k in ("total_wall_time_s", "run_started", "run_finished"):
+            for k in ("total_wall_time_s", "run_started", "run_finished", "tasks_from_cache",
+                      "tasks_total"):
                 summary[k] = old.get(k)
     return summary
 

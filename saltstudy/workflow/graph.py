@@ -194,9 +194,15 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
         finals[f"saltation:{label}"] = sa
         finals[f"analysis:{label}"] = an
         analyses.append((label, an))
+    # which of the study's distinct tasks this run finds done: a stopwatch of a run-all means
+    # the study's cost only when none was (summary.json "tasks_from_cache")
+    distinct = ({("spinup", r.spinup) for r in runs.values()}
+                | {(t, getattr(r, t)) for r in runs.values() for t in ("saltation", "analysis")})
+    cached = sum(is_complete(output_path(out_dir, t, key)) for t, key in distinct)
     if study.report:
         meta = {"study": study.name, "out_dir": str(out_dir), "package_version": __version__,
                 "source_key": SOURCE_KEY, "run_started": run_started,
+                "tasks_from_cache": cached, "tasks_total": len(distinct),
                 "keys": {l: {"spinup": r.spinup, "saltation": r.saltation, "analysis": r.analysis}
                          for l, r in runs.items()}}
         finals["report"] = dask.delayed(_report, pure=False)(study, analyses, out_dir, report_dir,
