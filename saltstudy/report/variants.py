@@ -96,13 +96,19 @@ def stokes_budget(archive: str | Path, at: float = 0.1) -> dict[str, float]:
     return {"St_height": st_height(z, st, zm), "eps_drag_share": share}
 
 
-def _value(run: dict[str, Any], key: str, q_of: dict[str, float]) -> float:
+def _value(run: dict[str, Any], key: str, q_of: dict[str, float],
+           budgets: dict[str, dict[str, float]] | None = None) -> float:
     if key in ("St_height", "eps_drag_share"):
         arch = run.get("archive")
-        try:
-            return stokes_budget(arch)[key] if arch else math.nan
-        except (OSError, KeyError, ValueError):
+        if not arch:
             return math.nan
+        budgets = {} if budgets is None else budgets
+        if arch not in budgets:          # both columns from one read of the archive
+            try:
+                budgets[arch] = stokes_budget(arch)
+            except (OSError, KeyError, ValueError):
+                budgets[arch] = {}
+        return budgets[arch].get(key, math.nan)
     if key == "phi_air":
         arch = run.get("archive")
         try:
@@ -135,13 +141,14 @@ def variants_table(summary: dict[str, Any], parcel_weight: dict[str, float] | No
             order.append(variant)
         groups.setdefault(case, {}).setdefault(variant, []).append(run)
     out: dict[str, Any] = {"variants": order, "cases": {}}
+    budgets: dict[str, dict[str, float]] = {}
     for case in sorted(groups):
         per: dict[str, Any] = {}
         for variant in order:
             runs = groups[case].get(variant, [])
             stats = {}
             for key in STATS:
-                vals = np.array([_value(r, key, q_of) for r in runs], dtype=float)
+                vals = np.array([_value(r, key, q_of, budgets) for r in runs], dtype=float)
                 vals = vals[np.isfinite(vals)]
                 stats[key] = {"mean": float(vals.mean()) if vals.size else math.nan,
                               "half_range": float(0.5 * np.ptp(vals)) if vals.size > 1 else math.nan,
