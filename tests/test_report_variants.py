@@ -99,3 +99,16 @@ def test_stokes_budget_reads_where_st_falls_below_one_and_the_drag_share(tmp_pat
     runs = {"c2_v_s1": {"label": "c2_v_s1", "status": "ok", "archive": str(path)}}
     t = variants_table({"cases": runs})
     assert t["cases"][2]["v"]["St_height"]["mean"] == pytest.approx(b["St_height"])
+
+
+def test_figure_labels_read_u_star_the_papers_way():
+    """A run's legend gives u*s from the stress at z_ref (Table 2's leading column), not the free
+    log fit; the fit only where the archive lacks the stress reading."""
+    from saltstudy.report.data import RunData
+    from saltstudy.report.figures import _case_label
+
+    ds = make_analysis_dataset(2, label="case02")
+    ds["u_star_s_stress"] = ((), 0.61, {"units": "m s-1", "long_name": "u* from the stress"})
+    ds["u_star_s"] = ((), 0.48, {"units": "m s-1", "long_name": "u* free fit"})
+    assert _case_label(RunData("case02", 2, None, ds)).endswith("u*s = 0.61 m s⁻¹")
+    assert _case_label(RunData("case02", 2, None, ds.drop_vars("u_star_s_stress"))).endswith("u*s = 0.48 m s⁻¹")

@@ -69,8 +69,15 @@ def _case_label(r: RunData, soil: bool = False) -> str:
     name = f"case {r.case}" if r.case is not None and r.plain_case else r.label
     if soil:
         return f"{name}, µ1 = {_fmt_um(r.mu1)}"
-    us = r.scalar("u_star_s")
+    us = _u_star_stress(r)
     return f"{name}, u*s = {us:.2f} m s⁻¹" if math.isfinite(us) else name
+
+
+def _u_star_stress(r: RunData) -> float:
+    """u*s the paper's way (the total stress at z_ref, Table 2's leading column); the free log
+    fit only where an archive lacks it [m s-1]."""
+    us = r.scalar("u_star_s_stress")
+    return us if math.isfinite(us) else r.scalar("u_star_s")
 
 
 def _new(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6), **kw) -> tuple[Figure, np.ndarray]:
@@ -637,7 +644,7 @@ def fig09(ctx: ReportContext) -> FigureResult:
                            vmin=0.0 if col == 0 else None, vmax=1.0)
             fig.colorbar(im, ax=ax, shrink=0.85, label=lab)
             res.data[f"{var}_case{n}"] = arr
-            us = r.scalar("u_star_s")
+            us = _u_star_stress(r)
             ax.set_title(f"({'ab'[col]}) case {n}" + (f", u*s = {us:.2f} m s⁻¹" if math.isfinite(us) else ""),
                          loc="left", fontsize=9)
             ax.set_ylabel("y [m]")
