@@ -49,7 +49,9 @@ STATS: dict[str, tuple[str, float, str]] = {
     "St_height": ("St < 1 above", 1.0, "z/z_m"),
     "eps_drag_share": ("eps_drag/eps_tot at 0.1 z_m", 1.0, "-"),
     "lambda_y": ("lambda_y", 1.0, "m"),
-    "delta_y": ("delta_y", 1.0, "m"),
+    "lambda_x": ("lambda_x", 1.0, "m"),
+    "delta_y": ("delta_y of C_p", 1.0, "m"),
+    "delta_y_u": ("delta_y of u at 0.1 m", 1.0, "m"),
 }
 KAPPA = 0.40
 
