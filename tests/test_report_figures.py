@@ -141,3 +141,18 @@ def test_semi_empirical_laws_are_the_physics_module(study):
         name, (fn, _) = next(iter(table.items()))
         expect = fn(hi * ut, ut) if fig == "fig03" else fn(hi * ut, ut, d=200e-6)
         assert res[fig].data[f"law_{name}"][-1] == pytest.approx(float(expect), rel=1e-9)
+
+
+def test_scene_study_draws_its_scenes_in_the_per_case_figures(tmp_path):
+    """In a study of scenes (labels of the user's choosing), a scene of case 6 stands for case 6
+    in the per-case figures, titled by its label, instead of a "not in study" panel."""
+    path = write_analysis(tmp_path / "scene.nc", 6)
+    ctx = ReportContext("t", load_runs({"c6_box20_s1": path}, {"case_numbers": {"c6_box20_s1": 6}}))
+    assert ctx.by_case(6).label == "c6_box20_s1"
+    assert ctx.by_case(1) is None
+    res = make_figures(ctx, ["fig09"])["fig09"]
+    assert "C_p_snapshot_case6" in res.data
+    assert not any("case 6" in n for n in res.notes)
+    assert any("case 1: not in study" in n for n in res.notes)
+    titles = [ax.get_title(loc="left") for ax in res.fig.axes]
+    assert any(t.startswith("(a) c6_box20_s1") for t in titles)

@@ -227,14 +227,17 @@ class ReportContext:
         """The run that stands for case ``n`` in the paper's figures.
 
         A plain ``caseNN`` label wins; otherwise (a convergence ladder) the rung with the largest
-        wall time among the archives present (the finest), else the last listed.
+        wall time among the archives present (the finest), else the last listed; in a study of
+        scenes (labels of the user's choosing) the first scene of the case with an archive, so
+        that the per-case figures show the scene rather than "not in study".
         """
         plain = [r for r in self.runs.values() if r.case == n and r.plain_case]
         if plain:
             return plain[0]
         rungs = [r for r in self.runs.values() if r.case == n and case_number_of(r.label) == n]
         if not rungs:
-            return None
+            scenes = [r for r in self.runs.values() if r.case == n]
+            return next((r for r in scenes if r.ok), scenes[0] if scenes else None)
         present = [r for r in rungs if r.ok]
         if present:
             timed = [r for r in present if _finite(r.wall_time_s)]

@@ -644,9 +644,7 @@ def fig09(ctx: ReportContext) -> FigureResult:
                            vmin=0.0 if col == 0 else None, vmax=1.0)
             fig.colorbar(im, ax=ax, shrink=0.85, label=lab)
             res.data[f"{var}_case{n}"] = arr
-            us = _u_star_stress(r)
-            ax.set_title(f"({'ab'[col]}) case {n}" + (f", u*s = {us:.2f} m s⁻¹" if math.isfinite(us) else ""),
-                         loc="left", fontsize=9)
+            ax.set_title(f"({'ab'[col]}) {_case_label(r)}", loc="left", fontsize=9)
             ax.set_ylabel("y [m]")
             if row == len(cases) - 1:
                 ax.set_xlabel("x [m] (wind →)")
