@@ -355,3 +355,31 @@ def test_degenerate_planes_give_nan():
     one = np.random.default_rng(0).standard_normal((1, 8, 8))
     c, life = st.speed_and_lifetime(st.space_time_correlation(one, 0.1, 0.1, 0.1))
     assert math.isnan(c) and math.isnan(life)
+
+
+@pytest.mark.parametrize("width_cells", [2.5, 4.0])
+def test_the_paper_count_reading_sees_the_paper_field_of_fewer_grains(width_cells):
+    """A model that holds 5x the paper's airborne grains, in the same pattern, sampled by parcels
+    of 4 grains: read with the noise of the paper's count (4 parcels per column of 1 grain) it
+    gives the lambda of the paper's own field (within 0.3 cell across, 0.5 along), which the
+    reading at the paper's Q (the paper's parcels carrying the model's concentration) misses
+    along the wind by more than half a cell."""
+    rng = np.random.default_rng(int(10 * width_cells))
+    nx, ny = 96, 64
+    intensity = streak_intensity(60, nx, ny, 3.0, width_cells / (4 * CORE), rng)
+    paper_count, excess, weight = 4.0, 5.0, 4.0
+    paper = parcel_planes(intensity, paper_count, 1.0, rng)
+    run = parcel_planes(intensity, paper_count * excess / weight, weight, rng)
+    own = st.poisson_noise_variance(run, weight, AREA)
+    at_count = own - st.count_noise_variance(run, paper_count / AREA, AREA)
+    at_q = own - st.poisson_noise_variance(run, 1.0, AREA)
+    # the paper's count on its columns is 1/count of mean(C_p)^2, whatever the concentration
+    assert st.count_noise_variance(paper, paper_count / AREA, AREA) == pytest.approx(
+        paper.mean(axis=(1, 2)) ** 2 / paper_count)
+    lx_paper, ly_paper = lambdas(paper)
+    lx_count, ly_count = lambdas(run, at_count)
+    lx_q, _ = lambdas(run, at_q)
+    assert abs(ly_count - ly_paper) <= 0.3 * D, (ly_count / D, ly_paper / D)
+    assert abs(lx_count - lx_paper) <= 0.5 * D, (lx_count / D, lx_paper / D)
+    assert lx_q - lx_paper > 0.5 * D, (lx_q / D, lx_paper / D)
+    assert np.all(np.isnan(st.count_noise_variance(run, 0.0, AREA)))

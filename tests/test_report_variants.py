@@ -112,3 +112,38 @@ def test_figure_labels_read_u_star_the_papers_way():
     ds["u_star_s"] = ((), 0.48, {"units": "m s-1", "long_name": "u* free fit"})
     assert _case_label(RunData("case02", 2, None, ds)).endswith("u*s = 0.61 m s⁻¹")
     assert _case_label(RunData("case02", 2, None, ds.drop_vars("u_star_s_stress"))).endswith("u*s = 0.48 m s⁻¹")
+
+
+def test_premultiplied_spectrum_over_its_variance_has_unit_area_in_log_wavelength():
+    """On an even grid (Nyquist entry a half bin) and an odd one, the premultiplied density over
+    the variance integrates to 1 against ln(wavelength); without the grid's size the Nyquist
+    entry is left out."""
+    from saltstudy.report.streaks import premultiplied_over_variance
+
+    rng = np.random.default_rng(3)
+    for ny in (64, 63):
+        dy = 0.1
+        ky = np.arange(ny // 2 + 1) / (ny * dy)
+        S = rng.uniform(0.5, 2.0, ky.size)
+        S[0] = 0.0
+        wl, pre = premultiplied_over_variance(ky, S, ny * dy, dy)
+        k = 1.0 / wl
+        weight = np.full(k.size, ky[1] - ky[0]) / k          # d ln(wavelength) = dky / ky
+        if ny % 2 == 0:
+            weight[-1] *= 0.5                                # the doubled Nyquist point, half a bin
+        assert np.sum(pre * weight) == pytest.approx(1.0, rel=1e-12)
+    wl, _ = premultiplied_over_variance(ky, S, math.nan, dy)
+    assert wl.size == ky.size - 2
+
+
+def test_report_draws_the_streamer_curves_of_every_run(tmp_path):
+    runs = {}
+    for variant in ("box10", "box20"):
+        for s in (1, 2):
+            label = f"c6_{variant}_s{s}"
+            runs[label] = {"label": label, "status": "ok", "lambda_y": 0.4,
+                           "archive": _archive(tmp_path, label, 1.1, 1.0)}
+    (tmp_path / "summary.json").write_text(json.dumps({"cases": runs}))
+    build_variants_report(tmp_path)
+    png = tmp_path / "streaks.png"
+    assert png.exists() and png.stat().st_size > 10_000

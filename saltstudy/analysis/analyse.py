@@ -144,6 +144,10 @@ SPEC: dict[str, tuple[str, str]] = {
     "lambda_y_raw": ("m", "lambda_y with the run's own parcel-count noise"),
     "lambda_x_noise_free": ("m", "lambda_x with all the Poisson parcel-count noise removed"),
     "lambda_y_noise_free": ("m", "lambda_y with all the Poisson parcel-count noise removed"),
+    "lambda_x_paper_count": ("m", "lambda_x with the parcel-count noise of the paper's count "
+                             "(2,000 parcels per m2, 0.1 m columns) in place of the run's"),
+    "lambda_y_paper_count": ("m", "lambda_y with the parcel-count noise of the paper's count "
+                             "(2,000 parcels per m2, 0.1 m columns) in place of the run's"),
     "C_p_noise_fraction": ("1", "Poisson parcel-count noise variance of C_p over its spatial variance, "
                            "mean over the planes"),
     "C_p_parcels_per_column": ("1", "mean number of parcels per grid column in the C_p planes"),
@@ -818,12 +822,19 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
         ac_free = streamers.autocorrelation_2d(C_w, noise=noise_run)
         lam_x_free = streamers.core_length(ac_free[:, ny // 2], dx)
         lam_y_free = streamers.core_length(ac_free[nx // 2, :], dy)
+        # the paper's field held its own count of parcels (2,000 per m2 at Q, [28]), not the
+        # run's: with that relative noise the reading sees a field as noisy as the paper's
+        at_count = noise_run - streamers.count_noise_variance(
+            C_w, paper_grid.PAPER_PARCELS_PER_M2, streamers.PAPER_CELL_AREA)
+        ac_count = streamers.autocorrelation_2d(C_w, noise=at_count)
+        lam_x_count = streamers.core_length(ac_count[:, ny // 2], dx)
+        lam_y_count = streamers.core_length(ac_count[nx // 2, :], dy)
         snap_c = np.asarray(C_w[-1], dtype=np.float64)
     else:
         ac = np.full((nx, ny), np.nan)
         lam_x = lam_y = lam_x_raw = lam_y_raw = noise_frac = math.nan
         spacing_c = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
-        lam_x_free = lam_y_free = math.nan
+        lam_x_free = lam_y_free = lam_x_count = lam_y_count = math.nan
         ky = np.arange(ny // 2 + 1) / Ly if ny else np.zeros(0)
         S_c = S_c_se = np.full(ky.size, np.nan)
         snap_c = np.full((nx, ny), np.nan)
@@ -856,6 +867,8 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("lambda_y_raw", (), lam_y_raw)
     put("lambda_x_noise_free", (), lam_x_free)
     put("lambda_y_noise_free", (), lam_y_free)
+    put("lambda_x_paper_count", (), lam_x_count)
+    put("lambda_y_paper_count", (), lam_y_count)
     put("C_p_noise_fraction", (), noise_frac,
         definition="saltstudy.analysis.streamers.poisson_noise_variance")
     put("C_p_parcels_per_column", (), n_col, definition="mean(C_p) dx dy / w")

@@ -36,7 +36,13 @@ Parcel-count (sampling) noise (beyond the paper)
     of the variance), so the noise-free values (``lambda_x_noise_free``,
     ``lambda_y_noise_free``: all of ``s^2`` removed, the streamer core of the concentration
     pattern itself) are kept beside them, and so are the run's own values (``*_raw``: nothing
-    removed).
+    removed) and those with the noise of the paper's *count* (``*_paper_count``,
+    :func:`count_noise_variance`: the run's noise replaced by 1/20 of mean(C_p)^2 on 0.1 m
+    columns, the relative noise of 2,000 parcels per m2, [28]). The paper-level reading assumes
+    the paper's parcels carried the run's concentration; a run holding k times the paper's
+    airborne grains at Q is then read k times less noisy than the paper's field was, and the
+    paper-count reading is the one that sees the paper's noise when the model's count is not
+    the paper's.
 
     The Poisson variance is that of independent parcels. Parcels ejected together from one
     impact travel together for a while, which raises the variance of the counts at the scale of
@@ -166,7 +172,8 @@ from . import paper_grid
 
 __all__ = ["CORE_LEVEL", "PEAK_N_SE", "PEAK_POOL_MODES", "PEAK_FALLBACK_MARGIN", "N_BLOCKS",
            "MIN_BLOCKS", "SMALL_SCALE_K", "PAPER_CELL_AREA",
-           "deviation_planes", "parcels_per_cell", "poisson_noise_variance", "small_scale_power",
+           "deviation_planes", "parcels_per_cell", "poisson_noise_variance", "count_noise_variance",
+           "small_scale_power",
            "centred_lags", "autocorrelation_2d", "core_length", "spanwise_spectrum",
            "spanwise_spectrum_blocks", "spectral_peak", "premultiplied_peak",
            "spanwise_autocovariance", "correlation_minimum", "CORRELATION_N_SE",
@@ -228,6 +235,19 @@ def poisson_noise_variance(planes: np.ndarray, grains_per_parcel: float,
     if not (grains_per_parcel > 0 and cell_area > 0):
         return np.full(np.shape(planes)[0], np.nan)
     return _plane_means(planes) * grains_per_parcel / cell_area
+
+
+def count_noise_variance(planes: np.ndarray, parcels_per_m2: float,
+                         cell_area: float) -> np.ndarray:
+    """Per-plane variance [m-4] of the Poisson noise C_p would carry if its mean were made of
+    ``parcels_per_m2`` parcels per m2 on columns of area ``A``: ``mean(C_p)^2 / (n A)``, the
+    same relative noise (1 / parcels per column) whatever the concentration. For the paper's
+    count (2,000 per m2 at its Q, [28]) on its 0.1 m columns that is 1/20 of mean(C_p)^2: the
+    noise of the paper's field, where :func:`poisson_noise_variance` at the paper's Q is the
+    noise of the paper's parcels carrying the run's concentration."""
+    if not (parcels_per_m2 > 0 and cell_area > 0):
+        return np.full(np.shape(planes)[0], np.nan)
+    return _plane_means(planes) ** 2 / (parcels_per_m2 * cell_area)
 
 
 def small_scale_power(dev: np.ndarray) -> np.ndarray:

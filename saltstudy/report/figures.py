@@ -31,6 +31,7 @@ from .laws import evaluate_law, load_laws
 from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
 from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_Q,
                         paper_parcels_per_m2, parcels_per_m2_at_Q, saltation_state)
+from .streaks import premultiplied_over_variance
 
 __all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "figure_data_digest"]
 
@@ -677,25 +678,10 @@ def fig10(ctx: ReportContext) -> FigureResult:
                     notes.append(note)
                     continue
                 v = r.var(var)
-                ky = np.asarray(r.ds[v.dims[0]].values, float)
-                s = np.asarray(v.values, float).copy()
-                variance = math.nan
-                if ky.size > 1:
-                    variance = float(np.nansum(s)) * (ky[1] - ky[0])
-                    # an even grid's Nyquist entry is the density of half a bin (so that the sum
-                    # is the variance); the reading doubles it to the point density, as does the
-                    # plot, and without the grid's size the entry is left out
-                    Ly, dy = r.attr("Ly"), r.attr("dy")
-                    if not (math.isfinite(Ly) and dy > 0):
-                        ky, s = ky[:-1], s[:-1]
-                    elif round(Ly / dy) == 2 * (ky.size - 1):
-                        s[-1] *= 2.0
-                ok = (ky > 0) & np.isfinite(s)
-                ky, s = ky[ok], s[ok]
-                pre = ky * s
-                pn = pre / variance if math.isfinite(variance) and variance > 0 else pre
+                wavelength, pn = premultiplied_over_variance(
+                    r.ds[v.dims[0]].values, v.values, r.attr("Ly"), r.attr("dy"))
                 c = _color(n, soil)
-                ax.plot(1.0 / ky, pn, color=c, lw=1.5, label=_case_label(r, soil))
+                ax.plot(wavelength, pn, color=c, lw=1.5, label=_case_label(r, soil))
                 res.data[f"{var}_case{n}"] = pn
                 dyv = r.scalar(dvar)
                 if math.isfinite(dyv):

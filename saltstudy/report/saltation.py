@@ -29,9 +29,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..analysis.paper_grid import PAPER_PARCELS_PER_M2
 from ..config import PAPER_AREA_M2
 from .data import RunData
-from .reference import paper, paper_results
+
 
 __all__ = ["SUSTAINED", "NO_SALTATION", "UNDEFINED", "SaltationState", "saltation_state",
            "q_multiplier", "bed_area", "parcels_per_m2_at_Q", "n_parcels_per_m2_at_Q",
@@ -52,9 +53,7 @@ STATE_UNITS = {"u_star_s": "m s-1", "u_star_t": "m s-1", "n_parcels_released": "
 def paper_parcels_per_m2() -> float:
     """The paper's resolved parcels per m² of bed at equilibrium [m⁻²]: ≈ 6 × 10⁵ in case 2 on
     its 20 m × 15 m bed ([31]), a similar number in every case at its own Q ([28])."""
-    lx, ly = (paper().get("setup", {}).get("domain_m") or [math.nan, math.nan])[:2]
-    n = paper_results().get("fig1_equilibrium_particles_case2", math.nan)
-    return float(n) / (float(lx) * float(ly))
+    return PAPER_PARCELS_PER_M2
 
 
 def _case(run: RunData) -> dict:

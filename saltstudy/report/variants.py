@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from .streaks import streaks_figure
+
 __all__ = ["LABEL", "STATS", "variants_table", "build_variants_report", "phi_air", "stokes_budget",
            "layer_figure"]
 
@@ -50,6 +52,8 @@ STATS: dict[str, tuple[str, float, str]] = {
     "eps_drag_share": ("eps_drag/eps_tot at 0.1 z_m", 1.0, "-"),
     "lambda_y": ("lambda_y", 1.0, "m"),
     "lambda_x": ("lambda_x", 1.0, "m"),
+    "lambda_y_paper_count": ("lambda_y, noise of the paper's count", 1.0, "m"),
+    "lambda_x_paper_count": ("lambda_x, noise of the paper's count", 1.0, "m"),
     "delta_y": ("delta_y of C_p", 1.0, "m"),
     "delta_y_u": ("delta_y of u at 0.1 m", 1.0, "m"),
 }
@@ -202,6 +206,7 @@ def build_variants_report(directory: str | Path, parcel_weight: dict[str, float]
         lines.append("")
     (directory / "variants.md").write_text("\n".join(lines), encoding="utf-8")
     layer_figure(summary, directory / "layer.png")
+    streaks_figure(summary, directory / "streaks.png", LABEL)
     return table
 
 

@@ -1,0 +1,142 @@
+"""The streamers of model variants side by side: the curves Table 2's λx, λy and δy are read from.
+
+A variants study (labels ``c<case>_<variant>_s<seed>``) compares, e.g., two boxes or two advection
+schemes; its table holds the readings, this figure the curves behind them, so that a change of a
+reading can be told from a change of the field: per case (row), the autocorrelation of C_p along
+the wind and across it (λ = 2 × the lag where it drops below 0.4, analysis/analyse.py), and the
+premultiplied spanwise spectra of C_p and of u at 0.1 m over their variance (δy is read at their
+peak, docs/STREAMERS.md), with the paper's λx/2, λy/2 and δy (Table 2) marked.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["premultiplied_over_variance", "streaks_figure", "LAMBDA_LEVEL"]
+
+#: the level of C_p's autocorrelation whose lag is λ/2 (analysis/analyse.py, "lambda_x")
+LAMBDA_LEVEL = 0.4
+
+
+def premultiplied_over_variance(ky: np.ndarray, S: np.ndarray, Ly: float, dy: float
+                                ) -> tuple[np.ndarray, np.ndarray]:
+    """(wavelength [m], ky S(ky) / variance) of a one-sided spanwise density ``S`` [variance m]
+    on modes ``ky`` [cycles m-1], the mean mode left out: the area under the curve against
+    ln(wavelength) is 1. The Nyquist entry of an even grid holds the density of half a bin (so
+    that ``sum S dky`` is the variance) and is doubled to the point density; without the grid's
+    size (``Ly``, ``dy``) it is left out."""
+    ky = np.asarray(ky, dtype=np.float64)
+    s = np.array(S, dtype=np.float64)
+    if ky.size < 2:
+        return np.zeros(0), np.zeros(0)
+    variance = float(np.nansum(s)) * (ky[1] - ky[0])
+    if not (math.isfinite(Ly) and math.isfinite(dy) and dy > 0):
+        ky, s = ky[:-1], s[:-1]
+    elif round(Ly / dy) == 2 * (ky.size - 1):
+        s[-1] *= 2.0
+    ok = (ky > 0) & np.isfinite(s)
+    ky, s = ky[ok], s[ok]
+    pre = ky * s
+    if math.isfinite(variance) and variance > 0:
+        pre = pre / variance
+    return 1.0 / ky, pre
+
+
+def _curves(archive: str | Path) -> dict[str, Any] | None:
+    """The streamer curves of one analysis archive, or None without them."""
+    import xarray as xr
+
+    from ..ncio import NC_LOCK
+
+    try:
+        with NC_LOCK, xr.open_dataset(archive) as ds:
+            if any(n not in ds for n in ("C_p_autocorr", "S_c", "S_u")):
+                return None
+            ac = np.asarray(ds["C_p_autocorr"].values, dtype=np.float64)
+            lag_x = np.asarray(ds["lag_x"].values, dtype=np.float64)
+            lag_y = np.asarray(ds["lag_y"].values, dtype=np.float64)
+            ky = np.asarray(ds["ky"].values, dtype=np.float64)
+            Ly = float(ds.attrs.get("Ly", math.nan))
+            dy = float(ds.attrs.get("dy", math.nan))
+            S_c = np.asarray(ds["S_c"].values, dtype=np.float64)
+            S_u = np.asarray(ds["S_u"].values, dtype=np.float64)
+    except (OSError, KeyError, ValueError):
+        return None
+    nx, ny = ac.shape
+    # the zero lag sits at index n // 2 (the analysis' centred autocorrelation)
+    out = {"x": (lag_x[nx // 2:], ac[nx // 2:, ny // 2]),
+           "y": (lag_y[ny // 2:], ac[nx // 2, ny // 2:]),
+           "S_c": premultiplied_over_variance(ky, S_c, Ly, dy),
+           "S_u": premultiplied_over_variance(ky, S_u, Ly, dy)}
+    return out
+
+
+def streaks_figure(summary: dict[str, Any], path: Path, label_pattern) -> Path | None:
+    """One row per case, four panels: C_p's autocorrelation along x and along y, the
+    premultiplied spectra of C_p and of u at 0.1 m; a colour per variant, a line style per seed.
+    ``label_pattern`` parses a run label into case, variant and seed. None when no run carries
+    the curves."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .reference import PAPER_COLOR, PAPER_LABEL, paper_table2
+
+    runs: dict[int, list] = {}
+    for run in summary.get("cases", {}).values():
+        m = label_pattern.match(str(run.get("label", "")))
+        if not m or run.get("status") != "ok" or not run.get("archive"):
+            continue
+        number = m["case"] if m["case"] is not None else run.get("case_number")
+        cur = _curves(run["archive"])
+        if cur is not None and number is not None:
+            runs.setdefault(int(number), []).append((m["variant"], int(m["seed"]), cur))
+    if not runs:
+        return None
+    variants = list(dict.fromkeys(v for rows in runs.values() for v, _, _ in rows))
+    colours = {v: f"C{i}" for i, v in enumerate(variants)}
+    seeds = sorted({s for rows in runs.values() for _, s, _ in rows})
+    cases = sorted(runs)
+    table = paper_table2()
+    fig, axes = plt.subplots(len(cases), 4, figsize=(16, 3.4 * len(cases)), squeeze=False,
+                             constrained_layout=True)
+    for row, case in enumerate(cases):
+        ax = axes[row]
+        paper = table.get(case, {})
+        for v, seed, c in sorted(runs[case], key=lambda r: (variants.index(r[0]), r[1])):
+            ls = ("-", "--", ":", "-.")[seeds.index(seed) % 4]
+            for k, key in enumerate(("x", "y", "S_c", "S_u")):
+                xs, ys = c[key]
+                ax[k].plot(xs, ys, ls, color=colours[v], lw=1.2, label=f"{v} s{seed}")
+        for k, key in enumerate(("lambda_x_m", "lambda_y_m")):
+            ax[k].axhline(LAMBDA_LEVEL, color="0.5", lw=0.8)
+            half = paper.get(key, math.nan) / 2.0
+            if math.isfinite(half):
+                ax[k].axvline(half, color=PAPER_COLOR, lw=2, ls="--",
+                              label=f"{PAPER_LABEL}: λ/2 = {half:g} m")
+        dy_paper = paper.get("delta_y_m", math.nan)
+        for k in (2, 3):
+            ax[k].set_xscale("log")
+            if math.isfinite(dy_paper):
+                ax[k].axvline(dy_paper, color=PAPER_COLOR, lw=2, ls="--",
+                              label=f"{PAPER_LABEL}: δy of C_p = {dy_paper:g} m")
+        ax[0].set(xlabel="streamwise lag [m]", ylabel=f"case {case}: autocorrelation of C_p",
+                  title="(a) along the wind" if row == 0 else None)
+        ax[1].set(xlabel="spanwise lag [m]", title="(b) across the wind" if row == 0 else None)
+        ax[2].set(xlabel="spanwise wavelength [m]", ylabel="k_y S(k_y) / variance",
+                  title="(c) C_p, premultiplied" if row == 0 else None)
+        ax[3].set(xlabel="spanwise wavelength [m]",
+                  title="(d) u at 0.1 m, premultiplied" if row == 0 else None)
+        for a in ax:
+            a.grid(alpha=0.3, which="both")
+        ax[0].legend(fontsize=7)
+        ax[2].legend(fontsize=7)
+    fig.suptitle("The streamers by case (row), variant (colour) and seed (line style); "
+                 f"λ = 2 × the lag where the autocorrelation falls below {LAMBDA_LEVEL:g}",
+                 fontsize=10)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
