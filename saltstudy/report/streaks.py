@@ -82,7 +82,9 @@ def streaks_figure(summary: dict[str, Any], path: Path, label_pattern) -> Path |
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import LogLocator
 
+    from .figures import _plain_log
     from .reference import PAPER_COLOR, PAPER_LABEL, paper_table2
 
     runs: dict[int, list] = {}
@@ -120,7 +122,9 @@ def streaks_figure(summary: dict[str, Any], path: Path, label_pattern) -> Path |
         dy_paper = paper.get("delta_y_m", math.nan)
         for k in (2, 3):
             ax[k].set_xscale("log")
-            if math.isfinite(dy_paper):
+            _plain_log(ax[k], "x")
+            ax[k].xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+            if math.isfinite(dy_paper):   # [49]: the u streaks' spacing is C_p's where it peaks
                 ax[k].axvline(dy_paper, color=PAPER_COLOR, lw=2, ls="--",
                               label=f"{PAPER_LABEL}: δy of C_p = {dy_paper:g} m")
         ax[0].set(xlabel="streamwise lag [m]", ylabel=f"case {case}: autocorrelation of C_p",
