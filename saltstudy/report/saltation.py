@@ -33,7 +33,6 @@ from ..analysis.paper_grid import PAPER_PARCELS_PER_M2
 from ..config import PAPER_AREA_M2
 from .data import RunData
 
-
 __all__ = ["SUSTAINED", "NO_SALTATION", "UNDEFINED", "SaltationState", "saltation_state",
            "q_multiplier", "bed_area", "parcels_per_m2_at_Q", "n_parcels_per_m2_at_Q",
            "n_parcels_released", "paper_parcels_per_m2", "PAPER_PARCELS_SOURCE", "STATE_UNITS"]

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["premultiplied_over_variance", "streaks_figure", "LAMBDA_LEVEL"]
+__all__ = ["premultiplied_over_variance", "streak_curves", "streaks_figure", "LAMBDA_LEVEL"]
 
 #: the level of C_p's autocorrelation whose lag is λ/2 (analysis/analyse.py, "lambda_x")
 LAMBDA_LEVEL = 0.4
@@ -45,7 +45,7 @@ def premultiplied_over_variance(ky: np.ndarray, S: np.ndarray, Ly: float, dy: fl
     return 1.0 / ky, pre
 
 
-def _curves(archive: str | Path) -> dict[str, Any] | None:
+def streak_curves(archive: str | Path) -> dict[str, Any] | None:
     """The streamer curves of one analysis archive, or None without them."""
     import xarray as xr
 
@@ -67,18 +67,17 @@ def _curves(archive: str | Path) -> dict[str, Any] | None:
         return None
     nx, ny = ac.shape
     # the zero lag sits at index n // 2 (the analysis' centred autocorrelation)
-    out = {"x": (lag_x[nx // 2:], ac[nx // 2:, ny // 2]),
-           "y": (lag_y[ny // 2:], ac[nx // 2, ny // 2:]),
-           "S_c": premultiplied_over_variance(ky, S_c, Ly, dy),
-           "S_u": premultiplied_over_variance(ky, S_u, Ly, dy)}
-    return out
+    return {"x": (lag_x[nx // 2:], ac[nx // 2:, ny // 2]),
+            "y": (lag_y[ny // 2:], ac[nx // 2, ny // 2:]),
+            "S_c": premultiplied_over_variance(ky, S_c, Ly, dy),
+            "S_u": premultiplied_over_variance(ky, S_u, Ly, dy)}
 
 
-def streaks_figure(summary: dict[str, Any], path: Path, label_pattern) -> Path | None:
+def streaks_figure(runs: dict[int, list], path: Path) -> Path | None:
     """One row per case, four panels: C_p's autocorrelation along x and along y, the
     premultiplied spectra of C_p and of u at 0.1 m; a colour per variant, a line style per seed.
-    ``label_pattern`` parses a run label into case, variant and seed. None when no run carries
-    the curves."""
+    ``runs``: case -> [(variant, seed, :func:`streak_curves` of its archive)]
+    (``variants.variant_runs``). None when there is no run."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -87,15 +86,6 @@ def streaks_figure(summary: dict[str, Any], path: Path, label_pattern) -> Path |
     from .figures import _plain_log
     from .reference import PAPER_COLOR, PAPER_LABEL, paper_table2
 
-    runs: dict[int, list] = {}
-    for run in summary.get("cases", {}).values():
-        m = label_pattern.match(str(run.get("label", "")))
-        if not m or run.get("status") != "ok" or not run.get("archive"):
-            continue
-        number = m["case"] if m["case"] is not None else run.get("case_number")
-        cur = _curves(run["archive"])
-        if cur is not None and number is not None:
-            runs.setdefault(int(number), []).append((m["variant"], int(m["seed"]), cur))
     if not runs:
         return None
     variants = list(dict.fromkeys(v for rows in runs.values() for v, _, _ in rows))

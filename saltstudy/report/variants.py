@@ -21,14 +21,14 @@ import json
 import math
 import re
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
-from .streaks import streaks_figure
+from .streaks import streak_curves, streaks_figure
 
 __all__ = ["LABEL", "STATS", "variants_table", "build_variants_report", "phi_air", "stokes_budget",
-           "layer_figure"]
+           "layer_figure", "variant_runs"]
 
 #: c<case>_<variant>_s<seed>, or <variant>_s<seed>
 LABEL = re.compile(r"^(?:c(?P<case>\d+)_)?(?P<variant>[A-Za-z0-9.\-]+)_s(?P<seed>\d+)$")
@@ -206,7 +206,7 @@ def build_variants_report(directory: str | Path, parcel_weight: dict[str, float]
         lines.append("")
     (directory / "variants.md").write_text("\n".join(lines), encoding="utf-8")
     layer_figure(summary, directory / "layer.png")
-    streaks_figure(summary, directory / "streaks.png", LABEL)
+    streaks_figure(variant_runs(summary, streak_curves), directory / "streaks.png")
     return table
 
 
@@ -229,6 +229,21 @@ def _parcel_weights(summary: dict[str, Any]) -> dict[str, float]:
         except OSError:
             continue
     return out
+
+
+def variant_runs(summary: dict[str, Any], read: Callable[[str], Any]) -> dict[int, list]:
+    """case -> [(variant, seed, read(archive))] for every finished run labelled
+    ``[c<case>_]<variant>_s<seed>`` whose archive ``read`` can use (not None)."""
+    runs: dict[int, list] = {}
+    for run in summary.get("cases", {}).values():
+        m = LABEL.match(str(run.get("label", "")))
+        if not m or run.get("status") != "ok" or not run.get("archive"):
+            continue
+        number = m["case"] if m["case"] is not None else run.get("case_number")
+        cur = read(run["archive"])
+        if cur is not None and number is not None:
+            runs.setdefault(int(number), []).append((m["variant"], int(m["seed"]), cur))
+    return runs
 
 
 def _layer_curves(archive: str | Path) -> dict[str, np.ndarray] | None:
@@ -262,15 +277,7 @@ def layer_figure(summary: dict[str, Any], path: Path) -> Path | None:
 
     from .saltation import paper_parcels_per_m2
 
-    runs: dict[int, list] = {}
-    for run in summary.get("cases", {}).values():
-        m = LABEL.match(str(run.get("label", "")))
-        if not m or run.get("status") != "ok" or not run.get("archive"):
-            continue
-        number = m["case"] if m["case"] is not None else run.get("case_number")
-        cur = _layer_curves(run["archive"])
-        if cur is not None and number is not None:
-            runs.setdefault(int(number), []).append((m["variant"], int(m["seed"]), cur))
+    runs = variant_runs(summary, _layer_curves)
     if not runs:
         return None
     variants = list(dict.fromkeys(v for rows in runs.values() for v, _, _ in rows))
