@@ -49,6 +49,31 @@ def test_bench_flow_compares_advection_orders_and_rejects_an_unknown_one():
     assert res.exit_code == 2 and "--advection-order" in res.output
 
 
+@pytest.mark.slow   # compiles a second copy of every flow kernel (~2 min on 2 cores)
+def test_bench_flow_against_a_revision_times_both_sides_in_one_process():
+    """--against HEAD on the reduced grid: both sides step the same grid, every round each."""
+    out = _json(["bench", "flow", "--against", "HEAD", "--no-big", "--steps", "2", "--rounds",
+                 "2", "--json"])
+    assert out["against"] == "HEAD" and out["advection_order"] == 2
+    (g,) = out["grids"]
+    grid = load_fidelity("reduced").grid
+    assert g["shape"] == [grid.nx, grid.ny, grid.nz]
+    assert g["vertical_diffusion"] == load_fidelity("reduced").time.vertical_diffusion
+    assert len(g["this_rounds"]) == len(g["against_rounds"]) == 2
+    assert g["this"] > 0 and g["against"] > 0
+    import sys
+    assert any(m.startswith("saltstudy_") and m.endswith(".solver.model") for m in sys.modules)
+
+
+def test_bench_flow_against_an_unknown_revision_or_two_orders_is_a_clear_error():
+    res = CliRunner().invoke(app, ["bench", "flow", "--against", "no-such-rev", "--no-big"])
+    assert res.exit_code != 0
+    assert "--against" in res.output and "no-such-rev" in res.output
+    res = CliRunner().invoke(app, ["bench", "flow", "--against", "HEAD", "--no-big",
+                                   "--advection-order", "2", "--advection-order", "4"])
+    assert res.exit_code == 2 and "--against" in res.output
+
+
 def test_bench_particles_json_has_the_runs_fields():
     out = _json(["bench", "particles", "--n", "2000", "--n", "4000", "--steps", "3", "--json"])
     assert [r["n_parcels"] for r in out["runs"]] == [2000, 4000]

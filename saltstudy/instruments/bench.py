@@ -11,9 +11,17 @@ horizontal advection order (``--advection-order 2 --advection-order 4``: the fid
 floor* is the median time of the FFT pair + tridiagonal solve alone (``PressureSolver.solve_rhs_inplace``),
 three per step (one per RK3 stage), in the same units; ``ratio`` = step / floor says how far the whole
 step is above that irreducible cost. Peak resident memory (ru_maxrss) is reported after the largest grid.
+
+``against`` (``--against REV``) times this checkout's step against git revision REV's on the same
+grids in one process (``instruments/revision.py``): each side builds its own model from its own
+fidelity file, with this checkout's vertical diffusion scheme for that grid and the advection
+order asked for forced on both (what the step's work depends on), both are warmed,
+then ``rounds`` rounds of ``steps`` steps alternate between them, the order flipped every round.
+Reported per grid: the median over rounds of each side's median step, ns per cell-step.
 """
 from __future__ import annotations
 
+import importlib
 import json
 import resource
 import statistics
@@ -21,7 +29,10 @@ import time
 
 import numba
 
-__all__ = ["bench_flow", "GRIDS"]
+__all__ = ["bench_flow", "compare_flow", "GRIDS"]
+
+#: the package this module belongs to (``saltstudy``)
+_PACKAGE = (__package__ or __name__).split(".")[0]
 
 #: (label, fidelity providing the grid): the laptop study's grid and the paper's
 GRIDS = (("reduced", "reduced"), ("paper", "paper"))
@@ -95,6 +106,72 @@ def format_report(res: dict) -> str:
                      f"tridiagonal) {g['pressure_floor_ns_per_cell']:.0f} ns/cell; ratio {g['ratio']:.2f}")
     lines.append(f"peak resident memory: {res['max_rss_mb']:.0f} MB")
     return "\n".join(lines)
+
+
+def _side_model(pkg: str, fidelity: str, numerics: dict):
+    """Case 1's model at ``fidelity`` built by package ``pkg`` (this checkout's or a revision's)
+    with the time-stepping ``numerics`` (e.g. the advection order and the vertical diffusion
+    scheme, which set the step's work) forced, warmed by two steps; returns (model, dt). A
+    revision without one of those options must already do what is asked (second-order,
+    explicit), or the two sides would time different work."""
+    cfg = importlib.import_module(f"{pkg}.config")
+    Model = importlib.import_module(f"{pkg}.solver.model").Model
+    fid = cfg.load_fidelity(fidelity)
+    fields = type(fid.time).model_fields
+    implied = {"advection_order": 2, "vertical_diffusion": "explicit"}
+    missing = {k: v for k, v in numerics.items() if k not in fields and v != implied.get(k)}
+    if missing:
+        raise ValueError(f"revision package {pkg} has no time option for {missing}")
+    fid = fid.model_copy(update={"time": fid.time.model_copy(
+        update={k: v for k, v in numerics.items() if k in fields})})
+    m = Model.from_scene(cfg.resolve_scene(cfg.load_case(1), fid))
+    for _ in range(2):
+        m.step(m.next_dt())
+    return m, m.next_dt()
+
+
+def compare_flow(against: str, steps: int = 10, rounds: int = 7, big: bool = True,
+                 advection_order: int = 2, as_json: bool = False) -> dict:
+    """This checkout's LES step against revision ``against``'s (module doc). Returns {"threads",
+    "against", "advection_order", "grids": [{"fidelity", "shape", "this", "against",
+    "this_rounds", "against_rounds"}]}, times in ns per cell-step."""
+    from .revision import revision_package
+
+    sides = {"this": _PACKAGE, "against": revision_package(against)}
+    grids = []
+    for _, fid in GRIDS:
+        if fid == "paper" and not big:
+            continue
+        from ..config import load_fidelity
+        numerics = {"advection_order": advection_order,
+                    "vertical_diffusion": load_fidelity(fid).time.vertical_diffusion}
+        models = {k: _side_model(p, fid, numerics) for k, p in sides.items()}
+        n = models["this"][0].grid.n_cells
+        per = {k: [] for k in sides}
+        for r in range(rounds):
+            for side in (("this", "against") if r % 2 == 0 else ("against", "this")):
+                m, dt = models[side]
+                per[side].append(statistics.median(_times(lambda: m.step(dt), steps)) / n * 1e9)
+        for m, _ in models.values():
+            m.close()
+        grids.append({"fidelity": fid, "shape": list(models["this"][0].grid.shape),
+                      "vertical_diffusion": numerics["vertical_diffusion"],
+                      "this": statistics.median(per["this"]),
+                      "against": statistics.median(per["against"]),
+                      "this_rounds": per["this"], "against_rounds": per["against"]})
+    out = {"threads": numba.get_num_threads(), "against": against,
+           "advection_order": advection_order, "steps": steps, "rounds": rounds, "grids": grids}
+    if as_json:
+        print(json.dumps(out))
+    else:
+        print(f"LES step, this checkout against {against}, advection order {advection_order}, "
+              f"{out['threads']} numba threads, {rounds} alternating rounds of {steps} steps, "
+              f"medians")
+        for g in grids:
+            nx, ny, nz = g["shape"]
+            print(f"  {nx}x{ny}x{nz} ({g['vertical_diffusion']}): {g['this']:6.0f} ns per cell-step here, {g['against']:6.0f} "
+                  f"at {against} ({g['this'] / g['against'] - 1:+.1%})")
+    return out
 
 
 def main(steps: int = 10, big: bool = True, as_json: bool = False, closures=("deardorff",),

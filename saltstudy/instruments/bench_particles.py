@@ -23,19 +23,15 @@ checkout's (numba's cache, keyed by this checkout's sources).
 from __future__ import annotations
 
 import importlib
-import io
 import json
 import math
-import os
-import shutil
-import subprocess
 import sys
-import tarfile
 import time
 from contextlib import contextmanager, nullcontext
-from pathlib import Path
 
 import numpy as np
+
+from .revision import RevisionError, revision_package
 
 __all__ = ["bench_particles", "compare_particles", "register_bench"]
 
@@ -174,41 +170,6 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
     return out
 
 
-class RevisionError(ValueError):
-    """--against names no revision of this checkout (or there is no git checkout)."""
-
-
-def _revision_package(rev: str) -> str:
-    """Import name of the ``saltstudy`` package of git revision ``rev`` of this checkout,
-    extracted (with its ``cases/`` and ``workflows/``) under ~/.cache/saltstudy/compare/<sha>/
-    and put on sys.path."""
-    root = Path(__file__).resolve().parents[2]
-    try:
-        sha = subprocess.run(["git", "-C", str(root), "rev-parse", "--verify", rev + "^{commit}"],
-                             capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError) as e:
-        raise RevisionError(f"{rev!r} is not a git revision of {root}") from e
-    name = f"saltstudy_{sha[:12]}"
-    base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "saltstudy" / \
-        "compare" / sha[:12]
-    if not base.exists():  # extracted whole into a temporary folder, then renamed into place
-        tar = subprocess.run(["git", "-C", str(root), "archive", sha, "saltstudy", "cases",
-                              "workflows"], capture_output=True, check=True).stdout
-        tmp = base.with_name(base.name + f".tmp{os.getpid()}")
-        with tarfile.open(fileobj=io.BytesIO(tar)) as tf:
-            # the "data" filter (no links out, no absolute paths) exists from Python 3.11.4
-            safe = {"filter": "data"} if hasattr(tarfile, "data_filter") else {}
-            tf.extractall(tmp, **safe)
-        (tmp / "saltstudy").rename(tmp / name)
-        try:
-            tmp.rename(base)
-        except OSError:  # another process got there first
-            shutil.rmtree(tmp, ignore_errors=True)
-    if str(base) not in sys.path:
-        sys.path.insert(0, str(base))
-    return name
-
-
 def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: int = 7,
                       as_json: bool = False, dt: float = 0.005, case: int = 2,
                       fidelity: str = "reduced") -> dict:
@@ -217,7 +178,7 @@ def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: 
     "runs": [{"n_parcels", "this", "against", "this_rounds", "against_rounds"}]}."""
     import numba
 
-    sides = {"this": _PACKAGE, "against": _revision_package(against)}
+    sides = {"this": _PACKAGE, "against": revision_package(against)}
     runs = []
     for n in n_list:
         n = int(n)

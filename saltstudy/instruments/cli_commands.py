@@ -18,7 +18,10 @@ def register(app: typer.Typer) -> None:
                                                help="SGS closure (closure.model); repeat to compare"),
              advection_order: list[int] = typer.Option(
                  [2], "--advection-order",
-                 help="horizontal advection order (time.advection_order); repeat to compare")) -> None:
+                 help="horizontal advection order (time.advection_order); repeat to compare"),
+             against: str = typer.Option(None, "--against", help="git revision to time this "
+                                         "checkout against, alternating in one process"),
+             rounds: int = typer.Option(7, "--rounds", help="alternating rounds (--against)")) -> None:
         """Median wall time per LES step on the reduced grid and the paper's, per cell-step, vs the FFT floor."""
         from .bench import main
         from ..solver.advection import ADVECTION_ORDERS
@@ -33,6 +36,19 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"error: --advection-order: {bad_order[0]} is not one of {ADVECTION_ORDERS}",
                        err=True)
             raise typer.Exit(2)
+        if against:
+            from .bench import compare_flow
+            from .revision import RevisionError
+            if len(advection_order) > 1 or closure != ["deardorff"]:
+                typer.echo("error: --against: compares one configuration (Deardorff, one "
+                           "--advection-order)", err=True)
+                raise typer.Exit(2)
+            try:
+                compare_flow(against, steps=steps, rounds=rounds, big=big,
+                             advection_order=advection_order[0], as_json=as_json)
+            except (RevisionError, ValueError) as e:
+                raise typer.BadParameter(str(e), param_hint="--against") from e
+            return
         main(steps=steps, big=big, as_json=as_json, closures=closure, orders=advection_order)
 
     from .bench_particles import register_bench
