@@ -289,4 +289,6 @@ def register_probe(app) -> None:
         if as_json:
             typer.echo(json.dumps(res))
 
+    from .coherence_probe import register_coherence
+    register_coherence(probe_app)
     app.add_typer(probe_app, name="probe")

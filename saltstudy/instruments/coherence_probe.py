@@ -1,0 +1,145 @@
+"""Which eddies the grains follow: the spanwise co-spectrum and coherence of C_p and u(z) in one
+saltation archive.
+
+    saltstudy probe coherence RUN_DIR_OR_SAMPLES_NC [--blocks 8] [--json]
+
+For the archive's C_p planes and its u planes at each sampled height (``u_plane``, z_plane), all
+averaged over time and the streamwise direction (over kx, by Parseval) as Table 2's spectra are:
+
+- the premultiplied spanwise spectra k_y S_c and k_y S_u(z), as the paper's Fig. 10 draws them;
+- the co-spectrum Co(k_y), the real part of the cross-spectrum of C_p and u(z): its area is the
+  covariance of the two, so k_y Co against ln(wavelength) shows at which spanwise scales C_p and u
+  vary together, with a standard error from contiguous time blocks;
+- the coherence squared |<Ĉ û*>|² / (<|Ĉ|²> <|û|²>) per wavelength: the share of C_p's variance at
+  that scale that is linear in u(z) at the same scale (0: unrelated, 1: locked).
+
+The paper reads C_p and u at 0.1 m peaking at the same spanwise wavelengths (its [49]) and a
+correlation R_cu of 0.3 above 0.6 z_m from the large eddies ([51]); a co-spectrum at the u
+streaks' wavelength says the grains follow the streaks, one only at the box's widest modes says
+they follow the large eddies.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..analysis.streamers import N_BLOCKS, deviation_planes
+
+__all__ = ["spanwise_cospectrum", "probe_coherence", "register_coherence"]
+
+
+def spanwise_cospectrum(a: np.ndarray, b: np.ndarray, dy: float, n_blocks: int = N_BLOCKS
+                        ) -> dict[str, np.ndarray]:
+    """Spanwise spectra of two (nt, nx, ny) plane series ``a``, ``b`` on the same grid, averaged
+    over x and time: {"ky" [cycles m-1], "S_a", "S_b", "Co", "Co_se", "coherence2"}. One-sided
+    densities as :func:`saltstudy.analysis.streamers.spanwise_spectrum`: ``sum(S_a) / Ly`` is the
+    mean variance of a's planes and ``sum(Co) / Ly`` the mean covariance of a and b. Co_se: the
+    standard deviation over ``n_blocks`` contiguous time blocks / sqrt(n_blocks) (NaN with fewer
+    than 4 planes)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape or a.ndim != 3:
+        raise ValueError(f"planes of shape {a.shape} and {b.shape}: need two equal (nt, nx, ny)")
+    nt, nx, ny = a.shape
+    Ly = ny * dy
+    ky = np.arange(ny // 2 + 1) / Ly
+    A = np.fft.rfft(deviation_planes(a)[0], axis=2)
+    B = np.fft.rfft(deviation_planes(b)[0], axis=2)
+    w = np.full(ky.size, 2.0)
+    w[0] = 1.0
+    if ny % 2 == 0:
+        w[-1] = 1.0
+    norm = w * Ly / ny ** 2                          # two-sided sum -> one-sided density
+    cross = (A * np.conj(B)).mean(axis=1)             # (nt, nky), averaged over x
+    Paa = (np.abs(A) ** 2).mean(axis=1)
+    Pbb = (np.abs(B) ** 2).mean(axis=1)
+    co_t = cross.real * norm
+    S_a, S_b, Co = Paa.mean(0) * norm, Pbb.mean(0) * norm, co_t.mean(0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        coh = np.abs(cross.mean(0)) ** 2 / (Paa.mean(0) * Pbb.mean(0))
+    se = np.full(ky.size, np.nan)
+    nb = min(n_blocks, nt)
+    if nt >= 4 and nb >= 2:
+        bm = np.array([co_t[i].mean(0) for i in np.array_split(np.arange(nt), nb)])
+        se = bm.std(axis=0, ddof=1) / math.sqrt(nb)
+    return {"ky": ky, "S_a": S_a, "S_b": S_b, "Co": Co, "Co_se": se, "coherence2": coh}
+
+
+def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS) -> dict:
+    """C_p against u at every sampled height of a saltation archive (module doc). Returns
+    {"samples", "wavelength_m", "kS_c", "heights": [{"z", "kS_u", "kCo", "kCo_se",
+    "coherence2", "peak_kS_u_m", "peak_kCo_m"}]}, the premultiplied curves each over its own
+    maximum (kCo and its error over kCo's), modes 1 to ny/2 (the mean left out)."""
+    from ..ncio import open_dataset
+
+    ds = open_dataset(samples)
+    for name in ("C_p", "u_plane", "z_plane", "y"):
+        if name not in ds:
+            raise ValueError(f"{samples}: no {name!r} (not a saltation archive with planes)")
+    C = ds["C_p"].values
+    y = ds["y"].values
+    dy = float(y[1] - y[0])
+    heights = []
+    kS_c = lam = None
+    for k, z in enumerate(ds["z_plane"].values):
+        r = spanwise_cospectrum(C, ds["u_plane"].values[..., k], dy, n_blocks)
+        ky = r["ky"][1:]
+        lam = 1.0 / ky
+        kSc = ky * r["S_a"][1:]
+        kSc_max = float(np.max(kSc)) if np.max(kSc) > 0 else 1.0
+        kS_c = kSc / kSc_max
+        kSu = ky * r["S_b"][1:]
+        kCo = ky * r["Co"][1:]
+        top = float(np.max(np.abs(kCo))) or 1.0
+        heights.append({"z": float(z), "kS_u": (kSu / np.max(kSu)).tolist(),
+                        "kCo": (kCo / top).tolist(), "kCo_se": (ky * r["Co_se"][1:] / top).tolist(),
+                        "coherence2": r["coherence2"][1:].tolist(),
+                        "peak_kS_u_m": float(lam[np.argmax(kSu)]),
+                        "peak_kCo_m": float(lam[np.argmax(kCo)])})
+    ds.close()
+    return {"samples": str(samples), "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(),
+            "peak_kS_c_m": float(lam[np.argmax(kS_c)]), "heights": heights}
+
+
+def format_coherence(res: dict, n: int = 12) -> str:
+    lam = res["wavelength_m"][:n]
+    row = lambda name, v: f"{name:18s}" + " ".join(f"{x:5.2f}" for x in v[:n])
+    out = [f"C_p against u(z), {res['samples']}; premultiplied curves over their maxima",
+           row("wavelength [m]", lam),
+           row("k S_c", res["kS_c"]) + f"   top at {res['peak_kS_c_m']:.2f} m"]
+    for h in res["heights"]:
+        out += [f"z = {h['z']:.2f} m",
+                row("  k S_u", h["kS_u"]) + f"   top at {h['peak_kS_u_m']:.2f} m",
+                row("  k Co(C_p, u)", h["kCo"]) + f"   top at {h['peak_kCo_m']:.2f} m",
+                row("    +- block s.e.", h["kCo_se"]),
+                row("  coherence^2", h["coherence2"])]
+    return "\n".join(out)
+
+
+def register_coherence(probe_app) -> None:
+    """Add ``saltstudy probe coherence`` to the ``probe`` sub-app."""
+    import typer
+
+    @probe_app.command("coherence")
+    def coherence(path: Path = typer.Argument(..., help="a saltation archive (samples.nc) or "
+                                              "the directory holding it"),
+                  blocks: int = typer.Option(N_BLOCKS, "--blocks", help="time blocks for the "
+                                             "co-spectrum's standard error"),
+                  as_json: bool = typer.Option(False, "--json", help="one JSON object")) -> None:
+        """Spanwise co-spectrum and coherence of C_p and u at each sampled height of one run."""
+        samples = path / "samples.nc" if path.is_dir() else path
+        if not samples.is_file():
+            typer.echo(f"error: {samples}: no such file", err=True)
+            raise typer.Exit(2)
+        if blocks < 2:
+            typer.echo(f"error: --blocks: {blocks} < 2 (the standard error needs two)", err=True)
+            raise typer.Exit(2)
+        try:
+            res = probe_coherence(samples, blocks)
+        except (OSError, ValueError) as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(2) from None
+        typer.echo(json.dumps(res) if as_json else format_coherence(res))
