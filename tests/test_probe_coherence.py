@@ -87,6 +87,29 @@ def test_the_command_reads_each_height_of_an_archive(tmp_path):
     assert text.exit_code == 0 and "coherence^2" in text.output
 
 
+def test_a_lag_finds_a_field_that_follows_the_wind_late(tmp_path):
+    """C_p repeats u's spanwise wave three planes (0.6 s) later, with a new random phase every
+    plane: unrelated at zero lag, locked at 0.6 s."""
+    rng = np.random.default_rng(4)
+    y = np.arange(NY) * DY
+    phase = rng.uniform(0, 2 * np.pi, (NT + 3, NX, 1))
+    wave = np.sin(2 * np.pi * 4 * y[None, None, :] / (NY * DY) + phase)
+    u = wave[3:] + 0.2 * rng.standard_normal((NT, NX, NY))
+    c = wave[:NT] + 0.2 * rng.standard_normal((NT, NX, NY))   # c(t) = wave(t - 3 planes)
+    xr.Dataset({"C_p": (("time_plane", "x", "y"), c),
+                "u_plane": (("time_plane", "x", "y", "z_plane"), u[..., None])},
+               coords={"y": (np.arange(NY) + 0.5) * DY, "z_plane": [0.1],
+                       "time_plane": np.arange(NT) * 0.2}).to_netcdf(tmp_path / "samples.nc")
+    runs = {lag: json.loads(CliRunner().invoke(app, ["probe", "coherence", str(tmp_path), "--json",
+                                                     "--lag", str(lag)]).stdout)
+            for lag in (0.0, 0.6)}
+    assert max(runs[0.0]["heights"][0]["coherence2"]) < 0.05
+    assert runs[0.6]["lag_s"] == pytest.approx(0.6)
+    assert runs[0.6]["heights"][0]["coherence2"][3] > 0.9          # mode 4 (index 3 from mode 1)
+    res = CliRunner().invoke(app, ["probe", "coherence", str(tmp_path), "--lag", "100"])
+    assert res.exit_code == 2 and "lag" in res.output
+
+
 def test_the_command_names_what_an_archive_lacks(tmp_path):
     xr.Dataset({"C_p": (("time_plane", "x", "y"), np.zeros((2, 3, 4)))}).to_netcdf(tmp_path / "s.nc")
     res = CliRunner().invoke(app, ["probe", "coherence", str(tmp_path / "s.nc")])

@@ -1,7 +1,7 @@
 """Which eddies the grains follow: the spanwise co-spectrum and coherence of C_p and u(z) in one
 saltation archive.
 
-    saltstudy probe coherence RUN_DIR_OR_SAMPLES_NC [--blocks 8] [--json]
+    saltstudy probe coherence RUN_DIR_OR_SAMPLES_NC [--lag 0.4] [--blocks 8] [--json]
 
 For the archive's C_p planes and its u planes at each sampled height (``u_plane``, z_plane), all
 averaged over time and the streamwise direction (over kx, by Parseval) as Table 2's spectra are:
@@ -12,6 +12,9 @@ averaged over time and the streamwise direction (over kx, by Parseval) as Table 
   vary together, with a standard error from contiguous time blocks;
 - the coherence squared |<Ĉ û*>|² / (<|Ĉ|²> <|û|²>) per wavelength: the share of C_p's variance at
   that scale that is linear in u(z) at the same scale (0: unrelated, 1: locked).
+
+``--lag TAU`` pairs C_p(t) with u(t - TAU), the wind leading (TAU rounded to the planes'
+spacing): grains that answer an eddy late (Stokes number above 1) cohere with the past wind.
 
 The paper reads C_p and u at 0.1 m peaking at the same spanwise wavelengths (its [49]) and a
 correlation R_cu of 0.3 above 0.6 z_m from the large eddies ([51]); a co-spectrum at the u
@@ -68,11 +71,12 @@ def spanwise_cospectrum(a: np.ndarray, b: np.ndarray, dy: float, n_blocks: int =
     return {"ky": ky, "S_a": S_a, "S_b": S_b, "Co": Co, "Co_se": se, "coherence2": coh}
 
 
-def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS) -> dict:
+def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS, lag_s: float = 0.0) -> dict:
     """C_p against u at every sampled height of a saltation archive (module doc). Returns
     {"samples", "wavelength_m", "kS_c", "heights": [{"z", "kS_u", "kCo", "kCo_se",
     "coherence2", "peak_kS_u_m", "peak_kCo_m"}]}, the premultiplied curves each over its own
-    maximum (kCo and its error over kCo's), modes 1 to ny/2 (the mean left out)."""
+    maximum (kCo and its error over kCo's), modes 1 to ny/2 (the mean left out); "lag_s" the
+    lag used, u leading C_p."""
     from ..ncio import open_dataset
 
     ds = open_dataset(samples)
@@ -80,12 +84,23 @@ def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS) -> dict:
         if name not in ds:
             raise ValueError(f"{samples}: no {name!r} (not a saltation archive with planes)")
     C = ds["C_p"].values
+    U = ds["u_plane"].values
+    lag = 0
+    if lag_s:
+        t = ds["time_plane"].values if "time_plane" in ds else None
+        if t is None or t.size < 2:
+            raise ValueError(f"{samples}: a lag needs the planes' times (time_plane)")
+        lag = int(round(lag_s / float(t[1] - t[0])))
+        if lag < 0 or lag >= C.shape[0] - 4:
+            raise ValueError(f"lag {lag_s} s is {lag} planes: needs 0 <= lag < {C.shape[0] - 4}")
+        C, U = C[lag:], U[:U.shape[0] - lag]
+        lag_s = lag * float(t[1] - t[0])
     y = ds["y"].values
     dy = float(y[1] - y[0])
     heights = []
     kS_c = lam = None
     for k, z in enumerate(ds["z_plane"].values):
-        r = spanwise_cospectrum(C, ds["u_plane"].values[..., k], dy, n_blocks)
+        r = spanwise_cospectrum(C, U[..., k], dy, n_blocks)
         ky = r["ky"][1:]
         lam = 1.0 / ky
         kSc = ky * r["S_a"][1:]
@@ -100,14 +115,15 @@ def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS) -> dict:
                         "peak_kS_u_m": float(lam[np.argmax(kSu)]),
                         "peak_kCo_m": float(lam[np.argmax(kCo)])})
     ds.close()
-    return {"samples": str(samples), "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(),
+    return {"samples": str(samples), "lag_s": float(lag_s), "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(),
             "peak_kS_c_m": float(lam[np.argmax(kS_c)]), "heights": heights}
 
 
 def format_coherence(res: dict, n: int = 12) -> str:
     lam = res["wavelength_m"][:n]
     row = lambda name, v: f"{name:18s}" + " ".join(f"{x:5.2f}" for x in v[:n])
-    out = [f"C_p against u(z), {res['samples']}; premultiplied curves over their maxima",
+    out = [f"C_p against u(z) {res['lag_s']:g} s earlier, {res['samples']}; premultiplied curves "
+           "over their maxima",
            row("wavelength [m]", lam),
            row("k S_c", res["kS_c"]) + f"   top at {res['peak_kS_c_m']:.2f} m"]
     for h in res["heights"]:
@@ -128,6 +144,7 @@ def register_coherence(probe_app) -> None:
                                               "the directory holding it"),
                   blocks: int = typer.Option(N_BLOCKS, "--blocks", help="time blocks for the "
                                              "co-spectrum's standard error"),
+                  lag: float = typer.Option(0.0, "--lag", help="pair C_p(t) with u(t - LAG), s"),
                   as_json: bool = typer.Option(False, "--json", help="one JSON object")) -> None:
         """Spanwise co-spectrum and coherence of C_p and u at each sampled height of one run."""
         samples = path / "samples.nc" if path.is_dir() else path
@@ -138,7 +155,7 @@ def register_coherence(probe_app) -> None:
             typer.echo(f"error: --blocks: {blocks} < 2 (the standard error needs two)", err=True)
             raise typer.Exit(2)
         try:
-            res = probe_coherence(samples, blocks)
+            res = probe_coherence(samples, blocks, lag)
         except (OSError, ValueError) as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(2) from None
