@@ -114,6 +114,23 @@ class Splash(_Frozen):
         "of ejected parcels, which the paper does not say: 'stochastic' rounding (floor plus one "
         "with probability the fraction: the mean is eq. 8's), its 'floor' (no ejecta below "
         "N_ej = 1, v_imp = 1.48 m/s for 200 um grains), or the 'nearest' integer")
+    impact_speed: Literal["magnitude", "normal"] = Field(
+        "magnitude", description="the v_imp of eqs. 6 and 8 (rebound probability, number of "
+        "ejecta), which the paper calls the impact velocity: the impact speed |u_p| ('magnitude', "
+        "as Anderson & Haff 1991 and Kok & Renno 2009 use it), or its component normal to the bed "
+        "|w_p| ('normal'); eqs. 7 and 9 (rebound and ejection speeds) take |u_p| either way")
+    launch_height: Literal["layer_top", "bed"] = Field(
+        "layer_top", description="where a rebound and the ejecta leave from: the impact layer's top, "
+        "where the impactor met it ('layer_top'), or the bed z = 0 ('bed'), from which a grain "
+        "rises through the layer under gravity and, if it cannot leave it, meets the bed again "
+        "at the top of its hop at its speed there (solver/splash_kernels.py)")
+
+    @model_validator(mode="after")
+    def _one_bed(self) -> "Splash":
+        if self.launch_height == "bed" and self.detection_step > 0:
+            raise ValueError("launch_height: 'bed' launches every grain from z = 0, detection_step "
+                             "> 0 from where it was found inside the layer; choose one")
+        return self
 
 
 class Threshold(_Frozen):
@@ -139,6 +156,15 @@ class Forcing(_Frozen):
 class Surface(_Frozen):
     """Rigid bed: log-law stress at the first level."""
     z0: float = Field(1.0e-5, gt=0, lt=0.1, description="roughness length z0 [m] (paper: 10 um)")
+    stress_level: Literal["first", "second"] = Field(
+        "first", description="the wind the bulk drag law reads: the first level's, with "
+        "C_d = [kappa / ln(z_1/z0)]^2 ('first', the paper's bulk law at the first level), or the "
+        "second level's, with C_d = [kappa / ln(z_2/z0)]^2 ('second': the wind whose log law the "
+        "first cell's grains see, the paper's [12])")
+    stress_instant: Literal["stage", "step_start"] = Field(
+        "stage", description="when the bed stress is evaluated: from each RK3 stage's wind "
+        "('stage'), or once per step from the wind before the grains' drag of that step "
+        "('step_start', as a model that forms its surface flux before the particle forcing)")
 
 
 class Closure(_Frozen):
@@ -503,7 +529,8 @@ class Scene(_Frozen):
         c, f = self.spinup_scene().case, self.fidelity
         return {
             "air": c.air.model_dump(mode="json"),
-            "surface": c.surface.model_dump(mode="json"),
+            # when the bed stress is taken matters only beside the grains' drag
+            "surface": c.surface.model_dump(mode="json", exclude={"stress_instant"}),
             "closure": c.closure.model_dump(mode="json"),
             "forcing": c.forcing.model_dump(mode="json"),
             "seed": c.seed,

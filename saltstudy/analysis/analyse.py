@@ -33,7 +33,7 @@ import numpy as np
 import xarray as xr
 
 from ..ncio import NC_LOCK, write_dataset
-from . import correlation, flux, layer, paper_grid, profiles, series, sizes, stokes, streamers
+from . import balance, correlation, flux, layer, paper_grid, profiles, series, sizes, stokes, streamers
 from ..physics import laws
 
 __all__ = ["analyse_case", "analyse_datasets", "half_window_statistics", "HALF_STATISTICS", "SPEC",
@@ -81,6 +81,32 @@ SPEC: dict[str, tuple[str, str]] = {
     "band_wind_seen": ("m s-1", "mass-weighted mean streamwise fluid velocity at the grains in "
                        "the band"),
     "first_cell_parcel_fraction": ("1", "share of the airborne grains in the first grid cell"),
+    "n_parcels_per_m2_at_Q_above_first_cell": ("m-2", "airborne grains above the first grid cell "
+                                               "per m2 of bed over the case's Q, mean over the "
+                                               "3-D samples"),
+    # the momentum balance at the bed (analysis/balance.py)
+    "tau_g_bed_impacts": ("Pa", "streamwise momentum the grains give the bed per unit area and "
+                          "time, from the impact record (impacts minus launches)"),
+    "bed_vertical_impulse": ("Pa", "vertical momentum the bed gives the grains per unit area and "
+                             "time, from the impact record"),
+    "mu_b": ("1", "bed friction coefficient from the impact record: streamwise over vertical "
+             "momentum exchanged with the bed"),
+    "mu_b_se": ("1", "standard error of mu_b from contiguous blocks of the sampling window"),
+    "tau_g_bed_budget": ("Pa", "stress the grains carry to the bed from the air's budget: total "
+                         "stress at the reference height less the bulk law's bed stress"),
+    "bed_fluid_stress_fraction": ("1", "the bulk law's stress on the bed over the total stress at "
+                                  "the reference height"),
+    "mu_b_budget": ("1", "bed friction coefficient from the air's budget: tau_g_bed_budget over "
+                    "the airborne grains' weight"),
+    "mu_b_budget_se": ("1", "standard error of mu_b_budget from the per-sample ratios"),
+    "mu_b_ratio_budget_to_impacts": ("1", "mu_b_budget over mu_b (1 in a steady layer whose "
+                                     "weight the bed carries)"),
+    "tau_g_bed_ratio_budget_to_impacts": ("1", "tau_g_bed_budget over tau_g_bed_impacts (1 in a "
+                                          "steady layer that leaks no momentum)"),
+    "lambda_x_above_first_cell": ("m", "lambda_x of the grains above the first grid cell"),
+    "lambda_y_above_first_cell": ("m", "lambda_y of the grains above the first grid cell"),
+    "delta_y_above_first_cell": ("m", "delta_y (premultiplied reading) of the grains above the "
+                                 "first grid cell"),
     "impact_speed_pdf": ("s m-1", "probability density of the impact speed over the sampling "
                          "window"),
     "impact_angle_pdf": ("degree-1", "probability density of the impact angle to the bed"),
@@ -252,7 +278,7 @@ SAMPLE_VARIABLES_USED = (
     "u", "C_p_s", "uw_res", "uw_sgs", "u_mean", "tke_res", "e_sgs", "sgs_transfer", "pm", "pmu",
     "pmw", "pmuw", "pdrag", "pmuf_up", "pmuf", "size_hist", "d_edges", "C_p", "G_col", "u_plane",
     "n_parcels", "G_tot_series", "u_star_ref", "E_impact", "E_splash", "pn", "impact_hist",
-    "impact_outcomes", "hop_time_hist", "hop_length_hist",
+    "impact_outcomes", "hop_time_hist", "hop_length_hist", "bed_px", "bed_pz", "C_p_above",
 )
 
 
@@ -651,6 +677,15 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     uw_mean_w = _tmean(uw_w, nz + 1)
     put("tau_p_surface_fraction_budget", (), flux.budget_bed_fraction(
         float(uw_mean_w[0]), -u0_stress ** 2) if uw_mean_w.size == nz + 1 else math.nan)
+    # the momentum balance at the bed from the air's side (analysis/balance.py)
+    uw_bed_i = (np.asarray(uw_w, dtype=np.float64)[:, 0]
+                if uw_w is not None and uw_w.ndim == 2 and uw_w.shape[0] == n_t else None)
+    mass_i = (np.nansum(np.asarray(pm, dtype=np.float64), axis=1) / (Lx * Ly)
+              if pm is not None and pm.ndim == 2 and pm.shape[0] == n_t else None)
+    bud = balance.budget_friction(rho, g, u0_stress ** 2 if math.isfinite(u0_stress) else math.nan,
+                                  uw_bed_i, mass_i)
+    for name, val in bud.items():
+        put(name, (), val)
 
     # ---------------- spin-up (particle-free) ----------------
     sp_z = np.asarray(sp_coords.get("z", z), dtype=np.float64)
@@ -875,6 +910,23 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("C_p_parcels_per_column_paper", (), n_col_paper, definition="mean(C_p) 0.01 m2 / Q")
     put("C_p_small_scale_over_poisson", (), small_ratio,
         definition="saltstudy.analysis.streamers.small_scale_power over poisson_noise_variance")
+    # the streamers of the grains above the first cell (z >= z_f[1]): the same readings without
+    # the slow first-cell population
+    Ca_all = get("C_p_above")
+    Ca_w = (Ca_all[pmask] if Ca_all is not None and Ca_all.ndim == 3
+            and Ca_all.shape[0] == pmask.size else None)
+    lam_xa = lam_ya = dya = math.nan
+    if Ca_w is not None and Ca_w.shape[0] and nx >= 2 and ny >= 2 and np.any(Ca_w > 0):
+        rem_a = noise_to_paper(Ca_w)
+        ac_a = streamers.autocorrelation_2d(Ca_w, noise=rem_a)
+        lam_xa = streamers.core_length(ac_a[:, ny // 2], dx)
+        lam_ya = streamers.core_length(ac_a[nx // 2, :], dy)
+        dya = streamers.spanwise_spacing(Ca_w, dy, noise=rem_a)[3].chosen
+        del ac_a
+    for name, val in (("lambda_x_above_first_cell", lam_xa), ("lambda_y_above_first_cell", lam_ya),
+                      ("delta_y_above_first_cell", dya)):
+        put(name, (), val, definition=f"{name.split('_above')[0]} of C_p_above (the grains above "
+            "the first grid cell), the same noise removal")
     put("C_p_autocorr", ("lag_x", "lag_y"), ac)
     put("S_c", ("ky",), S_c)
     put("S_c_stderr", ("ky",), S_c_se)
@@ -957,6 +1009,18 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     nb = anat["band_parcels_per_m2_at_Q"]
     put("first_cell_parcel_fraction", (), float(nb[0] / np.nansum(nb))
         if np.nansum(nb) > 0 else math.nan)
+    put("n_parcels_per_m2_at_Q_above_first_cell", (), float(np.nansum(nb[1:]))
+        if np.isfinite(nb).any() else math.nan)
+    # the momentum balance at the bed from the impact record (analysis/balance.py)
+    imp_bal = balance.bed_exchange(t_series, get("bed_px"), get("bed_pz"), t0, t1, Lx * Ly)
+    for name, val in imp_bal.items():
+        put(name, (), val)
+    tau_g_b = V["tau_g_bed_budget"][1]
+    put("mu_b_ratio_budget_to_impacts", (), float(V["mu_b_budget"][1] / imp_bal["mu_b"])
+        if imp_bal["mu_b"] and math.isfinite(imp_bal["mu_b"]) else math.nan)
+    put("tau_g_bed_ratio_budget_to_impacts", (), float(tau_g_b / imp_bal["tau_g_bed_impacts"])
+        if imp_bal["tau_g_bed_impacts"] and math.isfinite(imp_bal["tau_g_bed_impacts"])
+        else math.nan)
     # the impact record's bins are the archive's coordinates (their lower edges, equal widths)
     def edges(name):
         lo = np.asarray(coords.get(name, np.zeros(0)), dtype=np.float64)

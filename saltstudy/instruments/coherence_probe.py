@@ -71,19 +71,27 @@ def spanwise_cospectrum(a: np.ndarray, b: np.ndarray, dy: float, n_blocks: int =
     return {"ky": ky, "S_a": S_a, "S_b": S_b, "Co": Co, "Co_se": se, "coherence2": coh}
 
 
-def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS, lag_s: float = 0.0) -> dict:
+#: the grain fields the probe reads: all the airborne grains, or those above the first grid cell
+FIELDS = ("C_p", "C_p_above")
+
+
+def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS, lag_s: float = 0.0,
+                    field: str = "C_p") -> dict:
     """C_p against u at every sampled height of a saltation archive (module doc). Returns
     {"samples", "wavelength_m", "kS_c", "heights": [{"z", "kS_u", "kCo", "kCo_se",
     "coherence2", "peak_kS_u_m", "peak_kCo_m"}]}, the premultiplied curves each over its own
     maximum (kCo and its error over kCo's), modes 1 to ny/2 (the mean left out); "lag_s" the
-    lag used, u leading C_p."""
+    lag used, u leading C_p. ``field``: ``C_p`` or ``C_p_above`` (the grains above the first
+    grid cell)."""
+    if field not in FIELDS:
+        raise ValueError(f"field {field!r}: one of {', '.join(FIELDS)}")
     from ..ncio import open_dataset
 
     ds = open_dataset(samples)
-    for name in ("C_p", "u_plane", "z_plane", "y"):
+    for name in (field, "u_plane", "z_plane", "y"):
         if name not in ds:
-            raise ValueError(f"{samples}: no {name!r} (not a saltation archive with planes)")
-    C = ds["C_p"].values
+            raise ValueError(f"{samples}: no {name!r} (not a saltation archive with these planes)")
+    C = ds[field].values
     U = ds["u_plane"].values
     lag = 0
     if lag_s:
@@ -115,14 +123,15 @@ def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS, lag_s: float = 0.0)
                         "peak_kS_u_m": float(lam[np.argmax(kSu)]),
                         "peak_kCo_m": float(lam[np.argmax(kCo)])})
     ds.close()
-    return {"samples": str(samples), "lag_s": float(lag_s), "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(),
+    return {"samples": str(samples), "field": field, "lag_s": float(lag_s), "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(),
             "peak_kS_c_m": float(lam[np.argmax(kS_c)]), "heights": heights}
 
 
 def format_coherence(res: dict, n: int = 12) -> str:
     lam = res["wavelength_m"][:n]
     row = lambda name, v: f"{name:18s}" + " ".join(f"{x:5.2f}" for x in v[:n])
-    out = [f"C_p against u(z) {res['lag_s']:g} s earlier, {res['samples']}; premultiplied curves "
+    out = [f"{res.get('field', 'C_p')} against u(z) {res['lag_s']:g} s earlier, {res['samples']}; "
+           "premultiplied curves "
            "over their maxima",
            row("wavelength [m]", lam),
            row("k S_c", res["kS_c"]) + f"   top at {res['peak_kS_c_m']:.2f} m"]
@@ -145,6 +154,8 @@ def register_coherence(probe_app) -> None:
                   blocks: int = typer.Option(N_BLOCKS, "--blocks", help="time blocks for the "
                                              "co-spectrum's standard error"),
                   lag: float = typer.Option(0.0, "--lag", help="pair C_p(t) with u(t - LAG), s"),
+                  field: str = typer.Option("C_p", "--field", help="C_p, or C_p_above: the grains "
+                                            "above the first grid cell"),
                   as_json: bool = typer.Option(False, "--json", help="one JSON object")) -> None:
         """Spanwise co-spectrum and coherence of C_p and u at each sampled height of one run."""
         samples = path / "samples.nc" if path.is_dir() else path
@@ -155,7 +166,7 @@ def register_coherence(probe_app) -> None:
             typer.echo(f"error: --blocks: {blocks} < 2 (the standard error needs two)", err=True)
             raise typer.Exit(2)
         try:
-            res = probe_coherence(samples, blocks, lag)
+            res = probe_coherence(samples, blocks, lag, field)
         except (OSError, ValueError) as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(2) from None

@@ -291,4 +291,6 @@ def register_probe(app) -> None:
 
     from .coherence_probe import register_coherence
     register_coherence(probe_app)
+    from .steady_layer import register_steady_layer
+    register_steady_layer(probe_app)
     app.add_typer(probe_app, name="probe")

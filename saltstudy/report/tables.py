@@ -88,6 +88,20 @@ def model_departures(scene: dict) -> list[str]:
     if rounding != "stochastic":
         out.append(f"eq. 8's number of ejecta as its {'floor' if rounding == 'floor' else 'nearest integer'}"
                    " (splash.ejection_rounding; the paper does not say how it becomes whole)")
+    spl = case.get("splash", {}) or {}
+    if spl.get("impact_speed", "magnitude") != "magnitude":
+        out.append("eqs. 6 and 8 of the normal impact speed |w| (splash.impact_speed; the paper: "
+                   "the impact velocity, read as the speed)")
+    if spl.get("launch_height", "layer_top") != "layer_top":
+        out.append("rebounds and ejecta launched from the bed z = 0 (splash.launch_height; the "
+                   "paper is silent: the model launches them from the 0.5 mm layer's top)")
+    srf = case.get("surface", {}) or {}
+    if srf.get("stress_level", "first") != "first":
+        out.append("the bulk drag law of the second level's wind (surface.stress_level; the "
+                   "paper: bulk aerodynamic drag laws, read at the first level)")
+    if srf.get("stress_instant", "stage") != "stage":
+        out.append("the bed stress from the wind before the grains' drag of each step "
+                   "(surface.stress_instant)")
     if (case.get("forcing", {}) or {}).get("drive", "top") != "top":
         out.append("a mean pressure-gradient drive (the paper: a top drive)")
     q = fid.get("q_multiplier", 1.0)

@@ -28,7 +28,6 @@ from numba import prange
 
 from .._jit import pjit
 from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, length_scale, viscosity_lengths)
-from .wall import surface_stress_into
 
 __all__ = ["make_closure", "DeardorffClosure", "DynamicClosure", "NoClosure", "CLOSURES",
            "log_shear_factor", "apply_sink"]
@@ -77,7 +76,7 @@ class NoClosure:
         self.mdu = np.zeros(nz + 1)
         self.mdv = np.zeros(nz + 1)
 
-    def begin_step(self, state, dt: float, wall_cd: float) -> None:
+    def begin_step(self, state, dt: float, bed_stress_into) -> None:
         pass
 
     def viscosity(self, u, v, w, e, nu) -> None:
@@ -129,8 +128,9 @@ class _EddyViscosityClosure(NoClosure):
         if self.two_part is not None:
             self.two_part.apply(u, v, cdt)
 
-    def _begin_mean_field(self, state, dt: float, wall_cd: float) -> None:
-        """The mean-field part's slow terms, held over the stages of the step."""
+    def _begin_mean_field(self, state, dt: float, bed_stress_into) -> None:
+        """The mean-field part's slow terms, held over the stages of the step; ``bed_stress_into(u, v,
+        taux, tauy)`` is the stepper's bulk drag law (Stepper.bed_stress_into)."""
         if self.near_wall is not None:
             self.near_wall.update(state, self.cml_v, self.nu_mol, dt)
         if self.two_part is not None:
@@ -145,7 +145,7 @@ class _EddyViscosityClosure(NoClosure):
                          + self.cml[1] * float(np.sqrt(np.maximum(e[:, :, 1], 0.0)).mean()))
             nx, ny = state.grid.nx, state.grid.ny
             taux, tauy = np.empty((nx, ny)), np.empty((nx, ny))
-            surface_stress_into(state.u, state.v, wall_cd, taux, tauy)
+            bed_stress_into(state.u, state.v, taux, tauy)
             tp.update_mean_viscosity(nu1, wall_friction_velocity(taux, tauy), dt)
 
     def _scale_by_gamma(self, gamma) -> None:
@@ -166,8 +166,8 @@ class DeardorffClosure(_EddyViscosityClosure):
             self.cml = self._cml_base.copy()
             self.cml_v = self.cml
 
-    def begin_step(self, state, dt: float, wall_cd: float) -> None:
-        self._begin_mean_field(state, dt, wall_cd)
+    def begin_step(self, state, dt: float, bed_stress_into) -> None:
+        self._begin_mean_field(state, dt, bed_stress_into)
 
     def _scale_by_gamma(self, gamma) -> None:
         np.multiply(self._cml_base, gamma, out=self.cml)
@@ -201,10 +201,10 @@ class DynamicClosure(_EddyViscosityClosure):
         self._sink = None
         self._e_stage = np.zeros(grid.shape)
 
-    def begin_step(self, state, dt: float, wall_cd: float) -> None:
+    def begin_step(self, state, dt: float, bed_stress_into) -> None:
         self.dynamic.maybe_update(state)
         self._sink = state.tke_sink
-        self._begin_mean_field(state, dt, wall_cd)
+        self._begin_mean_field(state, dt, bed_stress_into)
 
     def _scale_by_gamma(self, gamma) -> None:
         self.dynamic.set_scale(gamma)

@@ -13,7 +13,6 @@ from numba import prange
 from .._jit import pjit
 from ..physics.laws import invert_log_law_shape, log_law_profile, log_law_shape, regress_log_law
 from .sgs import C_M, E_MIN, sgs_stress_uw_profile, strain_sq_at
-from .wall import surface_stress
 
 __all__ = ["flow_profiles", "flow_planes", "cell_centred_velocity", "u_star_at", "stress_profile",
            "resolved_tke_volume_mean", "log_law_shape", "log_law_profile", "fit_log_law"]
@@ -69,7 +68,8 @@ def _resolved_uw(model) -> np.ndarray:
 
 def _sgs_uw(model) -> np.ndarray:
     s, st = model.state, model.stepper
-    taux, _ = surface_stress(s.u, s.v, st.cd) if st.wall else (np.zeros(s.u.shape[:2]), None)
+    taux, tauy = np.empty(s.u.shape[:2]), np.empty(s.u.shape[:2])
+    st.bed_stress_into(s.u, s.v, taux, tauy)
     return sgs_stress_uw_profile(s.u, s.w, _nu(model), st.closure.rv, taux, s.grid.dz_f,
                                  1.0 / s.grid.dx)
 

@@ -29,18 +29,23 @@ def _layers(s: Saltation) -> np.ndarray:
 
 
 def grain_planes(model) -> dict:
-    """C_p (x, y) [grains m^-2] and G_col (x, y) [kg m^-1 s^-1]: column sums / (dx dy)."""
+    """C_p (x, y) [grains m^-2] and G_col (x, y) [kg m^-1 s^-1]: column sums / (dx dy);
+    C_p_above (x, y): C_p of the grains above the first grid cell (z >= z_f[1]), without the slow
+    population of the first cell."""
     g = model.state.grid
     s = grain_component(model)
     cp = np.zeros((g.nx, g.ny))
+    ca = np.zeros((g.nx, g.ny))
     gc = np.zeros((g.nx, g.ny))
     if s is not None and s.n:
         i = np.floor(s.x / g.dx).astype(np.int64) % g.nx
         j = np.floor(s.y / g.dy).astype(np.int64) % g.ny
         np.add.at(cp, (i, j), s.Q)
+        up = s.z >= g.z_f[1]
+        np.add.at(ca, (i[up], j[up]), s.Q)
         np.add.at(gc, (i, j), s.Q * s.mass * s.u)
     a = g.dx * g.dy
-    return {"C_p": cp / a, "G_col": gc / a}
+    return {"C_p": cp / a, "C_p_above": ca / a, "G_col": gc / a}
 
 
 def grain_profiles(model) -> dict:
@@ -91,6 +96,7 @@ def grain_counters(model) -> dict:
     if s is None:
         return {"n_parcels": 0, "n_impacts": 0, "n_rebounds": 0, "n_ejections": 0,
                 "n_depositions": 0, "G_tot": 0.0, "E_impact": 0.0, "E_splash": 0.0,
+                "bed_px": 0.0, "bed_pz": 0.0,
                 "momentum_to_air": np.zeros(3)}
     c = s.counters()
     c["G_tot"] = float(np.sum(s.Q * s.mass * s.u) / (g.Lx * g.Ly)) if s.n else 0.0

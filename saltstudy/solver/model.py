@@ -32,7 +32,6 @@ from .spinup import SpinupResult, initial_flow, run_spinup
 from .state import FlowState, SolverBlowUp
 from .closure import make_closure
 from .stepper import Boundaries, FlowNumerics, Stepper
-from .wall import surface_stress_into
 
 __all__ = ["Model", "StepInfo", "SolverBlowUp", "CHECKPOINT_FORMAT"]
 
@@ -64,7 +63,8 @@ def build_stepper(scene, grid: Grid, workers: int | None = None) -> Stepper:
     bounds = Boundaries(z0=case.surface.z0, kappa=case.air.kappa, damping_depth=scene.damping_depth,
                         damping_timescale=fid.grid.damping_timescale, damp_u=not pg,
                         body_force=(pressure_gradient_force(case.forcing.u_star_s, grid.Lz)
-                                    if pg else 0.0))
+                                    if pg else 0.0),
+                        stress_level=case.surface.stress_level)
     return Stepper(grid, closure, bounds, FlowNumerics.from_time(fid.time), workers=workers)
 
 
@@ -90,6 +90,9 @@ class Model:
         self.z_ref = z_ref_effective(scene.case.forcing.z_ref, grid.Lz, self.damping_depth)
         #: the pressure-gradient body force G [m s^-2] (0 with the top drive)
         self.body_force = float(stepper.body_force)
+        #: the bed stress from the wind before the grains' drag, once per step
+        #: (config.Surface.stress_instant)
+        self.bed_stress_at_step_start = scene.case.surface.stress_instant == "step_start"
 
     # ---- construction -------------------------------------------------------------------------
     @classmethod
@@ -190,10 +193,17 @@ class Model:
             raise ValueError(f"step: dt must be positive and finite (got {dt!r})")
         t0 = time.perf_counter()
         s = self.state
+        st = self.stepper
+        if self.bed_stress_at_step_start and st.wall:
+            # the bulk drag law of the wind before the grains' drag of this step, held over its
+            # stages (config.Surface.stress_instant)
+            st.bed_stress_into(s.u, s.v, st.taux, st.tauy)
+            st.bed_frozen = True
         for c in self.components:
             c.dynamics(s, dt)
         t_comp = time.perf_counter() - t0
         self.stepper.step(s, dt)
+        st.bed_frozen = False
         s.t += dt
         s.step += 1
         self._rate_cache = None
@@ -215,7 +225,7 @@ class Model:
     def _measure_stress(self) -> float:
         s, st = self.state, self.stepper
         if st.wall:
-            surface_stress_into(s.u, s.v, st.cd, st.taux, st.tauy)
+            st.bed_stress_into(s.u, s.v, st.taux, st.tauy)
         extra = 0.0
         for c in self.components:
             f = getattr(c, "stress_at", None)

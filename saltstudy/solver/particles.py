@@ -88,7 +88,8 @@ from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_
 from .grid import Grid
 from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, _bil, _tri, ijit, interp_fluid, level_of,
                      locate, pool_add_tri, slab_of, wrap_index, wrap_periodic)
-from .splash_kernels import (NO_LAUNCH, ImpactLog, draw_diameter, ejecta_reserve,
+from .splash_kernels import (EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, N_EN,
+                             NO_LAUNCH, ImpactLog, draw_diameter, ejecta_reserve,
                              impact_log_arrays, soil_arrays, splash_params, splash_runs)
 from .state import FlowState
 
@@ -975,6 +976,9 @@ class Saltation:
                      "n_entrained": 0}
         self.E_impact = 0.0
         self.E_splash = 0.0
+        #: streamwise and vertical momentum the grains gave the bed [kg m s^-1] (splash_kernels EN_*)
+        self.bed_px = 0.0
+        self.bed_pz = 0.0
         self.momentum_to_air = np.zeros(3)
         self.momentum_to_bed = 0.0
         #: cumulative impact record since activation, one slab per run of impacts
@@ -1124,7 +1128,7 @@ class Saltation:
         self._pool = np.zeros(0)
         self._grid6 = np.zeros((6, nx * ny * nz)) if self.two_way else np.zeros((6, 1))
         self._cnt = np.zeros(4, dtype=np.int64)
-        self._en = np.zeros(2)
+        self._en = np.zeros(N_EN)
         self._tot = np.zeros(3)
         self._tke_out, self._tke_top = None, nz  # the TKE-rate array last filled, its levels
 
@@ -1237,9 +1241,11 @@ class Saltation:
             int(c) for c in cnt)
         for key, val in step.items():
             self._cum[key] += val
-        self.E_impact += float(en[0])
-        self.E_splash += float(en[1])
-        step["E_impact"], step["E_splash"] = float(en[0]), float(en[1])
+        self.E_impact += float(en[EN_IMPACT])
+        self.E_splash += float(en[EN_SPLASH])
+        self.bed_px += float(en[EN_PX_IN] - en[EN_PX_OUT])
+        self.bed_pz += float(en[EN_PZ_IN] + en[EN_PZ_OUT])
+        step["E_impact"], step["E_splash"] = float(en[EN_IMPACT]), float(en[EN_SPLASH])
         step["splash_rounds"] = rounds
         self.last_step = step
 
@@ -1259,7 +1265,7 @@ class Saltation:
         if base[-1] > self.capacity:
             self._grow(max(2 * self.capacity, int(base[-1])))
         cnt_r = np.zeros((nr, 4), dtype=np.int64)
-        en_r = np.zeros((nr, 2))
+        en_r = np.zeros((nr, N_EN))
         out = np.zeros((nr, 3), dtype=np.int64)
         log = ImpactLog(self._tl, self._xl, self._yl, *self.impact_counts, self._log_prm)
         splash_runs(self.splash_rngs, ev, lo, base, self._x, self._y, self._z, self._u, self._v,
@@ -1326,11 +1332,14 @@ class Saltation:
 
     # ---- diagnostics support -----------------------------------------------------------------
     def counters(self) -> dict:
-        """Cumulative counters since activation (parcel events), energies [J], momentum [kg m/s]."""
+        """Cumulative counters since activation (parcel events), energies [J], momentum [kg m/s]:
+        ``bed_px``, ``bed_pz`` the streamwise and vertical momentum the grains gave the bed."""
         out = {"n_parcels": int(self.n)}
         out.update({k: int(v) for k, v in self._cum.items()})
         out["E_impact"] = self.E_impact
         out["E_splash"] = self.E_splash
+        out["bed_px"] = self.bed_px
+        out["bed_pz"] = self.bed_pz
         out["momentum_to_air"] = self.momentum_to_air.copy()
         return out
 
@@ -1372,6 +1381,8 @@ class Saltation:
             data[f"grain_{k}"] = int(v)
         data["grain_E_impact"] = self.E_impact
         data["grain_E_splash"] = self.E_splash
+        data["grain_bed_px"] = self.bed_px
+        data["grain_bed_pz"] = self.bed_pz
         data["grain_momentum_to_air"] = self.momentum_to_air.copy()
         data["grain_momentum_to_bed"] = self.momentum_to_bed
         data["grain_vmax"] = self._vmax
@@ -1406,6 +1417,8 @@ class Saltation:
             self._cum[k] = int(data.get(f"grain_{k}", 0))
         self.E_impact = float(data["grain_E_impact"])
         self.E_splash = float(data["grain_E_splash"])
+        self.bed_px = float(data.get("grain_bed_px", 0.0))
+        self.bed_pz = float(data.get("grain_bed_pz", 0.0))
         self.momentum_to_air = np.array(data["grain_momentum_to_air"], dtype=np.float64).reshape(3)
         self.momentum_to_bed = float(data["grain_momentum_to_bed"])
         self._vmax = float(data["grain_vmax"])

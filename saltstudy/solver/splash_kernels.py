@@ -42,6 +42,12 @@ code stepping by dt_d meets it: a grain that crossed the layer's top is found |w
 dt_d (w_launch dt_d < depth) is left inside, where the next step splashes it again at its launch
 velocity (the particle kernel splashes a grain found inside the layer before moving it).
 
+Readings where the text is silent (config.Splash): ``impact_speed = "normal"`` gives eqs. 6 and 8
+the normal impact speed |w| instead of |u_p| (eqs. 7 and 9 keep |u_p|); ``launch_height = "bed"``
+launches the rebound and the ejecta from z = 0: each rises through the layer under gravity to its
+top, or, if it cannot, is left at the top of its hop inside the layer, where the next step splashes
+it at its speed there (_rise_from_bed).
+
 The impact record (``ImpactLog``): every impact is counted by its speed and its angle to the bed
 (``impact_hist``), with the rebounds and ejecta it gave (``impact_outcomes``: the replacement number
 against impact speed), and, when the grain was launched at a known time and place (by a rebound
@@ -62,7 +68,8 @@ from ..physics.splash import ejection_number_mean, rebound_probability
 
 __all__ = ["splash_params", "soil_arrays", "draw_diameter", "draw_rebound", "draw_n_ejecta",
            "draw_ejectum", "bed_events", "ejecta_reserve", "splash_runs", "sample_impacts",
-           "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN", "SP_RHO_P", "ImpactLog", "impact_log_arrays",
+           "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN", "SP_RHO_P", "ImpactLog", "EN_IMPACT", "EN_SPLASH",
+           "EN_PX_IN", "EN_PX_OUT", "EN_PZ_IN", "EN_PZ_OUT", "N_EN", "impact_log_arrays",
            "IMPACT_SPEED_BIN", "N_SPEED_BINS", "IMPACT_ANGLE_BIN", "N_ANGLE_BINS", "HOP_TIME_BIN",
            "HOP_LENGTH_BIN", "N_HOP_BINS", "NO_LAUNCH"]
 
@@ -99,6 +106,15 @@ SP_PMAX, SP_GAMMA, SP_REB_M, SP_REB_S, SP_RAV_M, SP_RAV_S, SP_RAH_M, SP_RAH_S = 
 SP_A, SP_EJ_M, SP_EAV_M, SP_EAV_S, SP_EAH_M, SP_EAH_S, SP_IMPACT_LAYER, SP_G, SP_DMEAN, SP_RHO_P = range(8, 18)
 SP_EJ_ROUND = 18
 SP_DETECT = 19
+SP_NORMAL = 20  # 1: eqs. 6 and 8 take the normal impact speed |w| (config.Splash.impact_speed)
+SP_FROM_BED = 21  # 1: rebounds and ejecta leave from the bed (config.Splash.launch_height)
+#: what ``bed_events`` adds up per run in ``en`` (float64): kinetic energy of the impacting and of
+#: the rebounding and ejected real grains [J]; streamwise momentum [kg m s^-1] brought to the bed
+#: by the impacts and taken from it by the launches; vertical momentum likewise (|w| of the
+#: impacts, w of the launches). (in - out) / (area time) is the stress the grains carry to the
+#: bed and the bed's vertical impulse per unit area and time (the layer's momentum balance)
+EN_IMPACT, EN_SPLASH, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT = range(6)
+N_EN = 6
 #: how eq. 8's N_ej becomes a whole number of ejected parcels (config.Splash.ejection_rounding),
 #: coded in the parameter vector: stochastic rounding, the floor, the nearest integer
 EJECTION_ROUNDING = {"stochastic": 0.0, "floor": 1.0, "nearest": 2.0}
@@ -114,6 +130,8 @@ def splash_params(splash, soil, g: float) -> np.ndarray:
         r(splash.ej_angle_v_std), r(splash.ej_angle_h_mean), r(splash.ej_angle_h_std),
         splash.impact_layer, g, soil.mean_diameter, soil.rho_p,
         EJECTION_ROUNDING[splash.ejection_rounding], splash.detection_step,
+        1.0 if splash.impact_speed == "normal" else 0.0,
+        1.0 if splash.launch_height == "bed" else 0.0,
     ], dtype=np.float64)
 
 
@@ -149,9 +167,11 @@ def _angle(rng, mean, std):
 
 
 @jit
-def draw_rebound(rng, v_imp, sp):
-    """Rebound draw (eqs. 6-7): (rebounds, v_reb, alpha_v, alpha_h) with angles in radians."""
-    p = rebound_probability(v_imp, sp[SP_PMAX], sp[SP_GAMMA])
+def draw_rebound(rng, v_law, v_imp, sp):
+    """Rebound draw (eqs. 6-7): (rebounds, v_reb, alpha_v, alpha_h) with angles in radians;
+    ``v_law`` is the speed eq. 6 takes (config.Splash.impact_speed), ``v_imp`` the impact speed
+    that eq. 7 scales."""
+    p = rebound_probability(v_law, sp[SP_PMAX], sp[SP_GAMMA])
     if rng.random() >= p:
         return False, 0.0, 0.0, 0.0
     vr = -1.0
@@ -167,11 +187,11 @@ def draw_rebound(rng, v_imp, sp):
 
 
 @jit
-def draw_n_ejecta(rng, v_imp, sp) -> int:
+def draw_n_ejecta(rng, v_law, sp) -> int:
     """N_ej of eq. 8, a v_imp / sqrt(g <d>), as a whole number: by stochastic rounding (its mean
     is eq. 8's; one uniform draw), its floor or the nearest integer (no draw), as
-    ``sp[SP_EJ_ROUND]`` says (config.Splash.ejection_rounding)."""
-    nbar = ejection_number_mean(v_imp, sp[SP_A], sp[SP_G], sp[SP_DMEAN])
+    ``sp[SP_EJ_ROUND]`` says (config.Splash.ejection_rounding); v_law: the speed eq. 8 takes."""
+    nbar = ejection_number_mean(v_law, sp[SP_A], sp[SP_G], sp[SP_DMEAN])
     n0 = int(math.floor(nbar))
     mode = sp[SP_EJ_ROUND]
     if mode == 1.0:
@@ -272,6 +292,33 @@ def _launch_height(w_l, depth, dstep, h_imp):
     return h_imp
 
 
+@jit
+def _law_speed(v_imp, wp, sp):
+    """The speed eqs. 6 and 8 take: the impact speed, or its normal component (SP_NORMAL)."""
+    return abs(wp) if sp[SP_NORMAL] != 0.0 else v_imp
+
+
+@jit_borrow
+def _rise_from_bed(a, b, c, g, h_imp, x, y, Lx, Ly):
+    """A grain launched from the bed at (a, b, c) rises through the impact layer under gravity
+    (the drag over the ~1 ms in the layer is left out: k_p t < 0.01 for sand): if it reaches the
+    top, its place and vertical speed there; if not, the top of its hop, where it is found inside
+    the layer and meets the bed again in the next step at its speed there (the solver splashes a
+    grain found inside the layer). Returns (x, y, z, w)."""
+    c2 = c * c - 2.0 * g * h_imp
+    if c2 > 0.0:
+        wt = math.sqrt(c2)
+        tr = (c - wt) / g
+        xn = x + a * tr
+        yn = y + b * tr
+        return xn - Lx * math.floor(xn / Lx), yn - Ly * math.floor(yn / Ly), h_imp, wt
+    ta = c / g
+    xn = x + a * ta
+    yn = y + b * ta
+    return (xn - Lx * math.floor(xn / Lx), yn - Ly * math.floor(yn / Ly),
+            min(0.5 * c * c / g, 0.999 * h_imp), 0.0)
+
+
 @jit_borrow
 def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, trem, dead, n_dead,
                sp, cum, mu, lnsig, Q, cnt, en, L, r):
@@ -288,10 +335,16 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
     if there is none (index ``n_end``) the kernel returns early, and the caller can make room and
     call again with the returned cursor (no draw is lost or repeated). Returns
     (cursor, n, n_dead). Each impact is recorded in the ImpactLog ``L`` (slab ``r``), and the
-    rebound and the ejecta get its time and place as their launch.
+    rebound and the ejecta get its time and place as their launch; ``en`` adds up the energies
+    and the momentum exchanged with the bed (``EN_*``; a launch from the bed counts its velocity
+    there).
     """
     cap = n_end
     h_imp = sp[SP_IMPACT_LAYER]
+    from_bed = sp[SP_FROM_BED] != 0.0
+    g = sp[SP_G]
+    Lx = L.prm[1]
+    Ly = L.prm[2]
     for i in range(cursor, n_ev):
         p = ev[i]
         up = u[p]
@@ -304,20 +357,28 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             return i, n, n_dead
         mp = math.pi / 6.0 * sp[SP_RHO_P] * d[p] ** 3
         cnt[0] += 1
-        en[0] += Q * 0.5 * mp * v2
+        en[EN_IMPACT] += Q * 0.5 * mp * v2
+        en[EN_PX_IN] += Q * mp * up
+        en[EN_PZ_IN] += Q * mp * abs(wp)
+        v_law = _law_speed(v_imp, wp, sp)
         phi = math.atan2(vp, up) if (up != 0.0 or vp != 0.0) else 0.0
         xp = x[p]
         yp = y[p]
         tr = trem[p]
         depth = _depth_found(rng, z[p], wp, h_imp, sp[SP_DETECT])
         iv, t_imp = _record_impact(L, r, p, up, vp, wp, v_imp, xp, yp, tr)
-        reb, vr, av, ah = draw_rebound(rng, v_imp, sp)
+        reb, vr, av, ah = draw_rebound(rng, v_law, v_imp, sp)
         if reb:
             a, b, c = _launch(vr, av, phi + ah)
+            en[EN_PX_OUT] += Q * mp * a
+            en[EN_PZ_OUT] += Q * mp * c
             u[p] = a
             v[p] = b
-            w[p] = c
-            z[p] = _launch_height(c, depth, sp[SP_DETECT], h_imp)
+            if from_bed:
+                x[p], y[p], z[p], w[p] = _rise_from_bed(a, b, c, g, h_imp, xp, yp, Lx, Ly)
+            else:
+                w[p] = c
+                z[p] = _launch_height(c, depth, sp[SP_DETECT], h_imp)
             kd[p] = 0.0  # velocity jumped: the drag rate is re-estimated from scratch
             flag[p] = 0
             L.tl[p] = t_imp
@@ -325,25 +386,31 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             L.yl[p] = yp
             L.outc[r, iv, 1] += 1
             cnt[1] += 1
-            en[1] += Q * 0.5 * mp * vr * vr
+            en[EN_SPLASH] += Q * 0.5 * mp * vr * vr
         else:
             flag[p] = -1
             dead[n_dead] = p
             n_dead += 1
             cnt[3] += 1
-        nej = draw_n_ejecta(rng, v_imp, sp)
+        nej = draw_n_ejecta(rng, v_law, sp)
         for _ in range(nej):
             q = n
             n += 1
             dq = draw_diameter(rng, cum, mu, lnsig)
             ve, av, ah = draw_ejectum(rng, v_imp, sp)
             a, b, c = _launch(ve, av, phi + ah)
-            x[q] = xp
-            y[q] = yp
-            z[q] = _launch_height(c, depth, sp[SP_DETECT], h_imp)
+            mq = math.pi / 6.0 * sp[SP_RHO_P] * dq ** 3
+            en[EN_PX_OUT] += Q * mq * a
+            en[EN_PZ_OUT] += Q * mq * c
+            if from_bed:
+                x[q], y[q], z[q], w[q] = _rise_from_bed(a, b, c, g, h_imp, xp, yp, Lx, Ly)
+            else:
+                x[q] = xp
+                y[q] = yp
+                z[q] = _launch_height(c, depth, sp[SP_DETECT], h_imp)
+                w[q] = c
             u[q] = a
             v[q] = b
-            w[q] = c
             d[q] = dq
             kd[q] = 0.0
             flag[q] = 0
@@ -353,7 +420,7 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
             L.yl[q] = yp
             L.outc[r, iv, 2] += 1
             cnt[2] += 1
-            en[1] += Q * 0.5 * (math.pi / 6.0 * sp[SP_RHO_P] * dq ** 3) * ve * ve
+            en[EN_SPLASH] += Q * 0.5 * mq * ve * ve
     return n_ev, n, n_dead
 
 
@@ -392,7 +459,7 @@ def sample_impacts(rng, v_imp, d_imp, n_imp, sp, cum, mu, lnsig):
         di = d_imp if d_imp > 0.0 else draw_diameter(rng, cum, mu, lnsig)
         m_imp = di ** 3
         e_out = 0.0
-        reb, vr, av, ah = draw_rebound(rng, v_imp, sp)
+        reb, vr, av, ah = draw_rebound(rng, v_imp, v_imp, sp)
         if reb:
             nreb += 1
             svr += vr

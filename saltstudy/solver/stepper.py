@@ -81,7 +81,8 @@ class Boundaries:
     a free-slip bed), a Rayleigh layer of ``damping_depth`` [m] with time scale
     ``damping_timescale`` [s] at the lid acting on u too (``damp_u``, the top drive) or on v and w
     only, and a uniform streamwise body force ``body_force`` G [m s^-2] (the pressure-gradient
-    drive, forcing.py)."""
+    drive, forcing.py). ``stress_level``: the level whose wind the bulk drag law reads
+    (config.Surface.stress_level)."""
     z0: float = 1.0e-5
     kappa: float = 0.4
     wall: bool = True
@@ -89,6 +90,7 @@ class Boundaries:
     damping_timescale: float = 5.0
     damp_u: bool = True
     body_force: float = 0.0
+    stress_level: str = "first"
 
 
 @device
@@ -244,7 +246,12 @@ class Stepper:
         self.numerics = numerics
         self.z0, self.kappa = float(boundaries.z0), float(boundaries.kappa)
         self.wall = bool(boundaries.wall)
-        self.cd = drag_coefficient(float(grid.z_c[0]), self.z0, self.kappa) if self.wall else 0.0
+        #: the level the bulk drag law reads (0: the first, 1: the second)
+        self.wall_level = {"first": 0, "second": 1}[boundaries.stress_level]
+        self.cd = (drag_coefficient(float(grid.z_c[self.wall_level]), self.z0, self.kappa)
+                   if self.wall else 0.0)
+        #: the bed stress held over the step's stages (Model.step with stress_instant "step_start")
+        self.bed_frozen = False
         self.f_c, self.f_f = damping_profiles(grid, boundaries.damping_depth,
                                               boundaries.damping_timescale)
         self.f_cu = self.f_c if boundaries.damp_u else np.zeros_like(self.f_c)
@@ -262,10 +269,25 @@ class Stepper:
         self.tauy = np.zeros((nx, ny))
 
     # ---- pieces ----------------------------------------------------------------------------
+    def bed_stress_into(self, u, v, taux, tauy) -> None:
+        """taux, tauy (nx, ny): the bulk drag law's kinematic bed stress [m^2 s^-2] from the wind
+        of the level it reads (``wall_level``); zero for a free-slip bed."""
+        if not self.wall:
+            taux[...] = 0.0
+            tauy[...] = 0.0
+        elif self.wall_level == 0:
+            surface_stress_into(u, v, self.cd, taux, tauy)
+        else:
+            k = self.wall_level
+            surface_stress_into(u[:, :, k:], v[:, :, k:], self.cd, taux, tauy)
+
     def boundary(self, u, v, w, e) -> None:
-        """Bed stress from the first level and the closure's nu_t for one stage input."""
-        if self.wall:
-            surface_stress_into(u, v, self.cd, self.taux, self.tauy)
+        """Bed stress (unless held over the step: ``bed_frozen``) and the closure's nu_t for one
+        stage input."""
+        if self.bed_frozen:
+            pass
+        elif self.wall:
+            self.bed_stress_into(u, v, self.taux, self.tauy)
         else:
             self.taux[...] = 0.0
             self.tauy[...] = 0.0
@@ -310,7 +332,7 @@ class Stepper:
         the step's pressure."""
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
-        self.closure.begin_step(state, dt, self.cd)
+        self.closure.begin_step(state, dt, self.bed_stress_into)
         self.stage(state, state, a, c1 * dt, state.u_drive, state.p)
         self.stage(a, state, b, c2 * dt, state.u_drive, state.p)
         self.stage(b, state, state, c3 * dt, state.u_drive, state.p, store_p=True)

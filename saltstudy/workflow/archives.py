@@ -64,6 +64,7 @@ META: dict[str, tuple[str, str]] = {
     "C_p": ("m-2", "grains per unit bed area in the column (Q-weighted parcel count / (dx dy))"),
     "C_p_s": ("m-2", "grains per unit bed area in the column at the 3-D sample times"),
     "G_col": ("kg m-1 s-1", "streamwise grain mass flux integrated over the column"),
+    "C_p_above": ("m-2", "grains per unit bed area in the column above the first grid cell"),
     "pm": ("kg", "grain mass in the layer"),
     "pmu": ("kg m s-1", "grain streamwise momentum in the layer"),
     "pmv": ("kg m s-1", "grain spanwise momentum in the layer"),
@@ -105,6 +106,10 @@ META: dict[str, tuple[str, str]] = {
     "max_cfl": ("1", "largest Courant number of the last step"),
     "E_impact": ("J", "cumulative kinetic energy of impacting grains"),
     "E_splash": ("J", "cumulative kinetic energy of rebounding and ejected grains"),
+    "bed_px": ("kg m s-1", "cumulative streamwise momentum the grains gave the bed (impacts minus "
+               "launches)"),
+    "bed_pz": ("kg m s-1", "cumulative vertical momentum the bed gave the grains (impacts' |w| plus "
+               "launches' w)"),
     **HEALTH_SERIES,
 }
 
@@ -296,7 +301,7 @@ def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:
 # ------------------------------------------------------------------------------------------
 _SERIES_NAMES = ("n_parcels", "n_impacts", "n_rebounds", "n_ejections", "n_depositions",
                  "G_tot_series", "u_star_ref", "u_drive", "dt", "max_cfl", "E_impact", "E_splash",
-                 *HEALTH_SERIES)
+                 "bed_px", "bed_pz", *HEALTH_SERIES)
 GRAIN_PROFILES = ("pm", "pmu", "pmv", "pmw", "pmuu", "pmuw", "pmww", "pmvv", "pn", "pdrag", "pmuf_up",
                   "pmuf", "pmuf_uf", "pmup_up")
 _PROFILE_Z = ("u_mean", "tke_res", "e_sgs", "eps_sgs", "sgs_transfer") + GRAIN_PROFILES
@@ -326,6 +331,8 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
         data[name] = _var(("time_series",), series[name], name, np.float64)
     data["C_p"] = _compressed(_var(("time_plane", "x", "y"), planes["C_p"], "C_p", np.float64))
     data["G_col"] = _compressed(_var(("time_plane", "x", "y"), planes["G_col"], "G_col", np.float64))
+    data["C_p_above"] = _compressed(_var(("time_plane", "x", "y"), planes["C_p_above"], "C_p_above",
+                                         np.float64))
     data["u_plane"] = _compressed(_var(("time_plane", "x", "y", "z_plane"), planes["u_plane"],
                                        "u_plane", np.float64))
     for name in _FIELDS_3D:

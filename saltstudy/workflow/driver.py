@@ -248,12 +248,14 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                 "n_depositions": c["n_depositions"], "G_tot_series": c["G_tot"],
                 "u_star_ref": dflow.u_star_at(model, z_ref), "u_drive": model.state.u_drive,
                 "dt": last[0], "max_cfl": last[1], "E_impact": c["E_impact"], "E_splash": c["E_splash"],
+                "bed_px": c["bed_px"], "bed_pz": c["bed_pz"],
                 **health.step_limits(model), **health.coupling_stiffness(model),
                 "parcel_balance": health.parcel_balance(c, n_released)})
         if "plane" in groups:
             gp = dpart.grain_planes(model)
             fp = dflow.flow_planes(model, z_plane)
-            recorder.add("plane", t_rel, {"C_p": gp["C_p"], "G_col": gp["G_col"], "u_plane": fp["u_plane"]})
+            recorder.add("plane", t_rel, {"C_p": gp["C_p"], "C_p_above": gp["C_p_above"],
+                                          "G_col": gp["G_col"], "u_plane": fp["u_plane"]})
         if "sample" in groups:
             uc, vc, wc = dflow.cell_centred_velocity(model)
             fp = dflow.flow_profiles(model)

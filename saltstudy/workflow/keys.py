@@ -36,7 +36,7 @@ __all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "saltation
            "area_source_key"]
 
 #: bump when spinup.nc / samples.nc change layout, so old archives are not mistaken for new ones
-ARCHIVE_FORMAT = 1
+ARCHIVE_FORMAT = 2
 KEY_LENGTH = 20
 
 

@@ -1,0 +1,104 @@
+"""The saltation layer's momentum balance at the bed, two ways.
+
+A steady layer gives the bed, per unit area and time, the streamwise momentum the grains took from
+the air, tau_g(0), and takes from it the vertical momentum that carries their weight, M g (less
+the small part the air's drag carries). Their ratio is the bed friction coefficient
+mu_b = tau_g(0) / (M g) (Bagnold 1956; Pähtz & Durán 2018, Phys. Rev. Fluids 3, 104302).
+
+* From the impact record (``bed_px``, ``bed_pz`` of samples.nc: the cumulative streamwise momentum
+  the grains gave the bed, impacts minus launches, and the vertical momentum the bed gave them,
+  splash_kernels ``EN_*``): over the sampling window, tau_g(0) = d(bed_px) / (A dt),
+  F_z = d(bed_pz) / (A dt) and mu_b = d(bed_px) / d(bed_pz); its error from the scatter of the
+  same ratio over contiguous blocks of the window.
+* From the air's budget: tau_g(0) = rho u*^2 - tau_air(0), the total stress at the reference
+  height less the bulk law's stress on the bed, and M the airborne mass of the 3-D samples:
+  mu_b = tau_g(0) / (M g); its error from the scatter of the per-sample values.
+
+In a steady layer that leaks no momentum the two tau_g(0) agree, and so do the two mu_b within
+the air's share of the weight; the count of grains then follows the fluid stress left on the bed:
+M = (rho u*^2 - tau_air(0)) / (mu_b g).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["N_BLOCKS", "bed_exchange", "budget_friction"]
+
+#: contiguous blocks of the sampling window for the impact record's error
+N_BLOCKS = 6
+
+
+def _at(t: np.ndarray, y: np.ndarray, tq: float) -> float:
+    return float(np.interp(tq, t, y))
+
+
+def bed_exchange(t: np.ndarray, bed_px: np.ndarray | None, bed_pz: np.ndarray | None,
+                 t0: float, t1: float, area: float, n_blocks: int = N_BLOCKS) -> dict[str, float]:
+    """From the cumulative series over [t0, t1]: ``tau_g_bed_impacts`` [Pa] (streamwise momentum
+    to the bed per unit area and time), ``bed_vertical_impulse`` [Pa] (vertical momentum from the
+    bed per unit area and time), ``mu_b`` (their ratio) and ``mu_b_se`` (block scatter / sqrt n).
+    NaN where the record is missing or the window empty."""
+    out = {"tau_g_bed_impacts": math.nan, "bed_vertical_impulse": math.nan, "mu_b": math.nan,
+           "mu_b_se": math.nan}
+    if bed_px is None or bed_pz is None:
+        return out
+    t = np.asarray(t, dtype=np.float64)
+    px = np.asarray(bed_px, dtype=np.float64)
+    pz = np.asarray(bed_pz, dtype=np.float64)
+    ok = np.isfinite(t) & np.isfinite(px) & np.isfinite(pz)
+    t, px, pz = t[ok], px[ok], pz[ok]
+    if t.size < 2 or not (t1 > t0) or area <= 0:
+        return out
+    t0 = max(t0, float(t[0]))
+    t1 = min(t1, float(t[-1]))
+    if not t1 > t0:
+        return out
+    dpx = _at(t, px, t1) - _at(t, px, t0)
+    dpz = _at(t, pz, t1) - _at(t, pz, t0)
+    span = (t1 - t0) * area
+    out["tau_g_bed_impacts"] = dpx / span
+    out["bed_vertical_impulse"] = dpz / span
+    if dpz > 0:
+        out["mu_b"] = dpx / dpz
+    edges = np.linspace(t0, t1, n_blocks + 1)
+    mus = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        z = _at(t, pz, b) - _at(t, pz, a)
+        if z > 0:
+            mus.append((_at(t, px, b) - _at(t, px, a)) / z)
+    if len(mus) >= 2:
+        out["mu_b_se"] = float(np.std(mus, ddof=1) / math.sqrt(len(mus)))
+    return out
+
+
+def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarray | None,
+                    mass_per_m2: np.ndarray | None) -> dict[str, float]:
+    """From the air's budget (module doc): ``tau_g_bed_budget`` [Pa] = rho (tau_total + uw_bed)
+    with the kinematic total stress tau_total = u*^2 at the reference height [m^2 s^-2] and the
+    bed's u'w' per sample (negative for a drag), ``bed_fluid_stress_fraction`` = -uw_bed /
+    tau_total, ``mu_b_budget`` = tau_g / (M g) with M the mean airborne mass [kg m^-2], and
+    ``mu_b_budget_se`` from the per-sample ratios."""
+    out = {"tau_g_bed_budget": math.nan, "bed_fluid_stress_fraction": math.nan,
+           "mu_b_budget": math.nan, "mu_b_budget_se": math.nan}
+    if uw_bed is None or mass_per_m2 is None or not (tau_total_kin > 0):
+        return out
+    uw = np.asarray(uw_bed, dtype=np.float64).ravel()
+    m = np.asarray(mass_per_m2, dtype=np.float64).ravel()
+    if uw.size != m.size or uw.size == 0:
+        return out
+    ok = np.isfinite(uw) & np.isfinite(m)
+    uw, m = uw[ok], m[ok]
+    if uw.size == 0:
+        return out
+    tau_g = rho * (tau_total_kin + uw)
+    out["tau_g_bed_budget"] = float(tau_g.mean())
+    out["bed_fluid_stress_fraction"] = float(-uw.mean() / tau_total_kin)
+    if m.mean() > 0:
+        out["mu_b_budget"] = float(tau_g.mean() / (m.mean() * g))
+    pos = m > 0
+    if pos.sum() >= 2:
+        r = tau_g[pos] / (m[pos] * g)
+        out["mu_b_budget_se"] = float(np.std(r, ddof=1) / math.sqrt(r.size))
+    return out

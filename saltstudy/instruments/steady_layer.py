@@ -1,0 +1,473 @@
+"""The splash law's own steady saltation layer, in one dimension and without the LES.
+
+    saltstudy probe steady-layer [--case 2] [--u-star 0.54] [--overrides JSON] [--json]
+
+Test grains hop over a flat bed in a horizontally uniform wind u(z). Each impact is splashed by
+the paper's law (eqs. 6-9: rebound with P_reb, N_ej ejecta by stochastic rounding, their speeds
+and angles), each rebound and ejectum is flown with the paper's drag (eqs. 3-4, Clift's f(Re_p))
+to its next impact on the 0.5 mm layer, and the wind is the mixing-length profile of the stress
+the grains leave to the air (Owen 1964; the same closure as the 1-D models of Werner 1990 and Kok
+& Renno 2009, which the paper cites)::
+
+    du/dz = sqrt(tau_a(z) / rho) / (kappa z),    tau_a(z) = rho u*s^2 - tau_g(z),   u(z0) = 0,
+
+tau_g(z) being the streamwise momentum the grains take from the air above z per unit bed area and
+time. The unknown is the impact rate R [impacts m^-2 s^-1]: more grains slow the wind near the
+bed, slower impacts replace fewer grains, and the layer is steady where a generation of impacts
+replaces itself (growth factor lambda = launched grains per impact = 1). The iteration is the
+layer's own relaxation: each generation the population of N impacts is splashed and flown in the
+present wind, R is multiplied by lambda^BETA, the drag profile is recomputed and the wind relaxed
+towards its profile; the statistics are the means over the last generations, once R has settled.
+
+What it returns, per unit bed area in the steady layer: the fluid stress left on the bed
+tau_a(0) (``bed_fluid_fraction`` of rho u*s^2), the airborne mass M = R <m T_hop>, the flux
+G_tot = R <m L_hop>, the bed friction coefficient mu_b = tau_g(0) / (M g) and its impact form
+<m du> / <m dw> (streamwise over vertical momentum exchanged with the bed per impact, rebounds
+and ejecta included), the impact speed and angle, the replacement number against impact speed.
+The LES differs: its wind is turbulent and, below its second level, the log law of that level
+([12]); so read the probe's numbers as the splash law's equilibrium, against which the LES's
+numbers and each reading of the paper's text can be placed before a run.
+
+The case's splash readings carry over (config.Splash): ``impact_speed`` ("magnitude": v_imp of
+eqs. 6-9 is the impact speed |u_p|; "normal": eqs. 6 and 8 take |w_p|, eqs. 7 and 9 |u_p|) and
+``launch_height`` ("layer_top": rebounds and ejecta leave from z = 0.5 mm; "bed": from z = 0, and
+one whose hop does not reach the layer's top meets the bed again at the top of its hop).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .._jit import jit
+
+__all__ = ["LayerParams", "SteadyLayer", "solve_steady_layer", "fly_grains", "splash_generation",
+           "log_wind", "wind_from_stress", "register_steady_layer"]
+
+#: multiplier exponent of the impact rate per generation: R <- R lambda^BETA
+BETA = 0.5
+#: relaxation of the wind towards the profile of the present drag, per generation
+OMEGA = 0.3
+#: a grain still flying after this long [s] is left out (suspension; not reached by sand)
+T_MAX = 5.0
+
+
+@dataclass(frozen=True)
+class LayerParams:
+    """Everything the steady layer depends on (SI). Splash constants as config.Splash."""
+    u_star: float = 0.54
+    mu: float = 200e-6
+    sigma: float = 1.2
+    rho_p: float = 2650.0
+    rho: float = 1.2
+    nu: float = 1.5e-5
+    g: float = 9.81
+    kappa: float = 0.40
+    z0: float = 1.0e-5
+    h_imp: float = 5.0e-4
+    p_reb_max: float = 0.95
+    gamma_reb: float = 2.0
+    reb_speed_mean: float = 0.6
+    reb_speed_std: float = 0.25
+    reb_angle_v: tuple[float, float] = (30.0, 15.0)
+    reb_angle_h: tuple[float, float] = (0.0, 10.0)
+    a_ej: float = 0.03
+    ej_speed_mean: float = 0.08
+    ej_angle_v: tuple[float, float] = (60.0, 15.0)
+    ej_angle_h: tuple[float, float] = (0.0, 10.0)
+    impact_speed: str = "magnitude"
+    launch_height: str = "layer_top"
+    n_impacts: int = 4000
+    dt: float = 5.0e-5
+    z_top: float = 3.0
+    n_levels: int = 240
+
+    def __post_init__(self):
+        if self.impact_speed not in ("magnitude", "normal"):
+            raise ValueError(f"impact_speed={self.impact_speed!r}: 'magnitude' or 'normal'")
+        if self.launch_height not in ("layer_top", "bed"):
+            raise ValueError(f"launch_height={self.launch_height!r}: 'layer_top' or 'bed'")
+        for name in ("u_star", "mu", "rho_p", "rho", "nu", "g", "z0", "h_imp", "dt"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name}={getattr(self, name)!r}: must be > 0")
+        if self.sigma < 1.0:
+            raise ValueError(f"sigma={self.sigma!r}: a geometric standard deviation is >= 1")
+        if self.n_impacts < 100:
+            raise ValueError(f"n_impacts={self.n_impacts!r}: at least 100 for a statistic")
+
+    @classmethod
+    def from_case(cls, case, u_star: float | None = None, **kw) -> "LayerParams":
+        """The steady layer of a config.Case (one-mode soil): its u*s (or ``u_star``), soil, air,
+        roughness and splash constants and readings."""
+        if len(case.soil.modes) != 1:
+            raise ValueError("soil.modes: the steady layer takes a one-mode soil")
+        mode, sp, air = case.soil.modes[0], case.splash, case.air
+        return cls(u_star=case.forcing.u_star_s if u_star is None else u_star, mu=mode.mu,
+                   sigma=mode.sigma, rho_p=case.soil.rho_p, rho=air.rho, nu=air.nu, g=air.g,
+                   kappa=air.kappa, z0=case.surface.z0, h_imp=sp.impact_layer,
+                   p_reb_max=sp.p_reb_max, gamma_reb=sp.gamma_reb, reb_speed_mean=sp.reb_speed_mean,
+                   reb_speed_std=sp.reb_speed_std, reb_angle_v=(sp.reb_angle_v_mean,
+                                                                sp.reb_angle_v_std),
+                   reb_angle_h=(sp.reb_angle_h_mean, sp.reb_angle_h_std), a_ej=sp.a_ej,
+                   ej_speed_mean=sp.ej_speed_mean, ej_angle_v=(sp.ej_angle_v_mean,
+                                                               sp.ej_angle_v_std),
+                   ej_angle_h=(sp.ej_angle_h_mean, sp.ej_angle_h_std),
+                   impact_speed=sp.impact_speed, launch_height=sp.launch_height, **kw)
+
+
+@dataclass
+class SteadyLayer:
+    """The steady layer (module doc); per unit bed area, SI."""
+    params: dict
+    converged: bool
+    generations: int
+    growth: float                 # mean launched grains per impact over the averaging window
+    growth_se: float
+    impact_rate: float            # R [m^-2 s^-1]
+    bed_fluid_fraction: float     # tau_a(0) / (rho u*^2)
+    u_star_bed: float             # sqrt(tau_a(0) / rho) [m s^-1]
+    airborne_mass: float          # M [kg m^-2]
+    flux: float                   # G_tot [kg m^-1 s^-1]
+    tau_g_bed: float              # tau_g(0) = R x the drag a generation's grains receive [Pa]
+    tau_g_impacts: float          # R <m du> at the bed [Pa] (equal to tau_g_bed when steady)
+    mu_b: float                   # tau_g(0) / (M g)
+    mu_b_impacts: float           # <m du> / <m dw> at the bed
+    impact_speed_mean: float      # [m s^-1], over impacts
+    impact_angle_mean: float      # [deg]
+    hop_time_mean: float          # [s], over launched grains (mass-weighted)
+    grain_speed_mean: float       # G_tot / M [m s^-1]
+    decay_height: float           # e-folding height of the mass flux profile above 1 cm [m]
+    replacement_by_speed: dict = field(default_factory=dict)
+    wind: dict = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def _levels(p: LayerParams) -> np.ndarray:
+    """Log-spaced wind nodes from z0 to z_top (the bins between them collect the drag)."""
+    return np.exp(np.linspace(math.log(p.z0), math.log(p.z_top), p.n_levels))
+
+
+def log_wind(zn: np.ndarray, u_star: float, kappa: float, z0: float) -> np.ndarray:
+    """u(z) = u*/kappa ln(z/z0) on the nodes (0 at and below z0)."""
+    return np.maximum(u_star / kappa * np.log(np.maximum(zn, z0) / z0), 0.0)
+
+
+def wind_from_stress(zn: np.ndarray, tau_a: np.ndarray, rho: float, kappa: float) -> np.ndarray:
+    """The mixing-length profile: u(z0) = 0 and du/dln z = sqrt(tau_a / rho) / kappa, integrated
+    by the trapezoidal rule in ln z on the nodes (tau_a clipped at zero)."""
+    us = np.sqrt(np.maximum(tau_a, 0.0) / rho) / kappa
+    dl = np.diff(np.log(zn))
+    return np.concatenate([[0.0], np.cumsum(0.5 * (us[1:] + us[:-1]) * dl)])
+
+
+@jit
+def _wind_at(z, lz0, idl, nz, un, u_star_top, kappa, z_top):
+    """Wind at height z from the nodes (linear in ln z); the log law of u*s above the top."""
+    if z <= 0.0:
+        return 0.0
+    s = (math.log(z) - lz0) * idl
+    if s <= 0.0:
+        return 0.0
+    i = int(s)
+    if i >= nz - 1:
+        return un[nz - 1] + u_star_top / kappa * math.log(z / z_top)
+    f = s - i
+    return un[i] * (1.0 - f) + un[i + 1] * f
+
+
+@jit
+def fly_grains(u0, v0, w0, d, z_start, un, lz0, idl, u_star_top, z_top, kappa, rho, nu, rho_p, g,
+               h_imp, dt, t_max, drag_bin, mass_time_bin, flux_bin, out):
+    """Fly each grain from (z_start[i], velocity u0, v0, w0) until it meets the impact layer.
+
+    The drag (eqs. 3-4, f(Re_p) = 1 + 0.15 Re_p^0.687) is integrated exactly over each step dt with
+    the drag rate and the wind frozen at the step's start. A grain above the layer's top impacts
+    where it crosses it downwards (linear within the step); one launched inside the layer (from
+    the bed) impacts at the top of its hop if that stays inside. Per grain, ``out`` gets (flight
+    time, impact u, v, w, streamwise hop length, 1 if it landed); the bins (by the ln-z node
+    interval of the grain's height at the step's start) accumulate the streamwise drag impulse
+    m du, the mass-time m dt and the flux m u dt, all per grain of unit number."""
+    nz = un.shape[0]
+    for i in range(u0.shape[0]):
+        di = d[i]
+        m = math.pi / 6.0 * rho_p * di * di * di
+        tp = rho_p * di * di / (18.0 * rho * nu)
+        x = 0.0
+        z = z_start[i]
+        u = u0[i]
+        v = v0[i]
+        w = w0[i]
+        t = 0.0
+        inside = z < h_imp
+        landed = 0.0
+        while t < t_max:
+            uf = _wind_at(z, lz0, idl, nz, un, u_star_top, kappa, z_top)
+            ru = uf - u
+            rel = math.sqrt(ru * ru + v * v + w * w)
+            k = (1.0 + 0.15 * (rel * di / nu) ** 0.687) / tp
+            E = math.exp(-k * dt)
+            omk = (1.0 - E) / k
+            wt = -g / k
+            un_ = uf + (u - uf) * E
+            vn = v * E
+            wn = wt + (w - wt) * E
+            zn = z + wt * dt + (w - wt) * omk
+            xn = x + uf * dt + (u - uf) * omk
+            s = (math.log(z) - lz0) * idl if z > 0.0 else -1.0
+            b = int(s) if s >= 0.0 else -1
+            if b >= 0 and b < nz - 1:
+                drag_bin[b] += m * (un_ - u)
+                mass_time_bin[b] += m * dt
+                flux_bin[b] += m * 0.5 * (u + un_) * dt
+            if inside:
+                if zn >= h_imp:
+                    inside = False
+                elif wn <= 0.0:  # the top of a hop that stays inside the layer
+                    out[i, 0] = t + dt
+                    out[i, 1] = un_
+                    out[i, 2] = vn
+                    out[i, 3] = wn
+                    out[i, 4] = xn
+                    landed = 1.0
+                    break
+            elif zn < h_imp:
+                f = (z - h_imp) / (z - zn)
+                out[i, 0] = t + f * dt
+                out[i, 1] = u + f * (un_ - u)
+                out[i, 2] = v + f * (vn - v)
+                out[i, 3] = w + f * (wn - w)
+                out[i, 4] = x + f * (xn - x)
+                landed = 1.0
+                break
+            x = xn
+            z = zn
+            u = un_
+            v = vn
+            w = wn
+            t += dt
+        out[i, 5] = landed
+
+
+def _angle(rng, mean_deg, std_deg, n):
+    """Normal launch angles redrawn outside (0, 180) deg, in radians (as the solver's splash)."""
+    a = rng.normal(mean_deg, std_deg, n)
+    for _ in range(1000):
+        bad = (a <= 0.0) | (a >= 180.0)
+        if not bad.any():
+            break
+        a[bad] = rng.normal(mean_deg, std_deg, int(bad.sum()))
+    return np.radians(a)
+
+
+def _diameters(rng, p: LayerParams, n: int) -> np.ndarray:
+    """Diameters from the soil's mass size distribution (eq. 5, one mode), as the solver draws."""
+    return p.mu * np.exp(math.log(p.sigma) * rng.normal(0.0, 1.0, n))
+
+
+def splash_generation(rng, p: LayerParams, ui, vi, wi, di):
+    """Splash the impacts (velocities ui, vi, wi < 0, diameters di) by eqs. 6-9 under the reading.
+
+    Returns (launch arrays u, v, w, d, parent index, per-impact streamwise and vertical momentum
+    given to the bed: m_imp u_imp - sum m_out u_out and m_imp |w_imp| + sum m_out w_out)."""
+    n = ui.size
+    speed = np.sqrt(ui * ui + vi * vi + wi * wi)
+    v_law = np.abs(wi) if p.impact_speed == "normal" else speed      # eqs. 6 and 8
+    heading = np.arctan2(vi, ui)
+    reb = rng.random(n) < p.p_reb_max * (1.0 - np.exp(-p.gamma_reb * v_law))
+    r = rng.normal(p.reb_speed_mean, p.reb_speed_std, n)
+    for _ in range(1000):
+        bad = r < 0.0
+        if not bad.any():
+            break
+        r[bad] = rng.normal(p.reb_speed_mean, p.reb_speed_std, int(bad.sum()))
+    vr = np.maximum(r, 0.0) * speed
+    av = _angle(rng, *p.reb_angle_v, n)
+    ah = np.radians(rng.normal(*p.reb_angle_h, n))
+    nbar = p.a_ej * v_law / math.sqrt(p.g * p.mu)
+    nej = np.floor(nbar).astype(np.int64)
+    nej += (rng.random(n) < nbar - nej).astype(np.int64)
+    parent_e = np.repeat(np.arange(n), nej)
+    ne = parent_e.size
+    ve = rng.exponential(1.0, ne) * p.ej_speed_mean * speed[parent_e]
+    ave = _angle(rng, *p.ej_angle_v, ne)
+    ahe = np.radians(rng.normal(*p.ej_angle_h, ne))
+    de = _diameters(rng, p, ne)
+    # launches: rebounds (the impactor's diameter), then ejecta
+    idx_r = np.nonzero(reb)[0]
+    c_r = vr[idx_r] * np.cos(av[idx_r])
+    ph_r = heading[idx_r] + ah[idx_r]
+    c_e = ve * np.cos(ave)
+    ph_e = heading[parent_e] + ahe
+    u = np.concatenate([c_r * np.cos(ph_r), c_e * np.cos(ph_e)])
+    v = np.concatenate([c_r * np.sin(ph_r), c_e * np.sin(ph_e)])
+    w = np.concatenate([vr[idx_r] * np.sin(av[idx_r]), ve * np.sin(ave)])
+    d = np.concatenate([di[idx_r], de])
+    parent = np.concatenate([idx_r, parent_e])
+    m_imp = np.pi / 6.0 * p.rho_p * di ** 3
+    m_out = np.pi / 6.0 * p.rho_p * d ** 3
+    px = m_imp * ui - np.bincount(parent, weights=m_out * u, minlength=n)
+    pz = m_imp * np.abs(wi) + np.bincount(parent, weights=m_out * w, minlength=n)
+    return u, v, w, d, parent, px, pz
+
+
+def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, average: int = 60,
+                       progress=None, bed_fluid_fraction: float | None = None) -> SteadyLayer:
+    """Relax the layer to its steady state (module doc) and average over the last ``average``
+    generations.
+
+    With ``bed_fluid_fraction`` set, the impact rate is not free: it is held where the grains take
+    (1 - bed_fluid_fraction) rho u*^2 from the air, and ``growth`` says whether the splash law can
+    sustain that layer (> 1: the grains would multiply; < 1: they would die out)."""
+    if bed_fluid_fraction is not None and not 0.0 <= bed_fluid_fraction < 1.0:
+        raise ValueError(f"bed_fluid_fraction={bed_fluid_fraction!r}: must be in [0, 1)")
+    rng = np.random.default_rng(seed)
+    zn = _levels(p)
+    nz = zn.size
+    lz0 = math.log(zn[0])
+    idl = 1.0 / (math.log(zn[1]) - lz0)
+    dz = np.diff(zn)
+    rho_u2 = p.rho * p.u_star ** 2
+    un = log_wind(zn, p.u_star, p.kappa, p.z0)
+    # first impacts: grains falling at 1 m/s at 20 degrees
+    n = p.n_impacts
+    ui = np.full(n, 0.94)
+    vi = np.zeros(n)
+    wi = np.full(n, -0.34)
+    di = _diameters(rng, p, n)
+    m_mean = np.pi / 6.0 * p.rho_p * p.mu ** 3
+    R = 0.05 * rho_u2 / (m_mean * 1.0)   # a twentieth of Owen's rate: the layer grows from below
+    z_launch = 0.0 if p.launch_height == "bed" else p.h_imp
+    keep = []
+    for gen in range(generations):
+        u, v, w, d, parent, px, pz = splash_generation(rng, p, ui, vi, wi, di)
+        nl = u.size
+        drag_bin = np.zeros(nz - 1)
+        mt_bin = np.zeros(nz - 1)
+        fl_bin = np.zeros(nz - 1)
+        out = np.zeros((nl, 6))
+        fly_grains(u, v, w, d, np.full(nl, z_launch), un, lz0, idl, p.u_star, p.z_top, p.kappa,
+                   p.rho, p.nu, p.rho_p, p.g, p.h_imp, p.dt, T_MAX, drag_bin, mt_bin, fl_bin, out)
+        landed = out[:, 5] > 0
+        lam = landed.sum() / n
+        m_l = np.pi / 6.0 * p.rho_p * d ** 3
+        # per impact: the bed's share and what the launched grains do until they land
+        rec = {"lam": lam, "R": R, "px": px.mean(), "pz": pz.mean(),
+               "mT": float(np.sum(m_l[landed] * out[landed, 0])) / n,
+               "m": float(np.sum(m_l[landed])) / n,
+               "mL": float(np.sum(m_l[landed] * out[landed, 4])) / n,
+               "drag": drag_bin / n, "mt": mt_bin / n, "fl": fl_bin / n,
+               "v_imp": np.sqrt(ui ** 2 + vi ** 2 + wi ** 2),
+               "angle": np.degrees(np.arctan2(-wi, np.hypot(ui, vi))),
+               "offspring": np.bincount(parent, minlength=n)}
+        keep.append(rec)
+        if len(keep) > average:
+            keep.pop(0)
+        # the layer's response: the impact rate follows the growth, the wind the drag
+        if bed_fluid_fraction is None:
+            R *= min(max(lam, 0.5), 2.0) ** BETA
+        else:
+            drag_per_impact = float(rec["drag"].sum())
+            if drag_per_impact > 0:
+                target = (1.0 - bed_fluid_fraction) * rho_u2 / drag_per_impact
+                R *= min(max(target / R, 0.5), 2.0) ** BETA
+        tau_g = R * np.concatenate([np.cumsum(rec["drag"][::-1])[::-1], [0.0]])
+        u_new = wind_from_stress(zn, rho_u2 - tau_g, p.rho, p.kappa)
+        un = (1.0 - OMEGA) * un + OMEGA * u_new
+        # the next generation: n impacts drawn from the landings
+        idx = np.nonzero(landed)[0]
+        if idx.size == 0:
+            break
+        pick = rng.choice(idx, n, replace=True)
+        ui, vi, wi, di = out[pick, 1], out[pick, 2], out[pick, 3], d[pick]
+        if progress is not None:
+            progress(gen, lam, R)
+    lam_k = np.array([k["lam"] for k in keep])
+    Rm = float(np.mean([k["R"] for k in keep]))
+    drag = np.mean([k["drag"] for k in keep], axis=0)
+    tau_g0 = Rm * float(drag.sum())
+    M = Rm * float(np.mean([k["mT"] for k in keep]))
+    G = Rm * float(np.mean([k["mL"] for k in keep]))
+    px = float(np.mean([k["px"] for k in keep]))
+    pz = float(np.mean([k["pz"] for k in keep]))
+    fl = Rm * np.mean([k["fl"] for k in keep], axis=0) / dz        # mass flux density [kg m-2 s-1]
+    zc = np.sqrt(zn[1:] * zn[:-1])
+    sel = (zc > 0.01) & (fl > 1e-6 * max(fl.max(), 1e-300))
+    decay = math.nan
+    if sel.sum() >= 4:
+        slope = np.polyfit(zc[sel], np.log(fl[sel]), 1)[0]
+        decay = -1.0 / slope if slope < 0 else math.nan
+    v_imp = np.concatenate([k["v_imp"] for k in keep])
+    offs = np.concatenate([k["offspring"] for k in keep])
+    edges = np.arange(0.0, 4.01, 0.25)
+    rep = {}
+    b = np.digitize(v_imp, edges) - 1
+    for j in range(edges.size - 1):
+        s = b == j
+        if s.sum() >= 50:
+            rep[f"{edges[j]:.2f}-{edges[j + 1]:.2f}"] = float(offs[s].mean())
+    tau_bed = max(rho_u2 - tau_g0, 0.0)
+    lam_se = float(lam_k.std(ddof=1) / math.sqrt(lam_k.size)) if lam_k.size > 1 else math.nan
+    mT = float(np.mean([k["mT"] for k in keep]))
+    return SteadyLayer(
+        params=asdict(p), converged=bool(abs(lam_k.mean() - 1.0) < 3 * lam_se + 0.01) if bed_fluid_fraction is None
+        else bool(abs(tau_bed / rho_u2 - bed_fluid_fraction) < 0.02),
+        generations=len(keep), growth=float(lam_k.mean()), growth_se=lam_se,
+        impact_rate=Rm, bed_fluid_fraction=tau_bed / rho_u2, u_star_bed=math.sqrt(tau_bed / p.rho),
+        airborne_mass=M, flux=G, tau_g_bed=tau_g0, tau_g_impacts=Rm * px,
+        mu_b=tau_g0 / (M * p.g) if M > 0 else math.nan,
+        mu_b_impacts=px / pz if pz > 0 else math.nan,
+        impact_speed_mean=float(v_imp.mean()),
+        impact_angle_mean=float(np.concatenate([k["angle"] for k in keep]).mean()),
+        hop_time_mean=mT / float(np.mean([k["m"] for k in keep])),
+        grain_speed_mean=G / M if M > 0 else math.nan, decay_height=decay,
+        replacement_by_speed=rep,
+        wind={"z": zn[::8].tolist(), "u": un[::8].tolist()})
+
+
+def register_steady_layer(probe_app) -> None:
+    """``saltstudy probe steady-layer``."""
+    import typer
+
+    from ..config import ConfigError, load_case
+
+    @probe_app.command("steady-layer")
+    def steady_layer_cmd(
+        case: int = typer.Option(2, "--case", help="case number (its u*s, soil, splash)"),
+        u_star: float = typer.Option(None, "--u-star", help="u*s above the layer [m s^-1] "
+                                     "(default: the case's)"),
+        overrides: str = typer.Option("", "--overrides", help="JSON merged into the case, e.g. "
+                                      '\'{"splash": {"impact_speed": "normal"}}\''),
+        n_impacts: int = typer.Option(4000, "--n", help="impacts per generation"),
+        generations: int = typer.Option(160, "--generations", help="generations in all"),
+        average: int = typer.Option(60, "--average", help="the last generations averaged"),
+        bed_fluid_fraction: float = typer.Option(None, "--bed-fluid-fraction", help="hold the "
+                                                 "bed's share of rho u*^2 here and report the "
+                                                 "growth per generation instead"),
+        seed: int = typer.Option(1, "--seed"),
+        as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout"),
+    ):
+        """The splash law's steady layer in 1-D (mixing-length wind, no LES): the bed's fluid
+        stress, airborne mass, flux and mu_b the law holds at u*s."""
+        try:
+            c = load_case(case, overrides=json.loads(overrides) if overrides else None)
+            p = LayerParams.from_case(c, u_star, n_impacts=n_impacts)
+            if not 0 < average <= generations:
+                raise ValueError(f"--average {average}: between 1 and --generations "
+                                 f"({generations})")
+        except (ConfigError, ValueError) as e:
+            typer.echo(f"error: {e}", err=True)
+            raise typer.Exit(2) from None
+        res = solve_steady_layer(p, seed=seed, generations=generations, average=average,
+                                 bed_fluid_fraction=bed_fluid_fraction)
+        d = res.as_dict()
+        if as_json:
+            typer.echo(json.dumps(d))
+            return
+        for k in ("growth", "impact_rate", "bed_fluid_fraction", "u_star_bed", "airborne_mass",
+                  "flux", "mu_b", "mu_b_impacts", "impact_speed_mean", "impact_angle_mean",
+                  "hop_time_mean", "grain_speed_mean", "decay_height"):
+            typer.echo(f"{k:>20}: {d[k]:.4g}")

@@ -1,0 +1,222 @@
+"""The layer's momentum balance at the bed: the impact record's momentum, mu_b two ways, and the
+readings of the text on the bed (normal impact speed, launch from the bed, the bulk law's wind and
+instant)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from test_particles_helpers import component, scene
+from saltstudy.analysis.balance import bed_exchange, budget_friction
+from saltstudy.solver.splash_kernels import (EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT,
+                                             _rise_from_bed)
+
+
+def _impacts_on_the_layer(s, rng, m, speed, angle_deg, d=2e-4):
+    """m parcels sitting on the impact layer with the given impact velocity, flagged as hits."""
+    a = math.radians(angle_deg)
+    h = s.h_imp
+    s.add_parcels(rng.uniform(0, 2.4, m), rng.uniform(0, 1.6, m), np.full(m, h),
+                  u=speed * math.cos(a), v=0.0, w=-speed * math.sin(a), d=d)
+    s._flag[:s.n] = 1
+    s._trem[:s.n] = 0.0
+    s._work_init()                      # the step's counters (Saltation.dynamics makes them)
+    return s.n
+
+
+def test_bed_momentum_record_is_the_parcels_momentum_change():
+    """Splashing a synthetic set of impacts: the record's streamwise and vertical momentum equal,
+    to round-off, the impactors' momentum in and the launched grains' momentum out, as summed
+    from the parcel arrays before and after."""
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
+    s, _ = component(sc)
+    rng = np.random.default_rng(3)
+    n = _impacts_on_the_layer(s, rng, 3000, 1.2, 15.0)
+    m_in = s.Q * s.mass.copy()
+    px_in = float(np.sum(m_in * s.u))
+    pz_in = float(np.sum(m_in * np.abs(s.w)))
+    s._cnt[:] = 0
+    s._en[:] = 0.0
+    s._splash(n, n)
+    live = s._flag[:s.n] == 0            # rebounds (in place) and ejecta (appended)
+    q = s.Q * math.pi / 6.0 * s.rho_p * s._d[:s.n][live] ** 3
+    px_out = float(np.sum(q * s._u[:s.n][live]))
+    pz_out = float(np.sum(q * s._w[:s.n][live]))
+    assert live.sum() > 1000 and np.all(s._w[:s.n][live] > 0)
+    en = s._en
+    assert en[EN_PX_IN] == pytest.approx(px_in, rel=1e-12)
+    assert en[EN_PZ_IN] == pytest.approx(pz_in, rel=1e-12)
+    assert en[EN_PX_OUT] == pytest.approx(px_out, rel=1e-12)
+    assert en[EN_PZ_OUT] == pytest.approx(pz_out, rel=1e-12)
+    # the bed takes streamwise momentum and gives vertical momentum: mu_b of order one
+    mu_b = (en[EN_PX_IN] - en[EN_PX_OUT]) / (en[EN_PZ_IN] + en[EN_PZ_OUT])
+    assert 0.3 < mu_b < 3.0
+
+
+def test_bed_momentum_is_counted_by_the_component_and_survives_a_checkpoint():
+    """One step with impacts: counters() carries the record's in - out and in + out; restored from
+    a checkpoint, the component has the same totals."""
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
+    s, st = component(sc, gravity=False)
+    rng = np.random.default_rng(4)
+    s.add_parcels(rng.uniform(0, 2.4, 500), rng.uniform(0, 1.6, 500), np.full(500, 5.2e-4),
+                  u=2.0, w=-0.8, d=2e-4)
+    s.dynamics(st, 1e-3)
+    c = s.counters()
+    assert c["bed_px"] > 0 and c["bed_pz"] > 0
+    s2, _ = component(sc)
+    s2.restore(s.checkpoint())
+    assert s2.counters()["bed_px"] == c["bed_px"] and s2.counters()["bed_pz"] == c["bed_pz"]
+
+
+def test_normal_impact_speed_reading_takes_w_in_eqs_6_and_8():
+    """splash.impact_speed = "normal": impacts at 2 m/s and 10 degrees rebound with
+    P_reb(|w|) = 0.95 (1 - exp(-2 |w|)) and eject a |w| / sqrt(g <d>) on average (eqs. 6, 8 of the
+    normal speed), and the rebounds still leave at 0.6 x the speed (eq. 7)."""
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False},
+               splash={"impact_speed": "normal"})
+    s, _ = component(sc)
+    rng = np.random.default_rng(6)
+    m, v, ang = 20000, 2.0, 10.0
+    n = _impacts_on_the_layer(s, rng, m, v, ang)
+    s._cnt[:] = 0
+    s._splash(n, n)
+    w = v * math.sin(math.radians(ang))
+    p = 0.95 * (1 - math.exp(-2.0 * w))
+    nbar = 0.03 * w / math.sqrt(sc.case.air.g * sc.case.soil.mean_diameter)
+    reb, ej = int(s._cnt[1]), int(s._cnt[2])
+    assert reb / m == pytest.approx(p, abs=4 * math.sqrt(p * (1 - p) / m))
+    assert ej / m == pytest.approx(nbar, abs=4 * math.sqrt(0.25 / m))
+    # the magnitude reading would rebound 93 % of these
+    assert reb / m < 0.6
+    rebounds = np.nonzero(s._flag[:m] == 0)[0]
+    speed = np.sqrt(s._u[rebounds] ** 2 + s._v[rebounds] ** 2 + s._w[rebounds] ** 2)
+    assert speed.mean() == pytest.approx(0.6056 * v, rel=0.03)      # eq. 7, truncated normal
+
+
+def test_rise_from_the_bed_is_ballistic_through_the_layer():
+    """A launch from z = 0 at w reaches the layer's top h at sqrt(w^2 - 2 g h), moved
+    horizontally by its speed times the rise time; a slower one is left at the top of its hop,
+    w^2 / 2g, inside the layer, with no vertical speed."""
+    g, h = 9.81, 5e-4
+    x, y, z, w = _rise_from_bed(1.0, 0.1, 0.3, g, h, 2.0, 1.0, 10.0, 5.0)
+    wt = math.sqrt(0.09 - 2 * g * h)
+    tr = (0.3 - wt) / g
+    assert (x, y, z, w) == pytest.approx((2.0 + tr, 1.0 + 0.1 * tr, h, wt), rel=1e-12)
+    x, y, z, w = _rise_from_bed(1.0, 0.0, 0.05, g, h, 9.99999, 1.0, 10.0, 5.0)
+    assert z == pytest.approx(0.05 ** 2 / (2 * g), rel=1e-12) and z < h and w == 0.0
+    assert 0.0 <= x < 10.0                       # wrapped around the periodic domain
+
+
+def test_launch_from_the_bed_leaves_slow_ejecta_inside_and_splashes_them_next_step():
+    """splash.launch_height = "bed": after a step of impacts, the rebounds and ejecta are either on
+    the layer's top moving up or inside it at the top of their hop, without vertical speed; the
+    next step splashes every one left inside. Parcels are conserved through both steps."""
+    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False},
+               splash={"launch_height": "bed"})
+    s, st = component(sc, gravity=False)
+    h = sc.case.splash.impact_layer
+    rng = np.random.default_rng(8)
+    m = 3000
+    a = math.radians(15.0)
+    s.add_parcels(rng.uniform(0, 2.4, m), rng.uniform(0, 1.6, m), np.full(m, h + 1e-6),
+                  u=1.5 * math.cos(a), w=-1.5 * math.sin(a), d=2e-4)
+    s.dynamics(st, 1e-3)
+    first = dict(s.last_step)
+    assert first["n_impacts"] == m
+    top = s.z == h
+    inside = s.z < h
+    assert np.all(top | inside) and inside.sum() > 100 and top.sum() > 100
+    assert np.all(s.w[top] > 0) and np.all(s.w[inside] == 0.0)
+    n_inside = int(inside.sum())
+    s.dynamics(st, 1e-3)
+    second = s.last_step
+    assert second["n_impacts"] >= n_inside
+    assert s.n == m + first["n_ejections"] + second["n_ejections"] - (
+        first["n_depositions"] + second["n_depositions"])
+
+
+def test_bed_launch_and_detection_step_exclude_each_other():
+    from saltstudy.config import ConfigError, load_case
+
+    with pytest.raises(ConfigError, match="launch_height"):
+        load_case(2, overrides={"splash": {"launch_height": "bed", "detection_step": 2e-4}})
+
+
+def test_bulk_law_reads_the_second_level_when_asked():
+    """surface.stress_level = "second": the bed stress is -C_d2 |U_2| u_2 with
+    C_d2 = [kappa / ln(z_2 / z0)]^2 from the second level's wind, whatever the first level's."""
+    from saltstudy.solver.model import build_stepper
+    from saltstudy.solver.grid import Grid
+
+    for level, k in (("first", 0), ("second", 1)):
+        sc = scene(2, surface={"stress_level": level})
+        grid = Grid.from_spec(sc.fidelity.grid)
+        st = build_stepper(sc, grid, None)
+        u = np.zeros(grid.shape)
+        v = np.zeros(grid.shape)
+        u[:, :, 0] = 1.0
+        u[:, :, 1] = 3.0
+        taux, tauy = np.empty(grid.shape[:2]), np.empty(grid.shape[:2])
+        st.bed_stress_into(u, v, taux, tauy)
+        cd = (0.4 / math.log(grid.z_c[k] / sc.case.surface.z0)) ** 2
+        U = (1.0, 3.0)[k]
+        assert np.allclose(taux, -cd * U * U, rtol=1e-12) and np.allclose(tauy, 0.0)
+
+
+def test_bed_stress_from_the_wind_before_the_grains_drag():
+    """surface.stress_instant = "step_start": the bed stress of a step is the bulk law of the wind
+    before the components act. A component that stops the first level's wind: with "stage" the
+    bed then exerts no stress in that step; with "step_start" it still drags the level with the
+    stress of the wind it had, which leaves the level slower."""
+    from saltstudy.solver.model import Model
+
+    class StopFirstLevel:
+        name = "stop"
+
+        def dynamics(self, state, dt):
+            state.u[:, :, 0] = 0.0
+
+        def max_dt(self, state):
+            return math.inf
+
+    u0 = {}
+    for instant in ("stage", "step_start"):
+        sc = scene(2, surface={"stress_instant": instant})
+        m = Model.from_scene(sc)
+        m.state.u[...] = 5.0
+        m.components.append(StopFirstLevel())
+        m.step(1e-3)
+        u0[instant] = float(m.state.u[:, :, 0].mean())
+    assert u0["step_start"] < u0["stage"] - 1e-4
+
+
+def test_bed_exchange_of_linear_records():
+    """Cumulative records growing linearly: the stress, vertical impulse and mu_b are their rates
+    over the area, the block scatter zero; outside the record, NaN."""
+    t = np.linspace(0.0, 40.0, 401)
+    a, b, area = 0.6, 0.8, 75.0
+    r = bed_exchange(t, a * t, b * t, 10.0, 40.0, area)
+    assert r["tau_g_bed_impacts"] == pytest.approx(a / area, rel=1e-12)
+    assert r["bed_vertical_impulse"] == pytest.approx(b / area, rel=1e-12)
+    assert r["mu_b"] == pytest.approx(a / b, rel=1e-12)
+    assert r["mu_b_se"] == pytest.approx(0.0, abs=1e-12)
+    assert math.isnan(bed_exchange(t, None, b * t, 10.0, 40.0, area)["mu_b"])
+    wobbly = bed_exchange(t, a * t + 0.01 * np.sin(t), b * t, 10.0, 40.0, area)
+    assert wobbly["mu_b_se"] > 0
+
+
+def test_budget_friction_of_known_stresses():
+    """tau_total = 0.3 m2/s2, the bed's u'w' = -0.05, M = 30 g/m2: the grains carry
+    rho (0.3 - 0.05) to the bed, the bed keeps 1/6 of the stress, mu_b = tau_g / (M g)."""
+    rho, g = 1.2, 9.81
+    uw = np.array([-0.04, -0.05, -0.06])
+    M = np.array([0.03, 0.03, 0.03])
+    r = budget_friction(rho, g, 0.3, uw, M)
+    assert r["bed_fluid_stress_fraction"] == pytest.approx(0.05 / 0.3, rel=1e-12)
+    assert r["tau_g_bed_budget"] == pytest.approx(rho * 0.25, rel=1e-12)
+    assert r["mu_b_budget"] == pytest.approx(rho * 0.25 / (0.03 * g), rel=1e-12)
+    assert r["mu_b_budget_se"] > 0
+    assert math.isnan(budget_friction(rho, g, 0.0, uw, M)["mu_b_budget"])
