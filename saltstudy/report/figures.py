@@ -31,7 +31,7 @@ from matplotlib.figure import Figure
 
 from .data import ReportContext, RunData, profile
 from .laws import evaluate_law, load_laws
-from .panels import BY_MU1, BY_U_STAR_S, Panel, PanelRun, panel_runs
+from .panels import BY_MU1, BY_U_STAR_S, PanelRun, panel_runs
 from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
 from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_Q,
                         paper_parcels_per_m2, parcels_per_m2_at_Q, saltation_state)
