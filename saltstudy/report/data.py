@@ -183,6 +183,16 @@ class RunData:
         return self.attr("rho", 1.2)
 
     @property
+    def u_star_s_target(self) -> float:
+        """The case's u*s [m s-1] as configured (what the drive holds at the reference height),
+        else the archive's ``u_star_target``; NaN if neither is known."""
+        v = (self.scene.get("case", {}).get("forcing", {}) or {}).get("u_star_s")
+        try:
+            return float(v)
+        except (TypeError, ValueError):
+            return self.attr("u_star_target")
+
+    @property
     def mu1(self) -> float:
         """Median diameter of the dominant soil mode [m] (from the archive's resolved scene)."""
         modes = self.scene.get("case", {}).get("soil", {}).get("modes") or []

@@ -14,6 +14,9 @@ Axes, normalisations and case groupings follow the paper's captions:
   6 tau_p/(rho u*s^2) vs z/z_m                    13 sigma_G/G_tot vs u*s/u*t
   7 <G>/<G_tot> vs z/z_m
 Panels (a) of Figs 6, 7, 10-12 hold cases 1-6 (various u*s), panels (b) cases 2, 7-10 (various mu1).
+In these and in Fig. 9's rows, a case the study lacks gives its place to the study's nearest run
+along the panel's parameter, labelled as standing in for it, or is left out (report/panels.py);
+a panel or row with no run to draw is not drawn.
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ from matplotlib.figure import Figure
 
 from .data import ReportContext, RunData, profile
 from .laws import evaluate_law, load_laws
+from .panels import BY_MU1, BY_U_STAR_S, PanelRun, panel_runs
 from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
 from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_Q,
                         paper_parcels_per_m2, parcels_per_m2_at_Q, saltation_state)
@@ -66,8 +70,12 @@ def _fmt_um(d: float) -> str:
     return f"{d * 1e6:.0f} µm" if math.isfinite(d) else "µ1 ?"
 
 
-def _case_label(r: RunData, soil: bool = False) -> str:
+def _case_label(r: RunData, soil: bool = False, place: PanelRun | None = None) -> str:
+    """The run's name (``case N`` for a plain case, else its label), what it stands in for when
+    it fills the place of another paper case (``place``), and its u*s or (``soil``) µ1."""
     name = f"case {r.case}" if r.case is not None and r.plain_case else r.label
+    if place is not None and place.substitute:
+        name = f"{name} {place.stand_in()}"
     if soil:
         return f"{name}, µ1 = {_fmt_um(r.mu1)}"
     us = _u_star_stress(r)
@@ -112,6 +120,19 @@ def _notes(ax, notes: list[str], loc: str = "lower right") -> None:
     y, va = (0.02, "bottom") if "lower" in loc else (0.98, "top")
     ax.text(x, y, "\n".join(notes), transform=ax.transAxes, ha=ha, va=va, fontsize=7.5,
             color="firebrick", bbox=dict(boxstyle="round", fc="white", ec="firebrick", alpha=0.85))
+
+
+def _nothing_to_draw(fig: Figure, message: str) -> None:
+    """A figure none of whose places the study can fill says why in words, without a frame."""
+    fig.text(0.5, 0.5, message, ha="center", va="center", fontsize=11, color="firebrick",
+             wrap=True)
+
+
+def _lacks(*names: str) -> Callable[[RunData], str | None]:
+    """``usable`` for :func:`panels.panel_runs`: the first of ``names`` the run's archive lacks."""
+    def usable(r: RunData) -> str | None:
+        return next((f"no {n}" for n in names if not r.has(n)), None)
+    return usable
 
 
 def _empty(ax, message: str) -> None:
@@ -495,39 +516,47 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
               norm: Callable[[RunData, np.ndarray], np.ndarray], xlog: bool,
               decorate: Callable | None = None, ylim=(0.0, 1.5), xlog_span: float = 1e-4
               ) -> FigureResult:
-    fig, axes = _new(2, 1, size=(11, 5.0), sharey=True)
+    """Panel (a): the paper's cases 1–6 (various u*s), panel (b): cases 2, 7–10 (various µ1),
+    each place filled by the study's run of the case or its nearest run (``panels.py``); a
+    panel the study cannot fill at all is left out."""
+    def usable(r: RunData) -> str | None:
+        if profile(r, var) is None:
+            return f"no {var}"
+        zm = r.scalar("z_m")
+        return None if math.isfinite(zm) and zm > 0 else "z_m undefined (no saltation?)"
+
+    groups = []
+    for cases, by, soil, ptitle in ((CASES_WIND, BY_U_STAR_S, False, "(a) cases 1–6: various u*s"),
+                                    (CASES_SOIL, BY_MU1, True, "(b) cases 2, 7–10: various µ1")):
+        groups.append((panel_runs(ctx, cases, by, usable), soil, ptitle))
+    drawn = [g for g in groups if g[0].runs]
+    fig, axes = _new(max(1, len(drawn)), 1, size=(5.5 * max(1, len(drawn)), 5.0), sharey=True)
     res = FigureResult(fig)
     fig.suptitle(title)
-    for ax, cases, soil, ptitle in ((axes[0, 0], CASES_WIND, False, "(a) cases 1–6: various u*s"),
-                                    (axes[0, 1], CASES_SOIL, True, "(b) cases 2, 7–10: various µ1")):
-        notes = []
-        for n in cases:
-            r = ctx.by_case(n)
-            note = ctx.missing_note(n)
-            if note:
-                notes.append(note)
-                continue
-            p = profile(r, var)
+    for panel, _, _ in groups:
+        res.notes.extend(panel.notes)
+    if not drawn:
+        axes[0, 0].remove()
+        _nothing_to_draw(fig, f"no run of this study has {var} against z/z_m")
+        return res
+    for ax, (panel, soil, ptitle) in zip(axes[0], drawn):
+        prefix = ptitle[:3]
+        for place in panel.runs:
+            r = place.run
+            z, v = profile(r, var)
             zm = r.scalar("z_m")
-            if p is None:
-                notes.append(f"case {n}: no {var}")
-                continue
-            if not (math.isfinite(zm) and zm > 0):
-                notes.append(f"case {n}: z_m undefined (no saltation?)")
-                continue
-            z, v = p
             x = np.asarray(norm(r, v), float)
             vis = z / zm <= ylim[1] * 1.05
             z, x = z[vis], x[vis]
             if xlog:
                 x = np.where(x > 0, x, np.nan)
-            ax.plot(x, z / zm, color=_color(n, soil), lw=1.6, marker=".", ms=3,
-                    label=_case_label(r, soil))
-            res.data[f"{ptitle[:3]}case{n}"] = np.asarray(x, float)
+            ax.plot(x, z / zm, color=_color(place.paper_case, soil), lw=1.6, marker=".", ms=3,
+                    label=_case_label(r, soil, place))
+            res.data[f"{prefix}{place.key}"] = np.asarray(x, float)
         if decorate is not None:
             decorate(ax, soil, res)
         if xlog:
-            vals = np.concatenate([v for k, v in res.data.items() if k.startswith(ptitle[:3])] or [np.array([])])
+            vals = np.concatenate([v for k, v in res.data.items() if k.startswith(prefix)] or [np.array([])])
             vals = vals[np.isfinite(vals) & (vals > 0)]
             if vals.size:  # a log axis without positive data cannot be drawn
                 ax.set_xscale("log")
@@ -539,8 +568,7 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
         ax.set_title(ptitle, loc="left")
         ax.grid(alpha=0.3, which="both")
         _legend(ax, fontsize=7.5, loc="best")  # profiles differ per run: least overlap
-        _notes(ax, notes, "lower left")
-        res.notes.extend(notes)
+        _notes(ax, panel.notes, "lower left")
     axes[0, 0].set_ylabel(r"$z / z_m$ [-]")
     return res
 
@@ -607,29 +635,30 @@ def fig12(ctx: ReportContext) -> FigureResult:
 # Fig 9
 # ------------------------------------------------------------------------------------------------
 def fig09(ctx: ReportContext) -> FigureResult:
-    cases = (1, 4, 6)
-    # aspect from the first present run
-    ref = next((ctx.by_case(n) for n in cases if ctx.by_case(n) is not None and ctx.by_case(n).ok), None)
+    """A row per paper case 1, 4, 6 (top to bottom): the study's run of the case, or its nearest
+    run by u*s at µ1 = 200 µm (``panels.py``), titled with the case it stands in for; a row the
+    study cannot fill is left out."""
+    panel = panel_runs(ctx, FIG9_CASES, BY_U_STAR_S, _lacks("C_p_snapshot", "u_snapshot"))
+    rows = panel.runs
+    ref = rows[0].run if rows else None     # the aspect of the first drawn run
     lx = ref.attr("Lx", 20.0) if ref else 20.0
     ly = ref.attr("Ly", 15.0) if ref else 15.0
     w = 11.0
-    h = 3 * (w / 2) * (ly / lx) * 0.95 + 1.0 if ref else 6.0
-    fig, axes = _new(2, 3, size=(w, min(max(h, 6.0), 14.0)))
+    h = len(rows) * (w / 2) * (ly / lx) * 0.95 + 1.0
+    fig, axes = _new(2, max(1, len(rows)), size=(w, min(max(h, 3.5), 14.0)))
     res = FigureResult(fig)
+    res.notes.extend(panel.notes)
     fig.suptitle("Fig. 9 — snapshots: (a) C_p / C_pmax and (b) u / u_max at z = 0.1 m")
-    for row, n in enumerate(cases):
-        r = ctx.by_case(n)
+    if not rows:
+        for ax in axes.ravel():
+            ax.remove()
+        _nothing_to_draw(fig, "no run of this study at µ1 = 200 µm has C_p and u snapshots")
+        return res
+    for row, place in enumerate(rows):
+        r = place.run
         for col, (var, lab, cmap) in enumerate((("C_p_snapshot", r"$C_p / C_{p,max}$", "YlOrBr"),
                                                 ("u_snapshot", r"$u / u_{max}$", "viridis"))):
             ax = axes[row, col]
-            note = ctx.missing_note(n)
-            if note is None and not r.has(var):
-                note = f"case {n}: no {var}"
-            if note:
-                res.notes.append(note)
-                _empty(ax, note)
-                ax.set_title(f"({'ab'[col]}) case {n}", loc="left", fontsize=9)
-                continue
             v = r.var(var)
             arr = np.asarray(v.values, float)
             if v.dims == ("y", "x"):
@@ -644,12 +673,19 @@ def fig09(ctx: ReportContext) -> FigureResult:
                            extent=(x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2),
                            vmin=0.0 if col == 0 else None, vmax=1.0)
             fig.colorbar(im, ax=ax, shrink=0.85, label=lab)
-            res.data[f"{var}_case{n}"] = arr
-            ax.set_title(f"({'ab'[col]}) {_case_label(r)}", loc="left", fontsize=9)
+            res.data[f"{var}_{place.key}"] = arr
+            title = f"({'ab'[col]}) {_case_label(r)}"
+            if place.substitute:   # on a line of its own: the panels are narrow
+                title += f"\n{place.stand_in()}"
+            ax.set_title(title, loc="left", fontsize=9)
             ax.set_ylabel("y [m]")
-            if row == len(cases) - 1:
+            if row == len(rows) - 1:
                 ax.set_xlabel("x [m] (wind →)")
     return res
+
+
+#: the paper's Fig. 9 rows, top to bottom
+FIG9_CASES = (1, 4, 6)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -658,31 +694,36 @@ def fig09(ctx: ReportContext) -> FigureResult:
 def fig10(ctx: ReportContext) -> FigureResult:
     """The premultiplied spanwise spectra ky S(ky) against wavelength on a log axis, the form
     Table 2's delta_y is read from (docs/STREAMERS.md), over the variance: the area under each
-    curve against ln(wavelength) is 1."""
-    fig, axes = _new(2, 2, size=(11, 8.5))
+    curve against ln(wavelength) is 1. Top row: the paper's cases 1–6 (various u*s), bottom row:
+    cases 2, 7–10 (various µ1), each filled by the study's run of the case or its nearest run
+    (``panels.py``); a row the study cannot fill at all is left out."""
+    table = paper_table2()
+    groups = [(panel_runs(ctx, cases, by, _lacks("S_c", "S_u")), cases, soil, rtitle)
+              for cases, by, soil, rtitle in ((CASES_WIND, BY_U_STAR_S, False, "cases 1–6"),
+                                              (CASES_SOIL, BY_MU1, True, "cases 2, 7–10"))]
+    drawn = [g for g in groups if g[0].runs]
+    fig, axes = _new(2, max(1, len(drawn)), size=(11, 0.5 + 4.0 * max(1, len(drawn))))
     res = FigureResult(fig)
     fig.suptitle("Fig. 10 — premultiplied spanwise spectra of (a) C_p and (b) u at z = 0.1 m, "
                  "averaged in x and t")
-    table = paper_table2()
-    for row, (cases, soil, rtitle) in enumerate(((CASES_WIND, False, "cases 1–6"),
-                                                 (CASES_SOIL, True, "cases 2, 7–10"))):
+    for panel, _, _, _ in groups:
+        res.notes.extend(panel.notes)
+    if not drawn:
+        for ax in axes.ravel():
+            ax.remove()
+        _nothing_to_draw(fig, "no run of this study has spanwise spectra of C_p and u")
+        return res
+    for row, (panel, cases, soil, rtitle) in enumerate(drawn):
         for col, (var, dvar, vlab) in enumerate((("S_c", "delta_y", "C_p"), ("S_u", "delta_y_u", "u"))):
             ax = axes[row, col]
-            notes = []
-            for n in cases:
-                r = ctx.by_case(n)
-                note = ctx.missing_note(n)
-                if note is None and not r.has(var):
-                    note = f"case {n}: no {var}"
-                if note:
-                    notes.append(note)
-                    continue
+            for place in panel.runs:
+                r = place.run
                 v = r.var(var)
                 wavelength, pn = premultiplied_over_variance(
                     r.ds[v.dims[0]].values, v.values, r.attr("Ly"), r.attr("dy"))
-                c = _color(n, soil)
-                ax.plot(wavelength, pn, color=c, lw=1.5, label=_case_label(r, soil))
-                res.data[f"{var}_case{n}"] = pn
+                c = _color(place.paper_case, soil)
+                ax.plot(wavelength, pn, color=c, lw=1.5, label=_case_label(r, soil, place))
+                res.data[f"{var}_{place.key}"] = pn
                 dyv = r.scalar(dvar)
                 if math.isfinite(dyv):
                     ax.axvline(dyv, color=c, lw=0.8, ls=":")
@@ -693,17 +734,15 @@ def fig10(ctx: ReportContext) -> FigureResult:
                     ax.plot([v for _, v in pv], [0.0] * len(pv), marker="^", ms=9, ls="none",
                             color=PAPER_COLOR, transform=ax.get_xaxis_transform(), clip_on=False,
                             label=f"{PAPER_LABEL}: δy (Table 2)")
-            if any(k.startswith(var) for k in res.data if k.endswith(tuple(f"case{n}" for n in cases))):
-                ax.set_xscale("log")
-                _plain_log(ax, "x")
+            ax.set_xscale("log")
+            _plain_log(ax, "x")
             ax.set_xlabel(r"spanwise wavelength $1/k_y$ [m]")
             ax.set_ylabel(f"$k_y S_{{{vlab}}}(k_y) / \\sigma_{{{vlab}}}^2$ [-]")
             ax.set_title(f"({'ab'[col]}) {vlab}, {rtitle}  (dotted: computed δy)", loc="left",
                          fontsize=9)
             ax.grid(alpha=0.3, which="both")
             _legend(ax, fontsize=7, loc="upper right")
-            _notes(ax, notes, "upper left")
-            res.notes.extend(notes)
+            _notes(ax, panel.notes, "upper left")
     return res
 
 
@@ -727,7 +766,9 @@ CAPTIONS = {
     "fig07": "⟨G⟩/⟨G_tot⟩ vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
     "fig08": "Total saltation flux G_tot vs u*s/u*t (dots; u*s read from the total stress at "
              "z_ref, as the paper) with semi-empirical laws for 200 µm (lines).",
-    "fig09": "Snapshots of C_p/C_pmax and u/u_max at z = 0.1 m for cases 1, 4, 6.",
+    "fig09": "Snapshots of C_p/C_pmax and u/u_max at z = 0.1 m for cases 1, 4, 6 (top to "
+             "bottom); where the study lacks one, its nearest run by u*s at µ1 = 200 µm, "
+             "titled with the case it stands in for.",
     "fig10": "Premultiplied spanwise spectra k_y S(k_y) of C_p and u(0.1 m) over their variance "
              "against wavelength (Table 2's δy is read at their peak): top cases 1–6, bottom "
              "cases 2, 7–10.",

@@ -114,11 +114,7 @@ def n_parcels_released(run: RunData) -> float:
 
 def _case_u_star_s(run: RunData) -> float:
     """The case's u*s [m s⁻¹]: what the drive holds at the reference height."""
-    v = (_case(run).get("forcing", {}) or {}).get("u_star_s")
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return run.attr("u_star_target")
+    return run.u_star_s_target
 
 
 @dataclass

@@ -1,0 +1,179 @@
+"""Which run fills each place of a per-case figure: the paper's case, or the study's nearest one.
+
+The paper's per-case figures show fixed cases: Fig. 9 has a row for each of cases 1, 4 and 6;
+Figs. 6, 7, 10, 11 and 12 have a panel of cases 1–6 (u*s varies, µ1 = 200 µm) and a panel of
+cases 2, 7–10 (µ1 varies, u*s ≈ 0.54 m s⁻¹). A study holds a subset of them (the default study
+``quick`` runs cases 2, 6, 7, 9 and 10). :func:`panel_runs` gives each of the paper's cases of a
+figure the run that draws it:
+
+* the study's own run of that case (``ReportContext.by_case``) when it has usable data;
+* else the nearest run the study has along the parameter the figure varies, drawn under its own
+  label with the paper's case it stands nearest to (:meth:`PanelRun.stand_in`), never as that case;
+* else nothing: the place is dropped (the figure draws no empty frame for it).
+
+**Which runs may stand in.** One run per case number (the one ``by_case`` picks) and every run
+without a case number (a scene of the user's own), each at most once per figure: a run that
+already draws its own case, or stands in for another, is not drawn twice. A run stands in only
+along the figure's own series: it must hold the parameter the figure keeps fixed within
+:data:`HELD_TOLERANCE` of the paper's case (µ1 for a u*s series, u*s for a µ1 series), so that a
+90 µm run never appears in the picture of the wind's effect at 200 µm, whose differences it would
+confound with those of u*s.
+
+**Nearest.** The distance is ``|ln(x_run / x_paper)|`` of the varied parameter: the case's
+*target* u*s from its configuration (what the drive holds at the reference height, the value
+that names the case in the paper's Table 2) and the µ1 of its soil. The target, not the run's
+computed u*s: the computed value carries the run's sampling noise and departs from the target by
+the fidelity's bias, so it would let the choice of the picture drift between reruns of the same
+study and let noise decide between runs at the same target (cases 2, 9 and 10 all hold 0.54). The
+logarithm treats ratios alike (90 µm to 100 µm is as near as 360 µm to 400 µm).
+
+**Ties and order.** Pairs (paper case, run) are assigned greedily from the nearest pair up, so a
+run goes to the paper case it is nearest to. The sort key is: the distance along the varied
+parameter, then along the held one, then the paper case's place in the figure, then the run's
+case number (a run without one after those with one), then its label; the choice is therefore
+deterministic, whatever the order of the study's runs.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Iterable, Sequence
+
+from .data import ReportContext, RunData
+from .reference import paper_table2
+
+__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "case_parameters",
+           "paper_parameters", "nearest_runs", "panel_runs"]
+
+#: the figure varies u*s (Fig. 9 rows, panels (a) of Figs. 6, 7, 10–12)
+BY_U_STAR_S = "u*s"
+#: the figure varies µ1 (panels (b) of Figs. 6, 7, 10–12)
+BY_MU1 = "µ1"
+
+#: relative departure of the held parameter within which a run stands in for a paper case: wide
+#: enough for the paper's µ1 series (u*s 0.53–0.57 m s⁻¹), narrow enough to keep 0.41 m s⁻¹ out
+HELD_TOLERANCE = 0.10
+
+
+@dataclass(frozen=True)
+class PanelRun:
+    """The run drawn in the place of the paper's case ``paper_case``."""
+    paper_case: int
+    run: RunData
+    by: str                 # BY_U_STAR_S or BY_MU1
+    substitute: bool        # True: the run is another case, the nearest the study has
+
+    def stand_in(self) -> str:
+        """"(nearest to the paper's case N by u*s)" for a substitute, "" for the case itself."""
+        return f"(nearest to the paper's case {self.paper_case} by {self.by})" if self.substitute else ""
+
+    @property
+    def key(self) -> str:
+        """The name of the run's data in ``FigureResult.data``: ``caseN`` for the paper's case,
+        ``<label>_for_caseN`` for a substitute."""
+        if not self.substitute:
+            return f"case{self.paper_case}"
+        return f"{self.run.label}_for_case{self.paper_case}"
+
+
+@dataclass
+class Panel:
+    """The runs of one panel (row or axes) in the order of the paper's cases, and the notes on
+    the study's own runs that could not be drawn (no archive, a quantity missing)."""
+    runs: list[PanelRun]
+    notes: list[str]
+
+
+def paper_parameters(n: int) -> tuple[float, float]:
+    """(u*s [m s-1], µ1 [m]) of the paper's case ``n`` (Table 2)."""
+    row = paper_table2().get(n, {})
+    return float(row.get("u_star_s", math.nan)), float(row.get("mu1_um", math.nan)) * 1e-6
+
+
+def case_parameters(run: RunData) -> tuple[float, float]:
+    """(target u*s [m s-1], µ1 [m]) of a run's case as configured."""
+    return run.u_star_s_target, run.mu1
+
+
+def _log_distance(a: float, b: float) -> float:
+    if not (math.isfinite(a) and math.isfinite(b) and a > 0 and b > 0):
+        return math.nan
+    return abs(math.log(a / b))
+
+
+def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
+                 tolerance: float = HELD_TOLERANCE) -> dict[int, RunData]:
+    """Assign each paper case of ``slots`` at most one of ``candidates`` (each candidate at most
+    once), nearest first along ``by`` (module docstring: distance, eligibility and ties).
+    Returns ``{paper case: run}`` for the cases that got one."""
+    if by not in (BY_U_STAR_S, BY_MU1):
+        raise ValueError(f"by must be {BY_U_STAR_S!r} or {BY_MU1!r}, not {by!r}")
+    vary, held = (0, 1) if by == BY_U_STAR_S else (1, 0)
+    pairs = []
+    cands = list(candidates)
+    for place, n in enumerate(slots):
+        paper = paper_parameters(n)
+        for j, r in enumerate(cands):
+            mine = case_parameters(r)
+            d_held = _log_distance(mine[held], paper[held])
+            d_vary = _log_distance(mine[vary], paper[vary])
+            if not (math.isfinite(d_vary) and math.isfinite(d_held)):
+                continue
+            if abs(mine[held] / paper[held] - 1.0) > tolerance:
+                continue
+            case_rank = (0, r.case) if r.case is not None else (1, 0)
+            pairs.append(((d_vary, d_held, place, case_rank, r.label), n, j))
+    pairs.sort(key=lambda p: p[0])
+    out: dict[int, RunData] = {}
+    used: set[int] = set()
+    for _, n, j in pairs:
+        if n in out or j in used:
+            continue
+        out[n] = cands[j]
+        used.add(j)
+    return out
+
+
+def _pool(ctx: ReportContext) -> list[RunData]:
+    """The runs that may stand in: one per case number (``by_case``'s), every run without one."""
+    out: list[RunData] = []
+    seen: set[int] = set()
+    for r in ctx.runs.values():
+        rep = ctx.by_case(r.case) if r.case is not None else r
+        if rep is None or id(rep) in seen:
+            continue
+        seen.add(id(rep))
+        out.append(rep)
+    return out
+
+
+def panel_runs(ctx: ReportContext, slots: Sequence[int], by: str,
+               usable: Callable[[RunData], str | None] | None = None) -> Panel:
+    """The runs of a panel for the paper's cases ``slots`` varying ``by``.
+
+    ``usable(run)`` returns None if the run can be drawn, else the reason it cannot (e.g. a
+    quantity missing); the study's own run of a case that cannot be drawn is noted with that
+    reason and its place is open to a substitute. A case the study does not hold is not noted:
+    its place goes to the nearest run, or is dropped."""
+    def why_not(r: RunData) -> str | None:
+        if not r.ok:
+            return r.status
+        return usable(r) if usable is not None else None
+
+    own: dict[int, RunData] = {}
+    notes: list[str] = []
+    for n in slots:
+        r = ctx.by_case(n)
+        if r is None:
+            continue
+        why = why_not(r)
+        if why is None:
+            own[n] = r
+        else:
+            notes.append(f"case {n}: {why}")
+    taken = {id(r) for r in own.values()}
+    # a case the study holds but cannot draw does not stand in for another either
+    cands = [r for r in _pool(ctx) if id(r) not in taken and why_not(r) is None]
+    open_slots = [n for n in slots if n not in own]
+    chosen = {**own, **nearest_runs(open_slots, cands, by)}
+    return Panel([PanelRun(n, chosen[n], by, n not in own) for n in slots if n in chosen], notes)
