@@ -109,8 +109,11 @@ def test_missing_and_absent_cases_are_noted(tmp_path):
     assert not any("not in study" in n for n in figs["fig09"].notes)
     assert {k for k in figs["fig09"].data if k.startswith("C_p")} == {
         "C_p_snapshot_case1", "C_p_snapshot_case02_for_case4"}
-    assert any("case 7: not in study" in n for n in figs["fig05"].notes)
-    assert "psd_air_case2" in figs["fig05"].data
+    # Fig. 5: the 200 µm panel only; no run at 90 or 400 µm, so no frame for them
+    assert not figs["fig05"].notes
+    assert set(figs["fig05"].data) == {"psd_air_case2", "psd_bed_case2"}
+    assert [ax.get_title(loc="left").split(":")[0] for ax in figs["fig05"].fig.axes] == [
+        "(b) µ1 = 200 µm"]
     assert figs["fig04"].data["z_m"].size == 2          # cases 1, 2 only; none invented
     assert set(figs["fig06"].data) == {"(a)case1", "(a)case2", "(b)case2"}
     for name, res in figs.items():

@@ -223,3 +223,97 @@ def test_a_figure_no_run_can_fill_says_so_without_a_frame(tmp_path):
     assert len(res["fig11"].fig.axes) == 1                 # panel (b) only
     assert res["fig11"].fig.axes[0].get_title(loc="left").startswith("(b)")
     assert math.isfinite(float(np.nanmax(res["fig11"].data["(b)case7"])))
+
+
+# ------------------------------------------------------------------------------------------------
+# Figs. 2 and 5: the paper's cases 2 (Fig. 2) and 7, 2, 10 (Fig. 5's three grain sizes)
+# ------------------------------------------------------------------------------------------------
+def test_a_study_without_cases_2_7_10_draws_no_empty_frame(tmp_path):
+    """Cases 1 and 6 only: case 1 (0.41 m/s, nearer to 0.54 than 1.10) stands in for case 2 in
+    Fig. 2 and in Fig. 5's 200 µm panel; Fig. 5 has no run at 90 or 400 µm and draws that one
+    panel only; nothing the report writes says "not in study"."""
+    runs = write_study(tmp_path / "a", cases=[1, 6])
+    ctx = _ctx(runs)
+    figs = make_figures(ctx)
+    for name, res in figs.items():
+        assert not any(n.startswith("error") for n in res.notes), (name, res.notes)
+        assert not any("not in study" in n for n in res.notes), (name, res.notes)
+        assert not any("not in study" in t for t in _texts(res.fig)), name
+    f2 = figs["fig02"]
+    assert f2.fig.get_suptitle().endswith(
+        "\ncase 1 (nearest to the paper's case 2 by u*s), u*s = "
+        f"{ctx.by_case(1).scalar('u_star_s_stress'):.2f} m s⁻¹")
+    z, u = ctx.by_case(1).ds["z"].values, ctx.by_case(1).ds["u_mean"].values
+    np.testing.assert_allclose(f2.data["u_mean_norm"], u / np.interp(np.log(2.0), np.log(z), u))
+    f5 = figs["fig05"]
+    assert len(f5.fig.axes) == 1
+    title = f5.fig.axes[0].get_title(loc="left")
+    assert title.startswith("(b) µ1 = 200 µm: case 1, u*s =")
+    assert title.endswith("\n(nearest to the paper's case 2 by u*s)")
+    assert set(f5.data) == {"psd_air_case01_for_case2", "psd_bed_case01_for_case2"}
+    np.testing.assert_array_equal(f5.data["psd_air_case01_for_case2"], ctx.by_case(1).ds["psd_air"].values)
+    index = build_report("c16", runs, tmp_path / "r", {"figure_formats": ["png"], "figure_dpi": 40})
+    assert "not in study" not in index.read_text(encoding="utf-8")
+
+
+def test_fig02_takes_the_nearest_u_star_s_at_200_um(tmp_path):
+    """Without case 2: case 7 (0.57 m/s) is nearest in u*s but 90 µm; case 3 (0.65 m/s) is
+    nearer than case 1 (0.41 m/s) and stands in."""
+    runs = write_study(tmp_path / "a", cases=[1, 3, 7])
+    ctx = _ctx(runs)
+    res = make_figures(ctx, ["fig02"])["fig02"]
+    assert "\ncase 3 (nearest to the paper's case 2 by u*s)" in res.fig.get_suptitle()
+    np.testing.assert_array_equal(res.data["uw_flux"], ctx.by_case(3).ds["uw_flux"].values)
+    # with case 2 in the study, case 2 itself, under its own name
+    runs = write_study(tmp_path / "b", cases=[1, 2, 3])
+    res = make_figures(_ctx(runs), ["fig02"])["fig02"]
+    assert res.fig.get_suptitle().split("\n")[1].startswith("case 2, u*s =")
+    assert "nearest" not in res.fig.get_suptitle()
+
+
+def test_fig02_without_a_200_um_run_draws_no_frame(tmp_path):
+    runs = write_study(tmp_path / "a", cases=[7, 10])
+    res = make_figures(_ctx(runs), ["fig02"])["fig02"]
+    assert not res.fig.axes and not res.data
+    assert any("µ1 = 200 µm" in t for t in _texts(res.fig))
+
+
+def _sized(tmp_path, label: str, case: int, mu1_um: float):
+    """An archive of a scene of one's own: ``case``'s data, its soil at ``mu1_um``."""
+    ds = make_analysis_dataset(case, label=label)
+    scene = json.loads(ds.attrs["case_json"])
+    scene["case"]["number"] = None
+    scene["case"]["soil"]["modes"][0]["mu"] = mu1_um * 1e-6
+    ds.attrs["case_json"] = json.dumps(scene)
+    del ds.attrs["case_number"]
+    return write_dataset(ds, tmp_path / f"{label}.nc")
+
+
+def test_fig05_panels_hold_their_grain_size(tmp_path):
+    """A run fills a Fig. 5 panel only within 10 % of its grain size: case 8 (100 µm, 11 % above
+    90 µm) and case 9 (300 µm) fill no panel; a scene at 95 µm fills the 90 µm one."""
+    runs = write_study(tmp_path / "a", cases=[2, 8, 9])
+    res = make_figures(_ctx(runs), ["fig05"])["fig05"]
+    assert set(res.data) == {"psd_air_case2", "psd_bed_case2"}
+    assert len(res.fig.axes) == 1
+    runs["fine"] = _sized(tmp_path, "fine", 8, 95.0)
+    res = make_figures(_ctx(runs), ["fig05"])["fig05"]
+    assert set(res.data) == {f"psd_{w}_{k}" for w in ("air", "bed") for k in ("fine_for_case7", "case2")}
+    titles = [ax.get_title(loc="left") for ax in res.fig.axes]
+    assert titles[0].startswith("(a) µ1 = 90 µm: fine, u*s =")
+    assert titles[0].endswith("(nearest to the paper's case 7 by u*s)")
+    assert titles[1].startswith("(b) µ1 = 200 µm: case 2, u*s =")
+
+
+def test_fig05_within_a_grain_size_the_nearest_u_star_s_stands_in(tmp_path):
+    """200 µm at 0.41 (case 1) and 0.65 m/s (case 3), no case 2: case 3 is nearer to 0.54."""
+    runs = write_study(tmp_path / "a", cases=[1, 3])
+    res = make_figures(_ctx(runs), ["fig05"])["fig05"]
+    assert set(res.data) == {"psd_air_case03_for_case2", "psd_bed_case03_for_case2"}
+
+
+def test_fig05_without_a_run_of_its_grain_sizes_draws_no_frame(tmp_path):
+    runs = write_study(tmp_path / "a", cases=[8, 9])
+    res = make_figures(_ctx(runs), ["fig05"])["fig05"]
+    assert not res.fig.axes and not res.data
+    assert any("µ1 = 90, 200 or 400 µm" in t for t in _texts(res.fig))

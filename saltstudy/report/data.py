@@ -239,7 +239,7 @@ class ReportContext:
         A plain ``caseNN`` label wins; otherwise (a convergence ladder) the rung with the largest
         wall time among the archives present (the finest), else the last listed; in a study of
         scenes (labels of the user's choosing) the first scene of the case with an archive, so
-        that the per-case figures show the scene rather than "not in study".
+        that the per-case figures show the scene in the case's place.
         """
         plain = [r for r in self.runs.values() if r.case == n and r.plain_case]
         if plain:
@@ -255,10 +255,12 @@ class ReportContext:
         return rungs[-1]
 
     def missing_note(self, n: int) -> str | None:
-        """None if case ``n`` has data; else the reason to print on the figure."""
+        """The reason the study's run of case ``n`` has no data, to print on a figure; None if
+        it has data or the study holds no run of case ``n`` (the figures draw the runs a study
+        has, so a case it does not hold is nothing to note)."""
         r = self.by_case(n)
         if r is None:
-            return f"case {n}: not in study"
+            return None
         if not r.ok:
             return f"case {n}: {r.status}"
         return None

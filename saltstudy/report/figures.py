@@ -14,9 +14,10 @@ Axes, normalisations and case groupings follow the paper's captions:
   6 tau_p/(rho u*s^2) vs z/z_m                    13 sigma_G/G_tot vs u*s/u*t
   7 <G>/<G_tot> vs z/z_m
 Panels (a) of Figs 6, 7, 10-12 hold cases 1-6 (various u*s), panels (b) cases 2, 7-10 (various mu1).
-In these and in Fig. 9's rows, a case the study lacks gives its place to the study's nearest run
-along the panel's parameter, labelled as standing in for it, or is left out (report/panels.py);
-a panel or row with no run to draw is not drawn.
+In these, in Fig. 9's rows, in Fig. 2 (case 2) and in Fig. 5's panels (cases 7, 2, 10: mu1 = 90,
+200, 400 um), a case the study lacks gives its place to the study's nearest run along the
+figure's parameter, labelled as standing in for it, or is left out (report/panels.py); a panel
+or row with no run to draw is not drawn.
 """
 from __future__ import annotations
 
@@ -195,11 +196,8 @@ def fig01(ctx: ReportContext) -> FigureResult:
         res.data[f"per_m2_{r.label}"] = y
         drawn.append(r.label)
         means.append(m)
-    for n in (2,):
-        note = ctx.missing_note(n)
-        if note and not drawn:
-            res.notes.append(note)
     if not drawn:
+        res.notes.extend(f"{r.label}: {r.status}" for r in ctx.runs.values() if not r.ok)
         _empty(ax, "\n".join(res.notes) or "no run with an n_parcels series")
         return res
     for label, m in zip(drawn, means):
@@ -240,18 +238,35 @@ def _interp_log(z: np.ndarray, v: np.ndarray, z0: float) -> float:
     return float(np.interp(np.log(z0), np.log(z[ok]), v[ok]))
 
 
+#: the wind and stress profiles of Fig. 2, with saltation and without (the spin-up)
+FIG2_PROFILES = ("u_mean", "uw_flux", "u_mean_spinup", "uw_flux_spinup")
+
+
 def fig02(ctx: ReportContext) -> FigureResult:
+    """(a) ⟨u⟩/u_ref and (b) ⟨u'w'⟩ against height, with and without saltation, of the paper's
+    case 2, or of the study's nearest run by u*s at µ1 = 200 µm (``panels.py``), labelled as
+    standing in for it: the paper's case 2 is its 200 µm case at u*s = 0.54 m s⁻¹, and a run of
+    another grain size would change the saltation layer the figure shows. A study with no such
+    run has no Fig. 2 frames, only a sentence saying so."""
+    def usable(r: RunData) -> str | None:
+        return None if any(profile(r, n) is not None for n in FIG2_PROFILES) else \
+            "no wind or stress profile"
+
+    panel = panel_runs(ctx, (2,), BY_U_STAR_S, usable)
     fig, axes = _new(2, 1, size=(10, 4.8), sharey=True)
     res = FigureResult(fig)
-    ax_u, ax_f = axes[0]
-    fig.suptitle("Fig. 2 — mean wind and momentum flux, case 2, with and without saltation")
-    r = ctx.by_case(2)
-    if r is None or not r.ok:
-        note = ctx.missing_note(2) or "case 2: no archive"
-        res.notes.append(note)
-        _empty(ax_u, note)
-        _empty(ax_f, note)
+    res.notes.extend(panel.notes)
+    if not panel.runs:
+        for ax in axes.ravel():
+            ax.remove()
+        _nothing_to_draw(fig, "Fig. 2: no run of this study at µ1 = 200 µm has wind or stress "
+                              "profiles" + ("\n" + "\n".join(panel.notes) if panel.notes else ""))
         return res
+    place = panel.runs[0]
+    r = place.run
+    ax_u, ax_f = axes[0]
+    fig.suptitle("Fig. 2 — mean wind and momentum flux with and without saltation\n"
+                 + _case_label(r, place=place))
     zref, why = r.z_ref()
     zm = r.scalar("z_m")
     ztop = np.nan
@@ -285,7 +300,8 @@ def fig02(ctx: ReportContext) -> FigureResult:
         zlog = paper_results().get("fig2_log_layer_above_m")
         if zlog:
             ax.axhline(zlog, color=PAPER_COLOR, ls=":", lw=1.5,
-                       label=f"{PAPER_LABEL}: log law, constant stress above ≈{zlog:g} m")
+                       label=f"{PAPER_LABEL}: log law, constant stress above ≈{zlog:g} m"
+                             + (" (its case 2)" if place.substitute else ""))
         ax.set_yscale("log")
         ax.grid(alpha=0.3, which="both")
     ax_u.axhline(zref, color="tab:red", lw=0.8, ls="-.", label=f"z_ref = {why}")
@@ -469,20 +485,44 @@ def fig13(ctx: ReportContext) -> FigureResult:
 # ------------------------------------------------------------------------------------------------
 # Fig 5
 # ------------------------------------------------------------------------------------------------
+#: the paper's Fig. 5 panels: (letter, grain size µ1 [µm], the paper's case drawn)
+FIG5_PANELS = (("a", 90, 7), ("b", 200, 2), ("c", 400, 10))
+
+
 def fig05(ctx: ReportContext) -> FigureResult:
-    fig, axes = _new(3, 1, size=(13, 4.4))
+    """Grain-size distribution in the air, by height band, against the bed's: a panel per grain
+    size of the paper (µ1 = 90, 200, 400 µm: its cases 7, 2, 10).
+
+    Each panel is a soil, so a run fills it only if its µ1 is within ``panels.HELD_TOLERANCE``
+    (10 %) of the panel's grain size: the paper's case if the study has it, else, among the runs
+    of that grain size, the one nearest the paper's case in target u*s (``panels.py``, held µ1,
+    varied u*s), labelled as standing in for it. u*s decides within a panel because, once the
+    soil is the same, the wind is what changes how high and how unevenly the sizes are lifted;
+    a run of another grain size (case 8's 100 µm for 90 µm, case 9's 300 µm for 400 µm) would
+    show a different soil under the panel's title. A panel no run fills is left out."""
+    def usable(r: RunData) -> str | None:
+        return None if r.has("psd_air", "psd_bed", "d_bin") else "no size distribution"
+
+    panel = panel_runs(ctx, tuple(n for _, _, n in FIG5_PANELS), BY_U_STAR_S, usable)
+    chosen = {place.paper_case: place for place in panel.runs}
+    drawn = [(letter, um, chosen[n]) for letter, um, n in FIG5_PANELS if n in chosen]
+    fig, axes = _new(max(1, len(drawn)), 1, size=(max(6.0, 0.5 + 4.2 * len(drawn)), 4.8))
     res = FigureResult(fig)
-    fig.suptitle("Fig. 5 — grain-size distribution in the saltation layer (by height band) vs the bed")
-    panels = (("(a) µ1 = 90 µm", (7,)), ("(b) µ1 = 200 µm", (2, 1)), ("(c) µ1 = 400 µm", (10,)))
-    for ax, (title, cands) in zip(axes[0], panels):
-        r = next((ctx.by_case(n) for n in cands if ctx.by_case(n) is not None and ctx.by_case(n).ok), None)
-        if r is None or not r.has("psd_air", "psd_bed"):
-            note = ctx.missing_note(cands[0]) or f"case {cands[0]}: no size distribution"
-            res.notes.append(note)
-            ax.set_title(title, loc="left")
-            _empty(ax, note)
-            continue
-        ax.set_title(f"{title} — case {r.case}", loc="left")
+    res.notes.extend(panel.notes)
+    fig.suptitle("Fig. 5 — grain-size distribution in the saltation layer (by height band)"
+                 + ("\n" if len(drawn) < 3 else " ") + "vs the bed")
+    if not drawn:
+        axes[0, 0].remove()
+        _nothing_to_draw(fig, "no run of this study at µ1 = 90, 200 or 400 µm (±10 %) has size "
+                              "distributions in the air and the bed"
+                         + ("\n" + "\n".join(panel.notes) if panel.notes else ""))
+        return res
+    for ax, (letter, um, place) in zip(axes[0], drawn):
+        r = place.run
+        title = f"({letter}) µ1 = {um} µm: {_case_label(r)}"
+        if place.substitute:   # on a line of its own: the panels are narrow
+            title += f"\n{place.stand_in()}"
+        ax.set_title(title, loc="left", fontsize=9)
         d = np.asarray(r.ds["d_bin"].values, float) * 1e6
         bed = np.asarray(r.ds["psd_bed"].values, float)
         air = np.asarray(r.ds["psd_air"].values, float)
@@ -498,9 +538,9 @@ def fig05(ctx: ReportContext) -> FigureResult:
             else:
                 lab = f"air, z ≈ {zb[i] * 100:.0f} cm"
             ax.plot(d, air[i], color=cmap(i / max(1, air.shape[0])), lw=1.4, marker=".", label=lab)
-        ax.plot(d, bed, color="k", lw=2.5, label="bed (soil)")
-        res.data[f"psd_air_case{r.case}"] = air
-        res.data[f"psd_bed_case{r.case}"] = bed
+        ax.plot(d, bed, color="k", lw=2.5, label=f"bed (soil), µ1 = {_fmt_um(r.mu1)}")
+        res.data[f"psd_air_{place.key}"] = air
+        res.data[f"psd_bed_{place.key}"] = bed
         ax.set_xscale("log")
         ax.set_xlabel("grain diameter d [µm]")
         ax.set_ylabel("mass fraction per size bin [-]")
@@ -757,11 +797,15 @@ CAPTIONS = {
              "parcels of its own Q, beside the paper's ≈ 2,000 per m² (its Q makes all cases "
              "hold a similar number).",
     "fig02": "(a) ⟨u⟩/u_ref and (b) ⟨u′w′⟩ vs height, case 2, with and without saltation; grey: "
-             "saltation layer (z < z_m).",
+             "saltation layer (z < z_m). Where the study lacks case 2, its nearest run by u*s at "
+             "µ1 = 200 µm, titled with the case it stands in for.",
     "fig03": "Saltation roughness length z0s vs u*s/u*t (dots; u*s read from the total stress "
              "at z_ref, as the paper) with semi-empirical laws (lines).",
     "fig04": "Saltation height z_m vs u*s/u*t.",
-    "fig05": "Grain-size distribution in the saltation layer vs the bed for µ1 = 90, 200, 400 µm.",
+    "fig05": "Grain-size distribution in the saltation layer vs the bed for µ1 = 90, 200, 400 µm "
+             "(cases 7, 2, 10); where the study lacks one, its run of that grain size (±10 %) "
+             "nearest in u*s, titled with the case it stands in for; a grain size the study has "
+             "no run of is left out.",
     "fig06": "τp/(ρu*s²) vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
     "fig07": "⟨G⟩/⟨G_tot⟩ vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
     "fig08": "Total saltation flux G_tot vs u*s/u*t (dots; u*s read from the total stress at "

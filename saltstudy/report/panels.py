@@ -1,10 +1,12 @@
 """Which run fills each place of a per-case figure: the paper's case, or the study's nearest one.
 
-The paper's per-case figures show fixed cases: Fig. 9 has a row for each of cases 1, 4 and 6;
+The paper's per-case figures show fixed cases: Fig. 2 shows case 2; Fig. 5 a panel for each of
+cases 7, 2 and 10 (µ1 = 90, 200, 400 µm); Fig. 9 has a row for each of cases 1, 4 and 6;
 Figs. 6, 7, 10, 11 and 12 have a panel of cases 1–6 (u*s varies, µ1 = 200 µm) and a panel of
-cases 2, 7–10 (µ1 varies, u*s ≈ 0.54 m s⁻¹). A study holds a subset of them (the default study
-``quick`` runs cases 2, 6, 7, 9 and 10). :func:`panel_runs` gives each of the paper's cases of a
-figure the run that draws it:
+cases 2, 7–10 (µ1 varies, u*s ≈ 0.54 m s⁻¹). Figs. 2, 5 and 9 look for their cases by u*s at the
+case's µ1, so a run stands in only for a case of its own grain size. A study holds a subset of
+them (the default study ``quick`` runs cases 2, 6, 7, 9 and 10). :func:`panel_runs` gives each
+of the paper's cases of a figure the run that draws it:
 
 * the study's own run of that case (``ReportContext.by_case``) when it has usable data;
 * else the nearest run the study has along the parameter the figure varies, drawn under its own
