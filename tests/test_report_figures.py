@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import re
 import shutil
 
 import numpy as np
@@ -162,3 +163,26 @@ def test_scene_study_draws_its_scenes_in_the_per_case_figures(tmp_path):
     assert not any("not in study" in n for n in res.notes)   # rows 1 and 4: no run to stand in
     titles = [ax.get_title(loc="left") for ax in res.fig.axes]
     assert [t.split(",")[0] for t in titles if t] == ["(a) c6_box20_s1", "(b) c6_box20_s1"]
+
+
+def test_fig05_size_axes_are_labelled_in_plain_micrometres(study, tmp_path):
+    """Each panel spans a decade of d or less: its labels are plain numbers (50, 100, 200), at
+    least two per panel, none in scientific notation (6×10¹), also for a 90 µm soil binned
+    from 53 to 152 µm, where powers of ten or 1-2-3-5 steps give a single tick (100)."""
+    _, runs = study
+    ds = make_analysis_dataset(7)
+    ds = ds.assign_coords(d_bin=("d_bin", np.geomspace(53e-6, 152e-6, ds.sizes["d_bin"]),
+                                 ds["d_bin"].attrs))
+    from saltstudy.ncio import write_dataset
+    narrow = write_dataset(ds, tmp_path / "c7.nc")
+    res = make_figures(_ctx({**runs, "case07": narrow}), ["fig05"])["fig05"]
+    assert len(res.fig.axes) == 3
+    for ax in res.fig.axes:
+        lo, hi = ax.get_xlim()
+        labels = {}
+        for kind, locs, fmt in (("major", ax.xaxis.get_majorticklocs(), ax.xaxis.get_major_formatter()),
+                                ("minor", ax.xaxis.get_minorticklocs(), ax.xaxis.get_minor_formatter())):
+            labels[kind] = [fmt(t, i) for i, t in enumerate(t for t in locs if lo <= t <= hi)]
+            labels[kind] = [lab for lab in labels[kind] if lab]
+        assert all(re.fullmatch(r"\d+", lab) for lab in labels["major"] + labels["minor"]), labels
+        assert len(labels["major"]) >= 2, labels

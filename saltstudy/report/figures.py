@@ -96,10 +96,15 @@ def _new(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6), **kw) -> tuple[Figure,
     return fig, axes
 
 
-def _plain_log(ax, axis: str = "x") -> None:
-    """Log axis with plain-number labels (0.5, 1, 2) and no minor labels."""
-    from matplotlib.ticker import FuncFormatter, NullFormatter
+def _plain_log(ax, axis: str = "x", subs: tuple[float, ...] | None = None) -> None:
+    """Log axis with plain-number labels (0.5, 1, 2) and no minor labels. ``subs``: the
+    mantissas of the labelled ticks in each decade (``(1, 2, 5)`` labels 50, 100, 200, 500),
+    for an axis spanning a decade or less, where powers of ten alone leave one label or none."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
     a = ax.xaxis if axis == "x" else ax.yaxis
+    if subs is not None:
+        a.set_major_locator(LogLocator(base=10.0, subs=subs))
+        a.set_minor_locator(LogLocator(base=10.0, subs=tuple(range(1, 10))))
     a.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     a.set_minor_formatter(NullFormatter())
 
@@ -542,6 +547,9 @@ def fig05(ctx: ReportContext) -> FigureResult:
         res.data[f"psd_air_{place.key}"] = air
         res.data[f"psd_bed_{place.key}"] = bed
         ax.set_xscale("log")
+        # a size range of a decade or less (µ1/2.5 to 2.5 µ1 or narrower): powers of ten alone
+        # label it in scientific notation, and 1-2-5 steps may leave a single label
+        _plain_log(ax, "x", subs=(1.0, 1.5, 2.0, 3.0, 5.0, 7.0))
         ax.set_xlabel("grain diameter d [µm]")
         ax.set_ylabel("mass fraction per size bin [-]")
         ax.grid(alpha=0.3, which="both")
