@@ -76,7 +76,7 @@ def test_figure_follows_archive(study, tmp_path, name):
 
 
 def test_profile_normalisation_is_the_papers(study):
-    """Fig 6 plots tau_p / (rho u*s^2) against z / z_m."""
+    """Fig 6 plots tau_p / (rho u*s^2) against z / z_m, u*s read from the stress at z_ref."""
     _, runs = study
     ctx = _ctx(runs)
     res = make_figures(ctx, ["fig06"])["fig06"]
@@ -84,10 +84,48 @@ def test_profile_normalisation_is_the_papers(study):
     tau = r.ds["tau_p"].values
     z = r.ds["z"].values
     vis = z / r.scalar("z_m") <= 1.5 * 1.05
-    expect = tau[vis] / (r.rho * r.scalar("u_star_s") ** 2)
+    expect = tau[vis] / (r.rho * r.scalar("u_star_s_stress") ** 2)
     np.testing.assert_allclose(res.data["(a)case3"], expect)
     line = [ln for ln in res.fig.axes[0].get_lines() if ln.get_label().startswith("case 3")][0]
     np.testing.assert_allclose(line.get_ydata(), z[vis] / r.scalar("z_m"))
+
+
+def test_fig06_normalises_by_the_stress_u_star_s_of_its_labels(tmp_path):
+    """An archive whose stress u*s is 0.8 of its free-fit u*s: tau_p is divided by rho times
+    the stress value squared (the u*s the label shows), 1/0.64 of the free-fit normalisation."""
+    ds = make_analysis_dataset(1)
+    fit = float(ds["u_star_s"].values)
+    ds["u_star_s_stress"] = ((), 0.8 * fit, {"units": "m s-1"})
+    from saltstudy.ncio import write_dataset
+    p = write_dataset(ds, tmp_path / "c1.nc")
+    ctx = _ctx({"case01": p})
+    res = make_figures(ctx, ["fig06"])["fig06"]
+    r = ctx.by_case(1)
+    z, tau = r.ds["z"].values, r.ds["tau_p"].values
+    vis = z / r.scalar("z_m") <= 1.5 * 1.05
+    got = res.data["(a)case1"]
+    np.testing.assert_allclose(got, tau[vis] / (r.rho * (0.8 * fit) ** 2))
+    np.testing.assert_allclose(got * 0.64, tau[vis] / (r.rho * fit ** 2))
+    label = next(ln.get_label() for ln in res.fig.axes[0].get_lines()
+                 if ln.get_label().startswith("case 1"))
+    assert label == f"case 1, u*s = {0.8 * fit:.2f} m s⁻¹"
+    assert not res.notes
+
+
+def test_fig06_without_the_stress_reading_uses_the_free_fit_and_says_so(tmp_path):
+    ds = make_analysis_dataset(1).drop_vars("u_star_s_stress")
+    from saltstudy.ncio import write_dataset
+    p = write_dataset(ds, tmp_path / "c1.nc")
+    ctx = _ctx({"case01": p})
+    res = make_figures(ctx, ["fig06"])["fig06"]
+    r = ctx.by_case(1)
+    z, tau = r.ds["z"].values, r.ds["tau_p"].values
+    vis = z / r.scalar("z_m") <= 1.5 * 1.05
+    np.testing.assert_allclose(res.data["(a)case1"], tau[vis] / (r.rho * r.scalar("u_star_s") ** 2))
+    label = next(ln.get_label() for ln in res.fig.axes[0].get_lines()
+                 if ln.get_label().startswith("case 1"))
+    assert label.endswith("(free log fit)")
+    assert res.notes == ["case01: no stress u*s in the archive, τp over ρu*s² of the free log fit"]
 
 
 def test_fig02_u_ref_height(tmp_path):

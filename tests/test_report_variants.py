@@ -111,7 +111,8 @@ def test_figure_labels_read_u_star_the_papers_way():
     ds["u_star_s_stress"] = ((), 0.61, {"units": "m s-1", "long_name": "u* from the stress"})
     ds["u_star_s"] = ((), 0.48, {"units": "m s-1", "long_name": "u* free fit"})
     assert _case_label(RunData("case02", 2, None, ds)).endswith("u*s = 0.61 m s⁻¹")
-    assert _case_label(RunData("case02", 2, None, ds.drop_vars("u_star_s_stress"))).endswith("u*s = 0.48 m s⁻¹")
+    assert _case_label(RunData("case02", 2, None, ds.drop_vars("u_star_s_stress"))).endswith(
+        "u*s = 0.48 m s⁻¹ (free log fit)")
 
 
 def test_premultiplied_spectrum_over_its_variance_has_unit_area_in_log_wavelength():

@@ -80,14 +80,21 @@ def _case_label(r: RunData, soil: bool = False, place: PanelRun | None = None) -
     if soil:
         return f"{name}, µ1 = {_fmt_um(r.mu1)}"
     us = _u_star_stress(r)
-    return f"{name}, u*s = {us:.2f} m s⁻¹" if math.isfinite(us) else name
+    if not math.isfinite(us):
+        return name
+    return f"{name}, u*s = {us:.2f} m s⁻¹" + ("" if _has_stress_u_star(r) else " (free log fit)")
+
+
+def _has_stress_u_star(r: RunData) -> bool:
+    us = r.scalar("u_star_s_stress")
+    return math.isfinite(us) and us > 0
 
 
 def _u_star_stress(r: RunData) -> float:
-    """u*s the paper's way (the total stress at z_ref, Table 2's leading column); the free log
-    fit only where an archive lacks it [m s-1]."""
-    us = r.scalar("u_star_s_stress")
-    return us if math.isfinite(us) else r.scalar("u_star_s")
+    """u*s the paper's way (the total stress at z_ref, Table 2's leading column): the u*s that
+    places a run in the figures and normalises its profiles; the free log fit only where an
+    archive lacks it (labels then say "free log fit") [m s-1]."""
+    return r.scalar("u_star_s_stress") if _has_stress_u_star(r) else r.scalar("u_star_s")
 
 
 def _new(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6), **kw) -> tuple[Figure, np.ndarray]:
@@ -447,7 +454,7 @@ def fig04(ctx: ReportContext) -> FigureResult:
                 label=f"{PAPER_LABEL}: z_m {rng[0]:g}–{rng[1]:g} m, linear, cases 1–6")
     ax.set_ylabel(r"saltation height $z_m$ [m]")
     ax.set_ylim(bottom=0)
-    ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s²)")
+    ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s², free-fit u*s)")
     _legend(ax, below=True, fontsize=7.5)
     _notes(ax, res.notes, "lower right")
     return res
@@ -562,16 +569,19 @@ def fig05(ctx: ReportContext) -> FigureResult:
 # ------------------------------------------------------------------------------------------------
 def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
               norm: Callable[[RunData, np.ndarray], np.ndarray], xlog: bool,
-              decorate: Callable | None = None, ylim=(0.0, 1.5), xlog_span: float = 1e-4
-              ) -> FigureResult:
+              decorate: Callable | None = None, ylim=(0.0, 1.5), xlog_span: float = 1e-4,
+              needs: Callable[[RunData], str | None] | None = None) -> FigureResult:
     """Panel (a): the paper's cases 1–6 (various u*s), panel (b): cases 2, 7–10 (various µ1),
     each place filled by the study's run of the case or its nearest run (``panels.py``); a
-    panel the study cannot fill at all is left out."""
+    panel the study cannot fill at all is left out. ``needs(run)``: the reason a run's profile
+    cannot be normalised (None if it can)."""
     def usable(r: RunData) -> str | None:
         if profile(r, var) is None:
             return f"no {var}"
         zm = r.scalar("z_m")
-        return None if math.isfinite(zm) and zm > 0 else "z_m undefined (no saltation?)"
+        if not (math.isfinite(zm) and zm > 0):
+            return "z_m undefined (no saltation?)"
+        return needs(r) if needs is not None else None
 
     groups = []
     for cases, by, soil, ptitle in ((CASES_WIND, BY_U_STAR_S, False, "(a) cases 1–6: various u*s"),
@@ -622,11 +632,25 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
 
 
 def fig06(ctx: ReportContext) -> FigureResult:
+    """τp over ρ u*s² with u*s read the paper's way, from the total stress at z_ref (the u*s of
+    the labels and of Figs. 3, 4, 8, 13's abscissa), the free log fit only for a run whose
+    archive lacks the stress reading (its label and a note say so). z_m, from the analysis, is
+    where τp falls below 0.1 % of ρ u*s² with the free-fit u*s: a profile crosses the dotted
+    0.1 % line at z/z_m = 1 only where the two readings of u*s agree."""
+    free_fit: list[str] = []
+
     def norm(r, v):
-        return v / (r.rho * r.scalar("u_star_s") ** 2)
+        if not _has_stress_u_star(r):
+            free_fit.append(r.label)
+        return v / (r.rho * _u_star_stress(r) ** 2)
+
+    def needs(r):
+        us = _u_star_stress(r)
+        return None if math.isfinite(us) and us > 0 else "no u*s"
 
     def deco(ax, soil, res):
-        ax.axvline(1e-3, color="0.6", ls=":", lw=1, label="0.1 % (definition of z_m)")
+        ax.axvline(1e-3, color="0.6", ls=":", lw=1,
+                   label="0.1 % (z_m: τp = 0.1 % of ρu*s², free-fit u*s)")
         val = paper_results().get("fig6_taup_surface_fraction_case6")
         if val and not soil:
             r6 = ctx.by_case(6)
@@ -636,8 +660,12 @@ def fig06(ctx: ReportContext) -> FigureResult:
             ax.plot([val], [y], marker="*", ms=15, color=PAPER_COLOR, ls="none", clip_on=False,
                     label=f"{PAPER_LABEL}: case 6 surface ≈ {val:g}")
 
-    return _profiles(ctx, "tau_p", "Fig. 6 — particle momentum flux τp / (ρ u*s²)",
-                     r"$\tau_p / (\rho u_{*s}^2)$ [-]", norm, True, deco)
+    res = _profiles(ctx, "tau_p", "Fig. 6 — particle momentum flux τp / (ρ u*s²)",
+                    r"$\tau_p / (\rho u_{*s}^2)$ [-], $u_{*s}$ from the total stress at $z_{ref}$",
+                    norm, True, deco, needs=needs)
+    res.notes.extend(f"{label}: no stress u*s in the archive, τp over ρu*s² of the free log fit"
+                     for label in dict.fromkeys(free_fit))
+    return res
 
 
 def fig07(ctx: ReportContext) -> FigureResult:
@@ -814,7 +842,8 @@ CAPTIONS = {
              "(cases 7, 2, 10); where the study lacks one, its run of that grain size (±10 %) "
              "nearest in u*s, titled with the case it stands in for; a grain size the study has "
              "no run of is left out.",
-    "fig06": "τp/(ρu*s²) vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
+    "fig06": "τp/(ρu*s²) vs z/z_m (u*s read from the total stress at z_ref, as the paper): "
+             "(a) cases 1–6, (b) cases 2, 7–10.",
     "fig07": "⟨G⟩/⟨G_tot⟩ vs z/z_m: (a) cases 1–6, (b) cases 2, 7–10.",
     "fig08": "Total saltation flux G_tot vs u*s/u*t (dots; u*s read from the total stress at "
              "z_ref, as the paper) with semi-empirical laws for 200 µm (lines).",
