@@ -224,3 +224,25 @@ def test_fig05_size_axes_are_labelled_in_plain_micrometres(study, tmp_path):
             labels[kind] = [lab for lab in labels[kind] if lab]
         assert all(re.fullmatch(r"\d+", lab) for lab in labels["major"] + labels["minor"]), labels
         assert len(labels["major"]) >= 2, labels
+
+
+def test_fig06_names_a_level_its_log_axis_cannot_draw(tmp_path):
+    """τp < 0 at the first level above z_m and > 0 at the next (a coarse grid's noise above the
+    layer): that level is a gap in the line and the level above it a lone dot, both said in a
+    note with the height of the gap; the lone level is drawn where it is, inside the axes."""
+    ds = make_analysis_dataset(7)
+    z, zm = ds["z"].values, float(ds["z_m"].values)
+    k = int(np.argmax(z > zm))
+    tau = ds["tau_p"].values.copy()
+    tau[k] = -1e-3 * tau[0]
+    ds["tau_p"] = (("z",), tau, ds["tau_p"].attrs)
+    from saltstudy.ncio import write_dataset
+    p = write_dataset(ds, tmp_path / "c7.nc")
+    res = make_figures(_ctx({"case07": p}), ["fig06"])["fig06"]
+    assert res.notes == [f"case 7: τp ≤ 0 at z/z_m = {z[k] / zm:.2f}, a gap in its line on the log axis"]
+    x = res.data["(b)case7"]
+    assert np.isnan(x[k]) and x[k + 1] > 0
+    ax = res.fig.axes[0]
+    assert any("a gap in its line" in t.get_text() for t in ax.texts)
+    lo, hi = ax.get_xlim()
+    assert lo < x[k + 1] < hi and z[k + 1] / zm < ax.get_ylim()[1]

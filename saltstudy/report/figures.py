@@ -567,6 +567,23 @@ def fig05(ctx: ReportContext) -> FigureResult:
 # ------------------------------------------------------------------------------------------------
 # profile figures: 6, 7, 11, 12
 # ------------------------------------------------------------------------------------------------
+#: the profile variables as the figures write them
+_SYMBOL = {"tau_p": "τp", "G": "⟨G⟩", "R_cu": "R_cu", "St": "St"}
+
+
+def _log_gaps(x: np.ndarray) -> np.ndarray:
+    """Indices of the levels whose value is finite and ≤ 0 with a positive value below and
+    above them: a log axis cannot draw them, so the line breaks there and a positive level
+    above may stand alone as a single dot (τp of a coarse grid changes sign above z_m)."""
+    pos = np.isfinite(x) & (x > 0)
+    if pos.sum() < 2:
+        return np.array([], dtype=int)
+    first, last = np.flatnonzero(pos)[[0, -1]]
+    bad = np.isfinite(x) & (x <= 0)
+    idx = np.flatnonzero(bad)
+    return idx[(idx > first) & (idx < last)]
+
+
 def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
               norm: Callable[[RunData, np.ndarray], np.ndarray], xlog: bool,
               decorate: Callable | None = None, ylim=(0.0, 1.5), xlog_span: float = 1e-4,
@@ -599,6 +616,7 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
         return res
     for ax, (panel, soil, ptitle) in zip(axes[0], drawn):
         prefix = ptitle[:3]
+        gap_notes: list[str] = []
         for place in panel.runs:
             r = place.run
             z, v = profile(r, var)
@@ -607,10 +625,17 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
             vis = z / zm <= ylim[1] * 1.05
             z, x = z[vis], x[vis]
             if xlog:
+                gaps = _log_gaps(x)
+                if gaps.size:
+                    name = f"case {r.case}" if r.case is not None and r.plain_case else r.label
+                    at = ", ".join(f"{h:.2f}" for h in z[gaps] / zm)
+                    gap_notes.append(f"{name}: {_SYMBOL.get(var, var)} ≤ 0 at z/z_m = {at}, "
+                                     "a gap in its line on the log axis")
                 x = np.where(x > 0, x, np.nan)
             ax.plot(x, z / zm, color=_color(place.paper_case, soil), lw=1.6, marker=".", ms=3,
                     label=_case_label(r, soil, place))
             res.data[f"{prefix}{place.key}"] = np.asarray(x, float)
+        res.notes.extend(gap_notes)
         if decorate is not None:
             decorate(ax, soil, res)
         if xlog:
@@ -626,7 +651,7 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
         ax.set_title(ptitle, loc="left")
         ax.grid(alpha=0.3, which="both")
         _legend(ax, fontsize=7.5, loc="best")  # profiles differ per run: least overlap
-        _notes(ax, panel.notes, "lower left")
+        _notes(ax, panel.notes + gap_notes, "lower left")
     axes[0, 0].set_ylabel(r"$z / z_m$ [-]")
     return res
 
