@@ -624,23 +624,15 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
         G_tot_sample = np.full(n_t, np.nan)
         airborne_mass = math.nan
 
-    z_m = flux.z_m_from_tau(z, tau_p, rho, u_star_stress)
-    fit = profiles.log_law_fit(z, u_mean, *rng_fit(z_m), kappa, H=H)
-    for _ in range(2):
-        u_norm = fit.u_star if math.isfinite(fit.u_star) else u_star_stress
-        z_m_new = flux.z_m_from_tau(z, tau_p, rho, u_norm)
-        rng = rng_fit(z_m_new)
-        same = (z_m_new == z_m) or (math.isnan(z_m_new) and math.isnan(z_m))
-        z_m = z_m_new
-        if same and rng[0] == fit.z_min:
-            break
-        fit = profiles.log_law_fit(z, u_mean, *rng, kappa, H=H)
-    u_star_s = fit.u_star
-    u_norm = u_star_s if math.isfinite(u_star_s) else u_star_stress
-    # z0s with u* fixed at the stress value (the paper's u* at the reference height)
     # the surface value of the stress u*: the linear stress of the pressure-gradient drive is
     # u*_0^2 (1 - z/H) at z_ref
     u0_stress = u_star_stress / math.sqrt(1.0 - z_ref_eff / H) if H else u_star_stress
+    # z_m against the flow's momentum flux above the layer, rho u*s^2 with the u*s read the
+    # paper's way (the total stress at the reference height, its [33]), the u*s that leads Table 2
+    z_m = flux.z_m_from_tau(z, tau_p, rho, u0_stress)
+    fit = profiles.log_law_fit(z, u_mean, *rng_fit(z_m), kappa, H=H)
+    u_star_s = fit.u_star
+    # z0s with u* fixed at the stress value (the paper's u* at the reference height)
     z0s_stress = laws.z0_at_fixed_u_star(z, u_mean, u0_stress, kappa, fit.z_min, fit.z_max, H)
 
     put("u_star_s", (), u_star_s, fit_range=f"[{fit.z_min:g}, {fit.z_max:g}] m, {fit.n_points} levels")
@@ -663,7 +655,8 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     put("u_star_s_samples", ("time_sample",), u_star_i)
     put("u_star_s_se", (), float(np.std(ok_i, ddof=1) / math.sqrt(ok_i.size)) if ok_i.size >= 2
         else math.nan)
-    put("z_m", (), z_m, definition="tau_p first below 0.1 % of rho u_star_s^2 (log interpolation)")
+    put("z_m", (), z_m, definition="tau_p first below 0.1 % of rho u_star_s_stress^2 (log "
+        "interpolation)")
     # tau_p at the bed over the total stress at the reference height (flux module doc)
     bed = flux.bed_value(z_w, tau_p, flux.BED_FIT_FRACTION * z_m)
     rho_u2_stress = rho * u0_stress ** 2 if math.isfinite(u0_stress) else math.nan

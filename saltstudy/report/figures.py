@@ -454,7 +454,7 @@ def fig04(ctx: ReportContext) -> FigureResult:
                 label=f"{PAPER_LABEL}: z_m {rng[0]:g}–{rng[1]:g} m, linear, cases 1–6")
     ax.set_ylabel(r"saltation height $z_m$ [m]")
     ax.set_ylim(bottom=0)
-    ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s², free-fit u*s)")
+    ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s², u*s from the stress at z_ref)")
     _legend(ax, below=True, fontsize=7.5)
     _notes(ax, res.notes, "lower right")
     return res
@@ -660,8 +660,8 @@ def fig06(ctx: ReportContext) -> FigureResult:
     """τp over ρ u*s² with u*s read the paper's way, from the total stress at z_ref (the u*s of
     the labels and of Figs. 3, 4, 8, 13's abscissa), the free log fit only for a run whose
     archive lacks the stress reading (its label and a note say so). z_m, from the analysis, is
-    where τp falls below 0.1 % of ρ u*s² with the free-fit u*s: a profile crosses the dotted
-    0.1 % line at z/z_m = 1 only where the two readings of u*s agree."""
+    where τp falls below 0.1 % of ρ u*s² with the same stress u*s: each profile crosses the
+    dotted 0.1 % line at z/z_m = 1."""
     free_fit: list[str] = []
 
     def norm(r, v):
@@ -675,7 +675,7 @@ def fig06(ctx: ReportContext) -> FigureResult:
 
     def deco(ax, soil, res):
         ax.axvline(1e-3, color="0.6", ls=":", lw=1,
-                   label="0.1 % (z_m: τp = 0.1 % of ρu*s², free-fit u*s)")
+                   label="0.1 % (z_m: τp = 0.1 % of ρu*s²)")
         val = paper_results().get("fig6_taup_surface_fraction_case6")
         if val and not soil:
             r6 = ctx.by_case(6)
