@@ -220,3 +220,21 @@ def test_budget_friction_of_known_stresses():
     assert r["mu_b_budget"] == pytest.approx(rho * 0.25 / (0.03 * g), rel=1e-12)
     assert r["mu_b_budget_se"] > 0
     assert math.isnan(budget_friction(rho, g, 0.0, uw, M)["mu_b_budget"])
+
+
+def test_column_momentum_rate_of_a_decelerating_column():
+    """Profiles u(z, t) = U(z) - a t: the column below z_top loses a z_top per second; the budget
+    takes that out of the grains' stress (a decelerating column feeds the bed more than the stress
+    at z_top)."""
+    from saltstudy.analysis.balance import column_momentum_rate
+
+    z_w = np.linspace(0.0, 3.0, 31)
+    zc = 0.5 * (z_w[1:] + z_w[:-1])
+    t = np.linspace(12.0, 42.0, 13)
+    a = 0.02
+    u = np.log(zc / 1e-5)[None, :] - a * t[:, None]
+    rate = column_momentum_rate(t, u, z_w, 2.05)
+    assert rate == pytest.approx(-a * 2.05, rel=1e-9)
+    r = budget_friction(1.2, 9.81, 0.3, np.full(13, -0.05), np.full(13, 0.03), rate)
+    assert r["tau_g_bed_budget"] == pytest.approx(1.2 * (0.25 + a * 2.05), rel=1e-12)
+    assert math.isnan(column_momentum_rate(t[:2], u[:2], z_w, 2.0))

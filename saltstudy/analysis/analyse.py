@@ -99,6 +99,9 @@ SPEC: dict[str, tuple[str, str]] = {
     "mu_b_budget": ("1", "bed friction coefficient from the air's budget: tau_g_bed_budget over "
                     "the airborne grains' weight"),
     "mu_b_budget_se": ("1", "standard error of mu_b_budget from the per-sample ratios"),
+    "column_momentum_rate": ("m2 s-2", "rate of change of the air's streamwise momentum below the "
+                             "reference height per unit area over the 3-D samples (linear fit; 0 "
+                             "in a steady layer), taken out of the budget's tau_g"),
     "mu_b_ratio_budget_to_impacts": ("1", "mu_b_budget over mu_b (1 in a steady layer whose "
                                      "weight the bed carries)"),
     "tau_g_bed_ratio_budget_to_impacts": ("1", "tau_g_bed_budget over tau_g_bed_impacts (1 in a "
@@ -675,8 +678,12 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
                 if uw_w is not None and uw_w.ndim == 2 and uw_w.shape[0] == n_t else None)
     mass_i = (np.nansum(np.asarray(pm, dtype=np.float64), axis=1) / (Lx * Ly)
               if pm is not None and pm.ndim == 2 and pm.shape[0] == n_t else None)
+    col_rate = balance.column_momentum_rate(t_sample, get("u_mean"), z_w, z_ref_eff)
+    # the bed's total stress: u*_0^2, with the pressure-gradient drive's body force on the column
+    # below z_ref included (u*_0^2 = u*(z_ref)^2 + G z_ref)
     bud = balance.budget_friction(rho, g, u0_stress ** 2 if math.isfinite(u0_stress) else math.nan,
-                                  uw_bed_i, mass_i)
+                                  uw_bed_i, mass_i, col_rate)
+    put("column_momentum_rate", (), col_rate)
     for name, val in bud.items():
         put(name, (), val)
 

@@ -10,8 +10,11 @@ mu_b = tau_g(0) / (M g) (Bagnold 1956; Pähtz & Durán 2018, Phys. Rev. Fluids 3
   splash_kernels ``EN_*``): over the sampling window, tau_g(0) = d(bed_px) / (A dt),
   F_z = d(bed_pz) / (A dt) and mu_b = d(bed_px) / d(bed_pz); its error from the scatter of the
   same ratio over contiguous blocks of the window.
-* From the air's budget: tau_g(0) = rho u*^2 - tau_air(0), the total stress at the reference
-  height less the bulk law's stress on the bed, and M the airborne mass of the 3-D samples:
+* From the air's budget: tau_g(0) = rho (u*^2 - tau_air(0) - dP/dt), the total stress at the
+  reference height less the bulk law's stress on the bed and less the rate at which the air below
+  the reference height gains streamwise momentum, P = int_0^z_ref <u> dz (zero in a steady layer;
+  over a 30 s window of a small box it is not, and it is measured from the 3-D samples' mean
+  profiles: ``column_momentum_rate``); M the airborne mass of the 3-D samples:
   mu_b = tau_g(0) / (M g); its error from the scatter of the per-sample values.
 
 In a steady layer that leaks no momentum the two tau_g(0) agree, and so do the two mu_b within
@@ -24,7 +27,7 @@ import math
 
 import numpy as np
 
-__all__ = ["N_BLOCKS", "bed_exchange", "budget_friction"]
+__all__ = ["N_BLOCKS", "bed_exchange", "budget_friction", "column_momentum_rate"]
 
 #: contiguous blocks of the sampling window for the impact record's error
 N_BLOCKS = 6
@@ -73,12 +76,35 @@ def bed_exchange(t: np.ndarray, bed_px: np.ndarray | None, bed_pz: np.ndarray | 
     return out
 
 
+def column_momentum_rate(t: np.ndarray, u_mean: np.ndarray | None, z_w: np.ndarray,
+                         z_top: float) -> float:
+    """dP/dt [m^2 s^-2] of P = int_0^z_top <u> dz, the least-squares slope over the samples'
+    times ``t`` of the column integral of their horizontal-mean profiles ``u_mean`` (samples, nz)
+    on the cells between the faces ``z_w`` (the cell holding z_top counted in part). NaN with
+    fewer than three samples."""
+    if u_mean is None:
+        return math.nan
+    u = np.asarray(u_mean, dtype=np.float64)
+    t = np.asarray(t, dtype=np.float64)
+    zw = np.asarray(z_w, dtype=np.float64)
+    if u.ndim != 2 or u.shape[0] != t.size or u.shape[1] != zw.size - 1 or t.size < 3:
+        return math.nan
+    w = np.clip(np.minimum(zw[1:], z_top) - zw[:-1], 0.0, None)
+    P = u @ w
+    ok = np.isfinite(P) & np.isfinite(t)
+    if ok.sum() < 3 or np.ptp(t[ok]) <= 0:
+        return math.nan
+    return float(np.polyfit(t[ok], P[ok], 1)[0])
+
+
 def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarray | None,
-                    mass_per_m2: np.ndarray | None) -> dict[str, float]:
-    """From the air's budget (module doc): ``tau_g_bed_budget`` [Pa] = rho (tau_total + uw_bed)
-    with the kinematic total stress tau_total = u*^2 at the reference height [m^2 s^-2] and the
-    bed's u'w' per sample (negative for a drag), ``bed_fluid_stress_fraction`` = -uw_bed /
-    tau_total, ``mu_b_budget`` = tau_g / (M g) with M the mean airborne mass [kg m^-2], and
+                    mass_per_m2: np.ndarray | None, column_rate: float = 0.0) -> dict[str, float]:
+    """From the air's budget (module doc): ``tau_g_bed_budget`` [Pa] = rho (tau_total + uw_bed -
+    column_rate) with the kinematic total stress tau_total = u*^2 at the reference height
+    [m^2 s^-2], the bed's u'w' per sample (negative for a drag) and the rate dP/dt at which the
+    air below the reference height gains momentum [m^2 s^-2] (``column_momentum_rate``; 0 for a
+    steady column, NaN taken as 0), ``bed_fluid_stress_fraction`` = -uw_bed / tau_total,
+    ``mu_b_budget`` = tau_g / (M g) with M the mean airborne mass [kg m^-2], and
     ``mu_b_budget_se`` from the per-sample ratios."""
     out = {"tau_g_bed_budget": math.nan, "bed_fluid_stress_fraction": math.nan,
            "mu_b_budget": math.nan, "mu_b_budget_se": math.nan}
@@ -92,7 +118,8 @@ def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarr
     uw, m = uw[ok], m[ok]
     if uw.size == 0:
         return out
-    tau_g = rho * (tau_total_kin + uw)
+    drift = column_rate if math.isfinite(column_rate) else 0.0
+    tau_g = rho * (tau_total_kin + uw - drift)
     out["tau_g_bed_budget"] = float(tau_g.mean())
     out["bed_fluid_stress_fraction"] = float(-uw.mean() / tau_total_kin)
     if m.mean() > 0:
