@@ -48,3 +48,24 @@ def test_increment_ratio_over_the_window():
     assert se.increment_ratio(t, E_spl, E_imp, 5.0, 9.9) == pytest.approx(0.6)
     assert se.increment_ratio(t, E_spl, E_imp, 5.0, 5.0) == pytest.approx(E_spl[-1] / E_imp[-1])
     assert math.isnan(se.increment_ratio(t, 0 * t, 0 * t, 5.0, 9.0))
+
+
+def test_block_stress_u_star_of_a_two_level_series():
+    """A stress that is 0.25 for half the window and 0.36 for the other: u* of the mean stress is
+    sqrt(0.305); three 10-s blocks give the block scatter carried to u*."""
+    import math
+
+    import numpy as np
+
+    from saltstudy.analysis.series import block_mean_stress_u_star
+
+    t = np.arange(0.0, 42.0, 0.01)
+    u = np.where(t < 27.0, 0.5, 0.6)
+    mean_u, se, n = block_mean_stress_u_star(t, u, 12.0, 42.0)
+    assert n == 3
+    tau = np.where(t < 27.0, 0.25, 0.36)[(t >= 12.0) & (t <= 42.0)]
+    assert mean_u == math.sqrt(tau.mean())
+    blocks = [0.25, (0.25 + 0.36) / 2, 0.36]
+    assert se == __import__("pytest").approx(np.std(blocks, ddof=1) / math.sqrt(3) / (2 * mean_u),
+                                             rel=1e-3)
+    assert math.isnan(block_mean_stress_u_star(t, u, 12.0, 25.0)[1])

@@ -136,6 +136,12 @@ SPEC: dict[str, tuple[str, str]] = {
     "z0s": ("m", "saltation roughness length z0s from the log-law fit"),
     "u_star_0": ("m s-1", "friction velocity of the particle-free spin-up from the log-law fit"),
     "z0_0": ("m", "roughness length of the particle-free spin-up from the log-law fit"),
+    "u_star_s_stress_series": ("m s-1", "u* of the window-mean total stress at z_ref from the "
+                               "drive's high-rate series (beside u_star_s_stress, read from the "
+                               "3-D samples' profiles)"),
+    "u_star_s_stress_se": ("m s-1", "standard error of the stress u*s from 10-s block means of the "
+                           "stress at z_ref over the window (swings longer than the window "
+                           "not included)"),
     "u_star_s_se": ("m s-1", "standard error of u*s: standard deviation of the per-sample fits over "
                     "sqrt(number of samples); a lower bound when the samples are correlated"),
     "u_star_s_samples": ("m s-1", "u*s from the log-law fit of each 3-D sample's mean profile "
@@ -984,6 +990,10 @@ def analyse_datasets(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: di
     stats = series.overshoot_stats(t_series, n_par, t0, t1)
     for k, v in stats.items():
         put(k, (), v)
+    us_ser, us_se, us_nb = series.block_mean_stress_u_star(t_series, series_var("u_star_ref"), t0,
+                                                           t1)
+    put("u_star_s_stress_series", (), us_ser)
+    put("u_star_s_stress_se", (), us_se, blocks=us_nb)
     put("E_splash_over_E_impact", (), series.increment_ratio(
         t_series, series_var("E_splash"), series_var("E_impact"), t0, t1))
     put("n_parcels", ("time",), n_par)

@@ -95,3 +95,30 @@ def increment_ratio(t: np.ndarray, num: np.ndarray, den: np.ndarray, t0: float, 
     else:
         dn, dd = num[-1], den[-1]
     return float(dn / dd) if dd > 0 else math.nan
+
+
+def block_mean_stress_u_star(t: np.ndarray, u_star: np.ndarray, t0: float, t1: float,
+                             block_s: float = 10.0) -> tuple[float, float, int]:
+    """From a series of the friction velocity at the reference height (the drive's measure, every
+    step or so): (u* of the window-mean stress, sqrt <u*^2> over [t0, t1]; its standard error from
+    the scatter of the stress means of contiguous blocks of ``block_s`` seconds, sigma / sqrt(n)
+    carried to u* (se_u = se_tau / (2 u*)); the number of blocks). The blocks see the swings
+    shorter than the window, not the slower ones that make two realizations differ. NaN with
+    fewer than two blocks."""
+    t = np.asarray(t, dtype=np.float64)
+    u = np.asarray(u_star, dtype=np.float64)
+    ok = np.isfinite(t) & np.isfinite(u) & (t >= t0) & (t <= t1)
+    if ok.sum() < 2 or not t1 > t0:
+        return math.nan, math.nan, 0
+    t, tau = t[ok], u[ok] ** 2
+    mean_u = math.sqrt(float(tau.mean()))
+    n = int((t1 - t0) // block_s)
+    if n < 2:
+        return mean_u, math.nan, n
+    edges = t0 + block_s * np.arange(n + 1)
+    means = [tau[(t >= a) & (t < b)].mean() for a, b in zip(edges[:-1], edges[1:])
+             if np.any((t >= a) & (t < b))]
+    if len(means) < 2:
+        return mean_u, math.nan, len(means)
+    se_tau = float(np.std(means, ddof=1) / math.sqrt(len(means)))
+    return mean_u, se_tau / (2.0 * mean_u), len(means)

@@ -141,7 +141,7 @@ def _departures_text(ctx: ReportContext) -> str:
 
 
 #: Table 2 variables with a standard error in analysis.nc
-TABLE2_SE = {"u_star_s": "u_star_s_se"}
+TABLE2_SE = {"u_star_s": "u_star_s_se", "u_star_s_stress": "u_star_s_stress_se"}
 
 
 def _computed(c: Cell) -> str:
