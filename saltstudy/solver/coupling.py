@@ -74,10 +74,10 @@ from .._jit import jit, jit_borrow, pjit
 from .elementary import expm1_small, pow_0687
 from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 
-__all__ = ["Parcels", "Flow", "Estimate", "C0_LAGRANGIAN", "face_inverse_masses",
+__all__ = ["Parcels", "Flow", "C0_LAGRANGIAN", "face_inverse_masses",
            "lagrangian_time_coefficients", "chunk_bounds", "chunk_assign", "chunk_ranges",
-           "implicit_coefficients", "implicit_corrections", "apply_exchange", "tke_rates",
-           "grid_absmax", "N_CHUNKS"]
+           "parcel_weight", "implicit_estimate", "implicit_coefficients", "implicit_corrections",
+           "apply_exchange", "tke_rates", "grid_absmax", "N_CHUNKS"]
 
 #: The records the grain kernels take (named tuples of arrays: numba passes each as one argument,
 #: its fields are static members, so reading them costs what separate arguments would).
@@ -89,9 +89,6 @@ Parcels = namedtuple("Parcels", "x y z u v w d kd flag trem su sv sw")
 #: implicit change du, dv, dw on the lowest nk levels and U, V, W = u + du etc. there (placeholders
 #: of shape (1, 1, 1) one-way):
 Flow = namedtuple("Flow", "u v w e tlc U V W du dv dw")
-#: The implicit estimate per parcel (``implicit_coefficients``): drag rate k0, expm1(-k0 T) e0,
-#: c_p c0 and the vertical u~_p wtil:
-Estimate = namedtuple("Estimate", "k0 e0 c0 wtil")
 
 #: Lagrangian structure-function constant used in T_L (eq. A1); not given in the paper.
 C0_LAGRANGIAN = 2.1
@@ -133,6 +130,24 @@ def drag_rate(rel, dnu, tp):
     """k = f(Re_p) / T_p [s^-1] (eqs. 3-4), Re_p = |u - u_p| d / nu; dnu = d / nu [s m^-1].
     physics.drag.drag_correction with the power inlined (elementary.pow_0687)."""
     return (1.0 + 0.15 * pow_0687(rel * dnu)) / tp
+
+
+@ijit
+def parcel_weight(Q, rho_p, d):
+    """Q m_p [kg]: the mass of the Q real grains of diameter d a parcel stands for."""
+    return Q * (math.pi / 6.0) * rho_p * d * d * d
+
+
+@ijit
+def implicit_estimate(k0, T, qm, wp, g):
+    """The implicit estimate of a parcel of weight qm = Q m_p, drag rate k0, step T and vertical
+    velocity wp (module doc): (expm1(-k0 T), c_p = Q m_p (1 - E_p), the vertical u~_p). The
+    horizontal u~_p are the parcel's velocity. Called by implicit_coefficients and again by the
+    advance (particles.py) for the modelled impulse: the same inputs, the same numbers, so nothing
+    per parcel is stored between the two passes."""
+    em = expm1_small(-k0 * T)
+    ome = -em
+    return em, qm * ome, wp + g / k0 - g * T / ome
 
 
 #: parcel blocks of chunk_assign's parallel passes (fixed, so the result is thread-count free)
@@ -276,7 +291,7 @@ def grid_absmax(f):
 
 
 @jit_borrow
-def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
+def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
     """Chunk c of implicit_coefficients (serial; helpers inlined; no reference counting, see
     ``_jit.jit_borrow``)."""
     nx = F.u.shape[0]
@@ -292,34 +307,28 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
     L = ranges[c, 1]
     off = ranges[c, 2]
     csz = L * ny * nk * 2
-    for q in range(off, off + 3 * csz):
-        pool[q] = 0.0
+    pool[off:off + 3 * csz] = 0.0
     for q in range(cstart[c], cstart[c + 1]):
         p = idx[q]
         st = locate(P.x[p], P.y[p], P.z[p], G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
         dp = P.d[p]
-        tp = rho_p * dp * dp / (18.0 * rho * nu)
         k = P.kd[p]
         ou = 0.0
         ov = 0.0
-        if st.islog or k <= 0.0:
+        if (st.islog and not paper) or k <= 0.0:
             ur, vr, wr = interp_fluid(F.u, F.v, F.w, st, nx, ny)
             if k <= 0.0:
                 rel = math.sqrt((ur - P.u[p]) ** 2 + (vr - P.v[p]) ** 2 + (wr - P.w[p]) ** 2)
-                k = drag_rate(rel, dp / nu, tp)
+                k = drag_rate(rel, dp / nu, rho_p * dp * dp / (18.0 * rho * nu))
+                # the advance takes k0 = -kd (and finds its own first drag rate, from the slip
+                # in the new air): a parcel without a drag rate carries its estimate's
+                P.kd[p] = -k
             if st.islog and not paper:
                 u0, v0, w0 = interp_faces(F.u, F.v, F.w, nz, nz + 1, st, nx, ny)
                 ou = ur - u0
                 ov = vr - v0
-        E.k0[p] = k
         T = dt + P.trem[p]  # the parcel's own step (time credit after a splash, particles.py)
-        em = expm1_small(-k * T)
-        E.e0[p] = em  # particles.py reuses it (first drag evaluation, same k and T)
-        ome = -em
-        cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
-        wt = P.w[p] + g / k - g * T / ome
-        E.c0[p] = cp
-        E.wtil[p] = wt
+        em, cp, wt = implicit_estimate(k, T, parcel_weight(Q, rho_p, dp), P.w[p], g)
         ah = cp * st.lfac if (st.islog and paper) else cp  # A's horizontal weight factor
         pool_add_tri2(pool, off, s, nx, ny, nk, ah, cp * (P.u[p] - ou), st.ixf, st.fxf, st.jyc,
                       st.fyc, st.kc, st.fzc)
@@ -330,21 +339,21 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
 
 
 @pjit
-def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
+def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
     """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
     A[c, comp] += w c_p (u, v of a parcel in the log region with "paper": w c_p l_p) and
-    B[c, comp] += w c_p (u~_p - o_p).
+    B[c, comp] += w c_p (u~_p - o_p), with c_p and u~_p from implicit_estimate.
 
     Records: P :data:`Parcels`, F :data:`Flow` (its u, v, w: the air at the start of the step),
-    G :data:`interp.Geometry`, E :data:`Estimate` (filled). prm: [rho, nu, g, rho_p, Q].
+    G :data:`interp.Geometry`. prm: [rho, nu, g, rho_p, Q].
     A and B live interleaved in the chunk's pool range (``ranges``, see ``chunk_ranges``): comp
     0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs. o_p is the log-law offset of a
-    parcel in the log region with "blend" (module doc), 0 elsewhere. Stores per parcel the drag
-    rate in E.k0, expm1(-k0 T) in E.e0, c_p in E.c0 and the vertical u~_p in E.wtil
-    (particles.py uses them for the modelled impulse and its first drag evaluation).
+    parcel in the log region with "blend" (module doc), 0 elsewhere. A parcel without a drag
+    rate (kd = 0: released, rebounded, ejected) gets one from its slip in this air, stored as
+    kd = -k0 for the advance (particles.py), which recomputes the estimate from k0 and T.
     """
     for c in prange(ranges.shape[0]):
-        _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E)
+        _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk)
 
 
 @pjit

@@ -80,14 +80,15 @@ import numpy as np
 from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
-from .coupling import (N_CHUNKS, Estimate, Flow, Parcels, apply_exchange, chunk_assign,
-                       chunk_ranges, drag_rate, face_inverse_masses, grid_absmax,
-                       implicit_coefficients, implicit_corrections,
-                       lagrangian_time_coefficients, tke_rates)
+from .coupling import (N_CHUNKS, Flow, Parcels, apply_exchange, chunk_assign, chunk_ranges,
+                       drag_rate, face_inverse_masses, grid_absmax, implicit_coefficients,
+                       implicit_corrections, implicit_estimate, lagrangian_time_coefficients,
+                       parcel_weight, tke_rates)
 from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_0687
 from .grid import Grid
-from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, _bil, _tri, ijit, interp_fluid, level_of,
-                     locate, pool_add_tri, slab_of, wrap_index, wrap_periodic)
+from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, Stencil, _bil, _tri, ijit,
+                     interp_fluid, level_of, locate, pool_add_tri, slab_of, wrap_index,
+                     wrap_periodic)
 from .splash_kernels import (NO_LAUNCH, ImpactLog, draw_diameter, ejecta_reserve,
                              impact_log_arrays, soil_arrays, splash_params, splash_runs)
 from .state import FlowState
@@ -225,41 +226,35 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
     return min(max(t, 0.0), h)
 
 
-# ---- one sub-step of one parcel, process by process (inlined into _advance_chunk) --------------
-# The lane scratch of a chunk (``Work.lane_f[c]``, ``Work.lane_i[c]``) holds one parcel per column
-# (lane) and one quantity per row. Float rows:
-_F_X, _F_Y, _F_Z, _F_U, _F_V, _F_W = range(6)  # the parcel's position and velocity
-_F_T = 6  # time done in the step
-_F_TEND = 7  # the parcel's step T: dt plus its time credit
-_F_K = 8  # drag rate k_p (the iteration's current value)
-_F_TP = 9  # response time T_p
-_F_ITP = 10  # 1 / T_p
-_F_QM = 11  # Q m_p
-_F_DNU = 12  # d / nu
-_F_US, _F_VS, _F_WS = 13, 14, 15  # the seen velocity (with the SGS part)
-_F_H = 16  # the sub-step h
-_F_MU, _F_MV, _F_MW = 17, 18, 19  # the modelled impulse of the implicit estimate (sub-step 0)
-_F_DU, _F_DV, _F_DW = 20, 21, 22  # the slip u_s - u_p at the start of the sub-step
-_F_IH = 23  # 1 / h
-_F_FXF, _F_FXC, _F_FYF, _F_FYC, _F_FZC, _F_FZF = range(24, 30)  # the stencil's fractions
-_F_KQ, _F_EMQ, _F_IRELQ, _F_RPQ = range(30, 34)  # the drag iteration's last evaluation
-# integer rows:
-_I_P = 0  # the parcel's index
-_I_NSUB = 1  # sub-steps done
-_I_XF, _I_XC, _I_YF, _I_YC, _I_KC, _I_KF = range(2, 8)  # the stencil's indices
-_I_LOG = 8  # 1 in the log region
-_I_KCELL = 9  # the level of the cell holding the parcel
-_I_E0 = 10  # 1: the first drag evaluation's expm1 is the implicit estimate's (Estimate.e0)
-_LANE_ROWS_F = 34
+# ---- the advance of one parcel, process by process (inlined into _advance_chunk) ----------------
+# A block of up to _LANES parcels takes its first sub-step in three lockstep passes (_begin_lane,
+# _drag_lanes, _end_lane), so that the long dependency chains of independent parcels (the drag
+# rate's fixed point above all) overlap in the CPU; the few parcels that need more sub-steps go
+# on one at a time (_rest_of_step). Between the passes a lane's values wait in the chunk's lane
+# scratch, one row of _LANES values per quantity, flat: row r of lane l at r * _LANES + l (a
+# constant offset from one base pointer: one instruction per access).
+(_K, _KQ, _EMQ, _IRELQ, _RPQ, _H, _IH, _DU, _DV, _DW, _ITP, _DNU, _US, _VS, _WS, _MU, _MV, _MW,
+ _TP, _QM, _T, _FXF, _FXC, _FYF, _FYC, _FZC, _FZF) = (r * _LANES for r in range(27))
+# _K drag rate k_p (the iteration's current value); _KQ, _EMQ, _IRELQ, _RPQ the iteration's last
+# evaluation; _H the sub-step h, _IH 1 / h; _DU, _DV, _DW the slip u_s - u_p at its start; _ITP
+# 1 / T_p; _DNU d / nu; _US, _VS, _WS the seen velocity (with the SGS part); _MU, _MV, _MW the
+# modelled impulse of the implicit estimate; _TP T_p; _QM Q m_p; _T the parcel's step (dt plus its
+# time credit); _FXF ... _FZF the stencil's fractions
+_LANE_ROWS_F = 27
+(_ACTIVE, _ITER, _E0, _XF, _XC, _YF, _YC, _KC, _KF, _LOG, _KCELL) = (r * _LANES for r in range(11))
+# _ACTIVE 1 if the lane takes its sub-step (0: empty, or the parcel was in the impact layer
+# already); _ITER 1 while its drag rate iterates; _E0 1 if the first evaluation's expm1 is the
+# implicit estimate's (same k and h: the same number); _XF ... _KF the stencil's indices, _LOG 1 in
+# the log region, _KCELL the level of the cell holding the parcel
 _LANE_ROWS_I = 11
 
 #: the scalars of a step, as _advance_chunk reads them once from prm and geo
 #: (paper: the log region deposits on klog, the level it reads; otherwise on another level)
-_Step = namedtuple("_Step", "dt g h_imp tol Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb paper "
-                   "klog")
+_Step = namedtuple("_Step", "dt g h_imp tol tol_fp Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb "
+                   "paper klog")
 #: the chunks' work: their parcels (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign), pool
 #: ranges (coupling.chunk_ranges) and pool, results (vmax, nhit per chunk) and lane scratch
-#: (lane_f (chunks, _LANE_ROWS_F, _LANES), lane_i (chunks, _LANE_ROWS_I + 2, _LANES))
+#: (lane_f (chunks, _LANE_ROWS_F * _LANES), lane_i (chunks, _LANE_ROWS_I * _LANES))
 Work = namedtuple("Work", "cstart idx ranges pool vmax nhit lane_f lane_i")
 #: where a chunk deposits: its pool range (slab s, L slabs, offset off; csz entries per
 #: component), nk levels, comp ct the TKE sink's
@@ -318,116 +313,101 @@ def _substep_length(T, t, wp, dzk, nsub):
 
 
 @ijit
-def _load_lane(fx_, ix_, l, P, p, T, S):
-    """Lane l takes parcel p for its step T."""
-    dp = P.d[p]
-    tp = S.rho_p * dp * dp / (18.0 * S.rho * S.nu)
-    fx_[_F_X, l] = P.x[p]
-    fx_[_F_Y, l] = P.y[p]
-    fx_[_F_Z, l] = P.z[p]
-    fx_[_F_U, l] = P.u[p]
-    fx_[_F_V, l] = P.v[p]
-    fx_[_F_W, l] = P.w[p]
-    fx_[_F_T, l] = 0.0
-    fx_[_F_TEND, l] = T
-    fx_[_F_K, l] = P.kd[p]
-    fx_[_F_TP, l] = tp
-    fx_[_F_ITP, l] = 1.0 / tp
-    fx_[_F_QM, l] = S.Q * (math.pi / 6.0) * S.rho_p * dp * dp * dp
-    fx_[_F_DNU, l] = dp / S.nu
-    ix_[_I_P, l] = p
-    ix_[_I_NSUB, l] = 0
+def _response_time(dp, S):
+    """T_p = rho_p d^2 / (18 rho nu) (eq. 4)."""
+    return S.rho_p * dp * dp / (18.0 * S.rho * S.nu)
 
 
 @ijit
-def _begin_substep(fx_, ix_, l, P, F, G, E, S, nx, ny, nz):
-    """The first pass of a sub-step of lane l: the wind seen, the sub-step, the modelled impulse (first
-    sub-step, two-way: c_p (u_s - u~_p) of the implicit estimate, same k, dt and weights,
-    coupling.py), the slip, a first drag rate if the parcel has none; the stencil is kept for
-    the deposits."""
-    p = ix_[_I_P, l]
-    nsub = ix_[_I_NSUB, l]
-    up = fx_[_F_U, l]
-    vp = fx_[_F_V, l]
-    wp = fx_[_F_W, l]
-    T = fx_[_F_TEND, l]
-    k = fx_[_F_K, l]
-    st, us, vs, ws = _wind_seen(F, G, fx_[_F_X, l], fx_[_F_Y, l], fx_[_F_Z, l], S, nx, ny, nz)
-    h = _substep_length(T, fx_[_F_T, l], wp, G.dz_c[st.kcell], nsub)
-    first = S.twoway and nsub == 0
-    mu_ = 0.0
-    mv_ = 0.0
-    mw_ = 0.0
-    if first and E.c0[p] > 0.0:
-        cc = E.c0[p]
-        mu_ = cc * (us - up)
-        mv_ = cc * (vs - vp)
-        mw_ = cc * (ws - E.wtil[p])
+def _seen_with_sgs(P, p, us, vs, ws, S):
+    """The seen velocity plus the parcel's stochastic SGS part, if the case has one."""
     if S.sgs:
         us += P.su[p]
         vs += P.sv[p]
         ws += P.sw[p]
-    Du = us - up
-    Dv = vs - vp
-    Dw = ws - wp
-    if k <= 0.0:
-        rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
-        k = drag_rate(rel, fx_[_F_DNU, l], fx_[_F_TP, l])
-        fx_[_F_K, l] = k
-    fx_[_F_US, l] = us
-    fx_[_F_VS, l] = vs
-    fx_[_F_WS, l] = ws
-    fx_[_F_H, l] = h
-    fx_[_F_MU, l] = mu_
-    fx_[_F_MV, l] = mv_
-    fx_[_F_MW, l] = mw_
-    fx_[_F_DU, l] = Du
-    fx_[_F_DV, l] = Dv
-    fx_[_F_DW, l] = Dw
-    fx_[_F_IH, l] = 1.0 / h
-    fx_[_F_FXF, l] = st.fxf
-    fx_[_F_FXC, l] = st.fxc
-    fx_[_F_FYF, l] = st.fyf
-    fx_[_F_FYC, l] = st.fyc
-    fx_[_F_FZC, l] = st.fzc
-    fx_[_F_FZF, l] = st.fzf
-    # the last evaluation of the drag-rate iteration (none yet)
-    fx_[_F_KQ, l] = -1.0
-    fx_[_F_EMQ, l] = 0.0
-    fx_[_F_IRELQ, l] = 0.0
-    fx_[_F_RPQ, l] = 0.0
-    ix_[_I_XF, l] = st.ixf
-    ix_[_I_XC, l] = st.ixc
-    ix_[_I_YF, l] = st.jyf
-    ix_[_I_YC, l] = st.jyc
-    ix_[_I_KC, l] = st.kc
-    ix_[_I_KF, l] = st.kf
-    ix_[_I_LOG, l] = 1 if st.islog else 0
-    ix_[_I_KCELL, l] = st.kcell
-    # expm1(-k0 T) of the implicit estimate is the first evaluation's: the same number
-    ix_[_I_E0, l] = 1 if (first and h == T and k == E.k0[p]) else 0
+    return us, vs, ws
 
 
 @ijit
-def _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
-    """One update of lane l's drag rate towards the fixed point k = F(k) (module doc): F(k) is
-    f(Re_p) / T_p at the slip E * (step-mean slip) + (1 - E) * (end slip) of the relaxation with
-    k frozen, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z. Safeguarded Newton (dF/dk
-    analytic) for the first NEWTON_MAXIT updates, else a plain fixed-point update. Returns whether
-    |F(k) - k| was already within the tolerance (S.tol k for a Newton update, tol_fp k for a
-    plain one), the update applied all the same."""
-    k = fx_[_F_K, l]
-    h = fx_[_F_H, l]
-    ih = fx_[_F_IH, l]
-    Du = fx_[_F_DU, l]
-    Dv = fx_[_F_DV, l]
-    Dw = fx_[_F_DW, l]
-    itp = fx_[_F_ITP, l]
+def _begin_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
+    """The first pass of lane l's first sub-step (parcel p, step T): the wind seen, the sub-step,
+    the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate with its k0, T and
+    weights, coupling.implicit_estimate), the slip, a first drag rate if the parcel has none
+    (its kd is then -k0: coupling.implicit_coefficients); the stencil is kept for the deposits."""
+    dp = P.d[p]
+    tp = _response_time(dp, S)
+    qm = parcel_weight(S.Q, S.rho_p, dp)
+    up = P.u[p]
+    vp = P.v[p]
+    wp = P.w[p]
+    st, us, vs, ws = _wind_seen(F, G, P.x[p], P.y[p], P.z[p], S, nx, ny, nz)
+    h = _substep_length(T, 0.0, wp, G.dz_c[st.kcell], 0)
+    k = P.kd[p]
+    k0 = k if k > 0.0 else -k
+    mu_ = 0.0
+    mv_ = 0.0
+    mw_ = 0.0
+    em0 = 0.0
+    if S.twoway:
+        em0, cc, wtil = implicit_estimate(k0, T, qm, wp, S.g)
+        if cc > 0.0:
+            mu_ = cc * (us - up)
+            mv_ = cc * (vs - vp)
+            mw_ = cc * (ws - wtil)
+    us, vs, ws = _seen_with_sgs(P, p, us, vs, ws, S)
+    Du = us - up
+    Dv = vs - vp
+    Dw = ws - wp
+    dnu = dp / S.nu
+    if k <= 0.0:
+        k = drag_rate(math.sqrt(Du * Du + Dv * Dv + Dw * Dw), dnu, tp)
+    lf[_K + l] = k
+    lf[_EMQ + l] = em0
+    lf[_H + l] = h
+    lf[_IH + l] = 1.0 / h
+    lf[_DU + l] = Du
+    lf[_DV + l] = Dv
+    lf[_DW + l] = Dw
+    lf[_ITP + l] = 1.0 / tp
+    lf[_DNU + l] = dnu
+    lf[_US + l] = us
+    lf[_VS + l] = vs
+    lf[_WS + l] = ws
+    lf[_MU + l] = mu_
+    lf[_MV + l] = mv_
+    lf[_MW + l] = mw_
+    lf[_TP + l] = tp
+    lf[_QM + l] = qm
+    lf[_T + l] = T
+    lf[_FXF + l] = st.fxf
+    lf[_FXC + l] = st.fxc
+    lf[_FYF + l] = st.fyf
+    lf[_FYC + l] = st.fyc
+    lf[_FZC + l] = st.fzc
+    lf[_FZF + l] = st.fzf
+    li[_ACTIVE + l] = 1
+    li[_ITER + l] = 1
+    li[_E0 + l] = 1 if (S.twoway and h == T and k == k0) else 0
+    li[_XF + l] = st.ixf
+    li[_XC + l] = st.ixc
+    li[_YF + l] = st.jyf
+    li[_YC + l] = st.jyc
+    li[_KC + l] = st.kc
+    li[_KF + l] = st.kf
+    li[_LOG + l] = 1 if st.islog else 0
+    li[_KCELL + l] = st.kcell
+
+
+@ijit
+def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S):
+    """One update of a drag rate k towards the fixed point k = F(k) (module doc); em =
+    expm1(-k h). F(k) is f(Re_p) / T_p at the slip E * (step-mean slip) + (1 - E) * (end slip) of
+    the relaxation with k frozen, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z.
+    Safeguarded Newton (dF/dk analytic) if ``newton``, else a plain fixed-point update. Returns
+    the next k, whether |F(k) - k| was already within the tolerance (S.tol k for a Newton update,
+    S.tol_fp k for a plain one; the update is applied all the same), and 1 / |slip| and
+    Re_p^0.687 for the next evaluation's series (_re687_near)."""
     ik = 1.0 / k
-    if it == 0 and ix_[_I_E0, l] != 0:
-        em = e0[ix_[_I_P, l]]
-    else:
-        em = _expm1_near(k, h, fx_[_F_KQ, l], fx_[_F_EMQ, l])
     E = 1.0 + em
     phi = -em * ik * ih
     beta = E * (phi - em)
@@ -436,17 +416,13 @@ def _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
     ay = Dv * beta
     az = gk + (Dw - gk) * beta
     rel = math.sqrt(ax * ax + ay * ay + az * az)
-    rp = _re687_near(rel, fx_[_F_DNU, l], fx_[_F_IRELQ, l], fx_[_F_RPQ, l])
+    rp = _re687_near(rel, dnu, irelq, rpq)
     irel = 1.0 / rel if rel > 0.0 else 0.0
-    fx_[_F_KQ, l] = k
-    fx_[_F_EMQ, l] = em
-    fx_[_F_IRELQ, l] = irel
-    fx_[_F_RPQ, l] = rp
     F = (1.0 + 0.15 * rp) * itp
     G = F - k
     kn = F
-    lim = tol_fp
-    if it < NEWTON_MAXIT and rel > 0.0:
+    lim = S.tol_fp
+    if newton and rel > 0.0:
         # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
         db = E * ((E - phi) * ik + h * E) - h * beta
         daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
@@ -457,25 +433,66 @@ def _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
             if kt > 0.0:
                 kn = kt
                 lim = S.tol
-    fx_[_F_K, l] = kn
-    return abs(G) <= lim * k
+    return kn, abs(G) <= lim * k, irel, rp
 
 
 @ijit
-def _drag_rates(fx_, ix_, itl, nit, e0, S):
-    """The drag rates of the nit lanes itl[:nit], iterated in lockstep (the long dependency chains
-    of independent parcels overlap in the CPU) until each is within the tolerance."""
-    tol_fp = S.tol * S.tol  # a plain fixed-point update must get as close as a Newton one from tol
+def _drag_lanes(lf, li, nb, S):
+    """The drag rates of lanes 0..nb-1 with _ITER set, iterated in lockstep (the long dependency
+    chains of independent parcels overlap in the CPU) until each is within the tolerance."""
     for it in range(DRAG_MAXIT):
-        m = 0
-        for a in range(nit):
-            l = itl[a]
-            if not _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
-                itl[m] = l
-                m += 1
-        nit = m
-        if nit == 0:
+        left = 0
+        for l in range(nb):
+            if li[_ITER + l] == 0:
+                continue
+            k = lf[_K + l]
+            h = lf[_H + l]
+            if it == 0:
+                if li[_E0 + l] != 0:
+                    em = lf[_EMQ + l]
+                else:
+                    em = expm1_small(-k * h)
+                irelq = 0.0
+                rpq = 0.0
+            else:
+                em = _expm1_near(k, h, lf[_KQ + l], lf[_EMQ + l])
+                irelq = lf[_IRELQ + l]
+                rpq = lf[_RPQ + l]
+            kn, done, irel, rp = _drag_rate_update(k, em, h, lf[_IH + l], lf[_DU + l],
+                                                   lf[_DV + l], lf[_DW + l], lf[_ITP + l],
+                                                   lf[_DNU + l], irelq, rpq, it < NEWTON_MAXIT, S)
+            lf[_K + l] = kn
+            lf[_KQ + l] = k
+            lf[_EMQ + l] = em
+            lf[_IRELQ + l] = irel
+            lf[_RPQ + l] = rp
+            if done:
+                li[_ITER + l] = 0
+            else:
+                left += 1
+        if left == 0:
             break
+
+
+@ijit
+def _drag_rate(k, h, Du, Dv, Dw, itp, dnu, S):
+    """A drag rate iterated to its fixed point from k, one parcel alone (as _drag_lanes); returns
+    it with the last evaluation's k and expm1(-k h) (for _expm1_near)."""
+    ih = 1.0 / h
+    kq = -1.0
+    emq = 0.0
+    irelq = 0.0
+    rpq = 0.0
+    for it in range(DRAG_MAXIT):
+        em = _expm1_near(k, h, kq, emq)
+        kn, done, irelq, rpq = _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq,
+                                                 it < NEWTON_MAXIT, S)
+        kq = k
+        emq = em
+        k = kn
+        if done:
+            break
+    return k, kq, emq
 
 
 @ijit
@@ -510,7 +527,7 @@ def _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, h_imp):
 @ijit
 def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
     """Horizontal position after h of the relaxation, wrapped into the periodic domain; a parcel
-    above the lid is reflected. Returns (x, y, z, w) and the unwrapped (x, y)."""
+    above the lid is reflected. Returns (x, y, z, w)."""
     xn = xp + us * h + (up - us) * ome_k
     yn = yp + vs * h + (vp - vs) * ome_k
     if zn > S.Lz:  # reflect at the lid
@@ -520,53 +537,117 @@ def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
 
 
 @ijit
-def _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny):
+def _reaction_to_air(O, st, mu_, mv_, mw_, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny):
     """Two-way: the air's impulse is minus the parcel's drag impulse, Q m_p (Delta u - g h), plus
-    (first sub-step) the modelled impulse, deposited with the stencil's weights (the log region:
-    the horizontal weights on one level, interp.py)."""
-    # (the order of these loads and the branch are the arithmetic's: fastmath's reassociation
-    # orders the products of the weights by where their factors are defined)
-    ixf = ix_[_I_XF, l]
-    ixc = ix_[_I_XC, l]
-    jyf = ix_[_I_YF, l]
-    jyc = ix_[_I_YC, l]
-    kf = ix_[_I_KF, l]
-    fxf = fx_[_F_FXF, l]
-    fxc = fx_[_F_FXC, l]
-    fyf = fx_[_F_FYF, l]
-    fyc = fx_[_F_FYC, l]
-    fzf = fx_[_F_FZF, l]
-    if ix_[_I_LOG, l] != 0:
+    (first sub-step) the modelled impulse (mu_, mv_, mw_), deposited with the weights of Stencil
+    st (the log region: the horizontal weights on one level, interp.py)."""
+    if st.islog:
         kc = S.klog
         fzc = 0.0
     else:
-        kc = ix_[_I_KC, l]
-        fzc = fx_[_F_FZC, l]
-    pool_add_tri(O.pool, O.off, O.s, nx, ny, O.nk, fx_[_F_MU, l] - Qm * (un - up), ixf, fxf, jyc,
-                 fyc, kc, fzc)
-    pool_add_tri(O.pool, O.off + O.csz, O.s, nx, ny, O.nk, fx_[_F_MV, l] - Qm * (vn - vp), ixc,
-                 fxc, jyf, fyf, kc, fzc)
-    pool_add_tri(O.pool, O.off + 2 * O.csz, O.s, nx, ny, O.nk,
-                 fx_[_F_MW, l] - Qm * (wn - wp + S.g * h), ixc, fxc, jyc, fyc, kf, fzf)
+        kc = st.kc
+        fzc = st.fzc
+    pool_add_tri(O.pool, O.off, O.s, nx, ny, O.nk, mu_ - Qm * (un - up), st.ixf, st.fxf, st.jyc,
+                 st.fyc, kc, fzc)
+    pool_add_tri(O.pool, O.off + O.csz, O.s, nx, ny, O.nk, mv_ - Qm * (vn - vp), st.ixc, st.fxc,
+                 st.jyf, st.fyf, kc, fzc)
+    pool_add_tri(O.pool, O.off + 2 * O.csz, O.s, nx, ny, O.nk, mw_ - Qm * (wn - wp + S.g * h),
+                 st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf)
 
 
 @ijit
-def _tke_sink(O, F, fx_, ix_, l, Qm, k, h, S, nx, ny):
+def _tke_sink(O, F, st, Qm, k, tp, h, S, nx, ny):
     """The parcel's share of the TKE-sink rate of the cell holding it (coupling.py, eq. A1; in the
     log region that of the level its drag goes to), weighted by the fraction h / dt of the
     step."""
-    kcell = ix_[_I_KCELL, l]
-    if ix_[_I_LOG, l] != 0:
-        kcell = S.klog
-    ic = ix_[_I_XF, l]  # the cell holding the parcel: floor(x / dx), as ixf
-    jc = ix_[_I_YF, l]
+    kcell = S.klog if st.islog else st.kcell
+    ic = st.ixf  # the cell holding the parcel: floor(x / dx), as ixf
+    jc = st.jyf
     kk = kcell if kcell < O.nk else O.nk - 1
     e = F.e[ic, jc, kcell]
     if e > 0.0:
-        tp = fx_[_F_TP, l]
         tl = F.tlc[kcell] / math.sqrt(e)
         O.pool[O.off + ((O.ct * O.L + slab_of(ic, O.s, nx)) * ny + jc) * O.nk + kk] += (
             Qm / S.rho * 2.0 * (k * tp) / (tp + tl) * (h / S.dt))
+
+
+@ijit
+def _end_substep(O, F, st, xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, tp, qm, mu_, mv_,
+                 mw_, S, nx, ny):
+    """The end of a sub-step of h with drag rate k (kq, emq: the iteration's last evaluation):
+    drag (exact relaxation), bed crossing, move, the reaction to the air and the TKE sink.
+    Returns the parcel's (x, y, z, u, v, w), the sub-step as taken (cut at a bed crossing) and
+    whether it hit the bed."""
+    ik = 1.0 / k
+    em = _expm1_near(k, h, kq, emq)
+    wt = ws - S.g * ik
+    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
+    zn = _height(zp, wt, wp, h, ome_k)
+    hit = zn < S.h_imp
+    if hit:
+        h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, S.h_imp)
+        zn = S.h_imp
+    xn, yn, zn, wn = _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S)
+    if S.twoway:
+        _reaction_to_air(O, st, mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, S, h, nx, ny)
+    if S.tke:
+        _tke_sink(O, F, st, qm, k, tp, h, S, nx, ny)
+    return xn, yn, zn, un, vn, wn, h, hit
+
+
+@ijit
+def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx, ny, nz):
+    """The sub-steps after the first, one parcel at a time (the few parcels that move more than a
+    cell height in the step). Returns the parcel's state, whether it hit the bed and its time
+    left."""
+    itp = 1.0 / tp
+    dnu = P.d[p] / S.nu
+    nsub = 1
+    while True:
+        st, us, vs, ws = _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz)
+        h = _substep_length(T, t, wp, G.dz_c[st.kcell], nsub)
+        us, vs, ws = _seen_with_sgs(P, p, us, vs, ws, S)
+        k, kq, emq = _drag_rate(k, h, us - up, vs - vp, ws - wp, itp, dnu, S)
+        xp, yp, zp, up, vp, wp, h, hit = _end_substep(O, F, st, xp, yp, zp, up, vp, wp, us, vs,
+                                                      ws, k, kq, emq, h, tp, qm, 0.0, 0.0, 0.0,
+                                                      S, nx, ny)
+        t += h
+        nsub += 1
+        if hit or not t < T:
+            return xp, yp, zp, up, vp, wp, k, hit, T - t
+
+
+@ijit
+def _end_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
+    """The third pass of lane l's first sub-step (parcel p), then the parcel's further sub-steps
+    if it needs them; its state is stored back. Returns (hit, time left, u, v)."""
+    st = Stencil(li[_XF + l], lf[_FXF + l], li[_XC + l], lf[_FXC + l], li[_YF + l], lf[_FYF + l],
+                 li[_YC + l], lf[_FYC + l], li[_KC + l], lf[_FZC + l], li[_KF + l], lf[_FZF + l],
+                 1.0, li[_LOG + l] != 0, li[_KCELL + l], 0)
+    up = P.u[p]
+    vp = P.v[p]
+    wp = P.w[p]
+    k = lf[_K + l]
+    h = lf[_H + l]
+    T = lf[_T + l]
+    tp = lf[_TP + l]
+    qm = lf[_QM + l]
+    xn, yn, zn, un, vn, wn, h, hit = _end_substep(O, F, st, P.x[p], P.y[p], P.z[p], up, vp, wp,
+                                                  lf[_US + l], lf[_VS + l], lf[_WS + l], k,
+                                                  lf[_KQ + l], lf[_EMQ + l], h, tp, qm,
+                                                  lf[_MU + l], lf[_MV + l], lf[_MW + l], S, nx, ny)
+    left = T - h
+    if not hit and h < T:
+        xn, yn, zn, un, vn, wn, k, hit, left = _rest_of_step(P, p, h, T, xn, yn, zn, un, vn, wn,
+                                                             k, tp, qm, F, G, O, S, nx, ny, nz)
+    P.x[p] = xn
+    P.y[p] = yn
+    P.z[p] = zn
+    P.u[p] = un
+    P.v[p] = vn
+    P.w[p] = wn
+    P.kd[p] = k
+    return hit, left, un, vn
 
 
 @ijit
@@ -585,90 +666,38 @@ def _track_speed(vm, u, v):
     return sp if sp > vm else vm
 
 
-@ijit
-def _end_substep(fx_, ix_, l, P, F, O, S, nx, ny):
-    """The third pass of a sub-step of lane l: drag (exact relaxation over h), bed crossing, move, the
-    reaction to the air and the TKE sink; a parcel at the end of its step or at the bed is
-    stored (and flagged if a hit). Returns (whether it goes on, hit, its time left)."""
-    p = ix_[_I_P, l]
-    zp = fx_[_F_Z, l]
-    up = fx_[_F_U, l]
-    vp = fx_[_F_V, l]
-    wp = fx_[_F_W, l]
-    T = fx_[_F_TEND, l]
-    k = fx_[_F_K, l]
-    us = fx_[_F_US, l]
-    vs = fx_[_F_VS, l]
-    ws = fx_[_F_WS, l]
-    h = fx_[_F_H, l]
-    ik = 1.0 / k
-    em = _expm1_near(k, h, fx_[_F_KQ, l], fx_[_F_EMQ, l])
-    wt = ws - S.g * ik
-    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
-    zn = _height(zp, wt, wp, h, ome_k)
-    hit = zn < S.h_imp
-    if hit:
-        h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp,
-                                             S.h_imp)
-        zn = S.h_imp
-    xn, yn, zn, wn = _move(fx_[_F_X, l], fx_[_F_Y, l], zn, wn, us, vs, up, vp, h, ome_k, S)
-    Qm = fx_[_F_QM, l]
-    if S.twoway:
-        _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny)
-    if S.tke:
-        _tke_sink(O, F, fx_, ix_, l, Qm, k, h, S, nx, ny)
-    t = fx_[_F_T, l] + h
-    if hit or not t < T:
-        P.x[p] = xn
-        P.y[p] = yn
-        P.z[p] = zn
-        P.u[p] = un
-        P.v[p] = vn
-        P.w[p] = wn
-        P.kd[p] = k
-        return False, hit, T - t, un, vn
-    fx_[_F_X, l] = xn
-    fx_[_F_Y, l] = yn
-    fx_[_F_Z, l] = zn
-    fx_[_F_U, l] = un
-    fx_[_F_V, l] = vn
-    fx_[_F_W, l] = wn
-    fx_[_F_T, l] = t
-    ix_[_I_NSUB, l] += 1
-    return True, hit, T - t, un, vn
-
-
 @jit_borrow
-def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W):
+def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
     """Integrate the parcels of chunk c (W.idx[W.cstart[c]:W.cstart[c+1]], coupling.chunk_assign)
     over dt (plus their time credit), see the module doc. Hits (bed crossings) get flag 1 and
     their time left in trem; W.nhit[c] counts them, W.vmax[c] is the chunk's largest horizontal
     parcel speed.
 
-    Records: P :data:`coupling.Parcels`, F :data:`coupling.Flow`, G :data:`interp.Geometry`, E
-    :data:`coupling.Estimate` (the implicit estimate, two-way: a parcel with ``E.c0[p] > 0``
-    adds the modelled impulse c_p (u_s - u~_p) on its first sub-step), W :data:`Work`.
+    Records: P :data:`coupling.Parcels`, F :data:`coupling.Flow`, G :data:`interp.Geometry`, W
+    :data:`Work`. Two-way, a parcel adds the modelled impulse c_p (u_s - u~_p) of the implicit
+    estimate (coupling.implicit_estimate, from its k0 and step as coupling.implicit_coefficients
+    had them) on its first sub-step.
 
     Deposits in the chunk's pool range (``W.ranges[c]`` = first slab s, L slabs, offset off;
     comps 0-2 = u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk); ``ncomp`` comps;
     zeroed here first) minus the drag impulse plus the modelled impulse (same weights as the
     first sub-step's drag impulse: one deposit).
 
-    Serial, in blocks of ``_LANES`` parcels: a sub-step of every parcel of the block is done in
-    three passes (_begin_substep: locate and the wind seen; _drag_rates: the drag-rate
-    iterations of all lanes in lockstep; _end_substep: drag, bed crossing, move, deposits), so
-    that the long dependency chains of independent parcels overlap in the CPU (one parcel at a
-    time left it waiting on latencies). Parcels that need another sub-step go round again. Each
-    parcel's arithmetic is the same as one at a time; only the order of the deposits into the
-    pool differs (round-off). The helpers are inlined here by LLVM (``_jit.device``); the prange over
-    chunks is in _advance_all. Compiled without reference counting (``jit_borrow``): the lane
-    scratch comes from the caller.
+    Serial, in blocks of ``_LANES`` parcels: the first sub-step of every parcel of the block is
+    done in three passes (_begin_lane: locate and the wind seen; _drag_lanes: the drag-rate
+    iterations of all lanes in lockstep; _end_lane: drag, bed crossing, move, deposits, and any
+    further sub-steps of that parcel alone), so that the long dependency chains of independent
+    parcels overlap in the CPU. Each parcel's arithmetic is the same as one at a time; only the
+    order of the deposits into the pool differs (round-off). The helpers are inlined here by LLVM
+    (``_jit.device``); the prange over chunks is in _advance_all. Compiled without reference
+    counting (``jit_borrow``): the lane scratch comes from the caller.
     """
     nx = F.u.shape[0]
     ny = F.u.shape[1]
     nz = G.z_c.shape[0]
-    S = _Step(prm[_DT], prm[_G], prm[_HIMP], prm[_TOL], G.geo[2], G.geo[3], prm[_LZ], prm[_RHO],
-              prm[_NU], prm[_RHOP], prm[_Q], prm[_TWOWAY] != 0.0, prm[_TKE] != 0.0,
+    tol = prm[_TOL]
+    S = _Step(prm[_DT], prm[_G], prm[_HIMP], tol, tol * tol, G.geo[2], G.geo[3], prm[_LZ],
+              prm[_RHO], prm[_NU], prm[_RHOP], prm[_Q], prm[_TWOWAY] != 0.0, prm[_TKE] != 0.0,
               prm[_SGS] != 0.0, F.du.shape[2], G.geo[GEO_LOG_LEVEL] == G.geo[GEO_LOG_READ],
               int(G.geo[GEO_LOG_LEVEL]))
     s = W.ranges[c, 0]
@@ -676,57 +705,45 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W):
     off = W.ranges[c, 2]
     csz = L * ny * nk
     O = _Out(W.pool, s, L, off, csz, nk, ct)
-    for q in range(off, off + ncomp * csz):
-        W.pool[q] = 0.0
+    W.pool[off:off + ncomp * csz] = 0.0
     vm = 0.0
     nh = 0
-    fx_ = W.lane_f[c]
-    ix_ = W.lane_i[c]
-    lanes = W.lane_i[c, _LANE_ROWS_I]  # the lanes in the block's current pass
-    itl = W.lane_i[c, _LANE_ROWS_I + 1]  # the lanes still iterating their drag rate
-    q0 = W.cstart[c]
+    lf = W.lane_f[c]
+    li = W.lane_i[c]
     qend = W.cstart[c + 1]
-    while q0 < qend:
+    for q0 in range(W.cstart[c], qend, _LANES):
         nb = min(_LANES, qend - q0)
-        na = 0
         for l in range(nb):
             p = W.idx[q0 + l]
             T = dt + P.trem[p]  # time credit of a parcel that left the bed during the last step
             P.trem[p] = 0.0
             if P.z[p] < S.h_imp:  # already inside the impact layer: splash now
+                li[_ACTIVE + l] = 0
+                li[_ITER + l] = 0
+                if P.kd[p] < 0.0:  # the implicit estimate's k0 (coupling.py): none yet
+                    P.kd[p] = 0.0
                 nh = _hit(P, p, T, nh)
                 vm = _track_speed(vm, P.u[p], P.v[p])
                 continue
-            _load_lane(fx_, ix_, l, P, p, T, S)
-            lanes[na] = l
-            na += 1
-        while na > 0:
-            for a in range(na):
-                _begin_substep(fx_, ix_, lanes[a], P, F, G, E, S, nx, ny, nz)
-                itl[a] = lanes[a]
-            _drag_rates(fx_, ix_, itl, na, E.e0, S)
-            m = 0
-            for a in range(na):
-                l = lanes[a]
-                going, hit, left, un, vn = _end_substep(fx_, ix_, l, P, F, O, S, nx, ny)
-                if going:
-                    lanes[m] = l
-                    m += 1
-                else:
-                    if hit:
-                        nh = _hit(P, ix_[_I_P, l], left, nh)
-                    vm = _track_speed(vm, un, vn)
-            na = m
-        q0 += nb
+            _begin_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz)
+        _drag_lanes(lf, li, nb, S)
+        for l in range(nb):
+            if li[_ACTIVE + l] == 0:
+                continue
+            p = W.idx[q0 + l]
+            hit, left, un, vn = _end_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz)
+            if hit:
+                nh = _hit(P, p, left, nh)
+            vm = _track_speed(vm, un, vn)
     W.vmax[c] = vm
     W.nhit[c] = nh
 
 
 @pjit
-def _advance_all(dt, nk, ncomp, ct, prm, P, F, G, E, W):
+def _advance_all(dt, nk, ncomp, ct, prm, P, F, G, W):
     """All parcels over dt, chunk-parallel (see _advance_chunk)."""
     for c in prange(W.ranges.shape[0]):
-        _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W)
+        _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W)
 
 
 @jit_borrow
@@ -999,12 +1016,14 @@ class Saltation:
     _FIELDS = ("x", "y", "z", "u", "v", "w", "d", "kd", "trem", "tl", "xl", "yl")
 
     def _alloc(self, cap: int) -> None:
-        for f in self._FIELDS + ("k0", "e0", "c0", "wtil"):
+        for f in self._FIELDS:
             setattr(self, "_" + f, np.zeros(cap))
         self._flag = np.zeros(cap, dtype=np.int8)
         self._dead = np.zeros(cap, dtype=np.int64)
         self._ev = np.zeros(cap, dtype=np.int64)
-        self._idx = np.zeros(cap, dtype=np.int64)
+        # parcel indices by chunk, unsigned: the kernels index the parcel arrays with them
+        # without numba's negative-index wraparound
+        self._idx = np.zeros(cap, dtype=np.uint32)
         self._cid = np.zeros(cap, dtype=np.int64)
         if self.sgs:
             self._su, self._sv, self._sw = np.zeros(cap), np.zeros(cap), np.zeros(cap)
@@ -1025,8 +1044,7 @@ class Saltation:
         if need <= cap:
             return
         new = max(need, 2 * cap)
-        for f in self._FIELDS + ("k0", "e0", "c0", "wtil", "flag", "dead", "ev", "idx",
-                                 "cid"):
+        for f in self._FIELDS + ("flag", "dead", "ev", "idx", "cid"):
             old = getattr(self, "_" + f)
             a = np.zeros(new, dtype=old.dtype)
             a[:cap] = old
@@ -1118,8 +1136,8 @@ class Saltation:
         self._ranges = np.zeros((nc, 3), dtype=np.int64)
         self._vmaxc = np.zeros(nc)
         self._nhit = np.zeros(nc, dtype=np.int64)
-        self._lane_f = np.zeros((nc, _LANE_ROWS_F, _LANES))
-        self._lane_i = np.zeros((nc, _LANE_ROWS_I + 2, _LANES), dtype=np.int64)
+        self._lane_f = np.zeros((nc, _LANE_ROWS_F * _LANES))
+        self._lane_i = np.zeros((nc, _LANE_ROWS_I * _LANES), dtype=np.int64)
         self._dmax = np.zeros(nx)
         self._pool = np.zeros(0)
         self._grid6 = np.zeros((6, nx * ny * nz)) if self.two_way else np.zeros((6, 1))
@@ -1173,12 +1191,11 @@ class Saltation:
             du = dv = dw = Uc = Vc = Wc = self._e_zero
         P = self._parcels()
         F = Flow(state.u, state.v, state.w, ef, self.tlc, Uc, Vc, Wc, du, dv, dw)
-        E = Estimate(self._k0, self._e0, self._c0, self._wtil)
         if two:
             self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
             self._layout(self._margin, 3 * 2 * ny * nk)
             implicit_coefficients(self._cstart, self._idx, P, F, dt, self.prm, geo.record,
-                                  self._pool, self._ranges, nk, E)
+                                  self._pool, self._ranges, nk)
             implicit_corrections(self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
                                  state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax)
             dumax = float(self._dmax.max())
@@ -1196,7 +1213,7 @@ class Saltation:
         self._layout(self._margin, ncomp * ny * nk)
         W = Work(self._cstart, self._idx, self._ranges, self._pool, self._vmaxc, self._nhit,
                  self._lane_f, self._lane_i)
-        _advance_all(dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, E, W)
+        _advance_all(dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, W)
         # bed events (self._splash). Rebounds and ejecta leave the bed at the impact point with the
         # rest of the step as a time credit: they are integrated over dt + credit in the next step,
         # inside its implicit exchange (integrating them now, outside it, would be an explicit
