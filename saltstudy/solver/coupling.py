@@ -76,7 +76,7 @@ from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wra
 
 __all__ = ["Parcels", "Flow", "C0_LAGRANGIAN", "face_inverse_masses",
            "lagrangian_time_coefficients", "chunk_bounds", "chunk_assign", "chunk_ranges",
-           "parcel_weight", "implicit_estimate", "implicit_coefficients", "implicit_corrections",
+           "parcel_weight", "estimate_weights", "implicit_estimate", "implicit_coefficients", "implicit_corrections",
            "apply_exchange", "tke_rates", "grid_absmax", "N_CHUNKS"]
 
 #: The records the grain kernels take (named tuples of arrays: numba passes each as one argument,
@@ -139,15 +139,22 @@ def parcel_weight(Q, rho_p, d):
 
 
 @ijit
-def implicit_estimate(k0, T, qm, wp, g):
+def estimate_weights(em, k0, T, qm, wp, g):
     """The implicit estimate of a parcel of weight qm = Q m_p, drag rate k0, step T and vertical
-    velocity wp (module doc): (expm1(-k0 T), c_p = Q m_p (1 - E_p), the vertical u~_p). The
-    horizontal u~_p are the parcel's velocity. Called by implicit_coefficients and again by the
-    advance (particles.py) for the modelled impulse: the same inputs, the same numbers, so nothing
-    per parcel is stored between the two passes."""
-    em = expm1_small(-k0 * T)
+    velocity wp (module doc), given em = expm1(-k0 T): (c_p = Q m_p (1 - E_p), the vertical
+    u~_p). The horizontal u~_p are the parcel's velocity."""
     ome = -em
-    return em, qm * ome, wp + g / k0 - g * T / ome
+    return qm * ome, wp + g / k0 - g * T / ome
+
+
+@ijit
+def implicit_estimate(k0, T, qm, wp, g):
+    """(expm1(-k0 T), c_p, the vertical u~_p) of a parcel (estimate_weights). Called by
+    implicit_coefficients and again by the advance (particles.py) for the modelled impulse: the
+    same inputs, the same numbers, so nothing per parcel is stored between the two passes."""
+    em = expm1_small(-k0 * T)
+    cp, wt = estimate_weights(em, k0, T, qm, wp, g)
+    return em, cp, wt
 
 
 #: parcel blocks of chunk_assign's parallel passes (fixed, so the result is thread-count free)

@@ -30,8 +30,8 @@ from numba.extending import intrinsic
 
 from .interp import ijit
 
-__all__ = ["pow_0687", "expm1_small", "binomial_coefficients", "CLIFT_EXPONENT",
-           "EXPM1_TAYLOR_MAX"]
+__all__ = ["pow_0687", "pow_0687_table", "expm1_small", "expm1_taylor", "binomial_coefficients",
+           "CLIFT_EXPONENT", "EXPM1_TAYLOR_MAX"]
 
 #: the exponent of the Clift et al. (1978) correction f(Re) = 1 + 0.15 Re^0.687 (paper eq. 4)
 CLIFT_EXPONENT = 0.687
@@ -94,18 +94,29 @@ _HALF_BIN = 1 << (_SHIFT - 1)
 
 
 @ijit
-def pow_0687(x):
-    """x^0.687 [same units^0.687] (the Clift exponent), inlined; see the module doc."""
+def pow_0687_table(x):
+    """(x^0.687 from the tables, whether x is in their range): the table path of pow_0687 without
+    its fallback, no branch and no call (the indices are clamped into the tables, so a value out
+    of range reads them harmlessly and is flagged), for loops LLVM vectorizes."""
     b = _bits(x)
     eb = (b >> 52) - 1023  # x < 0 has the sign bit: a negative b, out of range
-    if _E_MIN <= eb <= _E_MAX and b > 0:
-        j = (b & _MANT) >> _SHIFT
-        m = _float((b & _MANT) | _ONE)
-        c = _float(_ONE | (j << _SHIFT) | _HALF_BIN)
-        t = (m - c) * _PM[j, 1]  # m - c is exact (same binade)
-        s = t * (_B1 + t * (_B2 + t * (_B3 + t * (_B4 + t * _B5))))
-        pm = _PM[j, 0]
-        return _P2[eb - _E_MIN] * (pm + pm * s)
+    ok = _E_MIN <= eb <= _E_MAX and b > 0
+    e = min(max(eb, _E_MIN), _E_MAX)
+    j = (b & _MANT) >> _SHIFT
+    m = _float((b & _MANT) | _ONE)
+    c = _float(_ONE | (j << _SHIFT) | _HALF_BIN)
+    t = (m - c) * _PM[j, 1]  # m - c is exact (same binade)
+    s = t * (_B1 + t * (_B2 + t * (_B3 + t * (_B4 + t * _B5))))
+    pm = _PM[j, 0]
+    return _P2[e - _E_MIN] * (pm + pm * s), ok
+
+
+@ijit
+def pow_0687(x):
+    """x^0.687 [same units^0.687] (the Clift exponent), inlined; see the module doc."""
+    v, ok = pow_0687_table(x)
+    if ok:
+        return v
     return x ** 0.687
 
 
@@ -114,10 +125,17 @@ _T2, _T3, _T4, _T5, _T6, _T7, _T8, _T9, _T10, _T11, _T12, _T13, _T14 = _T[2:]
 
 
 @ijit
+def expm1_taylor(x):
+    """The Taylor polynomial of expm1_small (|x| <= EXPM1_TAYLOR_MAX), no branch: for loops LLVM
+    vectorizes."""
+    return x * (1.0 + x * (_T2 + x * (_T3 + x * (_T4 + x * (_T5 + x * (_T6 + x * (
+        _T7 + x * (_T8 + x * (_T9 + x * (_T10 + x * (_T11 + x * (_T12 + x * (
+            _T13 + x * _T14)))))))))))))
+
+
+@ijit
 def expm1_small(x):
     """expm1(x) = e^x - 1, inlined for |x| <= EXPM1_TAYLOR_MAX (libm beyond); see the module doc."""
     if abs(x) <= EXPM1_TAYLOR_MAX:
-        return x * (1.0 + x * (_T2 + x * (_T3 + x * (_T4 + x * (_T5 + x * (_T6 + x * (
-            _T7 + x * (_T8 + x * (_T9 + x * (_T10 + x * (_T11 + x * (_T12 + x * (
-                _T13 + x * _T14)))))))))))))
+        return expm1_taylor(x)
     return math.expm1(x)

@@ -81,10 +81,11 @@ from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
 from .coupling import (N_CHUNKS, Flow, Parcels, apply_exchange, chunk_assign, chunk_ranges,
-                       drag_rate, face_inverse_masses, grid_absmax, implicit_coefficients,
-                       implicit_corrections, implicit_estimate, lagrangian_time_coefficients,
-                       parcel_weight, tke_rates)
-from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_0687
+                       estimate_weights, face_inverse_masses, grid_absmax,
+                       implicit_coefficients, implicit_corrections,
+                       lagrangian_time_coefficients, parcel_weight, tke_rates)
+from .elementary import (CLIFT_EXPONENT, EXPM1_TAYLOR_MAX, binomial_coefficients, expm1_small,
+                         expm1_taylor, pow_0687, pow_0687_table)
 from .grid import Grid
 from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, Stencil, _bil, _tri, ijit,
                      interp_fluid, level_of, locate, pool_add_tri, slab_of, wrap_index,
@@ -136,27 +137,22 @@ _B1, _B2, _B3, _B4, _B5, _B6, _B7, _B8, _B9, _B10 = binomial_coefficients(CLIFT_
 
 
 @ijit
-def _expm1_near(k, h, kq, emq):
-    """expm1(-k h), from emq = expm1(-kq h) if |(kq - k) h| <= _NEAR (kq <= 0: no previous)."""
-    if kq > 0.0:
-        x = (kq - k) * h
-        if abs(x) <= _NEAR:
-            t = x * (1.0 + x * (_X2 + x * (_X3 + x * (_X4 + x * (_X5 + x * (_X6 + x * (
-                _X7 + x * (_X8 + x * _X9))))))))
-            return emq + (1.0 + emq) * t
-    return expm1_small(-k * h)
+def _expm1_shift(k, h, kq, emq):
+    """expm1(-k h) from emq = expm1(-kq h) by the series in x = (kq - k) h (exact to round-off
+    for |x| <= _NEAR)."""
+    x = (kq - k) * h
+    t = x * (1.0 + x * (_X2 + x * (_X3 + x * (_X4 + x * (_X5 + x * (_X6 + x * (
+        _X7 + x * (_X8 + x * _X9))))))))
+    return emq + (1.0 + emq) * t
 
 
 @ijit
-def _re687_near(rel, dnu, irelq, rpq):
-    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR; irelq = 1 / relq
-    (irelq <= 0: none)."""
-    if irelq > 0.0:
-        e = rel * irelq - 1.0
-        if abs(e) <= _NEAR:
-            return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
-                _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
-    return pow_0687(rel * dnu)
+def _re687_shift(rel, irelq, rpq):
+    """(rel dnu)^0.687 from rpq = (relq dnu)^0.687 by the binomial series in e = rel / relq - 1
+    (exact to round-off for |e| <= _NEAR); irelq = 1 / relq."""
+    e = rel * irelq - 1.0
+    return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
+        _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
 
 
 @jit
@@ -227,26 +223,39 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
 
 
 # ---- the advance of one parcel, process by process (inlined into _advance_chunk) ----------------
-# A block of up to _LANES parcels takes its first sub-step in three lockstep passes (_begin_lane,
-# _drag_lanes, _end_lane), so that the long dependency chains of independent parcels (the drag
-# rate's fixed point above all) overlap in the CPU; the few parcels that need more sub-steps go
-# on one at a time (_rest_of_step). Between the passes a lane's values wait in the chunk's lane
+# A block of up to _LANES parcels takes its first sub-step in passes over all its lanes. Where a
+# parcel's work branches or reads the grid (locating it and reading the wind there; the
+# deposits) the passes are scalar; between them, the step's coefficients, the drag rate's fixed
+# point and the relaxation and move are loops without branches or calls, which LLVM vectorizes
+# (8 lanes per instruction with AVX-512; the helpers' ``exact=False``). The few lanes whose
+# arithmetic there needs libm (an argument beyond the inlined expm1's or Re^0.687's range) or a
+# bed crossing are redone one at a time by the same helpers with ``exact=True`` (branches and
+# libm allowed: the same numbers wherever both apply), and a parcel that needs more sub-steps
+# takes them alone (_rest_of_step). Between the passes a lane's values wait in the chunk's lane
 # scratch, one row of _LANES values per quantity, flat: row r of lane l at r * _LANES + l (a
-# constant offset from one base pointer: one instruction per access).
-(_K, _KQ, _EMQ, _IRELQ, _RPQ, _H, _IH, _DU, _DV, _DW, _ITP, _DNU, _US, _VS, _WS, _MU, _MV, _MW,
- _TP, _QM, _T, _FXF, _FXC, _FYF, _FYC, _FZC, _FZF) = (r * _LANES for r in range(27))
-# _K drag rate k_p (the iteration's current value); _KQ, _EMQ, _IRELQ, _RPQ the iteration's last
-# evaluation; _H the sub-step h, _IH 1 / h; _DU, _DV, _DW the slip u_s - u_p at its start; _ITP
-# 1 / T_p; _DNU d / nu; _US, _VS, _WS the seen velocity (with the SGS part); _MU, _MV, _MW the
-# modelled impulse of the implicit estimate; _TP T_p; _QM Q m_p; _T the parcel's step (dt plus its
-# time credit); _FXF ... _FZF the stencil's fractions
-_LANE_ROWS_F = 27
-(_ACTIVE, _ITER, _E0, _XF, _XC, _YF, _YC, _KC, _KF, _LOG, _KCELL) = (r * _LANES for r in range(11))
-# _ACTIVE 1 if the lane takes its sub-step (0: empty, or the parcel was in the impact layer
-# already); _ITER 1 while its drag rate iterates; _E0 1 if the first evaluation's expm1 is the
-# implicit estimate's (same k and h: the same number); _XF ... _KF the stencil's indices, _LOG 1 in
+# constant offset from one base pointer).
+(_X, _Y, _Z, _U, _V, _W, _D, _KD, _T, _US, _VS, _WS, _SU, _SV, _SW, _DZK,
+ _FXF, _FXC, _FYF, _FYC, _FZC, _FZF,
+ _TP, _ITP, _DNU, _QM, _H, _IH, _DU, _DV, _DW, _MU, _MV, _MW,
+ _K, _KQ, _EMQ, _IRELQ, _RPQ,
+ _XN, _YN, _ZN, _UN, _VN, _WN) = (r * _LANES for r in range(45))
+# _X ... _W the parcel at the start, _D its diameter, _KD its stored drag rate, _T its step (dt
+# plus its time credit); _US, _VS, _WS the resolved wind it sees (with the SGS part _SU, _SV, _SW
+# once _lane_start has added it); _DZK the height of the cell holding it; _FXF ... _FZF the
+# stencil's fractions; _TP T_p, _ITP 1 / T_p, _DNU d / nu, _QM Q m_p; _H the sub-step, _IH 1 / h;
+# _DU, _DV, _DW the slip at its start; _MU, _MV, _MW the modelled impulse of the implicit
+# estimate; _K the drag rate (the iteration's current value), _KQ, _EMQ, _IRELQ, _RPQ the
+# iteration's last evaluation (_EMQ: the estimate's expm1 before the first); _XN ... _WN the
+# parcel at the end of the sub-step (_H then the sub-step as taken)
+_LANE_ROWS_F = 45
+(_ACTIVE, _ITER, _FIX, _E0, _HIT, _XF, _XC, _YF, _YC, _KC, _KF, _LOG, _KCELL) = (
+    r * _LANES for r in range(13))
+# _ACTIVE 1 if the lane takes its sub-step (0: the parcel was in the impact layer already);
+# _ITER 1 while its drag rate iterates; _FIX 1 if a vectorized pass left it to the exact one;
+# _E0 1 if the first drag evaluation's expm1 is the implicit estimate's (same k and h: the same
+# number); _HIT 1 if the sub-step ended at the bed; _XF ... _KF the stencil's indices, _LOG 1 in
 # the log region, _KCELL the level of the cell holding the parcel
-_LANE_ROWS_I = 11
+_LANE_ROWS_I = 13
 
 #: the scalars of a step, as _advance_chunk reads them once from prm and geo
 #: (paper: the log region deposits on klog, the level it reads; otherwise on another level)
@@ -319,66 +328,30 @@ def _response_time(dp, S):
 
 
 @ijit
-def _seen_with_sgs(P, p, us, vs, ws, S):
-    """The seen velocity plus the parcel's stochastic SGS part, if the case has one."""
-    if S.sgs:
-        us += P.su[p]
-        vs += P.sv[p]
-        ws += P.sw[p]
-    return us, vs, ws
-
-
-@ijit
-def _begin_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
-    """The first pass of lane l's first sub-step (parcel p, step T): the wind seen, the sub-step,
-    the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate with its k0, T and
-    weights, coupling.implicit_estimate), the slip, a first drag rate if the parcel has none
-    (its kd is then -k0: coupling.implicit_coefficients); the stencil is kept for the deposits."""
-    dp = P.d[p]
-    tp = _response_time(dp, S)
-    qm = parcel_weight(S.Q, S.rho_p, dp)
-    up = P.u[p]
-    vp = P.v[p]
-    wp = P.w[p]
-    st, us, vs, ws = _wind_seen(F, G, P.x[p], P.y[p], P.z[p], S, nx, ny, nz)
-    h = _substep_length(T, 0.0, wp, G.dz_c[st.kcell], 0)
-    k = P.kd[p]
-    k0 = k if k > 0.0 else -k
-    mu_ = 0.0
-    mv_ = 0.0
-    mw_ = 0.0
-    em0 = 0.0
-    if S.twoway:
-        em0, cc, wtil = implicit_estimate(k0, T, qm, wp, S.g)
-        if cc > 0.0:
-            mu_ = cc * (us - up)
-            mv_ = cc * (vs - vp)
-            mw_ = cc * (ws - wtil)
-    us, vs, ws = _seen_with_sgs(P, p, us, vs, ws, S)
-    Du = us - up
-    Dv = vs - vp
-    Dw = ws - wp
-    dnu = dp / S.nu
-    if k <= 0.0:
-        k = drag_rate(math.sqrt(Du * Du + Dv * Dv + Dw * Dw), dnu, tp)
-    lf[_K + l] = k
-    lf[_EMQ + l] = em0
-    lf[_H + l] = h
-    lf[_IH + l] = 1.0 / h
-    lf[_DU + l] = Du
-    lf[_DV + l] = Dv
-    lf[_DW + l] = Dw
-    lf[_ITP + l] = 1.0 / tp
-    lf[_DNU + l] = dnu
+def _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
+    """Scalar pass 1 of lane l (parcel p, step T): the parcel into the lane, its stencil and the
+    resolved wind it sees (_wind_seen)."""
+    xp = P.x[p]
+    yp = P.y[p]
+    zp = P.z[p]
+    st, us, vs, ws = _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz)
+    lf[_X + l] = xp
+    lf[_Y + l] = yp
+    lf[_Z + l] = zp
+    lf[_U + l] = P.u[p]
+    lf[_V + l] = P.v[p]
+    lf[_W + l] = P.w[p]
+    lf[_D + l] = P.d[p]
+    lf[_KD + l] = P.kd[p]
+    lf[_T + l] = T
     lf[_US + l] = us
     lf[_VS + l] = vs
     lf[_WS + l] = ws
-    lf[_MU + l] = mu_
-    lf[_MV + l] = mv_
-    lf[_MW + l] = mw_
-    lf[_TP + l] = tp
-    lf[_QM + l] = qm
-    lf[_T + l] = T
+    if S.sgs:
+        lf[_SU + l] = P.su[p]
+        lf[_SV + l] = P.sv[p]
+        lf[_SW + l] = P.sw[p]
+    lf[_DZK + l] = G.dz_c[st.kcell]
     lf[_FXF + l] = st.fxf
     lf[_FXC + l] = st.fxc
     lf[_FYF + l] = st.fyf
@@ -386,8 +359,6 @@ def _begin_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
     lf[_FZC + l] = st.fzc
     lf[_FZF + l] = st.fzf
     li[_ACTIVE + l] = 1
-    li[_ITER + l] = 1
-    li[_E0 + l] = 1 if (S.twoway and h == T and k == k0) else 0
     li[_XF + l] = st.ixf
     li[_XC + l] = st.ixc
     li[_YF + l] = st.jyf
@@ -399,24 +370,156 @@ def _begin_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
 
 
 @ijit
-def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S):
-    """One update of a drag rate k towards the fixed point k = F(k) (module doc); em =
-    expm1(-k h). F(k) is f(Re_p) / T_p at the slip E * (step-mean slip) + (1 - E) * (end slip) of
-    the relaxation with k frozen, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z.
-    Safeguarded Newton (dF/dk analytic) if ``newton``, else a plain fixed-point update. Returns
-    the next k, whether |F(k) - k| was already within the tolerance (S.tol k for a Newton update,
-    S.tol_fp k for a plain one; the update is applied all the same), and 1 / |slip| and
-    Re_p^0.687 for the next evaluation's series (_re687_near)."""
+def _lane_stencil(lf, li, l):
+    """Lane l's Stencil (interp.locate) as _load_lane kept it."""
+    return Stencil(li[_XF + l], lf[_FXF + l], li[_XC + l], lf[_FXC + l], li[_YF + l],
+                   lf[_FYF + l], li[_YC + l], lf[_FYC + l], li[_KC + l], lf[_FZC + l],
+                   li[_KF + l], lf[_FZF + l], 1.0, li[_LOG + l] != 0, li[_KCELL + l], 0)
+
+
+@ijit
+def _expm1_arg(x, exact):
+    """expm1(x) and whether it is exact to round-off: with ``exact``, elementary.expm1_small
+    (libm beyond the Taylor range); else the Taylor polynomial alone (no branch, no call)."""
+    if exact:
+        return expm1_small(x), True
+    return expm1_taylor(x), abs(x) <= EXPM1_TAYLOR_MAX
+
+
+@ijit
+def _expm1_near(k, h, kq, emq, exact):
+    """expm1(-k h), from emq = expm1(-kq h) if |(kq - k) h| <= _NEAR (kq <= 0: no previous), and
+    whether it is exact to round-off (_expm1_arg)."""
+    near = kq > 0.0 and abs((kq - k) * h) <= _NEAR
+    if exact:
+        if near:
+            return _expm1_shift(k, h, kq, emq), True
+        return expm1_small(-k * h), True
+    v, ok = _expm1_arg(-k * h, False)
+    if near:
+        v = _expm1_shift(k, h, kq, emq)
+    return v, near or ok
+
+
+@ijit
+def _pow687(x, exact):
+    """x^0.687 and whether it is exact to round-off: with ``exact``, elementary.pow_0687 (libm
+    beyond its tables); else the table path alone (elementary.pow_0687_table)."""
+    if exact:
+        return pow_0687(x), True
+    return pow_0687_table(x)
+
+
+@ijit
+def _re687_near(rel, dnu, irelq, rpq, exact):
+    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR; irelq = 1 / relq
+    (irelq <= 0: none); and whether it is exact to round-off (_pow687)."""
+    near = irelq > 0.0 and abs(rel * irelq - 1.0) <= _NEAR
+    if exact:
+        if near:
+            return _re687_shift(rel, irelq, rpq), True
+        return pow_0687(rel * dnu), True
+    v, ok = pow_0687_table(rel * dnu)
+    if near:
+        v = _re687_shift(rel, irelq, rpq)
+    return v, near or ok
+
+
+@ijit
+def _lane_start(lf, li, l, S, exact):
+    """Pass 2 of lane l (vectorized; exact: a lane it left): the parcel's constants, the sub-step
+    (_substep_length), the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate
+    with its k0, T and weights, coupling.estimate_weights), the seen velocity with its SGS part,
+    the slip, a first drag rate if the parcel has none (its kd is then -k0:
+    coupling.implicit_coefficients), and the drag iteration's start."""
+    active = li[_ACTIVE + l] != 0
+    dp = lf[_D + l]
+    T = lf[_T + l]
+    up = lf[_U + l]
+    vp = lf[_V + l]
+    wp = lf[_W + l]
+    us = lf[_US + l]
+    vs = lf[_VS + l]
+    ws = lf[_WS + l]
+    k = lf[_KD + l]
+    tp = _response_time(dp, S)
+    qm = parcel_weight(S.Q, S.rho_p, dp)
+    h = _substep_length(T, 0.0, wp, lf[_DZK + l], 0)
+    k0 = k if k > 0.0 else -k
+    mu_ = 0.0
+    mv_ = 0.0
+    mw_ = 0.0
+    em0 = 0.0
+    ok = True
+    if S.twoway:
+        em0, ok = _expm1_arg(-k0 * T, exact)
+        cc, wtil = estimate_weights(em0, k0, T, qm, wp, S.g)
+        if cc > 0.0:
+            mu_ = cc * (us - up)
+            mv_ = cc * (vs - vp)
+            mw_ = cc * (ws - wtil)
+    if S.sgs:
+        us += lf[_SU + l]
+        vs += lf[_SV + l]
+        ws += lf[_SW + l]
+    Du = us - up
+    Dv = vs - vp
+    Dw = ws - wp
+    dnu = dp / S.nu
+    if k <= 0.0:  # drag_rate (coupling.py)
+        rp, ok2 = _pow687(math.sqrt(Du * Du + Dv * Dv + Dw * Dw) * dnu, exact)
+        k = (1.0 + 0.15 * rp) / tp
+        ok = ok and ok2
+    lf[_TP + l] = tp
+    lf[_ITP + l] = 1.0 / tp
+    lf[_DNU + l] = dnu
+    lf[_QM + l] = qm
+    lf[_H + l] = h
+    lf[_IH + l] = 1.0 / h
+    lf[_DU + l] = Du
+    lf[_DV + l] = Dv
+    lf[_DW + l] = Dw
+    lf[_US + l] = us
+    lf[_VS + l] = vs
+    lf[_WS + l] = ws
+    lf[_MU + l] = mu_
+    lf[_MV + l] = mv_
+    lf[_MW + l] = mw_
+    lf[_K + l] = k
+    lf[_KQ + l] = -1.0  # no evaluation yet
+    lf[_EMQ + l] = em0
+    lf[_IRELQ + l] = 0.0
+    lf[_RPQ + l] = 0.0
+    li[_E0 + l] = 1 if (S.twoway and h == T and k == k0) else 0
+    li[_ITER + l] = 1 if active else 0
+    li[_FIX + l] = 1 if (active and not ok) else 0
+
+
+@ijit
+def _slip_at(k, em, ih, Du, Dv, Dw, g):
+    """The slip at which F(k) is evaluated (module doc): E * (step-mean slip) + (1 - E) * (end
+    slip) of the relaxation over h with k frozen, em = expm1(-k h), ih = 1 / h, from the slip
+    (Du, Dv, Dw) at the start: beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z. Returns it (ax, ay,
+    az), its size and the factors dF/dk needs."""
     ik = 1.0 / k
     E = 1.0 + em
     phi = -em * ik * ih
     beta = E * (phi - em)
-    gk = S.g * ik
+    gk = g * ik
     ax = Du * beta
     ay = Dv * beta
     az = gk + (Dw - gk) * beta
     rel = math.sqrt(ax * ax + ay * ay + az * az)
-    rp = _re687_near(rel, dnu, irelq, rpq)
+    return ax, ay, az, rel, ik, E, phi, beta, gk
+
+
+@ijit
+def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, itp, newton,
+                   S):
+    """F(k) = f(Re_p) / T_p from rp = Re_p^0.687 at the slip of _slip_at, and the next k:
+    safeguarded Newton (dF/dk analytic) if ``newton``, else a plain fixed-point update. Returns
+    the next k, whether |F(k) - k| was already within the tolerance (S.tol k for a Newton update,
+    S.tol_fp k for a plain one; the update is applied all the same) and 1 / |slip|."""
     irel = 1.0 / rel if rel > 0.0 else 0.0
     F = (1.0 + 0.15 * rp) * itp
     G = F - k
@@ -433,43 +536,67 @@ def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S)
             if kt > 0.0:
                 kn = kt
                 lim = S.tol
-    return kn, abs(G) <= lim * k, irel, rp
+    return kn, abs(G) <= lim * k, irel
+
+
+@ijit
+def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S, exact):
+    """One update of a drag rate k towards the fixed point k = F(k) (module doc), em =
+    expm1(-k h): _slip_at, Re_p^0.687 there (from the last evaluation's if near, _re687_near),
+    _newton_update. Returns the next k, whether k was within the tolerance, 1 / |slip| and
+    Re_p^0.687 for the next evaluation, and whether Re_p^0.687 is exact (_pow687)."""
+    ax, ay, az, rel, ik, E, phi, beta, gk = _slip_at(k, em, ih, Du, Dv, Dw, S.g)
+    rp, ok = _re687_near(rel, dnu, irelq, rpq, exact)
+    kn, done, irel = _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw,
+                                    itp, newton, S)
+    return kn, done, irel, rp, ok
+
+
+@ijit
+def _lane_drag_update(lf, li, l, it, S, exact):
+    """Update number ``it`` of lane l's drag rate if it still iterates (_drag_rate_update), as
+    selects (vectorized; exact: a lane it left): a lane not iterating, or one whose update needs
+    the exact pass, keeps its values (the latter is marked _FIX). Returns 1 if the lane iterates
+    on (those marked included)."""
+    going = li[_ITER + l] != 0
+    k = lf[_K + l]
+    h = lf[_H + l]
+    kq = lf[_KQ + l]
+    emq = lf[_EMQ + l]
+    irelq = lf[_IRELQ + l]
+    rpq = lf[_RPQ + l]
+    if it == 0 and li[_E0 + l] != 0:
+        em = emq
+        ok1 = True
+    else:
+        em, ok1 = _expm1_near(k, h, kq, emq, exact)
+    kn, done, irel, rp, ok2 = _drag_rate_update(k, em, h, lf[_IH + l], lf[_DU + l], lf[_DV + l],
+                                                lf[_DW + l], lf[_ITP + l], lf[_DNU + l], irelq,
+                                                rpq, it < NEWTON_MAXIT, S, exact)
+    upd = going and ok1 and ok2
+    lf[_K + l] = kn if upd else k
+    lf[_KQ + l] = k if upd else kq
+    lf[_EMQ + l] = em if upd else emq
+    lf[_IRELQ + l] = irel if upd else irelq
+    lf[_RPQ + l] = rp if upd else rpq
+    li[_FIX + l] = 1 if (going and not upd) else 0
+    stop = upd and done
+    li[_ITER + l] = 0 if stop else li[_ITER + l]
+    return 1 if (going and not stop) else 0
 
 
 @ijit
 def _drag_lanes(lf, li, nb, S):
     """The drag rates of lanes 0..nb-1 with _ITER set, iterated in lockstep (the long dependency
-    chains of independent parcels overlap in the CPU) until each is within the tolerance."""
+    chains of independent parcels overlap in the CPU; the updates run on vector units) until each
+    is within the tolerance."""
     for it in range(DRAG_MAXIT):
         left = 0
         for l in range(nb):
-            if li[_ITER + l] == 0:
-                continue
-            k = lf[_K + l]
-            h = lf[_H + l]
-            if it == 0:
-                if li[_E0 + l] != 0:
-                    em = lf[_EMQ + l]
-                else:
-                    em = expm1_small(-k * h)
-                irelq = 0.0
-                rpq = 0.0
-            else:
-                em = _expm1_near(k, h, lf[_KQ + l], lf[_EMQ + l])
-                irelq = lf[_IRELQ + l]
-                rpq = lf[_RPQ + l]
-            kn, done, irel, rp = _drag_rate_update(k, em, h, lf[_IH + l], lf[_DU + l],
-                                                   lf[_DV + l], lf[_DW + l], lf[_ITP + l],
-                                                   lf[_DNU + l], irelq, rpq, it < NEWTON_MAXIT, S)
-            lf[_K + l] = kn
-            lf[_KQ + l] = k
-            lf[_EMQ + l] = em
-            lf[_IRELQ + l] = irel
-            lf[_RPQ + l] = rp
-            if done:
-                li[_ITER + l] = 0
-            else:
-                left += 1
+            left += _lane_drag_update(lf, li, l, it, S, False)
+        for l in range(nb):
+            if li[_FIX + l] != 0:
+                left -= 1 - _lane_drag_update(lf, li, l, it, S, True)
         if left == 0:
             break
 
@@ -484,9 +611,9 @@ def _drag_rate(k, h, Du, Dv, Dw, itp, dnu, S):
     irelq = 0.0
     rpq = 0.0
     for it in range(DRAG_MAXIT):
-        em = _expm1_near(k, h, kq, emq)
-        kn, done, irelq, rpq = _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq,
-                                                 it < NEWTON_MAXIT, S)
+        em, _ = _expm1_near(k, h, kq, emq, True)
+        kn, done, irelq, rpq, _ = _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq,
+                                                    rpq, it < NEWTON_MAXIT, S, True)
         kq = k
         emq = em
         k = kn
@@ -537,6 +664,45 @@ def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
 
 
 @ijit
+def _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, S, exact):
+    """A sub-step of h with drag rate k (kq, emq: the iteration's last evaluation): drag (exact
+    relaxation, _relax), the height, the bed crossing (exact only: a sub-step ending in the
+    impact layer is cut there), the move. Returns the parcel's (x, y, z, u, v, w), the sub-step
+    as taken, whether it ended in the impact layer and whether the numbers are exact
+    (_expm1_near; without ``exact`` a hit's are not: no cut)."""
+    ik = 1.0 / k
+    em, ok = _expm1_near(k, h, kq, emq, exact)
+    wt = ws - S.g * ik
+    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
+    zn = _height(zp, wt, wp, h, ome_k)
+    hit = zn < S.h_imp
+    if exact and hit:
+        h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, S.h_imp)
+        zn = S.h_imp
+    xn, yn, zn, wn = _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S)
+    return xn, yn, zn, un, vn, wn, h, hit, ok and not hit
+
+
+@ijit
+def _lane_move(lf, li, l, S, exact):
+    """Pass 4 of lane l (vectorized; exact: a lane it left, _FIX): _relax_and_move over its
+    sub-step; the end state into the lane, _HIT if it ended at the bed."""
+    active = li[_ACTIVE + l] != 0
+    xn, yn, zn, un, vn, wn, h, hit, ok = _relax_and_move(
+        lf[_X + l], lf[_Y + l], lf[_Z + l], lf[_U + l], lf[_V + l], lf[_W + l], lf[_US + l],
+        lf[_VS + l], lf[_WS + l], lf[_K + l], lf[_KQ + l], lf[_EMQ + l], lf[_H + l], S, exact)
+    lf[_XN + l] = xn
+    lf[_YN + l] = yn
+    lf[_ZN + l] = zn
+    lf[_UN + l] = un
+    lf[_VN + l] = vn
+    lf[_WN + l] = wn
+    lf[_H + l] = h
+    li[_HIT + l] = 1 if (exact and hit) else 0
+    li[_FIX + l] = 1 if (active and not ok) else 0
+
+
+@ijit
 def _reaction_to_air(O, st, mu_, mv_, mw_, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny):
     """Two-way: the air's impulse is minus the parcel's drag impulse, Q m_p (Delta u - g h), plus
     (first sub-step) the modelled impulse (mu_, mv_, mw_), deposited with the weights of Stencil
@@ -572,27 +738,12 @@ def _tke_sink(O, F, st, Qm, k, tp, h, S, nx, ny):
 
 
 @ijit
-def _end_substep(O, F, st, xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, tp, qm, mu_, mv_,
-                 mw_, S, nx, ny):
-    """The end of a sub-step of h with drag rate k (kq, emq: the iteration's last evaluation):
-    drag (exact relaxation), bed crossing, move, the reaction to the air and the TKE sink.
-    Returns the parcel's (x, y, z, u, v, w), the sub-step as taken (cut at a bed crossing) and
-    whether it hit the bed."""
-    ik = 1.0 / k
-    em = _expm1_near(k, h, kq, emq)
-    wt = ws - S.g * ik
-    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
-    zn = _height(zp, wt, wp, h, ome_k)
-    hit = zn < S.h_imp
-    if hit:
-        h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, S.h_imp)
-        zn = S.h_imp
-    xn, yn, zn, wn = _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S)
+def _to_air(O, F, st, mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, k, tp, h, S, nx, ny):
+    """A sub-step's exchange with the air: the reaction (two-way) and the TKE sink."""
     if S.twoway:
         _reaction_to_air(O, st, mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, S, h, nx, ny)
     if S.tke:
         _tke_sink(O, F, st, qm, k, tp, h, S, nx, ny)
-    return xn, yn, zn, un, vn, wn, h, hit
 
 
 @ijit
@@ -606,11 +757,15 @@ def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx,
     while True:
         st, us, vs, ws = _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz)
         h = _substep_length(T, t, wp, G.dz_c[st.kcell], nsub)
-        us, vs, ws = _seen_with_sgs(P, p, us, vs, ws, S)
+        if S.sgs:
+            us += P.su[p]
+            vs += P.sv[p]
+            ws += P.sw[p]
         k, kq, emq = _drag_rate(k, h, us - up, vs - vp, ws - wp, itp, dnu, S)
-        xp, yp, zp, up, vp, wp, h, hit = _end_substep(O, F, st, xp, yp, zp, up, vp, wp, us, vs,
-                                                      ws, k, kq, emq, h, tp, qm, 0.0, 0.0, 0.0,
-                                                      S, nx, ny)
+        xn, yn, zn, un, vn, wn, h, hit, _ = _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws,
+                                                            k, kq, emq, h, S, True)
+        _to_air(O, F, st, 0.0, 0.0, 0.0, qm, un, vn, wn, up, vp, wp, k, tp, h, S, nx, ny)
+        xp, yp, zp, up, vp, wp = xn, yn, zn, un, vn, wn
         t += h
         nsub += 1
         if hit or not t < T:
@@ -618,24 +773,24 @@ def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx,
 
 
 @ijit
-def _end_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
-    """The third pass of lane l's first sub-step (parcel p), then the parcel's further sub-steps
-    if it needs them; its state is stored back. Returns (hit, time left, u, v)."""
-    st = Stencil(li[_XF + l], lf[_FXF + l], li[_XC + l], lf[_FXC + l], li[_YF + l], lf[_FYF + l],
-                 li[_YC + l], lf[_FYC + l], li[_KC + l], lf[_FZC + l], li[_KF + l], lf[_FZF + l],
-                 1.0, li[_LOG + l] != 0, li[_KCELL + l], 0)
-    up = P.u[p]
-    vp = P.v[p]
-    wp = P.w[p]
+def _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
+    """Scalar pass 5 of lane l (parcel p): the sub-step's exchange with the air, the parcel's
+    further sub-steps if it needs them, its state stored back. Returns (hit, time left, u, v)."""
+    st = _lane_stencil(lf, li, l)
     k = lf[_K + l]
     h = lf[_H + l]
     T = lf[_T + l]
     tp = lf[_TP + l]
     qm = lf[_QM + l]
-    xn, yn, zn, un, vn, wn, h, hit = _end_substep(O, F, st, P.x[p], P.y[p], P.z[p], up, vp, wp,
-                                                  lf[_US + l], lf[_VS + l], lf[_WS + l], k,
-                                                  lf[_KQ + l], lf[_EMQ + l], h, tp, qm,
-                                                  lf[_MU + l], lf[_MV + l], lf[_MW + l], S, nx, ny)
+    xn = lf[_XN + l]
+    yn = lf[_YN + l]
+    zn = lf[_ZN + l]
+    un = lf[_UN + l]
+    vn = lf[_VN + l]
+    wn = lf[_WN + l]
+    hit = li[_HIT + l] != 0
+    _to_air(O, F, st, lf[_MU + l], lf[_MV + l], lf[_MW + l], qm, un, vn, wn, lf[_U + l],
+            lf[_V + l], lf[_W + l], k, tp, h, S, nx, ny)
     left = T - h
     if not hit and h < T:
         xn, yn, zn, un, vn, wn, k, hit, left = _rest_of_step(P, p, h, T, xn, yn, zn, un, vn, wn,
@@ -675,22 +830,22 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
 
     Records: P :data:`coupling.Parcels`, F :data:`coupling.Flow`, G :data:`interp.Geometry`, W
     :data:`Work`. Two-way, a parcel adds the modelled impulse c_p (u_s - u~_p) of the implicit
-    estimate (coupling.implicit_estimate, from its k0 and step as coupling.implicit_coefficients
-    had them) on its first sub-step.
+    estimate (from its k0 and step as coupling.implicit_coefficients had them) on its first
+    sub-step.
 
     Deposits in the chunk's pool range (``W.ranges[c]`` = first slab s, L slabs, offset off;
     comps 0-2 = u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk); ``ncomp`` comps;
     zeroed here first) minus the drag impulse plus the modelled impulse (same weights as the
     first sub-step's drag impulse: one deposit).
 
-    Serial, in blocks of ``_LANES`` parcels: the first sub-step of every parcel of the block is
-    done in three passes (_begin_lane: locate and the wind seen; _drag_lanes: the drag-rate
-    iterations of all lanes in lockstep; _end_lane: drag, bed crossing, move, deposits, and any
-    further sub-steps of that parcel alone), so that the long dependency chains of independent
-    parcels overlap in the CPU. Each parcel's arithmetic is the same as one at a time; only the
-    order of the deposits into the pool differs (round-off). The helpers are inlined here by LLVM
-    (``_jit.device``); the prange over chunks is in _advance_all. Compiled without reference
-    counting (``jit_borrow``): the lane scratch comes from the caller.
+    Serial, in blocks of ``_LANES`` parcels, the first sub-step of the block's parcels in passes
+    over the block (see the section comment above _wind_seen): _load_lane (locate, the wind
+    seen), _lane_start, _drag_lanes, _lane_move (vectorized, with their exact redos), then
+    _finish_lane (deposits, further sub-steps, the parcel stored). Each parcel's arithmetic is
+    that of one parcel at a time; only the order of the deposits into the pool differs
+    (round-off). The helpers are inlined here by LLVM (``_jit.device``); the prange over chunks
+    is in _advance_all. Compiled without reference counting (``jit_borrow``): the lane scratch
+    comes from the caller.
     """
     nx = F.u.shape[0]
     ny = F.u.shape[1]
@@ -719,19 +874,27 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
             P.trem[p] = 0.0
             if P.z[p] < S.h_imp:  # already inside the impact layer: splash now
                 li[_ACTIVE + l] = 0
-                li[_ITER + l] = 0
                 if P.kd[p] < 0.0:  # the implicit estimate's k0 (coupling.py): none yet
                     P.kd[p] = 0.0
                 nh = _hit(P, p, T, nh)
                 vm = _track_speed(vm, P.u[p], P.v[p])
                 continue
-            _begin_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz)
+            _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz)
+        for l in range(nb):
+            _lane_start(lf, li, l, S, False)
+        for l in range(nb):
+            if li[_FIX + l] != 0:
+                _lane_start(lf, li, l, S, True)
         _drag_lanes(lf, li, nb, S)
+        for l in range(nb):
+            _lane_move(lf, li, l, S, False)
         for l in range(nb):
             if li[_ACTIVE + l] == 0:
                 continue
+            if li[_FIX + l] != 0:
+                _lane_move(lf, li, l, S, True)
             p = W.idx[q0 + l]
-            hit, left, un, vn = _end_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz)
+            hit, left, un, vn = _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz)
             if hit:
                 nh = _hit(P, p, left, nh)
             vm = _track_speed(vm, un, vn)
