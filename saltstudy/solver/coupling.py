@@ -363,114 +363,139 @@ def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
         _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk)
 
 
+@ijit
+def _covers(ranges, c, i, nx):
+    """Chunk c's local index of slab i, or -1 if its pool range does not cover slab i."""
+    ii = i - ranges[c, 0]
+    if ii < 0:
+        ii += nx
+    return ii if ii < ranges[c, 1] else -1
+
+
 @pjit
-def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, Uc, Vc, Wc, dmax):
+def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, Uc, Vc, Wc, dmax,
+                         acc):
     """delta_f = (sum_c B - U_f sum_c A) / (M_f + sum_c A) on the lowest nk levels of each face
     field: the backward-Euler air velocity change (a convex combination, see module doc).
-    Also the seen fields Uc = U + delta (etc.) and dmax[i] = max |delta| over slab i."""
+    Also the seen fields Uc = U + delta (etc.) and dmax[i] = max |delta| over slab i.
+
+    Per column, the chunks' (A, B) are first summed (in chunk order) into the slab's row of the
+    scratch acc (nx, 6, >= nk), then the column is solved: loops over the levels that LLVM
+    vectorizes (the contiguous levels of a chunk's column, the divisions of the solve)."""
     nc = ranges.shape[0]
     nx = du.shape[0]
     ny = du.shape[1]
     nk = dw.shape[2]
     for i in prange(nx):
+        a = acc[i]
         dm = 0.0
         for j in range(ny):
+            for r in range(6):
+                for k in range(nk):
+                    a[r, k] = 0.0
+            for c in range(nc):
+                ii = _covers(ranges, c, i, nx)
+                if ii < 0:
+                    continue
+                csz = ranges[c, 1] * ny * nk * 2
+                q = ranges[c, 2] + 2 * (ii * ny + j) * nk
+                for k in range(nk):
+                    a[0, k] += pool[q + 2 * k]
+                    a[1, k] += pool[q + 2 * k + 1]
+                    a[2, k] += pool[q + csz + 2 * k]
+                    a[3, k] += pool[q + csz + 2 * k + 1]
+                    a[4, k] += pool[q + 2 * csz + 2 * k]
+                    a[5, k] += pool[q + 2 * csz + 2 * k + 1]
+            # the solve, per component in its own loop: each writes few arrays, so that LLVM's
+            # runtime alias checks stay within its limit and the loop vectorizes
             for k in range(nk):
-                au = 0.0
-                av = 0.0
-                aw = 0.0
-                bu = 0.0
-                bv = 0.0
-                bw = 0.0
-                for c in range(nc):
-                    L = ranges[c, 1]
-                    ii = i - ranges[c, 0]
-                    if ii < 0:
-                        ii += nx
-                    if ii >= L:
-                        continue
-                    csz = L * ny * nk * 2
-                    q = ranges[c, 2] + 2 * ((ii * ny + j) * nk + k)
-                    au += pool[q]
-                    bu += pool[q + 1]
-                    av += pool[q + csz]
-                    bv += pool[q + csz + 1]
-                    aw += pool[q + 2 * csz]
-                    bw += pool[q + 2 * csz + 1]
                 m = inv_mc[k]
-                a = (bu - au * uf[i, j, k]) * m / (1.0 + au * m)
-                b = (bv - av * vf[i, j, k]) * m / (1.0 + av * m)
-                du[i, j, k] = a
-                dv[i, j, k] = b
-                Uc[i, j, k] = uf[i, j, k] + a
-                Vc[i, j, k] = vf[i, j, k] + b
+                x = (a[1, k] - a[0, k] * uf[i, j, k]) * m / (1.0 + a[0, k] * m)
+                y = (a[3, k] - a[2, k] * vf[i, j, k]) * m / (1.0 + a[2, k] * m)
                 m = inv_mw[k]
-                cc = (bw - aw * wf[i, j, k]) * m / (1.0 + aw * m)
-                dw[i, j, k] = cc
-                Wc[i, j, k] = wf[i, j, k] + cc
-                a = max(abs(a), abs(b))
-                if a > dm:
-                    dm = a
+                a[4, k] = (a[5, k] - a[4, k] * wf[i, j, k]) * m / (1.0 + a[4, k] * m)
+                a[0, k] = x
+                a[2, k] = y
+            for k in range(nk):  # (a float max reduction does not vectorize without nnan)
+                dm = max(dm, max(abs(a[0, k]), abs(a[2, k])))
+            for k in range(nk):
+                du[i, j, k] = a[0, k]
+                Uc[i, j, k] = uf[i, j, k] + a[0, k]
+            for k in range(nk):
+                dv[i, j, k] = a[2, k]
+                Vc[i, j, k] = vf[i, j, k] + a[2, k]
+            for k in range(nk):
+                dw[i, j, k] = a[4, k]
+                Wc[i, j, k] = wf[i, j, k] + a[4, k]
         dmax[i] = dm
 
 
 @pjit
-def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot):
+def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot,
+                   acc, part):
     """Air update: U += delta + (sum_c P[c]) / M on the lowest nk levels (module doc); m_c, m_w
     are the face masses M (inverses of inv_mc, inv_mw; 0 where inv_mw is).
 
     P (comps 0, 1, 2 of the chunks' pool ranges, each (L, ny, nk); ncomp comps per chunk) holds,
     per face, the difference between the modelled and the actual drag impulses of the parcels
     (zero if they coincide). tot (3,) receives the momentum given to the air (kg m s^-1); the
-    return value is the w impulse taken by the bed face. Sums are taken in a fixed order.
+    return value is the w impulse taken by the bed face. Sums over chunks are taken in chunk
+    order, per column into the slab's row of the scratch acc (nx, >= 3, >= nk) as in
+    implicit_corrections; part (nx, 4) holds the slabs' momentum sums.
     """
     nc = ranges.shape[0]
     nx = uf.shape[0]
     ny = uf.shape[1]
     nk = du.shape[2]
-    su = np.zeros(nx)
-    sv = np.zeros(nx)
-    sw = np.zeros(nx)
-    sbed = np.zeros(nx)
     for i in prange(nx):
+        a = acc[i]
+        su = 0.0
+        sv = 0.0
+        sw = 0.0
+        sbed = 0.0
         for j in range(ny):
+            for r in range(3):
+                for k in range(nk):
+                    a[r, k] = 0.0
+            for c in range(nc):
+                ii = _covers(ranges, c, i, nx)
+                if ii < 0:
+                    continue
+                csz = ranges[c, 1] * ny * nk
+                q = ranges[c, 2] + (ii * ny + j) * nk
+                for k in range(nk):
+                    a[0, k] += pool[q + k]
+                    a[1, k] += pool[q + csz + k]
+                    a[2, k] += pool[q + 2 * csz + k]
             for k in range(nk):
-                pu = 0.0
-                pv = 0.0
-                pw = 0.0
-                for c in range(nc):
-                    L = ranges[c, 1]
-                    ii = i - ranges[c, 0]
-                    if ii < 0:
-                        ii += nx
-                    if ii >= L:
-                        continue
-                    csz = L * ny * nk
-                    q = ranges[c, 2] + (ii * ny + j) * nk + k
-                    pu += pool[q]
-                    pv += pool[q + csz]
-                    pw += pool[q + 2 * csz]
-                pu += du[i, j, k] * m_c[k]
-                pv += dv[i, j, k] * m_c[k]
+                pu = a[0, k] + du[i, j, k] * m_c[k]
                 uf[i, j, k] += pu * inv_mc[k]
+                su += pu
+            for k in range(nk):
+                pv = a[1, k] + dv[i, j, k] * m_c[k]
                 vf[i, j, k] += pv * inv_mc[k]
-                su[i] += pu
-                sv[i] += pv
+                sv += pv
+            for k in range(nk):
+                pw = a[2, k]
                 if inv_mw[k] > 0.0:
                     pw += dw[i, j, k] * m_w[k]
                     wf[i, j, k] += pw * inv_mw[k]
-                    sw[i] += pw
+                    sw += pw
                 else:
-                    sbed[i] += pw
+                    sbed += pw
+        part[i, 0] = su
+        part[i, 1] = sv
+        part[i, 2] = sw
+        part[i, 3] = sbed
     a = 0.0
     b = 0.0
     cc = 0.0
     bed = 0.0
     for i in range(nx):
-        a += su[i]
-        b += sv[i]
-        cc += sw[i]
-        bed += sbed[i]
+        a += part[i, 0]
+        b += part[i, 1]
+        cc += part[i, 2]
+        bed += part[i, 3]
     tot[0] = a
     tot[1] = b
     tot[2] = cc
@@ -478,26 +503,27 @@ def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf
 
 
 @pjit
-def tke_rates(pool, ranges, comp, nk_c, nz, inv_vol, out):
+def tke_rates(pool, ranges, comp, nk_c, nz, inv_vol, out, acc):
     """out[:, :, :nk_c] = sum_c T[c] / V_cell; zero on levels nk_c..nz-1 (rates of eq. A1, s^-1;
     the caller knows the levels from nz up to be zero already). T[c] is comp ``comp`` of chunk
-    c's pool range, (L, ny, nk_c)."""
+    c's pool range, (L, ny, nk_c); the sums over chunks in chunk order, per column into the
+    slab's row of the scratch acc (nx, >= 1, >= nk_c)."""
     nc = ranges.shape[0]
     nx = out.shape[0]
     ny = out.shape[1]
     for i in prange(nx):
+        a = acc[i]
         for j in range(ny):
-            for k in range(nz):
-                if k < nk_c:
-                    s = 0.0
-                    for c in range(nc):
-                        L = ranges[c, 1]
-                        ii = i - ranges[c, 0]
-                        if ii < 0:
-                            ii += nx
-                        if ii >= L:
-                            continue
-                        s += pool[ranges[c, 2] + ((comp * L + ii) * ny + j) * nk_c + k]
-                    out[i, j, k] = s * inv_vol[k]
-                else:
-                    out[i, j, k] = 0.0
+            for k in range(nk_c):
+                a[0, k] = 0.0
+            for c in range(nc):
+                ii = _covers(ranges, c, i, nx)
+                if ii < 0:
+                    continue
+                q = ranges[c, 2] + ((comp * ranges[c, 1] + ii) * ny + j) * nk_c
+                for k in range(nk_c):
+                    a[0, k] += pool[q + k]
+            for k in range(nk_c):
+                out[i, j, k] = a[0, k] * inv_vol[k]
+            for k in range(nk_c, nz):
+                out[i, j, k] = 0.0

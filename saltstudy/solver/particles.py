@@ -1302,6 +1302,10 @@ class Saltation:
         self._lane_f = np.zeros((nc, _LANE_ROWS_F * _LANES))
         self._lane_i = np.zeros((nc, _LANE_ROWS_I * _LANES), dtype=np.int64)
         self._dmax = np.zeros(nx)
+        # per-slab scratch of the grid passes (coupling.implicit_corrections, apply_exchange,
+        # tke_rates): a column's sums over the chunks, and the slabs' momentum sums
+        self._acc = np.zeros((nx, 6, nz))
+        self._part = np.zeros((nx, 4))
         self._pool = np.zeros(0)
         self._grid6 = np.zeros((6, nx * ny * nz)) if self.two_way else np.zeros((6, 1))
         self._cnt = np.zeros(4, dtype=np.int64)
@@ -1360,7 +1364,8 @@ class Saltation:
             implicit_coefficients(self._cstart, self._idx, P, F, dt, self.prm, geo.record,
                                   self._pool, self._ranges, nk)
             implicit_corrections(self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
-                                 state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax)
+                                 state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax,
+                                 self._acc)
             dumax = float(self._dmax.max())
         else:
             dumax = 0.0
@@ -1400,7 +1405,8 @@ class Saltation:
         if two:
             tot = self._tot
             bed = apply_exchange(self._pool, self._ranges, ncomp, du, dv, dw, self.inv_mc,
-                                 self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w, tot)
+                                 self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w, tot,
+                                 self._acc, self._part)
             self.momentum_to_air += tot
             self.momentum_to_bed += bed
         if tke:
@@ -1410,7 +1416,7 @@ class Saltation:
             # restart): only the levels that may not be are cleared
             top = self._tke_top if state.tke_sink is self._tke_out else nz
             tke_rates(self._pool, self._ranges, 3 if two else 0, nk, max(nk, top), self.inv_vol,
-                      state.tke_sink)
+                      state.tke_sink, self._acc)
             self._tke_out, self._tke_top = state.tke_sink, nk
         self._vmax = max(self._vmax, float(self._vmaxc.max()) if self.n else 0.0)
         step["n_impacts"], step["n_rebounds"], step["n_ejections"], step["n_depositions"] = (
