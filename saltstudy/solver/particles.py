@@ -234,20 +234,22 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
 # takes them alone (_rest_of_step). Between the passes a lane's values wait in the chunk's lane
 # scratch, one row of _LANES values per quantity, flat: row r of lane l at r * _LANES + l (a
 # constant offset from one base pointer).
-(_X, _Y, _Z, _U, _V, _W, _D, _KD, _T, _US, _VS, _WS, _SU, _SV, _SW, _DZK,
+(_X, _Y, _Z, _U, _V, _W, _D, _KD, _T, _US, _VS, _WS, _SU, _SV, _SW, _DZK, _EC, _TLC,
  _FXF, _FXC, _FYF, _FYC, _FZC, _FZF,
  _TP, _ITP, _DNU, _QM, _H, _IH, _DU, _DV, _DW, _MU, _MV, _MW,
  _K, _KQ, _EMQ, _IRELQ, _RPQ,
- _XN, _YN, _ZN, _UN, _VN, _WN) = (r * _LANES for r in range(45))
+ _XN, _YN, _ZN, _UN, _VN, _WN, _RU, _RV, _RW, _RT) = (r * _LANES for r in range(51))
 # _X ... _W the parcel at the start, _D its diameter, _KD its stored drag rate, _T its step (dt
 # plus its time credit); _US, _VS, _WS the resolved wind it sees (with the SGS part _SU, _SV, _SW
-# once _lane_start has added it); _DZK the height of the cell holding it; _FXF ... _FZF the
+# once _lane_start has added it); _DZK the height of the cell holding it; _EC the SGS TKE of
+# the cell its TKE sink goes to and _TLC that level's T_L coefficient; _FXF ... _FZF the
 # stencil's fractions; _TP T_p, _ITP 1 / T_p, _DNU d / nu, _QM Q m_p; _H the sub-step, _IH 1 / h;
 # _DU, _DV, _DW the slip at its start; _MU, _MV, _MW the modelled impulse of the implicit
 # estimate; _K the drag rate (the iteration's current value), _KQ, _EMQ, _IRELQ, _RPQ the
 # iteration's last evaluation (_EMQ: the estimate's expm1 before the first); _XN ... _WN the
-# parcel at the end of the sub-step (_H then the sub-step as taken)
-_LANE_ROWS_F = 45
+# parcel at the end of the sub-step (_H then the sub-step as taken); _RU, _RV, _RW the air's
+# impulse and _RT the TKE-sink rate the sub-step deposits
+_LANE_ROWS_F = 51
 (_ACTIVE, _ITER, _FIX, _E0, _HIT, _XF, _XC, _YF, _YC, _KC, _KF, _LOG, _KCELL) = (
     r * _LANES for r in range(13))
 # _ACTIVE 1 if the lane takes its sub-step (0: the parcel was in the impact layer already);
@@ -352,6 +354,10 @@ def _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
         lf[_SV + l] = P.sv[p]
         lf[_SW + l] = P.sw[p]
     lf[_DZK + l] = G.dz_c[st.kcell]
+    if S.tke:
+        kt = _tke_level(st, S)
+        lf[_EC + l] = F.e[st.ixf, st.jyf, kt]
+        lf[_TLC + l] = F.tlc[kt]
     lf[_FXF + l] = st.fxf
     lf[_FXC + l] = st.fxc
     lf[_FYF + l] = st.fyf
@@ -698,14 +704,28 @@ def _lane_move(lf, li, l, S, exact):
     lf[_VN + l] = vn
     lf[_WN + l] = wn
     lf[_H + l] = h
+    qm = lf[_QM + l]
+    ru, rv, rw = _reaction(lf[_MU + l], lf[_MV + l], lf[_MW + l], qm, un, vn, wn, lf[_U + l],
+                           lf[_V + l], lf[_W + l], h, S)
+    lf[_RU + l] = ru
+    lf[_RV + l] = rv
+    lf[_RW + l] = rw
+    if S.tke:
+        lf[_RT + l] = _tke_rate(lf[_EC + l], lf[_TLC + l], qm, lf[_K + l], lf[_TP + l], h, S)
     li[_HIT + l] = 1 if (exact and hit) else 0
     li[_FIX + l] = 1 if (active and not ok) else 0
 
 
 @ijit
-def _reaction_to_air(O, st, mu_, mv_, mw_, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny):
-    """Two-way: the air's impulse is minus the parcel's drag impulse, Q m_p (Delta u - g h), plus
-    (first sub-step) the modelled impulse (mu_, mv_, mw_), deposited with the weights of Stencil
+def _reaction(mu_, mv_, mw_, Qm, un, vn, wn, up, vp, wp, h, S):
+    """The air's impulse from a sub-step of h: minus the parcel's drag impulse, Q m_p (Delta u -
+    g h), plus (first sub-step) the modelled impulse (mu_, mv_, mw_)."""
+    return mu_ - Qm * (un - up), mv_ - Qm * (vn - vp), mw_ - Qm * (wn - wp + S.g * h)
+
+
+@ijit
+def _reaction_to_air(O, st, ru, rv, rw, S, nx, ny):
+    """Two-way: the air's impulse (ru, rv, rw) (_reaction) deposited with the weights of Stencil
     st (the log region: the horizontal weights on one level, interp.py)."""
     if st.islog:
         kc = S.klog
@@ -713,37 +733,50 @@ def _reaction_to_air(O, st, mu_, mv_, mw_, Qm, un, vn, wn, up, vp, wp, S, h, nx,
     else:
         kc = st.kc
         fzc = st.fzc
-    pool_add_tri(O.pool, O.off, O.s, nx, ny, O.nk, mu_ - Qm * (un - up), st.ixf, st.fxf, st.jyc,
-                 st.fyc, kc, fzc)
-    pool_add_tri(O.pool, O.off + O.csz, O.s, nx, ny, O.nk, mv_ - Qm * (vn - vp), st.ixc, st.fxc,
-                 st.jyf, st.fyf, kc, fzc)
-    pool_add_tri(O.pool, O.off + 2 * O.csz, O.s, nx, ny, O.nk, mw_ - Qm * (wn - wp + S.g * h),
-                 st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf)
+    pool_add_tri(O.pool, O.off, O.s, nx, ny, O.nk, ru, st.ixf, st.fxf, st.jyc, st.fyc, kc, fzc)
+    pool_add_tri(O.pool, O.off + O.csz, O.s, nx, ny, O.nk, rv, st.ixc, st.fxc, st.jyf, st.fyf,
+                 kc, fzc)
+    pool_add_tri(O.pool, O.off + 2 * O.csz, O.s, nx, ny, O.nk, rw, st.ixc, st.fxc, st.jyc,
+                 st.fyc, st.kf, st.fzf)
 
 
 @ijit
-def _tke_sink(O, F, st, Qm, k, tp, h, S, nx, ny):
-    """The parcel's share of the TKE-sink rate of the cell holding it (coupling.py, eq. A1; in the
-    log region that of the level its drag goes to), weighted by the fraction h / dt of the
-    step."""
-    kcell = S.klog if st.islog else st.kcell
-    ic = st.ixf  # the cell holding the parcel: floor(x / dx), as ixf
-    jc = st.jyf
+def _tke_level(st, S):
+    """The level of the cell whose TKE sink a parcel feeds (coupling.py, eq. A1): the cell holding
+    it; in the log region, the level its drag goes to. Its column is (st.ixf, st.jyf), the cell
+    holding the parcel (floor(x / dx) is ixf)."""
+    return S.klog if st.islog else st.kcell
+
+
+@ijit
+def _tke_rate(e, tlc_k, Qm, k, tp, h, S):
+    """The parcel's share of the TKE-sink rate of its cell (_tke_level; e its SGS TKE, tlc_k its
+    level's T_L coefficient), weighted by the fraction h / dt of the step; 0 where e <= 0
+    (T_L infinite)."""
+    tl = tlc_k / math.sqrt(e)
+    r = Qm / S.rho * 2.0 * (k * tp) / (tp + tl) * (h / S.dt)
+    return r if e > 0.0 else 0.0
+
+
+@ijit
+def _tke_to_air(O, st, rate, S, nx, ny):
+    """The TKE-sink rate deposited on the parcel's cell (_tke_level)."""
+    kcell = _tke_level(st, S)
     kk = kcell if kcell < O.nk else O.nk - 1
-    e = F.e[ic, jc, kcell]
-    if e > 0.0:
-        tl = F.tlc[kcell] / math.sqrt(e)
-        O.pool[O.off + ((O.ct * O.L + slab_of(ic, O.s, nx)) * ny + jc) * O.nk + kk] += (
-            Qm / S.rho * 2.0 * (k * tp) / (tp + tl) * (h / S.dt))
+    O.pool[O.off + ((O.ct * O.L + slab_of(st.ixf, O.s, nx)) * ny + st.jyf) * O.nk + kk] += rate
 
 
 @ijit
 def _to_air(O, F, st, mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, k, tp, h, S, nx, ny):
-    """A sub-step's exchange with the air: the reaction (two-way) and the TKE sink."""
+    """A sub-step's exchange with the air (one parcel alone): the reaction (two-way) and the TKE
+    sink."""
     if S.twoway:
-        _reaction_to_air(O, st, mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, S, h, nx, ny)
+        ru, rv, rw = _reaction(mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, h, S)
+        _reaction_to_air(O, st, ru, rv, rw, S, nx, ny)
     if S.tke:
-        _tke_sink(O, F, st, qm, k, tp, h, S, nx, ny)
+        kt = _tke_level(st, S)
+        rate = _tke_rate(F.e[st.ixf, st.jyf, kt], F.tlc[kt], qm, k, tp, h, S)
+        _tke_to_air(O, st, rate, S, nx, ny)
 
 
 @ijit
@@ -789,8 +822,10 @@ def _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
     vn = lf[_VN + l]
     wn = lf[_WN + l]
     hit = li[_HIT + l] != 0
-    _to_air(O, F, st, lf[_MU + l], lf[_MV + l], lf[_MW + l], qm, un, vn, wn, lf[_U + l],
-            lf[_V + l], lf[_W + l], k, tp, h, S, nx, ny)
+    if S.twoway:
+        _reaction_to_air(O, st, lf[_RU + l], lf[_RV + l], lf[_RW + l], S, nx, ny)
+    if S.tke:
+        _tke_to_air(O, st, lf[_RT + l], S, nx, ny)
     left = T - h
     if not hit and h < T:
         xn, yn, zn, un, vn, wn, k, hit, left = _rest_of_step(P, p, h, T, xn, yn, zn, un, vn, wn,
