@@ -317,7 +317,7 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
     pool[off:off + 3 * csz] = 0.0
     for q in range(cstart[c], cstart[c + 1]):
         p = idx[q]
-        st = locate(P.x[p], P.y[p], P.z[p], G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
+        st = locate(P.x[p], P.y[p], P.z[p], G, nx, ny, nz)
         dp = P.d[p]
         k = P.kd[p]
         ou = 0.0

@@ -1,4 +1,4 @@
-"""Inlined elementary functions for the parcel kernels: Re^0.687 and expm1 without libm calls.
+"""Inlined elementary functions for the parcel kernels: Re^0.687, expm1 and log without libm calls.
 
 Every parcel-step needs one Re_p^0.687 (the Clift correction, paper eq. 4) and one expm1(-k T)
 (the exact drag update) at arguments unrelated to the ones before. As calls into libm (``pow``,
@@ -15,6 +15,12 @@ values go to the stack and back around it. Here they are a few inlined multiply-
 * :func:`expm1_small` ``expm1(x)``: Taylor to degree 14 for |x| <= 0.35 (truncation < 2e-17
   relative, Horner in the product form that keeps relative accuracy as x -> 0), libm beyond.
   In the cases the drag update's k T is 0.01-0.2; the finest soils (20 um) go to libm.
+* :func:`log_small` ``ln(x)`` for x >= 1, for the log law of every parcel in the first cell
+  (interp.locate): ``ln(x) = e ln 2 + ln(c_j) + log1p(t)`` with the bins of pow_0687 (ln(c_j) a
+  correctly rounded table, ln 2 in two parts so that e ln 2 is exact to 2^-64) and log1p(t) a
+  series of seven terms (truncation < 2^-66 relative); below 1 + 2^-8 the series of log1p(x - 1)
+  itself (nine terms), which keeps the relative accuracy as x -> 1. Within 2 ulp of the exact
+  value for x >= 1 (a test sweeps it); x < 1, infinities and NaN go to ``math.log``.
 
 The tables are module-level arrays: numba freezes them into the compiled kernels as constants.
 """
@@ -28,10 +34,10 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-from .interp import ijit
+from .._jit import device as ijit  # (interp.ijit; interp imports this module)
 
-__all__ = ["pow_0687", "pow_0687_table", "expm1_small", "expm1_taylor", "binomial_coefficients",
-           "CLIFT_EXPONENT", "EXPM1_TAYLOR_MAX"]
+__all__ = ["pow_0687", "pow_0687_table", "expm1_small", "expm1_taylor", "log_small",
+           "binomial_coefficients", "CLIFT_EXPONENT", "EXPM1_TAYLOR_MAX"]
 
 #: the exponent of the Clift et al. (1978) correction f(Re) = 1 + 0.15 Re^0.687 (paper eq. 4)
 CLIFT_EXPONENT = 0.687
@@ -78,6 +84,23 @@ def _tables(a: float):
 _P2, _PM = _tables(CLIFT_EXPONENT)
 
 
+def _log_tables():
+    """ln(c_j) per mantissa bin (c_j as in _tables), correctly rounded; ln 2 as a head with 32
+    trailing zero bits (e ln2_hi is exact for |e| < 2^21) and the rounded rest."""
+    getcontext().prec = 40
+    nb = 1 << _BIN_BITS
+    lc = np.array([float((Decimal(1) + (Decimal(j) + Decimal("0.5")) / nb).ln())
+                   for j in range(nb)])
+    ln2 = Decimal(2).ln()
+    hi = float(ln2)
+    hi = float(np.frombuffer((np.frombuffer(np.float64(hi).tobytes(), dtype=np.int64)
+                              & ~np.int64((1 << 32) - 1)).tobytes(), dtype=np.float64)[0])
+    return lc, hi, float(ln2 - Decimal(hi))
+
+
+_LC, _LN2_HI, _LN2_LO = _log_tables()
+
+
 def binomial_coefficients(a: float, m: int) -> list[float]:
     """C(a, 1), ..., C(a, m): the coefficients of (1 + t)^a = 1 + sum_i C(a, i) t^i."""
     c = [1.0]
@@ -118,6 +141,27 @@ def pow_0687(x):
     if ok:
         return v
     return x ** 0.687
+
+
+@ijit
+def log_small(x):
+    """ln(x), inlined for x >= 1 (libm below); see the module doc."""
+    b = _bits(x)
+    eb = (b >> 52) - 1023
+    if 0 <= eb <= 1023:
+        t = x - 1.0
+        if t < 1.0 / 256.0:  # near 1: log1p(t) itself (t exact), no cancellation
+            return t * (1.0 + t * (-0.5 + t * (1.0 / 3.0 + t * (-0.25 + t * (0.2 + t * (
+                -1.0 / 6.0 + t * (1.0 / 7.0 + t * (-0.125 + t * (1.0 / 9.0)))))))))
+        j = (b & _MANT) >> _SHIFT
+        m = _float((b & _MANT) | _ONE)
+        c = _float(_ONE | (j << _SHIFT) | _HALF_BIN)
+        t = (m - c) * _PM[j, 1]  # m - c is exact (same binade)
+        s = t * (1.0 + t * (-0.5 + t * (1.0 / 3.0 + t * (-0.25 + t * (0.2 + t * (
+            -1.0 / 6.0 + t * (1.0 / 7.0)))))))
+        e = float(eb)
+        return (e * _LN2_HI + _LC[j]) + (e * _LN2_LO + s)
+    return math.log(x)
 
 
 _T = [1.0 / math.factorial(i) for i in range(15)]

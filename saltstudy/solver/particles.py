@@ -279,7 +279,7 @@ def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
     of the air after the implicit exchange: the fluid's plus the change delta interpolated with
     the deposit weights (zero beyond the buffer levels S.nkb). Where both use the same weights
     (above the log region; in it with "paper") the sum is read from U = u + delta."""
-    st = locate(xp, yp, zp, G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
+    st = locate(xp, yp, zp, G, nx, ny, nz)
     kr = st.kread
     if st.islog and S.paper:  # the log law of the (new) air at the level read, where the drag goes
         if S.twoway and kr < S.nkb:
@@ -1566,8 +1566,8 @@ class Saltation:
     def fluid_at_parcels(self, state: FlowState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Resolved fluid velocity (u_f, v_f, w_f) interpolated at every live parcel."""
         out = np.empty((3, self.n))
-        _fluid_at(self.n, self._x, self._y, self._z, state.u, state.v, state.w, self.geom.geo,
-                  self.geom.z_f, self.geom.z_c, self.geom.lut, out)
+        _fluid_at(self.n, self._x, self._y, self._z, state.u, state.v, state.w, self.geom.record,
+                  out)
         return out[0], out[1], out[2]
 
     def grain_momentum(self) -> np.ndarray:
@@ -1637,12 +1637,12 @@ class Saltation:
 
 
 @jit_borrow
-def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
+def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, G, out):
     nx = uf.shape[0]
     ny = uf.shape[1]
     nz = uf.shape[2]
     for p in range(lo, hi):
-        st = locate(x[p], y[p], z[p], geo, z_f, z_c, lut, nx, ny, nz)
+        st = locate(x[p], y[p], z[p], G, nx, ny, nz)
         a, b, c = interp_fluid(uf, vf, wf, st, nx, ny)
         out[0, p] = a
         out[1, p] = b
@@ -1650,8 +1650,7 @@ def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
 
 
 @pjit
-def _fluid_at(n, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
+def _fluid_at(n, x, y, z, uf, vf, wf, G, out):
     nb = 64
     for b in prange(nb):
-        _fluid_at_range((b * n) // nb, ((b + 1) * n) // nb, x, y, z, uf, vf, wf, geo, z_f, z_c,
-                        lut, out)
+        _fluid_at_range((b * n) // nb, ((b + 1) * n) // nb, x, y, z, uf, vf, wf, G, out)
