@@ -546,24 +546,52 @@ def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, 
 
 
 @ijit
-def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S, exact):
+def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S, first, exact):
     """One update of a drag rate k towards the fixed point k = F(k) (module doc), em =
-    expm1(-k h): _slip_at, Re_p^0.687 there (from the last evaluation's if near, _re687_near),
-    _newton_update. Returns the next k, whether k was within the tolerance, 1 / |slip| and
-    Re_p^0.687 for the next evaluation, and whether Re_p^0.687 is exact (_pow687)."""
+    expm1(-k h): _slip_at, Re_p^0.687 there (_re687_lane), _newton_update. Returns the next k,
+    whether k was within the tolerance, 1 / |slip| and Re_p^0.687 for the next evaluation, and
+    whether Re_p^0.687 is exact."""
     ax, ay, az, rel, ik, E, phi, beta, gk = _slip_at(k, em, ih, Du, Dv, Dw, S.g)
-    rp, ok = _re687_near(rel, dnu, irelq, rpq, exact)
+    rp, ok = _re687_lane(rel, dnu, irelq, rpq, first, exact)
     kn, done, irel = _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw,
                                     itp, newton, S)
     return kn, done, irel, rp, ok
 
 
 @ijit
-def _lane_drag_update(lf, li, l, it, S, exact):
-    """Update number ``it`` of lane l's drag rate if it still iterates (_drag_rate_update), as
-    selects (vectorized; exact: a lane it left): a lane not iterating, or one whose update needs
-    the exact pass, keeps its values (the latter is marked _FIX). Returns 1 if the lane iterates
-    on (those marked included)."""
+def _expm1_lane(k, h, kq, emq, first, e0, exact):
+    """expm1(-k h) for an update of the drag iteration (``first``: its first), and whether it is
+    exact: the implicit estimate's (``e0``: the same k and h) on the first update, else
+    _expm1_near. Vectorized (not ``exact``), only the path a lane takes as a rule is computed,
+    the estimate's on the first update and the series from the last evaluation after it; a lane
+    off it is left to the exact pass."""
+    if exact:
+        if first and e0:
+            return emq, True
+        return _expm1_near(k, h, kq, emq, True)
+    if first:
+        return emq, e0
+    return _expm1_shift(k, h, kq, emq), kq > 0.0 and abs((kq - k) * h) <= _NEAR
+
+
+@ijit
+def _re687_lane(rel, dnu, irelq, rpq, first, exact):
+    """(rel dnu)^0.687 for an update of the drag iteration, and whether it is exact: _re687_near;
+    vectorized (not ``exact``), the tables on the first update (no evaluation before it) and the
+    series from the last evaluation after it, a lane off that path left to the exact pass."""
+    if exact:
+        return _re687_near(rel, dnu, irelq, rpq, True)
+    if first:
+        return pow_0687_table(rel * dnu)
+    return _re687_shift(rel, irelq, rpq), irelq > 0.0 and abs(rel * irelq - 1.0) <= _NEAR
+
+
+@ijit
+def _lane_drag_update(lf, li, l, it, S, first, exact):
+    """Update number ``it`` (``first``: it == 0) of lane l's drag rate if it still iterates
+    (_drag_rate_update), as selects (vectorized; exact: a lane it left): a lane not iterating, or
+    one whose update needs the exact pass, keeps its values (the latter is marked _FIX). Returns
+    1 if the lane iterates on (those marked included)."""
     going = li[_ITER + l] != 0
     k = lf[_K + l]
     h = lf[_H + l]
@@ -571,14 +599,10 @@ def _lane_drag_update(lf, li, l, it, S, exact):
     emq = lf[_EMQ + l]
     irelq = lf[_IRELQ + l]
     rpq = lf[_RPQ + l]
-    if it == 0 and li[_E0 + l] != 0:
-        em = emq
-        ok1 = True
-    else:
-        em, ok1 = _expm1_near(k, h, kq, emq, exact)
+    em, ok1 = _expm1_lane(k, h, kq, emq, first, li[_E0 + l] != 0, exact)
     kn, done, irel, rp, ok2 = _drag_rate_update(k, em, h, lf[_IH + l], lf[_DU + l], lf[_DV + l],
                                                 lf[_DW + l], lf[_ITP + l], lf[_DNU + l], irelq,
-                                                rpq, it < NEWTON_MAXIT, S, exact)
+                                                rpq, it < NEWTON_MAXIT, S, first, exact)
     upd = going and ok1 and ok2
     lf[_K + l] = kn if upd else k
     lf[_KQ + l] = k if upd else kq
@@ -598,11 +622,15 @@ def _drag_lanes(lf, li, nb, S):
     is within the tolerance."""
     for it in range(DRAG_MAXIT):
         left = 0
-        for l in range(nb):
-            left += _lane_drag_update(lf, li, l, it, S, False)
+        if it == 0:
+            for l in range(nb):
+                left += _lane_drag_update(lf, li, l, it, S, True, False)
+        else:
+            for l in range(nb):
+                left += _lane_drag_update(lf, li, l, it, S, False, False)
         for l in range(nb):
             if li[_FIX + l] != 0:
-                left -= 1 - _lane_drag_update(lf, li, l, it, S, True)
+                left -= 1 - _lane_drag_update(lf, li, l, it, S, it == 0, True)
         if left == 0:
             break
 
@@ -619,7 +647,7 @@ def _drag_rate(k, h, Du, Dv, Dw, itp, dnu, S):
     for it in range(DRAG_MAXIT):
         em, _ = _expm1_near(k, h, kq, emq, True)
         kn, done, irelq, rpq, _ = _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq,
-                                                    rpq, it < NEWTON_MAXIT, S, True)
+                                                    rpq, it < NEWTON_MAXIT, S, it == 0, True)
         kq = k
         emq = em
         k = kn
