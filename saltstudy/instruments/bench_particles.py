@@ -80,8 +80,8 @@ def _emit(out: dict, as_json: bool, lines) -> None:
 
 #: the kernels of Saltation.dynamics timed by --phases (module-level names in solver/particles.py)
 PHASE_KERNELS = ("implicit_coefficients", "implicit_corrections", "_advance_all", "splash_runs",
-                 "ejecta_reserve", "apply_exchange", "tke_rates", "chunk_assign",
-                 "_vmax_and_ztop", "grid_absmax", "_collect_events", "_compact")
+                 "ejecta_reserve", "apply_exchange", "chunk_assign", "air_maxima",
+                 "_collect_events", "_compact")
 
 
 @contextmanager

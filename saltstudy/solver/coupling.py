@@ -77,7 +77,7 @@ from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wra
 __all__ = ["Parcels", "Flow", "C0_LAGRANGIAN", "face_inverse_masses",
            "lagrangian_time_coefficients", "chunk_bounds", "chunk_assign", "chunk_ranges",
            "parcel_weight", "estimate_weights", "implicit_estimate", "implicit_coefficients", "implicit_corrections",
-           "apply_exchange", "tke_rates", "grid_absmax", "N_CHUNKS"]
+           "apply_exchange", "air_maxima", "N_CHUNKS"]
 
 #: The records the grain kernels take (named tuples of arrays: numba passes each as one argument,
 #: its fields are static members, so reading them costs what separate arguments would).
@@ -163,12 +163,15 @@ _ASSIGN_BLOCKS = 32
 
 @pjit
 def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
-                 stats):
+                 stats, v, w, z, pmax):
     """Split the live parcels (flag 0) into chunks of consecutive x-slabs holding about equal
     numbers of parcels: chunk c owns slabs [bounds[c], bounds[c+1]); its parcels are
     idx[cstart[c]:cstart[c+1]] in increasing index order (deterministic, thread-free).
     stats[c] = (max |u_p|, max |su_p|, max trem) over its parcels; hist[i] and slab_stats[i]
-    (nx, 3) end up as the slab -> chunk map and the slabs' maxima.
+    (nx, 3) end up as the slab -> chunk map and the slabs' maxima. pmax = (max over the live
+    parcels of max(|u_p|, |v_p|), of z_p and of |(u_p, v_p, w_p)|): the step's parcel-speed
+    limit and the levels the deposit buffers need (particles.Saltation._levels), here so that
+    the parcels are read once.
 
     Two passes over the parcels, each parallel over _ASSIGN_BLOCKS blocks of consecutive
     indices: the first keeps each parcel's slab in cid and counts and maxima per block and
@@ -179,7 +182,11 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
     has_sgs = su.shape[0] > 0
     hb = np.zeros((nb, nx), dtype=np.int64)
     sb = np.zeros((nb, nx, 3))
+    pb = np.zeros((nb, 3))
     for b in prange(nb):
+        vh = 0.0
+        zt = 0.0
+        v2 = 0.0
         for p in range((b * n) // nb, ((b + 1) * n) // nb):
             if flag[p] != 0:
                 continue
@@ -195,6 +202,24 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
                     sb[b, i, 1] = a
             if trem[p] > sb[b, i, 2]:
                 sb[b, i, 2] = trem[p]
+            a = max(abs(u[p]), abs(v[p]))
+            if a > vh:
+                vh = a
+            if z[p] > zt:
+                zt = z[p]
+            a = u[p] * u[p] + v[p] * v[p] + w[p] * w[p]  # squared: one square root at the end
+            if a > v2:
+                v2 = a
+        pb[b, 0] = vh
+        pb[b, 1] = zt
+        pb[b, 2] = v2
+    for r in range(3):
+        m = 0.0
+        for b in range(nb):
+            if pb[b, r] > m:
+                m = pb[b, r]
+        pmax[r] = m
+    pmax[2] = math.sqrt(pmax[2])
     live = 0
     for i in range(nx):
         m = 0
@@ -280,21 +305,36 @@ def chunk_ranges(bounds, margin, nx, per_slab, ranges):
 
 
 @pjit
-def grid_absmax(f):
-    """max |f| over a (nx, ny, nz) field (parallel over x-slabs; order-free, so deterministic)."""
-    nx = f.shape[0]
-    ny = f.shape[1]
-    nz = f.shape[2]
-    part = np.zeros(nx)
+def air_maxima(u, w, part, umax):
+    """max |w| over the whole field (returned) and umax[k] = max |u| over level k, for the levels
+    parcels can reach and how far they move (particles.Saltation._levels, dynamics): one pass
+    over the fields, parallel over x-slabs with the slabs' maxima in part (nx, nz + 1); maxima
+    do not depend on the order, so neither does the result."""
+    nx = u.shape[0]
+    ny = u.shape[1]
+    nz = u.shape[2]
+    nzw = w.shape[2]
     for i in prange(nx):
-        m = 0.0
+        for k in range(nz + 1):
+            part[i, k] = 0.0
         for j in range(ny):
             for k in range(nz):
-                a = abs(f[i, j, k])
+                a = abs(u[i, j, k])
+                if a > part[i, k]:
+                    part[i, k] = a
+            m = part[i, nz]
+            for k in range(nzw):
+                a = abs(w[i, j, k])
                 if a > m:
                     m = a
-        part[i] = m
-    return part.max()
+            part[i, nz] = m
+    for k in range(nz + 1):
+        m = 0.0
+        for i in range(nx):
+            if part[i, k] > m:
+                m = part[i, k]
+        umax[k] = m
+    return umax[nz]
 
 
 @jit_borrow
@@ -430,23 +470,92 @@ def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, U
         dmax[i] = dm
 
 
-@pjit
-def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot,
-                   acc, part):
-    """Air update: U += delta + (sum_c P[c]) / M on the lowest nk levels (module doc); m_c, m_w
-    are the face masses M (inverses of inv_mc, inv_mw; 0 where inv_mw is).
-
-    P (comps 0, 1, 2 of the chunks' pool ranges, each (L, ny, nk); ncomp comps per chunk) holds,
-    per face, the difference between the modelled and the actual drag impulses of the parcels
-    (zero if they coincide). tot (3,) receives the momentum given to the air (kg m s^-1); the
-    return value is the w impulse taken by the bed face. Sums over chunks are taken in chunk
-    order, per column into the slab's row of the scratch acc (nx, >= 3, >= nk) as in
-    implicit_corrections; part (nx, 4) holds the slabs' momentum sums.
-    """
+@ijit
+def _momentum_to_air(pool, ranges, i, j, nx, ny, nk, a, du, dv, dw, inv_mc, inv_mw, m_c, m_w,
+                     uf, vf, wf):
+    """Column (i, j) of apply_exchange's momentum update: U += delta + (sum_c P[c]) / M on the
+    lowest nk levels, the chunks' P summed in chunk order into a[0:3]. Returns the column's
+    momentum given to the air (x, y, z) and the w impulse its bed face takes."""
     nc = ranges.shape[0]
+    for r in range(3):
+        for k in range(nk):
+            a[r, k] = 0.0
+    for c in range(nc):
+        ii = _covers(ranges, c, i, nx)
+        if ii < 0:
+            continue
+        csz = ranges[c, 1] * ny * nk
+        q = ranges[c, 2] + (ii * ny + j) * nk
+        for k in range(nk):
+            a[0, k] += pool[q + k]
+            a[1, k] += pool[q + csz + k]
+            a[2, k] += pool[q + 2 * csz + k]
+    su = 0.0
+    sv = 0.0
+    sw = 0.0
+    sbed = 0.0
+    for k in range(nk):
+        pu = a[0, k] + du[i, j, k] * m_c[k]
+        uf[i, j, k] += pu * inv_mc[k]
+        su += pu
+    for k in range(nk):
+        pv = a[1, k] + dv[i, j, k] * m_c[k]
+        vf[i, j, k] += pv * inv_mc[k]
+        sv += pv
+    for k in range(nk):
+        pw = a[2, k]
+        if inv_mw[k] > 0.0:
+            pw += dw[i, j, k] * m_w[k]
+            wf[i, j, k] += pw * inv_mw[k]
+            sw += pw
+        else:
+            sbed += pw
+    return su, sv, sw, sbed
+
+
+@ijit
+def _tke_rates(pool, ranges, i, j, nx, ny, comp, nk_c, nz, a, inv_vol, out):
+    """Column (i, j) of apply_exchange's TKE rates: out[i, j, :nk_c] = sum_c T[c] / V_cell (the
+    chunks' T summed in chunk order into a[0]), zero on levels nk_c..nz-1."""
+    nc = ranges.shape[0]
+    for k in range(nk_c):
+        a[0, k] = 0.0
+    for c in range(nc):
+        ii = _covers(ranges, c, i, nx)
+        if ii < 0:
+            continue
+        q = ranges[c, 2] + ((comp * ranges[c, 1] + ii) * ny + j) * nk_c
+        for k in range(nk_c):
+            a[0, k] += pool[q + k]
+    for k in range(nk_c):
+        out[i, j, k] = a[0, k] * inv_vol[k]
+    for k in range(nk_c, nz):
+        out[i, j, k] = 0.0
+
+
+@pjit
+def apply_exchange(pool, ranges, nk, two, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot,
+                   tke, comp, nz_tke, inv_vol, tke_out, acc, part):
+    """The air's side of the step, per column in one pass over the slabs.
+
+    Two-way (``two``): U += delta + (sum_c P[c]) / M on the nk levels of the step (module doc); m_c,
+    m_w are the face masses M (inverses of inv_mc, inv_mw; 0 where inv_mw is). P (comps 0, 1, 2
+    of the chunks' pool ranges, each (L, ny, nk)) holds, per face, the difference between the
+    modelled and the actual drag impulses of the parcels (zero if they coincide). tot (3,)
+    receives the momentum given to the air (kg m s^-1); the return value is the w impulse taken
+    by the bed face (0 one-way).
+
+    TKE sink (``tke``): tke_out[:, :, :nk] = sum_c T[c] / V_cell, rates of eq. A1 [s^-1], T[c]
+    comp ``comp`` of chunk c's pool range (L, ny, nk); zero on levels nk..nz_tke-1 (the caller
+    knows the levels from nz_tke up to be zero already).
+
+    Sums over chunks are taken in chunk order, per column into the slab's row of the scratch acc
+    (nx, >= 3, >= nk) (loops over the levels that LLVM vectorizes); part (nx, 4) holds the
+    slabs' momentum sums. One pass for both: one parallel region fewer per step (each costs a
+    wake-up of the worker threads, milliseconds on a machine shared with other jobs).
+    """
     nx = uf.shape[0]
     ny = uf.shape[1]
-    nk = du.shape[2]
     for i in prange(nx):
         a = acc[i]
         su = 0.0
@@ -454,35 +563,15 @@ def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf
         sw = 0.0
         sbed = 0.0
         for j in range(ny):
-            for r in range(3):
-                for k in range(nk):
-                    a[r, k] = 0.0
-            for c in range(nc):
-                ii = _covers(ranges, c, i, nx)
-                if ii < 0:
-                    continue
-                csz = ranges[c, 1] * ny * nk
-                q = ranges[c, 2] + (ii * ny + j) * nk
-                for k in range(nk):
-                    a[0, k] += pool[q + k]
-                    a[1, k] += pool[q + csz + k]
-                    a[2, k] += pool[q + 2 * csz + k]
-            for k in range(nk):
-                pu = a[0, k] + du[i, j, k] * m_c[k]
-                uf[i, j, k] += pu * inv_mc[k]
-                su += pu
-            for k in range(nk):
-                pv = a[1, k] + dv[i, j, k] * m_c[k]
-                vf[i, j, k] += pv * inv_mc[k]
-                sv += pv
-            for k in range(nk):
-                pw = a[2, k]
-                if inv_mw[k] > 0.0:
-                    pw += dw[i, j, k] * m_w[k]
-                    wf[i, j, k] += pw * inv_mw[k]
-                    sw += pw
-                else:
-                    sbed += pw
+            if two:
+                x, y, z, b = _momentum_to_air(pool, ranges, i, j, nx, ny, nk, a, du, dv, dw,
+                                              inv_mc, inv_mw, m_c, m_w, uf, vf, wf)
+                su += x
+                sv += y
+                sw += z
+                sbed += b
+            if tke:
+                _tke_rates(pool, ranges, i, j, nx, ny, comp, nk, nz_tke, a, inv_vol, tke_out)
         part[i, 0] = su
         part[i, 1] = sv
         part[i, 2] = sw
@@ -500,30 +589,3 @@ def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf
     tot[1] = b
     tot[2] = cc
     return bed
-
-
-@pjit
-def tke_rates(pool, ranges, comp, nk_c, nz, inv_vol, out, acc):
-    """out[:, :, :nk_c] = sum_c T[c] / V_cell; zero on levels nk_c..nz-1 (rates of eq. A1, s^-1;
-    the caller knows the levels from nz up to be zero already). T[c] is comp ``comp`` of chunk
-    c's pool range, (L, ny, nk_c); the sums over chunks in chunk order, per column into the
-    slab's row of the scratch acc (nx, >= 1, >= nk_c)."""
-    nc = ranges.shape[0]
-    nx = out.shape[0]
-    ny = out.shape[1]
-    for i in prange(nx):
-        a = acc[i]
-        for j in range(ny):
-            for k in range(nk_c):
-                a[0, k] = 0.0
-            for c in range(nc):
-                ii = _covers(ranges, c, i, nx)
-                if ii < 0:
-                    continue
-                q = ranges[c, 2] + ((comp * ranges[c, 1] + ii) * ny + j) * nk_c
-                for k in range(nk_c):
-                    a[0, k] += pool[q + k]
-            for k in range(nk_c):
-                out[i, j, k] = a[0, k] * inv_vol[k]
-            for k in range(nk_c, nz):
-                out[i, j, k] = 0.0

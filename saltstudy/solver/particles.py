@@ -80,10 +80,10 @@ import numpy as np
 from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
-from .coupling import (N_CHUNKS, Flow, Parcels, apply_exchange, chunk_assign, chunk_ranges,
-                       estimate_weights, face_inverse_masses, grid_absmax,
+from .coupling import (N_CHUNKS, Flow, Parcels, air_maxima, apply_exchange, chunk_assign,
+                       chunk_ranges, estimate_weights, face_inverse_masses,
                        implicit_coefficients, implicit_corrections,
-                       lagrangian_time_coefficients, parcel_weight, tke_rates)
+                       lagrangian_time_coefficients, parcel_weight)
 from .elementary import (CLIFT_EXPONENT, EXPM1_TAYLOR_MAX, binomial_coefficients, expm1_small,
                          expm1_taylor, pow_0687, pow_0687_table)
 from .grid import Grid
@@ -1035,39 +1035,10 @@ def _cell_order(n, x, y, z, geo, z_f, lut, nx, ny, nz, key, perm, count):
 
 
 @pjit
-def _permute(n, perm, a, tmp):
+def _gather(n, perm, a, out):
+    """out[q] = a[perm[q]] for q < n (the parcels reordered, one field)."""
     for q in prange(n):
-        tmp[q] = a[perm[q]]
-    for q in prange(n):
-        a[q] = tmp[q]
-
-
-@pjit
-def _vmax_and_ztop(n, u, v, w, z):
-    """(max horizontal speed, max of z + max(w, 0) scale) over parcels: for max_dt and buffer depth."""
-    nb = 64
-    mu = np.zeros(nb)
-    mz = np.zeros(nb)
-    mw = np.zeros(nb)
-    for b in prange(nb):
-        lo = (b * n) // nb
-        hi = ((b + 1) * n) // nb
-        a = 0.0
-        zz = 0.0
-        ww = 0.0
-        for p in range(lo, hi):
-            s = max(abs(u[p]), abs(v[p]))
-            if s > a:
-                a = s
-            if z[p] > zz:
-                zz = z[p]
-            s = u[p] * u[p] + v[p] * v[p] + w[p] * w[p]  # squared: one square root at the end
-            if s > ww:
-                ww = s
-        mu[b] = a
-        mz[b] = zz
-        mw[b] = ww
-    return mu.max(), mz.max(), math.sqrt(mw.max())
+        out[q] = a[perm[q]]
 
 
 @jit
@@ -1340,10 +1311,12 @@ class Saltation:
         return self.parcel_courant * min(self.grid.dx, self.grid.dy) / self._vmax
 
     def _levels(self, state: FlowState, dt: float) -> int:
-        """Levels the deposit buffers must cover this step: up to where any parcel can get."""
-        vh, ztop, vtot = _vmax_and_ztop(self.n, self._u, self._v, self._w, self._z)
-        self._vmax = vh
-        wmax = grid_absmax(state.w) if state.w.size else 0.0
+        """Levels the deposit buffers must cover this step: up to where any parcel can get. From
+        chunk_assign's parcel maxima (self._pmax: max horizontal speed, top, max speed) and the
+        air's max |w| (air_maxima, which also keeps max |u| per level in self._umax)."""
+        vh, ztop, vtot = self._pmax
+        self._vmax = float(vh)
+        wmax = air_maxima(state.u, state.w, self._amax, self._umax) if state.w.size else 0.0
         # rebounds leave at <= ~2 v_imp (the normal tail is redrawn only below 0), ejecta slower
         reach = ztop + (max(vtot, wmax) * 2.5 + 1.0) * dt
         k = int(np.searchsorted(self.grid.z_f, reach, side="right"))
@@ -1365,10 +1338,13 @@ class Saltation:
         self._lane_f = np.zeros((nc, _LANE_ROWS_F * _LANES))
         self._lane_i = np.zeros((nc, _LANE_ROWS_I * _LANES), dtype=np.int64)
         self._dmax = np.zeros(nx)
-        # per-slab scratch of the grid passes (coupling.implicit_corrections, apply_exchange,
-        # tke_rates): a column's sums over the chunks, and the slabs' momentum sums
+        # per-slab scratch of the grid passes (coupling.implicit_corrections, apply_exchange): a
+        # column's sums over the chunks, and the slabs' momentum sums
         self._acc = np.zeros((nx, 6, nz))
         self._part = np.zeros((nx, 4))
+        self._pmax = np.zeros(3)  # chunk_assign's parcel maxima (_levels)
+        self._amax = np.zeros((nx, nz + 1))  # air_maxima's per-slab maxima
+        self._umax = np.zeros(nz + 1)  # max |u| per level (and max |w|)
         self._pool = np.zeros(0)
         self._grid6 = np.zeros((6, nx * ny * nz)) if self.two_way else np.zeros((6, 1))
         self._cnt = np.zeros(4, dtype=np.int64)
@@ -1406,14 +1382,14 @@ class Saltation:
             self._sort()
         self._steps += 1
         n = self.n
-        nk = self._levels(state, dt) if n > 0 else 2
         self.prm[_DT] = dt
         two, tke = self.two_way, self.tke_sink
         # chunks of consecutive x-slabs with about equal parcel counts: each chunk's deposit
         # buffers cover only its slabs, widened by the stencil and by how far its parcels can move
         chunk_assign(n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._hist,
                      self._slab_stats, self._bounds, self._cid, self._cstart, self._idx,
-                     self._stats)
+                     self._stats, self._v, self._w, self._z, self._pmax)
+        nk = self._levels(state, dt) if n > 0 else 2
         ef = state.e if (tke or self.sgs) else self._e_zero
         if two:
             du, dv, dw, Uc, Vc, Wc = self._grid_views(nk)
@@ -1434,7 +1410,7 @@ class Saltation:
             dumax = 0.0
         # a parcel moves at most max(|u_p|, |u_seen|) (dt + credit) in x within the step
         if n > 0:
-            uair = grid_absmax(state.u[:, :, :nk]) + dumax  # the levels parcels can reach
+            uair = float(self._umax[:nk].max()) + dumax  # the levels parcels can reach
             st = self._stats
             vb = np.maximum(st[:, 0], uair + st[:, 1])
             mg = vb * (dt + st[:, 2]) / g.dx
@@ -1465,22 +1441,26 @@ class Saltation:
                               self._w, self._d, self._kd, self._flag, self._trem, self._su,
                               self._sv, self._sw, self._tl, self._xl, self._yl)
         # momentum to the air, TKE sink
-        if two:
+        if two or tke:
+            if tke:
+                if state.tke_sink is None:
+                    state.tke_sink = np.zeros(g.shape)
+                # levels at and above the last step's nk are zero, unless the array is new to us
+                # (a restart): only the levels that may not be are cleared
+                top = self._tke_top if state.tke_sink is self._tke_out else nz
+                tke_out = state.tke_sink
+            else:
+                top, tke_out = nk, self._e_zero
             tot = self._tot
-            bed = apply_exchange(self._pool, self._ranges, ncomp, du, dv, dw, self.inv_mc,
+            bed = apply_exchange(self._pool, self._ranges, nk, two, du, dv, dw, self.inv_mc,
                                  self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w, tot,
+                                 tke, 3 if two else 0, max(nk, top), self.inv_vol, tke_out,
                                  self._acc, self._part)
-            self.momentum_to_air += tot
-            self.momentum_to_bed += bed
-        if tke:
-            if state.tke_sink is None:
-                state.tke_sink = np.zeros(g.shape)
-            # levels at and above the last step's nk are zero, unless the array is new to us (a
-            # restart): only the levels that may not be are cleared
-            top = self._tke_top if state.tke_sink is self._tke_out else nz
-            tke_rates(self._pool, self._ranges, 3 if two else 0, nk, max(nk, top), self.inv_vol,
-                      state.tke_sink, self._acc)
-            self._tke_out, self._tke_top = state.tke_sink, nk
+            if two:
+                self.momentum_to_air += tot
+                self.momentum_to_bed += bed
+            if tke:
+                self._tke_out, self._tke_top = state.tke_sink, nk
         self._vmax = max(self._vmax, float(self._vmaxc.max()) if self.n else 0.0)
         step["n_impacts"], step["n_rebounds"], step["n_ejections"], step["n_depositions"] = (
             int(c) for c in cnt)
@@ -1538,21 +1518,28 @@ class Saltation:
         return int(dead.size)
 
     def _sort(self) -> None:
-        """Reorder the parcels by cell (every SORT_INTERVAL steps): locality for the kernels."""
+        """Reorder the parcels by cell (every SORT_INTERVAL steps): locality for the kernels.
+        Each field is gathered into a spare array of the same size, which then takes its place
+        (the field's old array becomes the next spare): one pass and one parallel region per
+        field, no copy back."""
         g = self.geom
         n = self.n
         # work arrays kept across sorts (no allocation and page faults every SORT_INTERVAL steps)
         if getattr(self, "_sort_key", None) is None or self._sort_key.shape[0] < n:
             self._sort_key = np.empty(self.capacity, dtype=np.int64)
             self._sort_perm = np.empty(self.capacity, dtype=np.int64)
-            self._sort_tmp = np.empty(self.capacity)
             self._sort_count = np.empty(g.nx * g.ny * g.nz + 1, dtype=np.int64)
-        key, perm, tmp = self._sort_key, self._sort_perm, self._sort_tmp
+        if getattr(self, "_sort_tmp", None) is None or self._sort_tmp.shape[0] != self.capacity:
+            self._sort_tmp = np.empty(self.capacity)
+        key, perm = self._sort_key, self._sort_perm
         _cell_order(n, self._x, self._y, self._z, g.geo, g.z_f, g.lut, g.nx, g.ny, g.nz, key, perm,
                     self._sort_count)
         names = list(self._FIELDS) + (["su", "sv", "sw"] if self.sgs else [])
         for f in names:
-            _permute(n, perm, getattr(self, "_" + f), tmp)
+            a = getattr(self, "_" + f)
+            _gather(n, perm, a, self._sort_tmp)
+            setattr(self, "_" + f, self._sort_tmp)
+            self._sort_tmp = a
 
     def _do_entrainment(self, state: FlowState, dt: float) -> int:
         n0 = self.n
