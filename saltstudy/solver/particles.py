@@ -50,11 +50,15 @@ consecutive impacts, each with its own random stream, splashed in parallel
 serial kernels on the component's main stream. A chunk is a run of x-slabs with about
 n / N_CHUNKS parcels (processed in index order), so its buffers cover only those slabs plus a
 margin (coupling.py), and only the levels parcels can reach within the step; the buffers persist
-across steps. The per-parcel code is
-inlined (interp.py ``ijit``) into a serial per-chunk loop (``_advance_chunk``, blocks of parcels
-in lockstep passes) called from the prange. Two-way, the modelled impulse of the implicit
-estimate and the first sub-step's drag impulse share their weights and are deposited as one
-value.
+across steps. The per-parcel code is inlined (interp.py ``ijit``) into a serial per-chunk loop
+(``_advance_chunk``: blocks of parcels in passes over the block, the branch-free ones vectorized
+by LLVM; see the comment above ``_wind_seen``) called from the prange. Two-way, the modelled
+impulse of the implicit estimate and the first sub-step's drag impulse share their weights and
+are deposited as one value; the advance recomputes the estimate's coefficients from the same
+inputs (coupling.implicit_estimate), so nothing per parcel is kept between the two passes. A
+step has few parallel regions (chunk assignment, the air's maxima, the estimate, its solve, the
+advance, the bed events, the air's update): on a machine shared with other jobs each one waits
+for the worker threads to be scheduled.
 
 Optional processes (off by default, not constructed when off):
 
@@ -230,7 +234,8 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
 # (8 lanes per instruction with AVX-512; the helpers' ``exact=False``). The few lanes whose
 # arithmetic there needs libm (an argument beyond the inlined expm1's or Re^0.687's range) or a
 # bed crossing are redone one at a time by the same helpers with ``exact=True`` (branches and
-# libm allowed: the same numbers wherever both apply), and a parcel that needs more sub-steps
+# libm allowed; the same formulas wherever both apply, equal to round-off: LLVM may contract the
+# two differently, tests/test_particles_lanes.py), and a parcel that needs more sub-steps
 # takes them alone (_rest_of_step). Between the passes a lane's values wait in the chunk's lane
 # scratch, one row of _LANES values per quantity, flat: row r of lane l at r * _LANES + l (a
 # constant offset from one base pointer).
