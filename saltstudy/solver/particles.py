@@ -56,9 +56,9 @@ by LLVM; see the comment above ``_wind_seen``) called from the prange. Two-way, 
 impulse of the implicit estimate and the first sub-step's drag impulse share their weights and
 are deposited as one value; the advance recomputes the estimate's coefficients from the same
 inputs (coupling.implicit_estimate), so nothing per parcel is kept between the two passes. A
-step has few parallel regions (chunk assignment, the air's maxima, the estimate, its solve, the
-advance, the bed events, the air's update): on a machine shared with other jobs each one waits
-for the worker threads to be scheduled.
+step has few parallel regions (chunk assignment, the estimate, its solve, the advance, the bed
+events, the air's update): on a machine shared with other jobs each one waits for the worker
+threads to be scheduled.
 
 Optional processes (off by default, not constructed when off):
 
@@ -1321,7 +1321,7 @@ class Saltation:
         air's max |w| (air_maxima, which also keeps max |u| per level in self._umax)."""
         vh, ztop, vtot = self._pmax
         self._vmax = float(vh)
-        wmax = air_maxima(state.u, state.w, self._amax, self._umax) if state.w.size else 0.0
+        wmax = air_maxima(state.u, state.w, self._umax) if state.w.size else 0.0
         # rebounds leave at <= ~2 v_imp (the normal tail is redrawn only below 0), ejecta slower
         reach = ztop + (max(vtot, wmax) * 2.5 + 1.0) * dt
         k = int(np.searchsorted(self.grid.z_f, reach, side="right"))
@@ -1348,7 +1348,6 @@ class Saltation:
         self._acc = np.zeros((nx, 6, nz))
         self._part = np.zeros((nx, 4))
         self._pmax = np.zeros(3)  # chunk_assign's parcel maxima (_levels)
-        self._amax = np.zeros((nx, nz + 1))  # air_maxima's per-slab maxima
         self._umax = np.zeros(nz + 1)  # max |u| per level (and max |w|)
         self._pool = np.zeros(0)
         self._grid6 = np.zeros((6, nx * ny * nz)) if self.two_way else np.zeros((6, 1))
