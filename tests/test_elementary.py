@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from saltstudy._jit import jit
-from saltstudy.solver.elementary import EXPM1_TAYLOR_MAX, expm1_small, pow_0687
+from saltstudy.solver.elementary import (EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, log_small,
+                                         pow_0687, pow_0687_table)
 from saltstudy.solver.particles import _crossing_time
 
 getcontext().prec = 40
@@ -26,6 +27,23 @@ def _pow_all(x, out):
 def _expm1_all(x, out):
     for i in range(x.size):
         out[i] = expm1_small(x[i])
+
+
+@jit
+def _log_all(x, out):
+    for i in range(x.size):
+        out[i] = log_small(x[i])
+
+
+@jit
+def _branch_free_all(x, val, ok):
+    """The branch-free parts the vectorized drag passes use: pow_0687_table, expm1_taylor."""
+    for i in range(x.size):
+        v, o = pow_0687_table(x[i])
+        val[0, i] = v
+        ok[0, i] = o
+        val[1, i] = expm1_taylor(-x[i])
+        ok[1, i] = abs(x[i]) <= EXPM1_TAYLOR_MAX
 
 
 def _ulps(got, exact):
@@ -59,6 +77,50 @@ def test_pow_0687_falls_back_outside_its_table_and_keeps_ieee_special_values():
     got = np.empty_like(s)
     _pow_all(s, got)
     assert got[0] == 0.0 and got[1] == np.inf and np.isnan(got[2]) and np.isnan(got[3])
+
+
+def test_log_small_is_within_two_ulp_of_the_exact_value_from_one_up():
+    rng = np.random.default_rng(11)
+    x = np.concatenate([
+        np.exp(rng.uniform(0.0, 30.0, 1500)),  # the log law's z / z0 and far beyond
+        1.0 + 10.0 ** rng.uniform(-15, -2, 300),  # near 1 (the series of log1p(x - 1))
+        # both ends of mantissa bins and binade edges, the switch between the two forms
+        np.ldexp(1.0 + np.arange(256) / 256.0, rng.integers(0, 40, 256)),
+        np.ldexp(1.0 + (np.arange(256) + 1) / 256.0 - 2.0 ** -52, rng.integers(0, 40, 256)),
+        [1.0001, 1.0 + 1.0 / 256.0, np.nextafter(1.0 + 1.0 / 256.0, 0.0), 2.0, 50.0, 1e300],
+    ])
+    got = np.empty_like(x)
+    _log_all(x, got)
+    exact = [Decimal(v).ln() for v in x]
+    assert _ulps(got, exact).max() <= 2.0
+    # below 1 and the IEEE special values: math.log's
+    s = np.array([0.5, 1e-300, 0.0, np.inf, np.nan])
+    got = np.empty_like(s)
+    _log_all(s, got)
+    assert got[0] == math.log(0.5) and got[1] == math.log(1e-300)
+    assert got[2] == -np.inf and got[3] == np.inf and np.isnan(got[4])
+    one = np.array([1.0])
+    _log_all(one, got[:1])
+    assert got[0] == 0.0
+
+
+def test_branch_free_parts_agree_with_the_full_functions_where_they_say_they_do():
+    """pow_0687_table and expm1_taylor (no branch, no call: the vectorized drag passes) are the
+    full functions' values wherever they flag themselves valid, and flag the rest."""
+    rng = np.random.default_rng(5)
+    x = np.concatenate([10.0 ** rng.uniform(-45, 45, 2000), [0.0, -1.0, np.inf, np.nan, 0.2, 0.35,
+                                                             np.nextafter(0.35, 1.0)]])
+    val = np.empty((2, x.size))
+    ok = np.zeros((2, x.size), dtype=np.bool_)
+    _branch_free_all(x, val, ok)
+    full = np.empty_like(x)
+    _pow_all(x, full)
+    assert np.array_equal(val[0, ok[0]], full[ok[0]])
+    assert not ok[0, -7:-3].any() and ok[0, -3:].all()
+    assert not ok[0, x > 2.0 ** 128].any() and not ok[0, (x > 0) & (x < 2.0 ** -128)].any()
+    _expm1_all(-x, full)
+    assert np.array_equal(val[1, ok[1]], full[ok[1]])
+    assert ok[1].sum() == np.sum(np.abs(x) <= EXPM1_TAYLOR_MAX)
 
 
 def _expm1_exact(v: float) -> Decimal:

@@ -163,7 +163,8 @@ def test_exchange_conserves_momentum_with_fast_parcels_across_the_periodic_bound
 def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
     """chunk_assign against a plain numpy reference: every live parcel (flag 0) in exactly one
     chunk, in increasing index order, inside its chunk's slabs; the chunks' slab runs tile the
-    domain with about n / N_CHUNKS parcels each; the per-chunk maxima are those of its parcels."""
+    domain with about n / N_CHUNKS parcels each; the per-chunk maxima are those of its parcels,
+    and the parcel maxima those of the live parcels."""
     from saltstudy.solver.coupling import N_CHUNKS, chunk_assign
 
     rng = np.random.default_rng(7)
@@ -182,8 +183,12 @@ def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
     cstart = np.zeros(N_CHUNKS + 1, dtype=np.int64)
     idx = np.full(n, -1, dtype=np.int64)
     stats = np.zeros((N_CHUNKS, 3))
+    v = rng.normal(0.0, 1.0, n)
+    w = rng.normal(0.0, 1.0, n)
+    z = rng.uniform(0.0, 0.5, n)
+    pmax = np.zeros(3)
     chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
-                 stats)
+                 stats, v, w, z, pmax)
 
     live = np.flatnonzero(flag == 0)
     slab = np.floor(x / dx).astype(int) % nx
@@ -204,3 +209,8 @@ def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
             assert stats[c, 0] == np.abs(u[mine]).max()
             assert stats[c, 1] == (np.abs(su[mine]).max() if has_sgs else 0.0)
             assert stats[c, 2] == trem[mine].max()
+    # the live parcels' maxima for the step's levels and speed limit (Saltation._levels)
+    assert pmax[0] == np.maximum(np.abs(u[live]), np.abs(v[live])).max()
+    assert pmax[1] == z[live].max()
+    assert pmax[2] == pytest.approx(np.sqrt((u[live] ** 2 + v[live] ** 2 + w[live] ** 2).max()),
+                                    rel=1e-15)

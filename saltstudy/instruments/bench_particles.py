@@ -22,6 +22,7 @@ checkout's (numba's cache, keyed by this checkout's sources).
 """
 from __future__ import annotations
 
+import gc
 import importlib
 import json
 import math
@@ -80,8 +81,8 @@ def _emit(out: dict, as_json: bool, lines) -> None:
 
 #: the kernels of Saltation.dynamics timed by --phases (module-level names in solver/particles.py)
 PHASE_KERNELS = ("implicit_coefficients", "implicit_corrections", "_advance_all", "splash_runs",
-                 "ejecta_reserve", "apply_exchange", "tke_rates", "chunk_assign",
-                 "_vmax_and_ztop", "grid_absmax", "_collect_events", "_compact")
+                 "ejecta_reserve", "apply_exchange", "chunk_assign", "air_maxima",
+                 "_collect_events", "_compact")
 
 
 @contextmanager
@@ -193,6 +194,12 @@ def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: 
                     s.dynamics(st, dt)
                     times.append((time.perf_counter() - t0) / n0 * 1e9)
                 per[side].append(float(np.median(times)))
+                # each side's component is freed before the next is built, so that the two
+                # allocate into the same memory: with the last one still alive the next lands
+                # elsewhere, and which side came first then shows as a speed difference
+                # (identical code measured 4-12 % apart, the first-built side faster)
+                del s, st
+                gc.collect()
         runs.append({"n_parcels": n, "this": float(np.median(per["this"])),
                      "against": float(np.median(per["against"])),
                      "this_rounds": per["this"], "against_rounds": per["against"]})

@@ -74,10 +74,10 @@ from .._jit import jit, jit_borrow, pjit
 from .elementary import expm1_small, pow_0687
 from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 
-__all__ = ["Parcels", "Flow", "Estimate", "C0_LAGRANGIAN", "face_inverse_masses",
+__all__ = ["Parcels", "Flow", "C0_LAGRANGIAN", "face_inverse_masses",
            "lagrangian_time_coefficients", "chunk_bounds", "chunk_assign", "chunk_ranges",
-           "implicit_coefficients", "implicit_corrections", "apply_exchange", "tke_rates",
-           "grid_absmax", "N_CHUNKS"]
+           "parcel_weight", "estimate_weights", "implicit_estimate", "implicit_coefficients", "implicit_corrections",
+           "apply_exchange", "air_maxima", "N_CHUNKS"]
 
 #: The records the grain kernels take (named tuples of arrays: numba passes each as one argument,
 #: its fields are static members, so reading them costs what separate arguments would).
@@ -89,9 +89,6 @@ Parcels = namedtuple("Parcels", "x y z u v w d kd flag trem su sv sw")
 #: implicit change du, dv, dw on the lowest nk levels and U, V, W = u + du etc. there (placeholders
 #: of shape (1, 1, 1) one-way):
 Flow = namedtuple("Flow", "u v w e tlc U V W du dv dw")
-#: The implicit estimate per parcel (``implicit_coefficients``): drag rate k0, expm1(-k0 T) e0,
-#: c_p c0 and the vertical u~_p wtil:
-Estimate = namedtuple("Estimate", "k0 e0 c0 wtil")
 
 #: Lagrangian structure-function constant used in T_L (eq. A1); not given in the paper.
 C0_LAGRANGIAN = 2.1
@@ -135,18 +132,46 @@ def drag_rate(rel, dnu, tp):
     return (1.0 + 0.15 * pow_0687(rel * dnu)) / tp
 
 
+@ijit
+def parcel_weight(Q, rho_p, d):
+    """Q m_p [kg]: the mass of the Q real grains of diameter d a parcel stands for."""
+    return Q * (math.pi / 6.0) * rho_p * d * d * d
+
+
+@ijit
+def estimate_weights(em, k0, T, qm, wp, g):
+    """The implicit estimate of a parcel of weight qm = Q m_p, drag rate k0, step T and vertical
+    velocity wp (module doc), given em = expm1(-k0 T): (c_p = Q m_p (1 - E_p), the vertical
+    u~_p). The horizontal u~_p are the parcel's velocity."""
+    ome = -em
+    return qm * ome, wp + g / k0 - g * T / ome
+
+
+@ijit
+def implicit_estimate(k0, T, qm, wp, g):
+    """(expm1(-k0 T), c_p, the vertical u~_p) of a parcel (estimate_weights). Called by
+    implicit_coefficients and again by the advance (particles.py) for the modelled impulse: the
+    same inputs, the same numbers, so nothing per parcel is stored between the two passes."""
+    em = expm1_small(-k0 * T)
+    cp, wt = estimate_weights(em, k0, T, qm, wp, g)
+    return em, cp, wt
+
+
 #: parcel blocks of chunk_assign's parallel passes (fixed, so the result is thread-count free)
 _ASSIGN_BLOCKS = 32
 
 
 @pjit
 def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
-                 stats):
+                 stats, v, w, z, pmax):
     """Split the live parcels (flag 0) into chunks of consecutive x-slabs holding about equal
     numbers of parcels: chunk c owns slabs [bounds[c], bounds[c+1]); its parcels are
     idx[cstart[c]:cstart[c+1]] in increasing index order (deterministic, thread-free).
     stats[c] = (max |u_p|, max |su_p|, max trem) over its parcels; hist[i] and slab_stats[i]
-    (nx, 3) end up as the slab -> chunk map and the slabs' maxima.
+    (nx, 3) end up as the slab -> chunk map and the slabs' maxima. pmax = (max over the live
+    parcels of max(|u_p|, |v_p|), of z_p and of |(u_p, v_p, w_p)|): the step's parcel-speed
+    limit and the levels the deposit buffers need (particles.Saltation._levels), here so that
+    the parcels are read once.
 
     Two passes over the parcels, each parallel over _ASSIGN_BLOCKS blocks of consecutive
     indices: the first keeps each parcel's slab in cid and counts and maxima per block and
@@ -157,7 +182,11 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
     has_sgs = su.shape[0] > 0
     hb = np.zeros((nb, nx), dtype=np.int64)
     sb = np.zeros((nb, nx, 3))
+    pb = np.zeros((nb, 3))
     for b in prange(nb):
+        vh = 0.0
+        zt = 0.0
+        v2 = 0.0
         for p in range((b * n) // nb, ((b + 1) * n) // nb):
             if flag[p] != 0:
                 continue
@@ -173,6 +202,24 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
                     sb[b, i, 1] = a
             if trem[p] > sb[b, i, 2]:
                 sb[b, i, 2] = trem[p]
+            a = max(abs(u[p]), abs(v[p]))
+            if a > vh:
+                vh = a
+            if z[p] > zt:
+                zt = z[p]
+            a = u[p] * u[p] + v[p] * v[p] + w[p] * w[p]  # squared: one square root at the end
+            if a > v2:
+                v2 = a
+        pb[b, 0] = vh
+        pb[b, 1] = zt
+        pb[b, 2] = v2
+    for r in range(3):
+        m = 0.0
+        for b in range(nb):
+            if pb[b, r] > m:
+                m = pb[b, r]
+        pmax[r] = m
+    pmax[2] = math.sqrt(pmax[2])
     live = 0
     for i in range(nx):
         m = 0
@@ -257,26 +304,37 @@ def chunk_ranges(bounds, margin, nx, per_slab, ranges):
     return off
 
 
-@pjit
-def grid_absmax(f):
-    """max |f| over a (nx, ny, nz) field (parallel over x-slabs; order-free, so deterministic)."""
-    nx = f.shape[0]
-    ny = f.shape[1]
-    nz = f.shape[2]
-    part = np.zeros(nx)
-    for i in prange(nx):
-        m = 0.0
+@jit_borrow
+def air_maxima(u, w, umax):
+    """max |w| over the whole field (returned) and umax[k] = max |u| over level k, for the levels
+    parcels can reach and how far they move (particles.Saltation._levels, dynamics): one pass
+    over both fields. Serial: the pass is light, and a parallel region costs a wake-up of the
+    worker threads, milliseconds on a machine shared with other jobs (`saltstudy bench particles
+    --phases` with another run beside it: 5.5 ms per step for this pass in a region of its own at
+    1e5 parcels, against 0.15 ms of work)."""
+    nx = u.shape[0]
+    ny = u.shape[1]
+    nz = u.shape[2]
+    nzw = w.shape[2]
+    for k in range(nz + 1):
+        umax[k] = 0.0
+    m = 0.0
+    for i in range(nx):
         for j in range(ny):
             for k in range(nz):
-                a = abs(f[i, j, k])
+                a = abs(u[i, j, k])
+                if a > umax[k]:
+                    umax[k] = a
+            for k in range(nzw):
+                a = abs(w[i, j, k])
                 if a > m:
                     m = a
-        part[i] = m
-    return part.max()
+    umax[nz] = m
+    return m
 
 
 @jit_borrow
-def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
+def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
     """Chunk c of implicit_coefficients (serial; helpers inlined; no reference counting, see
     ``_jit.jit_borrow``)."""
     nx = F.u.shape[0]
@@ -292,34 +350,28 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
     L = ranges[c, 1]
     off = ranges[c, 2]
     csz = L * ny * nk * 2
-    for q in range(off, off + 3 * csz):
-        pool[q] = 0.0
+    pool[off:off + 3 * csz] = 0.0
     for q in range(cstart[c], cstart[c + 1]):
         p = idx[q]
-        st = locate(P.x[p], P.y[p], P.z[p], G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
+        st = locate(P.x[p], P.y[p], P.z[p], G, nx, ny, nz)
         dp = P.d[p]
-        tp = rho_p * dp * dp / (18.0 * rho * nu)
         k = P.kd[p]
         ou = 0.0
         ov = 0.0
-        if st.islog or k <= 0.0:
+        if (st.islog and not paper) or k <= 0.0:
             ur, vr, wr = interp_fluid(F.u, F.v, F.w, st, nx, ny)
             if k <= 0.0:
                 rel = math.sqrt((ur - P.u[p]) ** 2 + (vr - P.v[p]) ** 2 + (wr - P.w[p]) ** 2)
-                k = drag_rate(rel, dp / nu, tp)
+                k = drag_rate(rel, dp / nu, rho_p * dp * dp / (18.0 * rho * nu))
+                # the advance takes k0 = -kd (and finds its own first drag rate, from the slip
+                # in the new air): a parcel without a drag rate carries its estimate's
+                P.kd[p] = -k
             if st.islog and not paper:
                 u0, v0, w0 = interp_faces(F.u, F.v, F.w, nz, nz + 1, st, nx, ny)
                 ou = ur - u0
                 ov = vr - v0
-        E.k0[p] = k
         T = dt + P.trem[p]  # the parcel's own step (time credit after a splash, particles.py)
-        em = expm1_small(-k * T)
-        E.e0[p] = em  # particles.py reuses it (first drag evaluation, same k and T)
-        ome = -em
-        cp = Q * (math.pi / 6.0) * rho_p * dp * dp * dp * ome
-        wt = P.w[p] + g / k - g * T / ome
-        E.c0[p] = cp
-        E.wtil[p] = wt
+        em, cp, wt = implicit_estimate(k, T, parcel_weight(Q, rho_p, dp), P.w[p], g)
         ah = cp * st.lfac if (st.islog and paper) else cp  # A's horizontal weight factor
         pool_add_tri2(pool, off, s, nx, ny, nk, ah, cp * (P.u[p] - ou), st.ixf, st.fxf, st.jyc,
                       st.fyc, st.kc, st.fzc)
@@ -330,158 +382,206 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
 
 
 @pjit
-def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E):
+def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
     """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
     A[c, comp] += w c_p (u, v of a parcel in the log region with "paper": w c_p l_p) and
-    B[c, comp] += w c_p (u~_p - o_p).
+    B[c, comp] += w c_p (u~_p - o_p), with c_p and u~_p from implicit_estimate.
 
     Records: P :data:`Parcels`, F :data:`Flow` (its u, v, w: the air at the start of the step),
-    G :data:`interp.Geometry`, E :data:`Estimate` (filled). prm: [rho, nu, g, rho_p, Q].
+    G :data:`interp.Geometry`. prm: [rho, nu, g, rho_p, Q].
     A and B live interleaved in the chunk's pool range (``ranges``, see ``chunk_ranges``): comp
     0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs. o_p is the log-law offset of a
-    parcel in the log region with "blend" (module doc), 0 elsewhere. Stores per parcel the drag
-    rate in E.k0, expm1(-k0 T) in E.e0, c_p in E.c0 and the vertical u~_p in E.wtil
-    (particles.py uses them for the modelled impulse and its first drag evaluation).
+    parcel in the log region with "blend" (module doc), 0 elsewhere. A parcel without a drag
+    rate (kd = 0: released, rebounded, ejected) gets one from its slip in this air, stored as
+    kd = -k0 for the advance (particles.py), which recomputes the estimate from k0 and T.
     """
     for c in prange(ranges.shape[0]):
-        _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, E)
+        _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk)
+
+
+@ijit
+def _covers(ranges, c, i, nx):
+    """Chunk c's local index of slab i, or -1 if its pool range does not cover slab i."""
+    ii = i - ranges[c, 0]
+    if ii < 0:
+        ii += nx
+    return ii if ii < ranges[c, 1] else -1
 
 
 @pjit
-def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, Uc, Vc, Wc, dmax):
+def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, Uc, Vc, Wc, dmax,
+                         acc):
     """delta_f = (sum_c B - U_f sum_c A) / (M_f + sum_c A) on the lowest nk levels of each face
     field: the backward-Euler air velocity change (a convex combination, see module doc).
-    Also the seen fields Uc = U + delta (etc.) and dmax[i] = max |delta| over slab i."""
+    Also the seen fields Uc = U + delta (etc.) and dmax[i] = max |delta| over slab i.
+
+    Per column, the chunks' (A, B) are first summed (in chunk order) into the slab's row of the
+    scratch acc (nx, 6, >= nk), then the column is solved: loops over the levels that LLVM
+    vectorizes (the contiguous levels of a chunk's column, the divisions of the solve)."""
     nc = ranges.shape[0]
     nx = du.shape[0]
     ny = du.shape[1]
     nk = dw.shape[2]
     for i in prange(nx):
+        a = acc[i]
         dm = 0.0
         for j in range(ny):
+            for r in range(6):
+                for k in range(nk):
+                    a[r, k] = 0.0
+            for c in range(nc):
+                ii = _covers(ranges, c, i, nx)
+                if ii < 0:
+                    continue
+                csz = ranges[c, 1] * ny * nk * 2
+                q = ranges[c, 2] + 2 * (ii * ny + j) * nk
+                for k in range(nk):
+                    a[0, k] += pool[q + 2 * k]
+                    a[1, k] += pool[q + 2 * k + 1]
+                    a[2, k] += pool[q + csz + 2 * k]
+                    a[3, k] += pool[q + csz + 2 * k + 1]
+                    a[4, k] += pool[q + 2 * csz + 2 * k]
+                    a[5, k] += pool[q + 2 * csz + 2 * k + 1]
+            # the solve, per component in its own loop: each writes few arrays, so that LLVM's
+            # runtime alias checks stay within its limit and the loop vectorizes
             for k in range(nk):
-                au = 0.0
-                av = 0.0
-                aw = 0.0
-                bu = 0.0
-                bv = 0.0
-                bw = 0.0
-                for c in range(nc):
-                    L = ranges[c, 1]
-                    ii = i - ranges[c, 0]
-                    if ii < 0:
-                        ii += nx
-                    if ii >= L:
-                        continue
-                    csz = L * ny * nk * 2
-                    q = ranges[c, 2] + 2 * ((ii * ny + j) * nk + k)
-                    au += pool[q]
-                    bu += pool[q + 1]
-                    av += pool[q + csz]
-                    bv += pool[q + csz + 1]
-                    aw += pool[q + 2 * csz]
-                    bw += pool[q + 2 * csz + 1]
                 m = inv_mc[k]
-                a = (bu - au * uf[i, j, k]) * m / (1.0 + au * m)
-                b = (bv - av * vf[i, j, k]) * m / (1.0 + av * m)
-                du[i, j, k] = a
-                dv[i, j, k] = b
-                Uc[i, j, k] = uf[i, j, k] + a
-                Vc[i, j, k] = vf[i, j, k] + b
+                x = (a[1, k] - a[0, k] * uf[i, j, k]) * m / (1.0 + a[0, k] * m)
+                y = (a[3, k] - a[2, k] * vf[i, j, k]) * m / (1.0 + a[2, k] * m)
                 m = inv_mw[k]
-                cc = (bw - aw * wf[i, j, k]) * m / (1.0 + aw * m)
-                dw[i, j, k] = cc
-                Wc[i, j, k] = wf[i, j, k] + cc
-                a = max(abs(a), abs(b))
-                if a > dm:
-                    dm = a
+                a[4, k] = (a[5, k] - a[4, k] * wf[i, j, k]) * m / (1.0 + a[4, k] * m)
+                a[0, k] = x
+                a[2, k] = y
+            for k in range(nk):  # (a float max reduction does not vectorize without nnan)
+                dm = max(dm, max(abs(a[0, k]), abs(a[2, k])))
+            for k in range(nk):
+                du[i, j, k] = a[0, k]
+                Uc[i, j, k] = uf[i, j, k] + a[0, k]
+            for k in range(nk):
+                dv[i, j, k] = a[2, k]
+                Vc[i, j, k] = vf[i, j, k] + a[2, k]
+            for k in range(nk):
+                dw[i, j, k] = a[4, k]
+                Wc[i, j, k] = wf[i, j, k] + a[4, k]
         dmax[i] = dm
 
 
-@pjit
-def apply_exchange(pool, ranges, ncomp, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot):
-    """Air update: U += delta + (sum_c P[c]) / M on the lowest nk levels (module doc); m_c, m_w
-    are the face masses M (inverses of inv_mc, inv_mw; 0 where inv_mw is).
-
-    P (comps 0, 1, 2 of the chunks' pool ranges, each (L, ny, nk); ncomp comps per chunk) holds,
-    per face, the difference between the modelled and the actual drag impulses of the parcels
-    (zero if they coincide). tot (3,) receives the momentum given to the air (kg m s^-1); the
-    return value is the w impulse taken by the bed face. Sums are taken in a fixed order.
-    """
+@ijit
+def _momentum_to_air(pool, ranges, i, j, nx, ny, nk, a, du, dv, dw, inv_mc, inv_mw, m_c, m_w,
+                     uf, vf, wf):
+    """Column (i, j) of apply_exchange's momentum update: U += delta + (sum_c P[c]) / M on the
+    lowest nk levels, the chunks' P summed in chunk order into a[0:3]. Returns the column's
+    momentum given to the air (x, y, z) and the w impulse its bed face takes."""
     nc = ranges.shape[0]
+    for r in range(3):
+        for k in range(nk):
+            a[r, k] = 0.0
+    for c in range(nc):
+        ii = _covers(ranges, c, i, nx)
+        if ii < 0:
+            continue
+        csz = ranges[c, 1] * ny * nk
+        q = ranges[c, 2] + (ii * ny + j) * nk
+        for k in range(nk):
+            a[0, k] += pool[q + k]
+            a[1, k] += pool[q + csz + k]
+            a[2, k] += pool[q + 2 * csz + k]
+    su = 0.0
+    sv = 0.0
+    sw = 0.0
+    sbed = 0.0
+    for k in range(nk):
+        pu = a[0, k] + du[i, j, k] * m_c[k]
+        uf[i, j, k] += pu * inv_mc[k]
+        su += pu
+    for k in range(nk):
+        pv = a[1, k] + dv[i, j, k] * m_c[k]
+        vf[i, j, k] += pv * inv_mc[k]
+        sv += pv
+    for k in range(nk):
+        pw = a[2, k]
+        if inv_mw[k] > 0.0:
+            pw += dw[i, j, k] * m_w[k]
+            wf[i, j, k] += pw * inv_mw[k]
+            sw += pw
+        else:
+            sbed += pw
+    return su, sv, sw, sbed
+
+
+@ijit
+def _tke_rates(pool, ranges, i, j, nx, ny, comp, nk_c, nz, a, inv_vol, out):
+    """Column (i, j) of apply_exchange's TKE rates: out[i, j, :nk_c] = sum_c T[c] / V_cell (the
+    chunks' T summed in chunk order into a[0]), zero on levels nk_c..nz-1."""
+    nc = ranges.shape[0]
+    for k in range(nk_c):
+        a[0, k] = 0.0
+    for c in range(nc):
+        ii = _covers(ranges, c, i, nx)
+        if ii < 0:
+            continue
+        q = ranges[c, 2] + ((comp * ranges[c, 1] + ii) * ny + j) * nk_c
+        for k in range(nk_c):
+            a[0, k] += pool[q + k]
+    for k in range(nk_c):
+        out[i, j, k] = a[0, k] * inv_vol[k]
+    for k in range(nk_c, nz):
+        out[i, j, k] = 0.0
+
+
+@pjit
+def apply_exchange(pool, ranges, nk, two, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot,
+                   tke, comp, nz_tke, inv_vol, tke_out, acc, part):
+    """The air's side of the step, per column in one pass over the slabs.
+
+    Two-way (``two``): U += delta + (sum_c P[c]) / M on the nk levels of the step (module doc); m_c,
+    m_w are the face masses M (inverses of inv_mc, inv_mw; 0 where inv_mw is). P (comps 0, 1, 2
+    of the chunks' pool ranges, each (L, ny, nk)) holds, per face, the difference between the
+    modelled and the actual drag impulses of the parcels (zero if they coincide). tot (3,)
+    receives the momentum given to the air (kg m s^-1); the return value is the w impulse taken
+    by the bed face (0 one-way).
+
+    TKE sink (``tke``): tke_out[:, :, :nk] = sum_c T[c] / V_cell, rates of eq. A1 [s^-1], T[c]
+    comp ``comp`` of chunk c's pool range (L, ny, nk); zero on levels nk..nz_tke-1 (the caller
+    knows the levels from nz_tke up to be zero already).
+
+    Sums over chunks are taken in chunk order, per column into the slab's row of the scratch acc
+    (nx, >= 3, >= nk) (loops over the levels that LLVM vectorizes); part (nx, 4) holds the
+    slabs' momentum sums. One pass for both: one parallel region fewer per step (each costs a
+    wake-up of the worker threads, milliseconds on a machine shared with other jobs).
+    """
     nx = uf.shape[0]
     ny = uf.shape[1]
-    nk = du.shape[2]
-    su = np.zeros(nx)
-    sv = np.zeros(nx)
-    sw = np.zeros(nx)
-    sbed = np.zeros(nx)
     for i in prange(nx):
+        a = acc[i]
+        su = 0.0
+        sv = 0.0
+        sw = 0.0
+        sbed = 0.0
         for j in range(ny):
-            for k in range(nk):
-                pu = 0.0
-                pv = 0.0
-                pw = 0.0
-                for c in range(nc):
-                    L = ranges[c, 1]
-                    ii = i - ranges[c, 0]
-                    if ii < 0:
-                        ii += nx
-                    if ii >= L:
-                        continue
-                    csz = L * ny * nk
-                    q = ranges[c, 2] + (ii * ny + j) * nk + k
-                    pu += pool[q]
-                    pv += pool[q + csz]
-                    pw += pool[q + 2 * csz]
-                pu += du[i, j, k] * m_c[k]
-                pv += dv[i, j, k] * m_c[k]
-                uf[i, j, k] += pu * inv_mc[k]
-                vf[i, j, k] += pv * inv_mc[k]
-                su[i] += pu
-                sv[i] += pv
-                if inv_mw[k] > 0.0:
-                    pw += dw[i, j, k] * m_w[k]
-                    wf[i, j, k] += pw * inv_mw[k]
-                    sw[i] += pw
-                else:
-                    sbed[i] += pw
+            if two:
+                x, y, z, b = _momentum_to_air(pool, ranges, i, j, nx, ny, nk, a, du, dv, dw,
+                                              inv_mc, inv_mw, m_c, m_w, uf, vf, wf)
+                su += x
+                sv += y
+                sw += z
+                sbed += b
+            if tke:
+                _tke_rates(pool, ranges, i, j, nx, ny, comp, nk, nz_tke, a, inv_vol, tke_out)
+        part[i, 0] = su
+        part[i, 1] = sv
+        part[i, 2] = sw
+        part[i, 3] = sbed
     a = 0.0
     b = 0.0
     cc = 0.0
     bed = 0.0
     for i in range(nx):
-        a += su[i]
-        b += sv[i]
-        cc += sw[i]
-        bed += sbed[i]
+        a += part[i, 0]
+        b += part[i, 1]
+        cc += part[i, 2]
+        bed += part[i, 3]
     tot[0] = a
     tot[1] = b
     tot[2] = cc
     return bed
-
-
-@pjit
-def tke_rates(pool, ranges, comp, nk_c, nz, inv_vol, out):
-    """out[:, :, :nk_c] = sum_c T[c] / V_cell; zero on levels nk_c..nz-1 (rates of eq. A1, s^-1;
-    the caller knows the levels from nz up to be zero already). T[c] is comp ``comp`` of chunk
-    c's pool range, (L, ny, nk_c)."""
-    nc = ranges.shape[0]
-    nx = out.shape[0]
-    ny = out.shape[1]
-    for i in prange(nx):
-        for j in range(ny):
-            for k in range(nz):
-                if k < nk_c:
-                    s = 0.0
-                    for c in range(nc):
-                        L = ranges[c, 1]
-                        ii = i - ranges[c, 0]
-                        if ii < 0:
-                            ii += nx
-                        if ii >= L:
-                            continue
-                        s += pool[ranges[c, 2] + ((comp * L + ii) * ny + j) * nk_c + k]
-                    out[i, j, k] = s * inv_vol[k]
-                else:
-                    out[i, j, k] = 0.0

@@ -1,4 +1,4 @@
-"""Inlined elementary functions for the parcel kernels: Re^0.687 and expm1 without libm calls.
+"""Inlined elementary functions for the parcel kernels: Re^0.687, expm1 and log without libm calls.
 
 Every parcel-step needs one Re_p^0.687 (the Clift correction, paper eq. 4) and one expm1(-k T)
 (the exact drag update) at arguments unrelated to the ones before. As calls into libm (``pow``,
@@ -15,6 +15,12 @@ values go to the stack and back around it. Here they are a few inlined multiply-
 * :func:`expm1_small` ``expm1(x)``: Taylor to degree 14 for |x| <= 0.35 (truncation < 2e-17
   relative, Horner in the product form that keeps relative accuracy as x -> 0), libm beyond.
   In the cases the drag update's k T is 0.01-0.2; the finest soils (20 um) go to libm.
+* :func:`log_small` ``ln(x)`` for x >= 1, for the log law of every parcel in the first cell
+  (interp.locate): ``ln(x) = e ln 2 + ln(c_j) + log1p(t)`` with the bins of pow_0687 (ln(c_j) a
+  correctly rounded table, ln 2 in two parts so that e ln 2 is exact to 2^-64) and log1p(t) a
+  series of seven terms (truncation < 2^-66 relative); below 1 + 2^-8 the series of log1p(x - 1)
+  itself (nine terms), which keeps the relative accuracy as x -> 1. Within 2 ulp of the exact
+  value for x >= 1 (a test sweeps it); x < 1, infinities and NaN go to ``math.log``.
 
 The tables are module-level arrays: numba freezes them into the compiled kernels as constants.
 """
@@ -28,10 +34,10 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-from .interp import ijit
+from .._jit import device as ijit  # (interp.ijit; interp imports this module)
 
-__all__ = ["pow_0687", "expm1_small", "binomial_coefficients", "CLIFT_EXPONENT",
-           "EXPM1_TAYLOR_MAX"]
+__all__ = ["pow_0687", "pow_0687_table", "expm1_small", "expm1_taylor", "log_small",
+           "binomial_coefficients", "CLIFT_EXPONENT", "EXPM1_TAYLOR_MAX"]
 
 #: the exponent of the Clift et al. (1978) correction f(Re) = 1 + 0.15 Re^0.687 (paper eq. 4)
 CLIFT_EXPONENT = 0.687
@@ -78,6 +84,23 @@ def _tables(a: float):
 _P2, _PM = _tables(CLIFT_EXPONENT)
 
 
+def _log_tables():
+    """ln(c_j) per mantissa bin (c_j as in _tables), correctly rounded; ln 2 as a head with 32
+    trailing zero bits (e ln2_hi is exact for |e| < 2^21) and the rounded rest."""
+    getcontext().prec = 40
+    nb = 1 << _BIN_BITS
+    lc = np.array([float((Decimal(1) + (Decimal(j) + Decimal("0.5")) / nb).ln())
+                   for j in range(nb)])
+    ln2 = Decimal(2).ln()
+    hi = float(ln2)
+    hi = float(np.frombuffer((np.frombuffer(np.float64(hi).tobytes(), dtype=np.int64)
+                              & ~np.int64((1 << 32) - 1)).tobytes(), dtype=np.float64)[0])
+    return lc, hi, float(ln2 - Decimal(hi))
+
+
+_LC, _LN2_HI, _LN2_LO = _log_tables()
+
+
 def binomial_coefficients(a: float, m: int) -> list[float]:
     """C(a, 1), ..., C(a, m): the coefficients of (1 + t)^a = 1 + sum_i C(a, i) t^i."""
     c = [1.0]
@@ -94,19 +117,51 @@ _HALF_BIN = 1 << (_SHIFT - 1)
 
 
 @ijit
-def pow_0687(x):
-    """x^0.687 [same units^0.687] (the Clift exponent), inlined; see the module doc."""
+def pow_0687_table(x):
+    """(x^0.687 from the tables, whether x is in their range): the table path of pow_0687 without
+    its fallback, no branch and no call (the indices are clamped into the tables, so a value out
+    of range reads them harmlessly and is flagged), for loops LLVM vectorizes."""
     b = _bits(x)
     eb = (b >> 52) - 1023  # x < 0 has the sign bit: a negative b, out of range
-    if _E_MIN <= eb <= _E_MAX and b > 0:
+    ok = _E_MIN <= eb <= _E_MAX and b > 0
+    e = min(max(eb, _E_MIN), _E_MAX)
+    j = (b & _MANT) >> _SHIFT
+    m = _float((b & _MANT) | _ONE)
+    c = _float(_ONE | (j << _SHIFT) | _HALF_BIN)
+    t = (m - c) * _PM[j, 1]  # m - c is exact (same binade)
+    s = t * (_B1 + t * (_B2 + t * (_B3 + t * (_B4 + t * _B5))))
+    pm = _PM[j, 0]
+    return _P2[e - _E_MIN] * (pm + pm * s), ok
+
+
+@ijit
+def pow_0687(x):
+    """x^0.687 [same units^0.687] (the Clift exponent), inlined; see the module doc."""
+    v, ok = pow_0687_table(x)
+    if ok:
+        return v
+    return x ** 0.687
+
+
+@ijit
+def log_small(x):
+    """ln(x), inlined for x >= 1 (libm below); see the module doc."""
+    b = _bits(x)
+    eb = (b >> 52) - 1023
+    if 0 <= eb <= 1023:
+        t = x - 1.0
+        if t < 1.0 / 256.0:  # near 1: log1p(t) itself (t exact), no cancellation
+            return t * (1.0 + t * (-0.5 + t * (1.0 / 3.0 + t * (-0.25 + t * (0.2 + t * (
+                -1.0 / 6.0 + t * (1.0 / 7.0 + t * (-0.125 + t * (1.0 / 9.0)))))))))
         j = (b & _MANT) >> _SHIFT
         m = _float((b & _MANT) | _ONE)
         c = _float(_ONE | (j << _SHIFT) | _HALF_BIN)
         t = (m - c) * _PM[j, 1]  # m - c is exact (same binade)
-        s = t * (_B1 + t * (_B2 + t * (_B3 + t * (_B4 + t * _B5))))
-        pm = _PM[j, 0]
-        return _P2[eb - _E_MIN] * (pm + pm * s)
-    return x ** 0.687
+        s = t * (1.0 + t * (-0.5 + t * (1.0 / 3.0 + t * (-0.25 + t * (0.2 + t * (
+            -1.0 / 6.0 + t * (1.0 / 7.0)))))))
+        e = float(eb)
+        return (e * _LN2_HI + _LC[j]) + (e * _LN2_LO + s)
+    return math.log(x)
 
 
 _T = [1.0 / math.factorial(i) for i in range(15)]
@@ -114,10 +169,17 @@ _T2, _T3, _T4, _T5, _T6, _T7, _T8, _T9, _T10, _T11, _T12, _T13, _T14 = _T[2:]
 
 
 @ijit
+def expm1_taylor(x):
+    """The Taylor polynomial of expm1_small (|x| <= EXPM1_TAYLOR_MAX), no branch: for loops LLVM
+    vectorizes."""
+    return x * (1.0 + x * (_T2 + x * (_T3 + x * (_T4 + x * (_T5 + x * (_T6 + x * (
+        _T7 + x * (_T8 + x * (_T9 + x * (_T10 + x * (_T11 + x * (_T12 + x * (
+            _T13 + x * _T14)))))))))))))
+
+
+@ijit
 def expm1_small(x):
     """expm1(x) = e^x - 1, inlined for |x| <= EXPM1_TAYLOR_MAX (libm beyond); see the module doc."""
     if abs(x) <= EXPM1_TAYLOR_MAX:
-        return x * (1.0 + x * (_T2 + x * (_T3 + x * (_T4 + x * (_T5 + x * (_T6 + x * (
-            _T7 + x * (_T8 + x * (_T9 + x * (_T10 + x * (_T11 + x * (_T12 + x * (
-                _T13 + x * _T14)))))))))))))
+        return expm1_taylor(x)
     return math.expm1(x)

@@ -60,6 +60,7 @@ import numpy as np
 
 from .._jit import device, jit
 from .grid import Grid
+from .elementary import log_small
 from .simd import fma2, fma4, load2
 
 #: small helpers of the parcel kernels, inlined into the callers by LLVM (``saltstudy._jit.device``:
@@ -68,7 +69,7 @@ from .simd import fma2, fma4, load2
 ijit = device
 
 __all__ = ["GridGeometry", "Geometry", "Stencil", "NEAR_BED_WIND", "GEO_LOG_TOP", "GEO_LOG_LEVEL",
-           "GEO_LOG_READ", "wrap_periodic", "locate", "interp_fluid",
+           "GEO_LOG_READ", "GEO_RDX", "GEO_RDY", "GEO_RZ0", "GEO_RLUT", "wrap_periodic", "locate", "interp_fluid",
            "interp_faces", "deposit_faces", "level_of", "slab_of", "wrap_index", "pool_add_tri",
            "pool_add_tri2"]
 
@@ -90,15 +91,19 @@ NEAR_BED_WIND = {"paper": ("face1", 1, 1), "cell-drag": ("face1", 1, 0),
 GEO_LOG_TOP = 8
 GEO_LOG_LEVEL = 9
 GEO_LOG_READ = 10
-#: The grid as the parcel kernels take it (``GridGeometry.record``)
-Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut")
+#: indices in ``GridGeometry.geo`` of 1 / dx, 1 / dy, 1 / z0 and 1 / lut_dz (locate multiplies:
+#: a division is a long dependency for the parcel's stencil, twice per parcel-step)
+GEO_RDX, GEO_RDY, GEO_RZ0, GEO_RLUT = 11, 12, 13, 14
+#: The grid as the parcel kernels take it (``GridGeometry.record``): ``rdz_f[k] = 1 / (z_f[k+1] -
+#: z_f[k])``, ``rdz_c[k] = 1 / (z_c[k+1] - z_c[k])``
+Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut rdz_f rdz_c")
 
 
 class GridGeometry:
     """The arrays and scalars the parcel kernels need, in numba-friendly form.
 
     ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[k_read] / z0), z_log, k_log,
-    k_read] with the log region ``z < z_log``, ``k_read`` the level whose wind its log law
+    k_read, 1 / dx, 1 / dy, 1 / z0, 1 / lut_dz] with the log region ``z < z_log``, ``k_read`` the level whose wind its log law
     extrapolates and ``k_log`` the level the drag of a parcel in it goes to (module doc,
     :data:`NEAR_BED_WIND`); ``z_f (nz+1)``,
     ``z_c (nz)``,
@@ -125,10 +130,14 @@ class GridGeometry:
         z_log = self.z_f[1] if top == "face1" else self.z_c[0]
         self.geo = np.array([grid.dx, grid.dy, grid.Lx, grid.Ly, z0, lut_dz, grid.Lz,
                              1.0 / math.log(self.z_c[k_read] / z0), z_log, float(k_log),
-                             float(k_read)], dtype=np.float64)
+                             float(k_read), 1.0 / grid.dx, 1.0 / grid.dy, 1.0 / z0, 1.0 / lut_dz],
+                            dtype=np.float64)
         if not z0 < self.z_c[0]:
             raise ValueError(f"z0 ({z0}) must lie below the first level ({self.z_c[0]})")
-        self.record = Geometry(self.geo, self.z_f, self.z_c, self.dz_c, self.lut)
+        self.rdz_f = np.ascontiguousarray(1.0 / np.diff(self.z_f))
+        self.rdz_c = np.ascontiguousarray(1.0 / np.diff(self.z_c))
+        self.record = Geometry(self.geo, self.z_f, self.z_c, self.dz_c, self.lut, self.rdz_f,
+                               self.rdz_c)
 
 
 @ijit
@@ -171,32 +180,48 @@ def level_of(z: float, z_f: np.ndarray, lut: np.ndarray, lut_dz: float, nz: int)
 
 
 @ijit
-def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
-    """The :data:`Stencil` of a point for the three staggered components."""
-    dx = geo[0]
-    dy = geo[1]
-    z0 = geo[4]
-    lut_dz = geo[5]
-    sx = x / dx
-    ixf = int(math.floor(sx))
-    fxf = sx - ixf
-    sxc = sx - 0.5
-    ixc = int(math.floor(sxc))
-    fxc = sxc - ixc
-    sy = y / dy
-    jyf = int(math.floor(sy))
-    fyf = sy - jyf
-    syc = sy - 0.5
-    jyc = int(math.floor(syc))
-    fyc = syc - jyc
+def _cell_level(z, G, nz):
+    """level_of with 1 / lut_dz: the face index k (0..nz-1) with z_f[k] <= z < z_f[k+1] (clamped).
+    A product can round up onto a table point that a division would not reach; the step down
+    puts such a z back into its cell."""
+    if z <= 0.0:
+        return 0
+    m = int(z * G.geo[GEO_RLUT])
+    if m >= G.lut.shape[0]:
+        return nz - 1
+    k = G.lut[m]
+    if k > 0 and z < G.z_f[k]:
+        k -= 1
+    while k < nz - 1 and G.z_f[k + 1] <= z:
+        k += 1
+    return k
+
+
+@ijit
+def _faces_and_centres(s):
+    """(face index, fraction, centre index, fraction) of a coordinate s in cell widths: the face
+    stencil floor(s), s - floor(s), and the centre stencil (centres at i + 1/2) from it."""
+    i = int(math.floor(s))
+    f = s - i
+    if f >= 0.5:
+        return i, f, i, f - 0.5
+    return i, f, i - 1, f + 0.5
+
+
+@ijit
+def locate(x, y, z, G, nx, ny, nz):
+    """The :data:`Stencil` of a point for the three staggered components (G: :data:`Geometry`)."""
+    geo = G.geo
+    ixf, fxf, ixc, fxc = _faces_and_centres(x * geo[GEO_RDX])
+    jyf, fyf, jyc, fyc = _faces_and_centres(y * geo[GEO_RDY])
     ixf = wrap_index(ixf, nx)
     ixc = wrap_index(ixc, nx)
     jyf = wrap_index(jyf, ny)
     jyc = wrap_index(jyc, ny)
-    kcell = level_of(z, z_f, lut, lut_dz, nz)
+    kcell = _cell_level(z, G, nz)
     # faces: w between z_f[kf] and z_f[kf+1]
     kf = kcell
-    fzf = (z - z_f[kf]) / (z_f[kf + 1] - z_f[kf])
+    fzf = (z - G.z_f[kf]) * G.rdz_f[kf]
     if fzf < 0.0:
         fzf = 0.0
     elif fzf > 1.0:
@@ -204,23 +229,24 @@ def locate(x, y, z, geo, z_f, z_c, lut, nx, ny, nz):
     # centres: u, v between z_c[kc] and z_c[kc+1]
     islog = False
     lfac = 1.0
-    if z < geo[8]:  # the log region (GEO_LOG_TOP)
+    if z < geo[GEO_LOG_TOP]:  # the log region
         islog = True
-        kc = int(geo[9])  # its deposit level (GEO_LOG_LEVEL)
+        kc = int(geo[GEO_LOG_LEVEL])  # its deposit level
         fzc = 0.0
+        z0 = geo[4]
         zz = z if z > 1.0001 * z0 else 1.0001 * z0
-        lfac = math.log(zz / z0) * geo[7]
+        lfac = log_small(zz * geo[GEO_RZ0]) * geo[7]
     else:
-        kc = kcell if z >= z_c[kcell] else kcell - 1
+        kc = kcell if z >= G.z_c[kcell] else kcell - 1
         if kc >= nz - 1:
             kc = nz - 2
             fzc = 1.0
         else:
-            fzc = (z - z_c[kc]) / (z_c[kc + 1] - z_c[kc])
+            fzc = (z - G.z_c[kc]) * G.rdz_c[kc]
             if fzc > 1.0:
                 fzc = 1.0
     return Stencil(ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell,
-                   int(geo[10]))
+                   int(geo[GEO_LOG_READ]))
 
 
 @ijit

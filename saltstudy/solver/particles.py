@@ -50,11 +50,15 @@ consecutive impacts, each with its own random stream, splashed in parallel
 serial kernels on the component's main stream. A chunk is a run of x-slabs with about
 n / N_CHUNKS parcels (processed in index order), so its buffers cover only those slabs plus a
 margin (coupling.py), and only the levels parcels can reach within the step; the buffers persist
-across steps. The per-parcel code is
-inlined (interp.py ``ijit``) into a serial per-chunk loop (``_advance_chunk``, blocks of parcels
-in lockstep passes) called from the prange. Two-way, the modelled impulse of the implicit
-estimate and the first sub-step's drag impulse share their weights and are deposited as one
-value.
+across steps. The per-parcel code is inlined (interp.py ``ijit``) into a serial per-chunk loop
+(``_advance_chunk``: blocks of parcels in passes over the block, the branch-free ones vectorized
+by LLVM; see the comment above ``_wind_seen``) called from the prange. Two-way, the modelled
+impulse of the implicit estimate and the first sub-step's drag impulse share their weights and
+are deposited as one value; the advance recomputes the estimate's coefficients from the same
+inputs (coupling.implicit_estimate), so nothing per parcel is kept between the two passes. A
+step has few parallel regions (chunk assignment, the estimate, its solve, the advance, the bed
+events, the air's update): on a machine shared with other jobs each one waits for the worker
+threads to be scheduled.
 
 Optional processes (off by default, not constructed when off):
 
@@ -80,14 +84,16 @@ import numpy as np
 from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
-from .coupling import (N_CHUNKS, Estimate, Flow, Parcels, apply_exchange, chunk_assign,
-                       chunk_ranges, drag_rate, face_inverse_masses, grid_absmax,
+from .coupling import (N_CHUNKS, Flow, Parcels, air_maxima, apply_exchange, chunk_assign,
+                       chunk_ranges, estimate_weights, face_inverse_masses,
                        implicit_coefficients, implicit_corrections,
-                       lagrangian_time_coefficients, tke_rates)
-from .elementary import CLIFT_EXPONENT, binomial_coefficients, expm1_small, pow_0687
+                       lagrangian_time_coefficients, parcel_weight)
+from .elementary import (CLIFT_EXPONENT, EXPM1_TAYLOR_MAX, binomial_coefficients, expm1_small,
+                         expm1_taylor, pow_0687, pow_0687_table)
 from .grid import Grid
-from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, _bil, _tri, ijit, interp_fluid, level_of,
-                     locate, pool_add_tri, slab_of, wrap_index, wrap_periodic)
+from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, Stencil, _bil, _tri, ijit,
+                     interp_fluid, level_of, locate, pool_add_tri, slab_of, wrap_index,
+                     wrap_periodic)
 from .splash_kernels import (EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, N_EN,
                              NO_LAUNCH, ImpactLog, draw_diameter, ejecta_reserve,
                              impact_log_arrays, soil_arrays, splash_params, splash_runs)
@@ -136,27 +142,22 @@ _B1, _B2, _B3, _B4, _B5, _B6, _B7, _B8, _B9, _B10 = binomial_coefficients(CLIFT_
 
 
 @ijit
-def _expm1_near(k, h, kq, emq):
-    """expm1(-k h), from emq = expm1(-kq h) if |(kq - k) h| <= _NEAR (kq <= 0: no previous)."""
-    if kq > 0.0:
-        x = (kq - k) * h
-        if abs(x) <= _NEAR:
-            t = x * (1.0 + x * (_X2 + x * (_X3 + x * (_X4 + x * (_X5 + x * (_X6 + x * (
-                _X7 + x * (_X8 + x * _X9))))))))
-            return emq + (1.0 + emq) * t
-    return expm1_small(-k * h)
+def _expm1_shift(k, h, kq, emq):
+    """expm1(-k h) from emq = expm1(-kq h) by the series in x = (kq - k) h (exact to round-off
+    for |x| <= _NEAR)."""
+    x = (kq - k) * h
+    t = x * (1.0 + x * (_X2 + x * (_X3 + x * (_X4 + x * (_X5 + x * (_X6 + x * (
+        _X7 + x * (_X8 + x * _X9))))))))
+    return emq + (1.0 + emq) * t
 
 
 @ijit
-def _re687_near(rel, dnu, irelq, rpq):
-    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR; irelq = 1 / relq
-    (irelq <= 0: none)."""
-    if irelq > 0.0:
-        e = rel * irelq - 1.0
-        if abs(e) <= _NEAR:
-            return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
-                _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
-    return pow_0687(rel * dnu)
+def _re687_shift(rel, irelq, rpq):
+    """(rel dnu)^0.687 from rpq = (relq dnu)^0.687 by the binomial series in e = rel / relq - 1
+    (exact to round-off for |e| <= _NEAR); irelq = 1 / relq."""
+    e = rel * irelq - 1.0
+    return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
+        _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
 
 
 @jit
@@ -226,41 +227,51 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
     return min(max(t, 0.0), h)
 
 
-# ---- one sub-step of one parcel, process by process (inlined into _advance_chunk) --------------
-# The lane scratch of a chunk (``Work.lane_f[c]``, ``Work.lane_i[c]``) holds one parcel per column
-# (lane) and one quantity per row. Float rows:
-_F_X, _F_Y, _F_Z, _F_U, _F_V, _F_W = range(6)  # the parcel's position and velocity
-_F_T = 6  # time done in the step
-_F_TEND = 7  # the parcel's step T: dt plus its time credit
-_F_K = 8  # drag rate k_p (the iteration's current value)
-_F_TP = 9  # response time T_p
-_F_ITP = 10  # 1 / T_p
-_F_QM = 11  # Q m_p
-_F_DNU = 12  # d / nu
-_F_US, _F_VS, _F_WS = 13, 14, 15  # the seen velocity (with the SGS part)
-_F_H = 16  # the sub-step h
-_F_MU, _F_MV, _F_MW = 17, 18, 19  # the modelled impulse of the implicit estimate (sub-step 0)
-_F_DU, _F_DV, _F_DW = 20, 21, 22  # the slip u_s - u_p at the start of the sub-step
-_F_IH = 23  # 1 / h
-_F_FXF, _F_FXC, _F_FYF, _F_FYC, _F_FZC, _F_FZF = range(24, 30)  # the stencil's fractions
-_F_KQ, _F_EMQ, _F_IRELQ, _F_RPQ = range(30, 34)  # the drag iteration's last evaluation
-# integer rows:
-_I_P = 0  # the parcel's index
-_I_NSUB = 1  # sub-steps done
-_I_XF, _I_XC, _I_YF, _I_YC, _I_KC, _I_KF = range(2, 8)  # the stencil's indices
-_I_LOG = 8  # 1 in the log region
-_I_KCELL = 9  # the level of the cell holding the parcel
-_I_E0 = 10  # 1: the first drag evaluation's expm1 is the implicit estimate's (Estimate.e0)
-_LANE_ROWS_F = 34
-_LANE_ROWS_I = 11
+# ---- the advance of one parcel, process by process (inlined into _advance_chunk) ----------------
+# A block of up to _LANES parcels takes its first sub-step in passes over all its lanes. Where a
+# parcel's work branches or reads the grid (locating it and reading the wind there; the
+# deposits) the passes are scalar; between them, the step's coefficients, the drag rate's fixed
+# point and the relaxation and move are loops without branches or calls, which LLVM vectorizes
+# (8 lanes per instruction with AVX-512; the helpers' ``exact=False``). The few lanes whose
+# arithmetic there needs libm (an argument beyond the inlined expm1's or Re^0.687's range) or a
+# bed crossing are redone one at a time by the same helpers with ``exact=True`` (branches and
+# libm allowed; the same formulas wherever both apply, equal to round-off: LLVM may contract the
+# two differently, tests/test_particles_lanes.py), and a parcel that needs more sub-steps
+# takes them alone (_rest_of_step). Between the passes a lane's values wait in the chunk's lane
+# scratch, one row of _LANES values per quantity, flat: row r of lane l at r * _LANES + l (a
+# constant offset from one base pointer).
+(_X, _Y, _Z, _U, _V, _W, _D, _KD, _T, _US, _VS, _WS, _SU, _SV, _SW, _DZK, _EC, _TLC,
+ _FXF, _FXC, _FYF, _FYC, _FZC, _FZF,
+ _TP, _ITP, _DNU, _QM, _H, _IH, _DU, _DV, _DW, _MU, _MV, _MW,
+ _K, _KQ, _EMQ, _IRELQ, _RPQ,
+ _XN, _YN, _ZN, _UN, _VN, _WN, _RU, _RV, _RW, _RT) = (r * _LANES for r in range(51))
+# _X ... _W the parcel at the start, _D its diameter, _KD its stored drag rate, _T its step (dt
+# plus its time credit); _US, _VS, _WS the resolved wind it sees (with the SGS part _SU, _SV, _SW
+# once _lane_start has added it); _DZK the height of the cell holding it; _EC the SGS TKE of
+# the cell its TKE sink goes to and _TLC that level's T_L coefficient; _FXF ... _FZF the
+# stencil's fractions; _TP T_p, _ITP 1 / T_p, _DNU d / nu, _QM Q m_p; _H the sub-step, _IH 1 / h;
+# _DU, _DV, _DW the slip at its start; _MU, _MV, _MW the modelled impulse of the implicit
+# estimate; _K the drag rate (the iteration's current value), _KQ, _EMQ, _IRELQ, _RPQ the
+# iteration's last evaluation (_EMQ: the estimate's expm1 before the first); _XN ... _WN the
+# parcel at the end of the sub-step (_H then the sub-step as taken); _RU, _RV, _RW the air's
+# impulse and _RT the TKE-sink rate the sub-step deposits
+_LANE_ROWS_F = 51
+(_ACTIVE, _ITER, _FIX, _E0, _HIT, _XF, _XC, _YF, _YC, _KC, _KF, _LOG, _KCELL) = (
+    r * _LANES for r in range(13))
+# _ACTIVE 1 if the lane takes its sub-step (0: the parcel was in the impact layer already);
+# _ITER 1 while its drag rate iterates; _FIX 1 if a vectorized pass left it to the exact one;
+# _E0 1 if the first drag evaluation's expm1 is the implicit estimate's (same k and h: the same
+# number); _HIT 1 if the sub-step ended at the bed; _XF ... _KF the stencil's indices, _LOG 1 in
+# the log region, _KCELL the level of the cell holding the parcel
+_LANE_ROWS_I = 13
 
 #: the scalars of a step, as _advance_chunk reads them once from prm and geo
 #: (paper: the log region deposits on klog, the level it reads; otherwise on another level)
-_Step = namedtuple("_Step", "dt g h_imp tol Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb paper "
-                   "klog")
+_Step = namedtuple("_Step", "dt g h_imp tol tol_fp Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb "
+                   "paper klog")
 #: the chunks' work: their parcels (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign), pool
 #: ranges (coupling.chunk_ranges) and pool, results (vmax, nhit per chunk) and lane scratch
-#: (lane_f (chunks, _LANE_ROWS_F, _LANES), lane_i (chunks, _LANE_ROWS_I + 2, _LANES))
+#: (lane_f (chunks, _LANE_ROWS_F * _LANES), lane_i (chunks, _LANE_ROWS_I * _LANES))
 Work = namedtuple("Work", "cstart idx ranges pool vmax nhit lane_f lane_i")
 #: where a chunk deposits: its pool range (slab s, L slabs, offset off; csz entries per
 #: component), nk levels, comp ct the TKE sink's
@@ -274,7 +285,7 @@ def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
     of the air after the implicit exchange: the fluid's plus the change delta interpolated with
     the deposit weights (zero beyond the buffer levels S.nkb). Where both use the same weights
     (above the log region; in it with "paper") the sum is read from U = u + delta."""
-    st = locate(xp, yp, zp, G.geo, G.z_f, G.z_c, G.lut, nx, ny, nz)
+    st = locate(xp, yp, zp, G, nx, ny, nz)
     kr = st.kread
     if st.islog and S.paper:  # the log law of the (new) air at the level read, where the drag goes
         if S.twoway and kr < S.nkb:
@@ -319,135 +330,214 @@ def _substep_length(T, t, wp, dzk, nsub):
 
 
 @ijit
-def _load_lane(fx_, ix_, l, P, p, T, S):
-    """Lane l takes parcel p for its step T."""
-    dp = P.d[p]
-    tp = S.rho_p * dp * dp / (18.0 * S.rho * S.nu)
-    fx_[_F_X, l] = P.x[p]
-    fx_[_F_Y, l] = P.y[p]
-    fx_[_F_Z, l] = P.z[p]
-    fx_[_F_U, l] = P.u[p]
-    fx_[_F_V, l] = P.v[p]
-    fx_[_F_W, l] = P.w[p]
-    fx_[_F_T, l] = 0.0
-    fx_[_F_TEND, l] = T
-    fx_[_F_K, l] = P.kd[p]
-    fx_[_F_TP, l] = tp
-    fx_[_F_ITP, l] = 1.0 / tp
-    fx_[_F_QM, l] = S.Q * (math.pi / 6.0) * S.rho_p * dp * dp * dp
-    fx_[_F_DNU, l] = dp / S.nu
-    ix_[_I_P, l] = p
-    ix_[_I_NSUB, l] = 0
+def _response_time(dp, S):
+    """T_p = rho_p d^2 / (18 rho nu) (eq. 4)."""
+    return S.rho_p * dp * dp / (18.0 * S.rho * S.nu)
 
 
 @ijit
-def _begin_substep(fx_, ix_, l, P, F, G, E, S, nx, ny, nz):
-    """The first pass of a sub-step of lane l: the wind seen, the sub-step, the modelled impulse (first
-    sub-step, two-way: c_p (u_s - u~_p) of the implicit estimate, same k, dt and weights,
-    coupling.py), the slip, a first drag rate if the parcel has none; the stencil is kept for
-    the deposits."""
-    p = ix_[_I_P, l]
-    nsub = ix_[_I_NSUB, l]
-    up = fx_[_F_U, l]
-    vp = fx_[_F_V, l]
-    wp = fx_[_F_W, l]
-    T = fx_[_F_TEND, l]
-    k = fx_[_F_K, l]
-    st, us, vs, ws = _wind_seen(F, G, fx_[_F_X, l], fx_[_F_Y, l], fx_[_F_Z, l], S, nx, ny, nz)
-    h = _substep_length(T, fx_[_F_T, l], wp, G.dz_c[st.kcell], nsub)
-    first = S.twoway and nsub == 0
+def _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
+    """Scalar pass 1 of lane l (parcel p, step T): the parcel into the lane, its stencil and the
+    resolved wind it sees (_wind_seen)."""
+    xp = P.x[p]
+    yp = P.y[p]
+    zp = P.z[p]
+    st, us, vs, ws = _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz)
+    lf[_X + l] = xp
+    lf[_Y + l] = yp
+    lf[_Z + l] = zp
+    lf[_U + l] = P.u[p]
+    lf[_V + l] = P.v[p]
+    lf[_W + l] = P.w[p]
+    lf[_D + l] = P.d[p]
+    lf[_KD + l] = P.kd[p]
+    lf[_T + l] = T
+    lf[_US + l] = us
+    lf[_VS + l] = vs
+    lf[_WS + l] = ws
+    if S.sgs:
+        lf[_SU + l] = P.su[p]
+        lf[_SV + l] = P.sv[p]
+        lf[_SW + l] = P.sw[p]
+    lf[_DZK + l] = G.dz_c[st.kcell]
+    if S.tke:
+        kt = _tke_level(st, S)
+        lf[_EC + l] = F.e[st.ixf, st.jyf, kt]
+        lf[_TLC + l] = F.tlc[kt]
+    lf[_FXF + l] = st.fxf
+    lf[_FXC + l] = st.fxc
+    lf[_FYF + l] = st.fyf
+    lf[_FYC + l] = st.fyc
+    lf[_FZC + l] = st.fzc
+    lf[_FZF + l] = st.fzf
+    li[_ACTIVE + l] = 1
+    li[_XF + l] = st.ixf
+    li[_XC + l] = st.ixc
+    li[_YF + l] = st.jyf
+    li[_YC + l] = st.jyc
+    li[_KC + l] = st.kc
+    li[_KF + l] = st.kf
+    li[_LOG + l] = 1 if st.islog else 0
+    li[_KCELL + l] = st.kcell
+
+
+@ijit
+def _lane_stencil(lf, li, l):
+    """Lane l's Stencil (interp.locate) as _load_lane kept it."""
+    return Stencil(li[_XF + l], lf[_FXF + l], li[_XC + l], lf[_FXC + l], li[_YF + l],
+                   lf[_FYF + l], li[_YC + l], lf[_FYC + l], li[_KC + l], lf[_FZC + l],
+                   li[_KF + l], lf[_FZF + l], 1.0, li[_LOG + l] != 0, li[_KCELL + l], 0)
+
+
+@ijit
+def _expm1_arg(x, exact):
+    """expm1(x) and whether it is exact to round-off: with ``exact``, elementary.expm1_small
+    (libm beyond the Taylor range); else the Taylor polynomial alone (no branch, no call)."""
+    if exact:
+        return expm1_small(x), True
+    return expm1_taylor(x), abs(x) <= EXPM1_TAYLOR_MAX
+
+
+@ijit
+def _expm1_near(k, h, kq, emq, exact):
+    """expm1(-k h), from emq = expm1(-kq h) if |(kq - k) h| <= _NEAR (kq <= 0: no previous), and
+    whether it is exact to round-off (_expm1_arg)."""
+    near = kq > 0.0 and abs((kq - k) * h) <= _NEAR
+    if exact:
+        if near:
+            return _expm1_shift(k, h, kq, emq), True
+        return expm1_small(-k * h), True
+    v, ok = _expm1_arg(-k * h, False)
+    if near:
+        v = _expm1_shift(k, h, kq, emq)
+    return v, near or ok
+
+
+@ijit
+def _pow687(x, exact):
+    """x^0.687 and whether it is exact to round-off: with ``exact``, elementary.pow_0687 (libm
+    beyond its tables); else the table path alone (elementary.pow_0687_table)."""
+    if exact:
+        return pow_0687(x), True
+    return pow_0687_table(x)
+
+
+@ijit
+def _re687_near(rel, dnu, irelq, rpq, exact):
+    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR; irelq = 1 / relq
+    (irelq <= 0: none); and whether it is exact to round-off (_pow687)."""
+    near = irelq > 0.0 and abs(rel * irelq - 1.0) <= _NEAR
+    if exact:
+        if near:
+            return _re687_shift(rel, irelq, rpq), True
+        return pow_0687(rel * dnu), True
+    v, ok = pow_0687_table(rel * dnu)
+    if near:
+        v = _re687_shift(rel, irelq, rpq)
+    return v, near or ok
+
+
+@ijit
+def _lane_start(lf, li, l, S, exact):
+    """Pass 2 of lane l (vectorized; exact: a lane it left): the parcel's constants, the sub-step
+    (_substep_length), the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate
+    with its k0, T and weights, coupling.estimate_weights), the seen velocity with its SGS part,
+    the slip, a first drag rate if the parcel has none (its kd is then -k0:
+    coupling.implicit_coefficients), and the drag iteration's start."""
+    active = li[_ACTIVE + l] != 0
+    dp = lf[_D + l]
+    T = lf[_T + l]
+    up = lf[_U + l]
+    vp = lf[_V + l]
+    wp = lf[_W + l]
+    us = lf[_US + l]
+    vs = lf[_VS + l]
+    ws = lf[_WS + l]
+    k = lf[_KD + l]
+    tp = _response_time(dp, S)
+    qm = parcel_weight(S.Q, S.rho_p, dp)
+    h = _substep_length(T, 0.0, wp, lf[_DZK + l], 0)
+    k0 = k if k > 0.0 else -k
     mu_ = 0.0
     mv_ = 0.0
     mw_ = 0.0
-    if first and E.c0[p] > 0.0:
-        cc = E.c0[p]
-        mu_ = cc * (us - up)
-        mv_ = cc * (vs - vp)
-        mw_ = cc * (ws - E.wtil[p])
+    em0 = 0.0
+    ok = True
+    if S.twoway:
+        em0, ok = _expm1_arg(-k0 * T, exact)
+        cc, wtil = estimate_weights(em0, k0, T, qm, wp, S.g)
+        if cc > 0.0:
+            mu_ = cc * (us - up)
+            mv_ = cc * (vs - vp)
+            mw_ = cc * (ws - wtil)
     if S.sgs:
-        us += P.su[p]
-        vs += P.sv[p]
-        ws += P.sw[p]
+        us += lf[_SU + l]
+        vs += lf[_SV + l]
+        ws += lf[_SW + l]
     Du = us - up
     Dv = vs - vp
     Dw = ws - wp
-    if k <= 0.0:
-        rel = math.sqrt(Du * Du + Dv * Dv + Dw * Dw)
-        k = drag_rate(rel, fx_[_F_DNU, l], fx_[_F_TP, l])
-        fx_[_F_K, l] = k
-    fx_[_F_US, l] = us
-    fx_[_F_VS, l] = vs
-    fx_[_F_WS, l] = ws
-    fx_[_F_H, l] = h
-    fx_[_F_MU, l] = mu_
-    fx_[_F_MV, l] = mv_
-    fx_[_F_MW, l] = mw_
-    fx_[_F_DU, l] = Du
-    fx_[_F_DV, l] = Dv
-    fx_[_F_DW, l] = Dw
-    fx_[_F_IH, l] = 1.0 / h
-    fx_[_F_FXF, l] = st.fxf
-    fx_[_F_FXC, l] = st.fxc
-    fx_[_F_FYF, l] = st.fyf
-    fx_[_F_FYC, l] = st.fyc
-    fx_[_F_FZC, l] = st.fzc
-    fx_[_F_FZF, l] = st.fzf
-    # the last evaluation of the drag-rate iteration (none yet)
-    fx_[_F_KQ, l] = -1.0
-    fx_[_F_EMQ, l] = 0.0
-    fx_[_F_IRELQ, l] = 0.0
-    fx_[_F_RPQ, l] = 0.0
-    ix_[_I_XF, l] = st.ixf
-    ix_[_I_XC, l] = st.ixc
-    ix_[_I_YF, l] = st.jyf
-    ix_[_I_YC, l] = st.jyc
-    ix_[_I_KC, l] = st.kc
-    ix_[_I_KF, l] = st.kf
-    ix_[_I_LOG, l] = 1 if st.islog else 0
-    ix_[_I_KCELL, l] = st.kcell
-    # expm1(-k0 T) of the implicit estimate is the first evaluation's: the same number
-    ix_[_I_E0, l] = 1 if (first and h == T and k == E.k0[p]) else 0
+    dnu = dp / S.nu
+    if k <= 0.0:  # drag_rate (coupling.py)
+        rp, ok2 = _pow687(math.sqrt(Du * Du + Dv * Dv + Dw * Dw) * dnu, exact)
+        k = (1.0 + 0.15 * rp) / tp
+        ok = ok and ok2
+    lf[_TP + l] = tp
+    lf[_ITP + l] = 1.0 / tp
+    lf[_DNU + l] = dnu
+    lf[_QM + l] = qm
+    lf[_H + l] = h
+    lf[_IH + l] = 1.0 / h
+    lf[_DU + l] = Du
+    lf[_DV + l] = Dv
+    lf[_DW + l] = Dw
+    lf[_US + l] = us
+    lf[_VS + l] = vs
+    lf[_WS + l] = ws
+    lf[_MU + l] = mu_
+    lf[_MV + l] = mv_
+    lf[_MW + l] = mw_
+    lf[_K + l] = k
+    lf[_KQ + l] = -1.0  # no evaluation yet
+    lf[_EMQ + l] = em0
+    lf[_IRELQ + l] = 0.0
+    lf[_RPQ + l] = 0.0
+    li[_E0 + l] = 1 if (S.twoway and h == T and k == k0) else 0
+    li[_ITER + l] = 1 if active else 0
+    li[_FIX + l] = 1 if (active and not ok) else 0
 
 
 @ijit
-def _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
-    """One update of lane l's drag rate towards the fixed point k = F(k) (module doc): F(k) is
-    f(Re_p) / T_p at the slip E * (step-mean slip) + (1 - E) * (end slip) of the relaxation with
-    k frozen, slip(k) = beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z. Safeguarded Newton (dF/dk
-    analytic) for the first NEWTON_MAXIT updates, else a plain fixed-point update. Returns whether
-    |F(k) - k| was already within the tolerance (S.tol k for a Newton update, tol_fp k for a
-    plain one), the update applied all the same."""
-    k = fx_[_F_K, l]
-    h = fx_[_F_H, l]
-    ih = fx_[_F_IH, l]
-    Du = fx_[_F_DU, l]
-    Dv = fx_[_F_DV, l]
-    Dw = fx_[_F_DW, l]
-    itp = fx_[_F_ITP, l]
+def _slip_at(k, em, ih, Du, Dv, Dw, g):
+    """The slip at which F(k) is evaluated (module doc): E * (step-mean slip) + (1 - E) * (end
+    slip) of the relaxation over h with k frozen, em = expm1(-k h), ih = 1 / h, from the slip
+    (Du, Dv, Dw) at the start: beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z. Returns it (ax, ay,
+    az), its size and the factors dF/dk needs."""
     ik = 1.0 / k
-    if it == 0 and ix_[_I_E0, l] != 0:
-        em = e0[ix_[_I_P, l]]
-    else:
-        em = _expm1_near(k, h, fx_[_F_KQ, l], fx_[_F_EMQ, l])
     E = 1.0 + em
     phi = -em * ik * ih
     beta = E * (phi - em)
-    gk = S.g * ik
+    gk = g * ik
     ax = Du * beta
     ay = Dv * beta
     az = gk + (Dw - gk) * beta
     rel = math.sqrt(ax * ax + ay * ay + az * az)
-    rp = _re687_near(rel, fx_[_F_DNU, l], fx_[_F_IRELQ, l], fx_[_F_RPQ, l])
+    return ax, ay, az, rel, ik, E, phi, beta, gk
+
+
+@ijit
+def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, itp, newton,
+                   S):
+    """F(k) = f(Re_p) / T_p from rp = Re_p^0.687 at the slip of _slip_at, and the next k:
+    safeguarded Newton (dF/dk analytic) if ``newton``, else a plain fixed-point update. Returns
+    the next k, whether |F(k) - k| was already within the tolerance (S.tol k for a Newton update,
+    S.tol_fp k for a plain one; the update is applied all the same) and 1 / |slip|."""
     irel = 1.0 / rel if rel > 0.0 else 0.0
-    fx_[_F_KQ, l] = k
-    fx_[_F_EMQ, l] = em
-    fx_[_F_IRELQ, l] = irel
-    fx_[_F_RPQ, l] = rp
     F = (1.0 + 0.15 * rp) * itp
     G = F - k
     kn = F
-    lim = tol_fp
-    if it < NEWTON_MAXIT and rel > 0.0:
+    lim = S.tol_fp
+    if newton and rel > 0.0:
         # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
         db = E * ((E - phi) * ik + h * E) - h * beta
         daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
@@ -458,25 +548,118 @@ def _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
             if kt > 0.0:
                 kn = kt
                 lim = S.tol
-    fx_[_F_K, l] = kn
-    return abs(G) <= lim * k
+    return kn, abs(G) <= lim * k, irel
 
 
 @ijit
-def _drag_rates(fx_, ix_, itl, nit, e0, S):
-    """The drag rates of the nit lanes itl[:nit], iterated in lockstep (the long dependency chains
-    of independent parcels overlap in the CPU) until each is within the tolerance."""
-    tol_fp = S.tol * S.tol  # a plain fixed-point update must get as close as a Newton one from tol
+def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S, first, exact):
+    """One update of a drag rate k towards the fixed point k = F(k) (module doc), em =
+    expm1(-k h): _slip_at, Re_p^0.687 there (_re687_lane), _newton_update. Returns the next k,
+    whether k was within the tolerance, 1 / |slip| and Re_p^0.687 for the next evaluation, and
+    whether Re_p^0.687 is exact."""
+    ax, ay, az, rel, ik, E, phi, beta, gk = _slip_at(k, em, ih, Du, Dv, Dw, S.g)
+    rp, ok = _re687_lane(rel, dnu, irelq, rpq, first, exact)
+    kn, done, irel = _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw,
+                                    itp, newton, S)
+    return kn, done, irel, rp, ok
+
+
+@ijit
+def _expm1_lane(k, h, kq, emq, first, e0, exact):
+    """expm1(-k h) for an update of the drag iteration (``first``: its first), and whether it is
+    exact: the implicit estimate's (``e0``: the same k and h) on the first update, else
+    _expm1_near. Vectorized (not ``exact``), only the path a lane takes as a rule is computed,
+    the estimate's on the first update and the series from the last evaluation after it; a lane
+    off it is left to the exact pass."""
+    if exact:
+        if first and e0:
+            return emq, True
+        return _expm1_near(k, h, kq, emq, True)
+    if first:
+        return emq, e0
+    return _expm1_shift(k, h, kq, emq), kq > 0.0 and abs((kq - k) * h) <= _NEAR
+
+
+@ijit
+def _re687_lane(rel, dnu, irelq, rpq, first, exact):
+    """(rel dnu)^0.687 for an update of the drag iteration, and whether it is exact: _re687_near;
+    vectorized (not ``exact``), the tables on the first update (no evaluation before it) and the
+    series from the last evaluation after it, a lane off that path left to the exact pass."""
+    if exact:
+        return _re687_near(rel, dnu, irelq, rpq, True)
+    if first:
+        return pow_0687_table(rel * dnu)
+    return _re687_shift(rel, irelq, rpq), irelq > 0.0 and abs(rel * irelq - 1.0) <= _NEAR
+
+
+@ijit
+def _lane_drag_update(lf, li, l, it, S, first, exact):
+    """Update number ``it`` (``first``: it == 0) of lane l's drag rate if it still iterates
+    (_drag_rate_update), as selects (vectorized; exact: a lane it left): a lane not iterating, or
+    one whose update needs the exact pass, keeps its values (the latter is marked _FIX). Returns
+    1 if the lane iterates on (those marked included)."""
+    going = li[_ITER + l] != 0
+    k = lf[_K + l]
+    h = lf[_H + l]
+    kq = lf[_KQ + l]
+    emq = lf[_EMQ + l]
+    irelq = lf[_IRELQ + l]
+    rpq = lf[_RPQ + l]
+    em, ok1 = _expm1_lane(k, h, kq, emq, first, li[_E0 + l] != 0, exact)
+    kn, done, irel, rp, ok2 = _drag_rate_update(k, em, h, lf[_IH + l], lf[_DU + l], lf[_DV + l],
+                                                lf[_DW + l], lf[_ITP + l], lf[_DNU + l], irelq,
+                                                rpq, it < NEWTON_MAXIT, S, first, exact)
+    upd = going and ok1 and ok2
+    lf[_K + l] = kn if upd else k
+    lf[_KQ + l] = k if upd else kq
+    lf[_EMQ + l] = em if upd else emq
+    lf[_IRELQ + l] = irel if upd else irelq
+    lf[_RPQ + l] = rp if upd else rpq
+    li[_FIX + l] = 1 if (going and not upd) else 0
+    stop = upd and done
+    li[_ITER + l] = 0 if stop else li[_ITER + l]
+    return 1 if (going and not stop) else 0
+
+
+@ijit
+def _drag_lanes(lf, li, nb, S):
+    """The drag rates of lanes 0..nb-1 with _ITER set, iterated in lockstep (the long dependency
+    chains of independent parcels overlap in the CPU; the updates run on vector units) until each
+    is within the tolerance."""
     for it in range(DRAG_MAXIT):
-        m = 0
-        for a in range(nit):
-            l = itl[a]
-            if not _drag_rate_update(fx_, ix_, l, it, e0, S, tol_fp):
-                itl[m] = l
-                m += 1
-        nit = m
-        if nit == 0:
+        left = 0
+        if it == 0:
+            for l in range(nb):
+                left += _lane_drag_update(lf, li, l, it, S, True, False)
+        else:
+            for l in range(nb):
+                left += _lane_drag_update(lf, li, l, it, S, False, False)
+        for l in range(nb):
+            if li[_FIX + l] != 0:
+                left -= 1 - _lane_drag_update(lf, li, l, it, S, it == 0, True)
+        if left == 0:
             break
+
+
+@ijit
+def _drag_rate(k, h, Du, Dv, Dw, itp, dnu, S):
+    """A drag rate iterated to its fixed point from k, one parcel alone (as _drag_lanes); returns
+    it with the last evaluation's k and expm1(-k h) (for _expm1_near)."""
+    ih = 1.0 / h
+    kq = -1.0
+    emq = 0.0
+    irelq = 0.0
+    rpq = 0.0
+    for it in range(DRAG_MAXIT):
+        em, _ = _expm1_near(k, h, kq, emq, True)
+        kn, done, irelq, rpq, _ = _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq,
+                                                    rpq, it < NEWTON_MAXIT, S, it == 0, True)
+        kq = k
+        emq = em
+        k = kn
+        if done:
+            break
+    return k, kq, emq
 
 
 @ijit
@@ -511,7 +694,7 @@ def _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, h_imp):
 @ijit
 def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
     """Horizontal position after h of the relaxation, wrapped into the periodic domain; a parcel
-    above the lid is reflected. Returns (x, y, z, w) and the unwrapped (x, y)."""
+    above the lid is reflected. Returns (x, y, z, w)."""
     xn = xp + us * h + (up - us) * ome_k
     yn = yp + vs * h + (vp - vs) * ome_k
     if zn > S.Lz:  # reflect at the lid
@@ -521,53 +704,174 @@ def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
 
 
 @ijit
-def _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny):
-    """Two-way: the air's impulse is minus the parcel's drag impulse, Q m_p (Delta u - g h), plus
-    (first sub-step) the modelled impulse, deposited with the stencil's weights (the log region:
-    the horizontal weights on one level, interp.py)."""
-    # (the order of these loads and the branch are the arithmetic's: fastmath's reassociation
-    # orders the products of the weights by where their factors are defined)
-    ixf = ix_[_I_XF, l]
-    ixc = ix_[_I_XC, l]
-    jyf = ix_[_I_YF, l]
-    jyc = ix_[_I_YC, l]
-    kf = ix_[_I_KF, l]
-    fxf = fx_[_F_FXF, l]
-    fxc = fx_[_F_FXC, l]
-    fyf = fx_[_F_FYF, l]
-    fyc = fx_[_F_FYC, l]
-    fzf = fx_[_F_FZF, l]
-    if ix_[_I_LOG, l] != 0:
-        kc = S.klog
-        fzc = 0.0
-    else:
-        kc = ix_[_I_KC, l]
-        fzc = fx_[_F_FZC, l]
-    pool_add_tri(O.pool, O.off, O.s, nx, ny, O.nk, fx_[_F_MU, l] - Qm * (un - up), ixf, fxf, jyc,
-                 fyc, kc, fzc)
-    pool_add_tri(O.pool, O.off + O.csz, O.s, nx, ny, O.nk, fx_[_F_MV, l] - Qm * (vn - vp), ixc,
-                 fxc, jyf, fyf, kc, fzc)
-    pool_add_tri(O.pool, O.off + 2 * O.csz, O.s, nx, ny, O.nk,
-                 fx_[_F_MW, l] - Qm * (wn - wp + S.g * h), ixc, fxc, jyc, fyc, kf, fzf)
+def _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, S, exact):
+    """A sub-step of h with drag rate k (kq, emq: the iteration's last evaluation): drag (exact
+    relaxation, _relax), the height, the bed crossing (exact only: a sub-step ending in the
+    impact layer is cut there), the move. Returns the parcel's (x, y, z, u, v, w), the sub-step
+    as taken, whether it ended in the impact layer and whether the numbers are exact
+    (_expm1_near; without ``exact`` a hit's are not: no cut)."""
+    ik = 1.0 / k
+    em, ok = _expm1_near(k, h, kq, emq, exact)
+    wt = ws - S.g * ik
+    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
+    zn = _height(zp, wt, wp, h, ome_k)
+    hit = zn < S.h_imp
+    if exact and hit:
+        h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, S.h_imp)
+        zn = S.h_imp
+    xn, yn, zn, wn = _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S)
+    return xn, yn, zn, un, vn, wn, h, hit, ok and not hit
 
 
 @ijit
-def _tke_sink(O, F, fx_, ix_, l, Qm, k, h, S, nx, ny):
-    """The parcel's share of the TKE-sink rate of the cell holding it (coupling.py, eq. A1; in the
-    log region that of the level its drag goes to), weighted by the fraction h / dt of the
-    step."""
-    kcell = ix_[_I_KCELL, l]
-    if ix_[_I_LOG, l] != 0:
-        kcell = S.klog
-    ic = ix_[_I_XF, l]  # the cell holding the parcel: floor(x / dx), as ixf
-    jc = ix_[_I_YF, l]
+def _lane_move(lf, li, l, S, exact):
+    """Pass 4 of lane l (vectorized; exact: a lane it left, _FIX): _relax_and_move over its
+    sub-step; the end state into the lane, _HIT if it ended at the bed."""
+    active = li[_ACTIVE + l] != 0
+    xn, yn, zn, un, vn, wn, h, hit, ok = _relax_and_move(
+        lf[_X + l], lf[_Y + l], lf[_Z + l], lf[_U + l], lf[_V + l], lf[_W + l], lf[_US + l],
+        lf[_VS + l], lf[_WS + l], lf[_K + l], lf[_KQ + l], lf[_EMQ + l], lf[_H + l], S, exact)
+    lf[_XN + l] = xn
+    lf[_YN + l] = yn
+    lf[_ZN + l] = zn
+    lf[_UN + l] = un
+    lf[_VN + l] = vn
+    lf[_WN + l] = wn
+    lf[_H + l] = h
+    qm = lf[_QM + l]
+    ru, rv, rw = _reaction(lf[_MU + l], lf[_MV + l], lf[_MW + l], qm, un, vn, wn, lf[_U + l],
+                           lf[_V + l], lf[_W + l], h, S)
+    lf[_RU + l] = ru
+    lf[_RV + l] = rv
+    lf[_RW + l] = rw
+    if S.tke:
+        lf[_RT + l] = _tke_rate(lf[_EC + l], lf[_TLC + l], qm, lf[_K + l], lf[_TP + l], h, S)
+    li[_HIT + l] = 1 if (exact and hit) else 0
+    li[_FIX + l] = 1 if (active and not ok) else 0
+
+
+@ijit
+def _reaction(mu_, mv_, mw_, Qm, un, vn, wn, up, vp, wp, h, S):
+    """The air's impulse from a sub-step of h: minus the parcel's drag impulse, Q m_p (Delta u -
+    g h), plus (first sub-step) the modelled impulse (mu_, mv_, mw_)."""
+    return mu_ - Qm * (un - up), mv_ - Qm * (vn - vp), mw_ - Qm * (wn - wp + S.g * h)
+
+
+@ijit
+def _reaction_to_air(O, st, ru, rv, rw, S, nx, ny):
+    """Two-way: the air's impulse (ru, rv, rw) (_reaction) deposited with the weights of Stencil
+    st (the log region: the horizontal weights on one level, interp.py)."""
+    if st.islog:
+        kc = S.klog
+        fzc = 0.0
+    else:
+        kc = st.kc
+        fzc = st.fzc
+    pool_add_tri(O.pool, O.off, O.s, nx, ny, O.nk, ru, st.ixf, st.fxf, st.jyc, st.fyc, kc, fzc)
+    pool_add_tri(O.pool, O.off + O.csz, O.s, nx, ny, O.nk, rv, st.ixc, st.fxc, st.jyf, st.fyf,
+                 kc, fzc)
+    pool_add_tri(O.pool, O.off + 2 * O.csz, O.s, nx, ny, O.nk, rw, st.ixc, st.fxc, st.jyc,
+                 st.fyc, st.kf, st.fzf)
+
+
+@ijit
+def _tke_level(st, S):
+    """The level of the cell whose TKE sink a parcel feeds (coupling.py, eq. A1): the cell holding
+    it; in the log region, the level its drag goes to. Its column is (st.ixf, st.jyf), the cell
+    holding the parcel (floor(x / dx) is ixf)."""
+    return S.klog if st.islog else st.kcell
+
+
+@ijit
+def _tke_rate(e, tlc_k, Qm, k, tp, h, S):
+    """The parcel's share of the TKE-sink rate of its cell (_tke_level; e its SGS TKE, tlc_k its
+    level's T_L coefficient), weighted by the fraction h / dt of the step; 0 where e <= 0
+    (T_L infinite)."""
+    tl = tlc_k / math.sqrt(e)
+    r = Qm / S.rho * 2.0 * (k * tp) / (tp + tl) * (h / S.dt)
+    return r if e > 0.0 else 0.0
+
+
+@ijit
+def _tke_to_air(O, st, rate, S, nx, ny):
+    """The TKE-sink rate deposited on the parcel's cell (_tke_level)."""
+    kcell = _tke_level(st, S)
     kk = kcell if kcell < O.nk else O.nk - 1
-    e = F.e[ic, jc, kcell]
-    if e > 0.0:
-        tp = fx_[_F_TP, l]
-        tl = F.tlc[kcell] / math.sqrt(e)
-        O.pool[O.off + ((O.ct * O.L + slab_of(ic, O.s, nx)) * ny + jc) * O.nk + kk] += (
-            Qm / S.rho * 2.0 * (k * tp) / (tp + tl) * (h / S.dt))
+    O.pool[O.off + ((O.ct * O.L + slab_of(st.ixf, O.s, nx)) * ny + st.jyf) * O.nk + kk] += rate
+
+
+@ijit
+def _to_air(O, F, st, mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, k, tp, h, S, nx, ny):
+    """A sub-step's exchange with the air (one parcel alone): the reaction (two-way) and the TKE
+    sink."""
+    if S.twoway:
+        ru, rv, rw = _reaction(mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, h, S)
+        _reaction_to_air(O, st, ru, rv, rw, S, nx, ny)
+    if S.tke:
+        kt = _tke_level(st, S)
+        rate = _tke_rate(F.e[st.ixf, st.jyf, kt], F.tlc[kt], qm, k, tp, h, S)
+        _tke_to_air(O, st, rate, S, nx, ny)
+
+
+@ijit
+def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx, ny, nz):
+    """The sub-steps after the first, one parcel at a time (the few parcels that move more than a
+    cell height in the step). Returns the parcel's state, whether it hit the bed and its time
+    left."""
+    itp = 1.0 / tp
+    dnu = P.d[p] / S.nu
+    nsub = 1
+    while True:
+        st, us, vs, ws = _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz)
+        h = _substep_length(T, t, wp, G.dz_c[st.kcell], nsub)
+        if S.sgs:
+            us += P.su[p]
+            vs += P.sv[p]
+            ws += P.sw[p]
+        k, kq, emq = _drag_rate(k, h, us - up, vs - vp, ws - wp, itp, dnu, S)
+        xn, yn, zn, un, vn, wn, h, hit, _ = _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws,
+                                                            k, kq, emq, h, S, True)
+        _to_air(O, F, st, 0.0, 0.0, 0.0, qm, un, vn, wn, up, vp, wp, k, tp, h, S, nx, ny)
+        xp, yp, zp, up, vp, wp = xn, yn, zn, un, vn, wn
+        t += h
+        nsub += 1
+        if hit or not t < T:
+            return xp, yp, zp, up, vp, wp, k, hit, T - t
+
+
+@ijit
+def _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
+    """Scalar pass 5 of lane l (parcel p): the sub-step's exchange with the air, the parcel's
+    further sub-steps if it needs them, its state stored back. Returns (hit, time left, u, v)."""
+    st = _lane_stencil(lf, li, l)
+    k = lf[_K + l]
+    h = lf[_H + l]
+    T = lf[_T + l]
+    tp = lf[_TP + l]
+    qm = lf[_QM + l]
+    xn = lf[_XN + l]
+    yn = lf[_YN + l]
+    zn = lf[_ZN + l]
+    un = lf[_UN + l]
+    vn = lf[_VN + l]
+    wn = lf[_WN + l]
+    hit = li[_HIT + l] != 0
+    if S.twoway:
+        _reaction_to_air(O, st, lf[_RU + l], lf[_RV + l], lf[_RW + l], S, nx, ny)
+    if S.tke:
+        _tke_to_air(O, st, lf[_RT + l], S, nx, ny)
+    left = T - h
+    if not hit and h < T:
+        xn, yn, zn, un, vn, wn, k, hit, left = _rest_of_step(P, p, h, T, xn, yn, zn, un, vn, wn,
+                                                             k, tp, qm, F, G, O, S, nx, ny, nz)
+    P.x[p] = xn
+    P.y[p] = yn
+    P.z[p] = zn
+    P.u[p] = un
+    P.v[p] = vn
+    P.w[p] = wn
+    P.kd[p] = k
+    return hit, left, un, vn
 
 
 @ijit
@@ -586,90 +890,38 @@ def _track_speed(vm, u, v):
     return sp if sp > vm else vm
 
 
-@ijit
-def _end_substep(fx_, ix_, l, P, F, O, S, nx, ny):
-    """The third pass of a sub-step of lane l: drag (exact relaxation over h), bed crossing, move, the
-    reaction to the air and the TKE sink; a parcel at the end of its step or at the bed is
-    stored (and flagged if a hit). Returns (whether it goes on, hit, its time left)."""
-    p = ix_[_I_P, l]
-    zp = fx_[_F_Z, l]
-    up = fx_[_F_U, l]
-    vp = fx_[_F_V, l]
-    wp = fx_[_F_W, l]
-    T = fx_[_F_TEND, l]
-    k = fx_[_F_K, l]
-    us = fx_[_F_US, l]
-    vs = fx_[_F_VS, l]
-    ws = fx_[_F_WS, l]
-    h = fx_[_F_H, l]
-    ik = 1.0 / k
-    em = _expm1_near(k, h, fx_[_F_KQ, l], fx_[_F_EMQ, l])
-    wt = ws - S.g * ik
-    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
-    zn = _height(zp, wt, wp, h, ome_k)
-    hit = zn < S.h_imp
-    if hit:
-        h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp,
-                                             S.h_imp)
-        zn = S.h_imp
-    xn, yn, zn, wn = _move(fx_[_F_X, l], fx_[_F_Y, l], zn, wn, us, vs, up, vp, h, ome_k, S)
-    Qm = fx_[_F_QM, l]
-    if S.twoway:
-        _reaction_to_air(O, fx_, ix_, l, Qm, un, vn, wn, up, vp, wp, S, h, nx, ny)
-    if S.tke:
-        _tke_sink(O, F, fx_, ix_, l, Qm, k, h, S, nx, ny)
-    t = fx_[_F_T, l] + h
-    if hit or not t < T:
-        P.x[p] = xn
-        P.y[p] = yn
-        P.z[p] = zn
-        P.u[p] = un
-        P.v[p] = vn
-        P.w[p] = wn
-        P.kd[p] = k
-        return False, hit, T - t, un, vn
-    fx_[_F_X, l] = xn
-    fx_[_F_Y, l] = yn
-    fx_[_F_Z, l] = zn
-    fx_[_F_U, l] = un
-    fx_[_F_V, l] = vn
-    fx_[_F_W, l] = wn
-    fx_[_F_T, l] = t
-    ix_[_I_NSUB, l] += 1
-    return True, hit, T - t, un, vn
-
-
 @jit_borrow
-def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W):
+def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
     """Integrate the parcels of chunk c (W.idx[W.cstart[c]:W.cstart[c+1]], coupling.chunk_assign)
     over dt (plus their time credit), see the module doc. Hits (bed crossings) get flag 1 and
     their time left in trem; W.nhit[c] counts them, W.vmax[c] is the chunk's largest horizontal
     parcel speed.
 
-    Records: P :data:`coupling.Parcels`, F :data:`coupling.Flow`, G :data:`interp.Geometry`, E
-    :data:`coupling.Estimate` (the implicit estimate, two-way: a parcel with ``E.c0[p] > 0``
-    adds the modelled impulse c_p (u_s - u~_p) on its first sub-step), W :data:`Work`.
+    Records: P :data:`coupling.Parcels`, F :data:`coupling.Flow`, G :data:`interp.Geometry`, W
+    :data:`Work`. Two-way, a parcel adds the modelled impulse c_p (u_s - u~_p) of the implicit
+    estimate (from its k0 and step as coupling.implicit_coefficients had them) on its first
+    sub-step.
 
     Deposits in the chunk's pool range (``W.ranges[c]`` = first slab s, L slabs, offset off;
     comps 0-2 = u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk); ``ncomp`` comps;
     zeroed here first) minus the drag impulse plus the modelled impulse (same weights as the
     first sub-step's drag impulse: one deposit).
 
-    Serial, in blocks of ``_LANES`` parcels: a sub-step of every parcel of the block is done in
-    three passes (_begin_substep: locate and the wind seen; _drag_rates: the drag-rate
-    iterations of all lanes in lockstep; _end_substep: drag, bed crossing, move, deposits), so
-    that the long dependency chains of independent parcels overlap in the CPU (one parcel at a
-    time left it waiting on latencies). Parcels that need another sub-step go round again. Each
-    parcel's arithmetic is the same as one at a time; only the order of the deposits into the
-    pool differs (round-off). The helpers are inlined here by LLVM (``_jit.device``); the prange over
-    chunks is in _advance_all. Compiled without reference counting (``jit_borrow``): the lane
-    scratch comes from the caller.
+    Serial, in blocks of ``_LANES`` parcels, the first sub-step of the block's parcels in passes
+    over the block (see the section comment above _wind_seen): _load_lane (locate, the wind
+    seen), _lane_start, _drag_lanes, _lane_move (vectorized, with their exact redos), then
+    _finish_lane (deposits, further sub-steps, the parcel stored). Each parcel's arithmetic is
+    that of one parcel at a time; only the order of the deposits into the pool differs
+    (round-off). The helpers are inlined here by LLVM (``_jit.device``); the prange over chunks
+    is in _advance_all. Compiled without reference counting (``jit_borrow``): the lane scratch
+    comes from the caller.
     """
     nx = F.u.shape[0]
     ny = F.u.shape[1]
     nz = G.z_c.shape[0]
-    S = _Step(prm[_DT], prm[_G], prm[_HIMP], prm[_TOL], G.geo[2], G.geo[3], prm[_LZ], prm[_RHO],
-              prm[_NU], prm[_RHOP], prm[_Q], prm[_TWOWAY] != 0.0, prm[_TKE] != 0.0,
+    tol = prm[_TOL]
+    S = _Step(prm[_DT], prm[_G], prm[_HIMP], tol, tol * tol, G.geo[2], G.geo[3], prm[_LZ],
+              prm[_RHO], prm[_NU], prm[_RHOP], prm[_Q], prm[_TWOWAY] != 0.0, prm[_TKE] != 0.0,
               prm[_SGS] != 0.0, F.du.shape[2], G.geo[GEO_LOG_LEVEL] == G.geo[GEO_LOG_READ],
               int(G.geo[GEO_LOG_LEVEL]))
     s = W.ranges[c, 0]
@@ -677,57 +929,53 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W):
     off = W.ranges[c, 2]
     csz = L * ny * nk
     O = _Out(W.pool, s, L, off, csz, nk, ct)
-    for q in range(off, off + ncomp * csz):
-        W.pool[q] = 0.0
+    W.pool[off:off + ncomp * csz] = 0.0
     vm = 0.0
     nh = 0
-    fx_ = W.lane_f[c]
-    ix_ = W.lane_i[c]
-    lanes = W.lane_i[c, _LANE_ROWS_I]  # the lanes in the block's current pass
-    itl = W.lane_i[c, _LANE_ROWS_I + 1]  # the lanes still iterating their drag rate
-    q0 = W.cstart[c]
+    lf = W.lane_f[c]
+    li = W.lane_i[c]
     qend = W.cstart[c + 1]
-    while q0 < qend:
+    for q0 in range(W.cstart[c], qend, _LANES):
         nb = min(_LANES, qend - q0)
-        na = 0
         for l in range(nb):
             p = W.idx[q0 + l]
             T = dt + P.trem[p]  # time credit of a parcel that left the bed during the last step
             P.trem[p] = 0.0
             if P.z[p] < S.h_imp:  # already inside the impact layer: splash now
+                li[_ACTIVE + l] = 0
+                if P.kd[p] < 0.0:  # the implicit estimate's k0 (coupling.py): none yet
+                    P.kd[p] = 0.0
                 nh = _hit(P, p, T, nh)
                 vm = _track_speed(vm, P.u[p], P.v[p])
                 continue
-            _load_lane(fx_, ix_, l, P, p, T, S)
-            lanes[na] = l
-            na += 1
-        while na > 0:
-            for a in range(na):
-                _begin_substep(fx_, ix_, lanes[a], P, F, G, E, S, nx, ny, nz)
-                itl[a] = lanes[a]
-            _drag_rates(fx_, ix_, itl, na, E.e0, S)
-            m = 0
-            for a in range(na):
-                l = lanes[a]
-                going, hit, left, un, vn = _end_substep(fx_, ix_, l, P, F, O, S, nx, ny)
-                if going:
-                    lanes[m] = l
-                    m += 1
-                else:
-                    if hit:
-                        nh = _hit(P, ix_[_I_P, l], left, nh)
-                    vm = _track_speed(vm, un, vn)
-            na = m
-        q0 += nb
+            _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz)
+        for l in range(nb):
+            _lane_start(lf, li, l, S, False)
+        for l in range(nb):
+            if li[_FIX + l] != 0:
+                _lane_start(lf, li, l, S, True)
+        _drag_lanes(lf, li, nb, S)
+        for l in range(nb):
+            _lane_move(lf, li, l, S, False)
+        for l in range(nb):
+            if li[_ACTIVE + l] == 0:
+                continue
+            if li[_FIX + l] != 0:
+                _lane_move(lf, li, l, S, True)
+            p = W.idx[q0 + l]
+            hit, left, un, vn = _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz)
+            if hit:
+                nh = _hit(P, p, left, nh)
+            vm = _track_speed(vm, un, vn)
     W.vmax[c] = vm
     W.nhit[c] = nh
 
 
 @pjit
-def _advance_all(dt, nk, ncomp, ct, prm, P, F, G, E, W):
+def _advance_all(dt, nk, ncomp, ct, prm, P, F, G, W):
     """All parcels over dt, chunk-parallel (see _advance_chunk)."""
     for c in prange(W.ranges.shape[0]):
-        _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, E, W)
+        _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W)
 
 
 @jit_borrow
@@ -793,39 +1041,10 @@ def _cell_order(n, x, y, z, geo, z_f, lut, nx, ny, nz, key, perm, count):
 
 
 @pjit
-def _permute(n, perm, a, tmp):
+def _gather(n, perm, a, out):
+    """out[q] = a[perm[q]] for q < n (the parcels reordered, one field)."""
     for q in prange(n):
-        tmp[q] = a[perm[q]]
-    for q in prange(n):
-        a[q] = tmp[q]
-
-
-@pjit
-def _vmax_and_ztop(n, u, v, w, z):
-    """(max horizontal speed, max of z + max(w, 0) scale) over parcels: for max_dt and buffer depth."""
-    nb = 64
-    mu = np.zeros(nb)
-    mz = np.zeros(nb)
-    mw = np.zeros(nb)
-    for b in prange(nb):
-        lo = (b * n) // nb
-        hi = ((b + 1) * n) // nb
-        a = 0.0
-        zz = 0.0
-        ww = 0.0
-        for p in range(lo, hi):
-            s = max(abs(u[p]), abs(v[p]))
-            if s > a:
-                a = s
-            if z[p] > zz:
-                zz = z[p]
-            s = u[p] * u[p] + v[p] * v[p] + w[p] * w[p]  # squared: one square root at the end
-            if s > ww:
-                ww = s
-        mu[b] = a
-        mz[b] = zz
-        mw[b] = ww
-    return mu.max(), mz.max(), math.sqrt(mw.max())
+        out[q] = a[perm[q]]
 
 
 @jit
@@ -1003,12 +1222,14 @@ class Saltation:
     _FIELDS = ("x", "y", "z", "u", "v", "w", "d", "kd", "trem", "tl", "xl", "yl")
 
     def _alloc(self, cap: int) -> None:
-        for f in self._FIELDS + ("k0", "e0", "c0", "wtil"):
+        for f in self._FIELDS:
             setattr(self, "_" + f, np.zeros(cap))
         self._flag = np.zeros(cap, dtype=np.int8)
         self._dead = np.zeros(cap, dtype=np.int64)
         self._ev = np.zeros(cap, dtype=np.int64)
-        self._idx = np.zeros(cap, dtype=np.int64)
+        # parcel indices by chunk, unsigned: the kernels index the parcel arrays with them
+        # without numba's negative-index wraparound
+        self._idx = np.zeros(cap, dtype=np.uint32)
         self._cid = np.zeros(cap, dtype=np.int64)
         if self.sgs:
             self._su, self._sv, self._sw = np.zeros(cap), np.zeros(cap), np.zeros(cap)
@@ -1029,8 +1250,7 @@ class Saltation:
         if need <= cap:
             return
         new = max(need, 2 * cap)
-        for f in self._FIELDS + ("k0", "e0", "c0", "wtil", "flag", "dead", "ev", "idx",
-                                 "cid"):
+        for f in self._FIELDS + ("flag", "dead", "ev", "idx", "cid"):
             old = getattr(self, "_" + f)
             a = np.zeros(new, dtype=old.dtype)
             a[:cap] = old
@@ -1100,10 +1320,12 @@ class Saltation:
         return self.parcel_courant * min(self.grid.dx, self.grid.dy) / self._vmax
 
     def _levels(self, state: FlowState, dt: float) -> int:
-        """Levels the deposit buffers must cover this step: up to where any parcel can get."""
-        vh, ztop, vtot = _vmax_and_ztop(self.n, self._u, self._v, self._w, self._z)
-        self._vmax = vh
-        wmax = grid_absmax(state.w) if state.w.size else 0.0
+        """Levels the deposit buffers must cover this step: up to where any parcel can get. From
+        chunk_assign's parcel maxima (self._pmax: max horizontal speed, top, max speed) and the
+        air's max |w| (air_maxima, which also keeps max |u| per level in self._umax)."""
+        vh, ztop, vtot = self._pmax
+        self._vmax = float(vh)
+        wmax = air_maxima(state.u, state.w, self._umax) if state.w.size else 0.0
         # rebounds leave at <= ~2 v_imp (the normal tail is redrawn only below 0), ejecta slower
         reach = ztop + (max(vtot, wmax) * 2.5 + 1.0) * dt
         k = int(np.searchsorted(self.grid.z_f, reach, side="right"))
@@ -1122,9 +1344,15 @@ class Saltation:
         self._ranges = np.zeros((nc, 3), dtype=np.int64)
         self._vmaxc = np.zeros(nc)
         self._nhit = np.zeros(nc, dtype=np.int64)
-        self._lane_f = np.zeros((nc, _LANE_ROWS_F, _LANES))
-        self._lane_i = np.zeros((nc, _LANE_ROWS_I + 2, _LANES), dtype=np.int64)
+        self._lane_f = np.zeros((nc, _LANE_ROWS_F * _LANES))
+        self._lane_i = np.zeros((nc, _LANE_ROWS_I * _LANES), dtype=np.int64)
         self._dmax = np.zeros(nx)
+        # per-slab scratch of the grid passes (coupling.implicit_corrections, apply_exchange): a
+        # column's sums over the chunks, and the slabs' momentum sums
+        self._acc = np.zeros((nx, 6, nz))
+        self._part = np.zeros((nx, 4))
+        self._pmax = np.zeros(3)  # chunk_assign's parcel maxima (_levels)
+        self._umax = np.zeros(nz + 1)  # max |u| per level (and max |w|)
         self._pool = np.zeros(0)
         self._grid6 = np.zeros((6, nx * ny * nz)) if self.two_way else np.zeros((6, 1))
         self._cnt = np.zeros(4, dtype=np.int64)
@@ -1162,14 +1390,14 @@ class Saltation:
             self._sort()
         self._steps += 1
         n = self.n
-        nk = self._levels(state, dt) if n > 0 else 2
         self.prm[_DT] = dt
         two, tke = self.two_way, self.tke_sink
         # chunks of consecutive x-slabs with about equal parcel counts: each chunk's deposit
         # buffers cover only its slabs, widened by the stencil and by how far its parcels can move
         chunk_assign(n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._hist,
                      self._slab_stats, self._bounds, self._cid, self._cstart, self._idx,
-                     self._stats)
+                     self._stats, self._v, self._w, self._z, self._pmax)
+        nk = self._levels(state, dt) if n > 0 else 2
         ef = state.e if (tke or self.sgs) else self._e_zero
         if two:
             du, dv, dw, Uc, Vc, Wc = self._grid_views(nk)
@@ -1177,20 +1405,20 @@ class Saltation:
             du = dv = dw = Uc = Vc = Wc = self._e_zero
         P = self._parcels()
         F = Flow(state.u, state.v, state.w, ef, self.tlc, Uc, Vc, Wc, du, dv, dw)
-        E = Estimate(self._k0, self._e0, self._c0, self._wtil)
         if two:
             self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
             self._layout(self._margin, 3 * 2 * ny * nk)
             implicit_coefficients(self._cstart, self._idx, P, F, dt, self.prm, geo.record,
-                                  self._pool, self._ranges, nk, E)
+                                  self._pool, self._ranges, nk)
             implicit_corrections(self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
-                                 state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax)
+                                 state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax,
+                                 self._acc)
             dumax = float(self._dmax.max())
         else:
             dumax = 0.0
         # a parcel moves at most max(|u_p|, |u_seen|) (dt + credit) in x within the step
         if n > 0:
-            uair = grid_absmax(state.u[:, :, :nk]) + dumax  # the levels parcels can reach
+            uair = float(self._umax[:nk].max()) + dumax  # the levels parcels can reach
             st = self._stats
             vb = np.maximum(st[:, 0], uair + st[:, 1])
             mg = vb * (dt + st[:, 2]) / g.dx
@@ -1200,7 +1428,7 @@ class Saltation:
         self._layout(self._margin, ncomp * ny * nk)
         W = Work(self._cstart, self._idx, self._ranges, self._pool, self._vmaxc, self._nhit,
                  self._lane_f, self._lane_i)
-        _advance_all(dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, E, W)
+        _advance_all(dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, W)
         # bed events (self._splash). Rebounds and ejecta leave the bed at the impact point with the
         # rest of the step as a time credit: they are integrated over dt + credit in the next step,
         # inside its implicit exchange (integrating them now, outside it, would be an explicit
@@ -1221,21 +1449,26 @@ class Saltation:
                               self._w, self._d, self._kd, self._flag, self._trem, self._su,
                               self._sv, self._sw, self._tl, self._xl, self._yl)
         # momentum to the air, TKE sink
-        if two:
+        if two or tke:
+            if tke:
+                if state.tke_sink is None:
+                    state.tke_sink = np.zeros(g.shape)
+                # levels at and above the last step's nk are zero, unless the array is new to us
+                # (a restart): only the levels that may not be are cleared
+                top = self._tke_top if state.tke_sink is self._tke_out else nz
+                tke_out = state.tke_sink
+            else:
+                top, tke_out = nk, self._e_zero
             tot = self._tot
-            bed = apply_exchange(self._pool, self._ranges, ncomp, du, dv, dw, self.inv_mc,
-                                 self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w, tot)
-            self.momentum_to_air += tot
-            self.momentum_to_bed += bed
-        if tke:
-            if state.tke_sink is None:
-                state.tke_sink = np.zeros(g.shape)
-            # levels at and above the last step's nk are zero, unless the array is new to us (a
-            # restart): only the levels that may not be are cleared
-            top = self._tke_top if state.tke_sink is self._tke_out else nz
-            tke_rates(self._pool, self._ranges, 3 if two else 0, nk, max(nk, top), self.inv_vol,
-                      state.tke_sink)
-            self._tke_out, self._tke_top = state.tke_sink, nk
+            bed = apply_exchange(self._pool, self._ranges, nk, two, du, dv, dw, self.inv_mc,
+                                 self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w, tot,
+                                 tke, 3 if two else 0, max(nk, top), self.inv_vol, tke_out,
+                                 self._acc, self._part)
+            if two:
+                self.momentum_to_air += tot
+                self.momentum_to_bed += bed
+            if tke:
+                self._tke_out, self._tke_top = state.tke_sink, nk
         self._vmax = max(self._vmax, float(self._vmaxc.max()) if self.n else 0.0)
         step["n_impacts"], step["n_rebounds"], step["n_ejections"], step["n_depositions"] = (
             int(c) for c in cnt)
@@ -1295,21 +1528,28 @@ class Saltation:
         return int(dead.size)
 
     def _sort(self) -> None:
-        """Reorder the parcels by cell (every SORT_INTERVAL steps): locality for the kernels."""
+        """Reorder the parcels by cell (every SORT_INTERVAL steps): locality for the kernels.
+        Each field is gathered into a spare array of the same size, which then takes its place
+        (the field's old array becomes the next spare): one pass and one parallel region per
+        field, no copy back."""
         g = self.geom
         n = self.n
         # work arrays kept across sorts (no allocation and page faults every SORT_INTERVAL steps)
         if getattr(self, "_sort_key", None) is None or self._sort_key.shape[0] < n:
             self._sort_key = np.empty(self.capacity, dtype=np.int64)
             self._sort_perm = np.empty(self.capacity, dtype=np.int64)
-            self._sort_tmp = np.empty(self.capacity)
             self._sort_count = np.empty(g.nx * g.ny * g.nz + 1, dtype=np.int64)
-        key, perm, tmp = self._sort_key, self._sort_perm, self._sort_tmp
+        if getattr(self, "_sort_tmp", None) is None or self._sort_tmp.shape[0] != self.capacity:
+            self._sort_tmp = np.empty(self.capacity)
+        key, perm = self._sort_key, self._sort_perm
         _cell_order(n, self._x, self._y, self._z, g.geo, g.z_f, g.lut, g.nx, g.ny, g.nz, key, perm,
                     self._sort_count)
         names = list(self._FIELDS) + (["su", "sv", "sw"] if self.sgs else [])
         for f in names:
-            _permute(n, perm, getattr(self, "_" + f), tmp)
+            a = getattr(self, "_" + f)
+            _gather(n, perm, a, self._sort_tmp)
+            setattr(self, "_" + f, self._sort_tmp)
+            self._sort_tmp = a
 
     def _do_entrainment(self, state: FlowState, dt: float) -> int:
         n0 = self.n
@@ -1354,8 +1594,8 @@ class Saltation:
     def fluid_at_parcels(self, state: FlowState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Resolved fluid velocity (u_f, v_f, w_f) interpolated at every live parcel."""
         out = np.empty((3, self.n))
-        _fluid_at(self.n, self._x, self._y, self._z, state.u, state.v, state.w, self.geom.geo,
-                  self.geom.z_f, self.geom.z_c, self.geom.lut, out)
+        _fluid_at(self.n, self._x, self._y, self._z, state.u, state.v, state.w, self.geom.record,
+                  out)
         return out[0], out[1], out[2]
 
     def grain_momentum(self) -> np.ndarray:
@@ -1429,12 +1669,12 @@ class Saltation:
 
 
 @jit_borrow
-def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
+def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, G, out):
     nx = uf.shape[0]
     ny = uf.shape[1]
     nz = uf.shape[2]
     for p in range(lo, hi):
-        st = locate(x[p], y[p], z[p], geo, z_f, z_c, lut, nx, ny, nz)
+        st = locate(x[p], y[p], z[p], G, nx, ny, nz)
         a, b, c = interp_fluid(uf, vf, wf, st, nx, ny)
         out[0, p] = a
         out[1, p] = b
@@ -1442,8 +1682,7 @@ def _fluid_at_range(lo, hi, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
 
 
 @pjit
-def _fluid_at(n, x, y, z, uf, vf, wf, geo, z_f, z_c, lut, out):
+def _fluid_at(n, x, y, z, uf, vf, wf, G, out):
     nb = 64
     for b in prange(nb):
-        _fluid_at_range((b * n) // nb, ((b + 1) * n) // nb, x, y, z, uf, vf, wf, geo, z_f, z_c,
-                        lut, out)
+        _fluid_at_range((b * n) // nb, ((b + 1) * n) // nb, x, y, z, uf, vf, wf, G, out)
