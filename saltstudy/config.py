@@ -356,6 +356,12 @@ class SpinUp(_Frozen):
         description="spin up once at this friction velocity [m s^-1] and rescale the flow to each "
                     "case's u*s by Reynolds-number similarity (solver.similarity); None: spin up "
                     "at the case's own u*s. t_min, t_max and window are then times at u_star_ref")
+    stagger: float = Field(
+        0.0, ge=0, le=60.0,
+        description="[s] case n starts its saltation from the spin-up continued particle-free for "
+                    "(n - 1) x stagger more seconds (a chain shared by the cases), so that cases "
+                    "sharing one spin-up start at different phases of its slow swings instead of "
+                    "one; 0: every case starts from the spin-up's end")
 
     @model_validator(mode="after")
     def _order(self) -> "SpinUp":
@@ -536,8 +542,16 @@ class Scene(_Frozen):
             "seed": c.seed,
             "grid": f.grid.model_dump(mode="json"),
             "time": f.time.model_dump(mode="json"),
-            "spinup": f.spinup.model_dump(mode="json"),
+            # where a case starts along the shared spin-up is the start's, not the spin-up's
+            "spinup": f.spinup.model_dump(mode="json", exclude={"stagger"}),
         }
+
+    @property
+    def start_links(self) -> int:
+        """Links of ``fidelity.spinup.stagger`` seconds between the spin-up's end and this case's
+        start: case number - 1 when staggered, else 0."""
+        st = self.fidelity.spinup.stagger
+        return max(0, int(self.case.number) - 1) if st > 0 else 0
 
 
 class RunSpec(BaseModel):

@@ -258,3 +258,18 @@ def test_wall_time_of_a_resumed_study_says_it_is_the_last_leg():
     whole = {"total_wall_time_s": 1000.0, "task_time_sum_s": 1900.0, "machine": machine}
     assert _resumed_note(whole) == ""
     assert _resumed_note({"total_wall_time_s": None, "task_time_sum_s": 5.0}) == ""
+
+
+def test_table2_caption_says_whether_the_cases_share_one_draw_of_the_swing():
+    from saltstudy.report.data import ReportContext, RunData
+    from saltstudy.report.tables import _start_text
+
+    def ctx(stagger):
+        scene = {"fidelity": {"spinup": {"u_star_ref": 0.54, "stagger": stagger}}}
+        return ReportContext("x", {f"case0{n}": RunData(f"case0{n}", n, None, scene=scene)
+                                   for n in (1, 2)})
+
+    assert "6 s apart" in _start_text(ctx(6.0))
+    assert "one draw" in _start_text(ctx(0.0))
+    # archives written before the option existed carry no stagger: one draw
+    assert "one draw" in _start_text(ReportContext("x", {"case01": RunData("case01", 1, None)}))

@@ -85,7 +85,7 @@ def register(app: typer.Typer) -> None:
         """Run one case: spin-up, saltation, analysis (cached like run-all; no report)."""
         from ..config import load_case, load_fidelity, resolve_scene
         from . import keys as K
-        from .graph import _analysis, _saltation, _spinup, warm_for
+        from .graph import _analysis, _saltation, _spinup, _start, warm_for
         from .paths import task_dir
         from .progress import ProgressDisplay, TaskRef
         from .. import SOURCE_KEY
@@ -103,8 +103,9 @@ def register(app: typer.Typer) -> None:
         with ProgressDisplay(refs, quiet=quiet):
             warm_for([rk], out_dir)
             sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
-            sa = _saltation(scene, rk.saltation, sp, out_dir, SOURCE_KEY, None)
-            an = _analysis(rk.label, rk.analysis, sp, sa, out_dir)
+            st = _start(scene, rk, sp, out_dir, SOURCE_KEY, None)
+            sa = _saltation(scene, rk.saltation, st, out_dir, SOURCE_KEY, None)
+            an = _analysis(rk.label, rk.analysis, st, sa, out_dir)
         for o in (sp, sa, an):
             typer.echo(f"{o.task:<9} {o.status:<8} {o.path or o.error or ''}")
         typer.echo(f"wall time {time.perf_counter() - t0:.1f} s")

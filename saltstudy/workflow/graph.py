@@ -54,7 +54,8 @@ from . import keys as K
 from .paths import (default_report_dir, output_path, read_runs_file, runs_file, study_dir, task_dir,
                     write_json_atomic)
 from .progress import ProgressDisplay, TaskRef, emit
-from .tasks import analysis_task, report_done, report_task, saltation_task, spinup_task
+from .tasks import (analysis_task, continuation_task, report_done, report_task, saltation_task,
+                    spinup_task)
 from .warmup import ensure_warm
 
 __all__ = ["Outcome", "StudySummary", "build_graph", "run_study"]
@@ -111,6 +112,24 @@ def _spinup(scene: Scene, key: str, labels: list[str], out_dir: Path, source_key
     _limit_numba_threads(numba_threads)
     return _call("spinup", key, labels, output_path(out_dir, "spinup", key),
                  spinup_task, scene, out_dir, source_key)
+
+
+def _continuation(scene: Scene, key: str, parent: Outcome, labels: list[str], out_dir: Path,
+                  source_key: str, numba_threads: int | None) -> Outcome:
+    if not parent.ok:
+        return Outcome("continuation", key, labels, "skipped", error="spin-up failed")
+    _limit_numba_threads(numba_threads)
+    return _call("continuation", key, labels, output_path(out_dir, "spinup", key),
+                 continuation_task, scene, Path(parent.path), out_dir, key, source_key)
+
+
+def _start(scene: Scene, rk: "K.RunKeys", spin: Outcome, out_dir: Path, source_key: str,
+           numba_threads: int | None) -> Outcome:
+    """The archive a run starts from, walking its staggered links in order (a single run)."""
+    out = spin
+    for key in rk.links:
+        out = _continuation(scene, key, out, [rk.label], out_dir, source_key, numba_threads)
+    return out
 
 
 def _saltation(scene: Scene, key: str, spin: Outcome, out_dir: Path, source_key: str,
@@ -180,6 +199,14 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
             refs.append(TaskRef(f"spinup {'+'.join(sharing[rk.spinup])}",
                                 task_dir(out_dir, "spinup", rk.spinup)))
         sp = spin_nodes[rk.spinup]
+        # a staggered start: the chain of continuation links, each shared by the cases after it
+        for link in rk.links:
+            if link not in spin_nodes:
+                spin_nodes[link] = dask.delayed(_continuation, pure=False)(
+                    rk.scene, link, sp, [rk.label], out_dir, SOURCE_KEY, numba_threads,
+                    dask_key_name=f"continuation-{link}")
+                refs.append(TaskRef(f"continuation {rk.label}", task_dir(out_dir, "spinup", link)))
+            sp = spin_nodes[link]
         # scenes of the same physics under two labels share one run (its key leaves names out)
         if rk.saltation not in salt_nodes:
             salt_nodes[rk.saltation] = dask.delayed(_saltation, pure=False)(
@@ -197,6 +224,7 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
     # which of the study's distinct tasks this run finds done: a stopwatch of a run-all means
     # the study's cost only when none was (summary.json "tasks_from_cache")
     distinct = ({("spinup", r.spinup) for r in runs.values()}
+                | {("spinup", k) for r in runs.values() for k in r.links}
                 | {(t, getattr(r, t)) for r in runs.values() for t in ("saltation", "analysis")})
     cached = sum(is_complete(output_path(out_dir, t, key)) for t, key in distinct)
     if study.report:

@@ -31,7 +31,8 @@ from typing import Any
 from .. import SOURCE_KEY, __version__
 from ..config import Scene, Study, study_runs
 
-__all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "saltation_key",
+__all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "continuation_key",
+           "start_keys", "saltation_key",
            "analysis_key", "report_key", "RunKeys", "run_keys", "study_keys", "saltation_slice",
            "area_source_key"]
 
@@ -65,6 +66,22 @@ def _code(extra: dict[str, str] | None = None) -> dict[str, Any]:
 
 def spinup_key(scene: Scene) -> str:
     return hash_json({"task": "spinup", "config": scene.spinup_slice(), "code": _code()})
+
+
+def continuation_key(parent: str, duration: float) -> str:
+    """One link of a staggered start: the particle-free flow of archive ``parent`` continued for
+    ``duration`` seconds (``fidelity.spinup.stagger``)."""
+    return hash_json({"task": "continuation", "inputs": [parent], "duration": float(duration),
+                      "code": _code()})
+
+
+def start_keys(scene: Scene) -> list[str]:
+    """The archives between the spin-up and this scene's start: the spin-up's key, then one
+    continuation per link (``Scene.start_links``); the last is the one the saltation starts from."""
+    out = [spinup_key(scene)]
+    for _ in range(scene.start_links):
+        out.append(continuation_key(out[-1], scene.fidelity.spinup.stagger))
+    return out
 
 
 def saltation_slice(scene: Scene) -> dict[str, Any]:
@@ -105,12 +122,20 @@ class RunKeys:
     spinup: str
     saltation: str
     analysis: str
+    #: continuation links from the spin-up to the start (empty: the run starts at the spin-up's end)
+    links: tuple[str, ...] = ()
+
+    @property
+    def start(self) -> str:
+        """Key of the particle-free archive the saltation starts from."""
+        return self.links[-1] if self.links else self.spinup
 
 
 def run_keys(label: str, scene: Scene) -> RunKeys:
-    sp = spinup_key(scene)
-    sa = saltation_key(scene, sp)
-    return RunKeys(label, scene, sp, sa, analysis_key(sa, sp))
+    chain = start_keys(scene)
+    sp, start = chain[0], chain[-1]
+    sa = saltation_key(scene, start)
+    return RunKeys(label, scene, sp, sa, analysis_key(sa, start), tuple(chain[1:]))
 
 
 def study_keys(study: Study, root: Path | None = None) -> dict[str, RunKeys]:

@@ -108,6 +108,12 @@ def study_status(study: Study, out_dir: Path, root: Path | None = None) -> list[
             key = getattr(rk, task)
             state, detail = _state(out_dir, task, key, old.get(task))
             rows.append(StatusRow(label, task, state, key, detail))
+            if task == "spinup" and rk.links:
+                # a staggered start: the last of its continuation links (workflow/tasks.py)
+                state, detail = _state(out_dir, "spinup", rk.start, None)
+                rows.append(StatusRow(label, "start", state, rk.start,
+                                      f"spin-up + {len(rk.links)} x "
+                                      f"{rk.scene.fidelity.spinup.stagger:g} s {detail}".rstrip()))
             if task == "analysis":
                 analyses[label] = key if state == "done" else None
     if study.report:

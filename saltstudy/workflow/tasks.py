@@ -206,6 +206,82 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
     return path
 
 
+def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
+                      source_key: str | None = None) -> Path:
+    """One link of a staggered start: the particle-free flow of ``parent_path`` (a spin-up or an
+    earlier link) continued for ``fidelity.spinup.stagger`` seconds at the spin-up's u* ->
+    ``<out>/spinup/<key>/spinup.nc``, an archive a saltation run starts from as from the spin-up.
+
+    Why: cases that share one spin-up start from one instant of it and so sample one phase of the
+    box's slow swings of the stress at 2 m (about a minute long on the reduced grid: 5-s means of
+    u* at 2 m 0.43-0.72 m/s around 0.54 in its spin-up, reports/reduced/FINDINGS.md); starting case
+    n (n - 1) links later spreads the cases over the swing. The archive keeps the parent's
+    window-mean profiles (the particle-free reference of the analysis) and extends its u* history
+    over the link; its wall time is the parent's plus the link's (the cost of reaching this start).
+    A link is short (seconds of flow), so it has no checkpoint: an interrupted one reruns."""
+    path = output_path(out_dir, "spinup", key)
+    if is_complete(path):
+        return path
+    check_source_key(source_key)
+    if not is_complete(parent_path):
+        raise FileNotFoundError(f"{parent_path}: parent archive missing or incomplete")
+    from ..solver.diagnostics_flow import resolved_tke_volume_mean, u_star_at
+    from ..solver.model import Model
+
+    scene = scene.spinup_scene()
+    duration = float(scene.fidelity.spinup.stagger)
+    d = task_dir(out_dir, "spinup", key)
+    with _Running(d, "continuation", key=key, label=scene.label,
+                  inputs={"parent": str(parent_path)}, duration=duration):
+        t0 = time.perf_counter()
+        parent = open_dataset(parent_path)
+        restart = archives.restart_from_dataset(parent)
+        model = Model.from_scene(scene, saltation=False, restart=restart)
+        prog = ProgressFile(d, "spinup", scene.label, "continuation")
+        prog.target = duration
+        t_start = float(model.state.t)
+        history = {k[:-5] if k.endswith("_hist") else k: np.asarray(parent[k].values)
+                   for k in ("u_star_hist", "tke_hist", "u_drive_hist")}
+        t_hist = np.asarray(parent["time_hist"].values)
+        offset = t_start - float(t_hist[-1]) if t_hist.size else t_start
+        rec_t, rec = [], {"u_star": [], "tke": [], "u_drive": []}
+        try:
+            next_rec = 1.0
+            while model.state.t - t_start < duration - 1e-9:
+                t_rel = model.state.t - t_start
+                model.step(model.next_dt(limit=min(next_rec, duration) - t_rel))
+                t_rel = model.state.t - t_start
+                if t_rel >= next_rec - 1e-9 or t_rel >= duration - 1e-9:
+                    rec_t.append(model.state.t - offset)
+                    rec["u_star"].append(u_star_at(model, model.z_ref))
+                    rec["tke"].append(resolved_tke_volume_mean(model))
+                    rec["u_drive"].append(model.state.u_drive)
+                    prog.write(t_rel, "running")
+                    next_rec = t_rel + 1.0
+            ckpt = model.checkpoint()
+            grid = model.state.grid
+            u_drive = float(model.state.u_drive)
+            t_end = float(model.state.t)
+        finally:
+            _close(model)
+        hist = {"t": np.concatenate([t_hist, rec_t]),
+                **{k: np.concatenate([history[k], rec[k]]) for k in rec}}
+        profiles = {src: np.asarray(parent[dst].values) for src, dst in
+                    (("u", "u_mean"), ("uw_res", "uw_res"), ("uw_sgs", "uw_sgs"),
+                     ("tke_res", "tke_res"), ("e_sgs", "e_sgs"))}
+        wall = float(parent.attrs.get("wall_time_s", 0.0)) + time.perf_counter() - t0
+        ds = archives.spinup_dataset(
+            scene, grid, ckpt, profiles, hist, converged=bool(parent.attrs.get("converged", 0)),
+            reason=f"{parent.attrs.get('spinup_reason', '')}; continued {duration:g} s",
+            u_drive=u_drive, t_end=t_end, wall_time_s=wall, key=key,
+            profile_window=(float(parent.attrs["profile_window_start"]),
+                            float(parent.attrs["profile_window_end"]),
+                            int(parent.attrs["profile_window_samples"])))
+        write_dataset(ds, path)
+        prog.write(duration, "done")
+    return path
+
+
 def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: str | None = None,
                    interrupt_after_steps: int | None = None,
                    checkpoint_interval: float | None = None) -> Path:
@@ -215,8 +291,7 @@ def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: s
     checkpoint is removed once samples.nc is complete. On a solver blow-up the last checkpoint is
     kept and task.json names step, time, field and place.
     """
-    sp_key = keys.spinup_key(scene)
-    key = keys.saltation_key(scene, sp_key)
+    key = keys.run_keys(scene.label, scene).saltation
     path = output_path(out_dir, "saltation", key)
     if is_complete(path):
         return path
