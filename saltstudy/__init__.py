@@ -23,7 +23,7 @@ def _source_key(here: Path | None = None) -> str:
         p = here / sub
         files = [p] if p.is_file() else sorted(p.rglob("*.py"))
         for f in files:
-            h.update(f.name.encode())
+            h.update(f.relative_to(here).as_posix().encode())   # a moved file is another source
             h.update(f.read_bytes())
     return h.hexdigest()[:12]
 

@@ -108,7 +108,7 @@ class Splash(_Frozen):
         "stepping by this much meets it (the paper's model steps by 0.2 ms, its section 2.4): the "
         "grain is splashed where it is found inside the layer, its rebound and ejecta start there, "
         "and one still inside after the next such step is splashed again at its launch velocity "
-        "(solver/splash_kernels.py)")
+        "(solver/grains/splash_kernels.py)")
     ejection_rounding: Literal["stochastic", "floor", "nearest"] = Field(
         "stochastic", description="how eq. 8's N_ej = a v_imp / sqrt(g <d>) becomes a whole number "
         "of ejected parcels, which the paper does not say: 'stochastic' rounding (floor plus one "
@@ -123,7 +123,7 @@ class Splash(_Frozen):
         "layer_top", description="where a rebound and the ejecta leave from: the impact layer's top, "
         "where the impactor met it ('layer_top'), or the bed z = 0 ('bed'), from which a grain "
         "rises through the layer under gravity and, if it cannot leave it, meets the bed again "
-        "at the top of its hop at its speed there (solver/splash_kernels.py)")
+        "at the top of its hop at its speed there (solver/grains/splash_kernels.py)")
 
     @model_validator(mode="after")
     def _one_bed(self) -> "Splash":
@@ -150,7 +150,7 @@ class Forcing(_Frozen):
         "layer with a slow u* controller, constant stress below it (on domains a few metres deep its "
         "core is Couette-like, kappa z/u* dU/dz ~ 0.6 at 0.5-1.5 m); pressure_gradient: mean body "
         "force, the stress falls linearly from rho u*s^2 at the bed and the log law holds in the lower "
-        "third (solver/forcing.py), but a run must spin up for a few hundred seconds to reach it")
+        "third (solver/flow/forcing.py), but a run must spin up for a few hundred seconds to reach it")
 
 
 class Surface(_Frozen):
@@ -171,28 +171,28 @@ class Closure(_Frozen):
     """Turbulence closure: the SGS model and its options."""
     model: Literal["deardorff", "dynamic"] = Field(
         "deardorff", description="SGS model: 'deardorff', the paper's 1.5-order prognostic TKE closure "
-        "with a fixed c_m (solver/sgs.py); 'dynamic', the plane-averaged scale-dependent dynamic "
+        "with a fixed c_m (solver/closures/sgs.py); 'dynamic', the plane-averaged scale-dependent dynamic "
         "Smagorinsky model of Porte-Agel et al. (2000) and Bou-Zeid et al. (2005), with the SGS TKE of "
-        "the paper's eq. A1 diagnosed in local equilibrium, grain sink included (solver/dynamic_sgs.py)")
+        "the paper's eq. A1 diagnosed in local equilibrium, grain sink included (solver/closures/dynamic.py)")
     dynamic_interval: int = Field(
         5, ge=1, le=100, description="steps between updates of the dynamic coefficient [-]")
     near_wall: bool = Field(
-        False, description="near-wall mean-field eddy viscosity (solver/nearwall.py): a mixing-length "
+        False, description="near-wall mean-field eddy viscosity (solver/closures/nearwall.py): a mixing-length "
         "closure of the mean shear where the horizontal grid cannot resolve the wall eddies. Not in "
         "the paper; off by default: in the grain layer it pins the air's non-dimensional shear to 1 "
         "and quadruples z0s (case 2, reports/grainlayer/FINDINGS.md)")
     delta: Literal["scotti", "geometric"] = Field(
         "scotti", description="SGS filter width: (dx dy dz)^(1/3) times the anisotropy factor of "
         "Scotti, Meneveau & Lilly (1993) for flat cells ('scotti'), or without it ('geometric', "
-        "Deardorff 1980) (solver/sgs.py)")
+        "Deardorff 1980) (solver/closures/sgs.py)")
     viscosity: Literal["isotropic", "anisotropic"] = Field(
         "isotropic", description="SGS eddy viscosity: one, with the filter length ('isotropic'), or "
         "a horizontal one with sqrt(dx dy) and a vertical one with dz ('anisotropic', the nu_th and "
-        "nu_tv of the paper's eq. A1) (solver/sgs.py)")
+        "nu_tv of the paper's eq. A1) (solver/closures/sgs.py)")
     two_part: bool = Field(
         False, description="the two-part model of Sullivan, McWilliams & Moeng (1994): the fluctuating "
         "eddy viscosity scaled by the isotropy factor gamma(z) and a mean-field viscosity that holds the "
-        "log law at the first level (solver/twopart.py); a departure from the paper's closure, on top "
+        "log law at the first level (solver/closures/twopart.py); a departure from the paper's closure, on top "
         "of either model; excludes near_wall (both are mean-field terms)")
     near_wall_layer: tuple[float, float] = Field(
         (1.0, 3.0), description="(a, b): the near-wall term acts fully below a dx and fades to zero "
@@ -243,7 +243,7 @@ class Particles(_Frozen):
     release_depth: float = Field(0.3, gt=0, description="release layer depth above the bed [m]")
     near_bed_wind: Literal["paper", "cell-drag", "first-level", "blend"] = Field(
         "paper", description="horizontal wind a grain sees in the first grid cell, and where its "
-        "drag goes (solver/interp.py). 'paper' (the paper's [12]): anywhere below the cell's top "
+        "drag goes (solver/grains/interp.py). 'paper' (the paper's [12]): anywhere below the cell's top "
         "face z_f[1], the log law from the second level, ln(z/z0)/ln(z_c[1]/z0) u(z_c[1]), and "
         "the drag (momentum and TKE sink) goes back to the second level; trilinear above. "
         "'cell-drag' (the same wind, eq. 2's sum over the particles in each cell read literally): "
@@ -331,7 +331,7 @@ class TimeStepping(_Frozen):
     vertical_diffusion: Literal["explicit", "implicit"] = Field(
         "implicit", description="vertical SGS diffusion of u, v, w, e (and the SGS dissipation): "
         "'explicit' in the RK3 stages, its limit from the thinnest levels; 'implicit', a "
-        "tridiagonal solve per column in each stage (solver/vertical_diffusion.py), no vertical "
+        "tridiagonal solve per column in each stage (solver/flow/vertical_diffusion.py), no vertical "
         "diffusion limit")
     implicit_weight: float = Field(
         0.5, ge=0.5, le=1.0, description="theta of the implicit vertical diffusion: 0.5 "
@@ -341,7 +341,7 @@ class TimeStepping(_Frozen):
         2, description="horizontal order of the advection (momentum and SGS TKE) and of the "
         "projection's divergence and gradient: 2, or 4 (Morinishi et al. 1998, fully conservative; "
         "the paper's model ARPS advects momentum at fourth order); an integer because it is the "
-        "order of the differences; the vertical stays second order (solver/advection.py)")
+        "order of the differences; the vertical stays second order (solver/flow/advection.py)")
 
 
 class SpinUp(_Frozen):
@@ -384,7 +384,7 @@ class Sampling(_Frozen):
 
 
 class Relaxation(_Frozen):
-    """Column relaxation after activation (solver/relaxation.py): a uniform body force
+    """Column relaxation after activation (solver/flow/relaxation.py): a uniform body force
     -K (tau_bed - u*s^2) / Lz that brings the particle-free column to the saltation equilibrium
     about (1 + K) times faster, switched off before sampling. Off (K = 0) by default."""
     gain: float = Field(0.0, ge=0, le=20, description="K [-]: 0 switches the relaxation off")

@@ -28,8 +28,8 @@ def make_stepper(grid, *, z0=1e-5, kappa=0.4, nu_mol=1.5e-5, wall=True, sgs=True
     """A flow stepper on ``grid`` with the case closure ``closure`` fields (config.Closure) and no
     damping layer by default."""
     from saltstudy.config import Closure
-    from saltstudy.solver.closure import make_closure
-    from saltstudy.solver.stepper import Boundaries, FlowNumerics, Stepper
+    from saltstudy.solver.closures.closure import make_closure
+    from saltstudy.solver.flow.stepper import Boundaries, FlowNumerics, Stepper
     clo = make_closure(grid, Closure(**closure), kappa=kappa, z0=z0, nu_mol=nu_mol, wall=wall,
                        enabled=sgs)
     return Stepper(grid, clo, Boundaries(z0=z0, kappa=kappa, wall=wall, damping_depth=damping_depth,

@@ -10,7 +10,7 @@ import pytest
 
 from test_particles_helpers import component, scene
 from saltstudy.analysis.balance import bed_exchange, budget_friction
-from saltstudy.solver.splash_kernels import (EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT,
+from saltstudy.solver.grains.splash_kernels import (EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT,
                                              _rise_from_bed)
 
 

@@ -84,7 +84,7 @@ def test_bench_particles_json_has_the_runs_fields():
 
 def test_bench_particles_phases_sum_within_the_step_and_leave_the_solver_as_it_was():
     from saltstudy.instruments import bench_particles
-    from saltstudy.solver import particles
+    from saltstudy.solver.grains import particles
 
     before = {k: getattr(particles, k) for k in bench_particles.PHASE_KERNELS}
     out = _json(["bench", "particles", "--n", "3000", "--steps", "12", "--phases", "--json"])
@@ -111,7 +111,8 @@ def test_bench_particles_against_a_revision_times_both_sides_in_one_process():
     assert len(r["this_rounds"]) == len(r["against_rounds"]) == 2
     assert r["this"] > 0 and r["against"] > 0
     import sys
-    assert any(m.startswith("saltstudy_") and m.endswith(".solver.particles") for m in sys.modules)
+    assert any(m.startswith("saltstudy_") and m.endswith((".solver.grains.particles", ".solver.particles"))
+               for m in sys.modules)
 
 
 def test_bench_particles_against_an_unknown_revision_is_a_clear_error():

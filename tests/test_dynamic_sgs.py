@@ -1,4 +1,4 @@
-"""The plane-averaged scale-dependent dynamic Smagorinsky closure (solver/dynamic_sgs.py).
+"""The plane-averaged scale-dependent dynamic Smagorinsky closure (solver/closures/dynamic.py).
 
 An a-priori test on a field with a Kolmogorov inertial range and a real cascade (it must give the
 Smagorinsky-Lilly coefficient and beta ~ 1), the same procedure on a field with the same spectrum but
@@ -16,10 +16,10 @@ from typer.testing import CliRunner
 
 from solver_helpers import make_stepper, random_velocity, smoke_scene, stretched_grid, with_closure
 from turbulence_field import KOLMOGOROV_C, evolved_field, staggered_sample
-from saltstudy.solver import dynamic_sgs as dyn
-from saltstudy.solver import sgs
+from saltstudy.solver.closures import dynamic as dyn
+from saltstudy.solver.closures import sgs
 from saltstudy.solver.grid import Grid
-from saltstudy.solver.stepper import _momentum_stage
+from saltstudy.solver.flow.stepper import _momentum_stage
 
 #: Lilly (1967): C_s = (1/pi) (3 C_K / 2)^(-3/4) for a sharp cut-off in a k^-5/3 range
 C_S_LILLY = (1.0 / math.pi) * (1.5 * KOLMOGOROV_C) ** -0.75

@@ -1,4 +1,4 @@
-"""The inlined elementary functions of the parcel kernels (solver/elementary.py) against
+"""The inlined elementary functions of the parcel kernels (solver/numerics/elementary.py) against
 correctly rounded references (40-digit decimal arithmetic), and the bed-crossing root finder."""
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from saltstudy._jit import jit
-from saltstudy.solver.elementary import (EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, log_small,
+from saltstudy.solver.numerics.elementary import (EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, log_small,
                                          pow_0687, pow_0687_table)
-from saltstudy.solver.particles import _crossing_time
+from saltstudy.solver.grains.particles import _crossing_time
 
 getcontext().prec = 40
 A = Decimal(0.687)  # the double the kernels' `** 0.687` raises to

@@ -64,7 +64,7 @@ def test_premultiplied_peak_finds_streaks_on_a_red_spectrum():
 
 
 def test_roll_damping_removes_the_x_mean_circulation_and_keeps_the_divergence():
-    from saltstudy.solver.pressure import PressureSolver, divergence
+    from saltstudy.solver.flow.pressure import PressureSolver, divergence
 
     g = stretched_grid()
     u, v, w = random_velocity(g, seed=5, mean_u=2.0)

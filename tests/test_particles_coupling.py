@@ -8,7 +8,7 @@ import pytest
 
 from test_particles_helpers import G_INDEX, component, scene, synthetic_flow
 from saltstudy.solver.grid import Grid
-from saltstudy.solver.particles import Saltation
+from saltstudy.solver.grains.particles import Saltation
 from saltstudy.solver.state import FlowState
 
 
@@ -165,7 +165,7 @@ def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
     chunk, in increasing index order, inside its chunk's slabs; the chunks' slab runs tile the
     domain with about n / N_CHUNKS parcels each; the per-chunk maxima are those of its parcels,
     and the parcel maxima those of the live parcels."""
-    from saltstudy.solver.coupling import N_CHUNKS, chunk_assign
+    from saltstudy.solver.grains.coupling import N_CHUNKS, chunk_assign
 
     rng = np.random.default_rng(7)
     n, nx, dx = 5000, 40, 0.25

@@ -7,7 +7,7 @@ import numpy as np
 
 from saltstudy.config import load_case, load_fidelity, resolve_scene
 from saltstudy.solver.grid import Grid
-from saltstudy.solver.particles import Saltation
+from saltstudy.solver.grains.particles import Saltation
 from saltstudy.solver.state import FlowState
 
 #: index of g in Saltation.prm (the kernels' parameter vector); tests switch gravity off with it

@@ -1,4 +1,4 @@
-"""The advance's lane passes (solver/particles.py): the vectorized passes (branch-free, no libm)
+"""The advance's lane passes (solver/grains/particles.py): the vectorized passes (branch-free, no libm)
 and their exact redos (one lane at a time, libm allowed) compute the same numbers wherever the
 vectorized pass keeps a lane, and leave to the exact pass every lane it cannot do; the lane
 rows have names of their own."""
@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from saltstudy._jit import jit
-from saltstudy.solver import particles as P
+from saltstudy.solver.grains import particles as P
 
 L = P._LANES
 

@@ -11,7 +11,7 @@ from test_particles_helpers import scene
 model_mod = pytest.importorskip("saltstudy.solver.model", reason="solver/model.py not present")
 Model = model_mod.Model
 
-from saltstudy.solver.diagnostics_particles import (grain_counters, grain_planes,  # noqa: E402
+from saltstudy.solver.diagnostics.grains import (grain_counters, grain_planes,  # noqa: E402
                                                     grain_profiles, grain_size_hist)
 
 

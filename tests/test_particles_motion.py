@@ -8,8 +8,8 @@ import pytest
 
 from test_particles_helpers import (component, exact_slip, scene, synthetic_flow,
                                     terminal_velocity)
-from saltstudy.solver import particles
-from saltstudy.solver.interp import wrap_periodic
+from saltstudy.solver.grains import particles
+from saltstudy.solver.grains.interp import wrap_periodic
 
 
 def _fall(d, dt, steps, z0=2.5):

@@ -16,7 +16,7 @@ import pytest
 from test_particles_helpers import component, scene, synthetic_flow
 from saltstudy.config import ConfigError, load_case
 from saltstudy.solver.grid import Grid
-from saltstudy.solver.particles import Saltation
+from saltstudy.solver.grains.particles import Saltation
 from saltstudy.solver.state import FlowState
 
 KAPPA = 0.4

@@ -8,7 +8,7 @@ import pytest
 
 from test_particles_helpers import component, scene, terminal_velocity
 from saltstudy.config import list_case_numbers, load_case
-from saltstudy.solver.splash_kernels import sample_impacts, soil_arrays, splash_params
+from saltstudy.solver.grains.splash_kernels import sample_impacts, soil_arrays, splash_params
 
 
 def _truncated_normal_mean(m, s):
@@ -95,7 +95,7 @@ def test_splash_runs_keep_the_books_of_a_step_with_many_impacts():
     each counts once, parcels = before + ejections - depositions, every ejectum and rebound is
     a live grain on the impact layer with an upward launch and a soil diameter, and nothing of
     the closed-up stretches is left behind (no duplicates, no stale slots)."""
-    from saltstudy.solver.particles import N_SPLASH_RUNS
+    from saltstudy.solver.grains.particles import N_SPLASH_RUNS
 
     sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
     s, st = component(sc)
@@ -130,7 +130,7 @@ def test_impact_record_gives_the_replacement_number_of_eqs_6_and_8():
     counts each impact in its speed and angle bin, and per speed bin the rebounds and ejecta per
     impact (the replacement number) match P_reb + N_ej of eqs. 6 and 8 within the binomial
     noise; the totals equal the step's counters."""
-    from saltstudy.solver.splash_kernels import IMPACT_ANGLE_BIN, IMPACT_SPEED_BIN
+    from saltstudy.solver.grains.splash_kernels import IMPACT_ANGLE_BIN, IMPACT_SPEED_BIN
 
     sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
     s, st = component(sc, gravity=False)
@@ -164,7 +164,7 @@ def test_impact_record_gives_the_replacement_number_of_eqs_6_and_8():
 def test_impact_record_measures_the_hops_a_splash_launched():
     """Grains launched by a rebound or an ejection and landing again: their hops are counted
     once each, with flight times and lengths of a short hop; the record survives a checkpoint."""
-    from saltstudy.solver.splash_kernels import HOP_LENGTH_BIN, HOP_TIME_BIN
+    from saltstudy.solver.grains.splash_kernels import HOP_LENGTH_BIN, HOP_TIME_BIN
 
     sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False})
     s, st = component(sc)

@@ -1,4 +1,4 @@
-"""The short-vector intrinsics (solver/simd.py) and the deposit / interpolation helpers built on
+"""The short-vector intrinsics (solver/numerics/simd.py) and the deposit / interpolation helpers built on
 them (interp.pool_add_tri, pool_add_tri2, _tri) against plain references."""
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from saltstudy._jit import jit
-from saltstudy.solver.interp import _tri, pool_add_tri, pool_add_tri2
-from saltstudy.solver.simd import fma2, fma4, load2
+from saltstudy.solver.grains.interp import _tri, pool_add_tri, pool_add_tri2
+from saltstudy.solver.numerics.simd import fma2, fma4, load2
 
 
 @jit

@@ -4,8 +4,8 @@ from __future__ import annotations
 import numpy as np
 
 from solver_helpers import make_stepper, random_velocity, stretched_grid
-from saltstudy.solver.advection import advection_tendencies, scalar_advection
-from saltstudy.solver.pressure import PressureSolver
+from saltstudy.solver.flow.advection import advection_tendencies, scalar_advection
+from saltstudy.solver.flow.pressure import PressureSolver
 
 
 def _energy_rate(g, u, v, w):

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from solver_helpers import make_stepper, random_velocity, smoke_scene, stretched_grid
-from saltstudy.solver.advection import advection_tendencies, scalar_advection
+from saltstudy.solver.flow.advection import advection_tendencies, scalar_advection
 from saltstudy.solver.grid import Grid
-from saltstudy.solver.pressure import PressureSolver, divergence, gradient, laplacian
+from saltstudy.solver.flow.pressure import PressureSolver, divergence, gradient, laplacian
 from saltstudy.solver.state import FlowState
 
 
@@ -156,8 +156,8 @@ def test_stage_kernels_advect_at_the_chosen_order(implicit):
     """One stage of each momentum kernel with no diffusion, damping or pressure, from a zero base
     and cdt = 1 s, is the whole-grid advection operator of that order (order 2 by default, as
     the callers that do not name it)."""
-    from saltstudy.solver.stepper import _momentum_stage
-    from saltstudy.solver.vertical_diffusion import momentum_stage_implicit
+    from saltstudy.solver.flow.stepper import _momentum_stage
+    from saltstudy.solver.flow.vertical_diffusion import momentum_stage_implicit
     g = stretched_grid(nx=12, ny=10, nz=8)
     u, v, w = random_velocity(g, seed=9, mean_u=1.0)
     PressureSolver(g, order=4).project(u, v, w)
@@ -248,7 +248,7 @@ def test_flow_numerics_carries_the_order_from_the_fidelity():
     from pydantic import ValidationError
 
     from saltstudy.config import TimeStepping
-    from saltstudy.solver.stepper import FlowNumerics
+    from saltstudy.solver.flow.stepper import FlowNumerics
     assert TimeStepping().advection_order == 2
     assert FlowNumerics.from_time(TimeStepping(advection_order=4)).advection_order == 4
     with pytest.raises(ValidationError):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from solver_helpers import smoke_scene
-from saltstudy.solver.checks import check_state, first_nonfinite
+from saltstudy.solver.diagnostics.checks import check_state, first_nonfinite
 from saltstudy.solver.model import Model
 from saltstudy.solver.state import SolverBlowUp
 

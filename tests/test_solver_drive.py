@@ -9,8 +9,8 @@ import pytest
 
 from solver_helpers import smoke_scene  # noqa: F401  (imports saltstudy first)
 from saltstudy.config import load_case, load_fidelity, resolve_scene
-from saltstudy.solver import diagnostics_flow as df
-from saltstudy.solver.forcing import pressure_gradient_force
+from saltstudy.solver.diagnostics import flow as df
+from saltstudy.solver.flow.forcing import pressure_gradient_force
 from saltstudy.solver.model import Model
 
 KAPPA = 0.4

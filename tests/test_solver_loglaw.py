@@ -37,7 +37,7 @@ DRIVE = "pressure_gradient"
 def run_surface_layer(t_spin: float = T_SPIN, t_avg: float = T_AVG, every: float = 0.5,
                       log=print, drive: str = DRIVE, case: int = 1, fidelity="reduced",
                       grid_overrides: dict | None = None) -> dict:
-    from saltstudy.solver import diagnostics_flow as df
+    from saltstudy.solver.diagnostics import flow as df
     from saltstudy.solver.model import Model
 
     fid = load_fidelity(fidelity)
@@ -99,7 +99,7 @@ def summarize(layer: dict, log=print) -> dict:
     at z_ref must be sqrt(G (H - z_ref)). Top drive: plain log law, u* = u*s at every height.
     phi = kappa z / u*(z) dU/dz with the local expected u*(z).
     """
-    from saltstudy.solver.diagnostics_flow import fit_log_law
+    from saltstudy.solver.diagnostics.flow import fit_log_law
 
     z, u, zw = layer["z"], layer["u"], layer["z_w"]
     Lz, target = float(layer["Lz"]), float(layer["u_star_target"])

@@ -7,10 +7,10 @@ import sys
 import numpy as np
 
 from solver_helpers import smoke_scene
-from saltstudy.solver import diagnostics_flow as df
+from saltstudy.solver.diagnostics import flow as df
 from saltstudy.solver.model import Model, StepInfo
-from saltstudy.solver.sgs import E_MIN, delta_profile, length_scale
-from saltstudy.solver.wall import drag_coefficient, surface_stress
+from saltstudy.solver.closures.sgs import E_MIN, delta_profile, length_scale
+from saltstudy.solver.flow.wall import drag_coefficient, surface_stress
 
 
 def test_next_dt_respects_cfl_and_limits():
@@ -26,10 +26,10 @@ def test_next_dt_respects_cfl_and_limits():
 
 
 def test_no_saltation_scene_never_imports_particles():
-    sys.modules.pop("saltstudy.solver.particles", None)
+    sys.modules.pop("saltstudy.solver.grains.particles", None)
     m = Model.from_scene(smoke_scene(), saltation=False)
     assert m.components == []
-    assert "saltstudy.solver.particles" not in sys.modules
+    assert "saltstudy.solver.grains.particles" not in sys.modules
 
 
 def test_tke_sink_is_applied_implicitly():

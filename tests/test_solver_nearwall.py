@@ -1,4 +1,4 @@
-"""The near-wall mean-field eddy viscosity (solver/nearwall.py) on fields with known answers."""
+"""The near-wall mean-field eddy viscosity (solver/closures/nearwall.py) on fields with known answers."""
 from __future__ import annotations
 
 import numpy as np
@@ -7,8 +7,8 @@ import pytest
 from solver_helpers import smoke_scene  # noqa: F401  (imports saltstudy first)
 from saltstudy.config import Closure, ConfigError, load_case, load_fidelity, resolve_scene
 from saltstudy.solver.grid import Grid
-from saltstudy.solver.nearwall import NearWallMeanViscosity, layer_weight
-from saltstudy.solver.sgs import C_M, E_MIN, length_scale
+from saltstudy.solver.closures.nearwall import NearWallMeanViscosity, layer_weight
+from saltstudy.solver.closures.sgs import C_M, E_MIN, length_scale
 from saltstudy.solver.state import FlowState
 
 KAPPA = 0.4

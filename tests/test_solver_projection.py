@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from solver_helpers import random_velocity, smoke_scene, stretched_grid
-from saltstudy.solver.pressure import (PressureSolver, divergence, laplacian,
+from saltstudy.solver.flow.pressure import (PressureSolver, divergence, laplacian,
                                        max_relative_divergence)
 
 

@@ -1,4 +1,4 @@
-"""Column relaxation after activation (solver/relaxation.py): fixed point, rate, switch-off, restart."""
+"""Column relaxation after activation (solver/flow/relaxation.py): fixed point, rate, switch-off, restart."""
 from __future__ import annotations
 
 import math
@@ -8,7 +8,7 @@ import pydantic
 import pytest
 
 from saltstudy.config import Relaxation, load_fidelity
-from saltstudy.solver.relaxation import ColumnRelaxation
+from saltstudy.solver.flow.relaxation import ColumnRelaxation
 
 U_STAR, LZ, AREA, RHO = 0.5, 4.0, 20.0, 1.2
 

@@ -1,4 +1,4 @@
-"""SGS filter width: Scotti et al. (1993) anisotropy correction (solver/sgs.py)."""
+"""SGS filter width: Scotti et al. (1993) anisotropy correction (solver/closures/sgs.py)."""
 from __future__ import annotations
 
 import math
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from solver_helpers import smoke_scene, stretched_grid, with_closure
-from saltstudy.solver import sgs
+from saltstudy.solver.closures import sgs
 
 
 def test_scotti_factor_is_one_for_cubes_and_known_for_flat_cells():

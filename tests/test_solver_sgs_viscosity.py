@@ -1,4 +1,4 @@
-"""Horizontal and vertical SGS eddy viscosities (closure.viscosity, solver/sgs.py).
+"""Horizontal and vertical SGS eddy viscosities (closure.viscosity, solver/closures/sgs.py).
 
 The anisotropic option gives the horizontal stresses nu_h = c_m l_h sqrt(e) and the vertical ones
 nu_v = c_m l_v sqrt(e). Every diagnostic that reads a vertical SGS flux (the stress profile, the
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from solver_helpers import make_stepper, random_velocity, smoke_scene, stretched_grid, with_closure
-from saltstudy.solver import sgs
-from saltstudy.solver.forcing import total_stress_at_face
-from saltstudy.solver.nearwall import mean_flux_profiles
-from saltstudy.solver.stepper import _momentum_stage
+from saltstudy.solver.closures import sgs
+from saltstudy.solver.flow.forcing import total_stress_at_face
+from saltstudy.solver.closures.nearwall import mean_flux_profiles
+from saltstudy.solver.flow.stepper import _momentum_stage
 
 
 def test_viscosity_lengths_follow_the_choice():

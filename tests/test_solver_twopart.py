@@ -1,4 +1,4 @@
-"""The two-part SGS model of Sullivan et al. (1994) (solver/twopart.py): the isotropy factor on
+"""The two-part SGS model of Sullivan et al. (1994) (solver/closures/twopart.py): the isotropy factor on
 fields whose mean and fluctuating strain are known, the mean-field viscosity's log-law matching at
 the first face, column-momentum conservation of its tendency, the fluctuation-only TKE production,
 a restart, and the configuration's rule that it replaces the near-wall term."""
@@ -11,8 +11,8 @@ import pytest
 from typer.testing import CliRunner
 
 from solver_helpers import random_velocity, smoke_scene, stretched_grid, with_closure
-from saltstudy.solver import sgs
-from saltstudy.solver.twopart import GAMMA_MIN, TwoPartModel
+from saltstudy.solver.closures import sgs
+from saltstudy.solver.closures.twopart import GAMMA_MIN, TwoPartModel
 
 
 class _State:

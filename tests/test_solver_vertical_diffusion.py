@@ -1,4 +1,4 @@
-"""The vertically implicit SGS diffusion (solver/vertical_diffusion.py) against exact solutions:
+"""The vertically implicit SGS diffusion (solver/flow/vertical_diffusion.py) against exact solutions:
 1-D diffusion on the stretched grid at diffusion numbers 1, 10 and 100, the column budget of u
 with the bed stress, the projection, and the implicit SGS dissipation."""
 from __future__ import annotations
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from solver_helpers import make_stepper, random_velocity, stretched_grid
-from saltstudy.solver.closure import NoClosure
-from saltstudy.solver.pressure import divergence
-from saltstudy.solver.sgs import E_MIN
+from saltstudy.solver.closures.closure import NoClosure
+from saltstudy.solver.flow.pressure import divergence
+from saltstudy.solver.closures.sgs import E_MIN
 from saltstudy.solver.state import FlowState
-from saltstudy.solver.stepper import Boundaries, FlowNumerics, Stepper
+from saltstudy.solver.flow.stepper import Boundaries, FlowNumerics, Stepper
 
 NU0 = 2.0e-3     # [m^2 s^-1]
 DZ1 = 0.01       # first level [m], the paper's
@@ -137,7 +137,7 @@ def test_column_integral_changes_by_the_bed_stress_only():
     limit: the domain integral of u changes by dt times the bed stress of the last stage's input
     (the implicit fluxes telescope; advection and the pressure gradient sum to zero), to
     round-off."""
-    from saltstudy.solver.checks import health
+    from saltstudy.solver.diagnostics.checks import health
     g = stretched_grid(nx=12, ny=10, nz=16, dz_bottom=DZ1)
     st = make_stepper(g, vertical_diffusion="implicit")
     s = FlowState.zeros(g)

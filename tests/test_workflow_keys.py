@@ -188,6 +188,6 @@ def test_source_key_follows_the_kernels_not_the_tools(tmp_path):
     for f in tools:
         f.write_text(f.read_text() + "\n# an edit\n")
     assert _source_key(copy) == base
-    adv = copy / "solver" / "advection.py"
+    adv = copy / "solver" / "flow" / "advection.py"
     adv.write_text(adv.read_text() + "\n# an edit\n")
     assert _source_key(copy) != base

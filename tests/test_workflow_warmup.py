@@ -91,4 +91,4 @@ def test_touching_a_solver_file_invalidates_the_marker(tmp_path, monkeypatch):
     monkeypatch.setattr(W, "_source_stamps", lambda: [(p, t + 1, n) for p, t, n in real])
     assert W._marker(sigs, tmp_path) != m1
     assert W._marker(["abd"], tmp_path) != m1
-    assert any(p.endswith("solver/stepper.py") for p, _, _ in real)
+    assert any(p.endswith("solver/flow/stepper.py") for p, _, _ in real)

@@ -10,7 +10,7 @@ momentum and the mass-weighted fluid velocity at the grains), mean over the samp
   ``band_speed`` = sum m u_p / sum m [m s^-1], ``band_wind_seen`` = sum m u_f / sum m [m s^-1].
 
 From the impact record (the cumulative counts of samples.nc, differenced over the sampling
-window; solver/splash_kernels.py): the distribution of impact speeds and angles, the replacement
+window; solver/grains/splash_kernels.py): the distribution of impact speeds and angles, the replacement
 number (rebounds + ejecta per impact) against impact speed and its mean over all impacts (1 in a
 steady layer), and the hops a splash launched: their flight time, streamwise length and the
 height g t^2 / 8 a ballistic hop of that flight time reaches (an estimate: drag shortens the rise

@@ -279,7 +279,7 @@ def register_bench_scene(bench_app) -> None:
                   as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
         """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N
         cores; or, with --saltation-seconds, the real cost of each vertical-diffusion scheme."""
-        from ..solver.vertical_diffusion import VERTICAL_DIFFUSION
+        from ..solver.flow.vertical_diffusion import VERTICAL_DIFFUSION
         bad = [v for v in vertical_diffusion if v not in VERTICAL_DIFFUSION]
         if bad:
             typer.echo(f"error: --vertical-diffusion: unknown scheme {bad[0]!r} (known: "

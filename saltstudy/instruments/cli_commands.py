@@ -24,8 +24,8 @@ def register(app: typer.Typer) -> None:
              rounds: int = typer.Option(7, "--rounds", help="alternating rounds (--against)")) -> None:
         """Median wall time per LES step on the reduced grid and the paper's, per cell-step, vs the FFT floor."""
         from .bench import main
-        from ..solver.advection import ADVECTION_ORDERS
-        from ..solver.closure import CLOSURES
+        from ..solver.flow.advection import ADVECTION_ORDERS
+        from ..solver.closures.closure import CLOSURES
         bad = [c for c in closure if c not in CLOSURES]
         if bad:
             typer.echo(f"error: --closure: unknown closure {bad[0]!r} (known: {', '.join(CLOSURES)})",

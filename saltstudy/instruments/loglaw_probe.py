@@ -136,7 +136,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     """Run ``scene`` without grains to ``t_end`` [s]; one summary per ``window`` [s] (module doc).
     Returns {"grid", "drive", "z_ref", "target", "windows": [...]}."""
     from ..physics.laws import z0_at_fixed_u_star
-    from ..solver.diagnostics_flow import fit_log_law, flow_profiles
+    from ..solver.diagnostics.flow import fit_log_law, flow_profiles
     from ..solver.model import Model
 
     if not (window > 0 and t_end >= window):

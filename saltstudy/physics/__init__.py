@@ -3,7 +3,7 @@
 The scalar laws used inside solver kernels (``drag_correction``, ``particle_response_time``,
 ``particle_reynolds``, ``rebound_probability``, ``ejection_number_mean``) are numba-jitted; the
 rest is numpy. ``drag_correction`` is the reference law; the parcel kernels evaluate it with the
-power inlined (``solver.coupling.drag_rate``, ``solver.elementary.pow_0687``, within 3 ulp).
+power inlined (``solver.grains.coupling.drag_rate``, ``solver.numerics.elementary.pow_0687``, within 3 ulp).
 """
 from .drag import (drag_correction, particle_response_time, particle_reynolds,
                    stokes_terminal_velocity, terminal_velocity)

@@ -25,13 +25,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks import check_courant, health, locate_nonfinite
-from .forcing import DriveController, pressure_gradient_force, z_ref_effective
+from .diagnostics.checks import check_courant, health, locate_nonfinite
+from .flow.forcing import DriveController, pressure_gradient_force, z_ref_effective
 from .grid import Grid
 from .spinup import SpinupResult, initial_flow, run_spinup
 from .state import FlowState, SolverBlowUp
-from .closure import make_closure
-from .stepper import Boundaries, FlowNumerics, Stepper
+from .closures.closure import make_closure
+from .flow.stepper import Boundaries, FlowNumerics, Stepper
 
 __all__ = ["Model", "StepInfo", "SolverBlowUp", "CHECKPOINT_FORMAT"]
 
@@ -115,7 +115,7 @@ class Model:
         rng = np.random.default_rng(case.seed)
         components = []
         if saltation and case.physics.saltation:
-            from .particles import Saltation
+            from .grains.particles import Saltation
             components.append(Saltation(grid, scene))
             if stepper.closure.dynamic is not None:
                 # the grain sink's Lagrangian time T_L = tlc / sqrt(e) follows the coefficient
@@ -123,12 +123,12 @@ class Model:
         model = cls(scene, grid, stepper, state, controller, rng, components)
         rl = fid.relaxation
         if components and rl.gain > 0 and rl.until > 0:
-            from .relaxation import ColumnRelaxation
+            from .flow.relaxation import ColumnRelaxation
             model.relaxation = ColumnRelaxation(case.forcing.u_star_s, grid.Lz, rl.gain, rl.timescale,
                                                 rl.until, grid.Lx * grid.Ly, case.air.rho)
         if restart is None:
             if pg:
-                from .diagnostics_flow import log_law_profile
+                from .diagnostics.flow import log_law_profile
                 u0 = math.sqrt(G * grid.Lz)       # surface friction velocity u*_0
                 prof = log_law_profile(grid.z_c, u0, case.surface.z0, case.air.kappa, H=grid.Lz)
                 initial_flow(state, u0, case.surface.z0, case.air.kappa, grid.Lz, rng,

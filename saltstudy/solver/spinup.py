@@ -111,7 +111,7 @@ def run_spinup(model, progress=None, record_every: float | None = None,
     it with the model from ``progress`` (called right after each record). Passed back non-empty
     with the model restored from that checkpoint, the spin-up resumes where it stopped and ends
     as the uninterrupted one would (the model's restart is bit for bit)."""
-    from .diagnostics_flow import resolved_tke_volume_mean, u_star_at
+    from .diagnostics.flow import resolved_tke_volume_mean, u_star_at
 
     sp = model.scene.fidelity.spinup
     every = record_every if record_every is not None else min(sp.window / 50.0, 1.0)

@@ -346,7 +346,7 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
         data[name] = _var(("time", "z"), samples[name], name, np.float64)
     data["size_hist"] = _var(("time", "z", "d_bin"), samples["size_hist"], "size_hist", np.float64)
     if "impact_hist" in samples:
-        from ..solver.diagnostics_particles import impact_bins
+        from ..solver.diagnostics.grains import impact_bins
         bins = impact_bins()
         coords["v_imp"] = _var(("v_imp",), bins["v_imp_edges"][:-1], "v_imp")
         coords["impact_angle"] = _var(("impact_angle",), bins["angle_edges"][:-1], "impact_angle")

@@ -194,8 +194,8 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
     is a test hook: raise :class:`Interrupted` after that many steps *of this call* (a checkpoint
     is written just before, so the rerun resumes from there).
     """
-    from ..solver import diagnostics_flow as dflow
-    from ..solver import diagnostics_particles as dpart
+    from ..solver.diagnostics import flow as dflow
+    from ..solver.diagnostics import grains as dpart
     from ..solver.model import Model
 
     interval = scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None else checkpoint_interval

@@ -10,7 +10,7 @@ grain mass is ``phi`` times the air mass relaxes together with that air at the r
 ``k_p (1 + phi)`` (the two-body problem of one species). The fastest such rate in the domain is
 bounded above by ``k_max (1 + phi_max)``, the fastest grain with the largest loading, so
 ``tau_c_min = 1 / (k_max (1 + phi_max))`` is a lower bound on the coupled relaxation time.
-An explicit exchange would need ``dt < ~tau_c_min``; the point-implicit one (solver/coupling.py)
+An explicit exchange would need ``dt < ~tau_c_min``; the point-implicit one (solver/grains/coupling.py)
 is built to stay bounded beyond that, and ``dt / tau_c_min`` says how far a scene pushes it.
 ``Re_p`` uses the resolved air velocity at the parcel (the SGS part is not in it).
 

@@ -120,7 +120,7 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
     if is_complete(path):
         return path
     check_source_key(source_key)
-    from ..solver import diagnostics_flow as dflow
+    from ..solver.diagnostics import flow as dflow
     from ..solver.model import Model
     from ..solver.spinup import HISTORY_KEYS
 
@@ -225,7 +225,7 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
     check_source_key(source_key)
     if not is_complete(parent_path):
         raise FileNotFoundError(f"{parent_path}: parent archive missing or incomplete")
-    from ..solver.diagnostics_flow import resolved_tke_volume_mean, u_star_at
+    from ..solver.diagnostics.flow import resolved_tke_volume_mean, u_star_at
     from ..solver.model import Model
 
     scene = scene.spinup_scene()

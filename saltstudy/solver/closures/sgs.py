@@ -51,7 +51,12 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import device, pjit
+from ..._jit import device, pjit
+
+#: Lagrangian structure-function constant C0 of the subgrid Lagrangian time T_L (eq. A1), read
+#: by the grains' subgrid velocity and TKE sink and by the dynamic closure; not given in the
+#: paper.
+C0_LAGRANGIAN = 2.1
 
 #: per-point kernels (``device``): inlined by LLVM into the fused stage kernels (an out-of-line call
 #: with a dozen array arguments per grid point costs more than the stencil itself)

@@ -55,7 +55,7 @@ TKE sink (eq. A1). Per cell, the rate [s^-1] multiplying e::
 
 with ``eps = c_eps e^{3/2} / l`` (Deardorff 1980), hence ``T_L = 4 l / (3 C0 c_eps sqrt(e))``,
 with the SGS model's own wall-limited length ``l(z)`` and ``c_eps = 0.19 + 0.74 l / Delta``
-(:mod:`saltstudy.solver.sgs`), the local e of the cell, and ``C0 = 2.1``, a value
+(:mod:`saltstudy.solver.closures.sgs`), the local e of the cell, and ``C0 = 2.1``, a value
 widely used for the Lagrangian structure-function constant in stochastic particle models; the
 paper does not state its C0. Where ``e <= 0``, ``T_L`` is infinite and the sink vanishes. Each
 parcel contributes to the cell that holds it (a parcel in the log region with "paper": the level-1
@@ -70,8 +70,9 @@ from collections import namedtuple
 import numpy as np
 from numba import prange
 
-from .._jit import jit, jit_borrow, pjit
-from .elementary import expm1_small, pow_0687
+from ..._jit import jit, jit_borrow, pjit
+from ..numerics.elementary import expm1_small, pow_0687
+from ..closures.sgs import C0_LAGRANGIAN
 from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 
 __all__ = ["Parcels", "Flow", "C0_LAGRANGIAN", "face_inverse_masses",
@@ -90,8 +91,6 @@ Parcels = namedtuple("Parcels", "x y z u v w d kd flag trem su sv sw")
 #: of shape (1, 1, 1) one-way):
 Flow = namedtuple("Flow", "u v w e tlc U V W du dv dw")
 
-#: Lagrangian structure-function constant used in T_L (eq. A1); not given in the paper.
-C0_LAGRANGIAN = 2.1
 
 #: Fixed number of parcel chunks (each with its own deposit buffers). Fixed, not the thread count,
 #: so that every reduction is summed in the same order whatever the number of numba threads: a run
@@ -114,7 +113,7 @@ def lagrangian_time_coefficients(grid, kappa: float, c0: float = C0_LAGRANGIAN,
 
     l and c_eps are the SGS model's own (``sgs.length_scale``, ``sgs.c_eps_profile``), so the
     epsilon in T_L is the dissipation the TKE equation uses."""
-    from .sgs import c_eps_profile, length_scale
+    from ..closures.sgs import c_eps_profile, length_scale
     ell = length_scale(grid, kappa, delta=delta)
     c_eps = c_eps_profile(grid, ell, delta)
     return np.ascontiguousarray(4.0 * ell / (3.0 * c0 * c_eps))

@@ -17,7 +17,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import pjit
+from ..._jit import pjit
 
 __all__ = ["drag_coefficient", "surface_stress", "surface_stress_into"]
 

@@ -28,13 +28,13 @@ from dataclasses import dataclass
 import numpy as np
 from numba import prange
 
-from .._jit import device, jit, pjit
+from ..._jit import device, jit, pjit
 from .advection import (ADVECTION_ORDERS, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at,
                         adv_v4_at, adv_v_at, adv_w4_at, adv_w_at)
-from .closure import CLOSURES, NoClosure
+from ..closures.closure import CLOSURES, NoClosure
 from .damping import damping_profiles
 from .pressure import PressureSolver
-from .sgs import E_MIN, diff_u_at, diff_v_at, diff_w_at, tke_tendency_at
+from ..closures.sgs import E_MIN, diff_u_at, diff_v_at, diff_w_at, tke_tendency_at
 from .vertical_diffusion import VERTICAL_DIFFUSION, momentum_stage_implicit, tke_stage_implicit
 from .wall import drag_coefficient, surface_stress_into
 

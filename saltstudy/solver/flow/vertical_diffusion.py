@@ -48,10 +48,10 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .._jit import device, pjit
+from ..._jit import device, pjit
 from .advection import (C1, C3, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at, adv_v4_at,
                         adv_v_at, adv_w4_at, adv_w_at, wrap_down)
-from .sgs import diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at, vertical_coupling
+from ..closures.sgs import diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at, vertical_coupling
 
 __all__ = ["momentum_stage_implicit", "tke_stage_implicit", "solve_tridiagonal",
            "VERTICAL_DIFFUSION"]

@@ -61,7 +61,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from .._jit import device, pjit
+from ..._jit import device, pjit
 
 #: per-point kernels (``device``): inlined by LLVM into the fused stage kernels (an out-of-line call
 #: with a dozen array arguments per grid point costs more than the stencil itself)

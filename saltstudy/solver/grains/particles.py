@@ -83,21 +83,21 @@ from collections import namedtuple
 import numpy as np
 from numba import prange
 
-from .._jit import jit, jit_borrow, pjit
+from ..._jit import jit, jit_borrow, pjit
 from .coupling import (N_CHUNKS, Flow, Parcels, air_maxima, apply_exchange, chunk_assign,
                        chunk_ranges, estimate_weights, face_inverse_masses,
                        implicit_coefficients, implicit_corrections,
                        lagrangian_time_coefficients, parcel_weight)
-from .elementary import (CLIFT_EXPONENT, EXPM1_TAYLOR_MAX, binomial_coefficients, expm1_small,
+from ..numerics.elementary import (CLIFT_EXPONENT, EXPM1_TAYLOR_MAX, binomial_coefficients, expm1_small,
                          expm1_taylor, pow_0687, pow_0687_table)
-from .grid import Grid
+from ..grid import Grid
 from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, Stencil, _bil, _tri, ijit,
                      interp_fluid, level_of, locate, pool_add_tri, slab_of, wrap_index,
                      wrap_periodic)
 from .splash_kernels import (EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, N_EN,
                              NO_LAUNCH, ImpactLog, draw_diameter, ejecta_reserve,
                              impact_log_arrays, soil_arrays, splash_params, splash_runs)
-from .state import FlowState
+from ..state import FlowState
 
 __all__ = ["Saltation", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN_KEY",
            "ENTRAINMENT_ZETA"]

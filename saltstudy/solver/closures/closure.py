@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import pjit
+from ..._jit import pjit
 from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, length_scale, viscosity_lengths)
 
 __all__ = ["make_closure", "DeardorffClosure", "DynamicClosure", "NoClosure", "CLOSURES",
@@ -189,7 +189,7 @@ class DynamicClosure(_EddyViscosityClosure):
         if spec.viscosity != "isotropic":
             raise ValueError("the dynamic closure has one eddy viscosity: viscosity must be 'isotropic'")
         super().__init__(grid, spec, kappa, nu_mol, rlog, wall)
-        from .dynamic_sgs import DynamicSmagorinsky
+        from .dynamic import DynamicSmagorinsky
         self.dynamic = DynamicSmagorinsky(grid, self.kappa, self.rlog, spec.delta,
                                           spec.dynamic_interval)
         # nu = C_K l sqrt(e) with the diagnosed e, so every reader of (cml, e) gets the acting
@@ -231,7 +231,7 @@ def make_closure(grid, spec=None, *, kappa: float = 0.4, z0: float = 1e-5, nu_mo
     ``wall``: the bed carries the log-law stress (the strain on the bed face is the log-law shear;
     the mean-field parts need it); ``enabled`` = False gives ``NoClosure``."""
     if spec is None:
-        from ..config import Closure
+        from ...config import Closure
         spec = Closure()
     rlog = log_shear_factor(grid, z0) if wall else 0.0
     if not enabled:

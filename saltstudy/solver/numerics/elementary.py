@@ -34,7 +34,7 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-from .._jit import device as ijit  # (interp.ijit; interp imports this module)
+from ..._jit import device as ijit  # (interp.ijit; interp imports this module)
 
 __all__ = ["pow_0687", "pow_0687_table", "expm1_small", "expm1_taylor", "log_small",
            "binomial_coefficients", "CLIFT_EXPONENT", "EXPM1_TAYLOR_MAX"]

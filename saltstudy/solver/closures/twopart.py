@@ -39,7 +39,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import pjit
+from ..._jit import pjit
 from .nearwall import _backward_euler_diffusion
 from .sgs import strain_sq_at
 

@@ -53,7 +53,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import pjit
+from ..._jit import pjit
 
 __all__ = ["DriveController", "z_ref_effective", "total_stress_at_face", "pressure_gradient_force",
            "PG_HOLD_HEIGHT", "stress_profile_pg"]

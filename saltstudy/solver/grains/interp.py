@@ -2,7 +2,7 @@
 
 The same weights serve interpolation (fluid velocity at a parcel, paper section 2.1: "first order
 trilinear interpolation") and deposition of the drag reaction (paper eq. 2), so the exchange
-conserves momentum to round-off (see :mod:`saltstudy.solver.coupling`).
+conserves momentum to round-off (see :mod:`saltstudy.solver.grains.coupling`).
 
 Layout (``grid.py``): ``u[i, j, k]`` at ``(x_f[i], y_c[j], z_c[k])``, ``v[i, j, k]`` at
 ``(x_c[i], y_f[j], z_c[k])``, ``w[i, j, k]`` at ``(x_c[i], y_c[j], z_f[k])`` with ``w[..., 0] = 0``
@@ -58,10 +58,10 @@ from collections import namedtuple
 
 import numpy as np
 
-from .._jit import device, jit
-from .grid import Grid
-from .elementary import log_small
-from .simd import fma2, fma4, load2
+from ..._jit import device, jit
+from ..grid import Grid
+from ..numerics.elementary import log_small
+from ..numerics.simd import fma2, fma4, load2
 
 #: small helpers of the parcel kernels, inlined into the callers by LLVM (``saltstudy._jit.device``:
 #: at LLVM's default threshold they stayed out-of-line calls passing the arrays as structs on the

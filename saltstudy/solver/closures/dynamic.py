@@ -63,7 +63,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import device, pjit
+from ..._jit import device, pjit
 from .sgs import C_M, E_MIN, length_scale
 
 __all__ = ["DynamicSmagorinsky", "strain_at_centre", "germano_sums", "coefficient_profile",
@@ -361,7 +361,7 @@ class DynamicSmagorinsky:
         self.ceps_l = np.zeros(nz)
         self.tlc = np.zeros(nz)
         if c0_lagrangian is None:
-            from .coupling import C0_LAGRANGIAN as c0_lagrangian   # the grain sink's own C0
+            from .sgs import C0_LAGRANGIAN as c0_lagrangian   # the grain sink's own C0
         self.c0 = float(c0_lagrangian)
         self.ready = False
         self.n_updates = 0

@@ -43,7 +43,7 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import jit, pjit
+from ..._jit import jit, pjit
 
 __all__ = ["NearWallMeanViscosity", "layer_weight", "mean_flux_profiles"]
 

@@ -63,8 +63,8 @@ from collections import namedtuple
 import numpy as np
 from numba import prange
 
-from .._jit import jit, jit_borrow, pjit
-from ..physics.splash import ejection_number_mean, rebound_probability
+from ..._jit import jit, jit_borrow, pjit
+from ...physics.splash import ejection_number_mean, rebound_probability
 
 __all__ = ["splash_params", "soil_arrays", "draw_diameter", "draw_rebound", "draw_n_ejecta",
            "draw_ejectum", "bed_events", "ejecta_reserve", "splash_runs", "sample_impacts",

@@ -42,7 +42,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from .._jit import pjit
+from ..._jit import pjit
 
 __all__ = ["PressureSolver", "divergence", "gradient", "laplacian", "max_relative_divergence",
            "modified_wavenumber_sq", "PROJECTION_ORDERS"]

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .particles import Saltation
+from ..grains.particles import Saltation
 
 __all__ = ["grain_component", "grain_planes", "grain_profiles", "grain_size_hist", "grain_counters",
            "impact_record", "impact_bins"]
@@ -106,7 +106,7 @@ def grain_counters(model) -> dict:
 def impact_bins() -> dict:
     """Bin edges of the impact record (splash_kernels): impact speed [m s^-1], impact angle to the
     bed [deg], hop flight time [s], hop streamwise length [m]; each last bin open above."""
-    from . import splash_kernels as sk
+    from ..grains import splash_kernels as sk
     return {"v_imp_edges": np.arange(sk.N_SPEED_BINS + 1) * sk.IMPACT_SPEED_BIN,
             "angle_edges": np.arange(sk.N_ANGLE_BINS + 1) * sk.IMPACT_ANGLE_BIN,
             "hop_time_edges": np.arange(sk.N_HOP_BINS + 1) * sk.HOP_TIME_BIN,
@@ -117,7 +117,7 @@ def impact_record(model) -> dict:
     """Cumulative impact counts since activation (Saltation.impact_record): ``impact_hist``
     (speed bin, angle bin), ``impact_outcomes`` (speed bin, [impacts, rebounds, ejecta]),
     ``hop_time_hist``, ``hop_length_hist``; zeros without grains. Parcel counts (not Q-weighted)."""
-    from . import splash_kernels as sk
+    from ..grains import splash_kernels as sk
     s = grain_component(model)
     if s is None:
         return {"impact_hist": np.zeros((sk.N_SPEED_BINS, sk.N_ANGLE_BINS), dtype=np.int64),

@@ -11,8 +11,8 @@ import math
 import numpy as np
 from numba import prange
 
-from .._jit import pjit
-from .state import SolverBlowUp
+from ..._jit import pjit
+from ..state import SolverBlowUp
 
 __all__ = ["first_nonfinite", "max_courant", "check_state", "check_courant", "health",
            "locate_nonfinite", "CFL_RUNAWAY"]

@@ -1,0 +1,1 @@
+"""The air: advection, pressure, diffusion, the wall, the drive and the time step."""

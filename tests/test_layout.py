@@ -1,0 +1,112 @@
+"""The package's layout against its map (docs/ARCHITECTURE.md, "The package map"): every part has
+a row, every row exists, every import inside the package follows the map's arrows."""
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PKG = ROOT / "saltstudy"
+
+
+def _map() -> dict[str, set[str]]:
+    """path (as written, e.g. ``saltstudy/solver/flow/``) -> the parts it may import."""
+    text = (ROOT / "docs" / "ARCHITECTURE.md").read_text()
+    section = text.split("## The package map", 1)[1].split("\n## ", 1)[0]
+    rows = {}
+    for line in section.splitlines():
+        m = re.match(r"\| `(saltstudy/[^`]*)` \|.*\| ([^|]*) \|\s*$", line)
+        if m:
+            may = {t.strip().strip("`") for t in m.group(2).split(",")} - {"—", ""}
+            rows[m.group(1)] = may
+    return rows
+
+
+def _part_of(path: Path, rows: dict[str, set[str]]) -> str:
+    """The map row a file belongs to: its own module row, else its nearest package row."""
+    rel = path.relative_to(ROOT).as_posix()
+    if rel in rows:
+        return rel
+    parts = rel.split("/")
+    for i in range(len(parts) - 1, 0, -1):
+        key = "/".join(parts[:i]) + "/"
+        if key in rows:
+            return key
+    raise AssertionError(f"{rel} has no row in the map")
+
+
+def _target_file(module: str) -> Path | None:
+    """The file of a dotted ``saltstudy...`` module name (package -> its __init__)."""
+    p = ROOT / Path(*module.split("."))
+    if p.with_suffix(".py").is_file():
+        return p.with_suffix(".py")
+    if (p / "__init__.py").is_file():
+        return p / "__init__.py"
+    return None
+
+
+def _imports(path: Path):
+    """Dotted ``saltstudy`` modules a file imports (top level and inside functions)."""
+    rel = path.relative_to(ROOT).with_suffix("")
+    pkg = list(rel.parts[:-1])
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg[: len(pkg) - (node.level - 1)]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            if not mod.startswith("saltstudy"):
+                continue
+            # `from pkg import module` names a module, `from module import name` does not
+            for a in node.names:
+                sub = f"{mod}.{a.name}"
+                yield sub if _target_file(sub) is not None else mod
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name.startswith("saltstudy"):
+                    yield a.name
+
+
+def _allowed(target_part: str, may: set[str]) -> bool:
+    name = target_part.removeprefix("saltstudy/").removesuffix(".py").rstrip("/")
+    for m in may:
+        m = m.removesuffix(".py").rstrip("/")
+        if name == m or name.startswith(m + "/"):
+            return True
+    return False
+
+
+def test_every_part_has_a_row_and_every_row_exists():
+    rows = _map()
+    assert rows, "docs/ARCHITECTURE.md has no package map"
+    for key in rows:
+        assert (ROOT / key).exists(), f"the map lists {key}, which is not in the tree"
+    for f in PKG.rglob("*.py"):
+        _part_of(f, rows)   # raises naming the file
+    for d in PKG.rglob("*"):
+        if d.is_dir() and (d / "__init__.py").is_file():
+            rel = d.relative_to(ROOT).as_posix() + "/"
+            assert any(k == rel or k.startswith(rel) for k in rows), f"{rel} has no row in the map"
+
+
+def test_imports_follow_the_map():
+    rows = _map()
+    bad = []
+    for f in sorted(PKG.rglob("*.py")):
+        src = _part_of(f, rows)
+        for mod in _imports(f):
+            tf = _target_file(mod)
+            if tf is None:
+                bad.append(f"{f.relative_to(ROOT)} imports {mod}, which does not exist")
+                continue
+            dst = _part_of(tf, rows)
+            # the package's identity (version, source key) is everyone's
+            if dst == src or src.endswith("/") and dst.startswith(src) or \
+                    dst == "saltstudy/__init__.py":
+                continue
+            if not _allowed(dst, rows[src]):
+                bad.append(f"{f.relative_to(ROOT)} imports {mod} ({dst}), not among {src}'s arrows")
+    assert not bad, "\n".join(bad)
