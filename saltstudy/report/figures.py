@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -32,143 +31,17 @@ from matplotlib.figure import Figure
 
 from .data import ReportContext, RunData, profile
 from .laws import evaluate_law, load_laws
-from .panels import BY_MU1, BY_U_STAR_S, PanelRun, panel_runs
+from .panels import BY_MU1, BY_U_STAR_S, panel_runs
+from .plotting import (MARKERS, OWN_COLORS, FigureResult, add_legend, add_notes, case_color,
+                       case_label, empty_axes, fmt_um, has_stress_u_star, is_200um, lacks,
+                       new_figure, nothing_to_draw, paper_u_star_ratio, plain_log, u_star_ratio,
+                       u_star_stress)
 from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
 from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_Q,
                         paper_parcels_per_m2, parcels_per_m2_at_Q, saltation_state)
 from .streaks import premultiplied_over_variance
 
 __all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "figure_data_digest"]
-
-
-@dataclass
-class FigureResult:
-    fig: Figure
-    data: dict[str, np.ndarray] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
-
-
-# ------------------------------------------------------------------------------------------------
-# helpers
-# ------------------------------------------------------------------------------------------------
-_WIND_COLORS = {n: c for n, c in zip(CASES_WIND, ("#1b9e77", "#66a61e", "#e6ab02", "#d95f02",
-                                                    "#e7298a", "#7570b3"))}
-_SOIL_COLORS = {2: "#66a61e", 7: "#a6761d", 8: "#e41a1c", 9: "#377eb8", 10: "#222222"}
-_MARKERS = {"200": "o", "other": "s", "scene": "^"}
-#: colours of runs that are no paper case (Fig. 1), apart from the cases' own
-_OWN_COLORS = ("#17becf", "#bcbd22", "#8c564b", "#9467bd", "#ff7f0e", "#1f77b4")
-
-
-def _color(n: int | None, soil: bool = False) -> str:
-    if n is None:
-        return "0.3"
-    if soil and n in _SOIL_COLORS:
-        return _SOIL_COLORS[n]
-    return _WIND_COLORS.get(n, _SOIL_COLORS.get(n, "0.3"))
-
-
-def _fmt_um(d: float) -> str:
-    return f"{d * 1e6:.0f} µm" if math.isfinite(d) else "µ1 ?"
-
-
-def _case_label(r: RunData, soil: bool = False, place: PanelRun | None = None) -> str:
-    """The run's name (``case N`` for a plain case, else its label), what it stands in for when
-    it fills the place of another paper case (``place``), and its u*s or (``soil``) µ1."""
-    name = f"case {r.case}" if r.case is not None and r.plain_case else r.label
-    if place is not None and place.substitute:
-        name = f"{name} {place.stand_in()}"
-    if soil:
-        return f"{name}, µ1 = {_fmt_um(r.mu1)}"
-    us = _u_star_stress(r)
-    if not math.isfinite(us):
-        return name
-    return f"{name}, u*s = {us:.2f} m s⁻¹" + ("" if _has_stress_u_star(r) else " (free log fit)")
-
-
-def _has_stress_u_star(r: RunData) -> bool:
-    us = r.scalar("u_star_s_stress")
-    return math.isfinite(us) and us > 0
-
-
-def _u_star_stress(r: RunData) -> float:
-    """u*s the paper's way (the total stress at z_ref, Table 2's leading column): the u*s that
-    places a run in the figures and normalises its profiles; the free log fit only where an
-    archive lacks it (labels then say "free log fit") [m s-1]."""
-    return r.scalar("u_star_s_stress") if _has_stress_u_star(r) else r.scalar("u_star_s")
-
-
-def _new(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6), **kw) -> tuple[Figure, np.ndarray]:
-    fig = Figure(figsize=size, layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
-    return fig, axes
-
-
-def _plain_log(ax, axis: str = "x", subs: tuple[float, ...] | None = None) -> None:
-    """Log axis with plain-number labels (0.5, 1, 2) and no minor labels. ``subs``: the
-    mantissas of the labelled ticks in each decade (``(1, 2, 5)`` labels 50, 100, 200, 500),
-    for an axis spanning a decade or less, where powers of ten alone leave one label or none."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
-    a = ax.xaxis if axis == "x" else ax.yaxis
-    if subs is not None:
-        a.set_major_locator(LogLocator(base=10.0, subs=subs))
-        a.set_minor_locator(LogLocator(base=10.0, subs=tuple(range(1, 10))))
-    a.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    a.set_minor_formatter(NullFormatter())
-
-
-def _legend(ax, below: bool = False, **kw) -> None:
-    """below: under the axes, for scatter plots whose points may fall anywhere (a legend inside
-    hid case 10's point in Fig. 4)."""
-    handles, labels = ax.get_legend_handles_labels()
-    if handles:
-        if below:
-            kw.update(loc="upper center", bbox_to_anchor=(0.5, -0.14))
-        ax.legend(**kw)
-
-
-def _notes(ax, notes: list[str], loc: str = "lower right") -> None:
-    if not notes:
-        return
-    x, ha = (0.98, "right") if "right" in loc else (0.02, "left")
-    y, va = (0.02, "bottom") if "lower" in loc else (0.98, "top")
-    ax.text(x, y, "\n".join(notes), transform=ax.transAxes, ha=ha, va=va, fontsize=7.5,
-            color="firebrick", bbox=dict(boxstyle="round", fc="white", ec="firebrick", alpha=0.85))
-
-
-def _nothing_to_draw(fig: Figure, message: str) -> None:
-    """A figure none of whose places the study can fill says why in words, without a frame."""
-    fig.text(0.5, 0.5, message, ha="center", va="center", fontsize=11, color="firebrick",
-             wrap=True)
-
-
-def _lacks(*names: str) -> Callable[[RunData], str | None]:
-    """``usable`` for :func:`panels.panel_runs`: the first of ``names`` the run's archive lacks."""
-    def usable(r: RunData) -> str | None:
-        return next((f"no {n}" for n in names if not r.has(n)), None)
-    return usable
-
-
-def _empty(ax, message: str) -> None:
-    ax.text(0.5, 0.5, message, transform=ax.transAxes, ha="center", va="center", fontsize=11,
-            color="firebrick")
-    ax.set_xticks([])
-    ax.set_yticks([])
-
-
-def _ratio(r: RunData) -> float:
-    """u*s/u*t with the paper's u*s reading: √|total stress| at the reference height (its [33],
-    Table 2's "u*s, stress at z_ref"), not the free log-law fit."""
-    us, ut = r.scalar("u_star_s_stress"), r.scalar("u_star_t")
-    return us / ut if math.isfinite(us) and math.isfinite(ut) and ut > 0 else math.nan
-
-
-def _is200(r: RunData) -> bool:
-    return math.isfinite(r.mu1) and abs(r.mu1 - 200e-6) < 1e-6
-
-
-def _paper_ratio(n: int) -> float:
-    row = paper_table2().get(n, {})
-    return row.get("u_star_s", math.nan) / row.get("u_star_t", math.nan)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -179,7 +52,7 @@ def fig01(ctx: ReportContext) -> FigureResult:
     (report/saltation.py), beside the paper's ≈ 2,000 per m² that all its cases hold ([28], [31])."""
     runs = ctx.scatter_runs()
     # the legend sits below the axes, one line per run (two columns past six)
-    fig, axes = _new(size=(7.2, 5.0 + 0.1 * len(runs)))
+    fig, axes = new_figure(size=(7.2, 5.0 + 0.1 * len(runs)))
     ax = axes[0, 0]
     res = FigureResult(fig)
     ax.set_title("Fig. 1 — airborne parcels per m² of bed, each case at its own Q", fontsize=10)
@@ -200,8 +73,8 @@ def fig01(ctx: ReportContext) -> FigureResult:
         state = saltation_state(r)
         tail = f", {NO_SALTATION}" if state.status == NO_SALTATION else ""
         # a case of one's own gets a colour of its own: it may share a paper case's number
-        col = _color(r.paper_case) if r.paper_case is not None else \
-            _OWN_COLORS[sum(1 for d in drawn if ctx.runs[d].paper_case is None) % len(_OWN_COLORS)]
+        col = case_color(r.paper_case) if r.paper_case is not None else \
+            OWN_COLORS[sum(1 for d in drawn if ctx.runs[d].paper_case is None) % len(OWN_COLORS)]
         ax.plot(t, y, color=col, lw=1.2, ls=":" if tail else "-",
                 label=f"{name}: mean {m:.3g} m⁻²{tail}")
         res.data[f"t_{r.label}"] = t
@@ -210,7 +83,7 @@ def fig01(ctx: ReportContext) -> FigureResult:
         means.append(m)
     if not drawn:
         res.notes.extend(f"{r.label}: {r.status}" for r in ctx.runs.values() if not r.ok)
-        _empty(ax, "\n".join(res.notes) or "no run with an n_parcels series")
+        empty_axes(ax, "\n".join(res.notes) or "no run with an n_parcels series")
         return res
     for label, m in zip(drawn, means):
         res.data[f"mean_per_m2_{label}"] = np.array([m])
@@ -234,8 +107,8 @@ def fig01(ctx: ReportContext) -> FigureResult:
     ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
-    _legend(ax, below=True, fontsize=7, ncol=2 if len(drawn) > 6 else 1)
-    _notes(ax, res.notes, "upper right")
+    add_legend(ax, below=True, fontsize=7, ncol=2 if len(drawn) > 6 else 1)
+    add_notes(ax, res.notes, "upper right")
     ax.grid(alpha=0.3)
     return res
 
@@ -265,20 +138,20 @@ def fig02(ctx: ReportContext) -> FigureResult:
             "no wind or stress profile"
 
     panel = panel_runs(ctx, (2,), BY_U_STAR_S, usable)
-    fig, axes = _new(2, 1, size=(10, 4.8), sharey=True)
+    fig, axes = new_figure(2, 1, size=(10, 4.8), sharey=True)
     res = FigureResult(fig)
     res.notes.extend(panel.notes)
     if not panel.runs:
         for ax in axes.ravel():
             ax.remove()
-        _nothing_to_draw(fig, "Fig. 2: no run of this study at µ1 = 200 µm has wind or stress "
+        nothing_to_draw(fig, "Fig. 2: no run of this study at µ1 = 200 µm has wind or stress "
                               "profiles" + ("\n" + "\n".join(panel.notes) if panel.notes else ""))
         return res
     place = panel.runs[0]
     r = place.run
     ax_u, ax_f = axes[0]
     fig.suptitle("Fig. 2 — mean wind and momentum flux with and without saltation\n"
-                 + _case_label(r, place=place))
+                 + case_label(r, place=place))
     zref, why = r.z_ref()
     zm = r.scalar("z_m")
     ztop = np.nan
@@ -331,9 +204,9 @@ def fig02(ctx: ReportContext) -> FigureResult:
     ax_u.set_title("(a)", loc="left")
     ax_f.set_xlabel(r"$\langle u'w'\rangle$ (resolved + SGS) [m² s⁻²]")
     ax_f.set_title("(b)", loc="left")
-    _legend(ax_u, fontsize=7.5, loc="best", framealpha=0.9)
-    _legend(ax_f, fontsize=7.5, loc="best", framealpha=0.9)
-    _notes(ax_f, res.notes)
+    add_legend(ax_u, fontsize=7.5, loc="best", framealpha=0.9)
+    add_legend(ax_f, fontsize=7.5, loc="best", framealpha=0.9)
+    add_notes(ax_f, res.notes)
     res.data["u_ref_height"] = np.array([zref])
     return res
 
@@ -350,23 +223,23 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
         if saltation_state(r).status == NO_SALTATION:
             res.notes.append(f"{r.label}: {NO_SALTATION}, not drawn")
             continue
-        x, y = _ratio(r), r.scalar(var)
+        x, y = u_star_ratio(r), r.scalar(var)
         if not (math.isfinite(x) and math.isfinite(y)):
             res.notes.append(f"{r.label}: {var} or u*s(z_ref)/u*t undefined")
             continue
         if r.case is not None and r.plain_case or (r.case is not None and "@" in r.label):
-            group = "200" if _is200(r) else "other"
+            group = "200" if is_200um(r) else "other"
         else:
             group = "scene"
-        col = _color(r.case, soil=not _is200(r))
+        col = case_color(r.case, soil=not is_200um(r))
         lab = {"200": "this study, µ1 = 200 µm (cases 1–6)", "other": "this study, µ1 ≠ 200 µm (cases 7–10)",
                "scene": "this study, other scenes"}[group]
-        ax.plot([x], [y], marker=_MARKERS[group], ls="none", ms=8, mfc=col, mec="k",
+        ax.plot([x], [y], marker=MARKERS[group], ls="none", ms=8, mfc=col, mec="k",
                 label=None if group in seen_groups else lab)
         seen_groups.add(group)
         tag = str(r.case) if group != "scene" else r.label
         if group == "other":
-            others[tag] = _fmt_um(r.mu1)
+            others[tag] = fmt_um(r.mu1)
         ax.annotate(tag, (x, y), textcoords="offset points", xytext=(5, 4), fontsize=7.5)
         xs.append(x)
         ys.append(y)
@@ -396,7 +269,7 @@ def _ref_threshold(ctx: ReportContext) -> tuple[float, RunData | None]:
         if r is not None and r.ok and math.isfinite(r.scalar("u_star_t")):
             return r.scalar("u_star_t"), r
     for r in ctx.runs.values():
-        if r.ok and _is200(r) and math.isfinite(r.scalar("u_star_t")):
+        if r.ok and is_200um(r) and math.isfinite(r.scalar("u_star_t")):
             return r.scalar("u_star_t"), r
     return math.nan, None
 
@@ -427,7 +300,7 @@ def _draw_laws(ctx, ax, laws: dict, reason: str | None, res: FigureResult, d: fl
 
 
 def fig03(ctx: ReportContext) -> FigureResult:
-    fig, axes = _new(size=(7.2, 5.2))
+    fig, axes = new_figure(size=(7.2, 5.2))
     ax = axes[0, 0]
     res = FigureResult(fig)
     _scatter(ctx, ax, "z0s", res)
@@ -437,31 +310,31 @@ def fig03(ctx: ReportContext) -> FigureResult:
         ax.set_yscale("log")
     ax.set_ylabel(r"saltation roughness length $z_{0s}$ [m]")
     ax.set_title("Fig. 3 — z0s vs u*s/u*t (laws at µ1 = 200 µm, u*t of case 2)", fontsize=10)
-    _legend(ax, below=True, fontsize=7)
-    _notes(ax, res.notes, "upper left")
+    add_legend(ax, below=True, fontsize=7)
+    add_notes(ax, res.notes, "upper left")
     return res
 
 
 def fig04(ctx: ReportContext) -> FigureResult:
-    fig, axes = _new()
+    fig, axes = new_figure()
     ax = axes[0, 0]
     res = FigureResult(fig)
     _scatter(ctx, ax, "z_m", res)
     rng = paper_results().get("fig4_zm_cases_1_to_6_m")
     if rng:
-        xr_ = [_paper_ratio(1), _paper_ratio(6)]
+        xr_ = [paper_u_star_ratio(1), paper_u_star_ratio(6)]
         ax.plot(xr_, rng, color=PAPER_COLOR, ls="--", lw=2, marker="D", ms=7, alpha=0.8,
                 label=f"{PAPER_LABEL}: z_m {rng[0]:g}–{rng[1]:g} m, linear, cases 1–6")
     ax.set_ylabel(r"saltation height $z_m$ [m]")
     ax.set_ylim(bottom=0)
     ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s², u*s from the stress at z_ref)")
-    _legend(ax, below=True, fontsize=7.5)
-    _notes(ax, res.notes, "lower right")
+    add_legend(ax, below=True, fontsize=7.5)
+    add_notes(ax, res.notes, "lower right")
     return res
 
 
 def fig08(ctx: ReportContext) -> FigureResult:
-    fig, axes = _new(size=(7.2, 5.2))
+    fig, axes = new_figure(size=(7.2, 5.2))
     ax = axes[0, 0]
     res = FigureResult(fig)
     _scatter(ctx, ax, "G_tot", res)
@@ -472,13 +345,13 @@ def fig08(ctx: ReportContext) -> FigureResult:
     ax.set_title("Fig. 8 — G_tot vs u*s/u*t (laws at µ1 = 200 µm)", fontsize=10)
     ax.plot([], [], ls="none", label=f"{PAPER_LABEL}: G_tot close to Bagnold (1937) at low u*s,\n"
                                      "close to Sørensen (2004) at high u*s")
-    _legend(ax, below=True, fontsize=7)
-    _notes(ax, res.notes, "upper right")
+    add_legend(ax, below=True, fontsize=7)
+    add_notes(ax, res.notes, "upper right")
     return res
 
 
 def fig13(ctx: ReportContext) -> FigureResult:
-    fig, axes = _new()
+    fig, axes = new_figure()
     ax = axes[0, 0]
     res = FigureResult(fig)
     _scatter(ctx, ax, "sigma_G_over_G_tot", res)
@@ -489,8 +362,8 @@ def fig13(ctx: ReportContext) -> FigureResult:
     ax.set_ylabel(r"$\sigma_G / \langle G_{tot}\rangle$ [-]")
     ax.set_ylim(bottom=0)
     ax.set_title("Fig. 13 — relative standard deviation of the saltation flux")
-    _legend(ax, below=True, fontsize=7.5)
-    _notes(ax, res.notes, "lower right")
+    add_legend(ax, below=True, fontsize=7.5)
+    add_notes(ax, res.notes, "lower right")
     return res
 
 
@@ -518,20 +391,20 @@ def fig05(ctx: ReportContext) -> FigureResult:
     panel = panel_runs(ctx, tuple(n for _, _, n in FIG5_PANELS), BY_U_STAR_S, usable)
     chosen = {place.paper_case: place for place in panel.runs}
     drawn = [(letter, um, chosen[n]) for letter, um, n in FIG5_PANELS if n in chosen]
-    fig, axes = _new(max(1, len(drawn)), 1, size=(max(6.0, 0.5 + 4.2 * len(drawn)), 4.8))
+    fig, axes = new_figure(max(1, len(drawn)), 1, size=(max(6.0, 0.5 + 4.2 * len(drawn)), 4.8))
     res = FigureResult(fig)
     res.notes.extend(panel.notes)
     fig.suptitle("Fig. 5 — grain-size distribution in the saltation layer (by height band)"
                  + ("\n" if len(drawn) < 3 else " ") + "vs the bed")
     if not drawn:
         axes[0, 0].remove()
-        _nothing_to_draw(fig, "no run of this study at µ1 = 90, 200 or 400 µm (±10 %) has size "
+        nothing_to_draw(fig, "no run of this study at µ1 = 90, 200 or 400 µm (±10 %) has size "
                               "distributions in the air and the bed"
                          + ("\n" + "\n".join(panel.notes) if panel.notes else ""))
         return res
     for ax, (letter, um, place) in zip(axes[0], drawn):
         r = place.run
-        title = f"({letter}) µ1 = {um} µm: {_case_label(r)}"
+        title = f"({letter}) µ1 = {um} µm: {case_label(r)}"
         if place.substitute:   # on a line of its own: the panels are narrow
             title += f"\n{place.stand_in()}"
         ax.set_title(title, loc="left", fontsize=9)
@@ -550,17 +423,17 @@ def fig05(ctx: ReportContext) -> FigureResult:
             else:
                 lab = f"air, z ≈ {zb[i] * 100:.0f} cm"
             ax.plot(d, air[i], color=cmap(i / max(1, air.shape[0])), lw=1.4, marker=".", label=lab)
-        ax.plot(d, bed, color="k", lw=2.5, label=f"bed (soil), µ1 = {_fmt_um(r.mu1)}")
+        ax.plot(d, bed, color="k", lw=2.5, label=f"bed (soil), µ1 = {fmt_um(r.mu1)}")
         res.data[f"psd_air_{place.key}"] = air
         res.data[f"psd_bed_{place.key}"] = bed
         ax.set_xscale("log")
         # a size range of a decade or less (µ1/2.5 to 2.5 µ1 or narrower): powers of ten alone
         # label it in scientific notation, and 1-2-5 steps may leave a single label
-        _plain_log(ax, "x", subs=(1.0, 1.5, 2.0, 3.0, 5.0, 7.0))
+        plain_log(ax, "x", subs=(1.0, 1.5, 2.0, 3.0, 5.0, 7.0))
         ax.set_xlabel("grain diameter d [µm]")
         ax.set_ylabel("mass fraction per size bin [-]")
         ax.grid(alpha=0.3, which="both")
-        _legend(ax, fontsize=7)
+        add_legend(ax, fontsize=7)
     return res
 
 
@@ -605,14 +478,14 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
                                     (CASES_SOIL, BY_MU1, True, "(b) cases 2, 7–10: various µ1")):
         groups.append((panel_runs(ctx, cases, by, usable), soil, ptitle))
     drawn = [g for g in groups if g[0].runs]
-    fig, axes = _new(max(1, len(drawn)), 1, size=(5.5 * max(1, len(drawn)), 5.0), sharey=True)
+    fig, axes = new_figure(max(1, len(drawn)), 1, size=(5.5 * max(1, len(drawn)), 5.0), sharey=True)
     res = FigureResult(fig)
     fig.suptitle(title)
     for panel, _, _ in groups:
         res.notes.extend(panel.notes)
     if not drawn:
         axes[0, 0].remove()
-        _nothing_to_draw(fig, f"no run of this study has {var} against z/z_m")
+        nothing_to_draw(fig, f"no run of this study has {var} against z/z_m")
         return res
     for ax, (panel, soil, ptitle) in zip(axes[0], drawn):
         prefix = ptitle[:3]
@@ -632,8 +505,8 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
                     gap_notes.append(f"{name}: {_SYMBOL.get(var, var)} ≤ 0 at z/z_m = {at}, "
                                      "a gap in its line on the log axis")
                 x = np.where(x > 0, x, np.nan)
-            ax.plot(x, z / zm, color=_color(place.paper_case, soil), lw=1.6, marker=".", ms=3,
-                    label=_case_label(r, soil, place))
+            ax.plot(x, z / zm, color=case_color(place.paper_case, soil), lw=1.6, marker=".", ms=3,
+                    label=case_label(r, soil, place))
             res.data[f"{prefix}{place.key}"] = np.asarray(x, float)
         res.notes.extend(gap_notes)
         if decorate is not None:
@@ -650,8 +523,8 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
         ax.set_xlabel(xlabel)
         ax.set_title(ptitle, loc="left")
         ax.grid(alpha=0.3, which="both")
-        _legend(ax, fontsize=7.5, loc="best")  # profiles differ per run: least overlap
-        _notes(ax, panel.notes + gap_notes, "lower left")
+        add_legend(ax, fontsize=7.5, loc="best")  # profiles differ per run: least overlap
+        add_notes(ax, panel.notes + gap_notes, "lower left")
     axes[0, 0].set_ylabel(r"$z / z_m$ [-]")
     return res
 
@@ -665,12 +538,12 @@ def fig06(ctx: ReportContext) -> FigureResult:
     free_fit: list[str] = []
 
     def norm(r, v):
-        if not _has_stress_u_star(r):
+        if not has_stress_u_star(r):
             free_fit.append(r.label)
-        return v / (r.rho * _u_star_stress(r) ** 2)
+        return v / (r.rho * u_star_stress(r) ** 2)
 
     def needs(r):
-        us = _u_star_stress(r)
+        us = u_star_stress(r)
         return None if math.isfinite(us) and us > 0 else "no u*s"
 
     def deco(ax, soil, res):
@@ -739,21 +612,21 @@ def fig09(ctx: ReportContext) -> FigureResult:
     """A row per paper case 1, 4, 6 (top to bottom): the study's run of the case, or its nearest
     run by u*s at µ1 = 200 µm (``panels.py``), titled with the case it stands in for; a row the
     study cannot fill is left out."""
-    panel = panel_runs(ctx, FIG9_CASES, BY_U_STAR_S, _lacks("C_p_snapshot", "u_snapshot"))
+    panel = panel_runs(ctx, FIG9_CASES, BY_U_STAR_S, lacks("C_p_snapshot", "u_snapshot"))
     rows = panel.runs
     ref = rows[0].run if rows else None     # the aspect of the first drawn run
     lx = ref.attr("Lx", 20.0) if ref else 20.0
     ly = ref.attr("Ly", 15.0) if ref else 15.0
     w = 11.0
     h = len(rows) * (w / 2) * (ly / lx) * 0.95 + 1.0
-    fig, axes = _new(2, max(1, len(rows)), size=(w, min(max(h, 3.5), 14.0)))
+    fig, axes = new_figure(2, max(1, len(rows)), size=(w, min(max(h, 3.5), 14.0)))
     res = FigureResult(fig)
     res.notes.extend(panel.notes)
     fig.suptitle("Fig. 9 — snapshots: (a) C_p / C_pmax and (b) u / u_max at z = 0.1 m")
     if not rows:
         for ax in axes.ravel():
             ax.remove()
-        _nothing_to_draw(fig, "no run of this study at µ1 = 200 µm has C_p and u snapshots")
+        nothing_to_draw(fig, "no run of this study at µ1 = 200 µm has C_p and u snapshots")
         return res
     for row, place in enumerate(rows):
         r = place.run
@@ -775,7 +648,7 @@ def fig09(ctx: ReportContext) -> FigureResult:
                            vmin=0.0 if col == 0 else None, vmax=1.0)
             fig.colorbar(im, ax=ax, shrink=0.85, label=lab)
             res.data[f"{var}_{place.key}"] = arr
-            title = f"({'ab'[col]}) {_case_label(r)}"
+            title = f"({'ab'[col]}) {case_label(r)}"
             if place.substitute:   # on a line of its own: the panels are narrow
                 title += f"\n{place.stand_in()}"
             ax.set_title(title, loc="left", fontsize=9)
@@ -799,11 +672,11 @@ def fig10(ctx: ReportContext) -> FigureResult:
     cases 2, 7–10 (various µ1), each filled by the study's run of the case or its nearest run
     (``panels.py``); a row the study cannot fill at all is left out."""
     table = paper_table2()
-    groups = [(panel_runs(ctx, cases, by, _lacks("S_c", "S_u")), cases, soil, rtitle)
+    groups = [(panel_runs(ctx, cases, by, lacks("S_c", "S_u")), cases, soil, rtitle)
               for cases, by, soil, rtitle in ((CASES_WIND, BY_U_STAR_S, False, "cases 1–6"),
                                               (CASES_SOIL, BY_MU1, True, "cases 2, 7–10"))]
     drawn = [g for g in groups if g[0].runs]
-    fig, axes = _new(2, max(1, len(drawn)), size=(11, 0.5 + 4.0 * max(1, len(drawn))))
+    fig, axes = new_figure(2, max(1, len(drawn)), size=(11, 0.5 + 4.0 * max(1, len(drawn))))
     res = FigureResult(fig)
     fig.suptitle("Fig. 10 — premultiplied spanwise spectra of (a) C_p and (b) u at z = 0.1 m, "
                  "averaged in x and t")
@@ -812,7 +685,7 @@ def fig10(ctx: ReportContext) -> FigureResult:
     if not drawn:
         for ax in axes.ravel():
             ax.remove()
-        _nothing_to_draw(fig, "no run of this study has spanwise spectra of C_p and u")
+        nothing_to_draw(fig, "no run of this study has spanwise spectra of C_p and u")
         return res
     for row, (panel, cases, soil, rtitle) in enumerate(drawn):
         for col, (var, dvar, vlab) in enumerate((("S_c", "delta_y", "C_p"), ("S_u", "delta_y_u", "u"))):
@@ -822,8 +695,8 @@ def fig10(ctx: ReportContext) -> FigureResult:
                 v = r.var(var)
                 wavelength, pn = premultiplied_over_variance(
                     r.ds[v.dims[0]].values, v.values, r.attr("Ly"), r.attr("dy"))
-                c = _color(place.paper_case, soil)
-                ax.plot(wavelength, pn, color=c, lw=1.5, label=_case_label(r, soil, place))
+                c = case_color(place.paper_case, soil)
+                ax.plot(wavelength, pn, color=c, lw=1.5, label=case_label(r, soil, place))
                 res.data[f"{var}_{place.key}"] = pn
                 dyv = r.scalar(dvar)
                 if math.isfinite(dyv):
@@ -836,14 +709,14 @@ def fig10(ctx: ReportContext) -> FigureResult:
                             color=PAPER_COLOR, transform=ax.get_xaxis_transform(), clip_on=False,
                             label=f"{PAPER_LABEL}: δy (Table 2)")
             ax.set_xscale("log")
-            _plain_log(ax, "x")
+            plain_log(ax, "x")
             ax.set_xlabel(r"spanwise wavelength $1/k_y$ [m]")
             ax.set_ylabel(f"$k_y S_{{{vlab}}}(k_y) / \\sigma_{{{vlab}}}^2$ [-]")
             ax.set_title(f"({'ab'[col]}) {vlab}, {rtitle}  (dotted: computed δy)", loc="left",
                          fontsize=9)
             ax.grid(alpha=0.3, which="both")
-            _legend(ax, fontsize=7, loc="upper right")
-            _notes(ax, panel.notes, "upper left")
+            add_legend(ax, fontsize=7, loc="upper right")
+            add_notes(ax, panel.notes, "upper left")
     return res
 
 
@@ -885,8 +758,8 @@ CAPTIONS = {
 
 
 def error_figure(name: str, exc: BaseException) -> Figure:
-    fig, axes = _new()
-    _empty(axes[0, 0], f"{name}: could not be drawn\n{type(exc).__name__}: {exc}")
+    fig, axes = new_figure()
+    empty_axes(axes[0, 0], f"{name}: could not be drawn\n{type(exc).__name__}: {exc}")
     return fig
 
 
