@@ -155,4 +155,3 @@ def is_200um(r: RunData) -> bool:
 def paper_u_star_ratio(n: int) -> float:
     row = paper_table2().get(n, {})
     return row.get("u_star_s", math.nan) / row.get("u_star_t", math.nan)
-
