@@ -105,13 +105,13 @@ def test_figure_labels_read_u_star_the_papers_way():
     """A run's legend gives u*s from the stress at z_ref (Table 2's leading column), not the free
     log fit; the fit only where the archive lacks the stress reading."""
     from saltstudy.report.data import RunData
-    from saltstudy.report.figures import _case_label
+    from saltstudy.report.plotting import case_label
 
     ds = make_analysis_dataset(2, label="case02")
     ds["u_star_s_stress"] = ((), 0.61, {"units": "m s-1", "long_name": "u* from the stress"})
     ds["u_star_s"] = ((), 0.48, {"units": "m s-1", "long_name": "u* free fit"})
-    assert _case_label(RunData("case02", 2, None, ds)).endswith("u*s = 0.61 m s⁻¹")
-    assert _case_label(RunData("case02", 2, None, ds.drop_vars("u_star_s_stress"))).endswith(
+    assert case_label(RunData("case02", 2, None, ds)).endswith("u*s = 0.61 m s⁻¹")
+    assert case_label(RunData("case02", 2, None, ds.drop_vars("u_star_s_stress"))).endswith(
         "u*s = 0.48 m s⁻¹ (free log fit)")
 
 

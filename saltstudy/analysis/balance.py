@@ -20,6 +20,9 @@ mu_b = tau_g(0) / (M g) (Bagnold 1956; Pähtz & Durán 2018, Phys. Rev. Fluids 3
 In a steady layer that leaks no momentum the two tau_g(0) agree, and so do the two mu_b within
 the air's share of the weight; the count of grains then follows the fluid stress left on the bed:
 M = (rho u*^2 - tau_air(0)) / (mu_b g).
+
+The statistics of one case: :func:`air_budget_statistics` (the air's side, from the 3-D samples)
+and :func:`impact_balance_statistics` (the impact record, and the two readings' ratios).
 """
 from __future__ import annotations
 
@@ -27,7 +30,11 @@ import math
 
 import numpy as np
 
-__all__ = ["N_BLOCKS", "bed_exchange", "budget_friction", "column_momentum_rate"]
+from .reading import Frame
+from .schema import Variables
+
+__all__ = ["N_BLOCKS", "bed_exchange", "budget_friction", "column_momentum_rate",
+           "air_budget_statistics", "impact_balance_statistics"]
 
 #: contiguous blocks of the sampling window for the impact record's error
 N_BLOCKS = 6
@@ -129,3 +136,47 @@ def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarr
         r = tau_g[pos] / (m[pos] * g)
         out["mu_b_budget_se"] = float(np.std(r, ddof=1) / math.sqrt(r.size))
     return out
+
+
+# ------------------------------------------------------------------------------------------
+# the statistics of one case
+# ------------------------------------------------------------------------------------------
+def air_budget_statistics(fr: Frame, s: dict, uw_w: np.ndarray | None, u0_stress: float
+                          ) -> Variables:
+    """The balance at the bed from the air's budget: ``uw_w`` the total momentum flux of each
+    3-D sample on the faces, ``u0_stress`` the stress u* at the bed."""
+    n_t = fr.n_t
+    pm = s.get("pm")
+    uw_bed_i = (np.asarray(uw_w, dtype=np.float64)[:, 0]
+                if uw_w is not None and uw_w.ndim == 2 and uw_w.shape[0] == n_t else None)
+    mass_i = (np.nansum(np.asarray(pm, dtype=np.float64), axis=1) / fr.bed_area
+              if pm is not None and pm.ndim == 2 and pm.shape[0] == n_t else None)
+    col_rate = column_momentum_rate(fr.t_sample, s.get("u_mean"), fr.z_w, fr.z_ref_eff)
+    # the bed's total stress: u*_0^2, with the pressure-gradient drive's body force on the column
+    # below z_ref included (u*_0^2 = u*(z_ref)^2 + G z_ref)
+    bud = budget_friction(fr.rho, fr.g, u0_stress ** 2 if math.isfinite(u0_stress) else math.nan,
+                          uw_bed_i, mass_i, col_rate)
+    V = Variables()
+    V.put("column_momentum_rate", (), col_rate)
+    for name, val in bud.items():
+        V.put(name, (), val)
+    return V
+
+
+def impact_balance_statistics(fr: Frame, s: dict, budget: Variables) -> Variables:
+    """The balance at the bed from the impact record over the sampling window, and its ratios to
+    the air's budget (``budget``: :func:`air_budget_statistics`): 1 in a steady layer that leaks
+    no momentum."""
+    imp_bal = bed_exchange(fr.t_series, s.get("bed_px"), s.get("bed_pz"), fr.t0, fr.t1,
+                           fr.bed_area)
+    V = Variables()
+    for name, val in imp_bal.items():
+        V.put(name, (), val)
+    mu_b_budget = budget["mu_b_budget"][1]
+    tau_g_b = budget["tau_g_bed_budget"][1]
+    V.put("mu_b_ratio_budget_to_impacts", (), float(mu_b_budget / imp_bal["mu_b"])
+          if imp_bal["mu_b"] and math.isfinite(imp_bal["mu_b"]) else math.nan)
+    V.put("tau_g_bed_ratio_budget_to_impacts", (), float(tau_g_b / imp_bal["tau_g_bed_impacts"])
+          if imp_bal["tau_g_bed_impacts"] and math.isfinite(imp_bal["tau_g_bed_impacts"])
+          else math.nan)
+    return V

@@ -18,14 +18,22 @@ R_cu_lag(lag_t, z_plane) (beyond eq. 12; the paper's remark in [51])
     heights, from the 2-D planes (``C_p``, ``u_plane``, every ``plane_interval``). Means and
     variances are the time-space ones over all planes; for a lag tau = k dt the covariance is
     averaged over all pairs (t, t - tau) inside the record. Lag 0 is eq. 12 at the plane heights.
+
+:func:`r_cu_statistics` gives one case's R_cu and R_cu_upper; R_cu_lag is read with the
+streamers (:mod:`saltstudy.analysis.streamer_statistics`), from the same planes.
 """
 from __future__ import annotations
 
 import math
+from typing import Callable
 
 import numpy as np
 
-__all__ = ["correlation_profile", "upper_mean", "lagged_correlation", "UPPER_FRACTION"]
+from .reading import Frame
+from .schema import Variables
+
+__all__ = ["correlation_profile", "upper_mean", "lagged_correlation", "UPPER_FRACTION",
+           "r_cu_statistics"]
 
 UPPER_FRACTION = 0.6
 
@@ -100,3 +108,21 @@ def lagged_correlation(C: np.ndarray, u: np.ndarray, max_lag: int, noise: float 
             cov = float((c[k:] * a[: nt - k]).mean())
             out[k, j] = cov / (sc * sa)
     return out
+
+
+def r_cu_statistics(fr: Frame, s: dict, z_m: float,
+                    noise_to_paper: Callable[[np.ndarray], np.ndarray]) -> Variables:
+    """R_cu(z) (eq. 12) from the 3-D samples' C_p and u, with the mean of ``noise_to_paper``
+    (per-plane variance, :meth:`saltstudy.analysis.streamer_statistics.ParcelNoise.to_paper`)
+    taken out of C_p's variance so that it carries the paper's parcel-count noise, and its mean
+    over the upper layer (0.6 z_m to z_m)."""
+    u3 = s.get("u")
+    Cs = s.get("C_p_s")
+    if u3 is not None and Cs is not None and u3.ndim == 4 and Cs.ndim == 3 and u3.shape[0] == Cs.shape[0]:
+        R_cu = correlation_profile(Cs, u3, noise=float(np.mean(noise_to_paper(Cs))))
+    else:
+        R_cu = np.full(fr.nz, np.nan)
+    V = Variables()
+    V.put("R_cu", ("z",), R_cu)
+    V.put("R_cu_upper", (), upper_mean(fr.z, R_cu, z_m))
+    return V

@@ -71,6 +71,10 @@ sigma_G (section 4.3 [55])
     column flux ``G_col(x, y, t)`` about its time-space mean, measures the spatial streamer
     contrast at the grid scale rather than the variability of the total flux; it is stored as
     ``sigma_G_local`` (see :func:`sigma_local`).
+
+The statistics of one case built on these: :func:`grain_profiles` (tau_p, G and z_m),
+:func:`bed_share_statistics` (tau_p at the bed over rho u*^2, two ways) and
+:func:`mass_flux_statistics` (G_tot, its heights, sigma_G).
 """
 from __future__ import annotations
 
@@ -79,10 +83,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import paper_grid
+from .reading import PLANE_CHUNK, Frame
+from .schema import Variables
+
 __all__ = ["tau_p_profile", "mass_flux_profile", "total_flux", "first_drop_height", "z_m_from_tau",
            "flux_height", "sigma_series", "sigma_local", "window_mask", "Z_M_FRACTION",
            "FLUX_FRACTION", "decay_height", "pooled_mean_std", "bed_value", "BedValue",
-           "BED_FIT_FRACTION", "budget_bed_fraction"]
+           "BED_FIT_FRACTION", "budget_bed_fraction", "GrainProfiles", "grain_profiles",
+           "bed_share_statistics", "mass_flux_statistics"]
 
 #: tau_p threshold defining z_m, as a fraction of rho u*s^2 (paper: 0.1 %)
 Z_M_FRACTION = 1.0e-3
@@ -338,3 +347,98 @@ def pooled_mean_std(chunks) -> tuple[float, float]:
     if n < 2:
         return (mean if n else math.nan), math.nan
     return mean, math.sqrt(m2 / n)
+
+
+# ------------------------------------------------------------------------------------------
+# the statistics of one case
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class GrainProfiles:
+    """The grains' momentum and mass flux over the sampling window, and the saltation height."""
+    tau_p: np.ndarray
+    G: np.ndarray
+    #: G_tot at each 3-D sample [kg m-1 s-1]
+    G_tot_sample: np.ndarray
+    #: airborne grain mass per unit bed area, mean over the samples [kg m-2]
+    airborne_mass: float
+    z_m: float
+    variables: Variables
+
+
+def grain_profiles(fr: Frame, s: dict, u0_stress: float) -> GrainProfiles:
+    """tau_p (eq. 10) and G (eq. 11) from the layer sums, and z_m where tau_p first falls below
+    0.1 % of rho u*^2 with ``u0_stress`` the stress u* (sections 3.1, 3.2)."""
+    pm, pmu, pmw, pmuw = (s.get(k) for k in ("pm", "pmu", "pmw", "pmuw"))
+    if pm is not None and pm.ndim == 2 and pm.shape[0] > 0:
+        tau_p = tau_p_profile(pm, pmu, pmw, pmuw, fr.dz, fr.Lx, fr.Ly)
+        G = mass_flux_profile(pmu, fr.dz, fr.Lx, fr.Ly)
+        G_tot_sample = np.nansum(np.asarray(pmu, dtype=np.float64), axis=1) / fr.bed_area
+        airborne_mass = float(np.mean(np.nansum(np.asarray(pm, dtype=np.float64), axis=1))) / fr.bed_area
+    else:
+        tau_p = np.full(fr.nz, np.nan)
+        G = np.full(fr.nz, np.nan)
+        G_tot_sample = np.full(fr.n_t, np.nan)
+        airborne_mass = math.nan
+    # z_m against the flow's momentum flux above the layer, rho u*s^2 with the u*s read the
+    # paper's way (the total stress at the reference height, its [33]), the u*s that leads Table 2
+    z_m = z_m_from_tau(fr.z, tau_p, fr.rho, u0_stress)
+    V = Variables()
+    V.put("tau_p", ("z",), tau_p, sign="positive for a downward flux of streamwise momentum")
+    V.put("z_m", (), z_m, definition="tau_p first below 0.1 % of rho u_star_s_stress^2 (log "
+          "interpolation)")
+    return GrainProfiles(tau_p, G, G_tot_sample, airborne_mass, z_m, V)
+
+
+def bed_share_statistics(fr: Frame, tau_p: np.ndarray, z_m: float, u0_stress: float,
+                         uw_mean_w: np.ndarray) -> Variables:
+    """tau_p at the bed over the total stress at the reference height (section 3.2 [40], Fig. 6):
+    from the exponential fitted to the lowest layers, over the paper's first level, and by the
+    momentum budget (``uw_mean_w``: the air's mean momentum flux on the faces)."""
+    bed = bed_value(fr.z_w, tau_p, BED_FIT_FRACTION * z_m)
+    rho_u2_stress = fr.rho * u0_stress ** 2 if math.isfinite(u0_stress) else math.nan
+    ok_norm = rho_u2_stress > 0
+    V = Variables()
+    V.put("tau_p_bed", (), bed.value, layers_fitted=bed.n_layers)
+    V.put("tau_p_bed_decay_height", (), bed.height)
+    V.put("tau_p_surface_fraction", (), bed.value / rho_u2_stress if ok_norm else math.nan,
+          definition="tau_p_bed / (rho u_star_s_stress^2) (saltstudy.analysis.flux)")
+    V.put("tau_p_paper_cell_fraction", (),
+          bed.layer_mean(paper_grid.PAPER_FIRST_LAYER) / rho_u2_stress if ok_norm else math.nan)
+    V.put("tau_p_surface_fraction_budget", (), budget_bed_fraction(
+        float(uw_mean_w[0]), -u0_stress ** 2) if uw_mean_w.size == fr.nz + 1 else math.nan)
+    return V
+
+
+def mass_flux_statistics(fr: Frame, s: dict, G: np.ndarray, z_m: float,
+                         airborne_mass: float) -> Variables:
+    """G_tot, its heights (z_m_flux995, the decay height below z_m) and its variability: sigma_G
+    of the total-flux series over the sampling window (section 4.3 [55]) and the spread of the
+    local column flux over the planes of the window (sigma_G_local)."""
+    V = Variables()
+    V.put("G", ("z",), G)
+    V.put("G_tot", (), total_flux(G, fr.dz))
+    V.put("airborne_mass_per_m2", (), airborne_mass)
+    V.put("z_m_flux995", (), flux_height(fr.z_w, G))
+    V.put("G_decay_height", (), decay_height(fr.z, G, z_m))
+    G_series = s.get("G_tot_series")
+    if G_series is not None and fr.t_series.size == G_series.size:
+        g_mean, sigma_G = sigma_series(fr.t_series, G_series, fr.t0, fr.t1)
+    else:
+        g_mean, sigma_G = math.nan, math.nan
+    V.put("G_tot_window_mean", (), g_mean)
+    V.put("sigma_G", (), sigma_G, definition="std over the sampling window of the total-flux "
+          "series G_tot_series (see saltstudy.analysis.flux)")
+    V.put("sigma_G_over_G_tot", (), sigma_G / g_mean
+          if g_mean and math.isfinite(g_mean) and g_mean > 0 else math.nan)
+    G_col = s.get("G_col")
+    pmask = fr.plane_mask
+    if G_col is not None and G_col.ndim == 3 and G_col.shape[0] == pmask.size and pmask.any():
+        idx = np.flatnonzero(pmask)
+        m_loc, s_loc = pooled_mean_std(
+            G_col[idx[i:i + PLANE_CHUNK]] for i in range(0, idx.size, PLANE_CHUNK))
+    else:
+        s_loc, m_loc = math.nan, math.nan
+    V.put("sigma_G_local", (), s_loc)
+    V.put("sigma_G_local_over_mean", (), s_loc / m_loc
+          if m_loc and math.isfinite(m_loc) and m_loc > 0 else math.nan)
+    return V

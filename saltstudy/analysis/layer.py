@@ -15,6 +15,8 @@ number (rebounds + ejecta per impact) against impact speed and its mean over all
 steady layer), and the hops a splash launched: their flight time, streamwise length and the
 height g t^2 / 8 a ballistic hop of that flight time reaches (an estimate: drag shortens the rise
 more than the fall, so it is an upper bound for a grain launched into still air).
+
+:func:`anatomy_statistics` and :func:`impact_record_statistics` give these for one case.
 """
 from __future__ import annotations
 
@@ -22,7 +24,11 @@ import math
 
 import numpy as np
 
-__all__ = ["BAND_NAMES", "band_edges_for", "band_anatomy", "window_counts", "impact_statistics"]
+from .reading import Frame, attr_float
+from .schema import Variables
+
+__all__ = ["BAND_NAMES", "band_edges_for", "band_anatomy", "window_counts", "impact_statistics",
+           "anatomy_statistics", "impact_record_statistics", "IMPACT_DIMS"]
 
 #: the height bands: the first grid cell (to z_f[1]), from there to 5 cm, above 5 cm
 BAND_NAMES = ("first cell", "first cell - 5 cm", "above 5 cm")
@@ -149,3 +155,52 @@ def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hi
         out["hop_length_mean"] = _mean_of(Lh, l_edges)
         out["hop_length_median"] = _median_of(Lh, l_edges)
     return out
+
+
+# ------------------------------------------------------------------------------------------
+# the statistics of one case
+# ------------------------------------------------------------------------------------------
+#: the dimension of each distribution of :func:`impact_statistics` (the others are scalars)
+IMPACT_DIMS = {"impact_speed_pdf": ("v_imp",), "replacement_by_speed": ("v_imp",),
+               "impacts_by_speed": ("v_imp",), "impact_angle_pdf": ("impact_angle",),
+               "hop_time_pdf": ("hop_time",), "hop_length_pdf": ("hop_length",)}
+
+
+def anatomy_statistics(fr: Frame, s: dict) -> tuple[np.ndarray, Variables]:
+    """(band edges, variables): the band anatomy of the case's layer, the first cell's share of
+    the airborne grains and the grains per m2 (at the case's Q) above it."""
+    q_case = fr.info["Q_case"] if math.isfinite(fr.info["Q_case"]) else attr_float(fr.attrs, "Q", 1.0)
+    anat = band_anatomy(fr.z, fr.z_w, s.get("pn"), s.get("pm"), s.get("pmu"), s.get("pmuf"),
+                        q_case, fr.bed_area)
+    band_e = anat.pop("band_edges")
+    V = Variables()
+    V.put("band_edges", ("height_band_edge",), band_e)
+    for name, val in anat.items():
+        V.put(name, ("height_band",), val)
+    nb = anat["band_parcels_per_m2_at_Q"]
+    V.put("first_cell_parcel_fraction", (), float(nb[0] / np.nansum(nb))
+          if np.nansum(nb) > 0 else math.nan)
+    V.put("n_parcels_per_m2_at_Q_above_first_cell", (), float(np.nansum(nb[1:]))
+          if np.isfinite(nb).any() else math.nan)
+    return band_e, V
+
+
+def impact_record_statistics(fr: Frame, s: dict) -> tuple[dict[str, np.ndarray], Variables]:
+    """(bin centres of the impact record's coordinates, variables): the impact and hop
+    statistics over the sampling window."""
+    # the impact record's bins are the archive's coordinates (their lower edges, equal widths)
+    def edges(name):
+        lo = np.asarray(fr.coords.get(name, np.zeros(0)), dtype=np.float64)
+        if lo.size < 2:
+            return np.zeros(1)
+        return np.append(lo, lo[-1] + (lo[1] - lo[0]))
+
+    ev, ea, et, el = (edges(k) for k in ("v_imp", "impact_angle", "hop_time", "hop_length"))
+    imp = impact_statistics(s.get("impact_hist"), s.get("impact_outcomes"), s.get("hop_time_hist"),
+                            s.get("hop_length_hist"), ev, ea, et, el, fr.g)
+    V = Variables()
+    for name, val in imp.items():
+        V.put(name, IMPACT_DIMS.get(name, ()), val)
+    centres = {"v_imp": 0.5 * (ev[1:] + ev[:-1]), "impact_angle": 0.5 * (ea[1:] + ea[:-1]),
+               "hop_time": 0.5 * (et[1:] + et[:-1]), "hop_length": 0.5 * (el[1:] + el[:-1])}
+    return centres, V

@@ -14,6 +14,11 @@ and relaxes to a statistical equilibrium.
 * ``E_splash_over_E_impact``: ratio of the increments over the sampling window of the
   cumulative kinetic energy of rebounding + ejected grains and of impacting grains (the whole
   record when the window has no extent).
+* ``u_star_s_stress_series``: u* of the window-mean stress at the reference height from the
+  drive's high-rate record ``u_star_ref``, with its error from 10-s blocks
+  (:func:`block_mean_stress_u_star`).
+
+:func:`series_statistics` gives these for one case, with the series themselves.
 """
 from __future__ import annotations
 
@@ -21,7 +26,11 @@ import math
 
 import numpy as np
 
-__all__ = ["RUNNING_WINDOW_S", "EQ_TOLERANCE", "running_mean", "overshoot_stats", "increment_ratio"]
+from .reading import Frame
+from .schema import Variables
+
+__all__ = ["RUNNING_WINDOW_S", "EQ_TOLERANCE", "running_mean", "overshoot_stats", "increment_ratio",
+           "block_mean_stress_u_star", "series_statistics"]
 
 RUNNING_WINDOW_S = 1.0
 EQ_TOLERANCE = 0.10
@@ -122,3 +131,38 @@ def block_mean_stress_u_star(t: np.ndarray, u_star: np.ndarray, t0: float, t1: f
         return mean_u, math.nan, len(means)
     se_tau = float(np.std(means, ddof=1) / math.sqrt(len(means)))
     return mean_u, se_tau / (2.0 * mean_u), len(means)
+
+
+def series_statistics(fr: Frame, s: dict, G_tot_sample: np.ndarray) -> Variables:
+    """The parcel count's plateau, overshoot and equilibrium time, the stress u* of the drive's
+    record, the splash/impact energy ratio over the sampling window, and the series themselves
+    (``G_tot_sample``: G_tot at the 3-D samples; ``C_p_mean``: the domain mean of every plane)."""
+    t_series = fr.t_series
+
+    def series_var(name):
+        a = s.get(name)
+        if a is None or a.shape != t_series.shape:
+            return np.full(t_series.size, np.nan)
+        return a.astype(np.float64)
+
+    V = Variables()
+    n_par = series_var("n_parcels")
+    for k, v in overshoot_stats(t_series, n_par, fr.t0, fr.t1).items():
+        V.put(k, (), v)
+    us_ser, us_se, us_nb = block_mean_stress_u_star(t_series, series_var("u_star_ref"), fr.t0, fr.t1)
+    V.put("u_star_s_stress_series", (), us_ser)
+    V.put("u_star_s_stress_se", (), us_se, blocks=us_nb)
+    V.put("E_splash_over_E_impact", (), increment_ratio(
+        t_series, series_var("E_splash"), series_var("E_impact"), fr.t0, fr.t1))
+    V.put("n_parcels", ("time",), n_par)
+    V.put("G_tot_series", ("time",), series_var("G_tot_series"))
+    V.put("u_star_ref", ("time",), series_var("u_star_ref"))
+    V.put("G_tot_sample", ("time_sample",), G_tot_sample)
+    t_plane = fr.t_plane
+    C_all = s.get("C_p")
+    if C_all is not None and C_all.ndim == 3 and C_all.shape[0] == t_plane.size:
+        V.put("C_p_mean", ("time_plane",), np.asarray(C_all, dtype=np.float64).mean(axis=(1, 2))
+              if C_all.size else np.full(t_plane.size, np.nan))
+    else:
+        V.put("C_p_mean", ("time_plane",), np.full(t_plane.size, np.nan))
+    return V

@@ -9,15 +9,28 @@ The bed distribution ``psd_bed`` is the soil's lognormal mass-size distribution 
 integrated over each bin, renormalised over the bins so that both sum to one over the same
 bins. It comes from ``saltstudy.physics.soil.bin_mass_fractions(soil, edges)`` when that
 exists; otherwise from :func:`lognormal_bin_fractions` here (the same integral).
+
+:func:`size_statistics` gives one case's distributions (and the height-summed size histogram
+the Stokes numbers read, :mod:`saltstudy.analysis.stokes`); :func:`threshold_statistics` the
+soil's threshold friction velocity u*t (Shao and Lu 2000) at its mass-mean diameter, the scale
+of the figures' and Table 2's u*s/u*t.
 """
 from __future__ import annotations
 
+import logging
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
+from .reading import Frame, time_sum
+from .schema import Variables
+
 __all__ = ["DEFAULT_BAND_EDGES", "band_edges_for", "band_mass_fractions", "lognormal_bin_fractions",
-           "bed_mass_fractions"]
+           "bed_mass_fractions", "SizeStatistics", "size_statistics", "threshold_u_star",
+           "threshold_statistics"]
+
+log = logging.getLogger(__name__)
 
 #: band edges [m]: resolved near the bed where the distribution changes most (clipped to Lz)
 DEFAULT_BAND_EDGES = (0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
@@ -84,3 +97,69 @@ def bed_mass_fractions(soil_dict: dict | None, edges: np.ndarray) -> tuple[np.nd
     modes = [(m.get("mass_fraction", 1.0), m.get("mu", 2e-4), m.get("sigma", 1.2))
              for m in soil_dict.get("modes", [{}])]
     return lognormal_bin_fractions(modes, edges), "saltstudy.analysis.sizes.lognormal_bin_fractions"
+
+
+# ------------------------------------------------------------------------------------------
+# the statistics of one case
+# ------------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class SizeStatistics:
+    #: Q-weighted grain counts per layer and diameter bin, summed over the samples (nz, d_bin)
+    hist_z: np.ndarray
+    #: edges of the height bands [m]
+    band_edges: np.ndarray
+    variables: Variables
+
+
+def size_statistics(fr: Frame, s: dict) -> SizeStatistics:
+    """The mass-size distribution of the airborne grains by height band and of the bed
+    (section 3.2 [39], Fig. 5). Without the archive's bin edges they are rebuilt around the bin
+    centres."""
+    d_bin, nz = fr.d_bin, fr.nz
+    hist = s.get("size_hist")
+    d_edges = s.get("d_edges")
+    if d_edges is None or d_edges.size != d_bin.size + 1:
+        if d_bin.size >= 2:
+            mid = 0.5 * (d_bin[1:] + d_bin[:-1])
+            d_edges = np.concatenate([[d_bin[0] - (mid[0] - d_bin[0])], mid,
+                                      [d_bin[-1] + (d_bin[-1] - mid[-1])]])
+        else:
+            d_edges = np.array([0.5, 1.5]) * (d_bin[0] if d_bin.size else 1e-4)
+    hist_z = time_sum(hist, nz) if hist is not None and hist.ndim == 3 else np.zeros((nz, d_bin.size))
+    band_edges = band_edges_for(float(fr.z_w[-1]))
+    psd_air = band_mass_fractions(hist_z, fr.z, d_bin, band_edges) if d_bin.size else \
+        np.full((band_edges.size - 1, 0), np.nan)
+    psd_bed, bed_src = bed_mass_fractions(fr.info.get("soil"), d_edges)
+    V = Variables()
+    V.put("psd_air", ("z_band", "d_bin"), psd_air, weighting="mass (count x d_bin^3)")
+    V.put("psd_bed", ("d_bin",), psd_bed, source=bed_src)
+    V.put("z_band_edges", ("z_band_edge",), band_edges)
+    V.put("d_edges", ("d_edge",), d_edges)
+    return SizeStatistics(hist_z, band_edges, V)
+
+
+def threshold_u_star(info: dict, rho: float, rho_p: float, g: float) -> float:
+    """u*t of the soil's mass-mean diameter (``physics.threshold``) for the case's threshold
+    constants (``info``: :func:`saltstudy.analysis.reading.case_info`); NaN if it cannot be had."""
+    soil = info.get("soil") or {}
+    modes = soil.get("modes") or [{}]
+    d_mean = sum(float(m.get("mass_fraction", 1.0)) * float(m.get("mu", 2e-4)) for m in modes)
+    th = info.get("threshold") or {}
+    try:
+        from ..physics.threshold import threshold_friction_velocity  # optional: NaN without it
+    except ImportError:
+        log.warning("saltstudy.physics.threshold missing: u_star_t is NaN")
+        return math.nan
+    try:
+        return float(threshold_friction_velocity(d_mean, rho_p, rho, g, float(th.get("A_N", 0.0123)),
+                                                 float(th.get("gamma", 3.0e-4))))
+    except Exception as exc:  # noqa: BLE001 - a scalar for the report, never fatal
+        log.warning("u_star_t failed: %s", exc)
+        return math.nan
+
+
+def threshold_statistics(fr: Frame) -> Variables:
+    """``u_star_t`` of the case (:func:`threshold_u_star`)."""
+    V = Variables()
+    V.put("u_star_t", (), threshold_u_star(fr.info, fr.rho, fr.rho_p, fr.g))
+    return V

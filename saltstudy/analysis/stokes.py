@@ -32,13 +32,19 @@ centres, d<u>/dz by centred differences on the stretched levels).
 T_p(z) = rho_p d^2/(18 rho nu) (section 4.2 [52]) with d the *mass-weighted mean diameter* of
 the grains at that level over the sampling window, from ``size_hist`` (grain counts per diameter
 bin): ``d = sum n d^4 / sum n d^3`` with d the bin centre. NaN at levels without grains.
+
+:func:`stokes_statistics` computes them for one case.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from .reading import Frame, time_mean, time_sum
+from .schema import Variables
+
 __all__ = ["drag_rate", "fluid_grain_covariance", "eps_drag", "eps_sgs_fluct", "eps_total",
-           "eddy_time", "mass_mean_diameter", "response_time", "stokes_number"]
+           "eddy_time", "mass_mean_diameter", "response_time", "stokes_number",
+           "stokes_statistics"]
 
 
 def _nan_div(a, b):
@@ -104,3 +110,36 @@ def response_time(d: np.ndarray, rho_p: float, rho: float, nu: float) -> np.ndar
 
 def stokes_number(T_p: np.ndarray, T_eps: np.ndarray) -> np.ndarray:
     return _nan_div(T_p, T_eps)
+
+
+def stokes_statistics(fr: Frame, s: dict, hist_z: np.ndarray, u_mean: np.ndarray,
+                      tke_res: np.ndarray, uw_sgs_c: np.ndarray) -> Variables:
+    """T_p, eps_tot (eq. 13), T_eps and St = T_p / T_eps by level (section 4.2 [52], Fig. 12).
+
+    ``hist_z``: grain counts per layer and diameter bin summed over the samples
+    (:func:`saltstudy.analysis.sizes.size_statistics`); ``u_mean``, ``tke_res``, ``uw_sgs_c``: the
+    window-mean wind, resolved TKE and SGS momentum flux at the centres
+    (:func:`saltstudy.analysis.profiles.wind_profiles`).
+    """
+    nz, d_bin = fr.nz, fr.d_bin
+    d_mass = mass_mean_diameter(hist_z, d_bin) if d_bin.size else np.full(nz, np.nan)
+    T_p = response_time(d_mass, fr.rho_p, fr.rho, fr.nu)
+    P_m = time_sum(s.get("pm"), nz)
+    beta = drag_rate(time_mean(s.get("pdrag"), nz), fr.rho, fr.dz, fr.Lx, fr.Ly) \
+        if s.get("pdrag") is not None else np.zeros(nz)
+    beta = np.nan_to_num(beta)
+    cov_fp = fluid_grain_covariance(P_m, time_sum(s.get("pmuf_up"), nz), time_sum(s.get("pmuf"), nz),
+                                    time_sum(s.get("pmu"), nz))
+    e_drag = eps_drag(beta, tke_res, cov_fp)
+    e_sgs_f = eps_sgs_fluct(time_mean(s.get("sgs_transfer"), nz), uw_sgs_c, u_mean, fr.z)
+    eps_tot = eps_total(e_drag, e_sgs_f)
+    T_eps = eddy_time(tke_res, eps_tot)
+    V = Variables()
+    V.put("d_mass_mean", ("z",), d_mass)
+    V.put("T_p", ("z",), T_p)
+    V.put("eps_drag", ("z",), e_drag)
+    V.put("eps_sgs", ("z",), e_sgs_f)
+    V.put("eps_tot", ("z",), eps_tot)
+    V.put("T_eps", ("z",), T_eps)
+    V.put("St", ("z",), stokes_number(T_p, T_eps))
+    return V

@@ -3,7 +3,7 @@
 A variants study (labels ``c<case>_<variant>_s<seed>``) compares, e.g., two boxes or two advection
 schemes; its table holds the readings, this figure the curves behind them, so that a change of a
 reading can be told from a change of the field: per case (row), the autocorrelation of C_p along
-the wind and across it (λ = 2 × the lag where it drops below 0.4, analysis/analyse.py), and the
+the wind and across it (λ = 2 × the lag where it drops below 0.4, analysis/streamers.py), and the
 premultiplied spanwise spectra of C_p and of u at 0.1 m over their variance (δy is read at their
 peak, docs/STREAMERS.md), with the paper's λx/2, λy/2 and δy (Table 2) marked.
 """
@@ -17,7 +17,7 @@ import numpy as np
 
 __all__ = ["premultiplied_over_variance", "streak_curves", "streaks_figure", "LAMBDA_LEVEL"]
 
-#: the level of C_p's autocorrelation whose lag is λ/2 (analysis/analyse.py, "lambda_x")
+#: the level of C_p's autocorrelation whose lag is λ/2 (analysis/streamers.py, ``CORE_LEVEL``)
 LAMBDA_LEVEL = 0.4
 
 
@@ -83,7 +83,7 @@ def streaks_figure(runs: dict[int, list], path: Path) -> Path | None:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import LogLocator
 
-    from .figures import _plain_log
+    from .plotting import plain_log
     from .reference import PAPER_COLOR, PAPER_LABEL, paper_table2
 
     if not runs:
@@ -112,7 +112,7 @@ def streaks_figure(runs: dict[int, list], path: Path) -> Path | None:
         dy_paper = paper.get("delta_y_m", math.nan)
         for k in (2, 3):
             ax[k].set_xscale("log")
-            _plain_log(ax[k], "x")
+            plain_log(ax[k], "x")
             ax[k].xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
             if math.isfinite(dy_paper):   # [49]: the u streaks' spacing is C_p's where it peaks
                 ax[k].axvline(dy_paper, color=PAPER_COLOR, lw=2, ls="--",

@@ -1,0 +1,306 @@
+"""The streamers of one case (paper section 4.1, Table 2, Figs. 9-10): the readings of
+:mod:`saltstudy.analysis.streamers` applied to the case's planes over the sampling window.
+
+* :func:`concentration_readings` - from the C_p planes: lambda_x, lambda_y (the core of the
+  time-averaged autocorrelation, > 0.4), the spanwise spectrum S_c and delta_y by the three
+  readings, each with the paper's parcel-count noise; beside them the same lengths with the
+  run's own noise, with none, and with the noise of the paper's count, the noise's share of the
+  variance and the parcels per column;
+* :func:`streak_readings` - the spanwise spectrum S_u and delta_y_u of the wind at the 0.1 m plane
+  (the streaks of u, Figs. 9b, 10b);
+* :func:`above_first_cell_readings` - lambda_x, lambda_y and delta_y of the grains above the
+  first grid cell (C_p_above): the same readings without the slow first-cell population;
+* :func:`space_time_readings` - the peak of the space-time correlation of C_p against time lag,
+  and from it the streamers' speed and lifetime;
+* :func:`lagged_wind_correlation` - R_cu_lag, the correlation of C_p with the past wind at the
+  plane heights (beyond eq. 12, the paper's remark in [51]).
+
+:class:`ParcelNoise` holds the parcel-count noise these readings remove: the run's parcels weigh
+``w`` grains on columns of dx dy, the paper's weigh the case's Q on its 0.1 m columns, and the
+statistics keep the paper's noise (the streamers module's docstring says why). R_cu
+(:mod:`saltstudy.analysis.correlation`) removes the same.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import correlation, paper_grid, streamers
+from .reading import Frame, attr_float, check_parcel_counts
+from .schema import MAX_LAG_S, U_PLANE_HEIGHT, Variables
+
+__all__ = ["ParcelNoise", "parcel_noise", "window_planes", "concentration_readings",
+           "streak_readings", "above_first_cell_readings", "space_time_readings",
+           "lagged_wind_correlation", "StreamerStatistics", "streamer_statistics"]
+
+
+@dataclass(frozen=True)
+class ParcelNoise:
+    """The Poisson parcel-count noise of C_p planes: the run's and the paper's."""
+    #: grains per parcel of the run (the case's Q times the fidelity's q_multiplier)
+    w_run: float
+    #: grains per parcel of the paper (the case's Q)
+    Q_paper: float
+    #: the run's column area dx dy [m2]
+    cell_area: float
+
+    def run(self, planes) -> np.ndarray:
+        """Per-plane noise variance of the run's parcels (NaN where unknown)."""
+        return streamers.poisson_noise_variance(planes, self.w_run, self.cell_area)
+
+    def to_paper(self, planes) -> np.ndarray:
+        """Per-plane noise variance to remove so that the paper's remains (0 when unknown)."""
+        run = self.run(planes)
+        paper = streamers.poisson_noise_variance(planes, self.Q_paper, streamers.PAPER_CELL_AREA)
+        out = run - paper
+        return np.where(np.isfinite(out), out, 0.0)
+
+    def definition(self) -> str:
+        return (f"Poisson parcel-count noise mean(C_p) w / (dx dy) with w = {self.w_run:g} grains "
+                f"per parcel, less the paper's mean(C_p) Q / {streamers.PAPER_CELL_AREA:g} m2 with "
+                f"Q = {self.Q_paper:g} (saltstudy.analysis.streamers)")
+
+
+def parcel_noise(fr: Frame) -> ParcelNoise:
+    """The case's :class:`ParcelNoise`: the run's parcel weight is samples.nc's ``Q`` (else the
+    case's Q times q_multiplier), the paper's the case's Q."""
+    info = fr.info
+    w_run = attr_float(fr.attrs, "Q", info["Q_case"] * info["q_multiplier"])
+    Q_paper = info["Q_case"] if math.isfinite(info["Q_case"]) else w_run / info["q_multiplier"]
+    return ParcelNoise(w_run, Q_paper, fr.dx * fr.dy)
+
+
+def window_planes(fr: Frame, planes) -> np.ndarray | None:
+    """The (time, x, y) planes of the sampling window, None when the archive has none."""
+    if planes is None or planes.ndim != 3 or planes.shape[0] != fr.plane_mask.size:
+        return None
+    return planes[fr.plane_mask]
+
+
+def _put_spacing(V: Variables, field: str, spacing: streamers.SpanwiseSpacing) -> None:
+    # Table 2 reads the premultiplied spectrum (docs/STREAMERS.md); the other readings stay
+    # beside it so that what the choice does to each case can be seen
+    V.put(field, (), spacing.chosen, reading="premultiplied",
+          definition="saltstudy.analysis.streamers.premultiplied_peak; docs/STREAMERS.md")
+    V.put(f"{field}_premultiplied", (), spacing.premultiplied,
+          definition="saltstudy.analysis.streamers.premultiplied_peak")
+    V.put(f"{field}_density", (), spacing.density,
+          definition="saltstudy.analysis.streamers.spectral_peak")
+    V.put(f"{field}_correlation", (), spacing.correlation,
+          definition="saltstudy.analysis.streamers.correlation_minimum")
+
+
+@dataclass(frozen=True, eq=False)
+class ConcentrationReadings:
+    #: spanwise wavenumbers of S_c (and S_u) [cycles m-1]
+    ky: np.ndarray
+    #: per-plane noise variance removed to leave the paper's
+    removed: np.ndarray
+    variables: Variables
+
+
+def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
+                           ) -> ConcentrationReadings:
+    """lambda_x, lambda_y, S_c and delta_y of the window's C_p planes ``C_w`` (section 4.1 [46],
+    [49]), with the noise readings beside them (module docstring)."""
+    nx, ny, dx, dy = fr.nx, fr.ny, fr.dx, fr.dy
+    n_planes = int(C_w.shape[0]) if C_w is not None else 0
+    area = noise.cell_area
+    removed = np.zeros(n_planes)
+    n_col = n_col_paper = small_ratio = math.nan
+    if C_w is not None and n_planes and nx >= 2 and ny >= 2:
+        dev_c, var_c = streamers.deviation_planes(C_w)
+        noise_run = noise.run(C_w)
+        noise_run = np.where(np.isfinite(noise_run), noise_run, 0.0)
+        has = var_c > 0
+        noise_frac = float(np.mean(noise_run[has] / var_c[has])) if has.any() else math.nan
+        removed = noise.to_paper(C_w)
+        n_col = float(np.mean(streamers.parcels_per_cell(C_w, noise.w_run, area)))
+        n_col_paper = float(np.mean(streamers.parcels_per_cell(C_w, noise.Q_paper,
+                                                               streamers.PAPER_CELL_AREA)))
+        check_parcel_counts(C_w, noise.w_run, area)
+        poisson = noise_run[has]
+        if has.any() and np.all(poisson > 0):
+            small_ratio = float(np.mean(streamers.small_scale_power(dev_c[has]) / poisson))
+        del dev_c
+        ac = streamers.autocorrelation_2d(C_w, noise=removed)
+        lam_x = streamers.core_length(ac[:, ny // 2], dx)
+        lam_y = streamers.core_length(ac[nx // 2, :], dy)
+        # S_c carries the paper's parcel noise; each reading's error is the run's own
+        ky, S_c, S_c_se, spacing_c = streamers.spanwise_spacing(C_w, dy, noise=removed)
+        ac_raw = streamers.autocorrelation_2d(C_w)
+        lam_x_raw = streamers.core_length(ac_raw[:, ny // 2], dx)
+        lam_y_raw = streamers.core_length(ac_raw[nx // 2, :], dy)
+        ac_free = streamers.autocorrelation_2d(C_w, noise=noise_run)
+        lam_x_free = streamers.core_length(ac_free[:, ny // 2], dx)
+        lam_y_free = streamers.core_length(ac_free[nx // 2, :], dy)
+        # the paper's field held its own count of parcels (2,000 per m2 at Q, [28]), not the
+        # run's: with that relative noise the reading sees a field as noisy as the paper's
+        at_count = noise_run - streamers.count_noise_variance(
+            C_w, paper_grid.PAPER_PARCELS_PER_M2, streamers.PAPER_CELL_AREA)
+        ac_count = streamers.autocorrelation_2d(C_w, noise=at_count)
+        lam_x_count = streamers.core_length(ac_count[:, ny // 2], dx)
+        lam_y_count = streamers.core_length(ac_count[nx // 2, :], dy)
+        snap_c = np.asarray(C_w[-1], dtype=np.float64)
+    else:
+        ac = np.full((nx, ny), np.nan)
+        lam_x = lam_y = lam_x_raw = lam_y_raw = noise_frac = math.nan
+        spacing_c = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
+        lam_x_free = lam_y_free = lam_x_count = lam_y_count = math.nan
+        ky = np.arange(ny // 2 + 1) / fr.Ly if ny else np.zeros(0)
+        S_c = S_c_se = np.full(ky.size, np.nan)
+        snap_c = np.full((nx, ny), np.nan)
+    noise_def = noise.definition()
+    V = Variables()
+    V.put("lambda_x", (), lam_x, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
+          noise_removed=noise_def)
+    V.put("lambda_y", (), lam_y, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
+          noise_removed=noise_def)
+    _put_spacing(V, "delta_y", spacing_c)
+    V.put("lambda_x_raw", (), lam_x_raw)
+    V.put("lambda_y_raw", (), lam_y_raw)
+    V.put("lambda_x_noise_free", (), lam_x_free)
+    V.put("lambda_y_noise_free", (), lam_y_free)
+    V.put("lambda_x_paper_count", (), lam_x_count)
+    V.put("lambda_y_paper_count", (), lam_y_count)
+    V.put("C_p_noise_fraction", (), noise_frac,
+          definition="saltstudy.analysis.streamers.poisson_noise_variance")
+    V.put("C_p_parcels_per_column", (), n_col, definition="mean(C_p) dx dy / w")
+    V.put("C_p_parcels_per_column_paper", (), n_col_paper, definition="mean(C_p) 0.01 m2 / Q")
+    V.put("C_p_small_scale_over_poisson", (), small_ratio,
+          definition="saltstudy.analysis.streamers.small_scale_power over poisson_noise_variance")
+    V.put("C_p_autocorr", ("lag_x", "lag_y"), ac)
+    V.put("S_c", ("ky",), S_c)
+    V.put("S_c_stderr", ("ky",), S_c_se)
+    V.put("C_p_snapshot", ("x", "y"), snap_c)
+    return ConcentrationReadings(ky, removed, V)
+
+
+def _u_plane(fr: Frame, s: dict):
+    """The archive's u planes (time, x, y, z_plane) if they fit the plane times, else None."""
+    u_pl = s.get("u_plane")
+    ok = u_pl is not None and u_pl.ndim == 4 and u_pl.shape[0] == fr.plane_mask.size
+    return u_pl if ok else None
+
+
+def streak_readings(fr: Frame, s: dict, n_ky: int) -> Variables:
+    """S_u and delta_y_u of the wind at the plane nearest 0.1 m over the window, and its last
+    plane (Figs. 9b, 10b); ``n_ky`` the length of S_c's wavenumber axis, which S_u shares."""
+    nx, ny = fr.nx, fr.ny
+    z_plane = fr.z_plane
+    k_up = int(np.argmin(np.abs(z_plane - U_PLANE_HEIGHT))) if z_plane.size else -1
+    u_pl = _u_plane(fr, s)
+    U_w = u_pl[:, :, :, k_up][fr.plane_mask] if u_pl is not None and k_up >= 0 else None
+    if U_w is not None and U_w.shape[0] and ny >= 2:
+        _, S_u, S_u_se, spacing_u = streamers.spanwise_spacing(U_w, fr.dy)
+        snap_u = np.asarray(U_w[-1], dtype=np.float64)
+    else:
+        S_u = S_u_se = np.full(n_ky, np.nan)
+        spacing_u = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
+        snap_u = np.full((nx, ny), np.nan)
+    V = Variables()
+    _put_spacing(V, "delta_y_u", spacing_u)
+    V.put("S_u", ("ky",), S_u)
+    V.put("S_u_stderr", ("ky",), S_u_se)
+    V.put("u_snapshot", ("x", "y"), snap_u,
+          z_plane=float(z_plane[k_up]) if k_up >= 0 else math.nan)
+    return V
+
+
+def above_first_cell_readings(fr: Frame, s: dict, noise: ParcelNoise) -> Variables:
+    """lambda_x, lambda_y and delta_y of the grains above the first cell (z >= z_f[1]), with the
+    same noise removal as C_p's."""
+    nx, ny = fr.nx, fr.ny
+    Ca_w = window_planes(fr, s.get("C_p_above"))
+    lam_xa = lam_ya = dya = math.nan
+    if Ca_w is not None and Ca_w.shape[0] and nx >= 2 and ny >= 2 and np.any(Ca_w > 0):
+        rem_a = noise.to_paper(Ca_w)
+        ac_a = streamers.autocorrelation_2d(Ca_w, noise=rem_a)
+        lam_xa = streamers.core_length(ac_a[:, ny // 2], fr.dx)
+        lam_ya = streamers.core_length(ac_a[nx // 2, :], fr.dy)
+        dya = streamers.spanwise_spacing(Ca_w, fr.dy, noise=rem_a)[3].chosen
+        del ac_a
+    V = Variables()
+    for name, val in (("lambda_x_above_first_cell", lam_xa), ("lambda_y_above_first_cell", lam_ya),
+                      ("delta_y_above_first_cell", dya)):
+        V.put(name, (), val, definition=f"{name.split('_above')[0]} of C_p_above (the grains above "
+              "the first grid cell), the same noise removal")
+    return V
+
+
+@dataclass(frozen=True, eq=False)
+class SpaceTimeReadings:
+    #: the time lags of the planes up to MAX_LAG_S [s]
+    lag_t: np.ndarray
+    variables: Variables
+
+
+def space_time_readings(fr: Frame, C_w: np.ndarray | None) -> SpaceTimeReadings:
+    """The peak of the space-time correlation of C_p over lags 0 to ``MAX_LAG_S`` at the planes'
+    spacing, and the streamers' speed and lifetime from it."""
+    nx, ny = fr.nx, fr.ny
+    tp_w = fr.t_plane[fr.plane_mask] if fr.t_plane.size else fr.t_plane
+    dtp = float(np.median(np.diff(tp_w))) if tp_w.size >= 2 else math.nan
+    K = int(min(tp_w.size - 1, math.floor(MAX_LAG_S / dtp + 1e-9))) if math.isfinite(dtp) and dtp > 0 else 0
+    K = max(K, 0)
+    lag_t = np.arange(K + 1) * (dtp if math.isfinite(dtp) else 0.0)
+    st_peak = np.full(K + 1, np.nan)
+    st_x = np.full(K + 1, np.nan)
+    st_y = np.full(K + 1, np.nan)
+    speed = lifetime = math.nan
+    if C_w is not None and K >= 1 and nx >= 2 and ny >= 2:
+        st = streamers.space_time_correlation(C_w, dtp, fr.dx, fr.dy, max_lag_s=K * dtp + 0.5 * dtp)
+        n = st.lag_t.size
+        st_peak[:n], st_x[:n], st_y[:n] = st.peak, st.x_peak, st.y_peak
+        speed, lifetime = streamers.speed_and_lifetime(st)
+    V = Variables()
+    V.put("C_p_st_peak", ("lag_t",), st_peak)
+    V.put("C_p_st_x", ("lag_t",), st_x)
+    V.put("C_p_st_y", ("lag_t",), st_y)
+    V.put("streamer_speed", (), speed)
+    V.put("streamer_lifetime", (), lifetime)
+    return SpaceTimeReadings(lag_t, V)
+
+
+def lagged_wind_correlation(fr: Frame, s: dict, C_w: np.ndarray | None, n_lags: int,
+                            removed: np.ndarray) -> Variables:
+    """R_cu_lag (``n_lags`` lags, one column per plane height), with the mean of the per-plane
+    noise ``removed`` taken out of C_p's variance."""
+    z_plane = fr.z_plane
+    R_lag = np.full((n_lags, z_plane.size), np.nan)
+    u_pl = _u_plane(fr, s)
+    if C_w is not None and u_pl is not None:
+        noise_w = float(removed.mean()) if removed.size else 0.0
+        for j in range(z_plane.size):     # one plane height at a time (memory)
+            R_lag[:, j] = correlation.lagged_correlation(
+                C_w, u_pl[:, :, :, j][fr.plane_mask][..., None], n_lags - 1, noise=noise_w)[:, 0]
+    V = Variables()
+    V.put("R_cu_lag", ("lag_t", "z_plane"), R_lag)
+    return V
+
+
+@dataclass(frozen=True, eq=False)
+class StreamerStatistics:
+    ky: np.ndarray
+    lag_t: np.ndarray
+    noise: ParcelNoise
+    variables: Variables
+
+
+def streamer_statistics(fr: Frame, s: dict) -> StreamerStatistics:
+    """Every streamer statistic of the case (module docstring), in order."""
+    noise = parcel_noise(fr)
+    C_w = window_planes(fr, s.get("C_p"))
+    V = Variables()
+    V.put("n_planes", (), int(C_w.shape[0]) if C_w is not None else 0)
+    V.put("n_samples", (), fr.n_t)
+    conc = concentration_readings(fr, C_w, noise)
+    V.merge(conc.variables)
+    V.merge(streak_readings(fr, s, conc.ky.size))
+    V.merge(above_first_cell_readings(fr, s, noise))
+    st = space_time_readings(fr, C_w)
+    V.merge(st.variables)
+    V.merge(lagged_wind_correlation(fr, s, C_w, st.lag_t.size, conc.removed))
+    return StreamerStatistics(conc.ky, st.lag_t, noise, V)

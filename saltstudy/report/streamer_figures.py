@@ -1,0 +1,135 @@
+"""Figs. 9 and 10 of Dupont et al. (2013): the streamers and the wind's streaks (section 4.1).
+
+Fig. 9: snapshots of C_p and of u at 0.1 m for the paper's cases 1, 4 and 6; Fig. 10: the
+premultiplied spanwise spectra of C_p and of u at 0.1 m over their variance, the form Table 2's
+delta_y is read from (docs/STREAMERS.md), with the paper's delta_y marked.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .data import ReportContext
+from .panels import BY_MU1, BY_U_STAR_S, panel_runs
+from .plotting import (FigureResult, add_legend, add_notes, case_color, case_label, lacks,
+                       new_figure, nothing_to_draw, plain_log)
+from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_table2
+from .streaks import premultiplied_over_variance
+
+__all__ = ["fig09", "fig10", "FIG9_CASES"]
+
+
+# ------------------------------------------------------------------------------------------------
+# Fig 9
+# ------------------------------------------------------------------------------------------------
+def fig09(ctx: ReportContext) -> FigureResult:
+    """A row per paper case 1, 4, 6 (top to bottom): the study's run of the case, or its nearest
+    run by u*s at µ1 = 200 µm (``panels.py``), titled with the case it stands in for; a row the
+    study cannot fill is left out."""
+    panel = panel_runs(ctx, FIG9_CASES, BY_U_STAR_S, lacks("C_p_snapshot", "u_snapshot"))
+    rows = panel.runs
+    ref = rows[0].run if rows else None     # the aspect of the first drawn run
+    lx = ref.attr("Lx", 20.0) if ref else 20.0
+    ly = ref.attr("Ly", 15.0) if ref else 15.0
+    w = 11.0
+    h = len(rows) * (w / 2) * (ly / lx) * 0.95 + 1.0
+    fig, axes = new_figure(2, max(1, len(rows)), size=(w, min(max(h, 3.5), 14.0)))
+    res = FigureResult(fig)
+    res.notes.extend(panel.notes)
+    fig.suptitle("Fig. 9 — snapshots: (a) C_p / C_pmax and (b) u / u_max at z = 0.1 m")
+    if not rows:
+        for ax in axes.ravel():
+            ax.remove()
+        nothing_to_draw(fig, "no run of this study at µ1 = 200 µm has C_p and u snapshots")
+        return res
+    for row, place in enumerate(rows):
+        r = place.run
+        for col, (var, lab, cmap) in enumerate((("C_p_snapshot", r"$C_p / C_{p,max}$", "YlOrBr"),
+                                                ("u_snapshot", r"$u / u_{max}$", "viridis"))):
+            ax = axes[row, col]
+            v = r.var(var)
+            arr = np.asarray(v.values, float)
+            if v.dims == ("y", "x"):
+                arr = arr.T
+            vmax = np.nanmax(np.abs(arr))
+            arr = arr / vmax if vmax > 0 else arr
+            x = np.asarray(r.ds["x"].values, float) if "x" in r.ds else np.arange(arr.shape[0])
+            y = np.asarray(r.ds["y"].values, float) if "y" in r.ds else np.arange(arr.shape[1])
+            dx = x[1] - x[0] if x.size > 1 else 1.0
+            dy = y[1] - y[0] if y.size > 1 else 1.0
+            im = ax.imshow(arr.T, origin="lower", cmap=cmap, aspect="equal",
+                           extent=(x[0] - dx / 2, x[-1] + dx / 2, y[0] - dy / 2, y[-1] + dy / 2),
+                           vmin=0.0 if col == 0 else None, vmax=1.0)
+            fig.colorbar(im, ax=ax, shrink=0.85, label=lab)
+            res.data[f"{var}_{place.key}"] = arr
+            title = f"({'ab'[col]}) {case_label(r)}"
+            if place.substitute:   # on a line of its own: the panels are narrow
+                title += f"\n{place.stand_in()}"
+            ax.set_title(title, loc="left", fontsize=9)
+            ax.set_ylabel("y [m]")
+            if row == len(rows) - 1:
+                ax.set_xlabel("x [m] (wind →)")
+    return res
+
+
+#: the paper's Fig. 9 rows, top to bottom
+FIG9_CASES = (1, 4, 6)
+
+
+# ------------------------------------------------------------------------------------------------
+# Fig 10
+# ------------------------------------------------------------------------------------------------
+def fig10(ctx: ReportContext) -> FigureResult:
+    """The premultiplied spanwise spectra ky S(ky) against wavelength on a log axis, the form
+    Table 2's delta_y is read from (docs/STREAMERS.md), over the variance: the area under each
+    curve against ln(wavelength) is 1. Top row: the paper's cases 1–6 (various u*s), bottom row:
+    cases 2, 7–10 (various µ1), each filled by the study's run of the case or its nearest run
+    (``panels.py``); a row the study cannot fill at all is left out."""
+    table = paper_table2()
+    groups = [(panel_runs(ctx, cases, by, lacks("S_c", "S_u")), cases, soil, rtitle)
+              for cases, by, soil, rtitle in ((CASES_WIND, BY_U_STAR_S, False, "cases 1–6"),
+                                              (CASES_SOIL, BY_MU1, True, "cases 2, 7–10"))]
+    drawn = [g for g in groups if g[0].runs]
+    fig, axes = new_figure(2, max(1, len(drawn)), size=(11, 0.5 + 4.0 * max(1, len(drawn))))
+    res = FigureResult(fig)
+    fig.suptitle("Fig. 10 — premultiplied spanwise spectra of (a) C_p and (b) u at z = 0.1 m, "
+                 "averaged in x and t")
+    for panel, _, _, _ in groups:
+        res.notes.extend(panel.notes)
+    if not drawn:
+        for ax in axes.ravel():
+            ax.remove()
+        nothing_to_draw(fig, "no run of this study has spanwise spectra of C_p and u")
+        return res
+    for row, (panel, cases, soil, rtitle) in enumerate(drawn):
+        for col, (var, dvar, vlab) in enumerate((("S_c", "delta_y", "C_p"), ("S_u", "delta_y_u", "u"))):
+            ax = axes[row, col]
+            for place in panel.runs:
+                r = place.run
+                v = r.var(var)
+                wavelength, pn = premultiplied_over_variance(
+                    r.ds[v.dims[0]].values, v.values, r.attr("Ly"), r.attr("dy"))
+                c = case_color(place.paper_case, soil)
+                ax.plot(wavelength, pn, color=c, lw=1.5, label=case_label(r, soil, place))
+                res.data[f"{var}_{place.key}"] = pn
+                dyv = r.scalar(dvar)
+                if math.isfinite(dyv):
+                    ax.axvline(dyv, color=c, lw=0.8, ls=":")
+            if col == 0:  # the paper's delta_y (from C_p spectra, Table 2) as grey triangles
+                pv = [(n, table.get(n, {}).get("delta_y_m", math.nan)) for n in cases]
+                pv = [(n, v) for n, v in pv if math.isfinite(v)]
+                if pv:
+                    ax.plot([v for _, v in pv], [0.0] * len(pv), marker="^", ms=9, ls="none",
+                            color=PAPER_COLOR, transform=ax.get_xaxis_transform(), clip_on=False,
+                            label=f"{PAPER_LABEL}: δy (Table 2)")
+            ax.set_xscale("log")
+            plain_log(ax, "x")
+            ax.set_xlabel(r"spanwise wavelength $1/k_y$ [m]")
+            ax.set_ylabel(f"$k_y S_{{{vlab}}}(k_y) / \\sigma_{{{vlab}}}^2$ [-]")
+            ax.set_title(f"({'ab'[col]}) {vlab}, {rtitle}  (dotted: computed δy)", loc="left",
+                         fontsize=9)
+            ax.grid(alpha=0.3, which="both")
+            add_legend(ax, fontsize=7, loc="upper right")
+            add_notes(ax, panel.notes, "upper left")
+    return res
