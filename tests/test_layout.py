@@ -1,5 +1,6 @@
 """The package's layout against its map (docs/ARCHITECTURE.md, "The package map"): every part has
-a row, every row exists, every import inside the package follows the map's arrows."""
+a row, every row exists, every import inside the package follows the map's arrows, and no module
+is longer than 800 lines."""
 from __future__ import annotations
 
 import ast
@@ -8,6 +9,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 PKG = ROOT / "saltstudy"
+MAX_LINES = 800
 
 
 def _map() -> dict[str, set[str]]:
@@ -110,3 +112,9 @@ def test_imports_follow_the_map():
             if not _allowed(dst, rows[src]):
                 bad.append(f"{f.relative_to(ROOT)} imports {mod} ({dst}), not among {src}'s arrows")
     assert not bad, "\n".join(bad)
+
+
+def test_no_module_over_800_lines():
+    long = {p.relative_to(ROOT).as_posix(): n for p in sorted(PKG.rglob("*.py"))
+            if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert not long, f"modules over {MAX_LINES} lines (split them along their processes): {long}"
