@@ -119,7 +119,7 @@ def test_coefficient_profile_clips_and_bounds():
 
 
 def _strain_norm_numpy(g, u, v, w, rlog):
-    """|S| at the centres (nx, ny, nz) with the edge averages of dynamic_sgs.strain_at_centre,
+    """|S| at the centres (nx, ny, nz) with the edge averages of closures.dynamic.strain_at_centre,
     written with numpy rolls."""
     rx, ry = 1.0 / g.dx, 1.0 / g.dy
     s11 = (np.roll(u, -1, 0) - u) * rx

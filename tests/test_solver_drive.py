@@ -1,5 +1,5 @@
 """The two drives (forcing.drive = "top" | "pressure_gradient") and the log-law fit with a linear
-stress profile (diagnostics_flow.fit_log_law)."""
+stress profile (solver.diagnostics.flow.fit_log_law)."""
 from __future__ import annotations
 
 import math

@@ -9,7 +9,7 @@ Runs one case without grains from its initial state and, at the end of every ``w
 reports the means over that window (one profile per second):
 
 - the log-law fit over 0.3 m to 2 m and over 0.3 m to Lz/3, as u*_0 / expected u*_0
-  (``diagnostics_flow.fit_log_law``; the pressure-gradient drive is fitted with its linear-stress
+  (``solver.diagnostics.flow.fit_log_law``; the pressure-gradient drive is fitted with its linear-stress
   shape), and the fitted z0 [m];
 - phi = kappa z / u*(z) dU/dz at fixed heights, u*(z) the drive's expected friction velocity;
 - the paper's own reading (its section 3.1 [33]): u* from the total stress at 2 m (for the

@@ -130,7 +130,7 @@ def regress_log_law(z, U, z_min: float | None = None, z_max: float | None = None
     """Least squares of U = a F(z) + b over the finite levels with z_min <= z <= z_max (and
     0 < z < H when H is given), F = ``log_law_shape(z, H)``.
 
-    The one regression behind both log-law fits (``solver.diagnostics_flow.fit_log_law``, which
+    The one regression behind both log-law fits (``solver.diagnostics.flow.fit_log_law``, which
     raises on too few levels, and ``analysis.profiles.log_law_fit``, which returns NaN): u*_0 =
     kappa a [m s^-1], z0 = ``invert_log_law_shape(-b/a, H)`` [m]. Returns (a, b, F, U_used), the
     last two the selected levels (a and b NaN with fewer than 2 of them).

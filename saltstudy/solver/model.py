@@ -5,7 +5,7 @@ See docs/ARCHITECTURE.md ("Solver API") for the contract. One step (``Model.step
 1. each component's ``dynamics(state, dt)`` with the flow at t^n (Lie splitting; momentum a component
    adds to u, v, w is made divergence-free by the RK3 stage projections; ``state.tke_sink`` it fills
    is applied implicitly at the end of the flow step),
-2. the RK3 flow step (stepper.py: boundary -> advection -> diffusion -> damping -> drive -> pressure
+2. the RK3 flow step (flow/stepper.py: boundary -> advection -> diffusion -> damping -> drive -> pressure
    per stage),
 3. the checks (finiteness of u, v, w, e; Courant number), raising ``SolverBlowUp``,
 4. top drive only: the drive controller (forcing.py) updates ``state.u_drive`` from the stress at
