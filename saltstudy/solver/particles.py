@@ -86,10 +86,12 @@ import numpy as np
 from numba import prange
 
 from .._jit import jit, jit_borrow, pjit
-from .coupling import (N_CHUNKS, Flow, Parcels, air_maxima, apply_exchange, chunk_assign,
-                       chunk_ranges, estimate_weights, face_inverse_masses,
-                       implicit_coefficients, implicit_corrections,
-                       lagrangian_time_coefficients, parcel_weight)
+# (the parallel kernels are called by name through Threads)
+from .coupling import (EST_LANES, EST_ROWS_F, EST_ROWS_I, N_CHUNKS, Flow, Parcels, air_maxima,
+                       apply_exchange, chunk_assign, chunk_ranges, estimate_weights,  # noqa: F401
+                       face_inverse_masses, implicit_coefficients,  # noqa: F401
+                       implicit_corrections, lagrangian_time_coefficients,  # noqa: F401
+                       parcel_weight)
 from .elementary import (CLIFT_EXPONENT, EXPM1_TAYLOR_MAX, binomial_coefficients, expm1_small,
                          expm1_taylor, pow_0687, pow_0687_table)
 from .grid import Grid
@@ -98,7 +100,8 @@ from .interp import (GEO_LOG_LEVEL, GEO_LOG_READ, GridGeometry, Stencil, _bil, _
                      wrap_periodic)
 from .splash_kernels import (EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, N_EN,
                              NO_LAUNCH, ImpactLog, draw_diameter, ejecta_reserve,
-                             impact_log_arrays, soil_arrays, splash_params, splash_runs)
+                             impact_log_arrays, soil_arrays, splash_params,
+                             splash_runs)  # noqa: F401
 from .state import FlowState
 
 __all__ = ["Saltation", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN_KEY",
@@ -325,6 +328,8 @@ _LANE_ROWS_F = 51
 # number); _HIT 1 if the sub-step ended at the bed; _XF ... _KF the stencil's indices, _LOG 1 in
 # the log region, _KCELL the level of the cell holding the parcel
 _LANE_ROWS_I = 13
+# coupling.implicit_coefficients computes its estimates in the same lane scratch
+assert EST_LANES == _LANES and EST_ROWS_F <= _LANE_ROWS_F and EST_ROWS_I <= _LANE_ROWS_I
 
 #: the scalars of a step, as _advance_chunk reads them once from prm and geo
 #: (paper: the log region deposits on klog, the level it reads; otherwise on another level)
@@ -1473,7 +1478,7 @@ class Saltation:
             self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
             self._layout(self._margin, 3 * 2 * ny * nk)
             _IMPLICIT(n, self._cstart, self._idx, P, F, dt, self.prm, geo.record, self._pool,
-                      self._ranges, nk)
+                      self._ranges, nk, self._lane_f, self._lane_i)
             _CORRECT(nx * ny * nk, self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
                      state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax, self._acc)
             dumax = float(self._dmax.max())
