@@ -1,0 +1,243 @@
+"""Drag on a grain (eq. 3 with Clift's Re^0.687 correction): the drag rate's fixed point, its Newton
+update and the short series that update exp(-k h) and Re^0.687 from their last evaluation, scalar
+and per lane.
+"""
+from __future__ import annotations
+
+import math
+
+from ..numerics.elementary import (
+    EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, pow_0687, pow_0687_table)
+from .interp import ijit
+from .layout import (
+    DRAG_MAXIT, NEWTON_MAXIT, _B1, _B10, _B2, _B3, _B4, _B5, _B6, _B7, _B8, _B9, _DNU, _DU, _DV,
+    _DW, _E0, _EMQ, _FIX, _H, _IH, _IRELQ, _ITER, _ITP, _K, _KQ, _NEAR, _RPQ, _X2, _X3, _X4,
+    _X5, _X6, _X7, _X8, _X9)
+
+
+@ijit
+def _expm1_shift(k, h, kq, emq):
+    """expm1(-k h) from emq = expm1(-kq h) by the series in x = (kq - k) h (exact to round-off
+    for |x| <= _NEAR)."""
+    x = (kq - k) * h
+    t = x * (1.0 + x * (_X2 + x * (_X3 + x * (_X4 + x * (_X5 + x * (_X6 + x * (
+        _X7 + x * (_X8 + x * _X9))))))))
+    return emq + (1.0 + emq) * t
+
+
+@ijit
+def _re687_shift(rel, irelq, rpq):
+    """(rel dnu)^0.687 from rpq = (relq dnu)^0.687 by the binomial series in e = rel / relq - 1
+    (exact to round-off for |e| <= _NEAR); irelq = 1 / relq."""
+    e = rel * irelq - 1.0
+    return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
+        _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
+
+
+@ijit
+def _response_time(dp, S):
+    """T_p = rho_p d^2 / (18 rho nu) (eq. 4)."""
+    return S.rho_p * dp * dp / (18.0 * S.rho * S.nu)
+
+
+@ijit
+def _expm1_arg(x, exact):
+    """expm1(x) and whether it is exact to round-off: with ``exact``, elementary.expm1_small
+    (libm beyond the Taylor range); else the Taylor polynomial alone (no branch, no call)."""
+    if exact:
+        return expm1_small(x), True
+    return expm1_taylor(x), abs(x) <= EXPM1_TAYLOR_MAX
+
+
+@ijit
+def _expm1_near(k, h, kq, emq, exact):
+    """expm1(-k h), from emq = expm1(-kq h) if |(kq - k) h| <= _NEAR (kq <= 0: no previous), and
+    whether it is exact to round-off (_expm1_arg)."""
+    near = kq > 0.0 and abs((kq - k) * h) <= _NEAR
+    if exact:
+        if near:
+            return _expm1_shift(k, h, kq, emq), True
+        return expm1_small(-k * h), True
+    v, ok = _expm1_arg(-k * h, False)
+    if near:
+        v = _expm1_shift(k, h, kq, emq)
+    return v, near or ok
+
+
+@ijit
+def _pow687(x, exact):
+    """x^0.687 and whether it is exact to round-off: with ``exact``, elementary.pow_0687 (libm
+    beyond its tables); else the table path alone (elementary.pow_0687_table)."""
+    if exact:
+        return pow_0687(x), True
+    return pow_0687_table(x)
+
+
+@ijit
+def _re687_near(rel, dnu, irelq, rpq, exact):
+    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR; irelq = 1 / relq
+    (irelq <= 0: none); and whether it is exact to round-off (_pow687)."""
+    near = irelq > 0.0 and abs(rel * irelq - 1.0) <= _NEAR
+    if exact:
+        if near:
+            return _re687_shift(rel, irelq, rpq), True
+        return pow_0687(rel * dnu), True
+    v, ok = pow_0687_table(rel * dnu)
+    if near:
+        v = _re687_shift(rel, irelq, rpq)
+    return v, near or ok
+
+
+@ijit
+def _slip_at(k, em, ih, Du, Dv, Dw, g):
+    """The slip at which F(k) is evaluated (module doc): E * (step-mean slip) + (1 - E) * (end
+    slip) of the relaxation over h with k frozen, em = expm1(-k h), ih = 1 / h, from the slip
+    (Du, Dv, Dw) at the start: beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z. Returns it (ax, ay,
+    az), its size and the factors dF/dk needs."""
+    ik = 1.0 / k
+    E = 1.0 + em
+    phi = -em * ik * ih
+    beta = E * (phi - em)
+    gk = g * ik
+    ax = Du * beta
+    ay = Dv * beta
+    az = gk + (Dw - gk) * beta
+    rel = math.sqrt(ax * ax + ay * ay + az * az)
+    return ax, ay, az, rel, ik, E, phi, beta, gk
+
+
+@ijit
+def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, itp, newton,
+                   S):
+    """F(k) = f(Re_p) / T_p from rp = Re_p^0.687 at the slip of _slip_at, and the next k:
+    safeguarded Newton (dF/dk analytic) if ``newton``, else a plain fixed-point update. Returns
+    the next k, whether |F(k) - k| was already within the tolerance (S.tol k for a Newton update,
+    S.tol_fp k for a plain one; the update is applied all the same) and 1 / |slip|."""
+    irel = 1.0 / rel if rel > 0.0 else 0.0
+    F = (1.0 + 0.15 * rp) * itp
+    G = F - k
+    kn = F
+    lim = S.tol_fp
+    if newton and rel > 0.0:
+        # dF/dk = 0.15 * 0.687 Re^0.687 / (rel T_p) d|slip|/dk
+        db = E * ((E - phi) * ik + h * E) - h * beta
+        daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
+        drel = ((ax * Du + ay * Dv) * db + az * daz) * irel
+        den = 1.0 - (0.15 * 0.687) * rp * drel * irel * itp
+        if den > 0.1:
+            kt = k + G / den
+            if kt > 0.0:
+                kn = kt
+                lim = S.tol
+    return kn, abs(G) <= lim * k, irel
+
+
+@ijit
+def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S, first, exact):
+    """One update of a drag rate k towards the fixed point k = F(k) (module doc), em =
+    expm1(-k h): _slip_at, Re_p^0.687 there (_re687_lane), _newton_update. Returns the next k,
+    whether k was within the tolerance, 1 / |slip| and Re_p^0.687 for the next evaluation, and
+    whether Re_p^0.687 is exact."""
+    ax, ay, az, rel, ik, E, phi, beta, gk = _slip_at(k, em, ih, Du, Dv, Dw, S.g)
+    rp, ok = _re687_lane(rel, dnu, irelq, rpq, first, exact)
+    kn, done, irel = _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw,
+                                    itp, newton, S)
+    return kn, done, irel, rp, ok
+
+
+@ijit
+def _expm1_lane(k, h, kq, emq, first, e0, exact):
+    """expm1(-k h) for an update of the drag iteration (``first``: its first), and whether it is
+    exact: the implicit estimate's (``e0``: the same k and h) on the first update, else
+    _expm1_near. Vectorized (not ``exact``), only the path a lane takes as a rule is computed,
+    the estimate's on the first update and the series from the last evaluation after it; a lane
+    off it is left to the exact pass."""
+    if exact:
+        if first and e0:
+            return emq, True
+        return _expm1_near(k, h, kq, emq, True)
+    if first:
+        return emq, e0
+    return _expm1_shift(k, h, kq, emq), kq > 0.0 and abs((kq - k) * h) <= _NEAR
+
+
+@ijit
+def _re687_lane(rel, dnu, irelq, rpq, first, exact):
+    """(rel dnu)^0.687 for an update of the drag iteration, and whether it is exact: _re687_near;
+    vectorized (not ``exact``), the tables on the first update (no evaluation before it) and the
+    series from the last evaluation after it, a lane off that path left to the exact pass."""
+    if exact:
+        return _re687_near(rel, dnu, irelq, rpq, True)
+    if first:
+        return pow_0687_table(rel * dnu)
+    return _re687_shift(rel, irelq, rpq), irelq > 0.0 and abs(rel * irelq - 1.0) <= _NEAR
+
+
+@ijit
+def _lane_drag_update(lf, li, l, it, S, first, exact):
+    """Update number ``it`` (``first``: it == 0) of lane l's drag rate if it still iterates
+    (_drag_rate_update), as selects (vectorized; exact: a lane it left): a lane not iterating, or
+    one whose update needs the exact pass, keeps its values (the latter is marked _FIX). Returns
+    1 if the lane iterates on (those marked included)."""
+    going = li[_ITER + l] != 0
+    k = lf[_K + l]
+    h = lf[_H + l]
+    kq = lf[_KQ + l]
+    emq = lf[_EMQ + l]
+    irelq = lf[_IRELQ + l]
+    rpq = lf[_RPQ + l]
+    em, ok1 = _expm1_lane(k, h, kq, emq, first, li[_E0 + l] != 0, exact)
+    kn, done, irel, rp, ok2 = _drag_rate_update(k, em, h, lf[_IH + l], lf[_DU + l], lf[_DV + l],
+                                                lf[_DW + l], lf[_ITP + l], lf[_DNU + l], irelq,
+                                                rpq, it < NEWTON_MAXIT, S, first, exact)
+    upd = going and ok1 and ok2
+    lf[_K + l] = kn if upd else k
+    lf[_KQ + l] = k if upd else kq
+    lf[_EMQ + l] = em if upd else emq
+    lf[_IRELQ + l] = irel if upd else irelq
+    lf[_RPQ + l] = rp if upd else rpq
+    li[_FIX + l] = 1 if (going and not upd) else 0
+    stop = upd and done
+    li[_ITER + l] = 0 if stop else li[_ITER + l]
+    return 1 if (going and not stop) else 0
+
+
+@ijit
+def _drag_lanes(lf, li, nb, S):
+    """The drag rates of lanes 0..nb-1 with _ITER set, iterated in lockstep (the long dependency
+    chains of independent parcels overlap in the CPU; the updates run on vector units) until each
+    is within the tolerance."""
+    for it in range(DRAG_MAXIT):
+        left = 0
+        if it == 0:
+            for l in range(nb):
+                left += _lane_drag_update(lf, li, l, it, S, True, False)
+        else:
+            for l in range(nb):
+                left += _lane_drag_update(lf, li, l, it, S, False, False)
+        for l in range(nb):
+            if li[_FIX + l] != 0:
+                left -= 1 - _lane_drag_update(lf, li, l, it, S, it == 0, True)
+        if left == 0:
+            break
+
+
+@ijit
+def _drag_rate(k, h, Du, Dv, Dw, itp, dnu, S):
+    """A drag rate iterated to its fixed point from k, one parcel alone (as _drag_lanes); returns
+    it with the last evaluation's k and expm1(-k h) (for _expm1_near)."""
+    ih = 1.0 / h
+    kq = -1.0
+    emq = 0.0
+    irelq = 0.0
+    rpq = 0.0
+    for it in range(DRAG_MAXIT):
+        em, _ = _expm1_near(k, h, kq, emq, True)
+        kn, done, irelq, rpq, _ = _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq,
+                                                    rpq, it < NEWTON_MAXIT, S, it == 0, True)
+        kq = k
+        emq = em
+        k = kn
+        if done:
+            break
+    return k, kq, emq

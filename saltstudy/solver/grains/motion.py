@@ -1,0 +1,349 @@
+"""A grain's motion over one sub-step: the wind it sees (resolved and SGS), the relaxation of its
+velocity towards that wind under the drag rate, the move, gravity, and the crossing of the 0.5 mm
+impact layer.
+"""
+from __future__ import annotations
+
+import math
+
+from ..._jit import jit
+from .coupling import estimate_weights, parcel_weight
+from ..numerics.elementary import expm1_small
+from .interp import Stencil, _bil, _tri, ijit, locate, wrap_periodic
+from .layout import (
+    MAX_SUBSTEPS, _ACTIVE, _D, _DNU, _DU, _DV, _DW, _DZK, _E0, _EC, _EMQ, _FIX, _FXC, _FXF,
+    _FYC, _FYF, _FZC, _FZF, _H, _HIT, _IH, _IRELQ, _ITER, _ITP, _K, _KC, _KCELL, _KD, _KF, _KQ,
+    _LOG, _MU, _MV, _MW, _QM, _RPQ, _RT, _RU, _RV, _RW, _SU, _SV, _SW, _T, _TLC, _TP, _U, _UN,
+    _US, _V, _VN, _VS, _W, _WN, _WS, _X, _XC, _XF, _XN, _Y, _YC, _YF, _YN, _Z, _ZN)
+from .drag import _expm1_arg, _expm1_near, _pow687, _response_time
+from .deposit import _reaction, _tke_level, _tke_rate
+
+
+@jit
+def _crossing_time(z0, wt, a, k, h, zc, zh):
+    """First t in [0, h] with z(t) = zc, given z(0) = z0 >= zc > z(h) = zh.
+
+    z'' = -a k exp(-k t) keeps one sign: if the parcel starts upwards (w_p > 0, then a > 0 and z
+    is concave) the crossing lies after the apex, where z is decreasing; otherwise z decreases
+    from the start or is convex with z(h) < zc. Either way the root in the bracket is unique.
+
+    Safeguarded Newton (bisection when a step leaves the bracket), started at the root of z's
+    Taylor quadratic at 0 or at the apex (or of the chord), and stopped once the step is below
+    1e-14 h or the next step's error, |z''| step^2 / (2 |z'|), would be below a tenth of that:
+    2.5 evaluations per crossing on the bench's crossings (3.1 without the apex start). An exact
+    zero of F ends it too: kept as a bracket end, it sent Newton's next point onto that end, out
+    of the open bracket, and bisection then walked away from the root (10.8 evaluations on
+    average, up to 55, before these changes)."""
+    lo = 0.0
+    hi = h
+    wp = wt + a
+    tol = 1e-14 * h
+    t = 0.5 * (lo + hi)
+    if wp > 0.0 and wt < 0.0:
+        ta = math.log(a / (-wt)) / k  # apex: w_t + a exp(-k t) = 0
+        if ta > 0.0:
+            lo = min(ta, h)
+            # from the apex's Taylor quadratic: z(ta) = z0 + w_t ta + w_p / k, z''(ta) = k w_t
+            dz = z0 + wt * ta + wp / k - zc
+            if dz > 0.0:
+                tq = ta + math.sqrt(2.0 * dz / (-k * wt))
+                t = tq if lo < tq < hi else 0.5 * (lo + hi)
+    if lo == 0.0 and z0 > zh:
+        t = h * (z0 - zc) / (z0 - zh)  # the chord's root
+        # z0 + w_p t - (a k / 2) t^2 = zc, in the form without cancellation
+        dsc = wp * wp + 2.0 * a * k * (z0 - zc)
+        if dsc >= 0.0:
+            den = math.sqrt(dsc) - wp
+            if den > 0.0:
+                tq = 2.0 * (z0 - zc) / den
+                if 0.0 < tq < h:
+                    t = tq
+    for _ in range(100):
+        em = expm1_small(-k * t)
+        F = z0 + wt * t - a * em / k - zc  # z(t) - zc
+        if F == 0.0:
+            break
+        if F > 0.0:
+            lo = t
+        else:
+            hi = t
+        dF = wt + a * (1.0 + em)
+        tn = t - F / dF if dF < 0.0 else 0.5 * (lo + hi)
+        st = tn - t
+        if abs(st) <= tol:
+            t = tn
+            break
+        if lo < tn < hi:
+            if dF < 0.0 and st * st * abs(a * k * (1.0 + em)) <= 0.2 * tol * -dF:
+                t = tn
+                break
+        else:
+            tn = 0.5 * (lo + hi)
+        if hi - lo <= tol:
+            t = tn
+            break
+        t = tn
+    return min(max(t, 0.0), h)
+
+
+@ijit
+def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
+    """The wind a parcel at (xp, yp, zp) sees, and its Stencil (interp.locate): the resolved
+    velocity interpolated trilinearly, with the log law in the log region (interp.py); two-way,
+    of the air after the implicit exchange: the fluid's plus the change delta interpolated with
+    the deposit weights (zero beyond the buffer levels S.nkb). Where both use the same weights
+    (above the log region; in it with "paper") the sum is read from U = u + delta."""
+    st = locate(xp, yp, zp, G, nx, ny, nz)
+    kr = st.kread
+    if st.islog and S.paper:  # the log law of the (new) air at the level read, where the drag goes
+        if S.twoway and kr < S.nkb:
+            us = st.lfac * _bil(F.U, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
+            vs = st.lfac * _bil(F.V, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
+        else:
+            us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
+            vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
+    elif st.islog:  # blend, cell-drag: the log law of the level read plus the change delta of
+        # the level the drag goes to (coupling.py)
+        us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
+        vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
+        if S.twoway and S.klog < S.nkb:
+            us += _bil(F.du, st.ixf, st.fxf, st.jyc, st.fyc, S.klog, nx, ny)
+            vs += _bil(F.dv, st.ixc, st.fxc, st.jyf, st.fyf, S.klog, nx, ny)
+    elif S.twoway and st.kc + 1 < S.nkb:
+        us = _tri(F.U, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
+        vs = _tri(F.V, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)
+    else:
+        us = _tri(F.u, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
+        vs = _tri(F.v, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)
+    if S.twoway and st.kf + 1 < S.nkb:
+        ws = _tri(F.W, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny)
+    else:
+        ws = _tri(F.w, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny)
+    return st, us, vs, ws
+
+
+@ijit
+def _substep_length(T, t, wp, dzk, nsub):
+    """The rest of the step T - t, cut so that the parcel moves at most one cell height dzk at its
+    vertical speed |wp| (but not below T / MAX_SUBSTEPS); the last allowed sub-step takes the
+    rest."""
+    h = T - t
+    if nsub < MAX_SUBSTEPS - 1:
+        awp = abs(wp) + 1e-30
+        if h * awp > dzk:
+            h = max(dzk / awp, T / MAX_SUBSTEPS)
+            if h > T - t:
+                h = T - t
+    return h
+
+
+@ijit
+def _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
+    """Scalar pass 1 of lane l (parcel p, step T): the parcel into the lane, its stencil and the
+    resolved wind it sees (_wind_seen)."""
+    xp = P.x[p]
+    yp = P.y[p]
+    zp = P.z[p]
+    st, us, vs, ws = _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz)
+    lf[_X + l] = xp
+    lf[_Y + l] = yp
+    lf[_Z + l] = zp
+    lf[_U + l] = P.u[p]
+    lf[_V + l] = P.v[p]
+    lf[_W + l] = P.w[p]
+    lf[_D + l] = P.d[p]
+    lf[_KD + l] = P.kd[p]
+    lf[_T + l] = T
+    lf[_US + l] = us
+    lf[_VS + l] = vs
+    lf[_WS + l] = ws
+    if S.sgs:
+        lf[_SU + l] = P.su[p]
+        lf[_SV + l] = P.sv[p]
+        lf[_SW + l] = P.sw[p]
+    lf[_DZK + l] = G.dz_c[st.kcell]
+    if S.tke:
+        kt = _tke_level(st, S)
+        lf[_EC + l] = F.e[st.ixf, st.jyf, kt]
+        lf[_TLC + l] = F.tlc[kt]
+    lf[_FXF + l] = st.fxf
+    lf[_FXC + l] = st.fxc
+    lf[_FYF + l] = st.fyf
+    lf[_FYC + l] = st.fyc
+    lf[_FZC + l] = st.fzc
+    lf[_FZF + l] = st.fzf
+    li[_ACTIVE + l] = 1
+    li[_XF + l] = st.ixf
+    li[_XC + l] = st.ixc
+    li[_YF + l] = st.jyf
+    li[_YC + l] = st.jyc
+    li[_KC + l] = st.kc
+    li[_KF + l] = st.kf
+    li[_LOG + l] = 1 if st.islog else 0
+    li[_KCELL + l] = st.kcell
+
+
+@ijit
+def _lane_stencil(lf, li, l):
+    """Lane l's Stencil (interp.locate) as _load_lane kept it."""
+    return Stencil(li[_XF + l], lf[_FXF + l], li[_XC + l], lf[_FXC + l], li[_YF + l],
+                   lf[_FYF + l], li[_YC + l], lf[_FYC + l], li[_KC + l], lf[_FZC + l],
+                   li[_KF + l], lf[_FZF + l], 1.0, li[_LOG + l] != 0, li[_KCELL + l], 0)
+
+
+@ijit
+def _lane_start(lf, li, l, S, exact):
+    """Pass 2 of lane l (vectorized; exact: a lane it left): the parcel's constants, the sub-step
+    (_substep_length), the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate
+    with its k0, T and weights, coupling.estimate_weights), the seen velocity with its SGS part,
+    the slip, a first drag rate if the parcel has none (its kd is then -k0:
+    coupling.implicit_coefficients), and the drag iteration's start."""
+    active = li[_ACTIVE + l] != 0
+    dp = lf[_D + l]
+    T = lf[_T + l]
+    up = lf[_U + l]
+    vp = lf[_V + l]
+    wp = lf[_W + l]
+    us = lf[_US + l]
+    vs = lf[_VS + l]
+    ws = lf[_WS + l]
+    k = lf[_KD + l]
+    tp = _response_time(dp, S)
+    qm = parcel_weight(S.Q, S.rho_p, dp)
+    h = _substep_length(T, 0.0, wp, lf[_DZK + l], 0)
+    k0 = k if k > 0.0 else -k
+    mu_ = 0.0
+    mv_ = 0.0
+    mw_ = 0.0
+    em0 = 0.0
+    ok = True
+    if S.twoway:
+        em0, ok = _expm1_arg(-k0 * T, exact)
+        cc, wtil = estimate_weights(em0, k0, T, qm, wp, S.g)
+        if cc > 0.0:
+            mu_ = cc * (us - up)
+            mv_ = cc * (vs - vp)
+            mw_ = cc * (ws - wtil)
+    if S.sgs:
+        us += lf[_SU + l]
+        vs += lf[_SV + l]
+        ws += lf[_SW + l]
+    Du = us - up
+    Dv = vs - vp
+    Dw = ws - wp
+    dnu = dp / S.nu
+    if k <= 0.0:  # drag_rate (coupling.py)
+        rp, ok2 = _pow687(math.sqrt(Du * Du + Dv * Dv + Dw * Dw) * dnu, exact)
+        k = (1.0 + 0.15 * rp) / tp
+        ok = ok and ok2
+    lf[_TP + l] = tp
+    lf[_ITP + l] = 1.0 / tp
+    lf[_DNU + l] = dnu
+    lf[_QM + l] = qm
+    lf[_H + l] = h
+    lf[_IH + l] = 1.0 / h
+    lf[_DU + l] = Du
+    lf[_DV + l] = Dv
+    lf[_DW + l] = Dw
+    lf[_US + l] = us
+    lf[_VS + l] = vs
+    lf[_WS + l] = ws
+    lf[_MU + l] = mu_
+    lf[_MV + l] = mv_
+    lf[_MW + l] = mw_
+    lf[_K + l] = k
+    lf[_KQ + l] = -1.0  # no evaluation yet
+    lf[_EMQ + l] = em0
+    lf[_IRELQ + l] = 0.0
+    lf[_RPQ + l] = 0.0
+    li[_E0 + l] = 1 if (S.twoway and h == T and k == k0) else 0
+    li[_ITER + l] = 1 if active else 0
+    li[_FIX + l] = 1 if (active and not ok) else 0
+
+
+@ijit
+def _relax(em, ik, us, vs, wt, up, vp, wp):
+    """Drag: the exact relaxation over a sub-step with k (ik = 1/k) and the seen velocity frozen,
+    E = 1 + em = exp(-k h), towards (us, vs, wt), wt = ws - g/k: the velocities at the end and
+    (1 - E)/k, the displacement factor of the transient."""
+    E = 1.0 + em
+    ome_k = -em * ik
+    un = us + (up - us) * E
+    vn = vs + (vp - vs) * E
+    wn = wt + (wp - wt) * E
+    return un, vn, wn, ome_k
+
+
+@ijit
+def _height(zp, wt, wp, h, ome_k):
+    """z after h of the relaxation (_relax)."""
+    return zp + wt * h + (wp - wt) * ome_k
+
+
+@ijit
+def _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, h_imp):
+    """A sub-step that ends below the impact layer (zn < h_imp) is cut at the crossing
+    (_crossing_time): the cut sub-step and the parcel's velocities there."""
+    h = _crossing_time(zp, wt, wp - wt, k, h, h_imp, zn)
+    em = expm1_small(-k * h)
+    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
+    return h, un, vn, wn, ome_k
+
+
+@ijit
+def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
+    """Horizontal position after h of the relaxation, wrapped into the periodic domain; a parcel
+    above the lid is reflected. Returns (x, y, z, w)."""
+    xn = xp + us * h + (up - us) * ome_k
+    yn = yp + vs * h + (vp - vs) * ome_k
+    if zn > S.Lz:  # reflect at the lid
+        zn = 2.0 * S.Lz - zn
+        wn = -wn
+    return wrap_periodic(xn, S.Lx), wrap_periodic(yn, S.Ly), zn, wn
+
+
+@ijit
+def _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, S, exact):
+    """A sub-step of h with drag rate k (kq, emq: the iteration's last evaluation): drag (exact
+    relaxation, _relax), the height, the bed crossing (exact only: a sub-step ending in the
+    impact layer is cut there), the move. Returns the parcel's (x, y, z, u, v, w), the sub-step
+    as taken, whether it ended in the impact layer and whether the numbers are exact
+    (_expm1_near; without ``exact`` a hit's are not: no cut)."""
+    ik = 1.0 / k
+    em, ok = _expm1_near(k, h, kq, emq, exact)
+    wt = ws - S.g * ik
+    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
+    zn = _height(zp, wt, wp, h, ome_k)
+    hit = zn < S.h_imp
+    if exact and hit:
+        h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, S.h_imp)
+        zn = S.h_imp
+    xn, yn, zn, wn = _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S)
+    return xn, yn, zn, un, vn, wn, h, hit, ok and not hit
+
+
+@ijit
+def _lane_move(lf, li, l, S, exact):
+    """Pass 4 of lane l (vectorized; exact: a lane it left, _FIX): _relax_and_move over its
+    sub-step; the end state into the lane, _HIT if it ended at the bed."""
+    active = li[_ACTIVE + l] != 0
+    xn, yn, zn, un, vn, wn, h, hit, ok = _relax_and_move(
+        lf[_X + l], lf[_Y + l], lf[_Z + l], lf[_U + l], lf[_V + l], lf[_W + l], lf[_US + l],
+        lf[_VS + l], lf[_WS + l], lf[_K + l], lf[_KQ + l], lf[_EMQ + l], lf[_H + l], S, exact)
+    lf[_XN + l] = xn
+    lf[_YN + l] = yn
+    lf[_ZN + l] = zn
+    lf[_UN + l] = un
+    lf[_VN + l] = vn
+    lf[_WN + l] = wn
+    lf[_H + l] = h
+    qm = lf[_QM + l]
+    ru, rv, rw = _reaction(lf[_MU + l], lf[_MV + l], lf[_MW + l], qm, un, vn, wn, lf[_U + l],
+                           lf[_V + l], lf[_W + l], h, S)
+    lf[_RU + l] = ru
+    lf[_RV + l] = rv
+    lf[_RW + l] = rw
+    if S.tke:
+        lf[_RT + l] = _tke_rate(lf[_EC + l], lf[_TLC + l], qm, lf[_K + l], lf[_TP + l], h, S)
+    li[_HIT + l] = 1 if (exact and hit) else 0
+    li[_FIX + l] = 1 if (active and not ok) else 0
