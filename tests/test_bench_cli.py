@@ -6,6 +6,7 @@ of the numbers are.
 from __future__ import annotations
 
 import json
+import time
 
 import pytest
 from typer.testing import CliRunner
@@ -80,6 +81,16 @@ def test_bench_particles_json_has_the_runs_fields():
     for r in out["runs"]:
         assert r["ns_per_parcel_step"] > 0 and r["mean_ns_per_parcel_step"] > 0
         assert r["n_end"] > 0 and r["impacts_per_step"] >= 0
+
+
+def test_bench_particles_cpu_time_clock_is_set_per_invocation():
+    from saltstudy.instruments import bench_particles
+
+    out = _json(["bench", "particles", "--n", "2000", "--steps", "3", "--cpu-time", "--json"])
+    assert out["runs"][0]["ns_per_parcel_step"] > 0
+    assert bench_particles._clock is time.thread_time
+    _json(["bench", "particles", "--n", "2000", "--steps", "3", "--json"])
+    assert bench_particles._clock is time.perf_counter
 
 
 def test_bench_particles_phases_sum_within_the_step_and_leave_the_solver_as_it_was():

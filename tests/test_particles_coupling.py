@@ -214,3 +214,86 @@ def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
     assert pmax[1] == z[live].max()
     assert pmax[2] == pytest.approx(np.sqrt((u[live] ** 2 + v[live] ** 2 + w[live] ** 2).max()),
                                     rel=1e-15)
+
+
+def test_implicit_estimate_in_lanes_matches_one_parcel_at_a_time():
+    """implicit_coefficients computes its estimates in blocks of lanes (expm1 and the weights
+    vectorized, an exact redo for the lanes beyond expm1's polynomial): its (A, B) on the faces
+    and the first drag rates it stores equal those of the estimate one parcel at a time
+    (implicit_estimate and the deposits of coupling.py's module doc) to round-off. Parcels with
+    and without a drag rate, in and above the log region, k T within and beyond the
+    polynomial's range, time credits, a partial last block."""
+    from saltstudy.solver.grains import coupling
+    from saltstudy.solver.grains.coupling import (Flow, drag_rate, implicit_estimate, interp_faces,
+                                           interp_fluid, locate, parcel_weight, pool_add_tri2)
+
+    sc = scene(2)
+    s, st = component(sc)
+    synthetic_flow(st, 0.54, sc.case.surface.z0)
+    g = st.grid
+    rng = np.random.default_rng(3)
+    n = 3 * coupling.EST_LANES + 17
+    s.add_parcels(rng.uniform(0, g.Lx, n), rng.uniform(0, g.Ly, n), rng.uniform(6e-4, 0.3, n),
+                  u=rng.uniform(0, 4, n), v=rng.normal(0, 0.3, n), w=rng.normal(0, 1, n),
+                  d=np.where(rng.random(n) < 0.5, 2e-4, 5e-5))
+    # no drag rate yet (released, splashed), or one with k dt from 0.005 to 15
+    s._kd[:n] = np.where(rng.random(n) < 0.3, 0.0, np.exp(rng.uniform(0, 8, n)))
+    s._trem[:n] = np.where(rng.random(n) < 0.2, rng.uniform(0, 4e-3, n), 0.0)
+    dt = 0.004
+    assert np.any(s._kd[:n] * dt > coupling.EXPM1_TAYLOR_MAX)
+    s._work_init()
+    nx, ny, nz = g.shape
+    coupling.chunk_assign(n, s._x, s._u, s._su, s._flag, s._trem, g.dx, nx, s._hist,
+                          s._slab_stats, s._bounds, s._cid, s._cstart, s._idx, s._stats, s._v,
+                          s._w, s._z, s._pmax)
+    nk = s._levels(st, dt)
+    du, dv, dw, Uc, Vc, Wc = s._grid_views(nk)
+    P = s._parcels()
+    F = Flow(st.u, st.v, st.w, st.e, s.tlc, Uc, Vc, Wc, du, dv, dw)
+    s._margin[:] = 2
+    s._layout(s._margin, 3 * 2 * ny * nk)
+    s.prm[8] = dt
+    kd0 = s._kd.copy()
+    coupling.implicit_coefficients(s._cstart, s._idx, P, F, dt, s.prm, s.geom.record, s._pool,
+                                   s._ranges, nk, s._lane_f, s._lane_i)
+    lanes, kd_lanes = s._pool.copy(), s._kd.copy()
+
+    # one parcel at a time, as the estimate's formulas read
+    s._kd[:] = kd0
+    pool = np.zeros_like(s._pool)
+    G = s.geom.record
+    rho, nu, grav, rho_p, Q = s.prm[:5]
+    paper = G.geo[9] == G.geo[10]
+    for c in range(coupling.N_CHUNKS):
+        sl, L, off = s._ranges[c]
+        csz = L * ny * nk * 2
+        for q in range(s._cstart[c], s._cstart[c + 1]):
+            p = int(s._idx[q])
+            stc = locate(s._x[p], s._y[p], s._z[p], G, nx, ny, nz)
+            dp, k = s._d[p], s._kd[p]
+            ou = ov = 0.0
+            if (stc.islog and not paper) or k <= 0.0:
+                ur, vr, wr = interp_fluid(st.u, st.v, st.w, stc, nx, ny)
+                if k <= 0.0:
+                    rel = math.sqrt((ur - s._u[p]) ** 2 + (vr - s._v[p]) ** 2
+                                    + (wr - s._w[p]) ** 2)
+                    k = drag_rate(rel, dp / nu, rho_p * dp * dp / (18.0 * rho * nu))
+                    s._kd[p] = -k
+                if stc.islog and not paper:
+                    u0, v0, _ = interp_faces(st.u, st.v, st.w, nz, nz + 1, stc, nx, ny)
+                    ou, ov = ur - u0, vr - v0
+            T = dt + s._trem[p]
+            _, cp, wt = implicit_estimate(k, T, parcel_weight(Q, rho_p, dp), s._w[p], grav)
+            ah = cp * stc.lfac if (stc.islog and paper) else cp
+            pool_add_tri2(pool, off, sl, nx, ny, nk, ah, cp * (s._u[p] - ou), stc.ixf, stc.fxf,
+                          stc.jyc, stc.fyc, stc.kc, stc.fzc)
+            pool_add_tri2(pool, off + csz, sl, nx, ny, nk, ah, cp * (s._v[p] - ov), stc.ixc,
+                          stc.fxc, stc.jyf, stc.fyf, stc.kc, stc.fzc)
+            pool_add_tri2(pool, off + 2 * csz, sl, nx, ny, nk, cp, cp * wt, stc.ixc, stc.fxc,
+                          stc.jyc, stc.fyc, stc.kf, stc.fzf)
+    # (helpers compiled on their own, not inlined: LLVM may contract their arithmetic otherwise)
+    np.testing.assert_allclose(kd_lanes, s._kd, rtol=1e-14, atol=0)
+    assert np.any(kd_lanes[:n] < 0) and np.any(kd_lanes[:n] > 0)
+    scale = np.abs(pool).max()
+    assert scale > 0.0
+    np.testing.assert_allclose(lanes, pool, rtol=1e-13, atol=1e-15 * scale)

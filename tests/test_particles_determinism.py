@@ -62,6 +62,37 @@ def test_independent_of_thread_count():
     _same(_run(threads=1), _run(threads=2))
 
 
+def test_thread_count_chosen_call_by_call_leaves_the_result(monkeypatch):
+    """particles.Threads runs each parallel kernel of a step on all the numba threads or on one,
+    by their recent times: a run whose choice flips every second call (each kernel, from its
+    third call on) equals a run on one thread."""
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        import pytest
+        pytest.skip("needs 2 numba threads")
+    from saltstudy.solver.grains import particles
+
+    ref = _run(threads=1)
+    kernels = [v for v in vars(particles).values() if isinstance(v, particles.Threads)]
+    assert {k.kernel for k in kernels} >= {"implicit_coefficients", "_advance_all", "splash_runs"}
+    monkeypatch.setattr(particles.Threads, "EXPLORE", 2)
+    for k in kernels:  # both counts timed: from here on the choice alternates
+        monkeypatch.setattr(k, "cost", [1.0, 1.0])
+    used = {}
+    real = numba.set_num_threads
+
+    def spy(n):
+        used[n] = used.get(n, 0) + 1
+        real(n)
+
+    monkeypatch.setattr(particles.numba, "set_num_threads", spy)
+    try:
+        flipped = _run()
+    finally:
+        monkeypatch.undo()
+    assert used.get(1, 0) > 30  # one-thread calls did happen
+    _same(ref, flipped)
+
+
 def test_checkpoint_restore_bit_for_bit():
     ref = _run(steps=30)
     _, _, saved = _run(steps=12, ckpt_at=12 - 1)  # checkpoint before step 11 (sort step 10 done)

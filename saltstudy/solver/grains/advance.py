@@ -144,8 +144,10 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
         nb = min(_LANES, qend - q0)
         for l in range(nb):
             p = W.idx[q0 + l]
-            T = dt + P.trem[p]  # time credit of a parcel that left the bed during the last step
-            P.trem[p] = 0.0
+            tr = P.trem[p]  # time credit of a parcel that left the bed during the last step
+            T = dt + tr
+            if tr != 0.0:  # few have one: the array is not rewritten every step
+                P.trem[p] = 0.0
             if P.z[p] < S.h_imp:  # already inside the impact layer: splash now
                 li[_ACTIVE + l] = 0
                 if P.kd[p] < 0.0:  # the implicit estimate's k0 (coupling.py): none yet

@@ -71,7 +71,7 @@ import numpy as np
 from numba import prange
 
 from ..._jit import jit, jit_borrow, pjit
-from ..numerics.elementary import expm1_small, pow_0687
+from ..numerics.elementary import EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, pow_0687
 from ..closures.sgs import C0_LAGRANGIAN
 from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
 
@@ -332,10 +332,111 @@ def air_maxima(u, w, umax):
     return m
 
 
+#: parcels whose estimates _implicit_chunk computes together, in passes over the block: the
+#: scalar ones (locate, the deposits) around a loop without branches or calls that LLVM
+#: vectorizes (expm1 and the weights: a chain of ~20 dependent multiply-adds per parcel, which
+#: one parcel at a time leaves the core waiting on). The lanes live in the chunk's lane scratch
+#: of the advance (particles.Work), row r of lane l at r * EST_LANES + l.
+EST_LANES = 64
+(_EU, _EV, _EW, _ED, _EK, _ET, _EOU, _EOV, _ELF, _ECP, _EWT,
+ _EFXF, _EFXC, _EFYF, _EFYC, _EFZC, _EFZF) = (r * EST_LANES for r in range(17))
+(_EXF, _EXC, _EYF, _EYC, _EKC, _EKF, _EOK) = (r * EST_LANES for r in range(7))
+#: rows of the lane scratch the estimate needs (floats, integers)
+EST_ROWS_F = 17
+EST_ROWS_I = 7
+
+
+@ijit
+def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, paper, G, nx, ny, nz):
+    """Scalar pass 1 of implicit lane l (parcel p): its stencil, the parcel's values, a first
+    drag rate if it has none (stored as kd = -k0 for the advance) and the log offset of "blend"
+    (module doc)."""
+    st = locate(P.x[p], P.y[p], P.z[p], G, nx, ny, nz)
+    dp = P.d[p]
+    k = P.kd[p]
+    up = P.u[p]
+    vp = P.v[p]
+    wp = P.w[p]
+    ou = 0.0
+    ov = 0.0
+    if (st.islog and not paper) or k <= 0.0:
+        ur, vr, wr = interp_fluid(F.u, F.v, F.w, st, nx, ny)
+        if k <= 0.0:
+            rel = math.sqrt((ur - up) ** 2 + (vr - vp) ** 2 + (wr - wp) ** 2)
+            k = drag_rate(rel, dp / nu, rho_p * dp * dp / (18.0 * rho * nu))
+            # the advance takes k0 = -kd (and finds its own first drag rate, from the slip
+            # in the new air): a parcel without a drag rate carries its estimate's
+            P.kd[p] = -k
+        if st.islog and not paper:
+            u0, v0, w0 = interp_faces(F.u, F.v, F.w, nz, nz + 1, st, nx, ny)
+            ou = ur - u0
+            ov = vr - v0
+    lf[_EU + l] = up - ou
+    lf[_EV + l] = vp - ov
+    lf[_EW + l] = wp
+    lf[_ED + l] = dp
+    lf[_EK + l] = k
+    lf[_ET + l] = dt + P.trem[p]  # the parcel's own step (time credit after a splash)
+    lf[_ELF + l] = st.lfac if (st.islog and paper) else 1.0  # A's horizontal weight factor
+    lf[_EFXF + l] = st.fxf
+    lf[_EFXC + l] = st.fxc
+    lf[_EFYF + l] = st.fyf
+    lf[_EFYC + l] = st.fyc
+    lf[_EFZC + l] = st.fzc
+    lf[_EFZF + l] = st.fzf
+    li[_EXF + l] = st.ixf
+    li[_EXC + l] = st.ixc
+    li[_EYF + l] = st.jyf
+    li[_EYC + l] = st.jyc
+    li[_EKC + l] = st.kc
+    li[_EKF + l] = st.kf
+
+
+@ijit
+def _estimate_lane(lf, li, l, g, Q, rho_p, exact):
+    """Pass 2 of implicit lane l (vectorized; exact: a lane it left): c_p and the vertical u~_p
+    (implicit_estimate, the same formulas), _EOK 0 where expm1's Taylor polynomial does not
+    hold (then the exact pass redoes the lane)."""
+    k = lf[_EK + l]
+    T = lf[_ET + l]
+    x = -k * T
+    if exact:
+        em = expm1_small(x)
+    else:
+        em = expm1_taylor(x)
+    cp, wt = estimate_weights(em, k, T, parcel_weight(Q, rho_p, lf[_ED + l]), lf[_EW + l], g)
+    lf[_ECP + l] = cp
+    lf[_EWT + l] = wt
+    li[_EOK + l] = 1 if (exact or abs(x) <= EXPM1_TAYLOR_MAX) else 0
+
+
+@ijit
+def _estimate_deposit(lf, li, l, pool, off, csz, s, nx, ny, nk):
+    """Scalar pass 3 of implicit lane l: (A, B) of its three components on the faces."""
+    cp = lf[_ECP + l]
+    ah = cp * lf[_ELF + l]
+    ixf = li[_EXF + l]
+    ixc = li[_EXC + l]
+    jyf = li[_EYF + l]
+    jyc = li[_EYC + l]
+    kc = li[_EKC + l]
+    fxf = lf[_EFXF + l]
+    fxc = lf[_EFXC + l]
+    fyf = lf[_EFYF + l]
+    fyc = lf[_EFYC + l]
+    fzc = lf[_EFZC + l]
+    pool_add_tri2(pool, off, s, nx, ny, nk, ah, cp * lf[_EU + l], ixf, fxf, jyc, fyc, kc, fzc)
+    pool_add_tri2(pool, off + csz, s, nx, ny, nk, ah, cp * lf[_EV + l], ixc, fxc, jyf, fyf, kc,
+                  fzc)
+    pool_add_tri2(pool, off + 2 * csz, s, nx, ny, nk, cp, cp * lf[_EWT + l], ixc, fxc, jyc, fyc,
+                  li[_EKF + l], lf[_EFZF + l])
+
+
 @jit_borrow
-def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
+def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i):
     """Chunk c of implicit_coefficients (serial; helpers inlined; no reference counting, see
-    ``_jit.jit_borrow``)."""
+    ``_jit.jit_borrow``): blocks of EST_LANES parcels in three passes (_estimate_load,
+    _estimate_lane with its exact redo, _estimate_deposit)."""
     nx = F.u.shape[0]
     ny = F.u.shape[1]
     nz = F.u.shape[2]
@@ -350,38 +451,24 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
     off = ranges[c, 2]
     csz = L * ny * nk * 2
     pool[off:off + 3 * csz] = 0.0
-    for q in range(cstart[c], cstart[c + 1]):
-        p = idx[q]
-        st = locate(P.x[p], P.y[p], P.z[p], G, nx, ny, nz)
-        dp = P.d[p]
-        k = P.kd[p]
-        ou = 0.0
-        ov = 0.0
-        if (st.islog and not paper) or k <= 0.0:
-            ur, vr, wr = interp_fluid(F.u, F.v, F.w, st, nx, ny)
-            if k <= 0.0:
-                rel = math.sqrt((ur - P.u[p]) ** 2 + (vr - P.v[p]) ** 2 + (wr - P.w[p]) ** 2)
-                k = drag_rate(rel, dp / nu, rho_p * dp * dp / (18.0 * rho * nu))
-                # the advance takes k0 = -kd (and finds its own first drag rate, from the slip
-                # in the new air): a parcel without a drag rate carries its estimate's
-                P.kd[p] = -k
-            if st.islog and not paper:
-                u0, v0, w0 = interp_faces(F.u, F.v, F.w, nz, nz + 1, st, nx, ny)
-                ou = ur - u0
-                ov = vr - v0
-        T = dt + P.trem[p]  # the parcel's own step (time credit after a splash, particles.py)
-        em, cp, wt = implicit_estimate(k, T, parcel_weight(Q, rho_p, dp), P.w[p], g)
-        ah = cp * st.lfac if (st.islog and paper) else cp  # A's horizontal weight factor
-        pool_add_tri2(pool, off, s, nx, ny, nk, ah, cp * (P.u[p] - ou), st.ixf, st.fxf, st.jyc,
-                      st.fyc, st.kc, st.fzc)
-        pool_add_tri2(pool, off + csz, s, nx, ny, nk, ah, cp * (P.v[p] - ov), st.ixc, st.fxc,
-                      st.jyf, st.fyf, st.kc, st.fzc)
-        pool_add_tri2(pool, off + 2 * csz, s, nx, ny, nk, cp, cp * wt, st.ixc, st.fxc, st.jyc,
-                      st.fyc, st.kf, st.fzf)
+    lf = lane_f[c]
+    li = lane_i[c]
+    qend = cstart[c + 1]
+    for q0 in range(cstart[c], qend, EST_LANES):
+        nb = min(EST_LANES, qend - q0)
+        for l in range(nb):
+            _estimate_load(lf, li, l, idx[q0 + l], P, F, dt, nu, rho, rho_p, paper, G, nx, ny, nz)
+        for l in range(nb):
+            _estimate_lane(lf, li, l, g, Q, rho_p, False)
+        for l in range(nb):
+            if li[_EOK + l] == 0:
+                _estimate_lane(lf, li, l, g, Q, rho_p, True)
+        for l in range(nb):
+            _estimate_deposit(lf, li, l, pool, off, csz, s, nx, ny, nk)
 
 
 @pjit
-def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
+def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i):
     """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
     A[c, comp] += w c_p (u, v of a parcel in the log region with "paper": w c_p l_p) and
     B[c, comp] += w c_p (u~_p - o_p), with c_p and u~_p from implicit_estimate.
@@ -393,9 +480,11 @@ def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk):
     parcel in the log region with "blend" (module doc), 0 elsewhere. A parcel without a drag
     rate (kd = 0: released, rebounded, ejected) gets one from its slip in this air, stored as
     kd = -k0 for the advance (particles.py), which recomputes the estimate from k0 and T.
+    lane_f, lane_i: per chunk, at least EST_ROWS_F and EST_ROWS_I rows of EST_LANES (the
+    advance's lane scratch, particles.Work).
     """
     for c in prange(ranges.shape[0]):
-        _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk)
+        _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i)
 
 
 @ijit

@@ -57,8 +57,10 @@ impulse of the implicit estimate and the first sub-step's drag impulse share the
 are deposited as one value; the advance recomputes the estimate's coefficients from the same
 inputs (coupling.implicit_estimate), so nothing per parcel is kept between the two passes. A
 step has few parallel regions (chunk assignment, the estimate, its solve, the advance, the bed
-events, the air's update): on a machine shared with other jobs each one waits for the worker
-threads to be scheduled.
+events, the air's update), and each runs on all the numba threads or on one, whichever its
+recent calls ran faster (``Threads``): on a machine shared with other jobs a region first
+waits for its worker threads to get a core, milliseconds, more than a region's work at 10^5
+parcels. The results are the same either way.
 
 Optional processes (off by default, not constructed when off):
 
@@ -76,17 +78,18 @@ Optional processes (off by default, not constructed when off):
 """
 import json
 import math
+import time
+import numba
 import numpy as np
 
 from .coupling import (
-    N_CHUNKS, Flow, Parcels, air_maxima, apply_exchange, chunk_assign, chunk_ranges,
-    face_inverse_masses, implicit_coefficients, implicit_corrections,
-    lagrangian_time_coefficients)
+    EST_LANES, EST_ROWS_F, EST_ROWS_I, N_CHUNKS, Flow, Parcels, air_maxima, chunk_ranges,
+    face_inverse_masses, lagrangian_time_coefficients)
 from ..grid import Grid
 from .interp import GridGeometry
 from .splash_kernels import (
     EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, N_EN, NO_LAUNCH, ImpactLog,
-    ejecta_reserve, impact_log_arrays, soil_arrays, splash_params, splash_runs)
+    ejecta_reserve, impact_log_arrays, soil_arrays, splash_params)
 from ..state import FlowState
 from .layout import (
     DRAG_MAXIT, DRAG_TOL, MAX_SUBSTEPS, NEWTON_MAXIT, Work, _ACTIVE, _B1, _B10, _B2, _B3, _B4,
@@ -126,6 +129,69 @@ N_SPLASH_RUNS = 4
 SPLASH_STREAM = 1
 #: parcels are reordered by cell every this many steps (cache locality of gathers and scatters)
 SORT_INTERVAL = 10
+
+
+class Threads:
+    """The thread count of one of the step's parallel kernels, chosen per call: the numba
+    threads or one, by their recent times per unit of work. The results do not depend on it
+    (a fixed number of chunks and runs, each with its own buffers, stream and stretch; every
+    sum in a fixed order; the same compiled code).
+
+    Which is faster depends on the machine's load, not on the model: on a quiet machine the
+    worker threads start at once and the threads win by up to their count; on a machine shared
+    with other jobs a parallel region first waits for its workers to get a core (an empty
+    4-iteration prange, 2 threads, load 4: median 8.0 ms over 2000 calls; with
+    numba.set_num_threads(1) 3.6 us), more than the kernel's work at 10^5 parcels. Every
+    ``EXPLORE``-th call takes the other count, so that a change of load is noticed; a kernel's
+    first call in the process (its compilation or cache load) is not timed. The kernel is
+    looked up by name in this module at each call (the bench's ``--phases`` wraps it there)."""
+
+    EXPLORE = 32
+
+    def __init__(self, kernel: str):
+        self.kernel = kernel
+        self.cost = [0.0, 0.0]  # recent seconds per unit of work, [all threads, one]; 0: untimed
+        self.calls = 0
+        self.seen = False
+
+    def __call__(self, work: int, *args):
+        self.calls += 1
+        if self.cost[0] == 0.0 or self.cost[1] == 0.0:
+            i = 0 if self.cost[0] == 0.0 else 1  # an untimed count first
+        else:
+            best = 0 if self.cost[0] <= self.cost[1] else 1
+            i = best if self.calls % self.EXPLORE else 1 - best
+        nt = numba.get_num_threads()
+        if nt == 1:
+            return globals()[self.kernel](*args)
+        t0 = time.perf_counter()
+        if i == 1:
+            numba.set_num_threads(1)
+            try:
+                out = globals()[self.kernel](*args)
+            finally:
+                numba.set_num_threads(nt)
+        else:
+            out = globals()[self.kernel](*args)
+        c = (time.perf_counter() - t0) / max(work, 1)
+        if self.seen:
+            self.cost[i] = c if self.cost[i] == 0.0 else 0.5 * (self.cost[i] + c)
+        self.seen = True
+        return out
+
+
+#: the thread counts of the step's parallel kernels (work: parcels, impacts or grid columns)
+_ASSIGN = Threads("chunk_assign")
+_IMPLICIT = Threads("implicit_coefficients")
+_CORRECT = Threads("implicit_corrections")
+_ADVANCE = Threads("_advance_all")
+_SPLASH = Threads("splash_runs")
+_APPLY = Threads("apply_exchange")
+_GATHER = Threads("_gather")
+
+
+# coupling.implicit_coefficients computes its estimates in the same lane scratch
+assert EST_LANES == _LANES and EST_ROWS_F <= _LANE_ROWS_F and EST_ROWS_I <= _LANE_ROWS_I
 
 
 class Saltation:
@@ -388,9 +454,9 @@ class Saltation:
         two, tke = self.two_way, self.tke_sink
         # chunks of consecutive x-slabs with about equal parcel counts: each chunk's deposit
         # buffers cover only its slabs, widened by the stencil and by how far its parcels can move
-        chunk_assign(n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._hist,
-                     self._slab_stats, self._bounds, self._cid, self._cstart, self._idx,
-                     self._stats, self._v, self._w, self._z, self._pmax)
+        _ASSIGN(n, n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._hist,
+                self._slab_stats, self._bounds, self._cid, self._cstart, self._idx, self._stats,
+                self._v, self._w, self._z, self._pmax)
         nk = self._levels(state, dt) if n > 0 else 2
         ef = state.e if (tke or self.sgs) else self._e_zero
         if two:
@@ -402,11 +468,10 @@ class Saltation:
         if two:
             self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
             self._layout(self._margin, 3 * 2 * ny * nk)
-            implicit_coefficients(self._cstart, self._idx, P, F, dt, self.prm, geo.record,
-                                  self._pool, self._ranges, nk)
-            implicit_corrections(self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
-                                 state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax,
-                                 self._acc)
+            _IMPLICIT(n, self._cstart, self._idx, P, F, dt, self.prm, geo.record, self._pool,
+                      self._ranges, nk, self._lane_f, self._lane_i)
+            _CORRECT(nx * ny * nk, self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
+                     state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax, self._acc)
             dumax = float(self._dmax.max())
         else:
             dumax = 0.0
@@ -422,7 +487,7 @@ class Saltation:
         self._layout(self._margin, ncomp * ny * nk)
         W = Work(self._cstart, self._idx, self._ranges, self._pool, self._vmaxc, self._nhit,
                  self._lane_f, self._lane_i)
-        _advance_all(dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, W)
+        _ADVANCE(n, dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, W)
         # bed events (self._splash). Rebounds and ejecta leave the bed at the impact point with the
         # rest of the step as a time credit: they are integrated over dt + credit in the next step,
         # inside its implicit exchange (integrating them now, outside it, would be an explicit
@@ -454,10 +519,10 @@ class Saltation:
             else:
                 top, tke_out = nk, self._e_zero
             tot = self._tot
-            bed = apply_exchange(self._pool, self._ranges, nk, two, du, dv, dw, self.inv_mc,
-                                 self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w, tot,
-                                 tke, 3 if two else 0, max(nk, top), self.inv_vol, tke_out,
-                                 self._acc, self._part)
+            bed = _APPLY(nx * ny * nk, self._pool, self._ranges, nk, two, du, dv, dw,
+                         self.inv_mc, self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w,
+                         tot, tke, 3 if two else 0, max(nk, top), self.inv_vol, tke_out,
+                         self._acc, self._part)
             if two:
                 self.momentum_to_air += tot
                 self.momentum_to_bed += bed
@@ -495,9 +560,9 @@ class Saltation:
         en_r = np.zeros((nr, N_EN))
         out = np.zeros((nr, 3), dtype=np.int64)
         log = ImpactLog(self._tl, self._xl, self._yl, *self.impact_counts, self._log_prm)
-        splash_runs(self.splash_rngs, ev, lo, base, self._x, self._y, self._z, self._u, self._v,
-                    self._w, self._d, self._kd, self._flag, self._trem, self._dead, self.sp,
-                    self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out, log)
+        _SPLASH(n_ev, self.splash_rngs, ev, lo, base, self._x, self._y, self._z, self._u,
+                self._v, self._w, self._d, self._kd, self._flag, self._trem, self._dead, self.sp,
+                self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out, log)
         # close up the runs' ejecta stretches, in run order; the dead lists likewise
         dst = n
         dead = []
@@ -541,7 +606,7 @@ class Saltation:
         names = list(self._FIELDS) + (["su", "sv", "sw"] if self.sgs else [])
         for f in names:
             a = getattr(self, "_" + f)
-            _gather(n, perm, a, self._sort_tmp)
+            _GATHER(n, n, perm, a, self._sort_tmp)
             setattr(self, "_" + f, self._sort_tmp)
             self._sort_tmp = a
 
