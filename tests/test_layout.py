@@ -118,3 +118,12 @@ def test_no_module_over_800_lines():
     long = {p.relative_to(ROOT).as_posix(): n for p in sorted(PKG.rglob("*.py"))
             if (n := len(p.read_text().splitlines())) > MAX_LINES}
     assert not long, f"modules over {MAX_LINES} lines (split them along their processes): {long}"
+
+
+def test_the_grain_steps_kernels_called_by_name_exist():
+    """particles.Threads calls the step's parallel kernels by name from the module's globals."""
+    from saltstudy.solver.grains import particles
+
+    names = re.findall(r'Threads\("(\w+)"\)', (PKG / "solver/grains/particles.py").read_text())
+    assert names
+    assert [n for n in names if not callable(getattr(particles, n, None))] == []

@@ -85,6 +85,10 @@ import numpy as np
 from .coupling import (
     EST_LANES, EST_ROWS_F, EST_ROWS_I, N_CHUNKS, Flow, Parcels, air_maxima, chunk_ranges,
     face_inverse_masses, lagrangian_time_coefficients)
+# the step's parallel kernels, called by name through Threads (this module's globals)
+from .coupling import (apply_exchange, chunk_assign, implicit_coefficients,  # noqa: F401
+                       implicit_corrections)
+from .splash_kernels import splash_runs  # noqa: F401
 from ..grid import Grid
 from .interp import GridGeometry
 from .splash_kernels import (
