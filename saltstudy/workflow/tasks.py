@@ -217,7 +217,7 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
     u* at 2 m 0.43-0.72 m/s around 0.54 in its spin-up, reports/reduced/FINDINGS.md); starting case
     n (n - 1) links later spreads the cases over the swing. The archive keeps the parent's
     window-mean profiles (the particle-free reference of the analysis) and extends its u* history
-    over the link; its wall time is the parent's plus the link's (the cost of reaching this start).
+    over the link; its wall time is the link's own (a study's task times then sum each task once).
     A link is short (seconds of flow), so it has no checkpoint: an interrupted one reruns."""
     path = output_path(out_dir, "spinup", key)
     if is_complete(path):
@@ -269,7 +269,7 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
         profiles = {src: np.asarray(parent[dst].values) for src, dst in
                     (("u", "u_mean"), ("uw_res", "uw_res"), ("uw_sgs", "uw_sgs"),
                      ("tke_res", "tke_res"), ("e_sgs", "e_sgs"))}
-        wall = float(parent.attrs.get("wall_time_s", 0.0)) + time.perf_counter() - t0
+        wall = time.perf_counter() - t0
         ds = archives.spinup_dataset(
             scene, grid, ckpt, profiles, hist, converged=bool(parent.attrs.get("converged", 0)),
             reason=f"{parent.attrs.get('spinup_reason', '')}; continued {duration:g} s",
