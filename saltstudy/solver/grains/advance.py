@@ -46,7 +46,7 @@ def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx,
 
 @ijit
 def _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
-    """Scalar pass 5 of lane l (parcel p): the sub-step's exchange with the air, the parcel's
+    """Scalar stage 5 of lane l (parcel p): the sub-step's exchange with the air, the parcel's
     further sub-steps if it needs them, its state stored back. Returns (hit, time left, u, v)."""
     st = _lane_stencil(lf, li, l)
     k = lf[_K + l]

@@ -348,7 +348,7 @@ EST_ROWS_I = 7
 
 @ijit
 def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, paper, G, nx, ny, nz):
-    """Scalar pass 1 of implicit lane l (parcel p): its stencil, the parcel's values, a first
+    """Scalar stage 1 of implicit lane l (parcel p): its stencil, the parcel's values, a first
     drag rate if it has none (stored as kd = -k0 for the advance) and the log offset of "blend"
     (module doc)."""
     st = locate(P.x[p], P.y[p], P.z[p], G, nx, ny, nz)
@@ -394,7 +394,7 @@ def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, paper, G, nx, ny, nz)
 
 @ijit
 def _estimate_lane(lf, li, l, g, Q, rho_p, exact):
-    """Pass 2 of implicit lane l (vectorized; exact: a lane it left): c_p and the vertical u~_p
+    """Stage 2 of implicit lane l (vectorized; exact: a lane it left): c_p and the vertical u~_p
     (implicit_estimate, the same formulas), _EOK 0 where expm1's Taylor polynomial does not
     hold (then the exact pass redoes the lane)."""
     k = lf[_EK + l]
@@ -412,7 +412,7 @@ def _estimate_lane(lf, li, l, g, Q, rho_p, exact):
 
 @ijit
 def _estimate_deposit(lf, li, l, pool, off, csz, s, nx, ny, nk):
-    """Scalar pass 3 of implicit lane l: (A, B) of its three components on the faces."""
+    """Scalar stage 3 of implicit lane l: (A, B) of its three components on the faces."""
     cp = lf[_ECP + l]
     ah = cp * lf[_ELF + l]
     ixf = li[_EXF + l]

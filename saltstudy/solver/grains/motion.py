@@ -139,7 +139,7 @@ def _substep_length(T, t, wp, dzk, nsub):
 
 @ijit
 def _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
-    """Scalar pass 1 of lane l (parcel p, step T): the parcel into the lane, its stencil and the
+    """Scalar stage 1 of lane l (parcel p, step T): the parcel into the lane, its stencil and the
     resolved wind it sees (_wind_seen)."""
     xp = P.x[p]
     yp = P.y[p]
@@ -193,7 +193,7 @@ def _lane_stencil(lf, li, l):
 
 @ijit
 def _lane_start(lf, li, l, S, exact):
-    """Pass 2 of lane l (vectorized; exact: a lane it left): the parcel's constants, the sub-step
+    """Stage 2 of lane l (vectorized; exact: a lane it left): the parcel's constants, the sub-step
     (_substep_length), the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate
     with its k0, T and weights, coupling.estimate_weights), the seen velocity with its SGS part,
     the slip, a first drag rate if the parcel has none (its kd is then -k0:
@@ -324,7 +324,7 @@ def _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, S, exact)
 
 @ijit
 def _lane_move(lf, li, l, S, exact):
-    """Pass 4 of lane l (vectorized; exact: a lane it left, _FIX): _relax_and_move over its
+    """Stage 4 of lane l (vectorized; exact: a lane it left, _FIX): _relax_and_move over its
     sub-step; the end state into the lane, _HIT if it ended at the bed."""
     active = li[_ACTIVE + l] != 0
     xn, yn, zn, un, vn, wn, h, hit, ok = _relax_and_move(
