@@ -74,12 +74,15 @@ _UNITS = {
     "G_tot_series": ("kg m-1 s-1", "total mass flux"), "u_star_ref": ("m s-1", "u* at z_ref_eff"),
     "u_drive": ("m s-1", "driving velocity"), "dt": ("s", "time step"), "max_cfl": ("1", "max CFL"),
     "E_impact": ("J", "cumulative impact energy"), "E_splash": ("J", "cumulative splash energy"),
+    "bed_px": ("kg m s-1", "cumulative streamwise momentum given to the bed"),
+    "bed_pz": ("kg m s-1", "cumulative vertical momentum the bed gave the grains"),
+    "C_p_above": ("m-2", "grains above the first cell per bed area"),
 }
 
 _GRAIN_SUMS = ("pm", "pmu", "pmv", "pmw", "pmuu", "pmuw", "pmww", "pmvv", "pn", "pdrag", "pmuf_up",
                "pmuf", "pmuf_uf", "pmup_up")
 _SERIES = ("n_parcels", "n_impacts", "n_rebounds", "n_ejections", "n_depositions", "G_tot_series",
-           "u_star_ref", "u_drive", "dt", "max_cfl", "E_impact", "E_splash")
+           "u_star_ref", "u_drive", "dt", "max_cfl", "E_impact", "E_splash", "bed_px", "bed_pz")
 
 
 def samples_schema_variables() -> dict[str, tuple[str, ...]]:
@@ -90,7 +93,7 @@ def samples_schema_variables() -> dict[str, tuple[str, ...]]:
     out.update({k: ("time", "z") for k in ("u_mean", "tke_res", "e_sgs", "eps_sgs", "sgs_transfer")})
     out.update({k: ("time", "z") for k in _GRAIN_SUMS})
     out["size_hist"] = ("time", "z", "d_bin")
-    out.update({k: ("time_plane", "x", "y") for k in ("C_p", "G_col")})
+    out.update({k: ("time_plane", "x", "y") for k in ("C_p", "C_p_above", "G_col")})
     out["u_plane"] = ("time_plane", "x", "y", "z_plane")
     out.update({k: ("time_series",) for k in _SERIES})
     out["d_edges"] = ("d_edge",)
@@ -272,6 +275,8 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
         "n_depositions": 2 * ts, "G_tot_series": g_series, "u_star_ref": u_star_s + 0 * ts,
         "u_drive": 10.0 + 0 * ts, "dt": 0.01 + 0 * ts, "max_cfl": 0.5 + 0 * ts,
         "E_impact": e_imp, "E_splash": 0.6 * e_imp,
+        # the grains' impacts give the bed a steady stress: mu_b = 0.8 of a steady vertical push
+        "bed_px": 0.8 * 2.0e-3 * ts, "bed_pz": 2.0e-3 * ts,
     }
 
     # --- samples.nc ---
@@ -297,6 +302,7 @@ def build_archives(directory: str | Path, *, nx: int = 16, ny: int = 12, nz: int
         data[name] = _v(("time", "z"), tile(sums[name]), name)
     data["size_hist"] = _v(("time", "z", "d_bin"), tile(size_hist), "size_hist")
     data["C_p"] = _v(("time_plane", "x", "y"), planes_c, "C_p")
+    data["C_p_above"] = _v(("time_plane", "x", "y"), 0.4 * planes_c, "C_p_above")
     data["G_col"] = _v(("time_plane", "x", "y"), gcol, "G_col")
     data["u_plane"] = _v(("time_plane", "x", "y", "z_plane"), planes_u, "u_plane")
     for name in _SERIES:

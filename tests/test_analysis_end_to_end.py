@@ -207,3 +207,17 @@ def test_half_window_statistics_of_a_stationary_archive(tmp_path):
     few_s, few_sp, _ = build_archives(tmp_path / "few", n_samples=3)
     few = open_dataset(analyse_case(few_s, few_sp, tmp_path / "few.nc"))
     assert "z_m_halves" not in few.variables
+
+
+def test_a_half_window_cuts_each_record_along_its_own_time_axis():
+    """13 samples, 301 planes, 841 series records: a record not in the known lists is placed by
+    the length of its first axis; one matching two axes is taken as samples."""
+    from saltstudy.analysis.analyse import half_kind
+    n = dict(n_sample=13, n_plane=301, n_series=841)
+    assert half_kind("bed_px", np.zeros(841), **n) == "series"
+    assert half_kind("C_p_above", np.zeros((301, 4, 4)), **n) == "plane"
+    assert half_kind("new_series", np.zeros(841), **n) == "series"
+    assert half_kind("new_planes", np.zeros((301, 4)), **n) == "plane"
+    assert half_kind("new_profile", np.zeros((13, 54)), **n) == "sample"
+    assert half_kind("edges", np.zeros(25), **n) == "whole"
+    assert half_kind("both", np.zeros(13), n_sample=13, n_plane=13, n_series=841) == "sample"

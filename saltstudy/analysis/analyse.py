@@ -93,9 +93,32 @@ def analyse_case(samples_path: str | Path, spinup_path: str | Path | None, out_p
 
 #: samples.nc variables along the planes' time axis, along the series' and whole (not in time);
 #: the others run along the 3-D samples' time axis
-_PLANE_VARIABLES = ("C_p", "G_col", "u_plane")
-_SERIES_VARIABLES = ("n_parcels", "G_tot_series", "u_star_ref", "E_impact", "E_splash")
+_PLANE_VARIABLES = ("C_p", "C_p_above", "G_col", "u_plane")
+_SERIES_VARIABLES = ("n_parcels", "G_tot_series", "u_star_ref", "E_impact", "E_splash", "bed_px",
+                     "bed_pz")
 _WHOLE_VARIABLES = ("d_edges",)
+
+
+def half_kind(name: str, v: Any, n_sample: int, n_plane: int, n_series: int) -> str:
+    """How a half window takes variable ``name``: "sample" (its rows of the 3-D samples),
+    "plane" (its planes), "series" or "whole" (kept whole). The lists above name the known
+    ones; any other is placed by the length of its first axis when that length is one time
+    axis's alone (a series record added to samples.nc and cut as if it were samples would make
+    every half-window statistic NaN), and taken as samples otherwise, as before."""
+    if name in _WHOLE_VARIABLES:
+        return "whole"
+    if name in _SERIES_VARIABLES:
+        return "series"
+    if name in _PLANE_VARIABLES:
+        return "plane"
+    shape = getattr(v, "shape", ())
+    if not shape:
+        return "whole"
+    hits = [k for k, n in (("sample", n_sample), ("plane", n_plane), ("series", n_series))
+            if shape[0] == n]
+    if len(hits) == 1:
+        return hits[0]
+    return "sample" if "sample" in hits else "whole"
 
 
 def half_window_statistics(attrs: dict[str, Any], coords: dict[str, np.ndarray], s: dict[str, Any],
@@ -110,6 +133,7 @@ def half_window_statistics(attrs: dict[str, Any], coords: dict[str, np.ndarray],
         return {}
     h = t_s.size // 2
     t_p = np.asarray(coords.get("time_plane", np.zeros(0)), dtype=np.float64)
+    n_series = int(np.asarray(coords.get("time_series", np.zeros(0))).size)
     split = float(t_s[h]) - 1e-9
     out: dict[str, list[float]] = {k: [] for k in HALF_STATISTICS}
     for (a, b) in ((0, h), (h, t_s.size)):
@@ -120,9 +144,10 @@ def half_window_statistics(attrs: dict[str, Any], coords: dict[str, np.ndarray],
         c["time_plane"] = t_p[pa:pb]
         sub: dict[str, Any] = {}
         for name, v in s.items():
-            if v is None or name in _SERIES_VARIABLES or name in _WHOLE_VARIABLES:
+            kind = "whole" if v is None else half_kind(name, v, t_s.size, t_p.size, n_series)
+            if kind in ("whole", "series"):
                 sub[name] = v
-            elif name in _PLANE_VARIABLES:
+            elif kind == "plane":
                 sub[name] = v[pa:pb] if isinstance(v, np.ndarray) else Rows(v, pa, pb)
             else:
                 sub[name] = v[a:b] if isinstance(v, np.ndarray) else Rows(v, a, b)
