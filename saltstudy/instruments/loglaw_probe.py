@@ -293,4 +293,6 @@ def register_probe(app) -> None:
     register_coherence(probe_app)
     from .steady_layer import register_steady_layer
     register_steady_layer(probe_app)
+    from .column_budget import register_column_budget
+    register_column_budget(probe_app)
     app.add_typer(probe_app, name="probe")

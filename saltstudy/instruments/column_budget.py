@@ -1,0 +1,152 @@
+"""Where the stress at 2 m comes from: the x-momentum budget of the column above the reference
+height in one saltation archive.
+
+    saltstudy probe column-budget RUN_DIR_OR_SAMPLES_NC [...] [--json]
+
+With the top drive the horizontal-mean x-momentum above z_ref (P = integral of <u> from z_ref to
+the lid, per unit area) obeys
+
+    dP/dt = M - tau(z_ref),        M = sum_k f_k (u_drive - <u>_k) dz_k,
+
+M the momentum the Rayleigh layer feeds in per unit area and time (solver/flow/forcing.py; no
+stress crosses the free-slip lid, and the column relaxation is off after its first seconds). Over
+a sampling window [t0, t1] the mean of each term follows from the archive:
+
+- tau(z_ref): the mean of u*^2 of the drive's own record ``u_star_ref`` (Table 2's stress u*s
+  squared, analysis/series.py);
+- M: u_drive of the record and the profiles ``u_mean`` at the volumes, averaged over them;
+- the storage -dP/dt: (P(t0) - P(t1)) / (t1 - t0) from the first and last profiles (exact for the
+  window's mean, whatever happened between).
+
+Each is given over u*s^2 of the case, so that the stress's excess splits into the drive's part
+(M - u*s^2) and the column's (-dP/dt, a column still losing the momentum of the particle-free
+flow reads high at 2 m); the residual tau - M + dP/dt measures how well the sampled profiles close
+the budget. The stress is also given in 5-s blocks from activation (the transient's shape).
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["column_budget", "column_momentum", "register_column_budget"]
+
+BLOCK_S = 5.0
+
+
+def column_momentum(u_mean: np.ndarray, z_w: np.ndarray, z_ref: float) -> np.ndarray:
+    """P = integral of the horizontal-mean u from z_ref to the top face, per unit area
+    [m^2 s^-1], for profiles ``u_mean`` (..., nz) on cells bounded by the faces ``z_w`` (nz+1,):
+    the cell cut by z_ref counts with its part above it."""
+    z_w = np.asarray(z_w, dtype=np.float64)
+    over = np.clip(z_w[1:], z_ref, None) - np.clip(z_w[:-1], z_ref, None)
+    return np.asarray(u_mean, dtype=np.float64) @ over
+
+
+def _damping_rate(z_c: np.ndarray, Lz: float, depth: float, timescale: float) -> np.ndarray:
+    from ..solver.flow.damping import rayleigh_profile
+    return rayleigh_profile(z_c, Lz, depth, timescale)
+
+
+def column_budget(samples: Path, block_s: float = BLOCK_S) -> dict:
+    """The budget of the column above z_ref over the archive's sampling window (module doc).
+    Returns {"label", "u_star_s", "z_ref", "window": [t0, t1], "u_star_2m", "tau_2m",
+    "M_drive", "storage", "residual" (all stresses over u*s^2), "halves": [u* of each half],
+    "blocks": [{"t0", "t1", "u_star_2m"}]}. Raises ValueError for an archive without these
+    records or one not driven from the top."""
+    from ..ncio import open_dataset
+
+    ds = open_dataset(samples)
+    need = ("u_star_ref", "u_drive", "time_series", "u_mean", "time", "z", "z_w")
+    missing = [n for n in need if n not in ds]
+    if missing:
+        raise ValueError(f"{samples}: no {', '.join(map(repr, missing))} (not a saltation archive "
+                         f"with the drive's record and mean profiles)")
+    for a in ("case_json", "Lz", "u_star_target", "z_ref_eff"):
+        if a not in ds.attrs:
+            raise ValueError(f"{samples}: no attribute {a!r}")
+    run = json.loads(ds.attrs["case_json"])
+    if run["case"]["forcing"].get("drive", "top") != "top":
+        raise ValueError(f"{samples}: forcing.drive is {run['case']['forcing']['drive']!r}; the "
+                         f"budget needs the top drive")
+    grid = run["fidelity"]["grid"]
+    Lz = float(ds.attrs["Lz"])
+    z_ref = float(ds.attrs["z_ref_eff"])
+    us_t = float(ds.attrs["u_star_target"])
+    target = us_t * us_t
+    ts = ds["time_series"].values
+    us = ds["u_star_ref"].values
+    ud = ds["u_drive"].values
+    t = ds["time"].values
+    if t.size < 2:
+        raise ValueError(f"{samples}: {t.size} volume(s): the storage needs two")
+    t0, t1 = float(t[0]), float(t[-1])
+    z_c = ds["z"].values
+    z_w = ds["z_w"].values
+    f = _damping_rate(z_c, Lz, float(grid["damping_depth"]), float(grid["damping_timescale"]))
+    um = ds["u_mean"].values
+    ud_v = np.interp(t, ts, ud)
+    M = (f * np.diff(z_w) * (ud_v[:, None] - um)).sum(axis=1)
+    P = column_momentum(um, z_w, z_ref)
+    win = (ts >= t0) & (ts <= t1)
+    tau = float(np.mean(us[win] ** 2))
+    storage = (P[0] - P[-1]) / (t1 - t0)
+    mid = 0.5 * (t0 + t1)
+    halves = [math.sqrt(float(np.mean(us[(ts >= a) & (ts <= b)] ** 2)))
+              for a, b in ((t0, mid), (mid, t1))]
+    blocks = []
+    for a in np.arange(0.0, ts.max() - 0.5 * block_s + 1e-9, block_s):
+        m = (ts >= a) & (ts < a + block_s)
+        if m.any():
+            blocks.append({"t0": float(a), "t1": float(a + block_s),
+                           "u_star_2m": math.sqrt(float(np.mean(us[m] ** 2)))})
+    return {"samples": str(samples), "label": str(ds.attrs.get("label", "")), "u_star_s": us_t,
+            "z_ref": z_ref, "window": [t0, t1], "u_star_2m": math.sqrt(tau),
+            "tau_2m": tau / target, "M_drive": float(np.mean(M)) / target,
+            "storage": float(storage) / target,
+            "residual": (tau - float(np.mean(M)) - storage) / target,
+            "halves": halves, "blocks": blocks}
+
+
+def format_column_budget(rows: list[dict]) -> str:
+    lines = ["x-momentum of the column above z_ref over the sampling window, each term over u*s^2",
+             "(tau = M + storage + residual; storage = -dP/dt, a decelerating column reads high)",
+             "",
+             f"{'run':<10} {'u*s':>6} {'u* 2 m':>7} {'(+%)':>6} {'tau':>6} {'M drive':>8} "
+             f"{'storage':>8} {'resid.':>7}  halves"]
+    for r in rows:
+        ex = 100.0 * (r["u_star_2m"] / r["u_star_s"] - 1.0)
+        lines.append(f"{r['label'][:10]:<10} {r['u_star_s']:6.3f} {r['u_star_2m']:7.3f} {ex:+6.1f} "
+                     f"{r['tau_2m']:6.2f} {r['M_drive']:8.2f} {r['storage']:8.2f} "
+                     f"{r['residual']:7.2f}  {r['halves'][0]:.3f} / {r['halves'][1]:.3f}")
+    lines.append("")
+    lines.append("u* at 2 m in 5-s blocks from activation, over u*s:")
+    for r in rows:
+        lines.append(f"{r['label'][:10]:<10} " + " ".join(
+            f"{b['u_star_2m'] / r['u_star_s']:.2f}" for b in r["blocks"]))
+    return "\n".join(lines)
+
+
+def register_column_budget(probe_app) -> None:
+    """Add ``saltstudy probe column-budget`` to the ``probe`` sub-app."""
+    import typer
+
+    @probe_app.command("column-budget")
+    def column_budget_cmd(paths: list[Path] = typer.Argument(
+            ..., help="saltation archives (samples.nc) or the directories holding them"),
+            as_json: bool = typer.Option(False, "--json", help="one JSON list")) -> None:
+        """The x-momentum budget of the column above 2 m: why the stress there reads as it does."""
+        rows = []
+        for path in paths:
+            samples = path / "samples.nc" if path.is_dir() else path
+            if not samples.is_file():
+                typer.echo(f"error: {samples}: no such file", err=True)
+                raise typer.Exit(2)
+            try:
+                rows.append(column_budget(samples))
+            except (OSError, ValueError) as exc:
+                typer.echo(f"error: {exc}", err=True)
+                raise typer.Exit(2) from None
+        typer.echo(json.dumps(rows) if as_json else format_column_budget(rows))

@@ -1,0 +1,88 @@
+"""`saltstudy probe column-budget`: the x-momentum budget of the column above z_ref closes on a
+synthetic archive whose column decelerates at a known rate, and the command's errors."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+from typer.testing import CliRunner
+
+from saltstudy.cli import app
+from saltstudy.instruments.column_budget import column_budget, column_momentum
+from saltstudy.solver.flow.damping import rayleigh_profile
+
+LZ, NZ, DEPTH, TSCALE, Z_REF, US = 6.0, 24, 1.5, 5.0, 2.0, 0.5
+
+
+def _archive(path, decel: float, drive: str = "top"):
+    """A column whose mean wind falls by ``decel`` m/s per s at every height, a constant drive
+    velocity, and the stress at z_ref that the budget then requires at every instant."""
+    z_w = np.linspace(0.0, LZ, NZ + 1)
+    z = 0.5 * (z_w[1:] + z_w[:-1])
+    t = np.linspace(12.0, 42.0, 13)
+    ts = np.arange(0.0, 42.0 + 1e-9, 0.05)
+    base = 2.5 * np.log(z / 1e-4)
+    u_drive = float(base[-1]) + 3.0
+    f = rayleigh_profile(z, LZ, DEPTH, TSCALE)
+    dz = np.diff(z_w)
+
+    def drive_force(tt):
+        return float(np.sum(f * dz * (u_drive - (base - decel * tt))))
+
+    storage = decel * (LZ - Z_REF)  # -dP/dt
+    tau = np.array([drive_force(tt) + storage for tt in ts])
+    run = {"case": {"forcing": {"drive": drive}},
+           "fidelity": {"grid": {"damping_depth": DEPTH, "damping_timescale": TSCALE}}}
+    ds = xr.Dataset(
+        {"u_star_ref": ("time_series", np.sqrt(tau)),
+         "u_drive": ("time_series", np.full(ts.size, u_drive)),
+         "u_mean": (("time", "z"), base[None, :] - decel * t[:, None])},
+        coords={"time_series": ts, "time": t, "z": z, "z_w": z_w},
+        attrs={"case_json": json.dumps(run), "Lz": LZ, "u_star_target": US, "z_ref_eff": Z_REF,
+               "label": "synthetic"})
+    ds.to_netcdf(path)
+    return tau, storage
+
+
+def test_column_momentum_counts_the_cut_cell_by_its_part_above_z_ref():
+    z_w = np.array([0.0, 1.0, 3.0, 4.0])
+    u = np.array([10.0, 20.0, 30.0])
+    # half of the middle cell lies above 2 m
+    assert column_momentum(u, z_w, 2.0) == pytest.approx(20.0 * 1.0 + 30.0 * 1.0)
+
+
+def test_the_budget_closes_and_splits_the_excess_into_drive_and_storage(tmp_path):
+    decel = 0.004
+    tau, storage = _archive(tmp_path / "samples.nc", decel)
+    r = column_budget(tmp_path / "samples.nc")
+    target = US * US
+    assert r["storage"] == pytest.approx(storage / target, rel=1e-9)
+    assert r["residual"] == pytest.approx(0.0, abs=2e-3)
+    assert r["tau_2m"] == pytest.approx(r["M_drive"] + r["storage"], abs=2e-3)
+    # the decelerating column reads above what the drive feeds in
+    assert r["tau_2m"] > r["M_drive"]
+    assert r["window"] == [12.0, 42.0]
+    assert len(r["blocks"]) == 8 and r["blocks"][0]["t0"] == 0.0
+
+
+def test_a_steady_column_stores_nothing(tmp_path):
+    _archive(tmp_path / "samples.nc", 0.0)
+    r = column_budget(tmp_path / "samples.nc")
+    assert r["storage"] == pytest.approx(0.0, abs=1e-12)
+    assert r["tau_2m"] == pytest.approx(r["M_drive"], rel=1e-3)
+
+
+def test_the_command_prints_the_table_and_names_what_is_wrong(tmp_path):
+    _archive(tmp_path / "samples.nc", 0.002)
+    runner = CliRunner()
+    res = runner.invoke(app, ["probe", "column-budget", str(tmp_path), "--json"])
+    assert res.exit_code == 0, res.output
+    rows = json.loads(res.output)
+    assert rows[0]["label"] == "synthetic"
+    res = runner.invoke(app, ["probe", "column-budget", str(tmp_path / "none")])
+    assert res.exit_code == 2 and "no such file" in res.output
+    _archive(tmp_path / "pg.nc", 0.0, drive="pressure_gradient")
+    res = runner.invoke(app, ["probe", "column-budget", str(tmp_path / "pg.nc")])
+    assert res.exit_code == 2 and "top drive" in res.output
