@@ -314,12 +314,14 @@ def table2_markdown(ctx: ReportContext) -> str:
              "over the 3-D samples (the scatter of the per-sample fits). u*s is the free log-law "
              "fit above the saltation layer; “u*s, stress at z_ref” is the paper's own reading "
              "(section 3.1: u* from ⟨u'w'⟩ at 2 m) and leads the table; z0s with it is the paper's "
-             "roughness regression. The drive feeds u*s² of momentum in at the top; over a short "
-             "window the stress at 2 m departs from it with the box's slow swings (its bar: the "
-             "standard error of 10-s block means, which a window of a few blocks underrates): "
-             "one 30-s run of the `reduced` box reads a case within about ±10 % (four "
-             "realizations of case 1: 0.377–0.486 m/s against 0.41, reports/reduced/FINDINGS.md), "
-             "`quick`'s 12-s window within about ±40 %. " + _start_text(ctx) + " " + _departures_text(ctx), "",
+             "roughness regression. The drive feeds u*s² of momentum in at the top (through a 20-s "
+             "lag); over a short window the stress at 2 m departs from it by what the column "
+             "above 2 m gains or loses (`saltstudy probe column-budget`) and with the box's slow "
+             "swings (its bar: the standard error of 10-s block means, which a window of a few "
+             "blocks underrates): after the column relaxation the air above 2 m still sheds the "
+             "particle-free flow's momentum, and the `reduced` study's ten 30-s windows read "
+             "+11 % on average (−7 to +19 %, reports/reduced/FINDINGS.md); `quick`'s 12-s window "
+             "reads within about ±40 %. " + _start_text(ctx) + " " + _departures_text(ctx), "",
              "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
     for row in rows:
         if row["status"] != "ok":

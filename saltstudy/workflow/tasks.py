@@ -214,8 +214,12 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
 
     Why: cases that share one spin-up start from one instant of it and so sample one phase of the
     box's slow swings of the stress at 2 m (about a minute long on the reduced grid: 5-s means of
-    u* at 2 m 0.43-0.72 m/s around 0.54 in its spin-up, reports/reduced/FINDINGS.md); starting case
-    n (n - 1) links later spreads the cases over the swing. The archive keeps the parent's
+    u* at 2 m 0.43-0.72 m/s around 0.54 in its spin-up,
+    ``git show 546de10:reports/reduced/FINDINGS.md``); starting case
+    n (n - 1) links later spreads the cases over the swing. On ``reduced`` it did not remove the
+    ten cases' common excess of the stress u*s (+13 % from one instant, +11 % staggered): that is
+    the column above 2 m still shedding momentum after the relaxation, in every start
+    (reports/reduced/FINDINGS.md). The archive keeps the parent's
     window-mean profiles (the particle-free reference of the analysis) and extends its u* history
     over the link; its wall time is the link's own (a study's task times then sum each task once).
     A link is short (seconds of flow), so it has no checkpoint: an interrupted one reruns."""
