@@ -318,8 +318,8 @@ def table2_markdown(ctx: ReportContext) -> str:
              "lag); over a short window the stress at 2 m departs from it by what the column "
              "above 2 m gains or loses (`saltstudy probe column-budget`) and with the box's slow "
              "swings (its bar: the standard error of 10-s block means, which a window of a few "
-             "blocks underrates): after the column relaxation the air above 2 m still sheds the "
-             "particle-free flow's momentum, and the `reduced` study's ten 30-s windows read "
+             "blocks underrates): after the column relaxation the air above 2 m is out of balance "
+             "and swings for more than a minute, and the `reduced` study's ten 30-s windows read "
              "+11 % on average (−7 to +19 %, reports/reduced/FINDINGS.md); `quick`'s 12-s window "
              "reads within about ±40 %. " + _start_text(ctx) + " " + _departures_text(ctx), "",
              "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]

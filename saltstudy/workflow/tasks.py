@@ -218,7 +218,7 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
     ``git show 546de10:reports/reduced/FINDINGS.md``); starting case
     n (n - 1) links later spreads the cases over the swing. On ``reduced`` it did not remove the
     ten cases' common excess of the stress u*s (+13 % from one instant, +11 % staggered): that is
-    the column above 2 m still shedding momentum after the relaxation, in every start
+    the column above 2 m out of balance after the relaxation, in every start
     (reports/reduced/FINDINGS.md). The archive keeps the parent's
     window-mean profiles (the particle-free reference of the analysis) and extends its u* history
     over the link; its wall time is the link's own (a study's task times then sum each task once).
