@@ -16,8 +16,8 @@ largest (1.09 for dz/dx = 1/3, 1.33 for 1/8). Flat cells of the stretched grid o
 short a filter width, too little SGS dissipation, and resolved eddies that mix too well: in an early
 short run on the reduced grid the log law's phi fell to 0.84 at 0.5 m with the geometric mean and not
 with the correction. At equilibrium (600 s spin-up, tests/test_solver_loglaw.py) phi still dips to
-~0.7 at about 6 Delta whatever the filter width: the dip rides on Delta, see "What the dip is tied
-to" in reports/reduced/FINDINGS.md. ``case.closure.delta`` selects the correction.
+~0.7 at about 6 Delta whatever the filter width: the dip rides on Delta, see
+reports/loglaw/README.md. ``case.closure.delta`` selects the correction.
 The buoyancy term of A1 vanishes (neutral scenes).
 
 Length scale near the bed. With l = Delta everywhere the SGS model is far too diffusive-free near a
