@@ -33,7 +33,7 @@ import numpy as np
 from .reading import Frame
 from .schema import Variables
 
-__all__ = ["N_BLOCKS", "bed_exchange", "budget_friction", "column_momentum_rate",
+__all__ = ["N_BLOCKS", "bed_exchange", "budget_friction", "column_momentum_rate", "layer_weights",
            "air_budget_statistics", "impact_balance_statistics"]
 
 #: contiguous blocks of the sampling window for the impact record's error
@@ -83,6 +83,13 @@ def bed_exchange(t: np.ndarray, bed_px: np.ndarray | None, bed_pz: np.ndarray | 
     return out
 
 
+def layer_weights(z_w: np.ndarray, z_lo: float, z_hi: float) -> np.ndarray:
+    """The length [m] of each cell between the faces ``z_w`` (nz+1,) that lies in [z_lo, z_hi]:
+    ``u_mean @ layer_weights(...)`` integrates a profile over the layer, a cut cell in part."""
+    zw = np.asarray(z_w, dtype=np.float64)
+    return np.clip(np.minimum(zw[1:], z_hi) - np.maximum(zw[:-1], z_lo), 0.0, None)
+
+
 def column_momentum_rate(t: np.ndarray, u_mean: np.ndarray | None, z_w: np.ndarray,
                          z_top: float) -> float:
     """dP/dt [m^2 s^-2] of P = int_0^z_top <u> dz, the least-squares slope over the samples'
@@ -96,8 +103,7 @@ def column_momentum_rate(t: np.ndarray, u_mean: np.ndarray | None, z_w: np.ndarr
     zw = np.asarray(z_w, dtype=np.float64)
     if u.ndim != 2 or u.shape[0] != t.size or u.shape[1] != zw.size - 1 or t.size < 3:
         return math.nan
-    w = np.clip(np.minimum(zw[1:], z_top) - zw[:-1], 0.0, None)
-    P = u @ w
+    P = u @ layer_weights(zw, zw[0], z_top)
     ok = np.isfinite(P) & np.isfinite(t)
     if ok.sum() < 3 or np.ptp(t[ok]) <= 0:
         return math.nan

@@ -40,14 +40,9 @@ def column_momentum(u_mean: np.ndarray, z_w: np.ndarray, z_ref: float) -> np.nda
     """P = integral of the horizontal-mean u from z_ref to the top face, per unit area
     [m^2 s^-1], for profiles ``u_mean`` (..., nz) on cells bounded by the faces ``z_w`` (nz+1,):
     the cell cut by z_ref counts with its part above it."""
+    from ..analysis.balance import layer_weights
     z_w = np.asarray(z_w, dtype=np.float64)
-    over = np.clip(z_w[1:], z_ref, None) - np.clip(z_w[:-1], z_ref, None)
-    return np.asarray(u_mean, dtype=np.float64) @ over
-
-
-def _damping_rate(z_c: np.ndarray, Lz: float, depth: float, timescale: float) -> np.ndarray:
-    from ..solver.flow.damping import rayleigh_profile
-    return rayleigh_profile(z_c, Lz, depth, timescale)
+    return np.asarray(u_mean, dtype=np.float64) @ layer_weights(z_w, z_ref, z_w[-1])
 
 
 def column_budget(samples: Path, block_s: float = BLOCK_S) -> dict:
@@ -57,6 +52,7 @@ def column_budget(samples: Path, block_s: float = BLOCK_S) -> dict:
     "blocks": [{"t0", "t1", "u_star_2m"}]}. Raises ValueError for an archive without these
     records or one not driven from the top."""
     from ..ncio import open_dataset
+    from ..solver.flow.damping import rayleigh_profile
 
     ds = open_dataset(samples)
     need = ("u_star_ref", "u_drive", "time_series", "u_mean", "time", "z", "z_w")
@@ -85,7 +81,7 @@ def column_budget(samples: Path, block_s: float = BLOCK_S) -> dict:
     t0, t1 = float(t[0]), float(t[-1])
     z_c = ds["z"].values
     z_w = ds["z_w"].values
-    f = _damping_rate(z_c, Lz, float(grid["damping_depth"]), float(grid["damping_timescale"]))
+    f = rayleigh_profile(z_c, Lz, float(grid["damping_depth"]), float(grid["damping_timescale"]))
     um = ds["u_mean"].values
     ud_v = np.interp(t, ts, ud)
     M = (f * np.diff(z_w) * (ud_v[:, None] - um)).sum(axis=1)
