@@ -145,6 +145,13 @@ class Forcing(_Frozen):
     z_ref: float = Field(2.0, gt=0, description="height where u* is read and held [m] (paper: 2 m)")
     controller_timescale: float = Field(
         20.0, gt=0, description="relaxation time of the driving-velocity controller [s]")
+    stress_gain: float = Field(
+        0.0, ge=0, le=10.0, description="K_p: during saltation the drive feeds u*s^2 - K_p (tau(z_ref) "
+        "- u*s^2), so a column out of balance returns to tau(z_ref) = u*s^2 ~(1 + K_p)x faster; 0 (the "
+        "paper's constant drive): u*s^2 (solver/flow/forcing.py)")
+    stress_timescale: float = Field(
+        2.0, gt=0, le=60.0, description="T_s [s]: filter of tau(z_ref) and lag of the drive when "
+        "stress_gain > 0")
     drive: Literal["top", "pressure_gradient"] = Field(
         "top", description="top (default, the paper's set-up): base-state wind through the Rayleigh "
         "layer with a slow u* controller, constant stress below it (on domains a few metres deep its "
@@ -538,7 +545,8 @@ class Scene(_Frozen):
             # when the bed stress is taken matters only beside the grains' drag
             "surface": c.surface.model_dump(mode="json", exclude={"stress_instant"}),
             "closure": c.closure.model_dump(mode="json"),
-            "forcing": c.forcing.model_dump(mode="json"),
+            # the drive's answer to the stress at z_ref acts only on saltation runs
+            "forcing": c.forcing.model_dump(mode="json", exclude={"stress_gain", "stress_timescale"}),
             "seed": c.seed,
             "grid": f.grid.model_dump(mode="json"),
             "time": f.time.model_dump(mode="json"),

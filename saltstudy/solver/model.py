@@ -111,7 +111,9 @@ class Model:
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
                                      case.forcing.controller_timescale, stepper.f_c,
-                                     case.air.kappa, case.surface.z0)
+                                     case.air.kappa, case.surface.z0,
+                                     stress_gain=case.forcing.stress_gain,
+                                     stress_timescale=case.forcing.stress_timescale)
         rng = np.random.default_rng(case.seed)
         components = []
         if saltation and case.physics.saltation:
@@ -262,6 +264,7 @@ class Model:
             else:
                 act(self.state)
         self.t_activation = float(self.state.t)
+        self.controller.answers_stress = self.controller.stress_gain > 0
 
     # ---- checkpoint --------------------------------------------------------------------------
     def checkpoint(self) -> dict:
