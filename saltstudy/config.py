@@ -145,13 +145,6 @@ class Forcing(_Frozen):
     z_ref: float = Field(2.0, gt=0, description="height where u* is read and held [m] (paper: 2 m)")
     controller_timescale: float = Field(
         20.0, gt=0, description="relaxation time of the driving-velocity controller [s]")
-    stress_gain: float = Field(
-        0.0, ge=0, le=10.0, description="K_p: during saltation the drive feeds u*s^2 - K_p (tau(z_ref) "
-        "- u*s^2), so a column out of balance returns to tau(z_ref) = u*s^2 ~(1 + K_p)x faster; 0 (the "
-        "paper's constant drive): u*s^2 (solver/flow/forcing.py)")
-    stress_timescale: float = Field(
-        2.0, gt=0, le=60.0, description="T_s [s]: filter of tau(z_ref) and lag of the drive when "
-        "stress_gain > 0")
     drive: Literal["top", "pressure_gradient"] = Field(
         "top", description="top (default, the paper's set-up): base-state wind through the Rayleigh "
         "layer with a slow u* controller, constant stress below it (on domains a few metres deep its "
@@ -393,10 +386,20 @@ class Sampling(_Frozen):
 class Relaxation(_Frozen):
     """Column relaxation after activation (solver/flow/relaxation.py): a uniform body force
     -K (tau_bed - u*s^2) / Lz that brings the particle-free column to the saltation equilibrium
-    about (1 + K) times faster, switched off before sampling. Off (K = 0) by default."""
+    about (1 + K) times faster, switched off before sampling; and a top drive that answers the
+    stress at z_ref (``stress_gain``). Both off by default: cost knobs for a short window, not the
+    paper's physics."""
     gain: float = Field(0.0, ge=0, le=20, description="K [-]: 0 switches the relaxation off")
     timescale: float = Field(1.0, gt=0, description="running-mean time of the bed stress [s]")
     until: float = Field(0.0, ge=0, description="active until this time after activation [s]")
+    stress_gain: float = Field(
+        0.0, ge=0, le=10.0, description="K_p [-]: through the whole saltation run the top drive feeds "
+        "u*s^2 - K_p (tau(z_ref) - u*s^2) instead of u*s^2, so a column out of balance returns to "
+        "tau(z_ref) = u*s^2 about (1 + K_p) times faster, with the same fixed point "
+        "(solver/flow/forcing.py); 0 switches it off")
+    stress_timescale: float = Field(
+        2.0, gt=0, le=60.0, description="T_s [s]: running-mean time of tau(z_ref) and lag of the drive "
+        "when stress_gain > 0")
 
 
 class Outputs(_Frozen):
@@ -545,8 +548,7 @@ class Scene(_Frozen):
             # when the bed stress is taken matters only beside the grains' drag
             "surface": c.surface.model_dump(mode="json", exclude={"stress_instant"}),
             "closure": c.closure.model_dump(mode="json"),
-            # the drive's answer to the stress at z_ref acts only on saltation runs
-            "forcing": c.forcing.model_dump(mode="json", exclude={"stress_gain", "stress_timescale"}),
+            "forcing": c.forcing.model_dump(mode="json"),
             "seed": c.seed,
             "grid": f.grid.model_dump(mode="json"),
             "time": f.time.model_dump(mode="json"),

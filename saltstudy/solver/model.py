@@ -112,8 +112,8 @@ class Model:
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
                                      case.forcing.controller_timescale, stepper.f_c,
                                      case.air.kappa, case.surface.z0,
-                                     stress_gain=case.forcing.stress_gain,
-                                     stress_timescale=case.forcing.stress_timescale)
+                                     stress_gain=fid.relaxation.stress_gain,
+                                     stress_timescale=fid.relaxation.stress_timescale)
         rng = np.random.default_rng(case.seed)
         components = []
         if saltation and case.physics.saltation:

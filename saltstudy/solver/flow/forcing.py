@@ -43,7 +43,7 @@ default: the steady balance already pins the stress) trims any residual offset f
 component may report its stress at z_ref through ``extra_stress`` (the hook; zero above the
 saltation layer in practice).
 
-A drive that answers the stress at z_ref (``forcing.stress_gain`` K_p > 0, saltation only). After
+A drive that answers the stress at z_ref (the fidelity's ``relaxation.stress_gain`` K_p > 0). After
 activation the column above z_ref carries the particle-free flow's momentum and gives it up over
 minutes: with M held at u*s^2 the stress there is tau(z_ref) = M - dP/dt, read 1.23 u*s^2 over the
 laptop study's 12-42 s window (``saltstudy probe column-budget``, reports/reduced/FINDINGS.md).
