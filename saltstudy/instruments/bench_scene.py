@@ -157,16 +157,20 @@ def _with_scheme(scene, scheme: str):
     return Scene.model_validate(d)
 
 
-def _saltation_seconds(scene, restart: dict, seconds: float) -> dict:
-    """The first ``seconds`` of ``scene``'s saltation run from ``restart``: counts and wall."""
+def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False) -> dict:
+    """The first ``seconds`` of ``scene``'s saltation run from ``restart``: counts and wall
+    (``tiled``: a start carried from a smaller grid, projected first, solver/tiling.py)."""
     from ..solver.model import Model
+    from ..solver.tiling import project_restart
     from ..workflow.health import limiting_step, step_limits
     m = Model.from_scene(scene, saltation=True, restart=restart)
+    if tiled:
+        project_restart(m)
     m.activate_saltation()
     ts = scene.fidelity.time
     t_end = m.t + seconds
     limits: dict[str, int] = {}
-    steps, wall, wall_grains = 0, 0.0, 0.0
+    steps, wall, wall_grains, parcel_steps = 0, 0.0, 0.0, 0
     try:
         while m.t < t_end - 1e-9:
             lim = step_limits(m)
@@ -180,6 +184,7 @@ def _saltation_seconds(scene, restart: dict, seconds: float) -> dict:
             steps += 1
             wall += info.wall_time
             wall_grains += info.wall_components
+            parcel_steps += int(m.components[0].n) if m.components else 0
         n = int(m.components[0].n) if m.components else 0
     finally:
         m.close()
@@ -189,17 +194,22 @@ def _saltation_seconds(scene, restart: dict, seconds: float) -> dict:
             "wall_per_simulated_s_grains": wall_grains / seconds,
             "limits": {k: v / steps for k, v in sorted(limits.items())},
             "parcels_at_end": n,
+            "ns_per_parcel_step": 1e9 * wall_grains / parcel_steps if parcel_steps else None,
             "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
 
 
 def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ...] = (),
                   saltation_seconds: float = 5.0, rounds: int = 1, out_dir=None,
-                  as_json: bool = False) -> dict:
+                  as_json: bool = False, spinup_from: str | None = None) -> dict:
     """Each vertical-diffusion scheme over the first ``saltation_seconds`` of the scene's saltation
     run from its spin-up (module doc). Returns {"case", "fidelity", "saltation_seconds",
     "rounds", "threads", "spinup", "schemes": {NAME: {"steps_per_simulated_s",
     "wall_per_simulated_s", "wall_per_simulated_s_flow", "wall_per_simulated_s_grains",
-    "limits", "peak_rss_MB", "rounds"}}}."""
+    "limits", "peak_rss_MB", "rounds"}}}.
+
+    ``spinup_from``: start from that fidelity's spin-up of the case (same horizontal spacing, a
+    smaller box) tiled onto this fidelity's grid (solver/tiling.py), for a grid whose own spin-up
+    cannot be afforded; the output says so ("start")."""
     from pathlib import Path
 
     from ..ncio import open_dataset
@@ -209,21 +219,33 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
     from ..workflow.tasks import spinup_task
     scene = _scene(case, fidelity, None)
     schemes = tuple(schemes) or (scene.fidelity.time.vertical_diffusion,)
+    source = _scene(case, spinup_from, None) if spinup_from else scene
     # the workflow's own spin-up archive (returned at once when the cache holds it)
-    sp_path = spinup_task(scene, Path(out_dir) if out_dir else default_out_dir())
+    sp_path = spinup_task(source, Path(out_dir) if out_dir else default_out_dir())
     sp = open_dataset(sp_path)
     restart = archives.restart_from_dataset(sp)
     u_spin = float(sp.attrs.get("u_star_target", scene.case.forcing.u_star_s))
     restart = rescale_restart(restart, scene.case.forcing.u_star_s / u_spin)
+    start = "the fidelity's own spin-up"
+    if spinup_from:
+        from ..solver.grid import Grid
+        from ..solver.tiling import tile_restart
+        src, dst = Grid.from_spec(source.fidelity.grid), Grid.from_spec(scene.fidelity.grid)
+        z_keep = src.Lz - source.damping_depth
+        restart = tile_restart(restart, src, dst, z_keep, scene.case.forcing.u_star_s,
+                               scene.case.air.kappa)
+        start = (f"{spinup_from}'s spin-up ({src.nx}x{src.ny}x{src.nz}) tiled "
+                 f"{dst.nx // src.nx}x{dst.ny // src.ny}, interpolated in z below {z_keep:g} m, "
+                 f"log law above (solver/tiling.py)")
     per: dict[str, list[dict]] = {k: [] for k in schemes}
     for r in range(rounds):
         order = schemes if r % 2 == 0 else tuple(reversed(schemes))
         for name in order:
             per[name].append(_saltation_seconds(_with_scheme(scene, name), restart,
-                                                saltation_seconds))
+                                                saltation_seconds, tiled=bool(spinup_from)))
     out = {"case": case, "fidelity": fidelity, "saltation_seconds": saltation_seconds,
            "rounds": rounds, "threads": int(numba.get_num_threads()), "spinup": str(sp_path),
-           "schemes": {}}
+           "start": start, "schemes": {}}
     for name, rows in per.items():
         med = {k: statistics.median(x[k] for x in rows) for k in
                ("steps_per_simulated_s", "wall_per_simulated_s", "wall_per_simulated_s_flow",
@@ -231,19 +253,24 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
         keys = sorted({k for x in rows for k in x["limits"]})
         med["limits"] = {k: statistics.fmean(x["limits"].get(k, 0.0) for x in rows) for k in keys}
         med["peak_rss_MB"] = max(x["peak_rss_MB"] for x in rows)
+        nsp = [x["ns_per_parcel_step"] for x in rows if x["ns_per_parcel_step"] is not None]
+        med["ns_per_parcel_step"] = statistics.median(nsp) if nsp else None
+        med["parcels_at_end"] = statistics.median(x["parcels_at_end"] for x in rows)
         med["rounds"] = rows
         out["schemes"][name] = med
     if as_json:
         print(json.dumps(out))
         return out
     print(f"case {case} at fidelity {fidelity}: the first {saltation_seconds:g} s of saltation from "
-          f"the spin-up, {out['threads']} numba thread(s), {rounds} round(s), medians")
+          f"the spin-up, {out['threads']} numba thread(s), {rounds} round(s), medians; start: {start}")
     for name, m in out["schemes"].items():
         lim = ", ".join(f"{k} {100 * v:.0f} %" for k, v in m["limits"].items())
         print(f"  {name:9s}: {m['steps_per_simulated_s']:7.1f} steps per simulated s, "
               f"{m['wall_per_simulated_s']:8.2f} s wall per simulated s (flow "
               f"{m['wall_per_simulated_s_flow']:.2f}, grains {m['wall_per_simulated_s_grains']:.2f}); "
-              f"step set by: {lim}; peak {m['peak_rss_MB']:.0f} MB")
+              f"step set by: {lim}; {m['parcels_at_end']:,.0f} parcels at the end"
+              + (f", {m['ns_per_parcel_step']:.0f} ns per parcel-step" if m["ns_per_parcel_step"] else "")
+              + f"; peak {m['peak_rss_MB']:.0f} MB")
     if len(schemes) == 2:
         a, b = (out["schemes"][k] for k in schemes)
         print(f"  {schemes[0]} / {schemes[1]}: wall x{a['wall_per_simulated_s'] / b['wall_per_simulated_s']:.2f}, "
@@ -276,6 +303,11 @@ def register_bench_scene(bench_app) -> None:
                                              "schemes (--saltation-seconds)"),
                   out: str = typer.Option(None, "--out", help="cache directory holding (or to hold) "
                                           "the spin-up (--saltation-seconds)"),
+                  spinup_from: str = typer.Option(
+                      None, "--spinup-from", help="with --saltation-seconds: start from this "
+                      "fidelity's spin-up of the case (same horizontal spacing, smaller box) tiled "
+                      "onto the scene's grid (solver/tiling.py), e.g. --fidelity paper "
+                      "--spinup-from fine"),
                   as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
         """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N
         cores; or, with --saltation-seconds, the real cost of each vertical-diffusion scheme."""
@@ -292,8 +324,11 @@ def register_bench_scene(bench_app) -> None:
         if saltation_seconds > 0:
             from pathlib import Path
             bench_schemes(case, fidelity, tuple(vertical_diffusion), saltation_seconds, rounds,
-                          Path(out) if out else None, as_json)
+                          Path(out) if out else None, as_json, spinup_from)
             return
+        if spinup_from:
+            typer.echo("error: --spinup-from: a tiled start needs --saltation-seconds", err=True)
+            raise typer.Exit(2)
         if len(vertical_diffusion) > 1:
             typer.echo("error: --vertical-diffusion: comparing schemes needs --saltation-seconds",
                        err=True)
