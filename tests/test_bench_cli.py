@@ -93,6 +93,16 @@ def test_bench_particles_cpu_time_clock_is_set_per_invocation():
     assert bench_particles._clock is time.perf_counter
 
 
+def test_bench_particles_fills_the_grid_of_the_fidelity_asked_and_names_a_bad_one():
+    out = _json(["bench", "particles", "--n", "2000", "--steps", "2", "--fidelity", "fine",
+                 "--json"])
+    g = load_fidelity("fine").grid
+    assert out["fidelity"] == "fine" and out["grid"] == [g.nx, g.ny, g.nz]
+    assert out["runs"][0]["ns_per_parcel_step"] > 0
+    res = CliRunner().invoke(app, ["bench", "particles", "--fidelity", "no-such", "--n", "10"])
+    assert res.exit_code != 0 and "--fidelity" in res.output
+
+
 def test_bench_particles_phases_sum_within_the_step_and_leave_the_solver_as_it_was():
     from saltstudy.instruments import bench_particles
     from saltstudy.solver.grains import particles
@@ -167,3 +177,18 @@ def test_bench_scene_json_has_the_costs_and_an_extrapolation():
     assert sm == pytest.approx(2.0 / 0.001 * g["s_per_step"])      # smoke: 2 s of saltation
     res = CliRunner().invoke(app, ["bench", "scene", "--steps", "0"])
     assert res.exit_code == 2 and "--steps" in res.output
+
+
+def test_bench_scene_saltation_phases_time_the_grain_kernels_inside_a_real_run(tmp_path):
+    """--saltation-seconds --phases: the grain kernels timed inside the scene's own saltation
+    start (smoke grid, 0.1 s), on the same footing as the grains' wall per parcel-step."""
+    out = _json(["bench", "scene", "--case", "2", "--fidelity", "smoke", "--saltation-seconds",
+                 "0.1", "--phases", "--out", str(tmp_path), "--json"])
+    (m,) = out["schemes"].values()
+    ph = m["phases_ns_per_parcel_step"]
+    assert {"_advance_all", "implicit_coefficients"} <= set(ph)
+    (r,) = m["rounds"]
+    assert sum(ph.values()) <= r["ns_per_parcel_step"] * (1 + 1e-9)
+    assert out["start"] == "the fidelity's own spin-up"
+    res = CliRunner().invoke(app, ["bench", "scene", "--phases"])
+    assert res.exit_code == 2 and "--saltation-seconds" in res.output

@@ -173,7 +173,8 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
             run["phases_ns_per_parcel_step"] = {k: v / parcel_steps * 1e9 for k, v in
                                                 sorted(acc.items(), key=lambda kv: -kv[1])}
         runs.append(run)
-    out = {"threads": int(numba.get_num_threads()), "runs": runs}
+    out = {"threads": int(numba.get_num_threads()), "fidelity": fidelity,
+           "grid": list(st.grid.shape), "runs": runs}
 
     def text():
         yield (f"grain component, {fidelity} grid {st.grid.shape}, {out['threads']} numba "
@@ -252,18 +253,27 @@ def register_bench(bench_app) -> None:
                   rounds: int = typer.Option(7, "--rounds", help="alternating rounds (--against)"),
                   cpu_time: bool = typer.Option(False, "--cpu-time", help="time the main "
                                                 "thread's CPU time (with NUMBA_NUM_THREADS=1: "
-                                                "the code's work, whatever else runs)")
+                                                "the code's work, whatever else runs)"),
+                  fidelity: str = typer.Option("reduced", "--fidelity", help="whose grid the "
+                                               "frozen flow fills (e.g. fine: the paper's spacing)")
                   ) -> None:
-        """ns per parcel-step of the grain component on the reduced grid (frozen flow)."""
+        """ns per parcel-step of the grain component on a fidelity's grid (frozen flow)."""
+        from ..config import load_fidelity
+        try:
+            load_fidelity(fidelity)
+        except (FileNotFoundError, ValueError) as e:
+            raise typer.BadParameter(str(e), param_hint="--fidelity") from e
         global _clock
         _clock = time.thread_time if cpu_time else time.perf_counter
         if against:
             try:
-                compare_particles(against, tuple(n), steps=steps, rounds=rounds, as_json=as_json)
+                compare_particles(against, tuple(n), steps=steps, rounds=rounds, as_json=as_json,
+                                  fidelity=fidelity)
             except RevisionError as e:
                 raise typer.BadParameter(str(e), param_hint="--against") from e
         else:
-            bench_particles(tuple(n), steps=steps, as_json=as_json, phases=phases)
+            bench_particles(tuple(n), steps=steps, as_json=as_json, phases=phases,
+                            fidelity=fidelity)
 
 
 if __name__ == "__main__":

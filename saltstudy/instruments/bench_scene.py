@@ -157,9 +157,14 @@ def _with_scheme(scene, scheme: str):
     return Scene.model_validate(d)
 
 
-def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False) -> dict:
+def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False,
+                       phases: bool = False) -> dict:
     """The first ``seconds`` of ``scene``'s saltation run from ``restart``: counts and wall
-    (``tiled``: a start carried from a smaller grid, projected first, solver/tiling.py)."""
+    (``tiled``: a start carried from a smaller grid, projected first, solver/tiling.py;
+    ``phases``: the grain kernels' ns per parcel-step as ``bench particles --phases`` times them)."""
+    from contextlib import nullcontext
+
+    from .bench_particles import _timed_kernels
     from ..solver.model import Model
     from ..solver.tiling import project_restart
     from ..workflow.health import limiting_step, step_limits
@@ -171,20 +176,24 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
     t_end = m.t + seconds
     limits: dict[str, int] = {}
     steps, wall, wall_grains, parcel_steps = 0, 0.0, 0.0, 0
+    acc: dict = {}
+    timed = _timed_kernels(acc, m.components[0]) if phases and m.components else nullcontext()
     try:
-        while m.t < t_end - 1e-9:
-            lim = step_limits(m)
-            which = limiting_step(lim["dt_courant"], lim["dt_diffusion"], lim["dt_grains"],
-                                  ts.dt_max, ts.dt_fixed)
-            dt = m.next_dt(limit=t_end - m.t)
-            if dt < min(v for v in (*lim.values(), ts.dt_max)) * (1 - 1e-9):
-                which = "end"           # the last step, cut to land on t_end
-            limits[which] = limits.get(which, 0) + 1
-            info = m.step(dt)
-            steps += 1
-            wall += info.wall_time
-            wall_grains += info.wall_components
-            parcel_steps += int(m.components[0].n) if m.components else 0
+        with timed:
+            while m.t < t_end - 1e-9:
+                lim = step_limits(m)
+                which = limiting_step(lim["dt_courant"], lim["dt_diffusion"], lim["dt_grains"],
+                                      ts.dt_max, ts.dt_fixed)
+                dt = m.next_dt(limit=t_end - m.t)
+                if dt < min(v for v in (*lim.values(), ts.dt_max)) * (1 - 1e-9):
+                    which = "end"           # the last step, cut to land on t_end
+                limits[which] = limits.get(which, 0) + 1
+                n0 = int(m.components[0].n) if m.components else 0
+                info = m.step(dt)
+                steps += 1
+                wall += info.wall_time
+                wall_grains += info.wall_components
+                parcel_steps += n0
         n = int(m.components[0].n) if m.components else 0
     finally:
         m.close()
@@ -195,12 +204,15 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
             "limits": {k: v / steps for k, v in sorted(limits.items())},
             "parcels_at_end": n,
             "ns_per_parcel_step": 1e9 * wall_grains / parcel_steps if parcel_steps else None,
+            "phases_ns_per_parcel_step": ({k: v / parcel_steps * 1e9 for k, v in sorted(
+                acc.items(), key=lambda kv: -kv[1])} if acc and parcel_steps else None),
             "peak_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0}
 
 
 def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ...] = (),
                   saltation_seconds: float = 5.0, rounds: int = 1, out_dir=None,
-                  as_json: bool = False, spinup_from: str | None = None) -> dict:
+                  as_json: bool = False, spinup_from: str | None = None,
+                  phases: bool = False) -> dict:
     """Each vertical-diffusion scheme over the first ``saltation_seconds`` of the scene's saltation
     run from its spin-up (module doc). Returns {"case", "fidelity", "saltation_seconds",
     "rounds", "threads", "spinup", "schemes": {NAME: {"steps_per_simulated_s",
@@ -209,7 +221,8 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
 
     ``spinup_from``: start from that fidelity's spin-up of the case (same horizontal spacing, a
     smaller box) tiled onto this fidelity's grid (solver/tiling.py), for a grid whose own spin-up
-    cannot be afforded; the output says so ("start")."""
+    cannot be afforded; the output says so ("start"). ``phases``: each scheme also gets the grain
+    kernels' ns per parcel-step of its last round (as ``bench particles --phases``)."""
     from pathlib import Path
 
     from ..ncio import open_dataset
@@ -242,7 +255,8 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
         order = schemes if r % 2 == 0 else tuple(reversed(schemes))
         for name in order:
             per[name].append(_saltation_seconds(_with_scheme(scene, name), restart,
-                                                saltation_seconds, tiled=bool(spinup_from)))
+                                                saltation_seconds, tiled=bool(spinup_from),
+                                                phases=phases))
     out = {"case": case, "fidelity": fidelity, "saltation_seconds": saltation_seconds,
            "rounds": rounds, "threads": int(numba.get_num_threads()), "spinup": str(sp_path),
            "start": start, "schemes": {}}
@@ -256,6 +270,7 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
         nsp = [x["ns_per_parcel_step"] for x in rows if x["ns_per_parcel_step"] is not None]
         med["ns_per_parcel_step"] = statistics.median(nsp) if nsp else None
         med["parcels_at_end"] = statistics.median(x["parcels_at_end"] for x in rows)
+        med["phases_ns_per_parcel_step"] = rows[-1]["phases_ns_per_parcel_step"]
         med["rounds"] = rows
         out["schemes"][name] = med
     if as_json:
@@ -271,6 +286,8 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
               f"step set by: {lim}; {m['parcels_at_end']:,.0f} parcels at the end"
               + (f", {m['ns_per_parcel_step']:.0f} ns per parcel-step" if m["ns_per_parcel_step"] else "")
               + f"; peak {m['peak_rss_MB']:.0f} MB")
+        for k, v in (m["phases_ns_per_parcel_step"] or {}).items():
+            print(f"      {k:26s} {v:6.1f} ns per parcel-step")
     if len(schemes) == 2:
         a, b = (out["schemes"][k] for k in schemes)
         print(f"  {schemes[0]} / {schemes[1]}: wall x{a['wall_per_simulated_s'] / b['wall_per_simulated_s']:.2f}, "
@@ -308,6 +325,8 @@ def register_bench_scene(bench_app) -> None:
                       "fidelity's spin-up of the case (same horizontal spacing, smaller box) tiled "
                       "onto the scene's grid (solver/tiling.py), e.g. --fidelity paper "
                       "--spinup-from fine"),
+                  phases: bool = typer.Option(False, "--phases", help="with --saltation-seconds: "
+                                              "also the grain kernels' ns per parcel-step"),
                   as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
         """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N
         cores; or, with --saltation-seconds, the real cost of each vertical-diffusion scheme."""
@@ -324,11 +343,12 @@ def register_bench_scene(bench_app) -> None:
         if saltation_seconds > 0:
             from pathlib import Path
             bench_schemes(case, fidelity, tuple(vertical_diffusion), saltation_seconds, rounds,
-                          Path(out) if out else None, as_json, spinup_from)
+                          Path(out) if out else None, as_json, spinup_from, phases)
             return
-        if spinup_from:
-            typer.echo("error: --spinup-from: a tiled start needs --saltation-seconds", err=True)
-            raise typer.Exit(2)
+        for flag, given in (("--spinup-from", spinup_from), ("--phases", phases)):
+            if given:
+                typer.echo(f"error: {flag}: needs --saltation-seconds", err=True)
+                raise typer.Exit(2)
         if len(vertical_diffusion) > 1:
             typer.echo("error: --vertical-diffusion: comparing schemes needs --saltation-seconds",
                        err=True)
