@@ -1,6 +1,6 @@
 """A particle-free flow carried onto a larger grid of the same horizontal spacing: a start for a
-grid whose own spin-up cannot be afforded (the paper's 200 x 150 x 100 points need ~300 s of
-flow, ~40 h on 2 cores).
+grid whose own spin-up cannot be afforded (the paper's 200 x 150 x 100 points need 300-1800 s
+of flow, 10-60 h on 2 cores: docs/BENCHMARKS.md).
 
 Horizontally the source is periodic, so tiling it m x n times is again a periodic solution of the
 same equations on an m Lx x n Ly domain (its largest eddies keep the source's period: the tiled

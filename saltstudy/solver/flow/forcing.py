@@ -138,6 +138,11 @@ def total_stress_at_face(u, w, e, k, cml, nu_mol, dzf, rdx, taux):
     return r / n - (a / n) * (b / n), s / n
 
 
+def _running_mean(mean: float, x: float, a: float) -> float:
+    """Exponential running mean updated with weight a; the first sample (mean NaN) starts it."""
+    return x if math.isnan(mean) else mean + a * (x - mean)
+
+
 class DriveController:
     """Feed-forward momentum-flux controller of ``state.u_drive`` (see module docstring)."""
 
@@ -210,23 +215,18 @@ class DriveController:
         return -tau
 
     def update(self, state, dt: float, u_mean: np.ndarray, tau_ref: float) -> None:
-        """Advance the filter, the integral and u_drive over dt."""
+        """Advance the filters, the integral and u_drive over dt (u_drive lags by T_c, or by T_s
+        while the drive answers the stress at z_ref)."""
         self.tau_ref_last = tau_ref
         a = min(1.0, dt / self.timescale)
-        if math.isnan(self.tau_ref_filtered):
-            self.tau_ref_filtered = tau_ref
-        else:
-            self.tau_ref_filtered += a * (tau_ref - self.tau_ref_filtered)
+        self.tau_ref_filtered = _running_mean(self.tau_ref_filtered, tau_ref, a)
         if self.integral_timescale:
             self.integral += dt / self.integral_timescale * (self.target_stress - self.tau_ref_filtered)
             lim = 0.5 * self.target_stress
             self.integral = min(lim, max(-lim, self.integral))
         if self.answers_stress:
             a = min(1.0, dt / self.stress_timescale)
-            if math.isnan(self.tau_ref_fast):
-                self.tau_ref_fast = tau_ref
-            else:
-                self.tau_ref_fast += a * (tau_ref - self.tau_ref_fast)
+            self.tau_ref_fast = _running_mean(self.tau_ref_fast, tau_ref, a)
         state.u_drive += a * (self.feed_forward(u_mean) - state.u_drive)
 
     # ---- checkpoint ------------------------------------------------------------------------
