@@ -13,10 +13,11 @@ three per step (one per RK3 stage), in the same units; ``ratio`` = step / floor 
 step is above that irreducible cost. Peak resident memory (ru_maxrss) is reported after the largest grid.
 
 ``against`` (``--against REV``) times this checkout's step against git revision REV's on the same
-grids in one process (``instruments/revision.py``): each side builds its own model from its own
-fidelity file, with this checkout's vertical diffusion scheme for that grid and the advection
-order asked for forced on both (what the step's work depends on), both are warmed,
-then ``rounds`` rounds of ``steps`` steps alternate between them, the order flipped every round.
+grids (``instruments/revision.py``): each side builds its own model from its own fidelity file,
+with this checkout's vertical diffusion scheme for that grid and the advection order asked for
+forced on both (what the step's work depends on), warmed, then ``rounds`` rounds of ``steps``
+steps alternate between them, the order flipped every round, each round of each side in a fresh
+process that builds that side alone (revision.py says why).
 Reported per grid: the median over rounds of each side's median step, ns per cell-step.
 """
 from __future__ import annotations
@@ -130,14 +131,27 @@ def _side_model(pkg: str, fidelity: str, numerics: dict):
     return m, m.next_dt()
 
 
+def side_flow(pkg: str, fidelity: str, numerics: dict, steps: int) -> dict:
+    """One round of one side of ``compare_flow``, run in its own process: package ``pkg``'s model
+    (``_side_model``), ``steps`` steps timed. Returns {"median": ns per cell-step, "shape"}."""
+    m, dt = _side_model(pkg, fidelity, numerics)
+    n = m.grid.n_cells
+    t = statistics.median(_times(lambda: m.step(dt), steps)) / n * 1e9
+    shape = list(m.grid.shape)
+    m.close()
+    return {"median": t, "shape": shape}
+
+
 def compare_flow(against: str, steps: int = 10, rounds: int = 7, big: bool = True,
                  advection_order: int = 2, as_json: bool = False) -> dict:
-    """This checkout's LES step against revision ``against``'s (module doc). Returns {"threads",
-    "against", "advection_order", "grids": [{"fidelity", "shape", "this", "against",
-    "this_rounds", "against_rounds"}]}, times in ns per cell-step."""
-    from .revision import revision_package
+    """This checkout's LES step against revision ``against``'s (module doc), every round of every
+    side in a fresh process (revision.run_isolated). Returns {"threads", "against",
+    "advection_order", "grids": [{"fidelity", "shape", "this", "against", "this_rounds",
+    "against_rounds"}]}, times in ns per cell-step."""
+    from .revision import revision_path, run_isolated
 
-    sides = {"this": _PACKAGE, "against": revision_package(against)}
+    name, path = revision_path(against)
+    sides = {"this": _PACKAGE, "against": name}
     grids = []
     for _, fid in GRIDS:
         if fid == "paper" and not big:
@@ -145,16 +159,15 @@ def compare_flow(against: str, steps: int = 10, rounds: int = 7, big: bool = Tru
         from ..config import load_fidelity
         numerics = {"advection_order": advection_order,
                     "vertical_diffusion": load_fidelity(fid).time.vertical_diffusion}
-        models = {k: _side_model(p, fid, numerics) for k, p in sides.items()}
-        n = models["this"][0].grid.n_cells
         per = {k: [] for k in sides}
+        shape = None
         for r in range(rounds):
             for side in (("this", "against") if r % 2 == 0 else ("against", "this")):
-                m, dt = models[side]
-                per[side].append(statistics.median(_times(lambda: m.step(dt), steps)) / n * 1e9)
-        for m, _ in models.values():
-            m.close()
-        grids.append({"fidelity": fid, "shape": list(models["this"][0].grid.shape),
+                res = run_isolated(f"{__name__}:side_flow", {"pkg": sides[side], "fidelity": fid,
+                                   "numerics": numerics, "steps": steps}, [path])
+                per[side].append(res["median"])
+                shape = shape or res["shape"]
+        grids.append({"fidelity": fid, "shape": shape,
                       "vertical_diffusion": numerics["vertical_diffusion"],
                       "this": statistics.median(per["this"]),
                       "against": statistics.median(per["against"]),

@@ -12,13 +12,13 @@ advance, the bed events, the reordering, ...), as ns per parcel-step over the ti
 the time goes, for whoever works on the speed target. The kernels are wrapped for the bench only,
 and the solver is left as it was afterwards.
 
-``--against REV`` times this checkout against the grain component of git revision REV in one
-process: REV's ``saltstudy/``, ``cases/`` and ``workflows/`` are extracted (``git archive``) under
-``~/.cache/saltstudy/compare/<sha>/`` with the package renamed, both are imported, and rounds of
-``--steps`` steps alternate between them (the order flipped every round) on the same set-up.
-Separate processes on a machine whose speed drifts scatter by tens of per cent; alternating in
-one process resolves a few. REV's kernels compile on first use and are cached beside this
-checkout's (numba's cache, keyed by this checkout's sources).
+``--against REV`` times this checkout against the grain component of git revision REV: REV's
+``saltstudy/``, ``cases/`` and ``workflows/`` are extracted (``git archive``) under
+``~/.cache/saltstudy/compare/<sha>/`` with the package renamed, and rounds of ``--steps`` steps
+alternate between the two (the order flipped every round) on the same set-up, each round of each
+side in a fresh process that builds that side alone (instruments/revision.py says why: in one
+process the side built first ran up to 16 % faster). REV's kernels compile on first use and are
+cached beside this checkout's (numba's cache, keyed by this checkout's sources).
 
 ``--cpu-time`` times the main thread's CPU time instead of the wall: with
 ``NUMBA_NUM_THREADS=1`` the code's work, which other jobs on the machine hardly move (their
@@ -27,7 +27,6 @@ scatter by tens of per cent).
 """
 from __future__ import annotations
 
-import gc
 import importlib
 import json
 import math
@@ -37,7 +36,7 @@ from contextlib import contextmanager, nullcontext
 
 import numpy as np
 
-from .revision import RevisionError, revision_package
+from .revision import RevisionError, revision_path, run_isolated
 
 __all__ = ["bench_particles", "compare_particles", "register_bench"]
 
@@ -193,35 +192,44 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
     return out
 
 
+def side_median(pkg: str, n: int, steps: int, dt: float, case: int, fidelity: str,
+                cpu_time: bool = False) -> float:
+    """One round of one side of ``compare_particles``, run in its own process: package ``pkg``'s
+    component (``_component``), ``steps`` steps timed; the median, ns per parcel-step."""
+    clock = time.thread_time if cpu_time else time.perf_counter
+    s, st = _component(pkg, n, dt, case, fidelity)
+    times = []
+    for _ in range(steps):
+        n0 = max(s.n, 1)
+        t0 = clock()
+        s.dynamics(st, dt)
+        times.append((clock() - t0) / n0 * 1e9)
+    return float(np.median(times))
+
+
 def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: int = 7,
                       as_json: bool = False, dt: float = 0.005, case: int = 2,
                       fidelity: str = "reduced") -> dict:
     """This checkout against revision ``against`` (module doc), per parcel count: the median over
-    rounds of each side's median step, ns per parcel-step. Returns {"threads", "against",
-    "runs": [{"n_parcels", "this", "against", "this_rounds", "against_rounds"}]}."""
+    rounds of each side's median step, ns per parcel-step, every round of every side in a fresh
+    process (revision.run_isolated: two sides in one process are not on the same footing).
+    Returns {"threads", "against", "runs": [{"n_parcels", "this", "against", "this_rounds",
+    "against_rounds"}]}."""
     import numba
 
-    sides = {"this": _PACKAGE, "against": revision_package(against)}
+    name, path = revision_path(against)
+    sides = {"this": _PACKAGE, "against": name}
     runs = []
     for n in n_list:
         n = int(n)
         per = {k: [] for k in sides}
         for r in range(rounds):
             for side in (("this", "against") if r % 2 == 0 else ("against", "this")):
-                s, st = _component(sides[side], n, dt, case, fidelity)
-                times = []
-                for _ in range(steps):
-                    n0 = max(s.n, 1)
-                    t0 = _clock()
-                    s.dynamics(st, dt)
-                    times.append((_clock() - t0) / n0 * 1e9)
-                per[side].append(float(np.median(times)))
-                # each side's component is freed before the next is built, so that the two
-                # allocate into the same memory: with the last one still alive the next lands
-                # elsewhere, and which side came first then shows as a speed difference
-                # (identical code measured 4-12 % apart, the first-built side faster)
-                del s, st
-                gc.collect()
+                per[side].append(run_isolated(
+                    f"{__name__}:side_median",
+                    {"pkg": sides[side], "n": n, "steps": steps, "dt": dt, "case": case,
+                     "fidelity": fidelity, "cpu_time": _clock is time.thread_time},
+                    [path]))
         runs.append({"n_parcels": n, "this": float(np.median(per["this"])),
                      "against": float(np.median(per["against"])),
                      "this_rounds": per["this"], "against_rounds": per["against"]})
@@ -249,7 +257,8 @@ def register_bench(bench_app) -> None:
                   phases: bool = typer.Option(False, "--phases",
                                               help="also ns per parcel-step of each kernel"),
                   against: str = typer.Option(None, "--against", help="git revision to time "
-                                              "this checkout against, alternating in one process"),
+                                              "this checkout against, alternating rounds, each in "
+                                              "its own process"),
                   rounds: int = typer.Option(7, "--rounds", help="alternating rounds (--against)"),
                   cpu_time: bool = typer.Option(False, "--cpu-time", help="time the main "
                                                 "thread's CPU time (with NUMBA_NUM_THREADS=1: "

@@ -20,7 +20,7 @@ def register(app: typer.Typer) -> None:
                  [2], "--advection-order",
                  help="horizontal advection order (time.advection_order); repeat to compare"),
              against: str = typer.Option(None, "--against", help="git revision to time this "
-                                         "checkout against, alternating in one process"),
+                                         "checkout against, alternating rounds, each in its own process"),
              rounds: int = typer.Option(7, "--rounds", help="alternating rounds (--against)")) -> None:
         """Median wall time per LES step on the reduced grid and the paper's, per cell-step, vs the FFT floor."""
         from .bench import main

@@ -1,12 +1,21 @@
 """Another git revision of this checkout's package, importable beside it, for the benchmarks'
 ``--against REV``: REV's ``saltstudy/``, ``cases/`` and ``workflows/`` are extracted (``git
 archive``) under ``~/.cache/saltstudy/compare/<sha>/`` with the package renamed
-``saltstudy_<sha12>``, and that folder is put on ``sys.path``. Both packages then run in one
-process, so rounds can alternate between them: on a machine whose speed drifts by tens of per
-cent between invocations, alternating in one process resolves a few."""
+``saltstudy_<sha12>``, and that folder is put on ``sys.path``.
+
+Each timed round of a comparison runs in a fresh process (``run_isolated``) that imports and
+builds one side only, and the sides alternate between rounds, so that the machine's drift falls
+on both. Two sides in one process are not on the same footing: two copies of the *same* sources
+(the revision extracted twice under two names), timed in alternating rounds in one process, came
+out 16 % apart at 10^5 parcels, the first one built the faster (the bed events 31 %, the implicit
+estimate 10 %, the advance 7 %), and with the names' roles swapped the other way round, so a side
+gained by being built first. Run in fresh processes the two copies agree within the rounds'
+scatter (docs/BENCHMARKS.md).
+"""
 from __future__ import annotations
 
 import io
+import json
 import os
 import shutil
 import subprocess
@@ -14,18 +23,28 @@ import sys
 import tarfile
 from pathlib import Path
 
-__all__ = ["RevisionError", "revision_package"]
+__all__ = ["RevisionError", "revision_package", "revision_path", "run_isolated", "checkout_root"]
 
 
 class RevisionError(ValueError):
     """--against names no revision of this checkout (or there is no git checkout)."""
 
 
+def checkout_root() -> Path:
+    """The folder holding this checkout's package (the git work tree)."""
+    return Path(__file__).resolve().parents[2]
+
+
 def revision_package(rev: str) -> str:
     """Import name of the ``saltstudy`` package of git revision ``rev`` of this checkout,
     extracted (with its ``cases/`` and ``workflows/``) under ~/.cache/saltstudy/compare/<sha>/
     and put on sys.path."""
-    root = Path(__file__).resolve().parents[2]
+    return revision_path(rev)[0]
+
+
+def revision_path(rev: str) -> tuple[str, str]:
+    """(import name, folder to put on sys.path) of revision ``rev``'s package (revision_package)."""
+    root = checkout_root()
     try:
         sha = subprocess.run(["git", "-C", str(root), "rev-parse", "--verify", rev + "^{commit}"],
                              capture_output=True, text=True, check=True).stdout.strip()
@@ -49,4 +68,29 @@ def revision_package(rev: str) -> str:
             shutil.rmtree(tmp, ignore_errors=True)
     if str(base) not in sys.path:
         sys.path.insert(0, str(base))
-    return name
+    return name, str(base)
+
+
+_RESULT = "@@saltstudy-result@@"
+
+#: the child's program: sys.path first, then the function called with its keyword arguments,
+#: its JSON result after a marker line (the kernels may print while they compile)
+_CHILD = (
+    "import importlib, json, sys\n"
+    "sys.path[:0] = json.loads(sys.argv[1])\n"
+    "mod, fn = sys.argv[2].split(':')\n"
+    "out = getattr(importlib.import_module(mod), fn)(**json.loads(sys.argv[3]))\n"
+    f"sys.stdout.write('\\n{_RESULT}' + json.dumps(out) + '\\n')\n")
+
+
+def run_isolated(target: str, kwargs: dict, paths: list[str] = ()) -> object:
+    """``module:function`` called with ``kwargs`` in a fresh Python process (this interpreter,
+    this environment, ``paths`` and this checkout first on sys.path); returns its JSON-able
+    result. A failure in the child is raised here with its stderr's tail."""
+    argv = [sys.executable, "-c", _CHILD, json.dumps([*map(str, paths), str(checkout_root())]),
+            target, json.dumps(kwargs)]
+    res = subprocess.run(argv, capture_output=True, text=True)
+    if res.returncode != 0 or _RESULT not in res.stdout:
+        tail = "\n".join(res.stderr.strip().splitlines()[-15:])
+        raise RuntimeError(f"{target} failed in its process (exit {res.returncode}):\n{tail}")
+    return json.loads(res.stdout.rsplit(_RESULT, 1)[1])

@@ -1,0 +1,19 @@
+"""The benchmarks' comparison rounds run in fresh processes (instruments/revision.py)."""
+import os
+
+import pytest
+
+from saltstudy.instruments.revision import run_isolated
+
+
+def test_a_function_runs_in_another_process_and_returns_its_json_result():
+    assert run_isolated("os:getpid", {}) != os.getpid()
+
+
+def test_keyword_arguments_and_the_result_go_through_json():
+    assert run_isolated("json:loads", {"s": "[1, 2.5, \"a\"]"}) == [1, 2.5, "a"]
+
+
+def test_a_failure_in_the_child_is_raised_with_its_error():
+    with pytest.raises(RuntimeError, match="ZeroDivisionError|division"):
+        run_isolated("fractions:Fraction", {"numerator": 1, "denominator": 0})
