@@ -17,7 +17,7 @@ and the solver is left as it was afterwards.
 ``~/.cache/saltstudy/compare/<sha>/`` with the package renamed, and rounds of ``--steps`` steps
 alternate between the two (the order flipped every round) on the same set-up, each round of each
 side in a fresh process that builds that side alone (instruments/revision.py says why: in one
-process the side built first ran up to 16 % faster). REV's kernels compile on first use and are
+process the side first built there ran up to 16 % faster). REV's kernels compile on first use and are
 cached beside this checkout's (numba's cache, keyed by this checkout's sources).
 
 ``--cpu-time`` times the main thread's CPU time instead of the wall: with
