@@ -1,4 +1,4 @@
-"""The instruments' commands: ``saltstudy bench flow|particles|scene`` and ``saltstudy probe
+"""The instruments' commands: ``saltstudy bench flow|particles|scene|profile`` and ``saltstudy probe
 loglaw``."""
 from __future__ import annotations
 
@@ -55,6 +55,8 @@ def register(app: typer.Typer) -> None:
     register_bench(bench_app)
     from .bench_scene import register_bench_scene
     register_bench_scene(bench_app)
+    from .kernel_profile import register_bench_profile
+    register_bench_profile(bench_app)
     app.add_typer(bench_app, name="bench")
     from .loglaw_probe import register_probe
     register_probe(app)

@@ -1,0 +1,191 @@
+"""Where inside the compiled grain kernels the time goes: ``saltstudy bench profile``.
+
+``--phases`` (bench_particles) says which kernel a step's time is in; a kernel is one compiled
+function with its helpers inlined, so that is as far as timers reach. This samples the machine
+code itself. The grain bench (``bench_particles._component``: the frozen flow, ``--n``
+parcels) runs under ``perf record -e cpu-clock`` in a child process with an empty numba cache
+directory, so that its kernels are compiled there and their machine code is at hand. After the
+timed steps the child writes each compiled function's address and code bytes; the parent reads
+the samples' instruction addresses (``perf script -F ip``), gives each to the function it falls
+in, and disassembles the hottest functions (``objdump``) with each instruction's sample count.
+
+Written to ``--out``: ``summary.json`` (per function: name, kernel, share of all samples and of
+the grain kernels' samples, share per 512-byte window of its code) and ``<kernel>.asm.txt`` per hot function (count, offset,
+instruction). The parallel kernels' bodies are the ``__gufunc__`` functions (numba's parfor
+closures) into which LLVM inlined the chunk kernels. Needs ``perf`` (Linux) and ``objdump``;
+one thread (``NUMBA_NUM_THREADS=1``) unless ``--threads`` says otherwise.
+"""
+from __future__ import annotations
+
+import bisect
+import collections
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+__all__ = ["profile_kernels", "record_child", "attribute", "register_bench_profile"]
+
+#: the grain modules whose dispatchers' machine code is kept
+_MODULES = ("advance", "coupling", "splash_kernels", "population", "particles")
+#: code bytes kept per function (the hot kernels are 10-45 kB)
+_CODE_BYTES = 1 << 16
+#: window of code (bytes) over which the summary sums samples
+_WINDOW = 512
+
+
+def record_child(n: int, steps: int, fidelity: str, out: str) -> dict:
+    """The child's side (run under perf): the grain bench of ``n`` parcels for ``steps`` steps,
+    then every compiled function of the grain modules: ``out/functions.json`` {address: [kernel,
+    symbol]} and ``out/code/<address>.bin``."""
+    import ctypes
+
+    from . import bench_particles as bp
+    s, st = bp._component(bp._PACKAGE, n, 0.005, 2, fidelity)
+    for _ in range(steps):
+        s.dynamics(st, 0.005)
+    import importlib
+    code = Path(out) / "code"
+    code.mkdir(parents=True, exist_ok=True)
+    funcs = {}
+    for m in _MODULES:
+        mod = importlib.import_module(f"{bp._PACKAGE}.solver.grains.{m}")
+        for name, d in vars(mod).items():
+            for cres in list(getattr(d, "overloads", {}).values()):
+                lib = cres.library
+                module = getattr(lib, "_final_module", None)
+                if module is None:
+                    continue
+                for fn in module.functions:
+                    if fn.is_declaration:
+                        continue
+                    ptr = lib.get_pointer_to_function(fn.name)
+                    if ptr and str(ptr) not in funcs:
+                        funcs[str(ptr)] = [name, fn.name]
+                        (code / f"{ptr:x}.bin").write_bytes(ctypes.string_at(ptr, _CODE_BYTES))
+    (Path(out) / "functions.json").write_text(json.dumps(funcs))
+    return {"functions": len(funcs), "parcels_end": int(s.n)}
+
+
+def attribute(ips, funcs: dict[int, tuple[str, str]]) -> tuple[dict, int]:
+    """Samples per function: {address: Counter(offset -> samples)} for the instruction addresses
+    ``ips`` falling within _CODE_BYTES of a function's start (the nearest start below), and the
+    number of all samples."""
+    starts = sorted(funcs)
+    per = collections.defaultdict(collections.Counter)
+    total = 0
+    for ip in ips:
+        total += 1
+        i = bisect.bisect_right(starts, ip) - 1
+        if i >= 0 and ip - starts[i] < _CODE_BYTES:
+            per[starts[i]][ip - starts[i]] += 1
+    return per, total
+
+
+def _disassemble(path: Path) -> dict[int, str]:
+    """offset -> instruction text of a raw x86-64 code dump (objdump)."""
+    res = subprocess.run(["objdump", "-D", "-b", "binary", "-mi386:x86-64", str(path)],
+                         capture_output=True, text=True, check=True)
+    out = {}
+    for line in res.stdout.splitlines():
+        m = re.match(r"\s+([0-9a-f]+):\t(?:[0-9a-f]{2} )+\s*\t?(.*)", line)
+        if m:
+            out[int(m.group(1), 16)] = m.group(2).strip()
+    return out
+
+
+def profile_kernels(n: int = 1_000_000, steps: int = 100, fidelity: str = "reduced",
+                    out: str | Path = "kernel-profile", threads: int = 1, top: int = 4) -> dict:
+    """Record the grain bench under perf (module doc) and write the summary and listings to
+    ``out``. Returns the summary."""
+    for tool in ("perf", "objdump"):
+        if shutil.which(tool) is None:
+            raise RuntimeError(f"{tool} is not on PATH: the kernel profile needs it")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    data = out / "perf.data"
+    child = (f"import sys; sys.path.insert(0, {str(Path(__file__).resolve().parents[2])!r}); "
+             f"from {__package__}.kernel_profile import record_child; "
+             f"record_child({int(n)}, {int(steps)}, {fidelity!r}, {str(out)!r})")
+    with tempfile.TemporaryDirectory(prefix="saltstudy-profile-numba-") as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, NUMBA_NUM_THREADS=str(threads))
+        res = subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-o",
+                              str(data), "--", sys.executable, "-c", child],
+                             env=env, capture_output=True, text=True)
+    if res.returncode != 0:
+        tail = "\n".join(res.stderr.strip().splitlines()[-15:])
+        raise RuntimeError(f"perf record failed (exit {res.returncode}):\n{tail}")
+    ips = []
+    script = subprocess.run(["perf", "script", "-F", "ip", "-i", str(data)], capture_output=True,
+                            text=True, check=True)
+    for line in script.stdout.split():
+        try:
+            ips.append(int(line, 16))
+        except ValueError:
+            continue
+    funcs = {int(k): tuple(v) for k, v in json.loads((out / "functions.json").read_text()).items()}
+    per, total = attribute(ips, funcs)
+    in_kernels = sum(sum(c.values()) for c in per.values())
+    rows = []
+    for start, cnt in sorted(per.items(), key=lambda kv: -sum(kv[1].values())):
+        kernel, symbol = funcs[start]
+        nsamp = sum(cnt.values())
+        win = collections.Counter()
+        for off, c in cnt.items():
+            win[off // _WINDOW * _WINDOW] += c
+        rows.append({"kernel": kernel, "symbol": symbol[:120], "address": start,
+                     "share": nsamp / max(total, 1), "share_of_kernels": nsamp / max(in_kernels, 1),
+                     "windows": {f"{w:#x}": c / nsamp for w, c in sorted(win.items())
+                                 if c / nsamp >= 0.01}})
+    for r in rows[:top]:
+        ins = _disassemble(out / "code" / f"{r['address']:x}.bin")
+        cnt = per[r["address"]]
+        last = max(cnt) + 64
+        lines = [f"{cnt.get(o, 0):6d} {o:6x}  {t}" for o, t in sorted(ins.items()) if o <= last]
+        name = re.sub(r"[^A-Za-z0-9_]+", "_", r["kernel"])
+        path = out / f"{name}.asm.txt"
+        if path.exists():  # a second function of the same kernel (the dispatcher's wrapper)
+            path = out / f"{name}.{r['address']:x}.asm.txt"
+        path.write_text("\n".join(lines) + "\n")
+        r["listing"] = path.name
+    summary = {"n_parcels": int(n), "steps": int(steps), "fidelity": fidelity,
+               "threads": int(threads), "samples": total,
+               "in_grain_kernels": in_kernels / max(total, 1),
+               "functions": rows}
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    return summary
+
+
+def register_bench_profile(bench_app) -> None:
+    """``saltstudy bench profile``."""
+    import typer
+
+    @bench_app.command("profile")
+    def profile(n: float = typer.Option(1e6, "--n", help="parcels"),
+                steps: int = typer.Option(100, "--steps", help="steps recorded"),
+                fidelity: str = typer.Option("reduced", "--fidelity", help="whose grid the "
+                                             "frozen flow fills"),
+                out: Path = typer.Option(Path("kernel-profile"), "--out",
+                                         help="folder for summary.json and the listings"),
+                threads: int = typer.Option(1, "--threads", help="numba threads"),
+                top: int = typer.Option(4, "--top", help="functions to disassemble")) -> None:
+        """Sample the grain kernels' machine code under perf: where inside each kernel the time
+        goes (an annotated listing per hot kernel)."""
+        if n < 1:
+            raise typer.BadParameter("at least one parcel", param_hint="--n")
+        try:
+            s = profile_kernels(int(n), steps, fidelity, out, threads, top)
+        except RuntimeError as e:
+            typer.echo(f"error: {e}", err=True)
+            raise typer.Exit(1) from e
+        typer.echo(f"{s['samples']} samples, {s['in_grain_kernels']:.0%} in the grain kernels' "
+                   f"compiled code (the rest: compiling, Python, the set-up); of those:")
+        for r in s["functions"][:top]:
+            hot = ", ".join(f"{w} {f:.0%}" for w, f in sorted(r["windows"].items(),
+                                                                key=lambda kv: -kv[1])[:4])
+            typer.echo(f"  {r['share_of_kernels']:6.1%}  {r['kernel']:24s} hottest windows: {hot}"
+                       f"  -> {out / r.get('listing', '')}")
