@@ -18,21 +18,12 @@ from saltstudy.solver.grains.interp import NEAR_BED_WIND, GridGeometry, locate
 def _locate_all(x, y, z, G, nx, ny, nz, ints, floats):
     for p in range(x.shape[0]):
         st = locate(x[p], y[p], z[p], G, nx, ny, nz)
-        ints[p, 0] = st.ixf
-        ints[p, 1] = st.ixc
-        ints[p, 2] = st.jyf
-        ints[p, 3] = st.jyc
-        ints[p, 4] = st.kc
-        ints[p, 5] = st.kf
-        ints[p, 6] = st.kcell
-        ints[p, 7] = 1 if st.islog else 0
-        floats[p, 0] = st.fxf
-        floats[p, 1] = st.fxc
-        floats[p, 2] = st.fyf
-        floats[p, 3] = st.fyc
-        floats[p, 4] = st.fzc
-        floats[p, 5] = st.fzf
-        floats[p, 6] = st.lfac
+        iv = (st.ixf, st.ixc, st.jyf, st.jyc, st.kc, st.kf, st.kcell, 1 if st.islog else 0)
+        fv = (st.fxf, st.fxc, st.fyf, st.fyc, st.fzc, st.fzf, st.lfac)
+        for q in range(8):
+            ints[p, q] = iv[q]
+        for q in range(7):
+            floats[p, q] = fv[q]
 
 
 def _reference(g: GridGeometry, x, y, z):

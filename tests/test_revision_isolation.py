@@ -17,3 +17,11 @@ def test_keyword_arguments_and_the_result_go_through_json():
 def test_a_failure_in_the_child_is_raised_with_its_error():
     with pytest.raises(RuntimeError, match="ZeroDivisionError|division"):
         run_isolated("fractions:Fraction", {"numerator": 1, "denominator": 0})
+
+
+def test_the_child_gets_the_extra_environment_and_runs_after_the_prefix():
+    assert run_isolated("os:getenv", {"key": "SALTSTUDY_ISOLATION_PROBE"},
+                        env={"SALTSTUDY_ISOLATION_PROBE": "a"}) == "a"
+    assert run_isolated("os:getenv", {"key": "SALTSTUDY_ISOLATION_PROBE"},
+                        prefix=["env", "SALTSTUDY_ISOLATION_PROBE=b"]) == "b"
+    assert run_isolated("os:getenv", {"key": "SALTSTUDY_ISOLATION_PROBE"}) is None

@@ -10,8 +10,8 @@ the samples' instruction addresses (``perf script -F ip``), gives each to the fu
 in, and disassembles the hottest functions (``objdump``) with each instruction's sample count.
 
 Written to ``--out``: ``summary.json`` (per function: name, kernel, share of all samples and of
-the grain kernels' samples, share per 512-byte window of its code) and ``<kernel>.asm.txt`` per hot function (count, offset,
-instruction). The parallel kernels' bodies are the ``__gufunc__`` functions (numba's parfor
+the grain kernels' samples, share per 512-byte window of its code) and ``<kernel>.asm.txt``
+per hot function (count, offset, instruction). The parallel kernels' bodies are the ``__gufunc__`` functions (numba's parfor
 closures) into which LLVM inlined the chunk kernels. Needs ``perf`` (Linux) and ``objdump``;
 one thread (``NUMBA_NUM_THREADS=1``) unless ``--threads`` says otherwise.
 """
@@ -19,14 +19,16 @@ from __future__ import annotations
 
 import bisect
 import collections
+import ctypes
+import importlib
 import json
-import os
 import re
 import shutil
 import subprocess
-import sys
 import tempfile
 from pathlib import Path
+
+from .revision import run_isolated
 
 __all__ = ["profile_kernels", "record_child", "attribute", "register_bench_profile"]
 
@@ -42,13 +44,10 @@ def record_child(n: int, steps: int, fidelity: str, out: str) -> dict:
     """The child's side (run under perf): the grain bench of ``n`` parcels for ``steps`` steps,
     then every compiled function of the grain modules: ``out/functions.json`` {address: [kernel,
     symbol]} and ``out/code/<address>.bin``."""
-    import ctypes
-
     from . import bench_particles as bp
     s, st = bp._component(bp._PACKAGE, n, 0.005, 2, fidelity)
     for _ in range(steps):
         s.dynamics(st, 0.005)
-    import importlib
     code = Path(out) / "code"
     code.mkdir(parents=True, exist_ok=True)
     funcs = {}
@@ -108,17 +107,12 @@ def profile_kernels(n: int = 1_000_000, steps: int = 100, fidelity: str = "reduc
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     data = out / "perf.data"
-    child = (f"import sys; sys.path.insert(0, {str(Path(__file__).resolve().parents[2])!r}); "
-             f"from {__package__}.kernel_profile import record_child; "
-             f"record_child({int(n)}, {int(steps)}, {fidelity!r}, {str(out)!r})")
     with tempfile.TemporaryDirectory(prefix="saltstudy-profile-numba-") as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache, NUMBA_NUM_THREADS=str(threads))
-        res = subprocess.run(["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-o",
-                              str(data), "--", sys.executable, "-c", child],
-                             env=env, capture_output=True, text=True)
-    if res.returncode != 0:
-        tail = "\n".join(res.stderr.strip().splitlines()[-15:])
-        raise RuntimeError(f"perf record failed (exit {res.returncode}):\n{tail}")
+        run_isolated(f"{__name__}:record_child",
+                     {"n": int(n), "steps": int(steps), "fidelity": fidelity, "out": str(out)},
+                     prefix=["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-o",
+                             str(data), "--"],
+                     env={"NUMBA_CACHE_DIR": cache, "NUMBA_NUM_THREADS": str(threads)})
     ips = []
     script = subprocess.run(["perf", "script", "-F", "ip", "-i", str(data)], capture_output=True,
                             text=True, check=True)
@@ -175,8 +169,15 @@ def register_bench_profile(bench_app) -> None:
                 top: int = typer.Option(4, "--top", help="functions to disassemble")) -> None:
         """Sample the grain kernels' machine code under perf: where inside each kernel the time
         goes (an annotated listing per hot kernel)."""
+        from ..config import load_fidelity
         if n < 1:
             raise typer.BadParameter("at least one parcel", param_hint="--n")
+        if threads < 1:
+            raise typer.BadParameter("at least one thread", param_hint="--threads")
+        try:
+            load_fidelity(fidelity)
+        except (FileNotFoundError, ValueError) as e:
+            raise typer.BadParameter(str(e), param_hint="--fidelity") from e
         try:
             s = profile_kernels(int(n), steps, fidelity, out, threads, top)
         except RuntimeError as e:

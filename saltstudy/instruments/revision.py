@@ -83,13 +83,16 @@ _CHILD = (
     f"sys.stdout.write('\\n{_RESULT}' + json.dumps(out) + '\\n')\n")
 
 
-def run_isolated(target: str, kwargs: dict, paths: list[str] = ()) -> object:
+def run_isolated(target: str, kwargs: dict, paths: list[str] = (), prefix: list[str] = (),
+                 env: dict | None = None) -> object:
     """``module:function`` called with ``kwargs`` in a fresh Python process (this interpreter,
-    this environment, ``paths`` and this checkout first on sys.path); returns its JSON-able
-    result. A failure in the child is raised here with its stderr's tail."""
-    argv = [sys.executable, "-c", _CHILD, json.dumps([*map(str, paths), str(checkout_root())]),
-            target, json.dumps(kwargs)]
-    res = subprocess.run(argv, capture_output=True, text=True)
+    this environment updated with ``env``, ``paths`` and this checkout first on sys.path; the
+    command after ``prefix``, e.g. a profiler's); returns its JSON-able result. A failure in the
+    child is raised here with its stderr's tail."""
+    argv = [*prefix, sys.executable, "-c", _CHILD,
+            json.dumps([*map(str, paths), str(checkout_root())]), target, json.dumps(kwargs)]
+    res = subprocess.run(argv, capture_output=True, text=True,
+                         env=None if env is None else {**os.environ, **env})
     if res.returncode != 0 or _RESULT not in res.stdout:
         tail = "\n".join(res.stderr.strip().splitlines()[-15:])
         raise RuntimeError(f"{target} failed in its process (exit {res.returncode}):\n{tail}")
