@@ -85,10 +85,9 @@ def register(app: typer.Typer) -> None:
         """Run one case: spin-up, saltation, analysis (cached like run-all; no report)."""
         from ..config import load_case, load_fidelity, resolve_scene
         from . import keys as K
-        from .graph import _analysis, _saltation, _spinup, _start, warm_for
+        from .graph import run_case, warm_for
         from .paths import task_dir
         from .progress import ProgressDisplay, TaskRef
-        from .. import SOURCE_KEY
 
         out_dir = _out(out)
         try:
@@ -102,14 +101,11 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         with ProgressDisplay(refs, quiet=quiet):
             warm_for([rk], out_dir)
-            sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
-            st = _start(scene, rk, sp, out_dir, SOURCE_KEY, None)
-            sa = _saltation(scene, rk.saltation, st, out_dir, SOURCE_KEY, None)
-            an = _analysis(rk.label, rk.analysis, st, sa, out_dir)
-        for o in (sp, sa, an):
+            outcomes = run_case(rk, out_dir)
+        for o in outcomes:
             typer.echo(f"{o.task:<9} {o.status:<8} {o.path or o.error or ''}")
         typer.echo(f"wall time {time.perf_counter() - t0:.1f} s")
-        raise typer.Exit(1 if any(o.status == "failed" for o in (sp, sa, an)) else 0)
+        raise typer.Exit(1 if any(o.status == "failed" for o in outcomes) else 0)
 
     @app.command("status")
     def status(
