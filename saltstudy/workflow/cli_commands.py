@@ -1,4 +1,4 @@
-"""Workflow commands: ``run-all``, ``run``, ``status`` (registered on the typer app by cli.py).
+"""Workflow commands: ``run-all``, ``run``, ``status``, ``figures`` (registered on the typer app by cli.py).
 
 Exit codes: 0 success; 1 a task failed (the others ran; see ``saltstudy status``); 2 bad input
 (unknown study/case, invalid file) — then nothing in the cache is touched.
@@ -125,6 +125,44 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"study {st.name}, out dir {out_dir}")
         typer.echo(format_status(rows))
 
+    @app.command("figures")
+    def figures(
+        study: str = typer.Option("reduced", "--study", help="study name (workflows/NAME.toml) or file"),
+        out: Optional[Path] = typer.Option(None, "--out", help="cache directory holding the archives "
+                                                              "(default: $SALTSTUDY_OUT or .saltstudy-cache)"),
+        report_dir: Optional[Path] = typer.Option(None, "--report-dir",
+                                                  help="where the report goes (default: reports/<study>)"),
+    ) -> None:
+        """Figures 1-13, Table 2 beside the paper, summary.json and index.html from the archives."""
+        from ..config import ConfigError
+        try:
+            index = figures_command(study, out, report_dir)
+        except ConfigError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(2)
+        typer.echo(f"report: {index}")
+
+
+def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path]) -> Path:
+    """Resolve the study's analysis archives under ``out`` and build the report. Returns index.html."""
+    from .. import __version__
+    from ..config import load_study
+    from ..report import build_report
+    from . import keys as wkeys
+    from . import paths as wpaths
+    from .report_meta import cache_meta
+
+    out_dir = Path(out) if out is not None else wpaths.default_out_dir()
+    runs = wpaths.analysis_paths(study, out_dir)
+    study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
+    if report_dir is None:
+        report_dir = wpaths.default_report_dir(study_name)
+    meta = {"study": study_name, "out_dir": str(out_dir), "package_version": __version__}
+    # the cache keys let the report find failure records and samples.nc (stability, animation)
+    meta["keys"] = {l: {"spinup": k.spinup, "saltation": k.saltation, "analysis": k.analysis}
+                    for l, k in wkeys.study_keys(load_study(study)).items()}
+    return build_report(study_name, runs, Path(report_dir), cache_meta(meta))
+
 
 def _complete(path: Path) -> bool:
     from ..ncio import is_complete
@@ -138,13 +176,13 @@ def _print_summary(summary) -> None:
         counts[o.status] = counts.get(o.status, 0) + 1
     typer.echo(f"study {summary.study}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
                + f" in {summary.wall_s:.1f} s")
-    expected = {id(o) for o in getattr(summary, "expected_blowups", [])}
+    expected = {id(o) for o in summary.expected_blowups}
     for o in summary.outcomes:
         if id(o) in expected:
             typer.echo(f"  blew up as the scene expects: {o.task} {','.join(o.labels)}: {o.error}")
         elif o.status in ("failed", "skipped"):
             typer.echo(f"  {o.status}: {o.task} {','.join(o.labels)}: {o.error}", err=o.status == "failed")
-    for label in getattr(summary, "unexpected_completions", []):
+    for label in summary.unexpected_completions:
         typer.echo(f"  {label}: expected a solver blow-up (scene expect = 'blow-up') but the run "
                    "completed", err=True)
     if summary.report_dir is not None:

@@ -29,6 +29,7 @@ from ..solver.similarity import rescale_restart
 from .driver import Interrupted, add_checkpoints, load_checkpoint, run_saltation
 from .paths import output_path, task_dir, write_json_atomic
 from .progress import ProgressFile
+from .report_meta import cache_meta
 
 __all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "read_attrs",
            "write_task_json", "read_task_json", "report_done", "check_source_key", "SourceMismatch"]
@@ -383,5 +384,5 @@ def report_task(study: Study, runs: dict[str, Path | None], out_dir: Path, repor
         return None
     with _Running(d, "report", key=key, study=study.name, report_dir=str(report_dir),
                   inputs={k: (str(v) if v else None) for k, v in runs.items()}):
-        build_report(study.name, runs, Path(report_dir), meta or {})
+        build_report(study.name, runs, Path(report_dir), cache_meta(meta or {}))
     return Path(report_dir)
