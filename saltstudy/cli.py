@@ -1,8 +1,9 @@
 """The ``saltstudy`` command line.
 
 Each area of the package adds its own commands through a ``register(app)`` function in its
-``cli_commands.py`` (workflow: run-all, run, status; analysis: analyse; report: figures; solver:
-bench). This module holds the commands that only need the configuration.
+``cli_commands.py`` (workflow: run-all, run, status, figures; analysis: analyse; report: the
+investigations' reports; instruments: bench, probe). This module holds the commands that only
+need the configuration.
 """
 from __future__ import annotations
 

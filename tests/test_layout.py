@@ -127,3 +127,58 @@ def test_the_grain_steps_kernels_called_by_name_exist():
     names = re.findall(r'Threads\("(\w+)"\)', (PKG / "solver/grains/particles.py").read_text())
     assert names
     assert [n for n in names if not callable(getattr(particles, n, None))] == []
+
+
+def _private_definitions(files: list[Path]) -> set[str]:
+    """Private names (``_x``, not dunder) that ``files`` define: functions, classes, module and
+    class attributes, and attributes assigned on ``self``/``cls``."""
+    out: set[str] = set()
+    for f in files:
+        for node in ast.walk(ast.parse(f.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                out.add(node.name)
+            elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                out.add(node.id)
+            elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+                out.add(node.attr)
+            elif isinstance(node, ast.alias):
+                out.add(node.asname or node.name.split(".")[-1])
+    return {n for n in out if n.startswith("_") and not n.startswith("__")}
+
+
+def test_no_private_name_crosses_a_part():
+    """A part of the map (a package or module row) reaches another only through its public
+    names: no ``from other import _name``, and no ``x._name`` (``x`` not ``self``/``cls``) whose
+    ``_name`` the part itself does not define (a private method of another part's object, a
+    private module global)."""
+    rows = _map()
+    files_of: dict[str, list[Path]] = {}
+    for f in sorted(PKG.rglob("*.py")):
+        files_of.setdefault(_part_of(f, rows), []).append(f)
+    bad = []
+    for part, files in files_of.items():
+        own = _private_definitions(files)
+        for f in files:
+            rel = f.relative_to(ROOT).with_suffix("")
+            pkg = list(rel.parts[:-1])
+            for node in ast.walk(ast.parse(f.read_text())):
+                if isinstance(node, ast.ImportFrom):
+                    if node.level:
+                        mod = ".".join(pkg[: len(pkg) - (node.level - 1)]
+                                       + ([node.module] if node.module else []))
+                    else:
+                        mod = node.module or ""
+                    if not mod.startswith("saltstudy"):
+                        continue
+                    tf = _target_file(mod)
+                    if tf is None or _part_of(tf, rows) == part:
+                        continue
+                    for a in node.names:
+                        if a.name.startswith("_") and not a.name.startswith("__"):
+                            bad.append(f"{f.relative_to(ROOT)}: from {mod} import {a.name}")
+                elif (isinstance(node, ast.Attribute) and node.attr.startswith("_")
+                      and not node.attr.startswith("__") and node.attr not in own
+                      and not (isinstance(node.value, ast.Name)
+                               and node.value.id in ("self", "cls"))):
+                    bad.append(f"{f.relative_to(ROOT)}:{node.lineno}: .{node.attr}")
+    assert not bad, "private names used across parts:\n" + "\n".join(bad)

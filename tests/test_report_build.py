@@ -224,8 +224,8 @@ def test_scene_study_does_not_crash(tmp_path):
 
 def test_report_names_the_solver_source_of_its_archives(tmp_path):
     """A report redrawn by ``figures`` records the source key in the archives' task.json."""
-    from saltstudy.report.workflow_meta import enrich_meta
     from saltstudy.workflow.paths import task_dir
+    from saltstudy.workflow.report_meta import cache_meta
 
     def archive(task, key, source):
         d = task_dir(tmp_path, task, key)
@@ -236,14 +236,14 @@ def test_report_names_the_solver_source_of_its_archives(tmp_path):
     archive("saltation", "r1", "abc123")
     archive("saltation", "r2", "abc123")
     keys = {"a": {"spinup": "s1", "saltation": "r1"}, "b": {"spinup": "s1", "saltation": "r2"}}
-    meta = enrich_meta("no-such-study", {}, {"out_dir": str(tmp_path), "keys": keys})
+    meta = cache_meta({"out_dir": str(tmp_path), "keys": keys})
     assert meta["source_key"] == "abc123"
 
     archive("saltation", "r2", "def456")     # archives from two solver sources: both named
-    meta = enrich_meta("no-such-study", {}, {"out_dir": str(tmp_path), "keys": keys})
+    meta = cache_meta({"out_dir": str(tmp_path), "keys": keys})
     assert meta["source_key"] == ["abc123", "def456"]
     # the workflow passes the running code's key: that one is kept
-    meta = enrich_meta("no-such-study", {}, {"out_dir": str(tmp_path), "keys": keys, "source_key": "live"})
+    meta = cache_meta({"out_dir": str(tmp_path), "keys": keys, "source_key": "live"})
     assert meta["source_key"] == "live"
 
 

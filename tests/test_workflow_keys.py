@@ -150,14 +150,19 @@ def test_checkpoint_file_round_trip_and_corruption(tmp_path):
     for t in (0.0, 0.05):
         rec.add("series", t, {"n_parcels": 10, "G_tot_series": 0.1 * t})
     rec.add("sample", 1.0, {"u": np.ones((2, 3), np.float32)})
+    sim = {"n_steps": 12, "origin": 0.75, "schedules": {"series": {"index": 3}},
+           "callbacks": {"series": rec.checkpoint()}}
     path = tmp_path / "checkpoint.npz"
-    save_checkpoint(path, ckpt, rec, {"t_activation": 1.0, "next_event": 3})
-    model, rec2, meta = load_checkpoint(path)
-    assert meta["next_event"] == 3
+    save_checkpoint(path, ckpt, sim, {"wall_time_s": 1.5})
+    model, sim2, meta = load_checkpoint(path)
+    assert meta["wall_time_s"] == 1.5
+    assert sim2["n_steps"] == 12 and sim2["origin"] == 0.75
+    assert sim2["schedules"] == {"series": {"index": 3}}
     for k, v in ckpt.items():
         assert (np.array_equal(model[k], v) if isinstance(v, np.ndarray)
                 else model[k] == v or (v != v and model[k] != model[k])), k
     assert type(model["step"]) is int and type(model["flag"]) is bool
+    rec2 = Recorder.restore(sim2["callbacks"]["series"])
     for grp in ("series", "plane", "sample"):
         t1, v1 = rec.stacked(grp)
         t2, v2 = rec2.stacked(grp)

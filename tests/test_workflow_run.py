@@ -162,9 +162,9 @@ def test_spinup_interrupted_and_resumed_equals_uninterrupted(tmp_path):
     full = open_dataset(spinup_task(scene, a))
     key = keys.spinup_key(scene)
     d = task_dir(b, "spinup", key)
-    for n in (30, 25):                    # records of 0.02 s: stops at 0.6 s, then at 1.1 s
+    for n in (30, 25):                    # steps of at most 0.02 s: stops near 0.6 s, then 1.1 s
         with pytest.raises(Interrupted):
-            spinup_task(scene, b, checkpoint_interval=1e9, interrupt_after_records=n)
+            spinup_task(scene, b, checkpoint_interval=1e9, interrupt_after_steps=n)
         assert (d / "checkpoint.npz").is_file()
         assert not output_path(b, "spinup", key).exists()
     status = {(r.label, r.task): r.state for r in

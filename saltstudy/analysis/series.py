@@ -29,7 +29,7 @@ import numpy as np
 from .reading import Frame
 from .schema import Variables
 
-__all__ = ["RUNNING_WINDOW_S", "EQ_TOLERANCE", "running_mean", "overshoot_stats", "increment_ratio",
+__all__ = ["limiting_step", "RUNNING_WINDOW_S", "EQ_TOLERANCE", "running_mean", "overshoot_stats", "increment_ratio",
            "block_mean_stress_u_star", "series_statistics"]
 
 RUNNING_WINDOW_S = 1.0
@@ -166,3 +166,12 @@ def series_statistics(fr: Frame, s: dict, G_tot_sample: np.ndarray) -> Variables
     else:
         V.put("C_p_mean", ("time_plane",), np.full(t_plane.size, np.nan))
     return V
+
+
+def limiting_step(dt_courant: float, dt_diffusion: float, dt_grains: float, dt_max: float,
+                  dt_fixed: float | None = None) -> str:
+    """Name of the constraint that sets the step: "fixed", "courant", "diffusion", "grains", "dt_max"."""
+    if dt_fixed is not None:
+        return "fixed"
+    cands = {"courant": dt_courant, "diffusion": dt_diffusion, "grains": dt_grains, "dt_max": dt_max}
+    return min(cands, key=lambda k: cands[k] if math.isfinite(cands[k]) else math.inf)

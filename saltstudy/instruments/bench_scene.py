@@ -166,34 +166,45 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
 
     from .bench_particles import _timed_kernels
     from ..solver.model import Model
+    from ..solver.simulation import IterationInterval, Simulation
     from ..solver.tiling import project_restart
-    from ..workflow.health import limiting_step, step_limits
+    from ..analysis.series import limiting_step
+    from ..solver.diagnostics.health import step_limits
     m = Model.from_scene(scene, saltation=True, restart=restart)
     if tiled:
         project_restart(m)
     m.activate_saltation()
     ts = scene.fidelity.time
-    t_end = m.t + seconds
     limits: dict[str, int] = {}
-    steps, wall, wall_grains, parcel_steps = 0, 0.0, 0.0, 0
     acc: dict = {}
+    tally = {"wall": 0.0, "wall_grains": 0.0, "parcel_steps": 0}
+
+    def before_step() -> None:
+        """The step's limits and parcels, read before it is taken."""
+        tally["limits"] = step_limits(m)
+        tally["n0"] = int(m.components[0].n) if m.components else 0
+
+    def after_step(sim) -> None:
+        info, lim = sim.last_step, tally["limits"]
+        which = limiting_step(lim["dt_courant"], lim["dt_diffusion"], lim["dt_grains"],
+                              ts.dt_max, ts.dt_fixed)
+        if info.dt < min(v for v in (*lim.values(), ts.dt_max)) * (1 - 1e-9):
+            which = "end"           # the last step, cut to land on the end
+        limits[which] = limits.get(which, 0) + 1
+        tally["wall"] += info.wall_time
+        tally["wall_grains"] += info.wall_components
+        tally["parcel_steps"] += tally["n0"]
+        before_step()
+
+    sim = Simulation(m, stop_time=seconds)
+    sim.add_callback("tally", after_step, IterationInterval(1))
     timed = _timed_kernels(acc, m.components[0]) if phases and m.components else nullcontext()
     try:
         with timed:
-            while m.t < t_end - 1e-9:
-                lim = step_limits(m)
-                which = limiting_step(lim["dt_courant"], lim["dt_diffusion"], lim["dt_grains"],
-                                      ts.dt_max, ts.dt_fixed)
-                dt = m.next_dt(limit=t_end - m.t)
-                if dt < min(v for v in (*lim.values(), ts.dt_max)) * (1 - 1e-9):
-                    which = "end"           # the last step, cut to land on t_end
-                limits[which] = limits.get(which, 0) + 1
-                n0 = int(m.components[0].n) if m.components else 0
-                info = m.step(dt)
-                steps += 1
-                wall += info.wall_time
-                wall_grains += info.wall_components
-                parcel_steps += n0
+            before_step()
+            sim.run()
+        steps, wall, wall_grains = sim.n_steps, tally["wall"], tally["wall_grains"]
+        parcel_steps = tally["parcel_steps"]
         n = int(m.components[0].n) if m.components else 0
     finally:
         m.close()

@@ -138,6 +138,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     from ..physics.laws import z0_at_fixed_u_star
     from ..solver.diagnostics.flow import fit_log_law, flow_profiles
     from ..solver.model import Model
+    from ..solver.simulation import IterationInterval, Simulation, TimeInterval
 
     if not (window > 0 and t_end >= window):
         raise ValueError(f"window = {window} s, t_end = {t_end} s: need 0 < window <= t_end")
@@ -167,15 +168,14 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     log(f"log-law probe: {g.nx}x{g.ny}x{g.nz} cells, {g.Lx:g} x {g.Ly:g} x {Lz:g} m, drive {m.drive}, "
         f"target u* {target} m/s, roll damping {roll_damping} s^-1")
     acc: dict[str, np.ndarray] = {}
-    n, t_next, t_win = 0, 1.0, window
+    n, t_win = 0, window
     wall0 = time.perf_counter()
-    while m.t < t_end - 1e-9:
-        dt = m.next_dt(limit=t_next - m.t)
-        m.step(dt)
-        if roll_damping:
-            damp_x_uniform_circulation(m.state.v, m.state.w, min(1.0, roll_damping * dt))
-        if m.t < t_next - 1e-9:
-            continue
+
+    def damp(sim) -> None:
+        damp_x_uniform_circulation(m.state.v, m.state.w, min(1.0, roll_damping * sim.last_step.dt))
+
+    def each_second(sim) -> None:
+        nonlocal acc, n, t_win
         p = flow_profiles(m)
         for key in ("u", "uw_res", "uw_sgs"):
             acc[key] = acc.get(key, 0.0) + p[key]
@@ -185,9 +185,8 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
             acc["c_s"] = acc.get("c_s", 0.0) + m.stepper.closure.dynamic.c_s
             acc["beta"] = acc.get("beta", 0.0) + np.nan_to_num(m.stepper.closure.dynamic.beta)
         n += 1
-        t_next += 1.0
         if m.t < t_win - 1e-9:
-            continue
+            return
         z, zw, u = p["z"], p["z_w"], acc["u"] / n
         H = Lz if pg else None
         fits = {f"{zmax:.2f}": fit_log_law(z, u, kappa, H, FIT_Z_MIN, zmax)
@@ -239,6 +238,12 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         log("   u*(stress)/  " + " ".join(f"{v:5.2f}" for v in row["u_star_stress_ratio"]))
         acc, n = {}, 0
         t_win += window
+
+    sim = Simulation(m, stop_time=t_end)
+    sim.add_callback("profiles", each_second, TimeInterval(1.0, start=1.0))
+    if roll_damping:
+        sim.add_callback("roll_damping", damp, IterationInterval(1))
+    sim.run()
     return out
 
 

@@ -74,8 +74,8 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     ``reports`` (a list among "convergence", "stability" forcing those sections).
     Returns the path of ``index.html``.
     """
-    from .workflow_meta import enrich_meta
-    meta = enrich_meta(study_name, runs, meta)
+    from .study_meta import enrich_meta
+    meta = enrich_meta(study_name, meta)
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
     ctx = ReportContext(study_name, load_runs(runs, meta), meta)

@@ -2,7 +2,7 @@
 
 Per scene: completed / blew up as the scene expects / failed (with the solver's diagnostic: step,
 time, field, place, and the checkpoint kept), whether every field stayed finite, the constraint
-that limits the step (workflow/health.py), the largest grain-to-air mass loading and the step over
+that limits the step (solver/diagnostics/health.py), the largest grain-to-air mass loading and the step over
 the coupled relaxation time, the balance errors (parcel bookkeeping; the column's total stress
 against its mean below the u* height), max CFL, ranges of the velocity fields, E_splash/E_impact
 and wall time. Values come from what exists: the analysis archive and the run's ``samples.nc``.
@@ -97,8 +97,8 @@ _LIMITS = ("courant", "diffusion", "grains", "dt_max")
 
 def _health(ds: xr.Dataset | None, out: dict[str, Any], dt_max: float | None,
             dt_fixed: float | None) -> None:
-    """Step limits, loading, stiffness and parcel balance from the series (workflow/health.py)."""
-    from ..workflow.health import limiting_step
+    """Step limits, loading, stiffness and parcel balance from the series (solver/diagnostics/health.py)."""
+    from ..analysis.series import limiting_step
     if ds is None or "dt_courant" not in ds.variables:
         return
     src = out.setdefault("_sources", {})

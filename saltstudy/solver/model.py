@@ -149,7 +149,7 @@ class Model:
         return self.state.t
 
     # ---- stepping ----------------------------------------------------------------------------
-    def _rates(self) -> tuple[float, float]:
+    def rates(self) -> tuple[float, float]:
         """(Courant rate, diffusion rate) [s^-1] of the current state (cached per step); raises
         SolverBlowUp if a field holds a non-finite value."""
         if self._rate_cache is not None and self._rate_cache[0] == self.state.step:
@@ -175,7 +175,7 @@ class Model:
         if ts.dt_fixed is not None:
             dt = ts.dt_fixed
         else:
-            rate, drate = self._rates()
+            rate, drate = self.rates()
             dt = ts.dt_max
             if rate > 0:
                 dt = min(dt, ts.cfl / rate)
@@ -209,7 +209,7 @@ class Model:
         s.t += dt
         s.step += 1
         self._rate_cache = None
-        rate, _ = self._rates()          # finiteness of u, v, w, e and the Courant number
+        rate, _ = self.rates()          # finiteness of u, v, w, e and the Courant number
         cfl = check_courant(s, rate, dt)
         tau = self._measure_stress()
         if self.relaxation is not None and self.t_activation is not None:
@@ -219,7 +219,7 @@ class Model:
             if self.drive == "top":
                 s.u_drive += du
         if self.drive == "top":
-            self.controller.update(s, dt, self._damped_mean_u(), tau)
+            self.controller.update(s, dt, self.damped_mean_u(), tau)
         return StepInfo(step=s.step, t=s.t, dt=dt, max_cfl=cfl, u_drive=s.u_drive,
                         u_star_ref=math.sqrt(abs(tau)), wall_time=time.perf_counter() - t0,
                         wall_components=t_comp)
@@ -235,7 +235,7 @@ class Model:
                 extra += float(f(s, self.z_ref))
         return self.controller.measure(s, st.closure.cml_v, st.closure.nu_mol, st.taux, extra)
 
-    def _damped_mean_u(self) -> np.ndarray:
+    def damped_mean_u(self) -> np.ndarray:
         """Horizontal-mean u on the levels the drive sees (zeros elsewhere: weight zero there)."""
         out = np.zeros(self.grid.nz)
         kd = np.nonzero(self.controller.f_dz > 0)[0]
@@ -243,10 +243,10 @@ class Model:
             out[kd[0]:] = self.state.u[:, :, kd[0]:].mean(axis=(0, 1))
         return out
 
-    def spinup(self, progress=None, history: dict | None = None) -> SpinupResult:
-        """Flow-only spin-up until steady or t_max (spinup.py); progress(t, t_max) per record;
-        ``history`` holds its resumable state (``run_spinup``)."""
-        return run_spinup(self, progress=progress, history=history)
+    def spinup(self, progress=None) -> SpinupResult:
+        """Flow-only spin-up until steady or t_max (spinup.py); ``progress(t, t_max)`` after every
+        step. A resumable spin-up with checkpoints: ``spinup.spinup_simulation``."""
+        return run_spinup(self, progress=progress)
 
     # ---- saltation ---------------------------------------------------------------------------
     def activate_saltation(self) -> None:

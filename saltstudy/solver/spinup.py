@@ -9,7 +9,8 @@ streamwise streaks (spanwise wavelength ~ the paper's 0.7 m streamer spacing sca
 domain), then made divergence-free by the projection. Shear instability of the strongly sheared log
 profile does the rest within a few eddy turnover times (H/u* ~ 10 s).
 
-Steadiness (``run_spinup``): every ``record_every`` s the stress-based u* at z_ref_eff and the
+Steadiness (``SteadinessRecord``, run by ``spinup_simulation`` on the package's one time loop,
+``simulation.Simulation``): every ``record_interval`` s the stress-based u* at z_ref_eff and the
 volume-mean resolved TKE (1/2 <u_i' u_i'>, deviations from the horizontal means, volume-weighted over
 the free region below the damping layer) are recorded. After t >= t_min, with W = spinup.window, the
 spin-up is steady when both quantities' means over the last window [t-W, t) and the one before
@@ -24,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["SpinupResult", "initial_flow", "smooth_noise", "window_steadiness", "run_spinup",
-           "HISTORY_KEYS"]
+           "spinup_simulation", "SteadinessRecord", "record_interval", "HISTORY_KEYS"]
 
 
 @dataclass
@@ -102,34 +103,38 @@ def window_steadiness(t: np.ndarray, series: dict[str, np.ndarray], t_now: float
 HISTORY_KEYS = ("t", "u_star", "tke", "u_drive")
 
 
-def run_spinup(model, progress=None, record_every: float | None = None,
-               history: dict | None = None) -> SpinupResult:
-    """Step ``model`` (flow only) until steady or t_max (see module docstring).
+def record_interval(spinup) -> float:
+    """Model time between the spin-up's records [s] (``spinup``: the fidelity's SpinUp)."""
+    return min(spinup.window / 50.0, 1.0)
 
-    ``history``: a dict the spin-up keeps its state in: ``t0`` (the model time it started at) and
-    the lists of HISTORY_KEYS, appended in place at every record, so that a caller may checkpoint
-    it with the model from ``progress`` (called right after each record). Passed back non-empty
-    with the model restored from that checkpoint, the spin-up resumes where it stopped and ends
-    as the uninterrupted one would (the model's restart is bit for bit)."""
-    from .diagnostics.flow import resolved_tke_volume_mean, u_star_at
 
-    sp = model.scene.fidelity.spinup
-    every = record_every if record_every is not None else min(sp.window / 50.0, 1.0)
-    z_ref = model.z_ref
-    h = history if history is not None else {}
-    resumed = bool(h.get("t"))
-    if not resumed:
-        h["t0"] = float(model.state.t)
-        h.update({k: [] for k in HISTORY_KEYS})
-    t0 = h["t0"]
+class SteadinessRecord:
+    """The spin-up's record (u* at z_ref_eff, volume-mean resolved TKE, the drive) and, at each
+    record, its steadiness test (module docstring), which stops the simulation once steady.
+    A Simulation callback with state (``checkpoint``/``restore``), so a resumed spin-up ends as the
+    uninterrupted one would."""
 
-    def record() -> None:
-        h["t"].append(model.state.t - t0)
-        h["u_star"].append(u_star_at(model, z_ref))
-        h["tke"].append(resolved_tke_volume_mean(model))
-        h["u_drive"].append(model.state.u_drive)
+    def __init__(self, model):
+        self.model = model
+        self.spinup = model.scene.fidelity.spinup
+        self.series: dict[str, list[float]] = {k: [] for k in HISTORY_KEYS}
+        self.why: str | None = None
 
-    def steady(t_rel: float) -> str | None:
+    def __call__(self, sim) -> None:
+        from .diagnostics.flow import resolved_tke_volume_mean, u_star_at
+
+        m, h = self.model, self.series
+        t_rel = sim.t
+        h["t"].append(t_rel)
+        h["u_star"].append(u_star_at(m, m.z_ref))
+        h["tke"].append(resolved_tke_volume_mean(m))
+        h["u_drive"].append(m.state.u_drive)
+        self.why = self._steady(t_rel)
+        if self.why is not None:
+            sim.stop(self.why)
+
+    def _steady(self, t_rel: float) -> str | None:
+        sp, h = self.spinup, self.series
         if t_rel < sp.t_min - 1e-9:
             return None
         ch = window_steadiness(np.asarray(h["t"]), {"u_star": np.asarray(h["u_star"]),
@@ -139,26 +144,42 @@ def run_spinup(model, progress=None, record_every: float | None = None,
         return (f"steady at t = {t_rel:.1f} s: window-mean change of u* {100 * ch['u_star']:.2f} %, "
                 f"resolved TKE {100 * ch['tke']:.2f} % (< {100 * sp.tolerance:g} %)")
 
-    if resumed:
-        # the checkpoint was taken after its last record, before that record's steadiness test
-        next_rec = h["t"][-1] + every
-        why = steady(h["t"][-1])
-    else:
-        record()
-        next_rec, why = every, None
-    while why is None:
-        t_rel = model.state.t - t0
-        if t_rel >= sp.t_max - 1e-9:
-            break
-        dt = model.next_dt(limit=min(next_rec, sp.t_max) - t_rel)
-        model.step(dt)
-        t_rel = model.state.t - t0
-        if t_rel >= next_rec - 1e-9:
-            record()
-            next_rec = t_rel + every
-            if progress is not None:
-                progress(t_rel, sp.t_max)
-            why = steady(t_rel)
-    hist = {k: np.asarray(h[k]) for k in HISTORY_KEYS}
-    return SpinupResult(converged=why is not None, t=float(model.state.t - t0),
-                        reason=why or f"t_max = {sp.t_max:g} s reached", history=hist)
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        return {k: np.asarray(v, dtype=np.float64) for k, v in self.series.items()}
+
+    def restore(self, data: dict[str, np.ndarray]) -> None:
+        self.series = {k: [float(x) for x in np.asarray(data[k])] for k in HISTORY_KEYS}
+
+    def result(self, sim) -> SpinupResult:
+        """What the spin-up did, once ``sim.run()`` has returned."""
+        hist = {k: np.asarray(v) for k, v in self.series.items()}
+        return SpinupResult(converged=self.why is not None, t=float(sim.t),
+                            reason=self.why or f"t_max = {self.spinup.t_max:g} s reached",
+                            history=hist)
+
+
+def spinup_simulation(model, record_every: float | None = None):
+    """(Simulation, SteadinessRecord): the particle-free spin-up of ``model`` from its present
+    time to ``fidelity.spinup.t_max`` later, recording every ``record_every`` s (default
+    ``record_interval``) and stopping once steady. A caller adds its own callbacks (progress,
+    checkpoints, profile samples) before ``run()``."""
+    from .simulation import Simulation, TimeInterval
+
+    sp = model.scene.fidelity.spinup
+    every = record_every if record_every is not None else record_interval(sp)
+    sim = Simulation(model, stop_time=sp.t_max)
+    rec = SteadinessRecord(model)
+    sim.add_callback("steadiness", rec, TimeInterval(every, from_last=True))
+    return sim, rec
+
+
+def run_spinup(model, progress=None, record_every: float | None = None) -> SpinupResult:
+    """Step ``model`` (flow only) until steady or t_max (module docstring); ``progress(t, t_max)``
+    after every step."""
+    from .simulation import IterationInterval
+
+    sim, rec = spinup_simulation(model, record_every)
+    if progress is not None:
+        sim.add_callback("progress", lambda s: progress(s.t, s.stop_time), IterationInterval(1))
+    sim.run()
+    return rec.result(sim)

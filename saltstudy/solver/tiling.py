@@ -96,4 +96,4 @@ def project_restart(model) -> None:
     that flow (the source's u_drive belongs to the source's damping layer)."""
     s = model.state
     model.stepper.pressure.project(s.u, s.v, s.w)
-    s.u_drive = model.controller.feed_forward(model._damped_mean_u())
+    s.u_drive = model.controller.feed_forward(model.damped_mean_u())

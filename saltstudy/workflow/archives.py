@@ -22,10 +22,10 @@ import xarray as xr
 
 from .. import SOURCE_KEY, __version__
 from ..config import Scene
-from .health import HEALTH_SERIES
+from ..solver.diagnostics.health import HEALTH_SERIES
 
 __all__ = ["META", "global_attrs", "plane_heights", "diameter_edges", "z_ref_eff", "coords_for",
-           "spinup_dataset", "restart_from_dataset", "samples_dataset", "check_metadata"]
+           "spinup_dataset", "restart_from_dataset", "samples_dataset", "check_metadata", "scalar_kind"]
 
 # name -> (units, long_name). One table for both archives, so a name means one thing everywhere.
 META: dict[str, tuple[str, str]] = {
@@ -185,7 +185,7 @@ _STAGGERED = {"u": ("x_u", "y", "z"), "v": ("x", "y_v", "z"), "w": ("x", "y", "z
               "e": ("x", "y", "z"), "p": ("x", "y", "z")}
 
 
-def _scalar_kind(v: Any) -> str | None:
+def scalar_kind(v: Any) -> str | None:
     if isinstance(v, (bool, np.bool_)):
         return "bool"
     if isinstance(v, (int, np.integer)):
@@ -223,7 +223,7 @@ def spinup_dataset(scene: Scene, grid, checkpoint: dict[str, Any], profiles: dic
     manifest: dict[str, dict[str, Any]] = {}
     taken: set[str] = set()
     for name, val in checkpoint.items():
-        kind = _scalar_kind(val)
+        kind = scalar_kind(val)
         if kind is not None:
             attr = _nc_name(name, taken)
             attrs[attr] = {"bool": int, "none": lambda _: ""}.get(kind, lambda x: x)(val)

@@ -1,4 +1,4 @@
-"""Workflow commands: ``run-all``, ``run``, ``status`` (registered on the typer app by cli.py).
+"""Workflow commands: ``run-all``, ``run``, ``status``, ``figures`` (registered on the typer app by cli.py).
 
 Exit codes: 0 success; 1 a task failed (the others ran; see ``saltstudy status``); 2 bad input
 (unknown study/case, invalid file) — then nothing in the cache is touched.
@@ -85,10 +85,9 @@ def register(app: typer.Typer) -> None:
         """Run one case: spin-up, saltation, analysis (cached like run-all; no report)."""
         from ..config import load_case, load_fidelity, resolve_scene
         from . import keys as K
-        from .graph import _analysis, _saltation, _spinup, _start, warm_for
+        from .graph import run_case, warm_for
         from .paths import task_dir
         from .progress import ProgressDisplay, TaskRef
-        from .. import SOURCE_KEY
 
         out_dir = _out(out)
         try:
@@ -102,14 +101,11 @@ def register(app: typer.Typer) -> None:
         t0 = time.perf_counter()
         with ProgressDisplay(refs, quiet=quiet):
             warm_for([rk], out_dir)
-            sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
-            st = _start(scene, rk, sp, out_dir, SOURCE_KEY, None)
-            sa = _saltation(scene, rk.saltation, st, out_dir, SOURCE_KEY, None)
-            an = _analysis(rk.label, rk.analysis, st, sa, out_dir)
-        for o in (sp, sa, an):
+            outcomes = run_case(rk, out_dir)
+        for o in outcomes:
             typer.echo(f"{o.task:<9} {o.status:<8} {o.path or o.error or ''}")
         typer.echo(f"wall time {time.perf_counter() - t0:.1f} s")
-        raise typer.Exit(1 if any(o.status == "failed" for o in (sp, sa, an)) else 0)
+        raise typer.Exit(1 if any(o.status == "failed" for o in outcomes) else 0)
 
     @app.command("status")
     def status(
@@ -129,6 +125,44 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"study {st.name}, out dir {out_dir}")
         typer.echo(format_status(rows))
 
+    @app.command("figures")
+    def figures(
+        study: str = typer.Option("reduced", "--study", help="study name (workflows/NAME.toml) or file"),
+        out: Optional[Path] = typer.Option(None, "--out", help="cache directory holding the archives "
+                                                              "(default: $SALTSTUDY_OUT or .saltstudy-cache)"),
+        report_dir: Optional[Path] = typer.Option(None, "--report-dir",
+                                                  help="where the report goes (default: reports/<study>)"),
+    ) -> None:
+        """Figures 1-13, Table 2 beside the paper, summary.json and index.html from the archives."""
+        from ..config import ConfigError
+        try:
+            index = figures_command(study, out, report_dir)
+        except ConfigError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(2)
+        typer.echo(f"report: {index}")
+
+
+def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path]) -> Path:
+    """Resolve the study's analysis archives under ``out`` and build the report. Returns index.html."""
+    from .. import __version__
+    from ..config import load_study
+    from ..report import build_report
+    from . import keys as wkeys
+    from . import paths as wpaths
+    from .report_meta import cache_meta
+
+    out_dir = Path(out) if out is not None else wpaths.default_out_dir()
+    runs = wpaths.analysis_paths(study, out_dir)
+    study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
+    if report_dir is None:
+        report_dir = wpaths.default_report_dir(study_name)
+    meta = {"study": study_name, "out_dir": str(out_dir), "package_version": __version__}
+    # the cache keys let the report find failure records and samples.nc (stability, animation)
+    meta["keys"] = {l: {"spinup": k.spinup, "saltation": k.saltation, "analysis": k.analysis}
+                    for l, k in wkeys.study_keys(load_study(study)).items()}
+    return build_report(study_name, runs, Path(report_dir), cache_meta(meta))
+
 
 def _complete(path: Path) -> bool:
     from ..ncio import is_complete
@@ -142,13 +176,13 @@ def _print_summary(summary) -> None:
         counts[o.status] = counts.get(o.status, 0) + 1
     typer.echo(f"study {summary.study}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
                + f" in {summary.wall_s:.1f} s")
-    expected = {id(o) for o in getattr(summary, "expected_blowups", [])}
+    expected = {id(o) for o in summary.expected_blowups}
     for o in summary.outcomes:
         if id(o) in expected:
             typer.echo(f"  blew up as the scene expects: {o.task} {','.join(o.labels)}: {o.error}")
         elif o.status in ("failed", "skipped"):
             typer.echo(f"  {o.status}: {o.task} {','.join(o.labels)}: {o.error}", err=o.status == "failed")
-    for label in getattr(summary, "unexpected_completions", []):
+    for label in summary.unexpected_completions:
         typer.echo(f"  {label}: expected a solver blow-up (scene expect = 'blow-up') but the run "
                    "completed", err=True)
     if summary.report_dir is not None:

@@ -1,15 +1,16 @@
-"""The saltation driver loop: activation, stepping onto record times, recording, checkpoints.
+"""A run's records and checkpoints on the one time loop (``solver.simulation.Simulation``), and
+the saltation run: activation, records on schedule, checkpoints.
 
-Records land exactly on their times: each step is clipped with ``model.next_dt(limit=...)`` to
-the next record time (series every ``sampling.series_interval``, planes every
-``sampling.plane_interval`` inside the sampling window — or over the whole run with
-``outputs.animation`` — and 3-D samples at ``sampling.start + i * sampling.interval``). Record
-times are computed as integer multiples, never accumulated, so they do not drift.
+Records land exactly on their times: the simulation clips each step to the next record time
+(series every ``sampling.series_interval``, planes every ``sampling.plane_interval`` inside the
+sampling window — or over the whole run with ``outputs.animation`` — and 3-D samples at
+``sampling.start + i * sampling.interval``). Record times are computed as integer multiples,
+never accumulated, so they do not drift.
 
-Every ``fidelity.checkpoint_interval_wall`` seconds of wall time the driver writes
-``checkpoint.npz`` (temporary name + ``os.replace``): the model's checkpoint, the recorder's
-records so far and the loop position. A rerun resumes from it; because the solver's restart is
-bit-for-bit, the final records equal those of an uninterrupted run.
+Every ``fidelity.checkpoint_interval_wall`` seconds of wall time a run writes ``checkpoint.npz``
+(temporary name + ``os.replace``): the model's checkpoint and the simulation's (schedule positions,
+step count, the records so far). A rerun resumes from it; because the solver's restart is bit for
+bit, the final records equal those of an uninterrupted run.
 """
 from __future__ import annotations
 
@@ -25,13 +26,12 @@ import numpy as np
 
 from .. import SOURCE_KEY
 from ..config import Scene
-from . import archives, health
+from ..solver.simulation import (TIME_EPS, IterationInterval, Simulation, SpecifiedTimes,
+                                 WallTimeInterval)
+from . import archives
 
 __all__ = ["Recorder", "Schedule", "SaltationResult", "run_saltation", "save_checkpoint",
-           "load_checkpoint", "Interrupted"]
-
-#: two record times closer than this are the same time [s]; far below any time step
-TIME_EPS = 1e-9
+           "load_checkpoint", "Interrupted", "add_checkpoints"]
 
 GROUPS = ("series", "plane", "sample")
 
@@ -120,19 +120,36 @@ class Schedule:
         events = sorted((t, frozenset(g)) for t, g in by_time.items() if t <= dur + TIME_EPS)
         return cls(events, dur)
 
+    def times(self, group: str) -> list[float]:
+        """The record times of one group [s since activation]."""
+        return [t for t, g in self.events if group in g]
+
+    @property
+    def end(self) -> float:
+        """The run's last time [s since activation] (the duration, as the record times hold it)."""
+        return self.events[-1][0]
+
 
 # ------------------------------------------------------------------------------------------
-def save_checkpoint(path: Path, model_ckpt: dict[str, Any], recorder: Recorder,
+def save_checkpoint(path: Path, model_ckpt: dict[str, Any], sim_ckpt: dict[str, Any],
                     meta: dict[str, Any]) -> None:
-    """Write the model checkpoint, the records and ``meta`` to ``path`` atomically."""
+    """Write a model checkpoint, a simulation checkpoint (``Simulation.checkpoint``: its arrays,
+    those of the stateful callbacks, are stored as arrays, the rest as JSON) and ``meta`` to
+    ``path`` atomically."""
     arrays: dict[str, np.ndarray] = {}
     kinds: dict[str, str] = {}
     for k, v in model_ckpt.items():
-        kind = archives._scalar_kind(v)
+        kind = archives.scalar_kind(v)
         kinds[k] = kind or "array"
         arrays[f"model:{k}"] = np.asarray("" if v is None else v)
-    arrays.update(recorder.checkpoint())
-    meta = dict(meta, model_kinds=kinds, source_key=SOURCE_KEY)
+    sim = {k: v for k, v in sim_ckpt.items() if k != "callbacks"}
+    sim["callbacks"] = {}
+    for name, state in sim_ckpt.get("callbacks", {}).items():
+        sim["callbacks"][name] = []
+        for k, v in state.items():
+            arrays[f"cb:{name}:{k}"] = np.asarray(v)
+            sim["callbacks"][name].append(k)
+    meta = dict(meta, model_kinds=kinds, source_key=SOURCE_KEY, simulation=sim)
     arrays["meta"] = np.asarray(json.dumps(meta))
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")  # per process: never two writers on one file
@@ -143,11 +160,9 @@ def save_checkpoint(path: Path, model_ckpt: dict[str, Any], recorder: Recorder,
     os.replace(tmp, path)
 
 
-def load_checkpoint(path: Path, groups: tuple[str, ...] = GROUPS
-                    ) -> tuple[dict[str, Any], Recorder, dict[str, Any]] | None:
-    """(model checkpoint, recorder of ``groups``, meta), or None if the file is absent,
-    unreadable or was written by other numerical code (then it cannot resume bit-for-bit and is
-    ignored)."""
+def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]] | None:
+    """(model checkpoint, simulation checkpoint, meta), or None if the file is absent, unreadable
+    or was written by other numerical code (then it cannot resume bit for bit and is ignored)."""
     if not path.is_file():
         return None
     try:
@@ -156,14 +171,34 @@ def load_checkpoint(path: Path, groups: tuple[str, ...] = GROUPS
         meta = json.loads(str(flat.pop("meta")))
     except Exception:  # truncated or corrupt: start over rather than trust it
         return None
-    if meta.get("source_key") != SOURCE_KEY:
+    if meta.get("source_key") != SOURCE_KEY or "simulation" not in meta:
         return None
     conv = {"bool": lambda a: bool(a), "int": lambda a: int(a), "float": lambda a: float(a),
             "str": lambda a: str(a), "none": lambda a: None, "array": lambda a: np.ascontiguousarray(a)}
     model_ckpt = {k[len("model:"):]: conv[meta["model_kinds"][k[len("model:"):]]](v)
                   for k, v in flat.items() if k.startswith("model:")}
-    rec = Recorder.restore({k: v for k, v in flat.items() if k.startswith("rec:")}, groups)
-    return model_ckpt, rec, meta
+    sim = dict(meta.pop("simulation"))
+    sim["callbacks"] = {name: {k: flat[f"cb:{name}:{k}"] for k in names}
+                        for name, names in sim.get("callbacks", {}).items()}
+    return model_ckpt, sim, meta
+
+
+def add_checkpoints(sim: Simulation, path: Path, interval: float,
+                    meta: Callable[[], dict[str, Any]] | None = None,
+                    interrupt_after_steps: int | None = None) -> None:
+    """Add to ``sim`` a checkpoint to ``path`` every ``interval`` s of wall time (``meta()``: what
+    else to store) and, as a test hook, a checkpoint and :class:`Interrupted` after
+    ``interrupt_after_steps`` steps of this run (a killed run)."""
+    def write(s: Simulation) -> None:
+        save_checkpoint(path, s.model.checkpoint(), s.checkpoint(), meta() if meta else {})
+
+    sim.add_callback("checkpoint", write, WallTimeInterval(interval))
+    if interrupt_after_steps is not None:
+        def interrupt(s: Simulation) -> None:
+            write(s)
+            raise Interrupted(f"test hook: stopped after {s.steps_this_run} steps")
+
+        sim.add_callback("interrupt", interrupt, IterationInterval(interrupt_after_steps))
 
 
 # ------------------------------------------------------------------------------------------
@@ -180,8 +215,73 @@ class SaltationResult:
     extra: dict = field(default_factory=dict)
 
 
-def _model_time(m) -> float:
-    return float(getattr(m, "t", m.state.t))
+class SaltationRecords:
+    """The saltation run's records, by group (a Simulation callback per group, each on the
+    merged record times of ``Schedule``, so that groups due at one time see one instant); the
+    values come from ``solver.diagnostics.records``. Its state is the Recorder's."""
+
+    def __init__(self, scene: Scene, model, n_released: int):
+        self.scene, self.model, self.n_released = scene, model, n_released
+        self.recorder = Recorder()
+        self.z_plane = archives.plane_heights(scene)
+        self.d_edges = archives.diameter_edges(scene)
+        self.z_ref = archives.z_ref_eff(scene)
+        self.full = scene.fidelity.outputs.full_snapshots
+        #: (dt, Courant number) of the last step before a record; kept over a resume
+        self.last = (math.nan, math.nan)
+        self.sim: Simulation | None = None
+
+    def series(self, sim: Simulation) -> None:
+        from ..solver.diagnostics import records
+
+        if sim.last_step is not None:
+            self.last = (float(sim.last_step.dt), float(sim.last_step.max_cfl))
+        self.recorder.add("series", sim.event_time, records.series(self.model, self.z_ref, self.n_released,
+                                                          *self.last))
+
+    def plane(self, sim: Simulation) -> None:
+        from ..solver.diagnostics import records
+
+        self.recorder.add("plane", sim.event_time, records.planes(self.model, self.z_plane))
+
+    def sample(self, sim: Simulation) -> None:
+        from ..solver.diagnostics import records
+
+        rec = records.sample(self.model, self.d_edges, full=self.full)
+        missing = [k for k in archives.GRAIN_PROFILES if k not in rec]
+        if missing:
+            raise KeyError(f"grain_profiles() lacks {missing} required by samples.nc")
+        self.recorder.add("sample", sim.event_time, rec)
+
+    # the records' state, saved with the simulation (under the series callback's name)
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        out = self.recorder.checkpoint()
+        step = self.sim.last_step if self.sim is not None else None
+        last = self.last if step is None else (float(step.dt), float(step.max_cfl))
+        out["last_step"] = np.asarray(last, dtype=np.float64)
+        return out
+
+    def restore(self, data: dict[str, np.ndarray]) -> None:
+        last = data.get("last_step")
+        self.recorder = Recorder.restore({k: v for k, v in data.items() if k.startswith("rec:")})
+        if last is not None:
+            self.last = (float(last[0]), float(last[1]))
+
+
+class _SeriesCallback:
+    """The series group's callback, which carries the records' state."""
+
+    def __init__(self, records: SaltationRecords):
+        self.records = records
+
+    def __call__(self, sim: Simulation) -> None:
+        self.records.series(sim)
+
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        return self.records.checkpoint()
+
+    def restore(self, data: dict[str, np.ndarray]) -> None:
+        self.records.restore(data)
 
 
 def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
@@ -194,118 +294,50 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
     is a test hook: raise :class:`Interrupted` after that many steps *of this call* (a checkpoint
     is written just before, so the rerun resumes from there).
     """
-    from ..solver.diagnostics import flow as dflow
-    from ..solver.diagnostics import grains as dpart
     from ..solver.model import Model
 
-    interval = scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None else checkpoint_interval
+    interval = (scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None
+                else checkpoint_interval)
     schedule = Schedule.from_scene(scene)
-    z_plane = archives.plane_heights(scene)
-    d_edges = archives.diameter_edges(scene)
-    z_ref = archives.z_ref_eff(scene)
-    full = scene.fidelity.outputs.full_snapshots
-    dt_forced = scene.fidelity.saltation_dt_fixed
-
     loaded = load_checkpoint(checkpoint_path)
     if loaded is not None:
-        ckpt, recorder, meta = loaded
+        ckpt, sim_ckpt, meta = loaded
         model = Model.from_scene(scene, saltation=True, restart=ckpt)
-        t_act = float(meta["t_activation"])
-        if getattr(model, "t_activation", None) is None:
-            model.t_activation = t_act
-        next_event, wall_before = int(meta["next_event"]), float(meta["wall_time_s"])
-        last = (float(meta["last_dt"]), float(meta["last_cfl"]))
-        n_steps = int(meta["n_steps"])
-        resumed_from = _model_time(model) - t_act
+        wall_before = float(meta["wall_time_s"])
     else:
         model = Model.from_scene(scene, saltation=True, restart=restart)
         model.activate_saltation()
-        t_act = float(model.t_activation)
-        recorder, next_event, wall_before, n_steps = Recorder(), 0, 0.0, 0
-        last = (math.nan, math.nan)
-        resumed_from = None
+        sim_ckpt, wall_before = None, 0.0
+    t_act = float(model.t_activation)
+    # what activation released (the component rounds scene.n_initial)
+    n_released = int(model.components[0].n_initial)
 
+    sim = Simulation(model, stop_time=schedule.end, origin=t_act,
+                     dt_fixed=scene.fidelity.saltation_dt_fixed)
+    recs = SaltationRecords(scene, model, n_released)
+    recs.sim = sim
+    for group, call in (("series", _SeriesCallback(recs)), ("plane", recs.plane),
+                        ("sample", recs.sample)):
+        sim.add_callback(group, call, SpecifiedTimes(schedule.times(group)))
+    if progress is not None:
+        sim.add_callback("progress", lambda s: progress(s.t, s.stop_time), IterationInterval(1))
     t0_wall = time.perf_counter()
-    last_ckpt_wall = t0_wall
-    steps_here = 0
-
-    def write_ckpt() -> None:
-        save_checkpoint(checkpoint_path, model.checkpoint(), recorder, {
-            "t_activation": t_act, "t_since_activation": _model_time(model) - t_act,
-            "next_event": next_event, "n_steps": n_steps,
-            "wall_time_s": wall_before + time.perf_counter() - t0_wall,
-            "last_dt": last[0], "last_cfl": last[1]})
-
-    # what activation released (a component may round scene.n_initial)
-    n_released = int(getattr(model.components[0], "n_initial", 0)) if model.components else 0
-
-    def record(groups: frozenset[str], t_rel: float) -> None:
-        if "series" in groups:
-            c = dpart.grain_counters(model)
-            recorder.add("series", t_rel, {
-                "n_parcels": c["n_parcels"], "n_impacts": c["n_impacts"],
-                "n_rebounds": c["n_rebounds"], "n_ejections": c["n_ejections"],
-                "n_depositions": c["n_depositions"], "G_tot_series": c["G_tot"],
-                "u_star_ref": dflow.u_star_at(model, z_ref), "u_drive": model.state.u_drive,
-                "dt": last[0], "max_cfl": last[1], "E_impact": c["E_impact"], "E_splash": c["E_splash"],
-                "bed_px": c["bed_px"], "bed_pz": c["bed_pz"],
-                **health.step_limits(model), **health.coupling_stiffness(model),
-                "parcel_balance": health.parcel_balance(c, n_released)})
-        if "plane" in groups:
-            gp = dpart.grain_planes(model)
-            fp = dflow.flow_planes(model, z_plane)
-            recorder.add("plane", t_rel, {"C_p": gp["C_p"], "C_p_above": gp["C_p_above"],
-                                          "G_col": gp["G_col"], "u_plane": fp["u_plane"]})
-        if "sample" in groups:
-            uc, vc, wc = dflow.cell_centred_velocity(model)
-            fp = dflow.flow_profiles(model)
-            gp = dpart.grain_profiles(model)
-            rec = {"u": uc.astype(np.float32), "v": vc.astype(np.float32), "w": wc.astype(np.float32),
-                   "e": model.state.e.astype(np.float32),
-                   "C_p_s": dpart.grain_planes(model)["C_p"],
-                   "uw_res": fp["uw_res"], "uw_sgs": fp["uw_sgs"], "u_mean": fp["u"],
-                   "tke_res": fp["tke_res"], "e_sgs": fp["e_sgs"], "eps_sgs": fp["eps_sgs"],
-                   "sgs_transfer": fp["sgs_transfer"],
-                   "size_hist": dpart.grain_size_hist(model, d_edges),
-                   **dpart.impact_record(model)}
-            missing = [k for k in archives.GRAIN_PROFILES if k not in gp]
-            if missing:
-                raise KeyError(f"grain_profiles() lacks {missing} required by samples.nc")
-            rec.update({k: gp[k] for k in archives.GRAIN_PROFILES})
-            if full:
-                rec["p"] = model.state.p.astype(np.float32)
-            recorder.add("sample", t_rel, rec)
-
+    add_checkpoints(sim, checkpoint_path, interval,
+                    meta=lambda: {"wall_time_s": wall_before + time.perf_counter() - t0_wall,
+                                  "t_since_activation": sim.t, "n_steps": sim.n_steps},
+                    interrupt_after_steps=interrupt_after_steps)
+    resumed_from = None
+    if sim_ckpt is not None:
+        sim.restore(sim_ckpt)
+        resumed_from = sim.t
     try:
-        events = schedule.events
-        while next_event < len(events):
-            t_event, groups = events[next_event]
-            target = t_act + t_event
-            while _model_time(model) - t_act < t_event - TIME_EPS:
-                dt = model.next_dt(limit=target - _model_time(model))
-                if dt_forced is not None:
-                    dt = min(dt_forced, target - _model_time(model))
-                info = model.step(dt)
-                last = (float(info.dt), float(info.max_cfl))
-                n_steps += 1
-                steps_here += 1
-                if progress is not None:
-                    progress(_model_time(model) - t_act, schedule.duration)
-                now = time.perf_counter()
-                hook = interrupt_after_steps is not None and steps_here >= interrupt_after_steps
-                if now - last_ckpt_wall >= interval or hook:
-                    write_ckpt()
-                    last_ckpt_wall = time.perf_counter()
-                if hook:
-                    raise Interrupted(f"test hook: stopped after {steps_here} steps")
-            record(groups, t_event)
-            next_event += 1
+        sim.run()
     finally:
-        close = getattr(model, "close", None)
-        if close is not None:
-            close()
+        model.close()
 
+    rec = recs.recorder
     return SaltationResult(
-        records={g: recorder.stacked(g) for g in GROUPS}, grid=model.state.grid, z_plane=z_plane,
-        d_edges=d_edges, t_activation=t_act, wall_time_s=wall_before + time.perf_counter() - t0_wall,
-        n_steps=n_steps, resumed_from=resumed_from)
+        records={g: rec.stacked(g) for g in GROUPS}, grid=model.grid, z_plane=recs.z_plane,
+        d_edges=recs.d_edges, t_activation=t_act,
+        wall_time_s=wall_before + time.perf_counter() - t0_wall, n_steps=sim.n_steps,
+        resumed_from=resumed_from)

@@ -58,7 +58,7 @@ from .tasks import (analysis_task, continuation_task, report_done, report_task, 
                     spinup_task)
 from .warmup import ensure_warm
 
-__all__ = ["Outcome", "StudySummary", "build_graph", "run_study"]
+__all__ = ["Outcome", "StudySummary", "build_graph", "run_study", "run_case", "warm_for"]
 
 
 @dataclass
@@ -158,6 +158,17 @@ def _report(study: Study, analyses: list[tuple[str, Outcome]], out_dir: Path, re
         return Outcome("report", rkey, [study.name], "cached", str(report_dir))
     return _call("report", rkey, [study.name], Path(report_dir), report_task, study, runs, out_dir,
                  report_dir, rkey, meta, emit)
+
+
+def run_case(rk: "K.RunKeys", out_dir: Path) -> list[Outcome]:
+    """One run's tasks in order, in this process (``saltstudy run``): its spin-up, the links of
+    its staggered start, its saltation and its analysis; [spin-up, saltation, analysis]."""
+    scene = rk.scene
+    sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
+    st = _start(scene, rk, sp, out_dir, SOURCE_KEY, None)
+    sa = _saltation(scene, rk.saltation, st, out_dir, SOURCE_KEY, None)
+    an = _analysis(rk.label, rk.analysis, st, sa, out_dir)
+    return [sp, sa, an]
 
 
 # ------------------------------------------------------------------------------------------

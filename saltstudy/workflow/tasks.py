@@ -26,12 +26,10 @@ from ..config import Scene, Study
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
 from ..solver.similarity import rescale_restart
-from .driver import Interrupted, Recorder, load_checkpoint, run_saltation, save_checkpoint
+from .driver import Interrupted, add_checkpoints, load_checkpoint, run_saltation
 from .paths import output_path, task_dir, write_json_atomic
 from .progress import ProgressFile
-
-#: the spin-up checkpoint's record groups: the steadiness series and the profile samples
-SPINUP_GROUPS = ("history", "profile")
+from .report_meta import cache_meta
 
 __all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "read_attrs",
            "write_task_json", "read_task_json", "report_done", "check_source_key", "SourceMismatch"]
@@ -96,114 +94,138 @@ class _Running:
             ProgressFile(self.directory, self.task, "", "").write(0.0, "failed", str(exc))
 
 
-def _close(model) -> None:
-    """Release the solver's resources (FFT plans, thread pools) if it has any to release."""
-    close = getattr(model, "close", None)
-    if close is not None:
-        close()
-
-
 # ------------------------------------------------------------------------------------------
+class ProfileSamples:
+    """Mean profiles (``flow_profiles``) sampled at the spin-up's records at least ``window``/20
+    apart, keeping the last ``window`` seconds: the spin-up archive's profiles are their mean over
+    the spin-up's last window, and when the steadiness test stops the run is not known ahead.
+    A Simulation callback with state."""
+
+    def __init__(self, model, window: float):
+        self.model, self.window, self.every = model, window, window / 20.0
+        self.samples: deque[tuple[float, dict[str, np.ndarray]]] = deque()
+
+    def __call__(self, sim) -> None:
+        from ..solver.diagnostics.flow import flow_profiles
+
+        t = float(self.model.t)
+        if not self.samples or t - self.samples[-1][0] >= self.every - 1e-12:
+            self.samples.append((t, {k: np.array(v) for k, v in flow_profiles(self.model).items()}))
+            while self.samples and self.samples[0][0] < t - self.window - 1e-9:
+                self.samples.popleft()
+
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        if not self.samples:
+            return {"t": np.zeros(0)}
+        out = {"t": np.array([t for t, _ in self.samples])}
+        for k in self.samples[0][1]:
+            out[f"p:{k}"] = np.stack([p[k] for _, p in self.samples])
+        return out
+
+    def restore(self, data: dict[str, np.ndarray]) -> None:
+        names = [k[2:] for k in data if k.startswith("p:")]
+        self.samples = deque((float(t), {k: np.array(data[f"p:{k}"][i]) for k in names})
+                             for i, t in enumerate(np.asarray(data["t"])))
+
+    def window_mean(self, t_end: float) -> tuple[dict[str, np.ndarray], tuple[float, float, int]]:
+        """The profiles' mean over the window that ends at ``t_end`` (a sample at ``t_end`` is
+        taken if there is none), and (first time, last time, count) of the samples in it."""
+        from ..solver.diagnostics.flow import flow_profiles
+
+        if not self.samples or self.samples[-1][0] < t_end - 1e-12:
+            self.samples.append((t_end, {k: np.array(v) for k, v in
+                                         flow_profiles(self.model).items()}))
+        use = [(t, p) for t, p in self.samples if t >= t_end - self.window - 1e-9]
+        mean = {k: np.mean([p[k] for _, p in use], axis=0) for k in use[-1][1]}
+        return mean, (min(t for t, _ in use), t_end, len(use))
+
+
 def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
                 checkpoint_interval: float | None = None,
-                interrupt_after_records: int | None = None) -> Path:
+                interrupt_after_steps: int | None = None) -> Path:
     """Flow-only spin-up of ``scene`` -> ``<out>/spinup/<key>/spinup.nc``.
 
-    Every ``fidelity.checkpoint_interval_wall`` seconds of wall time (at a record of the
-    steadiness series) it writes ``checkpoint.npz``: the model, the series and the profile samples
-    of the last window. A rerun resumes from it and ends as the uninterrupted spin-up would; the
-    paper's grid needs 6-55 h of it (docs/BENCHMARKS.md), longer than many batch queues allow.
-    ``interrupt_after_records`` is a test hook: checkpoint and raise Interrupted at that record.
+    Every ``fidelity.checkpoint_interval_wall`` seconds of wall time it writes ``checkpoint.npz``:
+    the model, the steadiness series and the profile samples of the last window. A rerun resumes
+    from it and ends as the uninterrupted spin-up would; the paper's grid needs 6-55 h of it
+    (docs/BENCHMARKS.md), longer than many batch queues allow. ``interrupt_after_steps`` is a
+    test hook: checkpoint and raise Interrupted after that many steps.
     """
     key = keys.spinup_key(scene)
     path = output_path(out_dir, "spinup", key)
     if is_complete(path):
         return path
     check_source_key(source_key)
-    from ..solver.diagnostics import flow as dflow
     from ..solver.model import Model
-    from ..solver.spinup import HISTORY_KEYS
+    from ..solver.simulation import IterationInterval, TimeInterval
+    from ..solver.spinup import record_interval, spinup_simulation
 
     scene = scene.spinup_scene()   # at fidelity.spinup.u_star_ref when set (solver.similarity)
     interval = (scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None
                 else checkpoint_interval)
-
     d = task_dir(out_dir, "spinup", key)
     ckpt_path = d / "checkpoint.npz"
     with _Running(d, "spinup", key=key, label=scene.label, config=scene.spinup_slice()):
         t0 = time.perf_counter()
         sp = scene.fidelity.spinup
-        # Profiles averaged over the last spin-up window: keep samples of the last `window`
-        # seconds (every window/20), since when the steadiness test stops is not known ahead.
-        window, every = sp.window, sp.window / 20.0
-        samples: deque[tuple[float, dict[str, np.ndarray]]] = deque()
-        history: dict[str, Any] = {}
-        wall_before = 0.0
-        loaded = load_checkpoint(ckpt_path, SPINUP_GROUPS)
+        loaded = load_checkpoint(ckpt_path)
         if loaded is not None:
-            model_ckpt, rec, meta = loaded
+            model_ckpt, sim_ckpt, meta = loaded
             model = Model.from_scene(scene, saltation=False, restart=model_ckpt)
-            t_h, series = rec.stacked("history")
-            history = {"t0": float(meta["t0"]), "t": t_h.tolist(),
-                       **{k: series[k].tolist() for k in HISTORY_KEYS if k != "t"}}
-            t_p, prof = rec.stacked("profile")
-            samples.extend((float(t), {k: v[i] for k, v in prof.items()}) for i, t in enumerate(t_p))
             wall_before = float(meta["wall_time_s"])
         else:
             model = Model.from_scene(scene, saltation=False)
-        t_start = float(history.get("t0", getattr(model, "t", model.state.t)))
+            sim_ckpt, wall_before = None, 0.0
+        sim, steadiness = spinup_simulation(model)
+        # the profiles are sampled at the records after the first (at t = 0 the flow is the
+        # initial perturbed log law)
+        every = record_interval(sp)
+        profiles = ProfileSamples(model, sp.window)
+        sim.add_callback("profiles", profiles, TimeInterval(every, start=every, from_last=True))
         prog = ProgressFile(d, "spinup", scene.label, "spin-up")
-        prog.target = sp.t_max  # the solver reports (t since start of spin-up, t_max)
-        last_ckpt = time.perf_counter()
-        n_records = 0
-
-        def write_ckpt() -> None:
-            rec = Recorder(SPINUP_GROUPS)
-            for i, t in enumerate(history["t"]):
-                rec.add("history", t, {k: history[k][i] for k in HISTORY_KEYS if k != "t"})
-            for t, prof in samples:
-                rec.add("profile", t, prof)
-            save_checkpoint(ckpt_path, model.checkpoint(), rec, {
-                "t0": history["t0"], "t_spinup": history["t"][-1],
-                "wall_time_s": wall_before + time.perf_counter() - t0})
-
-        def on_progress(*args: Any, **kw: Any) -> None:
-            nonlocal last_ckpt, n_records
-            prog(*args, **kw)
-            t = float(getattr(model, "t", model.state.t))
-            if not samples or t - samples[-1][0] >= every - 1e-12:
-                samples.append((t, {k: np.array(v) for k, v in dflow.flow_profiles(model).items()}))
-                while samples and samples[0][0] < t - window - 1e-9:
-                    samples.popleft()
-            n_records += 1
-            hook = interrupt_after_records is not None and n_records >= interrupt_after_records
-            if time.perf_counter() - last_ckpt >= interval or hook:
-                write_ckpt()
-                last_ckpt = time.perf_counter()
-            if hook:
-                raise Interrupted(f"test hook: stopped after {n_records} records")
-
+        prog.target = sp.t_max
+        sim.add_callback("progress", lambda s: prog(s.t, s.stop_time), IterationInterval(1))
+        add_checkpoints(sim, ckpt_path, interval,
+                        meta=lambda: {"wall_time_s": wall_before + time.perf_counter() - t0},
+                        interrupt_after_steps=interrupt_after_steps)
+        if sim_ckpt is not None:
+            sim.restore(sim_ckpt)
         try:
-            res = model.spinup(progress=on_progress, history=history)
-            t_end = float(getattr(model, "t", model.state.t))
-            last = {k: np.array(v) for k, v in dflow.flow_profiles(model).items()}
+            sim.run()
+            res = steadiness.result(sim)
+            t_end = float(model.t)
+            mean, window = profiles.window_mean(t_end)
             ckpt = model.checkpoint()
         finally:
-            _close(model)
-        if not samples or samples[-1][0] < t_end - 1e-12:
-            samples.append((t_end, last))
-        use = [s for t, s in samples if t >= t_end - window - 1e-9]
-        profiles = {k: np.mean([s[k] for s in use], axis=0) for k in last}
+            model.close()
         ds = archives.spinup_dataset(
-            scene, model.state.grid, ckpt, profiles, dict(res.history),
+            scene, model.grid, ckpt, mean, dict(res.history),
             converged=bool(res.converged), reason=str(res.reason), u_drive=float(model.state.u_drive),
             t_end=t_end, wall_time_s=wall_before + time.perf_counter() - t0, key=key,
-            profile_window=(min(t for t, _ in samples if t >= t_end - window - 1e-9), t_end, len(use)))
+            profile_window=window)
         write_dataset(ds, path)
-        prog.write(t_end - t_start, "done")
+        prog.write(t_end - sim.origin, "done")
     # only now is the checkpoint redundant (spinup.nc is complete and renamed into place)
     ckpt_path.unlink(missing_ok=True)
     return path
+
+
+class _ContinuationRecord:
+    """The u* history of a staggered start's link, at model times on the parent's clock."""
+
+    def __init__(self, model, offset: float):
+        self.model, self.offset = model, offset
+        self.t: list[float] = []
+        self.series: dict[str, list[float]] = {"u_star": [], "tke": [], "u_drive": []}
+
+    def __call__(self, sim) -> None:
+        from ..solver.diagnostics.flow import resolved_tke_volume_mean, u_star_at
+
+        m = self.model
+        self.t.append(m.t - self.offset)
+        self.series["u_star"].append(u_star_at(m, m.z_ref))
+        self.series["tke"].append(resolved_tke_volume_mean(m))
+        self.series["u_drive"].append(m.state.u_drive)
 
 
 def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
@@ -221,16 +243,17 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
     the column above 2 m out of balance after the relaxation, in every start
     (reports/reduced/FINDINGS.md). The archive keeps the parent's
     window-mean profiles (the particle-free reference of the analysis) and extends its u* history
-    over the link; its wall time is the link's own (a study's task times then sum each task once).
-    A link is short (seconds of flow), so it has no checkpoint: an interrupted one reruns."""
+    over the link (a record every second and at its end); its wall time is the link's own (a
+    study's task times then sum each task once). A link is short (seconds of flow), so it has no
+    checkpoint: an interrupted one reruns."""
     path = output_path(out_dir, "spinup", key)
     if is_complete(path):
         return path
     check_source_key(source_key)
     if not is_complete(parent_path):
         raise FileNotFoundError(f"{parent_path}: parent archive missing or incomplete")
-    from ..solver.diagnostics.flow import resolved_tke_volume_mean, u_star_at
     from ..solver.model import Model
+    from ..solver.simulation import IterationInterval, Simulation, TimeInterval
 
     scene = scene.spinup_scene()
     duration = float(scene.fidelity.spinup.stagger)
@@ -243,33 +266,26 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
         model = Model.from_scene(scene, saltation=False, restart=restart)
         prog = ProgressFile(d, "spinup", scene.label, "continuation")
         prog.target = duration
-        t_start = float(model.state.t)
         history = {k[:-5] if k.endswith("_hist") else k: np.asarray(parent[k].values)
                    for k in ("u_star_hist", "tke_hist", "u_drive_hist")}
         t_hist = np.asarray(parent["time_hist"].values)
-        offset = t_start - float(t_hist[-1]) if t_hist.size else t_start
-        rec_t, rec = [], {"u_star": [], "tke": [], "u_drive": []}
+        t_start = float(model.t)
+        rec = _ContinuationRecord(model, t_start - float(t_hist[-1]) if t_hist.size else t_start)
+        sim = Simulation(model, stop_time=duration)
+        sim.add_callback("record", rec, TimeInterval(1.0, start=1.0, from_last=True))
+        sim.add_callback("progress", lambda s: prog(s.t, s.stop_time), IterationInterval(1))
         try:
-            next_rec = 1.0
-            while model.state.t - t_start < duration - 1e-9:
-                t_rel = model.state.t - t_start
-                model.step(model.next_dt(limit=min(next_rec, duration) - t_rel))
-                t_rel = model.state.t - t_start
-                if t_rel >= next_rec - 1e-9 or t_rel >= duration - 1e-9:
-                    rec_t.append(model.state.t - offset)
-                    rec["u_star"].append(u_star_at(model, model.z_ref))
-                    rec["tke"].append(resolved_tke_volume_mean(model))
-                    rec["u_drive"].append(model.state.u_drive)
-                    prog.write(t_rel, "running")
-                    next_rec = t_rel + 1.0
+            sim.run()
+            if not rec.t or rec.t[-1] < model.t - rec.offset - 1e-9:
+                rec(sim)                       # the link's end
             ckpt = model.checkpoint()
-            grid = model.state.grid
+            grid = model.grid
             u_drive = float(model.state.u_drive)
-            t_end = float(model.state.t)
+            t_end = float(model.t)
         finally:
-            _close(model)
-        hist = {"t": np.concatenate([t_hist, rec_t]),
-                **{k: np.concatenate([history[k], rec[k]]) for k in rec}}
+            model.close()
+        hist = {"t": np.concatenate([t_hist, rec.t]),
+                **{k: np.concatenate([history[k], rec.series[k]]) for k in rec.series}}
         profiles = {src: np.asarray(parent[dst].values) for src, dst in
                     (("u", "u_mean"), ("uw_res", "uw_res"), ("uw_sgs", "uw_sgs"),
                      ("tke_res", "tke_res"), ("e_sgs", "e_sgs"))}
@@ -368,5 +384,5 @@ def report_task(study: Study, runs: dict[str, Path | None], out_dir: Path, repor
         return None
     with _Running(d, "report", key=key, study=study.name, report_dir=str(report_dir),
                   inputs={k: (str(v) if v else None) for k, v in runs.items()}):
-        build_report(study.name, runs, Path(report_dir), meta or {})
+        build_report(study.name, runs, Path(report_dir), cache_meta(meta or {}))
     return Path(report_dir)

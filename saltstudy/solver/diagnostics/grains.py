@@ -17,8 +17,8 @@ __all__ = ["grain_component", "grain_planes", "grain_profiles", "grain_size_hist
 
 
 def grain_component(model) -> Saltation | None:
-    for c in getattr(model, "components", []):
-        if getattr(c, "name", "") == "saltation":
+    for c in model.components:
+        if c.name == "saltation":
             return c
     return None
 

@@ -1,4 +1,4 @@
-"""Run-health diagnostics (workflow/health.py) on states whose answer is known."""
+"""Run-health diagnostics (solver/diagnostics/health.py) on states whose answer is known."""
 from __future__ import annotations
 
 import math
@@ -7,7 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from test_particles_helpers import component, scene
-from saltstudy.workflow.health import coupling_stiffness, limiting_step, parcel_balance
+from saltstudy.analysis.series import limiting_step
+from saltstudy.solver.diagnostics.health import coupling_stiffness, parcel_balance
 
 
 def test_loading_and_coupled_time_of_one_loaded_cell():

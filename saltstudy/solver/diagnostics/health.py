@@ -2,8 +2,9 @@
 grain-air coupling is, whether the parcel bookkeeping closes.
 
 The solver's step is ``min(cfl / Courant rate, diffusion_number / diffusion rate, dt_max, the grain
-component's limit)`` (``Model.next_dt``). The driver records each candidate, so a report can name
-the constraint that limits the step instead of guessing it from the value.
+component's limit)`` (``Model.next_dt``). A saltation run records each candidate with its series
+(``records.series``), so a report can name the constraint that limits the step instead of
+guessing it from the value (``analysis.series.limiting_step``).
 
 Coupling stiffness. A grain of drag rate ``k_p = f(Re_p) / T_p`` (paper eqs. 3-4) in a cell whose
 grain mass is ``phi`` times the air mass relaxes together with that air at the rate
@@ -42,22 +43,13 @@ HEALTH_SERIES: dict[str, tuple[str, str]] = {
 def step_limits(model) -> dict[str, float]:
     """Candidate steps [s] of the current state; inf where a limit does not apply."""
     ts = model.scene.fidelity.time
-    rate, drate = model._rates()
+    rate, drate = model.rates()
     out = {"dt_courant": ts.cfl / rate if rate > 0 else math.inf,
            "dt_diffusion": ts.diffusion_number / drate if drate > 0 else math.inf,
            "dt_grains": math.inf}
     for c in model.components:
         out["dt_grains"] = min(out["dt_grains"], float(c.max_dt(model.state)))
     return out
-
-
-def limiting_step(dt_courant: float, dt_diffusion: float, dt_grains: float, dt_max: float,
-                  dt_fixed: float | None = None) -> str:
-    """Name of the constraint that sets the step: "fixed", "courant", "diffusion", "grains", "dt_max"."""
-    if dt_fixed is not None:
-        return "fixed"
-    cands = {"courant": dt_courant, "diffusion": dt_diffusion, "grains": dt_grains, "dt_max": dt_max}
-    return min(cands, key=lambda k: cands[k] if math.isfinite(cands[k]) else math.inf)
 
 
 def coupling_stiffness(model) -> dict[str, float]:

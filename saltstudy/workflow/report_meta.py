@@ -1,0 +1,87 @@
+"""What the cache records about a study's runs, for its report (``report.build_report``'s
+``meta``): the workflow reads it and passes it on, so the report reads archives and its meta only.
+
+Given ``meta["out_dir"]`` and ``meta["keys"]`` (label -> {"spinup", "saltation", "analysis"} cache
+keys), :func:`cache_meta` adds, where absent:
+
+* ``failures``: label -> error of the first failed task of the run (its ``task.json``);
+* ``samples``: label -> ``samples.nc`` of the run, if present (stability report, animation);
+* ``checkpoints``: label -> the kept checkpoint of a stopped saltation run and its time;
+* ``source_key``: the solver-source key the archives were computed with (their ``task.json``), one
+  string when they agree, else the sorted distinct keys: a report redrawn later by ``figures``
+  names the code that made its numbers, not only the code that drew them (``commit``).
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from .paths import output_path, task_dir
+
+__all__ = ["cache_meta"]
+
+
+def _task_json(out_dir: Path, task: str, key: str) -> dict[str, Any]:
+    p = Path(task_dir(out_dir, task, key)) / "task.json"
+    try:
+        return json.loads(p.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
+    """``meta`` with what the cache records about its runs added where absent (module doc)."""
+    meta = dict(meta or {})
+    out_dir, keys = meta.get("out_dir"), meta.get("keys")
+    if not out_dir or not isinstance(keys, dict):
+        return meta
+    out_dir = Path(out_dir)
+    failures = dict(meta.get("failures") or {})
+    checkpoints: dict[str, dict] = {}
+    samples = dict(meta.get("samples") or {})
+    made_by: set[str] = set()
+    for label, k in keys.items():
+        if not isinstance(k, dict):
+            continue
+        for task in ("spinup", "saltation", "analysis"):
+            key = k.get(task)
+            if not key:
+                continue
+            tj = _task_json(out_dir, task, key)
+            if task != "analysis" and tj.get("source_key"):
+                made_by.add(str(tj["source_key"]))
+            if tj.get("state") == "failed" and label not in failures:
+                failures[label] = f"{task}: {tj.get('error', 'failed')}"
+        skey = k.get("saltation")
+        ck = _checkpoint(out_dir, skey) if skey else None
+        if ck is not None:
+            checkpoints[label] = ck
+        if skey and label not in samples:
+            p = Path(output_path(out_dir, "saltation", skey))
+            if p.is_file():
+                samples[label] = str(p)
+    if failures:
+        meta["failures"] = failures
+    if samples:
+        meta["samples"] = samples
+    if checkpoints:
+        meta["checkpoints"] = checkpoints
+    if not meta.get("source_key") and made_by:
+        meta["source_key"] = made_by.pop() if len(made_by) == 1 else sorted(made_by)
+    return meta
+
+
+def _checkpoint(out_dir: Path, key: str) -> dict[str, Any] | None:
+    """{"path", "t_since_activation"} of a saltation run's kept checkpoint, or None."""
+    p = Path(task_dir(out_dir, "saltation", key)) / "checkpoint.npz"
+    if not p.is_file():
+        return None
+    t = None
+    try:
+        import numpy as np
+        with np.load(p, allow_pickle=False) as z:
+            t = float(json.loads(str(z["meta"])).get("t_since_activation"))
+    except Exception:
+        pass
+    return {"path": str(p), "t_since_activation": t}
