@@ -4,7 +4,8 @@ A *case* (``cases/caseNN.toml``) fixes the physics of one run of Dupont et al. (
 wind, soil, splash constants, physics switches, Q and the seed. A *fidelity*
 (``workflows/fidelities/NAME.toml``) fixes only what costs: domain, grid, time-step policy,
 durations, sampling and the parcel-count knob. A *study* (``workflows/NAME.toml``) names which cases
-run at which fidelities. A :class:`Scene` is one case resolved against one fidelity: everything the
+run at which fidelities; the rungs and variants only it runs sit in the folder named for it
+(``workflows/NAME/``). A :class:`Scene` is one case resolved against one fidelity: everything the
 solver needs, and nothing else.
 
 All lengths in m, times in s, velocities in m s^-1, densities in kg m^-3, angles in degrees.
@@ -19,14 +20,16 @@ import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator,
+                      model_validator)
 
 __all__ = [
     "Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Physics", "Particles",
     "Case", "GridSpec", "TimeStepping", "SpinUp", "Sampling", "Outputs", "Fidelity", "SceneSpec",
     "Study", "Scene", "RunSpec", "ConfigError", "content_hash", "project_root", "load_case",
     "load_fidelity", "load_study", "resolve_scene", "case_path", "list_case_numbers", "deep_merge",
-    "PAPER_AREA_M2", "study_runs", "validate_model", "validate_file",
+    "PAPER_AREA_M2", "study_runs", "study_file", "study_fidelity_folder", "validate_model",
+    "validate_file",
 ]
 
 # Horizontal area of the paper's domain (20 m x 15 m, section 2.4): the initial release of 10 000
@@ -479,6 +482,9 @@ class Study(_Frozen):
         None, description="a measured flux law the report holds each run's G_tot against, at the "
         "run's own stress u* (report/fluxlaw.py): 'creyssels2009', the wind tunnel of Creyssels et "
         "al. (2009) for 242 um grains of 2500 kg m^-3")
+    # the file load_study read (absolute; None for a study built in code): where the study's own
+    # fidelities are looked up (study_fidelity_folder). Private: not part of what the study means.
+    _file: Path | None = PrivateAttr(None)
 
     @model_validator(mode="after")
     def _consistent(self) -> "Study":
@@ -656,57 +662,119 @@ def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
     return validate_model(Case, data, str(path))
 
 
-def _named_file(kind: str, ref: str | Path, folder: Path) -> Path:
-    p = Path(ref)
-    if p.suffix == ".toml" or p.exists():
+def _known(folder: Path | None) -> str:
+    names = sorted(x.stem for x in folder.glob("*.toml")) if folder is not None else []
+    return ", ".join(names) or "none"
+
+
+def _fidelity_path(ref: str | Path, root: Path | None, own: Path | None = None) -> Path:
+    """The file of a fidelity reference: a file path (``.toml``); ``STUDY/NAME``, a fidelity that
+    a study keeps in its own folder (``workflows/STUDY/NAME.toml``, e.g. ``convergence/reduced-q4``);
+    or a NAME, looked up first in ``own`` (a study's own folder; for ``based_on``, the folder of
+    the file that names it), then in ``workflows/fidelities/``."""
+    p = Path(ref).expanduser()
+    if p.suffix == ".toml" or p.is_file():
         return p
-    candidate = folder / f"{ref}.toml"
-    if not candidate.exists():
-        known = sorted(x.stem for x in folder.glob("*.toml"))
-        raise ConfigError(f"{kind} '{ref}': unknown (known: {', '.join(known) or 'none'})")
-    return candidate
+    workflows = (root or project_root()) / "workflows"
+    if "/" in str(ref):
+        candidate = workflows / f"{ref}.toml"
+        if not candidate.is_file():
+            raise ConfigError(f"fidelity '{ref}': unknown (no {candidate})")
+        return candidate
+    shared = workflows / "fidelities"
+    for folder in (own, shared):
+        if folder is not None and (folder / f"{ref}.toml").is_file():
+            return folder / f"{ref}.toml"
+    where = f"{own}: {_known(own)}; " if own is not None else ""
+    raise ConfigError(f"fidelity '{ref}': unknown (known: {where}{shared}: {_known(shared)})")
 
 
-def _fidelity_data(ref: str | Path, root: Path | None, chain: tuple[str, ...] = ()) -> tuple[Path, dict]:
-    """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins)."""
-    folder = (root or project_root()) / "workflows" / "fidelities"
-    path = _named_file("fidelity", ref, folder)
+def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
+                   chain: tuple[Path, ...] = ()) -> tuple[Path, dict]:
+    """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins).
+    A parent's name is looked up beside the file first, then in workflows/fidelities/."""
+    path = _fidelity_path(ref, root, own)
     data = _read_toml(path)
     base = data.pop("based_on", None)
     if base is None:
         return path, data
     if not isinstance(base, str):
-        raise ConfigError(f"{path}: based_on: must be the name of another fidelity (got {base!r})")
-    if base in chain or base == path.stem:
-        raise ConfigError(f"{path}: based_on: circular ({' -> '.join((*chain, path.stem, base))})")
-    sibling = path.parent / f"{base}.toml"   # a parent next to the file, else the project's
+        raise ConfigError(f"{path}: based_on: must be the name of another fidelity, or STUDY/NAME "
+                          f"(got {base!r})")
+    here = (*chain, path.resolve())
     try:
-        _, parent = _fidelity_data(sibling if sibling.exists() else base, root, (*chain, path.stem))
+        parent_path = _fidelity_path(base, root, path.parent)
+        if parent_path.resolve() in here:
+            names = " -> ".join(x.stem for x in (*here, parent_path))
+            raise ConfigError(f"circular ({names})")
+        _, parent = _fidelity_data(parent_path, root, None, here)
     except ConfigError as exc:
         raise ConfigError(f"{path}: based_on: {exc}") from None
     parent.pop("name", None)
     return path, deep_merge(parent, data)
 
 
-def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
-    """Load a fidelity by name or path. A file may start from another with ``based_on = "NAME"``
-    and list only what differs (sections are deep-merged, the file wins)."""
-    path, data = _fidelity_data(ref, root)
+def _load_fidelity(ref: str | Path, root: Path | None, own: Path | None) -> Fidelity:
+    path, data = _fidelity_data(ref, root, own)
     data.setdefault("name", path.stem)
     return validate_model(Fidelity, data, str(path))
 
 
+def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
+    """Load a fidelity by name (``workflows/fidelities/NAME.toml``), by ``STUDY/NAME`` (a study's
+    own fidelity, ``workflows/STUDY/NAME.toml``) or by path. A file may start from another with
+    ``based_on = "NAME"`` (a file beside it, else workflows/fidelities/) or ``"STUDY/NAME"`` and
+    list only what differs (sections are deep-merged, the file wins)."""
+    return _load_fidelity(ref, root, None)
+
+
+def _study_path(ref: str | Path, root: Path | None) -> Path:
+    """A study file from a name (``workflows/NAME.toml``), a path under workflows/ to a study file
+    or to a folder holding one of its name (``investigations/knobs`` ->
+    ``workflows/investigations/knobs/knobs.toml``), or a path."""
+    p = Path(ref).expanduser()
+    if p.suffix == ".toml" or p.is_file():
+        return p
+    if p.is_dir() and (p / f"{p.name}.toml").is_file():
+        return p / f"{p.name}.toml"
+    workflows = (root or project_root()) / "workflows"
+    for candidate in (workflows / f"{ref}.toml", workflows / p / f"{p.name}.toml"):
+        if candidate.is_file():
+            return candidate
+    raise ConfigError(f"study '{ref}': unknown (known: {_known(workflows)}; a study in a folder of "
+                      f"its own under workflows/ by that folder, e.g. investigations/knobs)")
+
+
 def load_study(ref: str | Path, root: Path | None = None) -> Study:
-    """Load a study by name or path. A scene's ``case`` that is a relative file path is taken
-    relative to the directory of the study file and stored absolute, so that the study means the
-    same case file from any working directory; an absolute path (``~`` expanded) is kept as is."""
-    path = _named_file("study", ref, (root or project_root()) / "workflows")
+    """Load a study by name, by its folder under workflows/ or by path. A scene's ``case`` that is a
+    relative file path is taken relative to the directory of the study file and stored absolute,
+    so that the study means the same case file from any working directory; an absolute path
+    (``~`` expanded) is kept as is. The study's fidelity names resolve first among its own
+    fidelities (:func:`study_fidelity_folder`), then in workflows/fidelities/."""
+    path = _study_path(ref, root)
     data = _read_toml(path)
     data.setdefault("name", path.stem)
     scenes = data.get("scenes")
     if isinstance(scenes, list):
         data["scenes"] = [_scene_case_from(path, s) for s in scenes]
-    return validate_model(Study, data, str(path))
+    study = validate_model(Study, data, str(path))
+    study._file = Path(os.path.abspath(path))
+    return study
+
+
+def study_file(study: Study) -> Path | None:
+    """The file ``study`` was loaded from (None for a study built in code)."""
+    return study._file
+
+
+def study_fidelity_folder(study: Study) -> Path | None:
+    """The folder of a study's own fidelities, named for the study file: the file's own folder
+    when it bears that name (``investigations/knobs/knobs.toml``), else the folder of that name
+    beside the file (``convergence.toml`` -> ``convergence/``). None for a study built in code."""
+    f = study._file
+    if f is None:
+        return None
+    return f.parent if f.parent.name == f.stem else f.parent / f.stem
 
 
 def _scene_case_from(study_path: Path, scene: Any) -> Any:
@@ -754,24 +822,37 @@ def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
     """Expand a study into its runs (each a resolved scene). Raises ConfigError on bad references."""
     runs: list[RunSpec] = []
     ladder = list(study.fidelities) or [study.fidelity]
+    own = study_fidelity_folder(study)
     fid_cache: dict[str, Fidelity] = {}
 
-    def fid(name: str) -> Fidelity:
+    def fid(name: str, field: str) -> Fidelity:
         if name not in fid_cache:
-            fid_cache[name] = load_fidelity(name, root)
+            try:
+                fid_cache[name] = _load_fidelity(name, root, own)
+            except ConfigError as exc:
+                raise ConfigError(f"study '{study.name}': {field}: {exc}") from None
         return fid_cache[name]
 
+    if len(ladder) > 1:
+        for fname in ladder:
+            if "/" in fname:      # a rung's name is part of its runs' labels (case02@NAME)
+                raise ConfigError(
+                    f"study '{study.name}': fidelities: '{fname}': a rung is a NAME, of the study's "
+                    f"own folder or of workflows/fidelities/ (a file there may be based_on = \"{fname}\")")
     for n in study.cases:
         case = load_case(n, root=root)
         for fname in ladder:
             if n not in study.ladder_cases.get(fname, study.cases):
                 continue
             label = case.label if len(ladder) == 1 else f"{case.label}@{fname}"
-            runs.append(RunSpec(label=label, scene=resolve_scene(case, fid(fname), label)))
+            field = "fidelities" if study.fidelities else "fidelity"
+            runs.append(RunSpec(label=label, scene=resolve_scene(case, fid(fname, field), label)))
     for s in study.scenes:
         case = _scene_case(study, s, root)
         case = case.model_validate({**case.model_dump(), "name": s.label})
-        runs.append(RunSpec(label=s.label, scene=resolve_scene(case, fid(s.fidelity or study.fidelity), s.label)))
+        field = f"scenes.{s.label}.fidelity" if s.fidelity else "fidelity"
+        scene = resolve_scene(case, fid(s.fidelity or study.fidelity, field), s.label)
+        runs.append(RunSpec(label=s.label, scene=scene))
     labels = [r.label for r in runs]
     dup = {x for x in labels if labels.count(x) > 1}
     if dup:
