@@ -16,12 +16,14 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator,
                       model_validator)
+
+from .config_files import (ConfigError, case_path, list_case_numbers, locate_fidelity, locate_study,
+                           own_fidelity_folder, project_root, read_toml)
 
 __all__ = [
     "Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Physics", "Particles",
@@ -35,10 +37,6 @@ __all__ = [
 # Horizontal area of the paper's domain (20 m x 15 m, section 2.4): the initial release of 10 000
 # parcels is per this area.
 PAPER_AREA_M2 = 20.0 * 15.0
-
-
-class ConfigError(ValueError):
-    """A configuration file could not be read or is invalid. ``str()`` names file, field and reason."""
 
 
 class _Frozen(BaseModel):
@@ -580,17 +578,6 @@ class RunSpec(BaseModel):
 # --------------------------------------------------------------------------------------------
 # Loading
 # --------------------------------------------------------------------------------------------
-def project_root() -> Path:
-    """Directory holding ``cases/`` and ``workflows/``: $SALTSTUDY_HOME, else the checkout, else cwd."""
-    env = os.environ.get("SALTSTUDY_HOME")
-    if env:
-        return Path(env)
-    here = Path(__file__).resolve().parent.parent
-    if (here / "cases").is_dir():
-        return here
-    return Path.cwd()
-
-
 def deep_merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
     """Recursive dict merge (update wins); lists and scalars are replaced."""
     out = dict(base)
@@ -613,38 +600,11 @@ def _format_errors(err: ValidationError, source: str) -> str:
     return "\n".join(lines)
 
 
-def _read_toml(path: Path) -> dict[str, Any]:
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
-    except OSError as exc:   # a directory, no permission
-        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-
-
 def validate_model(cls: type[BaseModel], data: dict[str, Any], source: str) -> Any:
     try:
         return cls.model_validate(data)
     except ValidationError as err:
         raise ConfigError(_format_errors(err, source)) from None
-
-
-def case_path(number: int, root: Path | None = None) -> Path:
-    return (root or project_root()) / "cases" / f"case{number:02d}.toml"
-
-
-def list_case_numbers(root: Path | None = None) -> list[int]:
-    d = (root or project_root()) / "cases"
-    out = []
-    for p in sorted(d.glob("case*.toml")):
-        try:
-            out.append(int(p.stem[4:]))
-        except ValueError:
-            continue
-    return out
 
 
 def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
@@ -656,45 +616,19 @@ def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
             raise ConfigError(f"case {int(ref)}: unknown case (no {path})")
     else:
         path = Path(ref)
-    data = _read_toml(path)
+    data = read_toml(path)
     if overrides:
         data = deep_merge(data, overrides)
     return validate_model(Case, data, str(path))
 
 
-def _known(folder: Path | None) -> str:
-    names = sorted(x.stem for x in folder.glob("*.toml")) if folder is not None else []
-    return ", ".join(names) or "none"
-
-
-def _fidelity_path(ref: str | Path, root: Path | None, own: Path | None = None) -> Path:
-    """The file of a fidelity reference: a file path (``.toml``); ``STUDY/NAME``, a fidelity that
-    a study keeps in its own folder (``workflows/STUDY/NAME.toml``, e.g. ``convergence/reduced-q4``);
-    or a NAME, looked up first in ``own`` (a study's own folder; for ``based_on``, the folder of
-    the file that names it), then in ``workflows/fidelities/``."""
-    p = Path(ref).expanduser()
-    if p.suffix == ".toml" or p.is_file():
-        return p
-    workflows = (root or project_root()) / "workflows"
-    if "/" in str(ref):
-        candidate = workflows / f"{ref}.toml"
-        if not candidate.is_file():
-            raise ConfigError(f"fidelity '{ref}': unknown (no {candidate})")
-        return candidate
-    shared = workflows / "fidelities"
-    for folder in (own, shared):
-        if folder is not None and (folder / f"{ref}.toml").is_file():
-            return folder / f"{ref}.toml"
-    where = f"{own}: {_known(own)}; " if own is not None else ""
-    raise ConfigError(f"fidelity '{ref}': unknown (known: {where}{shared}: {_known(shared)})")
-
-
 def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
                    chain: tuple[Path, ...] = ()) -> tuple[Path, dict]:
     """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins).
-    A parent's name is looked up beside the file first, then in workflows/fidelities/."""
-    path = _fidelity_path(ref, root, own)
-    data = _read_toml(path)
+    A parent's name is looked up beside the file first, then in workflows/fidelities/: a study's
+    own ``smoke.toml`` may be ``based_on = "smoke"``, the shared one."""
+    path = locate_fidelity(ref, root, own)
+    data = read_toml(path)
     base = data.pop("based_on", None)
     if base is None:
         return path, data
@@ -703,7 +637,9 @@ def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
                           f"(got {base!r})")
     here = (*chain, path.resolve())
     try:
-        parent_path = _fidelity_path(base, root, path.parent)
+        parent_path = locate_fidelity(base, root, path.parent)
+        if parent_path.resolve() == here[-1] and "/" not in base:
+            parent_path = locate_fidelity(base, root, None)
         if parent_path.resolve() in here:
             names = " -> ".join(x.stem for x in (*here, parent_path))
             raise ConfigError(f"circular ({names})")
@@ -728,31 +664,14 @@ def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
     return _load_fidelity(ref, root, None)
 
 
-def _study_path(ref: str | Path, root: Path | None) -> Path:
-    """A study file from a name (``workflows/NAME.toml``), a path under workflows/ to a study file
-    or to a folder holding one of its name (``investigations/knobs`` ->
-    ``workflows/investigations/knobs/knobs.toml``), or a path."""
-    p = Path(ref).expanduser()
-    if p.suffix == ".toml" or p.is_file():
-        return p
-    if p.is_dir() and (p / f"{p.name}.toml").is_file():
-        return p / f"{p.name}.toml"
-    workflows = (root or project_root()) / "workflows"
-    for candidate in (workflows / f"{ref}.toml", workflows / p / f"{p.name}.toml"):
-        if candidate.is_file():
-            return candidate
-    raise ConfigError(f"study '{ref}': unknown (known: {_known(workflows)}; a study in a folder of "
-                      f"its own under workflows/ by that folder, e.g. investigations/knobs)")
-
-
 def load_study(ref: str | Path, root: Path | None = None) -> Study:
     """Load a study by name, by its folder under workflows/ or by path. A scene's ``case`` that is a
     relative file path is taken relative to the directory of the study file and stored absolute,
     so that the study means the same case file from any working directory; an absolute path
     (``~`` expanded) is kept as is. The study's fidelity names resolve first among its own
     fidelities (:func:`study_fidelity_folder`), then in workflows/fidelities/."""
-    path = _study_path(ref, root)
-    data = _read_toml(path)
+    path = locate_study(ref, root)
+    data = read_toml(path)
     data.setdefault("name", path.stem)
     scenes = data.get("scenes")
     if isinstance(scenes, list):
@@ -768,13 +687,9 @@ def study_file(study: Study) -> Path | None:
 
 
 def study_fidelity_folder(study: Study) -> Path | None:
-    """The folder of a study's own fidelities, named for the study file: the file's own folder
-    when it bears that name (``investigations/knobs/knobs.toml``), else the folder of that name
-    beside the file (``convergence.toml`` -> ``convergence/``). None for a study built in code."""
-    f = study._file
-    if f is None:
-        return None
-    return f.parent if f.parent.name == f.stem else f.parent / f.stem
+    """The folder of a study's own fidelities (config_files.own_fidelity_folder); None for a study
+    built in code."""
+    return own_fidelity_folder(study._file) if study._file is not None else None
 
 
 def _scene_case_from(study_path: Path, scene: Any) -> Any:
@@ -862,7 +777,7 @@ def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
 
 def validate_file(path: Path) -> str:
     """Validate a case, fidelity or study file; return what it is. Raises ConfigError."""
-    data = _read_toml(path)
+    data = read_toml(path)
     if "forcing" in data or "particles" in data or "number" in data:
         load_case(path)
         return "case"

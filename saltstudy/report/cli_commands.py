@@ -24,9 +24,11 @@ def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path])
     meta = {"study": study_name, "out_dir": str(out_dir), "package_version": __version__}
     try:  # the cache keys let the report find failure records and samples.nc (stability, animation)
         from ..workflow import keys as wkeys
-        from ..config import load_study
+        from ..config import load_study, study_file
+        st = load_study(study)
+        meta["study_file"] = str(study_file(st))
         meta["keys"] = {l: {"spinup": k.spinup, "saltation": k.saltation, "analysis": k.analysis}
-                        for l, k in wkeys.study_keys(load_study(study)).items()}
+                        for l, k in wkeys.study_keys(st).items()}
     except Exception:
         pass
     return build_report(study_name, runs, Path(report_dir), meta)

@@ -4,8 +4,8 @@
 ``meta["out_dir"]`` and ``meta["keys"]`` (label -> {"spinup", "saltation", "analysis"} cache keys),
 this module adds, where absent:
 
-* ``case_numbers``, ``fidelities``, ``study_config`` and ``fidelity``: from ``workflows/<study>.toml``
-  (saltstudy.config), if the study file exists;
+* ``case_numbers``, ``fidelities``, ``study_config`` and ``fidelity``: from the study file
+  (``meta["study_file"]``, else ``workflows/<study>.toml``; saltstudy.config), if it exists;
 * ``failures``: label -> error of the first failed task of the run (its ``task.json``);
 * ``samples``: label -> ``samples.nc`` of the run, if present (stability report, animation);
 * ``source_key``: the solver-source key the archives were computed with (their ``task.json``), one
@@ -23,15 +23,16 @@ from typing import Any
 __all__ = ["enrich_meta", "study_meta"]
 
 
-def study_meta(study_name: str) -> dict[str, Any]:
-    """case_numbers, fidelities, study_config, fidelity, order, reference from the study file.
+def study_meta(study_ref: str) -> dict[str, Any]:
+    """case_numbers, fidelities, study_config, fidelity, order, reference from the study file
+    (``study_ref``: a study's name, or the path of its file).
 
     ``reference`` is the label of the run at the study's ``reference`` fidelity (None when the
     study names none: the convergence report then compares with the last rung). {} if no file.
     """
     try:
         from ..config import load_study, study_runs
-        study = load_study(study_name)
+        study = load_study(study_ref)
         runs = study_runs(study)
     except Exception:
         return {}
@@ -69,7 +70,7 @@ def _task_json(out_dir: Path, task: str, key: str) -> dict[str, Any]:
 
 def enrich_meta(study_name: str, runs: dict[str, Any], meta: dict[str, Any] | None) -> dict[str, Any]:
     meta = dict(meta or {})
-    for k, v in study_meta(study_name).items():
+    for k, v in study_meta(meta.get("study_file") or study_name).items():
         if meta.get(k) is None and v is not None:
             meta[k] = v
     out_dir, keys = meta.get("out_dir"), meta.get("keys")
