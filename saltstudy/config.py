@@ -4,7 +4,8 @@ A *case* (``cases/caseNN.toml``) fixes the physics of one run of Dupont et al. (
 wind, soil, splash constants, physics switches, Q and the seed. A *fidelity*
 (``workflows/fidelities/NAME.toml``) fixes only what costs: domain, grid, time-step policy,
 durations, sampling and the parcel-count knob. A *study* (``workflows/NAME.toml``) names which cases
-run at which fidelities. A :class:`Scene` is one case resolved against one fidelity: everything the
+run at which fidelities; the rungs and variants only it runs sit in the folder named for it
+(``workflows/NAME/``). A :class:`Scene` is one case resolved against one fidelity: everything the
 solver needs, and nothing else.
 
 All lengths in m, times in s, velocities in m s^-1, densities in kg m^-3, angles in degrees.
@@ -15,27 +16,27 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator,
+                      model_validator)
+
+from .config_files import (ConfigError, case_path, list_case_numbers, locate_fidelity, locate_study,
+                           own_fidelity_folder, project_root, read_toml)
 
 __all__ = [
     "Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Physics", "Particles",
     "Case", "GridSpec", "TimeStepping", "SpinUp", "Sampling", "Outputs", "Fidelity", "SceneSpec",
     "Study", "Scene", "RunSpec", "ConfigError", "content_hash", "project_root", "load_case",
     "load_fidelity", "load_study", "resolve_scene", "case_path", "list_case_numbers", "deep_merge",
-    "PAPER_AREA_M2", "study_runs", "validate_model", "validate_file",
+    "PAPER_AREA_M2", "study_runs", "study_file", "study_fidelity_folder", "validate_model",
+    "validate_file",
 ]
 
 # Horizontal area of the paper's domain (20 m x 15 m, section 2.4): the initial release of 10 000
 # parcels is per this area.
 PAPER_AREA_M2 = 20.0 * 15.0
-
-
-class ConfigError(ValueError):
-    """A configuration file could not be read or is invalid. ``str()`` names file, field and reason."""
 
 
 class _Frozen(BaseModel):
@@ -479,6 +480,9 @@ class Study(_Frozen):
         None, description="a measured flux law the report holds each run's G_tot against, at the "
         "run's own stress u* (report/fluxlaw.py): 'creyssels2009', the wind tunnel of Creyssels et "
         "al. (2009) for 242 um grains of 2500 kg m^-3")
+    # the file load_study read (absolute; None for a study built in code): where the study's own
+    # fidelities are looked up (study_fidelity_folder). Private: not part of what the study means.
+    _file: Path | None = PrivateAttr(None)
 
     @model_validator(mode="after")
     def _consistent(self) -> "Study":
@@ -574,17 +578,6 @@ class RunSpec(BaseModel):
 # --------------------------------------------------------------------------------------------
 # Loading
 # --------------------------------------------------------------------------------------------
-def project_root() -> Path:
-    """Directory holding ``cases/`` and ``workflows/``: $SALTSTUDY_HOME, else the checkout, else cwd."""
-    env = os.environ.get("SALTSTUDY_HOME")
-    if env:
-        return Path(env)
-    here = Path(__file__).resolve().parent.parent
-    if (here / "cases").is_dir():
-        return here
-    return Path.cwd()
-
-
 def deep_merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
     """Recursive dict merge (update wins); lists and scalars are replaced."""
     out = dict(base)
@@ -607,38 +600,11 @@ def _format_errors(err: ValidationError, source: str) -> str:
     return "\n".join(lines)
 
 
-def _read_toml(path: Path) -> dict[str, Any]:
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError:
-        raise ConfigError(f"{path}: no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
-    except OSError as exc:   # a directory, no permission
-        raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-
-
 def validate_model(cls: type[BaseModel], data: dict[str, Any], source: str) -> Any:
     try:
         return cls.model_validate(data)
     except ValidationError as err:
         raise ConfigError(_format_errors(err, source)) from None
-
-
-def case_path(number: int, root: Path | None = None) -> Path:
-    return (root or project_root()) / "cases" / f"case{number:02d}.toml"
-
-
-def list_case_numbers(root: Path | None = None) -> list[int]:
-    d = (root or project_root()) / "cases"
-    out = []
-    for p in sorted(d.glob("case*.toml")):
-        try:
-            out.append(int(p.stem[4:]))
-        except ValueError:
-            continue
-    return out
 
 
 def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
@@ -650,63 +616,80 @@ def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
             raise ConfigError(f"case {int(ref)}: unknown case (no {path})")
     else:
         path = Path(ref)
-    data = _read_toml(path)
+    data = read_toml(path)
     if overrides:
         data = deep_merge(data, overrides)
     return validate_model(Case, data, str(path))
 
 
-def _named_file(kind: str, ref: str | Path, folder: Path) -> Path:
-    p = Path(ref)
-    if p.suffix == ".toml" or p.exists():
-        return p
-    candidate = folder / f"{ref}.toml"
-    if not candidate.exists():
-        known = sorted(x.stem for x in folder.glob("*.toml"))
-        raise ConfigError(f"{kind} '{ref}': unknown (known: {', '.join(known) or 'none'})")
-    return candidate
-
-
-def _fidelity_data(ref: str | Path, root: Path | None, chain: tuple[str, ...] = ()) -> tuple[Path, dict]:
-    """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins)."""
-    folder = (root or project_root()) / "workflows" / "fidelities"
-    path = _named_file("fidelity", ref, folder)
-    data = _read_toml(path)
+def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
+                   chain: tuple[Path, ...] = ()) -> tuple[Path, dict]:
+    """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins).
+    A parent's name is looked up beside the file first, then in workflows/fidelities/: a study's
+    own ``smoke.toml`` may be ``based_on = "smoke"``, the shared one."""
+    path = locate_fidelity(ref, root, own)
+    data = read_toml(path)
     base = data.pop("based_on", None)
     if base is None:
         return path, data
     if not isinstance(base, str):
-        raise ConfigError(f"{path}: based_on: must be the name of another fidelity (got {base!r})")
-    if base in chain or base == path.stem:
-        raise ConfigError(f"{path}: based_on: circular ({' -> '.join((*chain, path.stem, base))})")
-    sibling = path.parent / f"{base}.toml"   # a parent next to the file, else the project's
+        raise ConfigError(f"{path}: based_on: must be the name of another fidelity, or STUDY/NAME "
+                          f"(got {base!r})")
+    here = (*chain, path.resolve())
     try:
-        _, parent = _fidelity_data(sibling if sibling.exists() else base, root, (*chain, path.stem))
+        parent_path = locate_fidelity(base, root, path.parent)
+        if parent_path.resolve() == here[-1] and "/" not in base:
+            parent_path = locate_fidelity(base, root, None)
+        if parent_path.resolve() in here:
+            names = " -> ".join(x.stem for x in (*here, parent_path))
+            raise ConfigError(f"circular ({names})")
+        _, parent = _fidelity_data(parent_path, root, None, here)
     except ConfigError as exc:
         raise ConfigError(f"{path}: based_on: {exc}") from None
     parent.pop("name", None)
     return path, deep_merge(parent, data)
 
 
-def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
-    """Load a fidelity by name or path. A file may start from another with ``based_on = "NAME"``
-    and list only what differs (sections are deep-merged, the file wins)."""
-    path, data = _fidelity_data(ref, root)
+def _load_fidelity(ref: str | Path, root: Path | None, own: Path | None) -> Fidelity:
+    path, data = _fidelity_data(ref, root, own)
     data.setdefault("name", path.stem)
     return validate_model(Fidelity, data, str(path))
 
 
+def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
+    """Load a fidelity by name (``workflows/fidelities/NAME.toml``), by ``STUDY/NAME`` (a study's
+    own fidelity, ``workflows/STUDY/NAME.toml``) or by path. A file may start from another with
+    ``based_on = "NAME"`` (a file beside it, else workflows/fidelities/) or ``"STUDY/NAME"`` and
+    list only what differs (sections are deep-merged, the file wins)."""
+    return _load_fidelity(ref, root, None)
+
+
 def load_study(ref: str | Path, root: Path | None = None) -> Study:
-    """Load a study by name or path. A scene's ``case`` that is a relative file path is taken
-    relative to the directory of the study file and stored absolute, so that the study means the
-    same case file from any working directory; an absolute path (``~`` expanded) is kept as is."""
-    path = _named_file("study", ref, (root or project_root()) / "workflows")
-    data = _read_toml(path)
+    """Load a study by name, by its folder under workflows/ or by path. A scene's ``case`` that is a
+    relative file path is taken relative to the directory of the study file and stored absolute,
+    so that the study means the same case file from any working directory; an absolute path
+    (``~`` expanded) is kept as is. The study's fidelity names resolve first among its own
+    fidelities (:func:`study_fidelity_folder`), then in workflows/fidelities/."""
+    path = locate_study(ref, root)
+    data = read_toml(path)
     data.setdefault("name", path.stem)
     scenes = data.get("scenes")
     if isinstance(scenes, list):
         data["scenes"] = [_scene_case_from(path, s) for s in scenes]
-    return validate_model(Study, data, str(path))
+    study = validate_model(Study, data, str(path))
+    study._file = Path(os.path.abspath(path))
+    return study
+
+
+def study_file(study: Study) -> Path | None:
+    """The file ``study`` was loaded from (None for a study built in code)."""
+    return study._file
+
+
+def study_fidelity_folder(study: Study) -> Path | None:
+    """The folder of a study's own fidelities (config_files.own_fidelity_folder); None for a study
+    built in code."""
+    return own_fidelity_folder(study._file) if study._file is not None else None
 
 
 def _scene_case_from(study_path: Path, scene: Any) -> Any:
@@ -754,24 +737,37 @@ def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
     """Expand a study into its runs (each a resolved scene). Raises ConfigError on bad references."""
     runs: list[RunSpec] = []
     ladder = list(study.fidelities) or [study.fidelity]
+    own = study_fidelity_folder(study)
     fid_cache: dict[str, Fidelity] = {}
 
-    def fid(name: str) -> Fidelity:
+    def fid(name: str, field: str) -> Fidelity:
         if name not in fid_cache:
-            fid_cache[name] = load_fidelity(name, root)
+            try:
+                fid_cache[name] = _load_fidelity(name, root, own)
+            except ConfigError as exc:
+                raise ConfigError(f"study '{study.name}': {field}: {exc}") from None
         return fid_cache[name]
 
+    if len(ladder) > 1:
+        for fname in ladder:
+            if "/" in fname:      # a rung's name is part of its runs' labels (case02@NAME)
+                raise ConfigError(
+                    f"study '{study.name}': fidelities: '{fname}': a rung is a NAME, of the study's "
+                    f"own folder or of workflows/fidelities/ (a file there may be based_on = \"{fname}\")")
     for n in study.cases:
         case = load_case(n, root=root)
         for fname in ladder:
             if n not in study.ladder_cases.get(fname, study.cases):
                 continue
             label = case.label if len(ladder) == 1 else f"{case.label}@{fname}"
-            runs.append(RunSpec(label=label, scene=resolve_scene(case, fid(fname), label)))
+            field = "fidelities" if study.fidelities else "fidelity"
+            runs.append(RunSpec(label=label, scene=resolve_scene(case, fid(fname, field), label)))
     for s in study.scenes:
         case = _scene_case(study, s, root)
         case = case.model_validate({**case.model_dump(), "name": s.label})
-        runs.append(RunSpec(label=s.label, scene=resolve_scene(case, fid(s.fidelity or study.fidelity), s.label)))
+        field = f"scenes.{s.label}.fidelity" if s.fidelity else "fidelity"
+        scene = resolve_scene(case, fid(s.fidelity or study.fidelity, field), s.label)
+        runs.append(RunSpec(label=s.label, scene=scene))
     labels = [r.label for r in runs]
     dup = {x for x in labels if labels.count(x) > 1}
     if dup:
@@ -781,7 +777,7 @@ def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
 
 def validate_file(path: Path) -> str:
     """Validate a case, fidelity or study file; return what it is. Raises ConfigError."""
-    data = _read_toml(path)
+    data = read_toml(path)
     if "forcing" in data or "particles" in data or "number" in data:
         load_case(path)
         return "case"

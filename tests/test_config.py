@@ -101,12 +101,13 @@ def test_studies_resolve(name, fidelity):
 
 
 def test_laptop_fidelity_has_the_papers_first_level_and_implicit_vertical_diffusion():
-    """`reduced` is the 1 cm grid with the implicit scheme (the default); `reduced-2cm`, the grid
-    of the studies made before, keeps its 2 cm level and explicit scheme."""
-    red, old = load_fidelity("reduced"), load_fidelity("reduced-2cm")
+    """`reduced` is the 1 cm grid with the implicit scheme (the default); the convergence ladder's
+    laptop rungs (convergence/reduced-2cm and those based on it) keep a 2 cm level and the
+    explicit scheme they were measured with."""
+    red, old = load_fidelity("reduced"), load_fidelity("convergence/reduced-2cm")
     assert red.grid.dz_bottom == pytest.approx(0.01) and red.time.vertical_diffusion == "implicit"
     assert old.grid.dz_bottom == pytest.approx(0.02) and old.time.vertical_diffusion == "explicit"
-    assert load_fidelity("reduced-q4-dz").time.vertical_diffusion == "explicit"
+    assert load_fidelity("convergence/reduced-q4-dz").time.vertical_diffusion == "explicit"
     assert load_fidelity("smoke").time.vertical_diffusion == "implicit"
 
 
@@ -155,9 +156,16 @@ def test_below_threshold_case_is_valid(tmp_path):
     assert "valid case" in res.output
 
 
+STUDIES = Path(__file__).resolve().parent / "studies"      # the smoke-size studies the tests run
+
+
 def test_good_files_validate():
+    """Every case, every study and fidelity under workflows/ (the user's, their rungs, the
+    investigations) and the tests' own studies."""
     root = project_root()
-    for p in [*root.glob("cases/*.toml"), *root.glob("workflows/*.toml"), *root.glob("workflows/fidelities/*.toml")]:
+    files = [*root.glob("cases/*.toml"), *root.glob("workflows/**/*.toml"), *STUDIES.glob("**/*.toml")]
+    assert len(files) > 40
+    for p in files:
         res = runner.invoke(app, ["validate", str(p)])
         assert res.exit_code == 0, (p, res.output)
 
@@ -174,10 +182,10 @@ def test_bad_study_reference(tmp_path):
 
 def test_study_reference_must_be_one_of_its_fidelities(tmp_path):
     p = tmp_path / "s.toml"
-    p.write_text('fidelities = ["smoke", "smoke-fine"]\nreference = "paper"\ncases = [2]\n')
+    p.write_text('fidelities = ["smoke", "quick"]\nreference = "paper"\ncases = [2]\n')
     res = runner.invoke(app, ["validate", str(p)])
     assert res.exit_code == 2 and "reference" in res.output and "not one of fidelities" in res.output
-    p.write_text('fidelities = ["smoke", "smoke-fine"]\nreference = "smoke"\ncases = [2]\n')
+    p.write_text('fidelities = ["smoke", "quick"]\nreference = "smoke"\ncases = [2]\n')
     res = runner.invoke(app, ["validate", str(p)])
     assert res.exit_code == 0, res.output
 
@@ -185,13 +193,13 @@ def test_study_reference_must_be_one_of_its_fidelities(tmp_path):
 def test_ladder_cases_restrict_a_costly_rung(tmp_path):
     from saltstudy.config import load_study, study_runs
     p = tmp_path / "s.toml"
-    p.write_text('fidelities = ["smoke", "smoke-fine"]\ncases = [1, 2, 6]\n'
-                 '[ladder_cases]\n"smoke-fine" = [2]\n')
+    p.write_text('fidelities = ["smoke", "quick"]\ncases = [1, 2, 6]\n'
+                 '[ladder_cases]\n"quick" = [2]\n')
     labels = [r.label for r in study_runs(load_study(p))]
-    assert labels == ["case01@smoke", "case02@smoke", "case02@smoke-fine", "case06@smoke"]
+    assert labels == ["case01@smoke", "case02@smoke", "case02@quick", "case06@smoke"]
     for body, words in (('[ladder_cases]\n"paper" = [2]\n', ("ladder_cases.paper", "not one of fidelities")),
                         ('[ladder_cases]\n"smoke" = [3]\n', ("ladder_cases.smoke", "[3]", "not in cases"))):
-        p.write_text('fidelities = ["smoke", "smoke-fine"]\ncases = [1, 2]\n' + body)
+        p.write_text('fidelities = ["smoke", "quick"]\ncases = [1, 2]\n' + body)
         res = runner.invoke(app, ["validate", str(p)])
         assert res.exit_code == 2 and all(w in res.output for w in words), res.output
 
@@ -205,8 +213,8 @@ def test_overrides_are_validated():
 
 
 def test_fidelity_based_on_inherits_and_the_file_wins():
-    red = load_fidelity("reduced-short").model_dump()
-    mx = load_fidelity("reduced-short-maxcfl").model_dump()
+    red = load_fidelity("stability/reduced-short").model_dump()
+    mx = load_fidelity("stability/reduced-short-maxcfl").model_dump()
     assert mx["time"]["cfl"] == 1.5 != red["time"]["cfl"]
     assert mx["name"] == "reduced-short-maxcfl"
     for key in ("grid", "sampling", "relaxation", "spinup", "saltation_duration", "q_multiplier"):
@@ -231,6 +239,76 @@ def test_fidelity_based_on_errors_name_the_field(tmp_path, text, needle):
     _write_fidelity(tmp_path, "b", 'based_on = "a"\n')
     with pytest.raises(ConfigError, match=re.escape(needle)):
         load_fidelity("a", root=tmp_path)
+
+
+def _own_fidelities_home(tmp_path: Path) -> Path:
+    """A project with the shared smoke fidelity, a study `mine` whose own folder holds a `smoke`
+    of its own and a rung based on it, and an investigation in a folder of its own."""
+    root = tmp_path / "home"
+    shutil.copytree(project_root() / "cases", root / "cases")
+    smoke = (project_root() / "workflows" / "fidelities" / "smoke.toml").read_text()
+    _write_fidelity(root, "smoke", smoke)
+    wf = root / "workflows"
+    (wf / "mine").mkdir()
+    (wf / "mine" / "smoke.toml").write_text('based_on = "smoke"\nq_multiplier = 7.0\n')
+    (wf / "mine" / "rung.toml").write_text('based_on = "smoke"\nsaltation_duration = 3.0\n')
+    (wf / "mine.toml").write_text('fidelities = ["smoke", "rung"]\ncases = [2]\n'
+                                   '[[scenes]]\nlabel = "plain"\ncase = 2\nfidelity = "quick"\n')
+    _write_fidelity(root, "quick", smoke.replace("q_multiplier = 20.0", "q_multiplier = 3.0"))
+    inv = wf / "investigations" / "probe"
+    inv.mkdir(parents=True)
+    (inv / "probe.toml").write_text('fidelity = "longer"\ncases = [6]\n')
+    (inv / "longer.toml").write_text('based_on = "mine/rung"\nsaltation_duration = 4.0\n')
+    return root
+
+
+def test_a_study_resolves_its_own_fidelities_first(tmp_path):
+    """Rule: a study's fidelity names resolve first in the folder named for it (NAME/ beside the
+    study file, or the study file's own folder when it bears the name), then in
+    workflows/fidelities/; a based_on name resolves beside its file first; STUDY/NAME names a
+    study's own fidelity from anywhere."""
+    root = _own_fidelities_home(tmp_path)
+    runs = {r.label: r.scene.fidelity for r in study_runs(load_study("mine", root=root), root=root)}
+    assert runs["case02@smoke"].q_multiplier == 7.0                  # the study's own smoke
+    assert runs["case02@rung"].q_multiplier == 7.0                   # based on that smoke
+    assert runs["case02@rung"].saltation_duration == 3.0
+    assert runs["plain"].q_multiplier == 3.0                         # not its own: the shared one
+    assert load_fidelity("smoke", root=root).q_multiplier == 20.0    # by name: the shared one
+    assert load_fidelity("mine/rung", root=root).saltation_duration == 3.0
+    assert load_fidelity("mine/rung", root=root).name == "rung"
+    # an investigation by its folder; its fidelity beside it, based on another study's rung
+    inv = load_study("investigations/probe", root=root)
+    assert inv.name == "probe"
+    (run,) = study_runs(inv, root=root)
+    assert run.label == "case06" and run.scene.fidelity.saltation_duration == 4.0
+    assert run.scene.fidelity.q_multiplier == 7.0
+    assert load_study(root / "workflows" / "investigations" / "probe", root=root).name == "probe"
+
+
+@pytest.mark.parametrize("body, needles", [
+    ('fidelities = ["smoke", "nosuch"]\ncases = [2]\n',
+     ("study 'mine': fidelities: fidelity 'nosuch': unknown", "rung, smoke")),
+    ('fidelity = "smoke"\n[[scenes]]\nlabel = "s1"\ncase = 2\nfidelity = "nosuch"\n',
+     ("scenes.s1.fidelity: fidelity 'nosuch': unknown",)),
+    ('fidelity = "mine/nosuch"\ncases = [2]\n', ("fidelity: fidelity 'mine/nosuch': unknown",)),
+    ('fidelities = ["smoke", "mine/rung"]\ncases = [2]\n',
+     ("fidelities: 'mine/rung': a rung is a NAME",)),
+])
+def test_a_study_fidelity_that_resolves_to_nothing_names_the_field(tmp_path, body, needles):
+    root = _own_fidelities_home(tmp_path)
+    (root / "workflows" / "mine.toml").write_text(body)
+    with pytest.raises(ConfigError) as exc:
+        study_runs(load_study("mine", root=root), root=root)
+    assert all(n in str(exc.value) for n in needles), str(exc.value)
+
+
+def test_an_unknown_study_or_based_on_reference_names_what_was_looked_for(tmp_path):
+    root = _own_fidelities_home(tmp_path)
+    with pytest.raises(ConfigError, match=re.escape("study 'investigations/nosuch': unknown (known: mine")):
+        load_study("investigations/nosuch", root=root)
+    (root / "workflows" / "mine" / "bad.toml").write_text('based_on = "mine/nosuch"\n')
+    with pytest.raises(ConfigError, match=re.escape("based_on: fidelity 'mine/nosuch': unknown (no ")):
+        load_fidelity("mine/bad", root=root)
 
 
 def _case_file(path: Path, u_star_s: float) -> Path:

@@ -25,7 +25,7 @@ def test_each_departure_is_named_by_its_config_field():
 
 
 def test_the_reduced_grid_is_named_and_the_fine_rungs_is_not():
-    reduced = " ".join(model_departures(_scene(fidelity="reduced-q4")))
+    reduced = " ".join(model_departures(_scene(fidelity="convergence/reduced-q4")))
     assert "first level of 2 cm" in reduced and "horizontal spacing of 0.156 m" in reduced
     fine = " ".join(model_departures(_scene(fidelity="fine")))
     assert "first level" not in fine and "horizontal spacing" not in fine
@@ -35,4 +35,4 @@ def test_second_order_advection_is_named_and_the_papers_fourth_order_is_not():
     assert any("second-order horizontal advection" in d
                for d in model_departures(_scene(fidelity="reduced")))
     assert not any("advection" in d for d in model_departures(_scene(fidelity="paper")))
-    assert not any("advection" in d for d in model_departures(_scene(fidelity="reduced-adv4")))
+    assert not any("advection" in d for d in model_departures(_scene(fidelity="investigations/streamers-advection/reduced-adv4")))

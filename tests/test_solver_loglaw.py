@@ -14,7 +14,7 @@ The free fit comes out 11-17 % low after 600 s (phi 0.72-0.80 at 0.7-1.0 m); a s
 flatters it, because the flow starts from the exact log law and drifts into the dip over
 ~H U / u*^2 ~ 400 s. Neither the dynamic Smagorinsky closure, the two-part model of Sullivan et
 al. (1994), nor a three times longer box (which unlocks the x-uniform rolls) brings phi into
-[0.85, 1.15] at 0.2-1.5 m: reports/loglaw/, repeated with `saltstudy probe loglaw`.
+[0.85, 1.15] at 0.2-1.5 m: reports/investigations/loglaw/, repeated with `saltstudy probe loglaw`.
 """
 from __future__ import annotations
 
@@ -149,7 +149,7 @@ def layer():
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="the LES's mean shear dips to phi ~0.7 at "
-                   "0.6-1.5 m at equilibrium, so the free fit is 11-25 % low (reports/loglaw/)")
+                   "0.6-1.5 m at equilibrium, so the free fit is 11-25 % low (reports/investigations/loglaw/)")
 def test_free_log_law_fit_gives_u_star_and_z0(layer):
     sm = summarize(layer)
     fit = sm["fit"]

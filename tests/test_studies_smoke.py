@@ -1,15 +1,17 @@
 """The convergence and stability studies end to end at smoke size, through `saltstudy run-all`.
 
 Real solver, real archives, real reports: the convergence-smoke ladder (case 2 at two grids) and
-the stability-smoke scenes (the stiff and extreme cases of the stability study, at smoke size).
-Their real-size counterparts (`--study convergence`, `--study stability`) are documented in the
-README with expected run times.
+the stability-smoke scenes (the stiff and extreme cases of the stability study, at smoke size),
+both in tests/studies/ with their own smoke-size fidelities beside them. Their real-size
+counterparts (`--study convergence`, `--study stability`) are documented in the README with
+expected run times.
 """
 from __future__ import annotations
 
 import json
 import math
 import shutil
+from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
@@ -17,21 +19,26 @@ from typer.testing import CliRunner
 from saltstudy.cli import app
 from saltstudy.config import load_study, project_root, study_runs
 
+STUDIES = Path(__file__).resolve().parent / "studies"
+
 
 @pytest.fixture
 def home(tmp_path, monkeypatch):
+    """A project copy whose smoke fidelities run half as long; its test studies in home/studies/."""
     h = tmp_path / "home"
     for d in ("cases", "workflows"):
         shutil.copytree(project_root() / d, h / d)
+    shutil.copytree(STUDIES, h / "studies")
     # half the smoke runs' simulated time: these tests check the studies' plumbing end to end
-    for name in ("smoke", "smoke-fine", "smoke-maxcfl"):
-        f = h / "workflows" / "fidelities" / f"{name}.toml"
+    for f in (h / "workflows" / "fidelities" / "smoke.toml",
+              h / "studies" / "convergence-smoke" / "smoke-fine.toml",
+              h / "studies" / "stability-smoke" / "smoke-maxcfl.toml"):
         text = f.read_text()
         for old, new in (("saltation_duration = 2.0", "saltation_duration = 1.0"),
                          ("t_min = 1.0", "t_min = 0.5"), ("t_max = 3.0", "t_max = 1.5"),
                          ("window = 1.0", "window = 0.5"), ("start = 1.0", "start = 0.4"),
                          ("interval = 0.5", "interval = 0.3")):
-            assert old in text, (name, old)
+            assert old in text, (f.name, old)
             text = text.replace(old, new)
         f.write_text(text)
     monkeypatch.setenv("SALTSTUDY_HOME", str(h))
@@ -47,7 +54,7 @@ def _run_all(study: str, report_dir):
 
 def test_convergence_smoke_study_end_to_end(home, tmp_path):
     rep = tmp_path / "rep"
-    _run_all("convergence-smoke", rep)
+    _run_all(str(home / "studies" / "convergence-smoke.toml"), rep)
     js = json.loads((rep / "convergence.json").read_text())
     labels = [r["label"] for r in js["rungs"]]
     assert labels == ["case02@smoke", "case02@smoke-fine"]
@@ -77,9 +84,10 @@ def test_convergence_smoke_study_end_to_end(home, tmp_path):
 
 def test_stability_smoke_study_end_to_end(home, tmp_path):
     rep = tmp_path / "rep"
-    out = _run_all("stability-smoke", rep)       # exit 0: the one blow-up is the expected one
+    study = home / "studies" / "stability-smoke.toml"
+    out = _run_all(str(study), rep)       # exit 0: the one blow-up is the expected one
     assert "blew up as the scene expects: saltation case02_dt_too_large" in out
-    labels = [r.label for r in study_runs(load_study("stability-smoke"))]
+    labels = [r.label for r in study_runs(load_study(study))]
     assert len(labels) == 8
     js = json.loads((rep / "stability.json").read_text())
     assert js["package_version"] and js["study"] == "stability-smoke"

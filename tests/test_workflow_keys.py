@@ -67,6 +67,11 @@ def test_scenes_of_the_same_physics_share_one_run_under_two_labels(tmp_path):
     renamed = load_fidelity("smoke").model_copy(update={"name": "smoke-copy"})
     assert keys.run_keys("x", resolve_scene(load_case(1), renamed)).saltation == keys.run_keys(
         "x", resolve_scene(load_case(1), load_fidelity("smoke"))).saltation
+    # where a fidelity file sits keys nothing either: the knobs investigation's reduced-q4 is the
+    # convergence ladder's rung under its own name, and shares its archives
+    knobs, ladder = (keys.run_keys("x", scene(2, ref)) for ref in
+                     ("investigations/knobs/reduced-q4", "convergence/reduced-q4"))
+    assert (knobs.spinup, knobs.saltation) == (ladder.spinup, ladder.saltation)
     plan = build_graph(st, tmp_path, report_dir=tmp_path / "rep")
     assert plan.graph["saltation:x"] is plan.graph["saltation:y"]
     assert plan.graph["analysis:x"] is plan.graph["analysis:y"]

@@ -28,6 +28,7 @@ from saltstudy.workflow.paths import output_path, task_dir
 from saltstudy.workflow.status import study_status
 from saltstudy.workflow.tasks import read_task_json, saltation_task, spinup_task
 
+STUDIES = Path(__file__).resolve().parent / "studies"      # the smoke-size studies the tests run
 STUDY = 'description = "two smoke cases sharing a spin-up"\nfidelity = "smoke"\ncases = [2, 9]\n'
 
 
@@ -210,7 +211,8 @@ def test_blowup_mid_run_keeps_the_last_checkpoint(tmp_path, monkeypatch):
 def test_too_large_saltation_step_stops_with_the_place(tmp_path):
     """The stability study's deliberately unstable scene (smoke size): stopped by the Courant
     check with the step, time, field and cell, not by a hang or a NaN."""
-    scene = resolve_scene(load_case(2), load_fidelity("smoke-dt-too-large"))
+    fid = load_fidelity(STUDIES / "stability-smoke" / "smoke-dt-too-large.toml")
+    scene = resolve_scene(load_case(2), fid)
     sp = spinup_task(scene, tmp_path)
     with pytest.raises(SolverBlowUp) as err:
         saltation_task(scene, sp, tmp_path)

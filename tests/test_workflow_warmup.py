@@ -16,7 +16,8 @@ from saltstudy.workflow import keys as K
 from saltstudy.workflow.warmup import ensure_warm, signature, warm_scene
 
 
-@pytest.mark.parametrize("study", ["reduced", "convergence", "equilibrium", "knobs", "stability", "paper"])
+@pytest.mark.parametrize("study", ["reduced", "convergence", "stability", "paper",
+                                   "investigations/equilibrium-bedshear-long", "investigations/knobs"])
 def test_warm_scene_shrinks_cost_and_keeps_options(study):
     for rk in K.study_keys(load_study(study)).values():
         s, w = rk.scene, warm_scene(rk.scene)

@@ -1,5 +1,5 @@
 """Windowed log-law probe of the particle-free surface layer: the instrument behind the tables on
-the shear dip in reports/loglaw/README.md.
+the shear dip in reports/investigations/loglaw/README.md.
 
     saltstudy probe loglaw [--case 1] [--fidelity reduced] [--drive top] [--t-end 300]
                            [--window 100] [--grid JSON] [--overrides JSON]

@@ -69,7 +69,7 @@ NOISE_NOTE = ("Each value ± the larger of two estimates of one run's noise: hal
               "difference from the reference inside the two runs' bars added in quadrature. The "
               "half windows alone understate the scatter: two windows of the same run of case 2 "
               "differed by 10 % in u*s read at 2 m against bars of 2-5 % "
-              "(reports/knobs/FINDINGS.md).")
+              "(reports/investigations/knobs/FINDINGS.md).")
 
 
 @dataclass

@@ -1,6 +1,6 @@
 """Fill the report's ``meta`` from the study configuration: ``case_numbers``, ``fidelities``,
-``study_config``, ``fidelity``, ``order``, ``reference`` (from ``workflows/<study>.toml``, if the
-study file exists), and the checkout's ``commit``. What the cache records about the runs
+``study_config``, ``fidelity``, ``order``, ``reference`` (from the study file, ``meta["study_file"]``,
+else ``workflows/<study>.toml``, if it exists), and the checkout's ``commit``. What the cache records about the runs
 (failures, samples, checkpoints, the archives' source key) comes from the workflow
 (``workflow/report_meta.py``), which passes it in ``meta``.
 """
@@ -12,15 +12,16 @@ from typing import Any
 __all__ = ["enrich_meta", "study_meta"]
 
 
-def study_meta(study_name: str) -> dict[str, Any]:
-    """case_numbers, fidelities, study_config, fidelity, order, reference from the study file.
+def study_meta(study_ref: str) -> dict[str, Any]:
+    """case_numbers, fidelities, study_config, fidelity, order, reference from the study file
+    (``study_ref``: a study's name, or the path of its file).
 
     ``reference`` is the label of the run at the study's ``reference`` fidelity (None when the
     study names none: the convergence report then compares with the last rung). {} if no file.
     """
     try:
         from ..config import load_study, study_runs
-        study = load_study(study_name)
+        study = load_study(study_ref)
         runs = study_runs(study)
     except Exception:
         return {}
@@ -47,7 +48,7 @@ def study_meta(study_name: str) -> dict[str, Any]:
 def enrich_meta(study_name: str, meta: dict[str, Any] | None) -> dict[str, Any]:
     """``meta`` with the study file's entries (``study_meta``) and the commit added where absent."""
     meta = dict(meta or {})
-    for k, v in study_meta(study_name).items():
+    for k, v in study_meta(meta.get("study_file") or study_name).items():
         if meta.get(k) is None and v is not None:
             meta[k] = v
     if not meta.get("commit"):

@@ -112,7 +112,7 @@ def model_departures(scene: dict) -> list[str]:
     grid = fid.get("grid", {}) or {}
     dz0 = grid.get("dz_bottom")
     if dz0 is not None and dz0 > PAPER_DZ_BOTTOM * 1.001:
-        # z_m +24-38 % and G_tot +29-63 % from 2 cm to 1 cm in cases 2 and 6 (reports/grid-rungs)
+        # z_m +24-38 % and G_tot +29-63 % from 2 cm to 1 cm in cases 2 and 6 (reports/investigations/grid-rungs)
         out.append(f"a first level of {100 * dz0:g} cm (the paper's: 1 cm)")
     try:
         dx = float(grid["Lx"]) / float(grid["nx"])

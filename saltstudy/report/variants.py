@@ -1,8 +1,9 @@
 """Model variants replicated over seeds, side by side: the table of a study whose scene labels read
-``c<case>_<variant>_s<seed>`` (workflows/grainlayer.toml), or ``<variant>_s<seed>`` with the case
-from the run's own case number (workflows/equilibrium-screen.toml).
+``c<case>_<variant>_s<seed>`` (workflows/investigations/streamers-box/streamers-box.toml), or
+``<variant>_s<seed>`` with the case from the run's own case number (the equilibrium screen's,
+reports/investigations/equilibrium/screen).
 
-    saltstudy variants-report reports/grainlayer      # reads summary.json, writes variants.{md,json}
+    saltstudy variants-report reports/investigations/streamers/box   # reads summary.json, writes variants.{md,json}
 
 Per case and variant: the mean over seeds of each statistic and half the range between seeds (with
 two seeds, the seed-to-seed scatter: a difference between variants smaller than it is not a

@@ -146,7 +146,7 @@ def register(app: typer.Typer) -> None:
 def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path]) -> Path:
     """Resolve the study's analysis archives under ``out`` and build the report. Returns index.html."""
     from .. import __version__
-    from ..config import load_study
+    from ..config import load_study, study_file
     from ..report import build_report
     from . import keys as wkeys
     from . import paths as wpaths
@@ -159,8 +159,10 @@ def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path])
         report_dir = wpaths.default_report_dir(study_name)
     meta = {"study": study_name, "out_dir": str(out_dir), "package_version": __version__}
     # the cache keys let the report find failure records and samples.nc (stability, animation)
+    st = load_study(study)
+    meta["study_file"] = str(study_file(st))
     meta["keys"] = {l: {"spinup": k.spinup, "saltation": k.saltation, "analysis": k.analysis}
-                    for l, k in wkeys.study_keys(load_study(study)).items()}
+                    for l, k in wkeys.study_keys(st).items()}
     return build_report(study_name, runs, Path(report_dir), cache_meta(meta))
 
 

@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import SOURCE_KEY, __version__
-from ..config import Scene, Study
+from ..config import Scene, Study, study_file
 from ..ncio import is_complete
 from . import keys as K
 from .paths import (default_report_dir, output_path, read_runs_file, runs_file, study_dir, task_dir,
@@ -239,7 +239,9 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
                 | {(t, getattr(r, t)) for r in runs.values() for t in ("saltation", "analysis")})
     cached = sum(is_complete(output_path(out_dir, t, key)) for t, key in distinct)
     if study.report:
+        sfile = study_file(study)
         meta = {"study": study.name, "out_dir": str(out_dir), "package_version": __version__,
+                "study_file": str(sfile) if sfile is not None else None,
                 "source_key": SOURCE_KEY, "run_started": run_started,
                 "tasks_from_cache": cached, "tasks_total": len(distinct),
                 "keys": {l: {"spinup": r.spinup, "saltation": r.saltation, "analysis": r.analysis}
