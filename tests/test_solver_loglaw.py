@@ -43,9 +43,7 @@ def run_surface_layer(t_spin: float = T_SPIN, t_avg: float = T_AVG, every: float
     fid = load_fidelity(fidelity)
     if grid_overrides:
         fid = fid.model_validate({**fid.model_dump(), "grid": {**fid.grid.model_dump(), **grid_overrides}})
-    # the closure the module doc was measured with: Deardorff with the near-wall term
-    scene = resolve_scene(load_case(case, overrides={"forcing": {"drive": drive},
-                                                     "closure": {"near_wall": True}}), fid)
+    scene = resolve_scene(load_case(case, overrides={"forcing": {"drive": drive}}), fid)
     m = Model.from_scene(scene)
     acc: dict[str, np.ndarray] = {}
     spec = None
