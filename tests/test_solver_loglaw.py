@@ -12,9 +12,9 @@ shear phi = kappa z / u* dU/dz. Run with ``pytest -m slow -s tests/test_solver_l
 
 The free fit comes out low after 600 s (phi below 0.85 somewhere in 0.5-1.5 m, reports/loglaw/);
 a shorter spin-up flatters it, because the flow starts from the exact log law and drifts into the
-dip over ~H U / u*^2 ~ 400 s. Neither the dynamic Smagorinsky closure nor a three times longer box (which
-unlocks the x-uniform rolls) brings phi into [0.85, 1.15] at 0.2-1.5 m: reports/loglaw/, repeated
-with `saltstudy probe loglaw`.
+dip over ~H U / u*^2 ~ 400 s. Neither the dynamic Smagorinsky closure nor a three times longer
+box (which unlocks the x-uniform rolls) brings phi into [0.85, 1.15] at 0.2-1.5 m: reports/loglaw/,
+repeated with `saltstudy probe loglaw`.
 """
 from __future__ import annotations
 
