@@ -155,17 +155,9 @@ class Forcing(_Frozen):
 
 
 class Surface(_Frozen):
-    """Rigid bed: log-law stress at the first level."""
+    """Rigid bed: log-law stress at the first level, C_d = [kappa / ln(z_1/z0)]^2 (the paper's bulk
+    drag law), from each RK3 stage's wind."""
     z0: float = Field(1.0e-5, gt=0, lt=0.1, description="roughness length z0 [m] (paper: 10 um)")
-    stress_level: Literal["first", "second"] = Field(
-        "first", description="the wind the bulk drag law reads: the first level's, with "
-        "C_d = [kappa / ln(z_1/z0)]^2 ('first', the paper's bulk law at the first level), or the "
-        "second level's, with C_d = [kappa / ln(z_2/z0)]^2 ('second': the wind whose log law the "
-        "first cell's grains see, the paper's [12])")
-    stress_instant: Literal["stage", "step_start"] = Field(
-        "stage", description="when the bed stress is evaluated: from each RK3 stage's wind "
-        "('stage'), or once per step from the wind before the grains' drag of that step "
-        "('step_start', as a model that forms its surface flux before the particle forcing)")
 
 
 class Closure(_Frozen):
@@ -177,11 +169,6 @@ class Closure(_Frozen):
         "the paper's eq. A1 diagnosed in local equilibrium, grain sink included (solver/closures/dynamic.py)")
     dynamic_interval: int = Field(
         5, ge=1, le=100, description="steps between updates of the dynamic coefficient [-]")
-    near_wall: bool = Field(
-        False, description="near-wall mean-field eddy viscosity (solver/closures/nearwall.py): a mixing-length "
-        "closure of the mean shear where the horizontal grid cannot resolve the wall eddies. Not in "
-        "the paper; off by default: in the grain layer it pins the air's non-dimensional shear to 1 "
-        "and quadruples z0s (case 2, reports/grainlayer/FINDINGS.md)")
     delta: Literal["scotti", "geometric"] = Field(
         "scotti", description="SGS filter width: (dx dy dz)^(1/3) times the anisotropy factor of "
         "Scotti, Meneveau & Lilly (1993) for flat cells ('scotti'), or without it ('geometric', "
@@ -190,31 +177,12 @@ class Closure(_Frozen):
         "isotropic", description="SGS eddy viscosity: one, with the filter length ('isotropic'), or "
         "a horizontal one with sqrt(dx dy) and a vertical one with dz ('anisotropic', the nu_th and "
         "nu_tv of the paper's eq. A1) (solver/closures/sgs.py)")
-    two_part: bool = Field(
-        False, description="the two-part model of Sullivan, McWilliams & Moeng (1994): the fluctuating "
-        "eddy viscosity scaled by the isotropy factor gamma(z) and a mean-field viscosity that holds the "
-        "log law at the first level (solver/closures/twopart.py); a departure from the paper's closure, on top "
-        "of either model; excludes near_wall (both are mean-field terms)")
-    near_wall_layer: tuple[float, float] = Field(
-        (1.0, 3.0), description="(a, b): the near-wall term acts fully below a dx and fades to zero "
-        "at b dx (dx: the horizontal grid spacing) [-]")
-
-    @field_validator("near_wall_layer")
-    @classmethod
-    def _layer(cls, v: tuple[float, float]) -> tuple[float, float]:
-        a, b = v
-        if not (0.0 <= a < b):
-            raise ValueError(f"near_wall_layer = {v}: need 0 <= a < b")
-        return v
 
     @model_validator(mode="after")
     def _one_viscosity_when_dynamic(self) -> "Closure":
         if self.model == "dynamic" and self.viscosity != "isotropic":
             raise ValueError("viscosity: the dynamic model has one eddy viscosity; "
                              "'anisotropic' goes with model = 'deardorff'")
-        if self.two_part and self.near_wall:
-            raise ValueError("two_part: the two-part model carries its own mean-field viscosity; "
-                             "set near_wall = false with it")
         return self
 
 
@@ -225,13 +193,9 @@ class Physics(_Frozen):
     tke_particle_sink: bool = Field(True, description="SGS TKE sink by grain drag (eq. A1)")
     aerodynamic_entrainment: bool = Field(False, description="lift-off by the wind (off in the paper)")
     sgs_particle_velocity: bool = Field(False, description="stochastic SGS grain velocity (off in the paper)")
-    temperature: bool = Field(False, description="potential-temperature equation (neutral: not needed)")
 
     @model_validator(mode="after")
     def _consistent(self) -> "Physics":
-        if self.temperature:
-            raise ValueError("temperature: a potential-temperature equation is not implemented; "
-                             "the scenes of this study are neutral")
         if not self.saltation and (self.aerodynamic_entrainment or self.sgs_particle_velocity):
             raise ValueError("aerodynamic_entrainment/sgs_particle_velocity need saltation = true")
         return self
@@ -320,9 +284,8 @@ class GridSpec(_Frozen):
 
 
 class TimeStepping(_Frozen):
-    """Adaptive time step: Delta t = min(CFL limit, diffusion limit, dt_max), and how the vertical
-    SGS diffusion is integrated (numerics: a case means the same with either)."""
-    scheme: Literal["rk3"] = "rk3"
+    """Adaptive time step of the RK3 flow step (solver/flow/stepper.py): Delta t = min(CFL limit,
+    diffusion limit, dt_max), and how the vertical SGS diffusion is integrated (numerics: a case means the same with either)."""
     cfl: float = Field(0.8, gt=0, le=1.5, description="advective Courant number")
     diffusion_number: float = Field(
         0.4, gt=0, le=0.5, description="explicit diffusion limit: dt <= diffusion_number / "
@@ -387,20 +350,11 @@ class Sampling(_Frozen):
 class Relaxation(_Frozen):
     """Column relaxation after activation (solver/flow/relaxation.py): a uniform body force
     -K (tau_bed - u*s^2) / Lz that brings the particle-free column to the saltation equilibrium
-    about (1 + K) times faster, switched off before sampling; and a top drive that answers the
-    stress at z_ref (``stress_gain``). Both off by default: cost knobs for a short window, not the
-    paper's physics."""
+    about (1 + K) times faster, switched off before sampling. Off by default: a cost knob for a
+    short window, not the paper's physics."""
     gain: float = Field(0.0, ge=0, le=20, description="K [-]: 0 switches the relaxation off")
     timescale: float = Field(1.0, gt=0, description="running-mean time of the bed stress [s]")
     until: float = Field(0.0, ge=0, description="active until this time after activation [s]")
-    stress_gain: float = Field(
-        0.0, ge=0, le=10.0, description="K_p [-]: through the whole saltation run the top drive feeds "
-        "u*s^2 - K_p (tau(z_ref) - u*s^2) instead of u*s^2, so a column out of balance returns to "
-        "tau(z_ref) = u*s^2 about (1 + K_p) times faster, with the same fixed point "
-        "(solver/flow/forcing.py); 0 switches it off")
-    stress_timescale: float = Field(
-        2.0, gt=0, le=60.0, description="T_s [s]: running-mean time of tau(z_ref) and lag of the drive "
-        "when stress_gain > 0")
 
 
 class Outputs(_Frozen):
@@ -549,8 +503,7 @@ class Scene(_Frozen):
         c, f = self.spinup_scene().case, self.fidelity
         return {
             "air": c.air.model_dump(mode="json"),
-            # when the bed stress is taken matters only beside the grains' drag
-            "surface": c.surface.model_dump(mode="json", exclude={"stress_instant"}),
+            "surface": c.surface.model_dump(mode="json"),
             "closure": c.closure.model_dump(mode="json"),
             "forcing": c.forcing.model_dump(mode="json"),
             "seed": c.seed,

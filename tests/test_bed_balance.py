@@ -1,6 +1,5 @@
 """The layer's momentum balance at the bed: the impact record's momentum, mu_b two ways, and the
-readings of the text on the bed (normal impact speed, launch from the bed, the bulk law's wind and
-instant)."""
+readings of the text on the bed (normal impact speed, launch from the bed)."""
 from __future__ import annotations
 
 import math
@@ -143,54 +142,6 @@ def test_bed_launch_and_detection_step_exclude_each_other():
 
     with pytest.raises(ConfigError, match="launch_height"):
         load_case(2, overrides={"splash": {"launch_height": "bed", "detection_step": 2e-4}})
-
-
-def test_bulk_law_reads_the_second_level_when_asked():
-    """surface.stress_level = "second": the bed stress is -C_d2 |U_2| u_2 with
-    C_d2 = [kappa / ln(z_2 / z0)]^2 from the second level's wind, whatever the first level's."""
-    from saltstudy.solver.model import build_stepper
-    from saltstudy.solver.grid import Grid
-
-    for level, k in (("first", 0), ("second", 1)):
-        sc = scene(2, surface={"stress_level": level})
-        grid = Grid.from_spec(sc.fidelity.grid)
-        st = build_stepper(sc, grid, None)
-        u = np.zeros(grid.shape)
-        v = np.zeros(grid.shape)
-        u[:, :, 0] = 1.0
-        u[:, :, 1] = 3.0
-        taux, tauy = np.empty(grid.shape[:2]), np.empty(grid.shape[:2])
-        st.bed_stress_into(u, v, taux, tauy)
-        cd = (0.4 / math.log(grid.z_c[k] / sc.case.surface.z0)) ** 2
-        U = (1.0, 3.0)[k]
-        assert np.allclose(taux, -cd * U * U, rtol=1e-12) and np.allclose(tauy, 0.0)
-
-
-def test_bed_stress_from_the_wind_before_the_grains_drag():
-    """surface.stress_instant = "step_start": the bed stress of a step is the bulk law of the wind
-    before the components act. A component that stops the first level's wind: with "stage" the
-    bed then exerts no stress in that step; with "step_start" it still drags the level with the
-    stress of the wind it had, which leaves the level slower."""
-    from saltstudy.solver.model import Model
-
-    class StopFirstLevel:
-        name = "stop"
-
-        def dynamics(self, state, dt):
-            state.u[:, :, 0] = 0.0
-
-        def max_dt(self, state):
-            return math.inf
-
-    u0 = {}
-    for instant in ("stage", "step_start"):
-        sc = scene(2, surface={"stress_instant": instant})
-        m = Model.from_scene(sc)
-        m.state.u[...] = 5.0
-        m.components.append(StopFirstLevel())
-        m.step(1e-3)
-        u0[instant] = float(m.state.u[:, :, 0].mean())
-    assert u0["step_start"] < u0["stage"] - 1e-4
 
 
 def test_bed_exchange_of_linear_records():

@@ -47,7 +47,7 @@ def test_molecular_viscosity_breaks_similarity_only_slightly():
     """With the real air viscosity the scaled fields differ, but by far less than the turbulence.
     The difference is largest at the first level, where the molecular viscosity is the largest
     share of the total: after 60 steps 1.1 % of the largest velocity fluctuation under the paper's
-    closure, 0.3 % with the near-wall mixing length (whose viscosity swamps the molecular one)."""
+    closure."""
     a, b = (r["u"] for r in _runs_at_u_star_and_twice(nu=1.5e-5))
     fluct = np.abs(a - a.mean(axis=(0, 1))).max()
     assert 0 < np.abs(b / 2.0 - a).max() < 0.02 * fluct

@@ -70,11 +70,6 @@ def model_departures(scene: dict) -> list[str]:
     out = []
     if clo.get("model", "deardorff") != "deardorff":
         out.append(f"SGS closure {clo['model']} (the paper: Deardorff's TKE model)")
-    if clo.get("near_wall", False):
-        out.append("a near-wall mixing-length eddy viscosity below 3 grid spacings "
-                   "(closure.near_wall, not in the paper)")
-    if clo.get("two_part", False):
-        out.append("the two-part SGS model of Sullivan et al. (1994) (closure.two_part)")
     nbw = par.get("near_bed_wind", "paper")
     if nbw != "paper":
         out.append(NEAR_BED_WIND_CAPTIONS[nbw] + " (particles.near_bed_wind; the paper's [12]: "
@@ -95,13 +90,6 @@ def model_departures(scene: dict) -> list[str]:
     if spl.get("launch_height", "layer_top") != "layer_top":
         out.append("rebounds and ejecta launched from the bed z = 0 (splash.launch_height; the "
                    "paper is silent: the model launches them from the 0.5 mm layer's top)")
-    srf = case.get("surface", {}) or {}
-    if srf.get("stress_level", "first") != "first":
-        out.append("the bulk drag law of the second level's wind (surface.stress_level; the "
-                   "paper: bulk aerodynamic drag laws, read at the first level)")
-    if srf.get("stress_instant", "stage") != "stage":
-        out.append("the bed stress from the wind before the grains' drag of each step "
-                   "(surface.stress_instant)")
     if (case.get("forcing", {}) or {}).get("drive", "top") != "top":
         out.append("a mean pressure-gradient drive (the paper: a top drive)")
     q = fid.get("q_multiplier", 1.0)

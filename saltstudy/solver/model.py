@@ -63,8 +63,7 @@ def build_stepper(scene, grid: Grid, workers: int | None = None) -> Stepper:
     bounds = Boundaries(z0=case.surface.z0, kappa=case.air.kappa, damping_depth=scene.damping_depth,
                         damping_timescale=fid.grid.damping_timescale, damp_u=not pg,
                         body_force=(pressure_gradient_force(case.forcing.u_star_s, grid.Lz)
-                                    if pg else 0.0),
-                        stress_level=case.surface.stress_level)
+                                    if pg else 0.0))
     return Stepper(grid, closure, bounds, FlowNumerics.from_time(fid.time), workers=workers)
 
 
@@ -90,9 +89,6 @@ class Model:
         self.z_ref = z_ref_effective(scene.case.forcing.z_ref, grid.Lz, self.damping_depth)
         #: the pressure-gradient body force G [m s^-2] (0 with the top drive)
         self.body_force = float(stepper.body_force)
-        #: the bed stress from the wind before the grains' drag, once per step
-        #: (config.Surface.stress_instant)
-        self.bed_stress_at_step_start = scene.case.surface.stress_instant == "step_start"
 
     # ---- construction -------------------------------------------------------------------------
     @classmethod
@@ -111,9 +107,7 @@ class Model:
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
                                      case.forcing.controller_timescale, stepper.f_c,
-                                     case.air.kappa, case.surface.z0,
-                                     stress_gain=fid.relaxation.stress_gain,
-                                     stress_timescale=fid.relaxation.stress_timescale)
+                                     case.air.kappa, case.surface.z0)
         rng = np.random.default_rng(case.seed)
         components = []
         if saltation and case.physics.saltation:
@@ -195,17 +189,10 @@ class Model:
             raise ValueError(f"step: dt must be positive and finite (got {dt!r})")
         t0 = time.perf_counter()
         s = self.state
-        st = self.stepper
-        if self.bed_stress_at_step_start and st.wall:
-            # the bulk drag law of the wind before the grains' drag of this step, held over its
-            # stages (config.Surface.stress_instant)
-            st.bed_stress_into(s.u, s.v, st.taux, st.tauy)
-            st.bed_frozen = True
         for c in self.components:
             c.dynamics(s, dt)
         t_comp = time.perf_counter() - t0
         self.stepper.step(s, dt)
-        st.bed_frozen = False
         s.t += dt
         s.step += 1
         self._rate_cache = None
@@ -264,7 +251,6 @@ class Model:
             else:
                 act(self.state)
         self.t_activation = float(self.state.t)
-        self.controller.answers_stress = self.controller.stress_gain > 0
 
     # ---- checkpoint --------------------------------------------------------------------------
     def checkpoint(self) -> dict:

@@ -127,9 +127,6 @@ def flow_profiles(model) -> dict:
     tke = 0.5 * (((uc - um) ** 2).mean(axis=(0, 1)) + ((vc - vm) ** 2).mean(axis=(0, 1))
                  + ((wc - wm) ** 2).mean(axis=(0, 1)))
     res, sgs = stress_profile(model)
-    for mean_field in (clo.near_wall, clo.two_part):  # the mean-field part of the modelled stress
-        if mean_field is not None:
-            sgs = sgs - mean_field.stress_profile()
     nu = _nu(model)
     eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, clo.rv, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c,
                                   g.rdz_f, clo.rlog, clo.ceps_l)
