@@ -36,3 +36,8 @@ if "NUMBA_CACHE_DIR" not in os.environ:
 # numba's workqueue layer aborts when kernels are called from several threads (dask threads);
 # prefer OpenMP, then TBB.
 os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp tbb workqueue")
+# The OpenMP worker threads sleep as soon as a parallel region ends instead of spinning for a
+# while (libgomp's default): between the flow's parallel regions the pressure solve's FFTs run on
+# other threads (solver/flow/pressure.py), which a spinning worker kept from a core. Measured on
+# the paper's grid, 2 threads (docs/BENCHMARKS.md, "The flow's threads").
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

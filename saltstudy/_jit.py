@@ -10,6 +10,8 @@ from __future__ import annotations
 import numba
 import numba.core.cpu
 from llvmlite import binding as _llvm
+from numba.core import types as _types
+from numba.extending import overload as _overload
 
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
 
@@ -53,3 +55,24 @@ _llvm.set_option("saltstudy", f"-inline-threshold={LLVM_INLINE_THRESHOLD}")
 #: small per-point helpers called from the kernels (inlined by LLVM, see above); compiled without
 #: reference counting, so that the inlined copies carry no reference-count traffic either
 device = jit_borrow
+
+
+def like(ref, value):
+    """``value`` in the floating type of ``ref`` (an array's dtype or a scalar's type).
+
+    Inside a kernel a float literal is a float64 and promotes float32 arithmetic to float64
+    (numba types by its arguments), so the stencils that run in single precision
+    (``time.precision``) write their constants as ``like(field, 0.5)``: float32 for float32
+    fields, and for float64 fields the same constant as the literal, so the double-precision
+    kernels compile to the same code."""
+    t = ref.dtype.type if hasattr(ref, "dtype") else type(ref)
+    return t(value)
+
+
+@_overload(like, inline="always", jit_options={"cache": True})
+def _like(ref, value):
+    t = ref.dtype if isinstance(ref, _types.Array) else ref
+
+    def impl(ref, value):
+        return t(value)
+    return impl

@@ -306,6 +306,11 @@ class TimeStepping(_Frozen):
         "projection's divergence and gradient: 2, or 4 (Morinishi et al. 1998, fully conservative; "
         "the paper's model ARPS advects momentum at fourth order); an integer because it is the "
         "order of the differences; the vertical stays second order (solver/flow/advection.py)")
+    precision: Literal["double", "single"] = Field(
+        "double", description="floating type of the flow: 'double' (float64), or 'single': the "
+        "fields u, v, w, e, p, the closure's viscosity and the stencils' arithmetic in float32, "
+        "the pressure solve and the grains (their state and the momentum they exchange) in "
+        "float64 (solver/flow/stepper.py; its cost and effect: docs/BENCHMARKS.md)")
 
 
 class SpinUp(_Frozen):

@@ -11,6 +11,12 @@ horizontal advection order (``--advection-order 2 --advection-order 4``: the fid
 floor* is the median time of the FFT pair + tridiagonal solve alone (``PressureSolver.solve_rhs_inplace``),
 three per step (one per RK3 stage), in the same units; ``ratio`` = step / floor says how far the whole
 step is above that irreducible cost. Peak resident memory (ru_maxrss) is reported after the largest grid.
+``precisions`` (``--precision single --precision double``: the fidelity's ``time.precision``) and
+``schemes`` (``--vertical-diffusion``) likewise; ``fidelities`` (``--fidelity``) picks the grids.
+With ``rounds`` > 1 (``--rounds N`` without ``--against``) every configuration is timed in N
+rounds, each in a fresh process, alternating between the configurations (the order reversed every
+other round), and the median over the rounds is reported: one process's speed drifts by tens of
+per cent on a shared machine (docs/BENCHMARKS.md).
 
 ``against`` (``--against REV``) times this checkout's step against git revision REV's on the same
 grids (``instruments/revision.py``): each side builds its own model from its own fidelity file,
@@ -30,7 +36,7 @@ import time
 
 import numba
 
-__all__ = ["bench_flow", "compare_flow", "GRIDS"]
+__all__ = ["bench_flow", "bench_grid", "side_grid", "compare_flow", "GRIDS"]
 
 #: the package this module belongs to (``saltstudy``)
 _PACKAGE = (__package__ or __name__).split(".")[0]
@@ -53,20 +59,29 @@ def _median_time(f, n: int) -> float:
 
 
 def bench_grid(fidelity: str, steps: int = 10, closure: str = "deardorff",
-               advection_order: int = 2) -> dict:
+               advection_order: int = 2, precision: str | None = None,
+               vertical_diffusion: str | None = None) -> dict:
+    """One grid's timing (module doc): case 1 at ``fidelity`` with the closure, the advection
+    order and, when given, the precision and the vertical diffusion scheme forced (None: the
+    fidelity's)."""
     from ..config import TimeStepping, load_case, load_fidelity, resolve_scene
     from ..solver.model import Model
 
     fid = load_fidelity(fidelity)
-    ts = TimeStepping.model_validate({**fid.time.model_dump(), "advection_order": advection_order})
+    forced = {"advection_order": advection_order}
+    if precision is not None:
+        forced["precision"] = precision
+    if vertical_diffusion is not None:
+        forced["vertical_diffusion"] = vertical_diffusion
+    ts = TimeStepping.model_validate({**fid.time.model_dump(), **forced})
     scene = resolve_scene(load_case(1, overrides={"closure": {"model": closure}}),
                           fid.model_copy(update={"time": ts}))
     m = Model.from_scene(scene)
     for _ in range(2):
         m.step(m.next_dt())
     dt = m.next_dt()
-    ts = _times(lambda: m.step(dt), steps)
-    t_step = statistics.median(ts)
+    ts_ = _times(lambda: m.step(dt), steps)
+    t_step = statistics.median(ts_)
     ps = m.stepper.pressure
     t_p = _median_time(ps.solve_rhs_inplace, max(3, steps))
     n = m.grid.n_cells
@@ -74,19 +89,65 @@ def bench_grid(fidelity: str, steps: int = 10, closure: str = "deardorff",
     floor = 3.0 * t_p / n * 1e9
     m.close()
     return {"shape": list(m.grid.shape), "fidelity": fidelity, "closure": closure,
-            "advection_order": advection_order, "steps": steps,
-            "ns_per_cell_step": ns_step, "mean_ns_per_cell_step": statistics.fmean(ts) / n * 1e9,
+            "advection_order": advection_order, "precision": ts.precision,
+            "vertical_diffusion": ts.vertical_diffusion, "steps": steps,
+            "ns_per_cell_step": ns_step, "mean_ns_per_cell_step": statistics.fmean(ts_) / n * 1e9,
             "ms_per_step": t_step * 1e3, "pressure_floor_ns_per_cell": floor, "ratio": ns_step / floor}
 
 
-def bench_flow(steps: int = 10, big: bool = True, closures=("deardorff",), orders=(2,)) -> dict:
+def _variants(fidelities, closures, orders, precisions, schemes) -> list[dict]:
+    return [{"fidelity": f, "closure": c, "advection_order": o, "precision": p,
+             "vertical_diffusion": v}
+            for f in fidelities for c in closures for o in orders for p in precisions
+            for v in schemes]
+
+
+def bench_flow(steps: int = 10, big: bool = True, closures=("deardorff",), orders=(2,),
+               precisions=(None,), schemes=(None,), fidelities=None, rounds: int = 1) -> dict:
     """Run the benchmark; returns {"threads", "grids": [...], "max_rss_mb"} (one entry of grids
-    per grid, closure and advection order)."""
-    grids = [bench_grid(fid, steps, c, o) for label, fid in GRIDS if big or fid != "paper"
-             for c in closures for o in orders]
-    rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0   # Linux: kB
-    return {"threads": numba.get_num_threads(), "threading_layer": _layer(), "grids": grids,
-            "max_rss_mb": rss_mb}
+    per grid, closure, advection order, precision and vertical diffusion scheme; None: the
+    fidelity's). ``fidelities``: the grids (default: the reduced and, with ``big``, the paper's).
+    With ``rounds`` > 1 every variant is timed in ``rounds`` rounds, each in a fresh process, the
+    variants' order reversed every other round; an entry then reports the median over the rounds
+    (``ns_per_cell_step``) and the rounds (``rounds``), and max_rss_mb is the largest round's."""
+    fids = list(fidelities) if fidelities else [fid for _, fid in GRIDS if big or fid != "paper"]
+    var = _variants(fids, closures, orders, precisions, schemes)
+    if rounds <= 1:
+        grids = [bench_grid(steps=steps, **v) for v in var]
+        rss_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0   # Linux: kB
+        return {"threads": numba.get_num_threads(), "threading_layer": _layer(), "grids": grids,
+                "max_rss_mb": rss_mb}
+    from .revision import run_isolated
+
+    per = [[] for _ in var]
+    rss = []
+    for r in range(rounds):
+        order = range(len(var)) if r % 2 == 0 else reversed(range(len(var)))
+        for q in order:
+            res = run_isolated(f"{__name__}:side_grid", {"steps": steps, **var[q]})
+            per[q].append(res)
+            rss.append(res["max_rss_mb"])
+    grids = []
+    for v, rs in zip(var, per):
+        g = dict(rs[0])
+        g.pop("max_rss_mb")
+        for key in ("ns_per_cell_step", "mean_ns_per_cell_step", "ms_per_step",
+                    "pressure_floor_ns_per_cell"):
+            g[key] = statistics.median(x[key] for x in rs)
+        g["ratio"] = g["ns_per_cell_step"] / g["pressure_floor_ns_per_cell"]
+        g["rounds"] = [x["ns_per_cell_step"] for x in rs]
+        grids.append(g)
+    return {"threads": numba.get_num_threads(), "threading_layer": per[0][0]["threading_layer"],
+            "grids": grids, "max_rss_mb": max(rss), "rounds": rounds}
+
+
+def side_grid(steps: int, **variant) -> dict:
+    """One round of ``bench_flow`` with rounds, in its own process: ``bench_grid`` and the
+    process's threading layer and peak memory."""
+    out = bench_grid(steps=steps, **variant)
+    out["threading_layer"] = _layer()
+    out["max_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    return out
 
 
 def _layer() -> str:
@@ -100,9 +161,12 @@ def format_report(res: dict) -> str:
     lines = [f"numba threads: {res['threads']} (layer {res['threading_layer']})"]
     for g in res["grids"]:
         nx, ny, nz = g["shape"]
-        lines.append(f"{nx}x{ny}x{nz} {g['closure']} order {g['advection_order']}: "
+        rounds = (f" over {len(g['rounds'])} rounds "
+                  f"({min(g['rounds']):.0f}-{max(g['rounds']):.0f})" if "rounds" in g else "")
+        lines.append(f"{nx}x{ny}x{nz} {g['closure']} order {g['advection_order']} "
+                     f"{g['precision']} {g['vertical_diffusion']}: "
                      f"{g['ms_per_step']:.1f} ms/step (median of "
-                     f"{g['steps']}), {g['ns_per_cell_step']:.0f} ns/cell-step (mean "
+                     f"{g['steps']}), {g['ns_per_cell_step']:.0f} ns/cell-step{rounds} (mean "
                      f"{g['mean_ns_per_cell_step']:.0f}); pressure floor (3 x FFT pair + "
                      f"tridiagonal) {g['pressure_floor_ns_per_cell']:.0f} ns/cell; ratio {g['ratio']:.2f}")
     lines.append(f"peak resident memory: {res['max_rss_mb']:.0f} MB")
@@ -188,8 +252,9 @@ def compare_flow(against: str, steps: int = 10, rounds: int = 7, big: bool = Tru
 
 
 def main(steps: int = 10, big: bool = True, as_json: bool = False, closures=("deardorff",),
-         orders=(2,)) -> None:
-    res = bench_flow(steps, big, tuple(closures), tuple(orders))
+         orders=(2,), precisions=(None,), schemes=(None,), fidelities=None, rounds: int = 1) -> None:
+    res = bench_flow(steps, big, tuple(closures), tuple(orders), tuple(precisions),
+                     tuple(schemes), fidelities, rounds)
     print(json.dumps(res) if as_json else format_report(res))
 
 

@@ -19,13 +19,33 @@ def register(app: typer.Typer) -> None:
              advection_order: list[int] = typer.Option(
                  [2], "--advection-order",
                  help="horizontal advection order (time.advection_order); repeat to compare"),
+             precision: list[str] = typer.Option(
+                 None, "--precision", help="the flow's floating type (time.precision: single or "
+                 "double; default the fidelity's); repeat to compare"),
+             vertical_diffusion: list[str] = typer.Option(
+                 None, "--vertical-diffusion", help="time.vertical_diffusion (explicit or implicit; "
+                 "default the fidelity's); repeat to compare"),
+             fidelity: list[str] = typer.Option(
+                 None, "--fidelity", help="the fidelity whose grid is timed (default: reduced and, "
+                 "with --big, paper); repeat for several"),
              against: str = typer.Option(None, "--against", help="git revision to time this "
                                          "checkout against, alternating rounds, each in its own process"),
-             rounds: int = typer.Option(7, "--rounds", help="alternating rounds (--against)")) -> None:
+             rounds: int = typer.Option(None, "--rounds", help="alternating rounds, each in its own "
+                                        "process (--against: default 7; otherwise default 1, all in "
+                                        "this process)")) -> None:
         """Median wall time per LES step on the reduced grid and the paper's, per cell-step, vs the FFT floor."""
         from .bench import main
         from ..solver.flow.advection import ADVECTION_ORDERS
+        from ..solver.flow.stepper import PRECISIONS
+        from ..solver.flow.vertical_diffusion import VERTICAL_DIFFUSION
         from ..solver.closures.closure import CLOSURES
+        for opt, vals, known in (("--precision", precision, tuple(PRECISIONS)),
+                                 ("--vertical-diffusion", vertical_diffusion, VERTICAL_DIFFUSION)):
+            bad_v = [x for x in vals or () if x not in known]
+            if bad_v:
+                typer.echo(f"error: {opt}: unknown value {bad_v[0]!r} (known: {', '.join(known)})",
+                           err=True)
+                raise typer.Exit(2)
         bad = [c for c in closure if c not in CLOSURES]
         if bad:
             typer.echo(f"error: --closure: unknown closure {bad[0]!r} (known: {', '.join(CLOSURES)})",
@@ -39,17 +59,20 @@ def register(app: typer.Typer) -> None:
         if against:
             from .bench import compare_flow
             from .revision import RevisionError
-            if len(advection_order) > 1 or closure != ["deardorff"]:
+            if (len(advection_order) > 1 or closure != ["deardorff"] or precision
+                    or vertical_diffusion or fidelity):
                 typer.echo("error: --against: compares one configuration (Deardorff, one "
-                           "--advection-order)", err=True)
+                           "--advection-order, the fidelities' precision and scheme)", err=True)
                 raise typer.Exit(2)
             try:
-                compare_flow(against, steps=steps, rounds=rounds, big=big,
+                compare_flow(against, steps=steps, rounds=7 if rounds is None else rounds, big=big,
                              advection_order=advection_order[0], as_json=as_json)
             except (RevisionError, ValueError) as e:
                 raise typer.BadParameter(str(e), param_hint="--against") from e
             return
-        main(steps=steps, big=big, as_json=as_json, closures=closure, orders=advection_order)
+        main(steps=steps, big=big, as_json=as_json, closures=closure, orders=advection_order,
+             precisions=precision or (None,), schemes=vertical_diffusion or (None,),
+             fidelities=fidelity or None, rounds=1 if rounds is None else rounds)
 
     from .bench_particles import register_bench
     register_bench(bench_app)

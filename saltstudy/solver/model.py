@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .diagnostics.checks import check_courant, health, locate_nonfinite
-from .flow.forcing import DriveController, pressure_gradient_force, z_ref_effective
+from .flow.forcing import DriveController, level_means, pressure_gradient_force, z_ref_effective
 from .grid import Grid
 from .spinup import SpinupResult, initial_flow, run_spinup
 from .state import FlowState, SolverBlowUp
@@ -58,13 +58,14 @@ def build_stepper(scene, grid: Grid, workers: int | None = None) -> Stepper:
     drive, and the fidelity's numerics."""
     case, fid = scene.case, scene.fidelity
     pg = case.forcing.drive == "pressure_gradient"
+    numerics = FlowNumerics.from_time(fid.time)
     closure = make_closure(grid, case.closure, kappa=case.air.kappa, z0=case.surface.z0,
-                           nu_mol=case.air.nu)
+                           nu_mol=case.air.nu, dtype=numerics.dtype)
     bounds = Boundaries(z0=case.surface.z0, kappa=case.air.kappa, damping_depth=scene.damping_depth,
                         damping_timescale=fid.grid.damping_timescale, damp_u=not pg,
                         body_force=(pressure_gradient_force(case.forcing.u_star_s, grid.Lz)
                                     if pg else 0.0))
-    return Stepper(grid, closure, bounds, FlowNumerics.from_time(fid.time), workers=workers)
+    return Stepper(grid, closure, bounds, numerics, workers=workers)
 
 
 class Model:
@@ -103,7 +104,7 @@ class Model:
         depth = scene.damping_depth
         stepper = build_stepper(scene, grid, workers)
         G = stepper.body_force
-        state = FlowState.zeros(grid)
+        state = FlowState.zeros(grid, stepper.dtype)
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
                                      case.forcing.controller_timescale, stepper.f_c,
@@ -226,8 +227,10 @@ class Model:
         """Horizontal-mean u on the levels the drive sees (zeros elsewhere: weight zero there)."""
         out = np.zeros(self.grid.nz)
         kd = np.nonzero(self.controller.f_dz > 0)[0]
-        if kd.size:
-            out[kd[0]:] = self.state.u[:, :, kd[0]:].mean(axis=(0, 1))
+        if kd.size > 1:
+            level_means(self.state.u, int(kd[0]), out)
+        elif kd.size:   # one level: numpy sums it pairwise (level_means matches it from two up)
+            out[kd[0]:] = self.state.u[:, :, kd[0]:].mean(axis=(0, 1), dtype=np.float64)
         return out
 
     def spinup(self, progress=None) -> SpinupResult:
@@ -285,8 +288,8 @@ class Model:
             raise ValueError(f"restart: unknown checkpoint format {fmt!r} (expected {CHECKPOINT_FORMAT})")
         s = self.state
         for name in _FIELDS:
-            a = np.asarray(ck[name], dtype=np.float64)
             dst = getattr(s, name)
+            a = np.asarray(ck[name], dtype=dst.dtype)
             if a.shape != dst.shape:
                 raise ValueError(f"restart: field '{name}' has shape {a.shape}, the scene's grid "
                                  f"needs {dst.shape}")

@@ -25,7 +25,7 @@ class FlowState:
     """Prognostic flow fields on the staggered grid (see grid.py) and the clock.
 
     u, v [m s^-1] at x-/y-faces; w [m s^-1] at z-faces; e [m^2 s^-2] SGS TKE and p [m^2 s^-2]
-    kinematic pressure at centres; u_drive [m s^-1] the base-state wind the top layer relaxes to;
+    kinematic pressure at centres (all float64, or all float32 in a single-precision flow); u_drive [m s^-1] the base-state wind the top layer relaxes to;
     tke_sink: None, or per-cell rates [s^-1] filled by the grain component (eq. A1).
     """
 
@@ -42,7 +42,9 @@ class FlowState:
     extra: dict = field(default_factory=dict)
 
     @classmethod
-    def zeros(cls, grid: Grid) -> "FlowState":
+    def zeros(cls, grid: Grid, dtype=np.float64) -> "FlowState":
+        """The fields zero, in ``dtype`` (float64, or float32 for a single-precision flow)."""
         nx, ny, nz = grid.shape
-        return cls(grid=grid, u=np.zeros((nx, ny, nz)), v=np.zeros((nx, ny, nz)),
-                   w=np.zeros((nx, ny, nz + 1)), e=np.zeros((nx, ny, nz)), p=np.zeros((nx, ny, nz)))
+        sh, shw = (nx, ny, nz), (nx, ny, nz + 1)
+        return cls(grid=grid, u=np.zeros(sh, dtype), v=np.zeros(sh, dtype), w=np.zeros(shw, dtype),
+                   e=np.zeros(sh, dtype), p=np.zeros(sh, dtype))

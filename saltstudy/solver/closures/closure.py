@@ -87,9 +87,11 @@ class _EddyViscosityClosure(NoClosure):
 
     diffuses = True
 
-    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float):
+    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, dtype=np.float64):
         super().__init__(grid, nu_mol, rlog)
         self.kappa = float(kappa)
+        #: the floating type of the flow's fields (the stepper's)
+        self.dtype = np.dtype(dtype)
         self.l = length_scale(grid, kappa, delta=spec.delta)
         l_h, l_v = viscosity_lengths(grid, kappa, spec.viscosity, spec.delta)
         self.cml = np.ascontiguousarray(C_M * l_h)
@@ -98,6 +100,8 @@ class _EddyViscosityClosure(NoClosure):
         # relative 1e-5 - 1e-3 of nu_t)
         self.rv = np.ascontiguousarray(l_v / l_h)
         self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l, spec.delta) / self.l)
+        # c_m l in the fields' type for the viscosity kernel (the same array in double)
+        self._cml_t = np.asarray(self.cml, self.dtype)
 
 
 class DeardorffClosure(_EddyViscosityClosure):
@@ -107,7 +111,7 @@ class DeardorffClosure(_EddyViscosityClosure):
     prognostic_e = True
 
     def viscosity(self, u, v, w, e, nu) -> None:
-        compute_nu(e, self.cml, self.nu_mol, nu)
+        compute_nu(e, self._cml_t, self.dtype.type(self.nu_mol), nu)
 
     def end_step(self, state, dt: float, nu) -> None:
         if state.tke_sink is not None:
@@ -119,10 +123,10 @@ class DynamicClosure(_EddyViscosityClosure):
     every ``dynamic_interval`` steps, nu from each stage's strain, e diagnosed from the new state
     at the end of the step (with the grain sink inside its equilibrium)."""
 
-    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float):
+    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, dtype=np.float64):
         if spec.viscosity != "isotropic":
             raise ValueError("the dynamic closure has one eddy viscosity: viscosity must be 'isotropic'")
-        super().__init__(grid, spec, kappa, nu_mol, rlog)
+        super().__init__(grid, spec, kappa, nu_mol, rlog, dtype)
         from .dynamic import DynamicSmagorinsky
         self.dynamic = DynamicSmagorinsky(grid, self.kappa, self.rlog, spec.delta,
                                           spec.dynamic_interval)
@@ -133,7 +137,7 @@ class DynamicClosure(_EddyViscosityClosure):
         self.ceps_l = self.dynamic.ceps_l
         #: the grain sink rate of eq. A1 [s^-1] seen by the diagnosed e (set per step)
         self._sink = None
-        self._e_stage = np.zeros(grid.shape)
+        self._e_stage = np.zeros(grid.shape, self.dtype)
 
     def begin_step(self, state, dt: float) -> None:
         self.dynamic.maybe_update(state)
@@ -155,11 +159,11 @@ class DynamicClosure(_EddyViscosityClosure):
 
 
 def make_closure(grid, spec=None, *, kappa: float = 0.4, z0: float = 1e-5, nu_mol: float = 1.5e-5,
-                 wall: bool = True, enabled: bool = True):
+                 wall: bool = True, enabled: bool = True, dtype=np.float64):
     """The closure object of a case's ``closure`` section (config.Closure; None: the defaults).
 
     ``wall``: the bed carries the log-law stress (the strain on the bed face is the log-law shear);
-    ``enabled`` = False gives ``NoClosure``."""
+    ``enabled`` = False gives ``NoClosure``; ``dtype``: the floating type of the flow's fields."""
     if spec is None:
         from ...config import Closure
         spec = Closure()
@@ -169,4 +173,4 @@ def make_closure(grid, spec=None, *, kappa: float = 0.4, z0: float = 1e-5, nu_mo
     if spec.model not in CLOSURES:
         raise ValueError(f"closure must be one of {CLOSURES} (got {spec.model!r})")
     cls = DynamicClosure if spec.model == "dynamic" else DeardorffClosure
-    return cls(grid, spec, kappa, nu_mol, rlog)
+    return cls(grid, spec, kappa, nu_mol, rlog, dtype)

@@ -51,7 +51,7 @@ import math
 import numpy as np
 from numba import prange
 
-from ..._jit import device, pjit
+from ..._jit import device, like, pjit
 
 #: Lagrangian structure-function constant C0 of the subgrid Lagrangian time T_L (eq. A1), read
 #: by the grains' subgrid velocity and TKE sink and by the dynamic closure; not given in the
@@ -141,13 +141,14 @@ def eddy_viscosity(e: np.ndarray, l: np.ndarray, nu_mol: float = 0.0) -> np.ndar
 @pjit
 def compute_nu(e, cml, nu_mol, nu):
     """nu = c_m l sqrt(e) + nu_mol in place; cml = c_m l per level."""
+    zero = like(e, 0.0)
     nx, ny, nz = e.shape
     for i in prange(nx):
         for j in range(ny):
             for k in range(nz):
                 ek = e[i, j, k]
-                if ek < 0.0:
-                    ek = 0.0
+                if ek < zero:
+                    ek = zero
                 nu[i, j, k] = cml[k] * math.sqrt(ek) + nu_mol
 
 
@@ -160,25 +161,29 @@ def diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rd
     the first level; a, c: the du/dz part of T_13 on the faces below and above, nu_face / (dz_f dz_c)
     (zero at the bed and under the free-slip lid). ``nu`` is the horizontal viscosity, ``rv[k]`` the
     vertical over the horizontal one per level (module doc)."""
+    zero = like(u, 0.0)
+    quarter = like(u, 0.25)
+    one = like(u, 1.0)
+    two = like(u, 2.0)
     uc = u[i, j, k]
-    t11e = 2.0 * nu[i, j, k] * (u[ip, j, k] - uc) * rdx
-    t11w = 2.0 * nu[im, j, k] * (uc - u[im, j, k]) * rdx
-    nun = 0.25 * (nu[im, j, k] + nu[i, j, k] + nu[im, jp, k] + nu[i, jp, k])
+    t11e = two * nu[i, j, k] * (u[ip, j, k] - uc) * rdx
+    t11w = two * nu[im, j, k] * (uc - u[im, j, k]) * rdx
+    nun = quarter * (nu[im, j, k] + nu[i, j, k] + nu[im, jp, k] + nu[i, jp, k])
     t12n = nun * ((u[i, jp, k] - uc) * rdy + (v[i, jp, k] - v[im, jp, k]) * rdx)
-    nus = 0.25 * (nu[im, jm, k] + nu[i, jm, k] + nu[im, j, k] + nu[i, j, k])
+    nus = quarter * (nu[im, jm, k] + nu[i, jm, k] + nu[im, j, k] + nu[i, j, k])
     t12s = nus * ((uc - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx)
-    rdz = 1.0 / dzc[k]
-    xt = 0.0
-    c = 0.0
+    rdz = one / dzc[k]
+    xt = zero
+    c = zero
     if top:
-        nut = 0.25 * ((nu[im, j, k] + nu[i, j, k]) * rv[k]
-                      + (nu[im, j, k + 1] + nu[i, j, k + 1]) * rv[k + 1])
+        nut = quarter * ((nu[im, j, k] + nu[i, j, k]) * rv[k]
+                         + (nu[im, j, k + 1] + nu[i, j, k + 1]) * rv[k + 1])
         xt = nut * (w[i, j, k + 1] - w[im, j, k + 1]) * rdx
         c = nut / dzf[k + 1] * rdz
-    a = 0.0
+    a = zero
     if bot:
-        nub = 0.25 * ((nu[im, j, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
-                      + (nu[im, j, k] + nu[i, j, k]) * rv[k])
+        nub = quarter * ((nu[im, j, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
+                         + (nu[im, j, k] + nu[i, j, k]) * rv[k])
         xb = nub * (w[i, j, k] - w[im, j, k]) * rdx
         a = nub / dzf[k] * rdz
     else:
@@ -189,25 +194,29 @@ def diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rd
 @device
 def diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
     """d T_2j / dx_j at the v point split as ``diff_u_split_at`` (bed flux T_23 = -tauy)."""
+    zero = like(v, 0.0)
+    quarter = like(v, 0.25)
+    one = like(v, 1.0)
+    two = like(v, 2.0)
     vc = v[i, j, k]
-    nue = 0.25 * (nu[i, jm, k] + nu[ip, jm, k] + nu[i, j, k] + nu[ip, j, k])
+    nue = quarter * (nu[i, jm, k] + nu[ip, jm, k] + nu[i, j, k] + nu[ip, j, k])
     t12e = nue * ((u[ip, j, k] - u[ip, jm, k]) * rdy + (v[ip, j, k] - vc) * rdx)
-    nuw = 0.25 * (nu[im, jm, k] + nu[i, jm, k] + nu[im, j, k] + nu[i, j, k])
+    nuw = quarter * (nu[im, jm, k] + nu[i, jm, k] + nu[im, j, k] + nu[i, j, k])
     t12w = nuw * ((u[i, j, k] - u[i, jm, k]) * rdy + (vc - v[im, j, k]) * rdx)
-    t22n = 2.0 * nu[i, j, k] * (v[i, jp, k] - vc) * rdy
-    t22s = 2.0 * nu[i, jm, k] * (vc - v[i, jm, k]) * rdy
-    rdz = 1.0 / dzc[k]
-    xt = 0.0
-    c = 0.0
+    t22n = two * nu[i, j, k] * (v[i, jp, k] - vc) * rdy
+    t22s = two * nu[i, jm, k] * (vc - v[i, jm, k]) * rdy
+    rdz = one / dzc[k]
+    xt = zero
+    c = zero
     if top:
-        nut = 0.25 * ((nu[i, jm, k] + nu[i, j, k]) * rv[k]
-                      + (nu[i, jm, k + 1] + nu[i, j, k + 1]) * rv[k + 1])
+        nut = quarter * ((nu[i, jm, k] + nu[i, j, k]) * rv[k]
+                         + (nu[i, jm, k + 1] + nu[i, j, k + 1]) * rv[k + 1])
         xt = nut * (w[i, j, k + 1] - w[i, jm, k + 1]) * rdy
         c = nut / dzf[k + 1] * rdz
-    a = 0.0
+    a = zero
     if bot:
-        nub = 0.25 * ((nu[i, jm, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
-                      + (nu[i, jm, k] + nu[i, j, k]) * rv[k])
+        nub = quarter * ((nu[i, jm, k - 1] + nu[i, j, k - 1]) * rv[k - 1]
+                         + (nu[i, jm, k] + nu[i, j, k]) * rv[k])
         xb = nub * (w[i, j, k] - w[i, jm, k]) * rdy
         a = nub / dzf[k] * rdz
     else:
@@ -220,8 +229,9 @@ def vertical_coupling(f, i, j, k, a, c, top, bot):
     """c (f_k+1 - f_k) - a (f_k - f_k-1) on the column (i, j) [units of f s^-1]: the vertical part
     of a split diffusion (``*_split_at``), for the explicit scheme or the explicit share of the
     Crank-Nicolson one."""
+    zero = like(f, 0.0)
     fc = f[i, j, k]
-    r = 0.0
+    r = zero
     if top:
         r += c * (f[i, j, k + 1] - fc)
     if bot:
@@ -251,10 +261,13 @@ def diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf
     """d T_3j / dx_j at the interior w point (1 <= k <= nz-1) split as ``diff_u_split_at``:
     explicit T_13, T_23 (x and y derivatives), and a, c of T_33 = 2 nu_v dw/dz on the centres below
     and above. Every T_3j is a vertical flux: all carry the vertical viscosity nu rv."""
+    quarter = like(w, 0.25)
+    one = like(w, 1.0)
+    two = like(w, 2.0)
     wc = w[i, j, k]
-    rdzf = 1.0 / dzf[k]
-    r0 = 0.25 * rv[k - 1]
-    r1 = 0.25 * rv[k]
+    rdzf = one / dzf[k]
+    r0 = quarter * rv[k - 1]
+    r1 = quarter * rv[k]
     nue = r0 * (nu[i, j, k - 1] + nu[ip, j, k - 1]) + r1 * (nu[i, j, k] + nu[ip, j, k])
     t13e = nue * ((u[ip, j, k] - u[ip, j, k - 1]) * rdzf + (w[ip, j, k] - wc) * rdx)
     nuw = r0 * (nu[im, j, k - 1] + nu[i, j, k - 1]) + r1 * (nu[im, j, k] + nu[i, j, k])
@@ -263,8 +276,8 @@ def diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf
     t23n = nun * ((v[i, jp, k] - v[i, jp, k - 1]) * rdzf + (w[i, jp, k] - wc) * rdy)
     nus = r0 * (nu[i, jm, k - 1] + nu[i, j, k - 1]) + r1 * (nu[i, jm, k] + nu[i, j, k])
     t23s = nus * ((v[i, j, k] - v[i, j, k - 1]) * rdzf + (wc - w[i, jm, k]) * rdy)
-    c = 2.0 * nu[i, j, k] * rv[k] / dzc[k] * rdzf
-    a = 2.0 * nu[i, j, k - 1] * rv[k - 1] / dzc[k - 1] * rdzf
+    c = two * nu[i, j, k] * rv[k] / dzc[k] * rdzf
+    a = two * nu[i, j, k - 1] * rv[k - 1] / dzc[k - 1] * rdzf
     return (t13e - t13w) * rdx + (t23n - t23s) * rdy, a, c
 
 
@@ -290,18 +303,21 @@ def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdz
     index arithmetic here is plain, with no modulo in the inner loop (which made the TKE stage 4x
     slower).
     """
+    zero = like(u, 0.0)
+    quarter = like(u, 0.25)
+    two = like(u, 2.0)
     s11 = (u[ip, j, k] - u[i, j, k]) * rdx
     s22 = (v[i, jp, k] - v[i, j, k]) * rdy
     s33 = (w[i, j, k + 1] - w[i, j, k]) * rdzc[k]
-    acc = 2.0 * (s11 * s11 + s22 * s22)
+    acc = two * (s11 * s11 + s22 * s22)
     # 2 S_12 on the four vertical edges (x_f[i|ip], y_f[j|jp])
     e00 = (u[i, j, k] - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx
     e10 = (u[ip, j, k] - u[ip, jm, k]) * rdy + (v[ip, j, k] - v[i, j, k]) * rdx
     e01 = (u[i, jp, k] - u[i, j, k]) * rdy + (v[i, jp, k] - v[im, jp, k]) * rdx
     e11 = (u[ip, jp, k] - u[ip, j, k]) * rdy + (v[ip, jp, k] - v[i, jp, k]) * rdx
-    acc += 0.25 * (e00 * e00 + e10 * e10 + e01 * e01 + e11 * e11)
+    acc += quarter * (e00 * e00 + e10 * e10 + e01 * e01 + e11 * e11)
     # 2 S_13 on the edges (x_f, z_f) and 2 S_23 on (y_f, z_f), faces k (below) and k+1 (above)
-    q = 0.0
+    q = zero
     if bot:
         rdz = rdzf[k]
         a0 = (u[i, j, k] - u[i, j, k - 1]) * rdz + (w[i, j, k] - w[im, j, k]) * rdx
@@ -322,7 +338,7 @@ def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdz
         b0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy
         b1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy
         q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
-    return acc, 2.0 * s33 * s33 + 0.25 * q
+    return acc, two * s33 * s33 + quarter * q
 
 
 @device
@@ -335,6 +351,7 @@ def tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy
 
     Horizontal fluxes with nu, vertical ones with nu rv (as in A1's nu_th, nu_tv); the transport
     is 2 nu_t grad e with the face viscosities as two-point means."""
+    zero = like(e, 0.0)
     ec = e[i, j, k]
     nuc = nu[i, j, k]
     sh, sv = strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog)
@@ -344,13 +361,13 @@ def tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy
     fw = (nu[im, j, k] + nuc) * (ec - e[im, j, k]) * rdx
     fn = (nuc + nu[i, jp, k]) * (e[i, jp, k] - ec) * rdy
     fs = (nu[i, jm, k] + nuc) * (ec - e[i, jm, k]) * rdy
-    c = 0.0
-    a = 0.0
+    c = zero
+    a = zero
     if top:
         c = (nvc + nu[i, j, k + 1] * rv[k + 1]) * rdzf[k + 1] * rdzc[k]
     if bot:
         a = (nu[i, j, k - 1] * rv[k - 1] + nvc) * rdzf[k] * rdzc[k]
-    ep = ec if ec > 0.0 else 0.0
+    ep = ec if ec > zero else zero
     return prod + (fe - fw) * rdx + (fn - fs) * rdy, a, c, ceps_over_l_k * math.sqrt(ep)
 
 
@@ -359,10 +376,11 @@ def tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, 
                     rlog, ceps_over_l_k):
     """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (eq. A1, all
     explicit; ``tke_split_at``)."""
+    zero = like(e, 0.0)
     x, a, c, r = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
                               rdzf, rlog, ceps_over_l_k)
     ec = e[i, j, k]
-    ep = ec if ec > 0.0 else 0.0
+    ep = ec if ec > zero else zero
     return x + vertical_coupling(e, i, j, k, a, c, top, bot) - r * ep
 
 

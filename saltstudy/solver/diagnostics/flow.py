@@ -42,25 +42,32 @@ def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None 
             "n": int(Us.size)}
 
 
+def _f64(a: np.ndarray) -> np.ndarray:
+    """A field in float64 (itself when it is: a single-precision flow's profiles and planes are
+    still computed, and summed, in double)."""
+    return np.asarray(a, dtype=np.float64)
+
+
 def _nu(model) -> np.ndarray:
     clo = model.stepper.closure
-    return clo.cml[None, None, :] * np.sqrt(np.maximum(model.state.e, 0.0)) + clo.nu_mol
+    return clo.cml[None, None, :] * np.sqrt(np.maximum(_f64(model.state.e), 0.0)) + clo.nu_mol
 
 
 def cell_centred_velocity(model):
     """(u_c, v_c, w_c), each (nx, ny, nz) [m s^-1]: two-point means onto the cell centres."""
-    s = model.state
-    uc = 0.5 * (s.u + np.roll(s.u, -1, axis=0))
-    vc = 0.5 * (s.v + np.roll(s.v, -1, axis=1))
-    wc = 0.5 * (s.w[..., :-1] + s.w[..., 1:])
+    u, v, w = (_f64(a) for a in (model.state.u, model.state.v, model.state.w))
+    uc = 0.5 * (u + np.roll(u, -1, axis=0))
+    vc = 0.5 * (v + np.roll(v, -1, axis=1))
+    wc = 0.5 * (w[..., :-1] + w[..., 1:])
     return uc, vc, wc
 
 
 def _resolved_uw(model) -> np.ndarray:
     """<u'w'> resolved on the faces (nz+1,), with the advection scheme's face means."""
     s = model.state
-    wx = 0.5 * (s.w + np.roll(s.w, 1, axis=0))[..., 1:-1]
-    uz = 0.5 * (s.u[..., 1:] + s.u[..., :-1])
+    u, w = _f64(s.u), _f64(s.w)
+    wx = 0.5 * (w + np.roll(w, 1, axis=0))[..., 1:-1]
+    uz = 0.5 * (u[..., 1:] + u[..., :-1])
     out = np.zeros(s.grid.nz + 1)
     out[1:-1] = (wx * uz).mean(axis=(0, 1)) - wx.mean(axis=(0, 1)) * uz.mean(axis=(0, 1))
     return out
@@ -130,8 +137,9 @@ def flow_profiles(model) -> dict:
     nu = _nu(model)
     eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, clo.rv, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c,
                                   g.rdz_f, clo.rlog, clo.ceps_l)
-    return {"z": g.z_c.copy(), "z_w": g.z_f.copy(), "u": s.u.mean(axis=(0, 1)), "v": s.v.mean(axis=(0, 1)),
-            "uw_res": res, "uw_sgs": sgs, "tke_res": tke, "e_sgs": s.e.mean(axis=(0, 1)),
+    return {"z": g.z_c.copy(), "z_w": g.z_f.copy(), "u": _f64(s.u).mean(axis=(0, 1)),
+            "v": _f64(s.v).mean(axis=(0, 1)),
+            "uw_res": res, "uw_sgs": sgs, "tke_res": tke, "e_sgs": _f64(s.e).mean(axis=(0, 1)),
             "eps_sgs": eps, "sgs_transfer": transfer}
 
 
@@ -140,7 +148,8 @@ def flow_planes(model, heights) -> dict:
     below the first level z_1 the local log law u(z) = u(z_1) ln(z/z0)/ln(z_1/z0)."""
     s, g = model.state, model.state.grid
     heights = np.atleast_1d(np.asarray(heights, dtype=np.float64))
-    uc = 0.5 * (s.u + np.roll(s.u, -1, axis=0))
+    u = _f64(s.u)
+    uc = 0.5 * (u + np.roll(u, -1, axis=0))
     zc = g.z_c
     z0 = model.stepper.z0
     out = np.empty((g.nx, g.ny, heights.size))

@@ -61,7 +61,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from ..._jit import device, pjit
+from ..._jit import device, like, pjit
 
 #: per-point kernels (``device``): inlined by LLVM into the fused stage kernels (an out-of-line call
 #: with a dozen array arguments per grid point costs more than the stencil itself)
@@ -87,38 +87,42 @@ def adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
     Callers pass literal flags for the peeled first and last levels so that the branches vanish
     from the vectorised interior loop.
     """
+    half = like(u, 0.5)
+    zero = like(u, 0.0)
     uc = u[i, j, k]
-    ue = 0.5 * (uc + u[ip, j, k])
-    uw = 0.5 * (u[im, j, k] + uc)
-    vn = 0.5 * (v[im, jp, k] + v[i, jp, k])
-    vs = 0.5 * (v[im, j, k] + v[i, j, k])
-    un = 0.5 * (uc + u[i, jp, k])
-    us = 0.5 * (u[i, jm, k] + uc)
-    ft = 0.0
-    fb = 0.0
+    ue = half * (uc + u[ip, j, k])
+    uw = half * (u[im, j, k] + uc)
+    vn = half * (v[im, jp, k] + v[i, jp, k])
+    vs = half * (v[im, j, k] + v[i, j, k])
+    un = half * (uc + u[i, jp, k])
+    us = half * (u[i, jm, k] + uc)
+    ft = zero
+    fb = zero
     if top:
-        ft = 0.5 * (w[im, j, k + 1] + w[i, j, k + 1]) * 0.5 * (uc + u[i, j, k + 1])
+        ft = half * (w[im, j, k + 1] + w[i, j, k + 1]) * half * (uc + u[i, j, k + 1])
     if bot:
-        fb = 0.5 * (w[im, j, k] + w[i, j, k]) * 0.5 * (u[i, j, k - 1] + uc)
+        fb = half * (w[im, j, k] + w[i, j, k]) * half * (u[i, j, k - 1] + uc)
     return -((ue * ue - uw * uw) * rdx + (vn * un - vs * us) * rdy + (ft - fb) * rdzc_k)
 
 
 @device
 def adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
     """-div(u v) at the v point (i, j, k) [m s^-2]."""
+    half = like(v, 0.5)
+    zero = like(v, 0.0)
     vc = v[i, j, k]
-    ue = 0.5 * (u[ip, jm, k] + u[ip, j, k])
-    uw = 0.5 * (u[i, jm, k] + u[i, j, k])
-    ve = 0.5 * (vc + v[ip, j, k])
-    vw = 0.5 * (v[im, j, k] + vc)
-    vn = 0.5 * (vc + v[i, jp, k])
-    vs = 0.5 * (v[i, jm, k] + vc)
-    ft = 0.0
-    fb = 0.0
+    ue = half * (u[ip, jm, k] + u[ip, j, k])
+    uw = half * (u[i, jm, k] + u[i, j, k])
+    ve = half * (vc + v[ip, j, k])
+    vw = half * (v[im, j, k] + vc)
+    vn = half * (vc + v[i, jp, k])
+    vs = half * (v[i, jm, k] + vc)
+    ft = zero
+    fb = zero
     if top:
-        ft = 0.5 * (w[i, jm, k + 1] + w[i, j, k + 1]) * 0.5 * (vc + v[i, j, k + 1])
+        ft = half * (w[i, jm, k + 1] + w[i, j, k + 1]) * half * (vc + v[i, j, k + 1])
     if bot:
-        fb = 0.5 * (w[i, jm, k] + w[i, j, k]) * 0.5 * (v[i, j, k - 1] + vc)
+        fb = half * (w[i, jm, k] + w[i, j, k]) * half * (v[i, j, k - 1] + vc)
     return -((ue * ve - uw * vw) * rdx + (vn * vn - vs * vs) * rdy + (ft - fb) * rdzc_k)
 
 
@@ -128,17 +132,18 @@ def adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
 
     hzm = dz_c[k-1] / (2 dz_f[k]), hzp = dz_c[k] / (2 dz_f[k]): weights of the two half faces.
     """
+    half = like(w, 0.5)
     wc = w[i, j, k]
     ue = hzm * u[ip, j, k - 1] + hzp * u[ip, j, k]
     uw = hzm * u[i, j, k - 1] + hzp * u[i, j, k]
     vn = hzm * v[i, jp, k - 1] + hzp * v[i, jp, k]
     vs = hzm * v[i, j, k - 1] + hzp * v[i, j, k]
-    we = 0.5 * (wc + w[ip, j, k])
-    ww = 0.5 * (w[im, j, k] + wc)
-    wn = 0.5 * (wc + w[i, jp, k])
-    ws = 0.5 * (w[i, jm, k] + wc)
-    wt = 0.5 * (wc + w[i, j, k + 1])
-    wb = 0.5 * (w[i, j, k - 1] + wc)
+    we = half * (wc + w[ip, j, k])
+    ww = half * (w[im, j, k] + wc)
+    wn = half * (wc + w[i, jp, k])
+    ws = half * (w[i, jm, k] + wc)
+    wt = half * (wc + w[i, j, k + 1])
+    wb = half * (w[i, j, k - 1] + wc)
     return -((ue * we - uw * ww) * rdx + (vn * wn - vs * ws) * rdy + (wt * wt - wb * wb) * rdzf_k)
 
 
@@ -149,17 +154,19 @@ def adv_scalar_at(s, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_
     Same arithmetic-mean face values: conservative, and the quadratic sum(V s^2) is conserved when
     the flow is divergence-free.
     """
+    half = like(s, 0.5)
+    zero = like(s, 0.0)
     sc = s[i, j, k]
-    fe = u[ip, j, k] * 0.5 * (sc + s[ip, j, k])
-    fw = u[i, j, k] * 0.5 * (s[im, j, k] + sc)
-    fn = v[i, jp, k] * 0.5 * (sc + s[i, jp, k])
-    fs = v[i, j, k] * 0.5 * (s[i, jm, k] + sc)
-    ft = 0.0
-    fb = 0.0
+    fe = u[ip, j, k] * half * (sc + s[ip, j, k])
+    fw = u[i, j, k] * half * (s[im, j, k] + sc)
+    fn = v[i, jp, k] * half * (sc + s[i, jp, k])
+    fs = v[i, j, k] * half * (s[i, jm, k] + sc)
+    ft = zero
+    fb = zero
     if top:
-        ft = w[i, j, k + 1] * 0.5 * (sc + s[i, j, k + 1])
+        ft = w[i, j, k + 1] * half * (sc + s[i, j, k + 1])
     if bot:
-        fb = w[i, j, k] * 0.5 * (s[i, j, k - 1] + sc)
+        fb = w[i, j, k] * half * (s[i, j, k - 1] + sc)
     return -((fe - fw) * rdx + (fn - fs) * rdy + (ft - fb) * rdzc_k)
 
 
@@ -179,15 +186,21 @@ def wrap_up(ip, n):
 def _mid4(a, b, c, d):
     """Fourth-order interpolation to the midpoint of b and c (a, d: the outer neighbours):
     9/8 (b + c)/2 - 1/8 (a + d)/2."""
-    return 0.5 * (C1 * (b + c) - 0.125 * (a + d))
+    half = like(a, 0.5)
+    eighth = like(a, 0.125)
+    c1 = like(a, C1)
+    return half * (c1 * (b + c) - eighth * (a + d))
 
 
 @device
 def _div4(fm3, fm1, fp1, fp3, qm3, qm1, qc, qp1, qp3):
     """9/8 delta_1(F q^1) - 1/8 delta_3(F q^3) times h (divide by h): F the advecting velocity at
     -3h/2, -h/2, +h/2, +3h/2 from the point, q the advected quantity at -3h, -h, 0, +h, +3h."""
-    return (C1 * (fp1 * (qc + qp1) - fm1 * (qm1 + qc))
-            - C3 * (fp3 * (qc + qp3) - fm3 * (qm3 + qc))) * 0.5
+    half = like(fm3, 0.5)
+    c1 = like(fm3, C1)
+    c3 = like(fm3, C3)
+    return (c1 * (fp1 * (qc + qp1) - fm1 * (qm1 + qc))
+            - c3 * (fp3 * (qc + qp3) - fm3 * (qm3 + qc))) * half
 
 
 @device
@@ -196,6 +209,8 @@ def adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
     advecting u at the cell centres i-2 ... i+1 and v, w at x_f[i], fourth-order interpolated in x.
     Arguments as adv_u_at; the second and third neighbours are found here (the stage kernels'
     per-point calls are at numba's 30-argument limit for inlining)."""
+    half = like(u, 0.5)
+    zero = like(u, 0.0)
     nx, ny = u.shape[0], u.shape[1]
     im2 = wrap_down(im, nx)
     im3 = wrap_down(im2, nx)
@@ -221,13 +236,13 @@ def adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
                _mid4(v[im2, jp, k], v[im, jp, k], v[i, jp, k], v[ip, jp, k]),
                _mid4(v[im2, jp2, k], v[im, jp2, k], v[i, jp2, k], v[ip, jp2, k]),
                u[i, jm3, k], u[i, jm, k], uc, u[i, jp, k], u[i, jp3, k])
-    ft = 0.0
-    fb = 0.0
+    ft = zero
+    fb = zero
     if top:
-        ft = _mid4(w[im2, j, k + 1], w[im, j, k + 1], w[i, j, k + 1], w[ip, j, k + 1]) * 0.5 * (
+        ft = _mid4(w[im2, j, k + 1], w[im, j, k + 1], w[i, j, k + 1], w[ip, j, k + 1]) * half * (
             uc + u[i, j, k + 1])
     if bot:
-        fb = _mid4(w[im2, j, k], w[im, j, k], w[i, j, k], w[ip, j, k]) * 0.5 * (u[i, j, k - 1] + uc)
+        fb = _mid4(w[im2, j, k], w[im, j, k], w[i, j, k], w[ip, j, k]) * half * (u[i, j, k - 1] + uc)
     return -(ax * rdx + ay * rdy + (ft - fb) * rdzc_k)
 
 
@@ -235,6 +250,8 @@ def adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
 def adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
     """-div(u v) at the v point (i, j, k) [m s^-2], fourth order in x and y (adv_u4_at with x and
     y exchanged)."""
+    half = like(v, 0.5)
+    zero = like(v, 0.0)
     nx, ny = v.shape[0], v.shape[1]
     im2 = wrap_down(im, nx)
     im3 = wrap_down(im2, nx)
@@ -260,13 +277,13 @@ def adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
     vp3 = v[i, jp3, k]
     ay = _div4(_mid4(vm3, vm2, vm1, vc), _mid4(vm2, vm1, vc, vp1), _mid4(vm1, vc, vp1, vp2),
                _mid4(vc, vp1, vp2, vp3), vm3, vm1, vc, vp1, vp3)
-    ft = 0.0
-    fb = 0.0
+    ft = zero
+    fb = zero
     if top:
-        ft = _mid4(w[i, jm2, k + 1], w[i, jm, k + 1], w[i, j, k + 1], w[i, jp, k + 1]) * 0.5 * (
+        ft = _mid4(w[i, jm2, k + 1], w[i, jm, k + 1], w[i, j, k + 1], w[i, jp, k + 1]) * half * (
             vc + v[i, j, k + 1])
     if bot:
-        fb = _mid4(w[i, jm2, k], w[i, jm, k], w[i, j, k], w[i, jp, k]) * 0.5 * (v[i, j, k - 1] + vc)
+        fb = _mid4(w[i, jm2, k], w[i, jm, k], w[i, j, k], w[i, jp, k]) * half * (v[i, j, k - 1] + vc)
     return -(ax * rdx + ay * rdy + (ft - fb) * rdzc_k)
 
 
@@ -275,6 +292,7 @@ def adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
     """-div(u w) at the interior w point (i, j, k), 1 <= k <= nz-1 [m s^-2], fourth order in x and
     y: the advecting u (v) on the faces x_f[i-1] ... x_f[i+2] (y_f[j-1] ... y_f[j+2]) as the
     thickness-weighted z mean of adv_w_at (hzm, hzp as there), the z part as adv_w_at."""
+    half = like(w, 0.5)
     nx, ny = w.shape[0], w.shape[1]
     im2 = wrap_down(im, nx)
     im3 = wrap_down(im2, nx)
@@ -295,8 +313,8 @@ def adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
                hzm * v[i, jp, k - 1] + hzp * v[i, jp, k],
                hzm * v[i, jp2, k - 1] + hzp * v[i, jp2, k],
                w[i, jm3, k], w[i, jm, k], wc, w[i, jp, k], w[i, jp3, k])
-    wt = 0.5 * (wc + w[i, j, k + 1])
-    wb = 0.5 * (w[i, j, k - 1] + wc)
+    wt = half * (wc + w[i, j, k + 1])
+    wb = half * (w[i, j, k - 1] + wc)
     return -(ax * rdx + ay * rdy + (wt * wt - wb * wb) * rdzf_k)
 
 
@@ -304,6 +322,8 @@ def adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
 def adv_scalar4_at(s, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
     """-div(u s) for a cell-centred scalar, fourth order in x and y: u on the faces x_f[i-1] ...
     x_f[i+2] carries s^{1x} and s^{3x} (module doc); z as adv_scalar_at."""
+    half = like(s, 0.5)
+    zero = like(s, 0.0)
     nx, ny = s.shape[0], s.shape[1]
     im3 = wrap_down(wrap_down(im, nx), nx)
     ip2 = wrap_up(ip, nx)
@@ -316,12 +336,12 @@ def adv_scalar4_at(s, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc
                s[im3, j, k], s[im, j, k], sc, s[ip, j, k], s[ip3, j, k])
     ay = _div4(v[i, jm, k], v[i, j, k], v[i, jp, k], v[i, jp2, k],
                s[i, jm3, k], s[i, jm, k], sc, s[i, jp, k], s[i, jp3, k])
-    ft = 0.0
-    fb = 0.0
+    ft = zero
+    fb = zero
     if top:
-        ft = w[i, j, k + 1] * 0.5 * (sc + s[i, j, k + 1])
+        ft = w[i, j, k + 1] * half * (sc + s[i, j, k + 1])
     if bot:
-        fb = w[i, j, k] * 0.5 * (s[i, j, k - 1] + sc)
+        fb = w[i, j, k] * half * (s[i, j, k - 1] + sc)
     return -(ax * rdx + ay * rdy + (ft - fb) * rdzc_k)
 
 

@@ -53,10 +53,10 @@ import math
 import numpy as np
 from numba import prange
 
-from ..._jit import pjit
+from ..._jit import jit_with, pjit
 
 __all__ = ["DriveController", "z_ref_effective", "total_stress_at_face", "pressure_gradient_force",
-           "PG_HOLD_HEIGHT", "stress_profile_pg"]
+           "PG_HOLD_HEIGHT", "stress_profile_pg", "level_means"]
 
 #: height [m] where the pressure-gradient drive holds the stress at u*s^2 (0: the bed; see above)
 PG_HOLD_HEIGHT = 0.0
@@ -121,6 +121,28 @@ def total_stress_at_face(u, w, e, k, cml, nu_mol, dzf, rdx, taux):
         a += wm[i]
         b += um[i]
     return r / n - (a / n) * (b / n), s / n
+
+
+@jit_with(parallel=True, fastmath=False)
+def level_means(a, k0, out):
+    """out[k] = the horizontal mean of a[:, :, k] for k0 <= k < nz [units of a] (out[:k0] left
+    as it is), in float64 whatever a's type; each level's sum runs over (i, j) in array order, as
+    numpy's ``a.mean(axis=(0, 1))`` does, so the two agree bit for bit (no fastmath: a
+    reassociated sum would not). The levels are shared among the threads in contiguous groups,
+    each thread reading its part of every column once."""
+    nx, ny, nz = a.shape
+    n = nz - k0
+    groups = min(n, 8)
+    for q in prange(groups):
+        ka = k0 + (q * n) // groups
+        kb = k0 + ((q + 1) * n) // groups
+        acc = np.zeros(kb - ka)
+        for i in range(nx):
+            for j in range(ny):
+                for k in range(ka, kb):
+                    acc[k - ka] += a[i, j, k]
+        for k in range(ka, kb):
+            out[k] = acc[k - ka] / (nx * ny)
 
 
 def _running_mean(mean: float, x: float, a: float) -> float:

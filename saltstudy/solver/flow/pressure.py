@@ -42,7 +42,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from ..._jit import pjit
+from ..._jit import jit, pjit
 
 __all__ = ["PressureSolver", "divergence", "gradient", "laplacian", "max_relative_divergence",
            "modified_wavenumber_sq", "PROJECTION_ORDERS"]
@@ -55,38 +55,63 @@ C1 = 9.0 / 8.0
 C3 = 1.0 / 24.0
 
 
+#: columns per block of the transposing kernels: one 64-byte line of the (nz, nx, ny) layout per
+#: level and block
+JB = 8
+
+
 @pjit
-def _divergence_kzxy(u, v, w, rdx, rdy, dzc, out):
+def _divergence_kzxy(u, v, w, rdx, rdy, dzc, rdzc, out):
     nx, ny, nz = u.shape
-    # k outside j: the writes to the (nz, nx, ny) layout run contiguously in j, while the strided
-    # reads stay within the x-slab u[i], which stays in cache
+    # per block of JB columns: the columns' divergence along k (contiguous reads, vectorized) into
+    # a scratch tile, then written level by level as whole lines of the (nz, nx, ny) layout
     for i in prange(nx):
         ip = (i + 1) % nx
-        for k in range(nz):
-            rdz = 1.0 / dzc[k]
-            for j in range(ny):
-                jp = j + 1 if j + 1 < ny else 0  # no integer division in the inner loop
-                out[k, i, j] = ((u[ip, j, k] - u[i, j, k]) * rdx + (v[i, jp, k] - v[i, j, k]) * rdy
-                                + (w[i, j, k + 1] - w[i, j, k]) * rdz)
+        tile = np.empty((JB, nz))
+        for j0 in range(0, ny, JB):
+            nb = min(JB, ny - j0)
+            for jj in range(nb):
+                j = j0 + jj
+                jp = j + 1 if j + 1 < ny else 0
+                for k in range(nz):
+                    tile[jj, k] = ((u[ip, j, k] - u[i, j, k]) * rdx
+                                   + (v[i, jp, k] - v[i, j, k]) * rdy
+                                   + (w[i, j, k + 1] - w[i, j, k]) * rdzc[k])
+            for k in range(nz):
+                for jj in range(nb):
+                    out[k, i, j0 + jj] = tile[jj, k]
 
 
 @pjit
-def _divergence4_kzxy(u, v, w, rdx, rdy, dzc, out):
+def _divergence4_kzxy(u, v, w, rdx, rdy, dzc, rdzc, out):
     """D4 (module doc) in the (nz, nx, ny) layout, as _divergence_kzxy."""
     nx, ny, nz = u.shape
     for i in prange(nx):
         im = (i - 1) % nx
         ip = (i + 1) % nx
         ip2 = (i + 2) % nx
-        for k in range(nz):
-            rdz = 1.0 / dzc[k]
-            for j in range(ny):
+        tile = np.empty((JB, nz))
+        for j0 in range(0, ny, JB):
+            nb = min(JB, ny - j0)
+            for jj in range(nb):
+                j = j0 + jj
                 jm = j - 1 if j > 0 else ny - 1
                 jp = j + 1 if j + 1 < ny else 0
                 jp2 = jp + 1 if jp + 1 < ny else 0
-                ddx = C1 * (u[ip, j, k] - u[i, j, k]) - C3 * (u[ip2, j, k] - u[im, j, k])
-                ddy = C1 * (v[i, jp, k] - v[i, j, k]) - C3 * (v[i, jp2, k] - v[i, jm, k])
-                out[k, i, j] = ddx * rdx + ddy * rdy + (w[i, j, k + 1] - w[i, j, k]) * rdz
+                if j == 0:
+                    for k in range(nz):
+                        ddx = C1 * (u[ip, j, k] - u[i, j, k]) - C3 * (u[ip2, j, k] - u[im, j, k])
+                        ddy = C1 * (v[i, jp, k] - v[i, j, k]) - C3 * (v[i, jp2, k] - v[i, jm, k])
+                        tile[jj, k] = (w[i, j, k + 1] - w[i, j, k]) / dzc[k] + ddx * rdx + ddy * rdy
+                else:
+                    for k in range(nz):
+                        ddx = C1 * (u[ip, j, k] - u[i, j, k]) - C3 * (u[ip2, j, k] - u[im, j, k])
+                        ddy = C1 * (v[i, jp, k] - v[i, j, k]) - C3 * (v[i, jp2, k] - v[i, jm, k])
+                        tile[jj, k] = (ddx * rdx + ddy * rdy
+                                       + (w[i, j, k + 1] - w[i, j, k]) * rdzc[k])
+            for k in range(nz):
+                for jj in range(nb):
+                    out[k, i, j0 + jj] = tile[jj, k]
 
 
 @pjit
@@ -107,49 +132,106 @@ def _thomas(hat, a, inv_den, cprime):
                 hat[k, m, n] = hat[k, m, n] - cprime[k, m, n] * hat[k + 1, m, n]
 
 
+@jit
+def _phi_tile(phi, i, j0, lo, n, ny, tile):
+    """tile[q, k] = phi[k, i, (j0 + lo + q) mod ny] for q < n: columns of the (nz, nx, ny)
+    layout read a level at a time (whole lines) and laid out along k."""
+    nz = phi.shape[0]
+    for k in range(nz):
+        for q in range(n):
+            jw = j0 + lo + q
+            if jw < 0:
+                jw += ny
+            elif jw >= ny:
+                jw -= ny
+            tile[q, k] = phi[k, i, jw]
+
+
 @pjit
-def _correct(u, v, w, phi, rdx, rdy, dzf, p, rdt, keep):
+def _correct(u, v, w, phi, rdx, rdy, dzf, rdzf, p, rdt, keep):
     """u -= G phi; p = keep p + phi / dt_stage (skipped when rdt == 0; keep = 1: the pressure
-    increment of an incremental projection)."""
+    increment of an incremental projection). Per block of JB columns, phi of the column and its
+    x and y neighbours is first laid out along k in scratch tiles (_phi_tile), so that the
+    corrections run along k with contiguous reads and writes."""
     nx, ny, nz = u.shape
     for i in prange(nx):
         im = (i - 1) % nx
-        for k in range(nz):
-            rdz = 1.0 / dzf[k]
-            for j in range(ny):
-                jm = j - 1 if j > 0 else ny - 1  # no integer division in the inner loop
-                pc = phi[k, i, j]
-                u[i, j, k] -= (pc - phi[k, im, j]) * rdx
-                v[i, j, k] -= (pc - phi[k, i, jm]) * rdy
-                if rdt != 0.0:
-                    p[i, j, k] = keep * p[i, j, k] + pc * rdt
-                if k > 0:
-                    w[i, j, k] -= (pc - phi[k - 1, i, j]) * rdz
+        tc = np.empty((JB + 1, nz))     # phi[., i, j0 - 1 .. j0 + JB - 1]
+        tw = np.empty((JB, nz))         # phi[., im, j0 .. j0 + JB - 1]
+        dp = np.empty(nz)
+        for j0 in range(0, ny, JB):
+            nb = min(JB, ny - j0)
+            _phi_tile(phi, i, j0, -1, nb + 1, ny, tc)
+            _phi_tile(phi, im, j0, 0, nb, ny, tw)
+            for jj in range(nb):
+                j = j0 + jj
+                # one array per loop: each vectorizes along k
+                for k in range(nz):
+                    u[i, j, k] -= (tc[jj + 1, k] - tw[jj, k]) * rdx
+                for k in range(nz):
+                    v[i, j, k] -= (tc[jj + 1, k] - tc[jj, k]) * rdy
+                if rdt != 0.0 and keep != 0.0:
+                    # the increment rounded before it is added (no fused multiply-add): the
+                    # rounding of the pressure the double-precision results are pinned to
+                    for k in range(nz):
+                        dp[k] = tc[jj + 1, k] * rdt
+                    for k in range(nz):
+                        p[i, j, k] += dp[k]
+                elif rdt != 0.0:
+                    for k in range(nz):
+                        p[i, j, k] = tc[jj + 1, k] * rdt
+                if j < 2:
+                    for k in range(1, nz):
+                        w[i, j, k] -= (tc[jj + 1, k] - tc[jj + 1, k - 1]) / dzf[k]
+                else:
+                    for k in range(1, nz):
+                        w[i, j, k] -= (tc[jj + 1, k] - tc[jj + 1, k - 1]) * rdzf[k]
 
 
 @pjit
-def _correct4(u, v, w, phi, rdx, rdy, dzf, p, rdt, keep):
+def _correct4(u, v, w, phi, rdx, rdy, dzf, rdzf, p, rdt, keep):
     """_correct with G4 in x and y (module doc)."""
     nx, ny, nz = u.shape
     for i in prange(nx):
         im = (i - 1) % nx
         im2 = (i - 2) % nx
         ip = (i + 1) % nx
-        for k in range(nz):
-            rdz = 1.0 / dzf[k]
-            for j in range(ny):
-                jm = j - 1 if j > 0 else ny - 1
-                jm2 = jm - 1 if jm > 0 else ny - 1
-                jp = j + 1 if j + 1 < ny else 0
-                pc = phi[k, i, j]
-                u[i, j, k] -= (C1 * (pc - phi[k, im, j]) - C3 * (phi[k, ip, j] - phi[k, im2, j])
-                               ) * rdx
-                v[i, j, k] -= (C1 * (pc - phi[k, i, jm]) - C3 * (phi[k, i, jp] - phi[k, i, jm2])
-                               ) * rdy
-                if rdt != 0.0:
-                    p[i, j, k] = keep * p[i, j, k] + pc * rdt
-                if k > 0:
-                    w[i, j, k] -= (pc - phi[k - 1, i, j]) * rdz
+        tc = np.empty((JB + 3, nz))     # phi[., i, j0 - 2 .. j0 + JB]
+        tw = np.empty((JB, nz))         # phi[., im, j0 .. j0 + JB - 1]
+        tw2 = np.empty((JB, nz))        # phi[., im2, ...]
+        te = np.empty((JB, nz))         # phi[., ip, ...]
+        dp = np.empty(nz)
+        for j0 in range(0, ny, JB):
+            nb = min(JB, ny - j0)
+            _phi_tile(phi, i, j0, -2, nb + 3, ny, tc)
+            _phi_tile(phi, im, j0, 0, nb, ny, tw)
+            _phi_tile(phi, im2, j0, 0, nb, ny, tw2)
+            _phi_tile(phi, ip, j0, 0, nb, ny, te)
+            for jj in range(nb):
+                j = j0 + jj
+                # one array per loop: each vectorizes along k
+                for k in range(nz):
+                    u[i, j, k] -= (C1 * (tc[jj + 2, k] - tw[jj, k])
+                                   - C3 * (te[jj, k] - tw2[jj, k])) * rdx
+                for k in range(nz):
+                    v[i, j, k] -= (C1 * (tc[jj + 2, k] - tc[jj + 1, k])
+                                   - C3 * (tc[jj + 3, k] - tc[jj, k])) * rdy
+                if rdt != 0.0 and keep != 0.0:
+                    # the increment rounded before it is added (no fused multiply-add): the
+                    # rounding of the pressure the double-precision results are pinned to
+                    for k in range(nz):
+                        dp[k] = tc[jj + 2, k] * rdt
+                    for k in range(nz):
+                        p[i, j, k] += dp[k]
+                elif rdt != 0.0:
+                    for k in range(nz):
+                        p[i, j, k] = tc[jj + 2, k] * rdt
+                if j < 2:
+                    for k in range(1, nz):
+                        w[i, j, k] -= (tc[jj + 2, k] - tc[jj + 2, k - 1]) / dzf[k]
+                else:
+                    for k in range(1, nz):
+                        w[i, j, k] -= (tc[jj + 2, k] - tc[jj + 2, k - 1]) * rdzf[k]
 
 
 def _check_order(order: int) -> int:
@@ -201,34 +283,41 @@ class PressureSolver:
         self._cprime = cprime
         self.rhs = np.empty((nz, nx, ny))
         self.hat = np.empty((nz, nx, self.nyh), dtype=np.complex128)
+        # the half-transformed slabs: each 1-D pass writes another array than it reads (numpy
+        # copies the input of an in-place transform first)
+        self._half = np.empty_like(self.hat)
         self.workers = max(1, int(workers if workers is not None else numba.get_num_threads()))
         self.workers = min(self.workers, nz)
         bounds = np.linspace(0, nz, self.workers + 1).astype(int)
         self._slabs = [slice(int(bounds[q]), int(bounds[q + 1])) for q in range(self.workers)]
-        self._pool = ThreadPoolExecutor(self.workers) if self.workers > 1 else None
+        # the calling thread transforms the first slab itself, the pool the others
+        self._pool = ThreadPoolExecutor(self.workers - 1) if self.workers > 1 else None
 
     # ---- pieces ---------------------------------------------------------------------------
     def _fft_forward(self) -> None:
         def f(sl):
-            np.fft.rfft2(self.rhs[sl], axes=(1, 2), out=self.hat[sl])
+            # rfft2 over (x, y) as its two 1-D passes (numpy's rfftn: y, then x)
+            np.fft.rfft(self.rhs[sl], axis=2, out=self._half[sl])
+            np.fft.fft(self._half[sl], axis=1, out=self.hat[sl])
         self._map(f)
 
     def _fft_inverse(self) -> None:
-        nx, ny = self.grid.nx, self.grid.ny
+        ny = self.grid.ny
 
         def f(sl):
             # Two 1-D passes: numpy 2.x's irfft2(..., out=) returns wrong values (seen with 2.4).
-            h = self.hat[sl]
-            np.fft.ifft(h, axis=1, out=h)
-            np.fft.irfft(h, n=ny, axis=2, out=self.rhs[sl])
+            np.fft.ifft(self.hat[sl], axis=1, out=self._half[sl])
+            np.fft.irfft(self._half[sl], n=ny, axis=2, out=self.rhs[sl])
         self._map(f)
 
     def _map(self, f) -> None:
         if self._pool is None:
             f(self._slabs[0])
-        else:
-            for r in self._pool.map(f, self._slabs):
-                pass
+            return
+        pending = [self._pool.submit(f, sl) for sl in self._slabs[1:]]
+        f(self._slabs[0])
+        for fut in pending:
+            fut.result()
 
     def solve_rhs_inplace(self) -> None:
         """phi = L^-1 rhs, with ``self.rhs`` ((nz, nx, ny) layout) overwritten by phi."""
@@ -244,12 +333,12 @@ class PressureSolver:
         g = self.grid
         div, corr = ((_divergence_kzxy, _correct) if self.order == 2
                      else (_divergence4_kzxy, _correct4))
-        div(u, v, w, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, self.rhs)
+        div(u, v, w, 1.0 / g.dx, 1.0 / g.dy, g.dz_c, g.rdz_c, self.rhs)
         self.solve_rhs_inplace()
         if p is None or dt_stage <= 0.0:
-            corr(u, v, w, self.rhs, 1.0 / g.dx, 1.0 / g.dy, g.dz_f, u, 0.0, 0.0)
+            corr(u, v, w, self.rhs, 1.0 / g.dx, 1.0 / g.dy, g.dz_f, g.rdz_f, u, 0.0, 0.0)
         else:
-            corr(u, v, w, self.rhs, 1.0 / g.dx, 1.0 / g.dy, g.dz_f, p, 1.0 / dt_stage,
+            corr(u, v, w, self.rhs, 1.0 / g.dx, 1.0 / g.dy, g.dz_f, g.rdz_f, p, 1.0 / dt_stage,
                  1.0 if increment else 0.0)
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
@@ -268,7 +357,7 @@ def divergence(grid, u, v, w, order: int = 2) -> np.ndarray:
     """D(u) at cell centres (nx, ny, nz) [s^-1]; ``order`` 4: D4 (module doc)."""
     out = np.empty((grid.nz, grid.nx, grid.ny))
     kernel = _divergence_kzxy if _check_order(order) == 2 else _divergence4_kzxy
-    kernel(u, v, w, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c, out)
+    kernel(u, v, w, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c, grid.rdz_c, out)
     return np.ascontiguousarray(np.transpose(out, (1, 2, 0)))
 
 

@@ -67,7 +67,7 @@ class ColumnRelaxation:
         air lost to the grains (``p_to_air`` falls) per unit area and time."""
         dp = p_to_air - self._p_last
         self._p_last = p_to_air
-        return -float(np.mean(taux)) - dp / (dt * self.area * self.rho)
+        return -float(np.mean(taux, dtype=np.float64)) - dp / (dt * self.area * self.rho)
 
     def update(self, u: np.ndarray, taux: np.ndarray, p_to_air: float, dt: float,
                t_since_activation: float) -> float:

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import prange
 
-from ..._jit import device, jit, pjit
+from ..._jit import device, jit, like, pjit
 from .advection import (ADVECTION_ORDERS, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at,
                         adv_v4_at, adv_v_at, adv_w4_at, adv_w_at)
 from ..closures.closure import CLOSURES, NoClosure
@@ -38,9 +38,12 @@ from ..closures.sgs import E_MIN, diff_u_at, diff_v_at, diff_w_at, tke_tendency_
 from .vertical_diffusion import VERTICAL_DIFFUSION, momentum_stage_implicit, tke_stage_implicit
 from .wall import drag_coefficient, surface_stress_into
 
-__all__ = ["Stepper", "FlowNumerics", "Boundaries", "RK3_COEFFS", "CLOSURES"]
+__all__ = ["Stepper", "FlowNumerics", "Boundaries", "RK3_COEFFS", "CLOSURES", "PRECISIONS"]
 
 RK3_COEFFS = (1.0 / 3.0, 0.5, 1.0)
+
+#: the floating types a fidelity can name (config.TimeStepping.precision)
+PRECISIONS = {"double": np.float64, "single": np.float32}
 
 
 @dataclass(frozen=True)
@@ -52,11 +55,15 @@ class FlowNumerics:
     backward Euler in each stage); ``advection``: off only in tests of the other terms;
     ``advection_order``: 2, or 4 in x and y (Morinishi et al. 1998, advection.py) with the
     projection's divergence and gradient of the same order in x and y (pressure.py), under which
-    the advection of momentum and of the SGS TKE conserves their quadratic invariants exactly."""
+    the advection of momentum and of the SGS TKE conserves their quadratic invariants exactly;
+    ``precision``: "double", or "single" for the prognostic fields (u, v, w, e, p), the closure's
+    viscosity and the stencils' arithmetic in float32 (``PRECISIONS``; the pressure solve and the
+    grains' exchange stay float64, docs/BENCHMARKS.md says why)."""
     vertical_diffusion: str = "implicit"
     implicit_weight: float = 0.5
     advection: bool = True
     advection_order: int = 2
+    precision: str = "double"
 
     def __post_init__(self):
         if self.vertical_diffusion not in VERTICAL_DIFFUSION:
@@ -67,12 +74,19 @@ class FlowNumerics:
         if self.advection_order not in ADVECTION_ORDERS:
             raise ValueError(f"advection_order must be one of {ADVECTION_ORDERS} "
                              f"(got {self.advection_order!r})")
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {tuple(PRECISIONS)} (got {self.precision!r})")
+
+    @property
+    def dtype(self) -> np.dtype:
+        """The floating type of the flow's fields."""
+        return np.dtype(PRECISIONS[self.precision])
 
     @classmethod
     def from_time(cls, ts) -> "FlowNumerics":
         """From a fidelity's ``time`` section (config.TimeStepping)."""
         return cls(vertical_diffusion=ts.vertical_diffusion, implicit_weight=ts.implicit_weight,
-                   advection_order=ts.advection_order)
+                   advection_order=ts.advection_order, precision=ts.precision)
 
 
 @dataclass(frozen=True)
@@ -96,7 +110,8 @@ def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, 
               rdx, rdy, dzc, dzf, fck, fcuk, srck, adv, with_diff):
     # srck = gx + fcuk u_drive (drive and damping target folded into one argument); adv: the
     # horizontal order of the advection, 2 or 4, 0 for none (one argument for both switches)
-    r = 1.0 / dzc[k]
+    one = like(u, 1.0)
+    r = one / dzc[k]
     tu = srck - fcuk * u[i, j, k]
     tv = -fck * v[i, j, k]
     if adv == 4:
@@ -119,6 +134,8 @@ def _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, i
     # inner k loop is compiled for one order: with the order tested inside the k loops the
     # second-order step cost 150 against 116 ns per cell-step (reduced grid, one thread,
     # `saltstudy bench flow --no-big`), most of it in _tke_stage (6.3 -> 15.5 ns per cell and stage)
+    half = like(w, 0.5)
+    one = like(w, 1.0)
     ny, nz = u.shape[1], u.shape[2]
     jm = j - 1 if j > 0 else ny - 1
     jp = j + 1 if j + 1 < ny else 0
@@ -136,13 +153,13 @@ def _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, i
     for k in range(1, nz):
         tw = -ff[k] * w[i, j, k]
         if adv == 4:
-            hzm = 0.5 * dzc[k - 1] / dzf[k]
-            hzp = 0.5 * dzc[k] / dzf[k]
-            tw += adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+            hzm = half * dzc[k - 1] / dzf[k]
+            hzp = half * dzc[k] / dzf[k]
+            tw += adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         elif adv == 2:
-            hzm = 0.5 * dzc[k - 1] / dzf[k]
-            hzp = 0.5 * dzc[k] / dzf[k]
-            tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+            hzm = half * dzc[k - 1] / dzf[k]
+            hzp = half * dzc[k] / dzf[k]
+            tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         if with_diff:
             tw += diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
         wo[i, j, k] = wb[i, j, k] + cdt * tw
@@ -241,6 +258,8 @@ class Stepper:
         self.closure = closure if closure is not None else NoClosure(grid)
         self.bounds = boundaries
         self.numerics = numerics
+        #: the floating type of the flow's fields and of the stencils' arithmetic
+        self.dtype = numerics.dtype
         self.z0, self.kappa = float(boundaries.z0), float(boundaries.kappa)
         self.wall = bool(boundaries.wall)
         self.cd = drag_coefficient(float(grid.z_c[0]), self.z0, self.kappa) if self.wall else 0.0
@@ -254,11 +273,20 @@ class Stepper:
         self.implicit = self.diffusing and numerics.vertical_diffusion == "implicit"
         self.theta = float(numerics.implicit_weight)
         shp, shw = (nx, ny, nz), (nx, ny, nz + 1)
-        self.buf = [dict(u=np.zeros(shp), v=np.zeros(shp), w=np.zeros(shw), e=np.zeros(shp))
-                    for _ in range(2)]
-        self.nu = np.zeros(shp)
-        self.taux = np.zeros((nx, ny))
-        self.tauy = np.zeros((nx, ny))
+        dt_ = self.dtype
+        self.buf = [dict(u=np.zeros(shp, dt_), v=np.zeros(shp, dt_), w=np.zeros(shw, dt_),
+                         e=np.zeros(shp, dt_)) for _ in range(2)]
+        self.nu = np.zeros(shp, dt_)
+        self.taux = np.zeros((nx, ny), dt_)
+        self.tauy = np.zeros((nx, ny), dt_)
+        # the per-level arrays and constants the stage kernels read, in the fields' type (the
+        # same arrays when that is float64)
+        clo = self.closure
+        self._k = {name: np.asarray(a, dt_) for name, a in (
+            ("dz_c", grid.dz_c), ("dz_f", grid.dz_f), ("rdz_c", grid.rdz_c), ("rdz_f", grid.rdz_f),
+            ("f_c", self.f_c), ("f_cu", self.f_cu), ("f_f", self.f_f), ("rv", clo.rv),
+            ("ceps_l", clo.ceps_l))}
+        self._f = dt_.type
 
     # ---- pieces ----------------------------------------------------------------------------
     def bed_stress_into(self, u, v, taux, tauy) -> None:
@@ -282,27 +310,30 @@ class Stepper:
         (an incremental projection: the vertical diffusion then acts on a nearly solenoidal
         tendency, and the splitting of projection and implicit diffusion stays second order;
         vertical_diffusion.py); with ``store_p`` the stage's pressure is written into p."""
-        g, clo = self.grid, self.closure
+        g, clo, K, f = self.grid, self.closure, self._k, self._f
         gu, gv, gw, ge = (_get(inp, n) for n in "uvwe")
         bu, bv, bw, be = (_get(base, n) for n in "uvwe")
         ou, ov, ow, oe = (_get(out, n) for n in "uvwe")
         self.boundary(gu, gv, gw, ge)
-        rdx, rdy = 1.0 / g.dx, 1.0 / g.dy
+        rdx, rdy = f(1.0 / g.dx), f(1.0 / g.dy)
+        fdt, fdrive, fbody = f(cdt), f(u_drive), f(self.body_force)
         adv = self.numerics.advection
         if self.implicit:
-            momentum_stage_implicit(gu, gv, gw, self.nu, clo.rv, self.taux, self.tauy, bu, bv, bw, ou,
-                                    ov, ow, p, cdt, self.theta, rdx, rdy, g.dz_c, g.dz_f, self.f_c,
-                                    self.f_cu, self.f_f, u_drive, self.body_force, adv, self.order)
+            momentum_stage_implicit(gu, gv, gw, self.nu, K["rv"], self.taux, self.tauy, bu, bv, bw,
+                                    ou, ov, ow, p, fdt, f(self.theta), rdx, rdy, K["dz_c"],
+                                    K["dz_f"], K["f_c"], K["f_cu"], K["f_f"], fdrive, fbody, adv,
+                                    self.order)
         else:
-            _momentum_stage(gu, gv, gw, self.nu, clo.rv, self.taux, self.tauy, bu, bv, bw, ou, ov, ow,
-                            cdt, rdx, rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive,
-                            self.body_force, adv, self.diffusing, self.order)
+            _momentum_stage(gu, gv, gw, self.nu, K["rv"], self.taux, self.tauy, bu, bv, bw, ou, ov,
+                            ow, fdt, rdx, rdy, K["dz_c"], K["dz_f"], K["f_c"], K["f_cu"], K["f_f"],
+                            fdrive, fbody, adv, self.diffusing, self.order)
         if clo.prognostic_e and self.implicit:
-            tke_stage_implicit(ge, gu, gv, gw, self.nu, clo.rv, be, oe, cdt, self.theta, rdx, rdy,
-                               g.rdz_c, g.rdz_f, clo.rlog, clo.ceps_l, E_MIN, self.order)
+            tke_stage_implicit(ge, gu, gv, gw, self.nu, K["rv"], be, oe, fdt, f(self.theta), rdx,
+                               rdy, K["rdz_c"], K["rdz_f"], f(clo.rlog), K["ceps_l"], f(E_MIN),
+                               self.order)
         elif clo.prognostic_e:
-            _tke_stage(ge, gu, gv, gw, self.nu, clo.rv, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f,
-                       clo.rlog, clo.ceps_l, E_MIN, self.order)
+            _tke_stage(ge, gu, gv, gw, self.nu, K["rv"], be, oe, fdt, rdx, rdy, K["rdz_c"],
+                       K["rdz_f"], f(clo.rlog), K["ceps_l"], f(E_MIN), self.order)
         elif oe is not be and self.closure.dynamic is None:
             oe[...] = be
         self.pressure.project(ou, ov, ow, p if store_p else None, cdt, increment=self.implicit)

@@ -48,7 +48,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from ..._jit import device, pjit
+from ..._jit import device, like, pjit
 from .advection import (C1, C3, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at, adv_v4_at,
                         adv_v_at, adv_w4_at, adv_w_at, wrap_down)
 from ..closures.sgs import diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at, vertical_coupling
@@ -85,14 +85,17 @@ def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, to
     horder: the horizontal order (2 or 4) of the advection and of the carried pressure gradient,
     which must be the projection's (pressure.py); negative: the same order without advection
     (one argument for both: fewer arguments to pass where a call is not inlined)."""
-    r = 1.0 / dzc[k]
+    one = like(u, 1.0)
+    c1_ = like(u, C1)
+    c3_ = like(u, C3)
+    r = one / dzc[k]
     pc = p[i, j, k]
     if horder == 4 or horder == -4:
         # G4 of the projection: the carried gradient is then one the projection can remove
         im2 = wrap_down(im, p.shape[0])
         jm2 = wrap_down(jm, p.shape[1])
-        gpx = C1 * (pc - p[im, j, k]) - C3 * (p[ip, j, k] - p[im2, j, k])
-        gpy = C1 * (pc - p[i, jm, k]) - C3 * (p[i, jp, k] - p[i, jm2, k])
+        gpx = c1_ * (pc - p[im, j, k]) - c3_ * (p[ip, j, k] - p[im2, j, k])
+        gpy = c1_ * (pc - p[i, jm, k]) - c3_ * (p[i, jp, k] - p[i, jm2, k])
         tu = srck - fcuk * u[i, j, k] - gpx * rdx
         tv = -fck * v[i, j, k] - gpy * rdy
     else:
@@ -108,15 +111,15 @@ def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, to
                                  dzc, dzf)
     xv, av, cv = diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
                                  dzc, dzf)
-    ex = 1.0 - theta
+    ex = one - theta
     S[0, k] = ub[i, j, k] + cdt * (tu + xu + ex * vertical_coupling(ub, i, j, k, au, cu, top, bot))
     S[4, k] = vb[i, j, k] + cdt * (tv + xv + ex * vertical_coupling(vb, i, j, k, av, cv, top, bot))
     ct = cdt * theta
     S[1, k] = -ct * au
-    S[2, k] = 1.0 + ct * (au + cu)
+    S[2, k] = one + ct * (au + cu)
     S[3, k] = -ct * cu
     S[5, k] = -ct * av
-    S[6, k] = 1.0 + ct * (av + cv)
+    S[6, k] = one + ct * (av + cv)
     S[7, k] = -ct * cv
 
 
@@ -126,6 +129,8 @@ def _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, c
     # the rows of the u, v and w systems of column (i, j) into S; the kernel calls it with a
     # literal horder = 4, so that each inner k loop is compiled for one order (as
     # stepper._uvw_column, where the measurement is)
+    half = like(w, 0.5)
+    one = like(w, 1.0)
     ny, nz = u.shape[1], u.shape[2]
     jm = j - 1 if j > 0 else ny - 1
     jp = j + 1 if j + 1 < ny else 0
@@ -140,23 +145,23 @@ def _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, c
              gx + fcu[nz - 1] * u_drive, horder, S)
     # interior w faces 1..nz-1 (w = 0 on faces 0 and nz: their couplings drop out)
     ct = cdt * theta
-    ex = 1.0 - theta
+    ex = one - theta
     for k in range(1, nz):
         tw = -ff[k] * w[i, j, k] - (p[i, j, k] - p[i, j, k - 1]) / dzf[k]
         if horder == 4:
-            hzm = 0.5 * dzc[k - 1] / dzf[k]
-            hzp = 0.5 * dzc[k] / dzf[k]
-            tw += adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+            hzm = half * dzc[k - 1] / dzf[k]
+            hzp = half * dzc[k] / dzf[k]
+            tw += adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         elif horder == 2:
-            hzm = 0.5 * dzc[k - 1] / dzf[k]
-            hzp = 0.5 * dzc[k] / dzf[k]
-            tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, 1.0 / dzf[k])
+            hzm = half * dzc[k - 1] / dzf[k]
+            hzp = half * dzc[k] / dzf[k]
+            tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         xw, aw, cw = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc,
                                      dzf)
         S[8, k] = wb[i, j, k] + cdt * (tw + xw + ex * vertical_coupling(wb, i, j, k, aw, cw,
                                                                         True, True))
         S[9, k] = -ct * aw
-        S[10, k] = 1.0 + ct * (aw + cw)
+        S[10, k] = one + ct * (aw + cw)
         S[11, k] = -ct * cw
 
 
@@ -174,8 +179,8 @@ def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo,
     for i in prange(nx):
         im = (i - 1) % nx
         ip = (i + 1) % nx
-        S = np.empty((12, nz + 1))
-        cp = np.empty(nz + 1)
+        S = np.empty((12, nz + 1), u.dtype)
+        cp = np.empty(nz + 1, u.dtype)
         for j in range(ny):
             if horder == 4:
                 _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, cdt,
@@ -203,17 +208,18 @@ def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, thet
     super-diagonal): advection (horizontal order 2 or 4), production and horizontal transport
     explicit, the vertical transport theta-weighted, the dissipation implicit about the input's
     e (module doc)."""
+    one = like(e, 1.0)
     if order == 4:
         te = adv_scalar4_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     else:
         te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     x, a, c, rd = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
                                rdzf, rlog, ceps_lk)
-    S[0, k] = eb[i, j, k] + cdt * (te + x + (1.0 - theta) * vertical_coupling(eb, i, j, k, a, c, top,
+    S[0, k] = eb[i, j, k] + cdt * (te + x + (one - theta) * vertical_coupling(eb, i, j, k, a, c, top,
                                                                                 bot))
     ct = cdt * theta
     S[1, k] = -ct * a
-    S[2, k] = 1.0 + ct * (a + c) + cdt * rd
+    S[2, k] = one + ct * (a + c) + cdt * rd
     S[3, k] = -ct * c
 
 
@@ -245,8 +251,8 @@ def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, r
         i = np.int64(ii)  # signed: strain_sq_at indexes with i directly
         im = (i - 1) % nx
         ip = (i + 1) % nx
-        S = np.empty((4, nz))
-        cp = np.empty(nz)
+        S = np.empty((4, nz), e.dtype)
+        cp = np.empty(nz, e.dtype)
         for j in range(ny):
             if order == 4:
                 _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, rdzc,

@@ -80,13 +80,17 @@ def fma4(typingctx, ary, i, w0, w1, va, vb):
 
 @intrinsic
 def load2(typingctx, ary, i, j, k):
-    """(ary[i, j, k], ary[i, j, k + 1]) of a C-contiguous 3-D float64 array, one 2-wide load.
-    Indices must be in range (non-negative, k + 1 < shape[2]): no wraparound, no check."""
-    if not (isinstance(ary, types.Array) and ary.ndim == 3 and ary.dtype == types.float64
+    """(ary[i, j, k], ary[i, j, k + 1]) of a C-contiguous 3-D float64 or float32 array (a
+    single-precision flow's fields), one 2-wide load. Indices must be in range (non-negative,
+    k + 1 < shape[2]): no wraparound, no check."""
+    if not (isinstance(ary, types.Array) and ary.ndim == 3
+            and ary.dtype in (types.float64, types.float32)
             and ary.layout == "C" and all(isinstance(t, types.Integer) for t in (i, j, k))):
         return None
-    ret = types.UniTuple(types.float64, 2)
+    ret = types.UniTuple(ary.dtype, 2)
     sig = ret(ary, types.intp, types.intp, types.intp)
+    lane = ir.DoubleType() if ary.dtype == types.float64 else ir.FloatType()
+    align = 8 if ary.dtype == types.float64 else 4
 
     def codegen(context, builder, signature, args):
         aty = signature.args[0]
@@ -95,8 +99,8 @@ def load2(typingctx, ary, i, j, k):
         strides = cgutils.unpack_tuple(builder, arr.strides, 3)
         ptr = cgutils.get_item_pointer2(context, builder, arr.data, shape, strides, "C",
                                         list(args[1:]), wraparound=False)
-        vty = ir.VectorType(ir.DoubleType(), 2)
-        v = builder.load(builder.bitcast(ptr, vty.as_pointer()), align=8)
+        vty = ir.VectorType(lane, 2)
+        v = builder.load(builder.bitcast(ptr, vty.as_pointer()), align=align)
         elems = [builder.extract_element(v, ir.Constant(ir.IntType(32), m)) for m in range(2)]
         return context.make_tuple(builder, ret, elems)
     return sig, codegen
