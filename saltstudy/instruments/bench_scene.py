@@ -164,7 +164,7 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
     ``phases``: the grain kernels' ns per parcel-step as ``bench particles --phases`` times them)."""
     from contextlib import nullcontext
 
-    from .bench_particles import _timed_kernels
+    from .bench_particles import timed_kernels
     from ..solver.model import Model
     from ..solver.tiling import project_restart
     from ..workflow.health import limiting_step, step_limits
@@ -177,7 +177,7 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
     limits: dict[str, int] = {}
     steps, wall, wall_grains, parcel_steps = 0, 0.0, 0.0, 0
     acc: dict = {}
-    timed = _timed_kernels(acc, m.components[0]) if phases and m.components else nullcontext()
+    timed = timed_kernels(acc, m.components[0]) if phases and m.components else nullcontext()
     try:
         with timed:
             while m.t < t_end - 1e-9:
