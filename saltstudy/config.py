@@ -103,35 +103,11 @@ class Splash(_Frozen):
     ej_angle_h_mean: float = Field(0.0, ge=-90, le=90, description="<alpha_hej> [deg]")
     ej_angle_h_std: float = Field(10.0, ge=0, description="sigma of alpha_hej [deg]")
     impact_layer: float = Field(5.0e-4, gt=0, lt=0.01, description="impact layer depth [m] (0.5 mm)")
-    detection_step: float = Field(
-        0.0, ge=0, lt=0.01, description="[s] 0: a grain's crossing of the impact layer's top is "
-        "located exactly and its rebound and ejecta leave from there; > 0: the bed is met as a code "
-        "stepping by this much meets it (the paper's model steps by 0.2 ms, its section 2.4): the "
-        "grain is splashed where it is found inside the layer, its rebound and ejecta start there, "
-        "and one still inside after the next such step is splashed again at its launch velocity "
-        "(solver/grains/splash_kernels.py)")
-    ejection_rounding: Literal["stochastic", "floor", "nearest"] = Field(
-        "stochastic", description="how eq. 8's N_ej = a v_imp / sqrt(g <d>) becomes a whole number "
-        "of ejected parcels, which the paper does not say: 'stochastic' rounding (floor plus one "
-        "with probability the fraction: the mean is eq. 8's), its 'floor' (no ejecta below "
-        "N_ej = 1, v_imp = 1.48 m/s for 200 um grains), or the 'nearest' integer")
     impact_speed: Literal["magnitude", "normal"] = Field(
         "magnitude", description="the v_imp of eqs. 6 and 8 (rebound probability, number of "
         "ejecta), which the paper calls the impact velocity: the impact speed |u_p| ('magnitude', "
         "as Anderson & Haff 1991 and Kok & Renno 2009 use it), or its component normal to the bed "
         "|w_p| ('normal'); eqs. 7 and 9 (rebound and ejection speeds) take |u_p| either way")
-    launch_height: Literal["layer_top", "bed"] = Field(
-        "layer_top", description="where a rebound and the ejecta leave from: the impact layer's top, "
-        "where the impactor met it ('layer_top'), or the bed z = 0 ('bed'), from which a grain "
-        "rises through the layer under gravity and, if it cannot leave it, meets the bed again "
-        "at the top of its hop at its speed there (solver/grains/splash_kernels.py)")
-
-    @model_validator(mode="after")
-    def _one_bed(self) -> "Splash":
-        if self.launch_height == "bed" and self.detection_step > 0:
-            raise ValueError("launch_height: 'bed' launches every grain from z = 0, detection_step "
-                             "> 0 from where it was found inside the layer; choose one")
-        return self
 
 
 class Threshold(_Frozen):
@@ -191,14 +167,6 @@ class Physics(_Frozen):
     saltation: bool = Field(True, description="Lagrangian grains (off: flow only)")
     two_way_coupling: bool = Field(True, description="grain drag acts back on the air (eq. 2)")
     tke_particle_sink: bool = Field(True, description="SGS TKE sink by grain drag (eq. A1)")
-    aerodynamic_entrainment: bool = Field(False, description="lift-off by the wind (off in the paper)")
-    sgs_particle_velocity: bool = Field(False, description="stochastic SGS grain velocity (off in the paper)")
-
-    @model_validator(mode="after")
-    def _consistent(self) -> "Physics":
-        if not self.saltation and (self.aerodynamic_entrainment or self.sgs_particle_velocity):
-            raise ValueError("aerodynamic_entrainment/sgs_particle_velocity need saltation = true")
-        return self
 
 
 class Particles(_Frozen):
@@ -206,19 +174,6 @@ class Particles(_Frozen):
     Q: float = Field(..., gt=0, description="real grains per computational parcel [-]")
     n_initial: int = Field(10_000, gt=0, description="parcels released at activation, per 300 m^2")
     release_depth: float = Field(0.3, gt=0, description="release layer depth above the bed [m]")
-    near_bed_wind: Literal["paper", "cell-drag", "first-level", "blend"] = Field(
-        "paper", description="horizontal wind a grain sees in the first grid cell, and where its "
-        "drag goes (solver/grains/interp.py). 'paper' (the paper's [12]): anywhere below the cell's top "
-        "face z_f[1], the log law from the second level, ln(z/z0)/ln(z_c[1]/z0) u(z_c[1]), and "
-        "the drag (momentum and TKE sink) goes back to the second level; trilinear above. "
-        "'cell-drag' (the same wind, eq. 2's sum over the particles in each cell read literally): "
-        "the drag of a first-cell grain goes to the first level, which it does not read. "
-        "'first-level' ([12] in the indexing of the paper's model, ARPS, which counts a level "
-        "below the ground): below the first level z_c[0] the log law from the first level, the drag "
-        "there; trilinear above. 'blend' (a departure from the paper): that log law of the second "
-        "level only below the first level z_c[0], with the drag on the first level, which the "
-        "grain never read, and trilinear between the first two levels from z_c[0] up, so the seen "
-        "wind jumps at z_c[0] by the first level's departure from the log law")
 
 
 class Case(_Frozen):

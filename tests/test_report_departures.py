@@ -9,16 +9,16 @@ def _scene(overrides: dict | None = None, fidelity: str = "paper") -> dict:
 
 
 def test_the_paper_model_at_the_paper_fidelity_departs_in_nothing():
-    paper_model = {"closure": {"model": "deardorff"}, "particles": {"near_bed_wind": "paper"}}
+    paper_model = {"closure": {"model": "deardorff"}}
     assert model_departures(_scene(paper_model)) == []
 
 
 def test_each_departure_is_named_by_its_config_field():
     text = " ".join(model_departures(_scene({"closure": {"model": "dynamic"},
-                                                  "particles": {"near_bed_wind": "blend"}},
+                                                  "splash": {"impact_speed": "normal"}},
                                                  fidelity="reduced")))
     assert "dynamic" in text
-    assert "particles.near_bed_wind" in text
+    assert "splash.impact_speed" in text
     assert f"{load_fidelity('reduced').q_multiplier:g}x heavier" in text
     assert "relaxation" in text
 
