@@ -18,8 +18,9 @@ from .case import (Air, Case, Closure, Forcing, Particles, Physics, Soil, SoilMo
                    Threshold)
 from .fidelity import Fidelity, GridSpec, Outputs, Relaxation, Sampling, SpinUp, TimeStepping
 from .files import ConfigError, case_path, list_case_numbers, project_root, read_toml
-from .loading import (deep_merge, load_case, load_fidelity, load_study, resolve_scene, study_fidelity_folder,
-                      study_file, study_runs, validate_file, validate_model)
+from .loading import (airborne_counts, deep_merge, load_case, load_fidelity, load_study, parcel_weight,
+                      resolve_scene, study_fidelity_folder, study_file, study_runs, validate_file,
+                      validate_model)
 from .study import RunSpec, Scene, SceneSpec, Study
 
 __all__ = [
@@ -28,5 +29,5 @@ __all__ = [
     "Fidelity", "SceneSpec", "Study", "Scene", "RunSpec", "ConfigError", "Frozen", "content_hash",
     "project_root", "read_toml", "load_case", "load_fidelity", "load_study", "resolve_scene", "case_path",
     "list_case_numbers", "deep_merge", "PAPER_AREA_M2", "study_runs", "study_file",
-    "study_fidelity_folder", "validate_model", "validate_file",
+    "study_fidelity_folder", "validate_model", "validate_file", "airborne_counts", "parcel_weight",
 ]

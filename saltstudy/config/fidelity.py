@@ -142,6 +142,12 @@ class Fidelity(Frozen):
     saltation_duration: float = Field(..., gt=0, description="saltation run length [s]")
     sampling: Sampling
     q_multiplier: float = Field(1.0, gt=0, description="Q is multiplied by this (fewer parcels)")
+    parcels_per_m2: float | None = Field(
+        None, gt=0, description="[m^-2] weigh each case's parcels so that its saltation layer holds "
+        "about this many airborne parcels per m2 of bed, as the paper chose its Q (~2,000 per m2 in "
+        "every case, its [28]): q_multiplier = the case's count at its Q "
+        "(data/airborne_counts.toml) / parcels_per_m2, set when a case is resolved at this "
+        "fidelity (config/loading.py); None: q_multiplier as given")
     checkpoint_interval_wall: float = Field(120.0, gt=0, description="wall-clock s between checkpoints")
     saltation_dt_fixed: float | None = Field(
         None, gt=0, description="fixed step of the saltation phase only [s] (None: adaptive); the "

@@ -3,6 +3,8 @@ the field and the reason; a study expanded into its runs."""
 from __future__ import annotations
 
 import os
+import tomllib
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -15,7 +17,8 @@ from .files import (ConfigError, case_path, locate_fidelity, locate_study, own_f
 from .study import RunSpec, Scene, SceneSpec, Study
 
 __all__ = ["deep_merge", "validate_model", "load_case", "load_fidelity", "load_study", "study_file",
-           "study_fidelity_folder", "resolve_scene", "study_runs", "validate_file"]
+           "study_fidelity_folder", "resolve_scene", "study_runs", "validate_file", "airborne_counts",
+           "parcel_weight"]
 
 
 # --------------------------------------------------------------------------------------------
@@ -72,6 +75,9 @@ def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
     own ``smoke.toml`` may be ``based_on = "smoke"``, the shared one."""
     path = locate_fidelity(ref, root, own)
     data = read_toml(path)
+    if "q_multiplier" in data and "parcels_per_m2" in data:
+        raise ConfigError(f"{path}: q_multiplier: the parcel weight is given by q_multiplier or by "
+                          "parcels_per_m2, not both")
     base = data.pop("based_on", None)
     if base is None:
         return path, data
@@ -90,6 +96,10 @@ def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
     except ConfigError as exc:
         raise ConfigError(f"{path}: based_on: {exc}") from None
     parent.pop("name", None)
+    # the file's own choice of parcel weight replaces its parent's, whichever way it is given
+    for mine, other in (("q_multiplier", "parcels_per_m2"), ("parcels_per_m2", "q_multiplier")):
+        if mine in data:
+            parent.pop(other, None)
     return path, deep_merge(parent, data)
 
 
@@ -149,7 +159,40 @@ def _scene_case_from(study_path: Path, scene: Any) -> Any:
 
 
 def resolve_scene(case: Case, fidelity: Fidelity, label: str | None = None) -> Scene:
+    """One case at one fidelity. With ``fidelity.parcels_per_m2`` the scene's fidelity carries the
+    case's own weight, ``q_multiplier = count / parcels_per_m2`` (``parcel_weight``)."""
+    if fidelity.parcels_per_m2 is not None:
+        fid = fidelity.model_dump()
+        fid["q_multiplier"] = parcel_weight(case, fidelity.parcels_per_m2)
+        fidelity = validate_model(Fidelity, fid, f"fidelity '{fidelity.name}'")
     return Scene(label=label or case.label, case=case, fidelity=fidelity)
+
+
+def airborne_counts() -> tuple[dict[int, float], str]:
+    """The model's airborne parcels per m2 at each paper case's Q (``data/airborne_counts.toml``)
+    and where they were measured."""
+    text = resources.files("saltstudy").joinpath("data/airborne_counts.toml").read_text("utf-8")
+    data = tomllib.loads(text)
+    return {int(k): float(v) for k, v in data["count_at_Q"].items()}, str(data["source"])
+
+
+def parcel_weight(case: Case, parcels_per_m2: float) -> float:
+    """The multiple of the case's Q that leaves about ``parcels_per_m2`` airborne parcels per m2
+    [1]: the case's count at its Q over ``parcels_per_m2``. The count is the model's, measured for
+    the paper's cases as they stand (``airborne_counts``); a case whose physics differs from its
+    numbered file's has none, and a ConfigError says so."""
+    counts, source = airborne_counts()
+    where = "fidelity.parcels_per_m2"
+    if case.number not in counts:
+        raise ConfigError(f"{where}: no airborne count for case {case.number} ({source} holds "
+                          f"cases {sorted(counts)}); give the fidelity a q_multiplier instead")
+    physics = {"name", "description", "seed"}
+    stock = load_case(case.number).model_dump(mode="json", exclude=physics)
+    if case.model_dump(mode="json", exclude=physics) != stock:
+        raise ConfigError(f"{where}: case {case.number}'s physics differs from "
+                          f"cases/case{case.number:02d}.toml, for which the airborne count was "
+                          "measured; give the fidelity a q_multiplier instead")
+    return counts[case.number] / parcels_per_m2
 
 
 def _scene_case(study: Study, scene: SceneSpec, root: Path | None) -> Case:

@@ -68,7 +68,11 @@ def model_departures(scene: dict) -> list[str]:
     if (case.get("forcing", {}) or {}).get("drive", "top") != "top":
         out.append("a mean pressure-gradient drive (the paper: a top drive)")
     q = fid.get("q_multiplier", 1.0)
-    if q != 1.0:
+    count = fid.get("parcels_per_m2")
+    if count is not None:
+        out.append(f"parcels {q:.3g}x the paper's Q, weighed for {count:g} airborne parcels per m2 "
+                   "(the paper's rule for its Q, [28]; the count at Q from data/airborne_counts.toml)")
+    elif q != 1.0:
         out.append(f"parcels {q:g}x heavier than the paper's Q")
     if ((fid.get("relaxation", {}) or {}).get("gain", 0.0) or 0.0) > 0:
         out.append("a column relaxation force over the first seconds of saltation")
