@@ -17,7 +17,6 @@ A scene without saltation never imports the grain component.
 """
 from __future__ import annotations
 
-import inspect
 import json
 import math
 import time
@@ -216,12 +215,7 @@ class Model:
         s, st = self.state, self.stepper
         if st.wall:
             st.bed_stress_into(s.u, s.v, st.taux, st.tauy)
-        extra = 0.0
-        for c in self.components:
-            f = getattr(c, "stress_at", None)
-            if f is not None:
-                extra += float(f(s, self.z_ref))
-        return self.controller.measure(s, st.closure.cml_v, st.closure.nu_mol, st.taux, extra)
+        return self.controller.measure(s, st.closure.cml_v, st.closure.nu_mol, st.taux)
 
     def damped_mean_u(self) -> np.ndarray:
         """Horizontal-mean u on the levels the drive sees (zeros elsewhere: weight zero there)."""
@@ -245,14 +239,7 @@ class Model:
             raise RuntimeError("activate_saltation: this model has no grain component "
                                "(saltation=False or case.physics.saltation = false)")
         for c in self.components:
-            act = getattr(c, "activate", None)
-            if act is None:
-                continue
-            params = inspect.signature(act).parameters
-            if "rng" in params or len(params) >= 2:
-                act(self.state, self.rng)
-            else:
-                act(self.state)
+            c.activate(self.state)
         self.t_activation = float(self.state.t)
 
     # ---- checkpoint --------------------------------------------------------------------------

@@ -25,8 +25,7 @@ __all__ = ["rescale_restart", "VELOCITY_ENTRIES", "SQUARED_ENTRIES", "INVARIANT_
 # Restart entries that scale like a velocity [m s^-1] and like a velocity squared
 # ([m^2 s^-2]: SGS TKE, kinematic pressure, kinematic stresses held by the drive controller).
 VELOCITY_ENTRIES = ("u", "v", "w", "u_drive")
-SQUARED_ENTRIES = ("e", "p", "controller/tau_ref_filtered", "controller/tau_ref_last",
-                   "controller/integral")
+SQUARED_ENTRIES = ("e", "p", "controller/tau_ref_filtered", "controller/tau_ref_last")
 #: entries of the flow's own parts that carry no velocity scale: the dynamic closure's
 #: (C_s Delta)^2 [m^2] and beta [-] are lengths and ratios of the resolved field, unchanged
 #: by a uniform rescaling of the velocities

@@ -86,19 +86,11 @@ def stress_profile(model) -> tuple[np.ndarray, np.ndarray]:
     return _resolved_uw(model), _sgs_uw(model)
 
 
-def _grain_stress(model, z: float) -> float:
-    total = 0.0
-    for c in model.components:
-        f = getattr(c, "stress_at", None)
-        if f is not None:
-            total += float(f(model.state, z))
-    return total
-
-
 def u_star_at(model, z: float) -> float:
-    """sqrt|resolved + SGS (+ grain, if a component reports it) u-w stress| at height z [m s^-1]."""
+    """sqrt|resolved + SGS u-w stress| at height z [m s^-1] (the air's: read above the saltation
+    layer, where the grains carry none)."""
     res, sgs = stress_profile(model)
-    tot = float(np.interp(z, model.state.grid.z_f, res + sgs)) + _grain_stress(model, z)
+    tot = float(np.interp(z, model.state.grid.z_f, res + sgs))
     return math.sqrt(abs(tot))
 
 
