@@ -24,7 +24,8 @@ def with_closure(scene, **closure):
 
 def make_stepper(grid, *, z0=1e-5, kappa=0.4, nu_mol=1.5e-5, wall=True, sgs=True,
                  vertical_diffusion="explicit", implicit_weight=0.5, advection=True,
-                 advection_order=2, damping_depth=0.0, damping_timescale=10.0, **closure):
+                 advection_order=2, precision="double", damping_depth=0.0, damping_timescale=10.0,
+                 **closure):
     """A flow stepper on ``grid`` with the case closure ``closure`` fields (config.Closure) and no
     damping layer by default."""
     from saltstudy.config import Closure
@@ -36,7 +37,7 @@ def make_stepper(grid, *, z0=1e-5, kappa=0.4, nu_mol=1.5e-5, wall=True, sgs=True
                                          damping_timescale=damping_timescale),
                    FlowNumerics(vertical_diffusion=vertical_diffusion,
                                 implicit_weight=implicit_weight, advection=advection,
-                                advection_order=advection_order))
+                                advection_order=advection_order, precision=precision))
 
 
 def stretched_grid(nx=16, ny=12, nz=14, Lx=2.0, Ly=1.5, Lz=3.0, dz_bottom=0.02) -> Grid:
