@@ -40,6 +40,8 @@ if "NUMBA_CACHE_DIR" not in os.environ:
 os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp tbb workqueue")
 # The OpenMP worker threads sleep as soon as a parallel region ends instead of spinning for a
 # while (libgomp's default): between the flow's parallel regions the pressure solve's FFTs run on
-# other threads (solver/flow/pressure.py), which a spinning worker kept from a core. Measured on
-# the paper's grid, 2 threads (docs/BENCHMARKS.md, "The flow's threads").
+# other threads (solver/flow/pressure.py), which a spinning worker keeps from a core on a 2-core
+# machine. The two threads' speed-up on the paper's grid with this policy: docs/BENCHMARKS.md,
+# "Single precision and the flow's threads" (`NUMBA_NUM_THREADS=1|2 saltstudy bench flow
+# --fidelity paper`; `OMP_WAIT_POLICY=ACTIVE` in the environment times libgomp's default).
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

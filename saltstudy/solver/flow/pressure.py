@@ -42,7 +42,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from ..._jit import jit, pjit
+from ..._jit import device, jit, pjit
 
 __all__ = ["PressureSolver", "divergence", "gradient", "laplacian", "max_relative_divergence",
            "modified_wavenumber_sq", "PROJECTION_ORDERS"]
@@ -147,6 +147,30 @@ def _phi_tile(phi, i, j0, lo, n, ny, tile):
             tile[q, k] = phi[k, i, jw]
 
 
+@device
+def _correct_w_p(w, p, tc, c, i, j, dzf, rdzf, rdt, keep, dp):
+    """The column (i, j) of _correct and _correct4 past u and v: w -= Gz phi, and p set or
+    incremented by phi / dt_stage (rdt = 1 / dt_stage; skipped when rdt == 0); phi is the tile
+    row tc[c] (_phi_tile)."""
+    nz = tc.shape[1]
+    if rdt != 0.0 and keep != 0.0:
+        # the increment rounded before it is added (no fused multiply-add): the rounding of the
+        # pressure the double-precision results are pinned to
+        for k in range(nz):
+            dp[k] = tc[c, k] * rdt
+        for k in range(nz):
+            p[i, j, k] += dp[k]
+    elif rdt != 0.0:
+        for k in range(nz):
+            p[i, j, k] = tc[c, k] * rdt
+    if j < 2:
+        for k in range(1, nz):
+            w[i, j, k] -= (tc[c, k] - tc[c, k - 1]) / dzf[k]
+    else:
+        for k in range(1, nz):
+            w[i, j, k] -= (tc[c, k] - tc[c, k - 1]) * rdzf[k]
+
+
 @pjit
 def _correct(u, v, w, phi, rdx, rdy, dzf, rdzf, p, rdt, keep):
     """u -= G phi; p = keep p + phi / dt_stage (skipped when rdt == 0; keep = 1: the pressure
@@ -170,22 +194,7 @@ def _correct(u, v, w, phi, rdx, rdy, dzf, rdzf, p, rdt, keep):
                     u[i, j, k] -= (tc[jj + 1, k] - tw[jj, k]) * rdx
                 for k in range(nz):
                     v[i, j, k] -= (tc[jj + 1, k] - tc[jj, k]) * rdy
-                if rdt != 0.0 and keep != 0.0:
-                    # the increment rounded before it is added (no fused multiply-add): the
-                    # rounding of the pressure the double-precision results are pinned to
-                    for k in range(nz):
-                        dp[k] = tc[jj + 1, k] * rdt
-                    for k in range(nz):
-                        p[i, j, k] += dp[k]
-                elif rdt != 0.0:
-                    for k in range(nz):
-                        p[i, j, k] = tc[jj + 1, k] * rdt
-                if j < 2:
-                    for k in range(1, nz):
-                        w[i, j, k] -= (tc[jj + 1, k] - tc[jj + 1, k - 1]) / dzf[k]
-                else:
-                    for k in range(1, nz):
-                        w[i, j, k] -= (tc[jj + 1, k] - tc[jj + 1, k - 1]) * rdzf[k]
+                _correct_w_p(w, p, tc, jj + 1, i, j, dzf, rdzf, rdt, keep, dp)
 
 
 @pjit
@@ -216,22 +225,7 @@ def _correct4(u, v, w, phi, rdx, rdy, dzf, rdzf, p, rdt, keep):
                 for k in range(nz):
                     v[i, j, k] -= (C1 * (tc[jj + 2, k] - tc[jj + 1, k])
                                    - C3 * (tc[jj + 3, k] - tc[jj, k])) * rdy
-                if rdt != 0.0 and keep != 0.0:
-                    # the increment rounded before it is added (no fused multiply-add): the
-                    # rounding of the pressure the double-precision results are pinned to
-                    for k in range(nz):
-                        dp[k] = tc[jj + 2, k] * rdt
-                    for k in range(nz):
-                        p[i, j, k] += dp[k]
-                elif rdt != 0.0:
-                    for k in range(nz):
-                        p[i, j, k] = tc[jj + 2, k] * rdt
-                if j < 2:
-                    for k in range(1, nz):
-                        w[i, j, k] -= (tc[jj + 2, k] - tc[jj + 2, k - 1]) / dzf[k]
-                else:
-                    for k in range(1, nz):
-                        w[i, j, k] -= (tc[jj + 2, k] - tc[jj + 2, k - 1]) * rdzf[k]
+                _correct_w_p(w, p, tc, jj + 2, i, j, dzf, rdzf, rdt, keep, dp)
 
 
 def _check_order(order: int) -> int:
