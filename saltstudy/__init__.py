@@ -2,6 +2,20 @@
 
 A software reproduction of Dupont, Bergametti, Marticorena & Simoens (2013), *Modeling saltation
 intermittency*, J. Geophys. Res. Atmos. 118, doi:10.1002/jgrd.50528.
+
+From Python (docs/USAGE.md, "From Python"; the command line: ``saltstudy --help``):
+
+* ``load_case(2)``, ``load_fidelity("quick")``, ``load_study("quick")``: the validated, frozen
+  records ``Case``, ``Fidelity``, ``Study``; ``list_case_numbers()``. ``record.replace(...)``
+  is a changed copy, validated (``case.replace(forcing={"u_star_s": 0.47})``); a bad value
+  raises ``ConfigError`` naming the field and the reason.
+* ``run(case, fidelity, out=None)``: one case, cached and resumed as ``saltstudy run``; a ``Run``
+  with ``.analysis()`` (xarray Dataset), ``.samples()`` and ``.spinup()`` (lazy, dask).
+* ``run_study("quick")``: a study as ``saltstudy run-all``; ``open_results("quick")``: the
+  study's runs in the cache. Both give ``Results``: ``.runs``, ``.analysis(label)``,
+  ``.samples(label)``, ``.table2()`` (Table 2 beside the paper, an xarray Dataset).
+
+Importing ``saltstudy`` loads none of these (nor numba or dask) until one is used.
 """
 from __future__ import annotations
 
@@ -10,6 +24,28 @@ import os
 from pathlib import Path
 
 __version__ = "0.1.0"
+
+#: the public names, by the module each comes from (imported on first use)
+_CONFIG_NAMES = ("Case", "Fidelity", "Study", "ConfigError", "load_case", "load_fidelity",
+                 "load_study", "list_case_numbers")
+_API_NAMES = ("Run", "Results", "run", "run_study", "open_results")
+__all__ = [*_CONFIG_NAMES, *_API_NAMES, "__version__"]
+
+
+def __getattr__(name: str):
+    if name in _CONFIG_NAMES:
+        from . import config as module
+    elif name in _API_NAMES:
+        from . import api as module
+    else:
+        raise AttributeError(f"module 'saltstudy' has no attribute {name!r}")
+    value = getattr(module, name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
 
 
 def _source_key(here: Path | None = None) -> str:

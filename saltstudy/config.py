@@ -22,8 +22,8 @@ from typing import Any, Literal
 from pydantic import (BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator,
                       model_validator)
 
-from .config_files import (ConfigError, case_path, list_case_numbers, locate_fidelity, locate_study,
-                           own_fidelity_folder, project_root, read_toml)
+from .config_files import (ConfigError, case_path, deep_merge, list_case_numbers, locate_fidelity,
+                           locate_study, own_fidelity_folder, project_root, read_toml)
 
 __all__ = [
     "Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Physics", "Particles",
@@ -41,6 +41,17 @@ PAPER_AREA_M2 = 20.0 * 15.0
 
 class _Frozen(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", validate_default=True)
+
+    def replace(self, **changes: Any) -> Any:
+        """A validated copy with ``changes`` deep-merged in (a section takes a dict of the fields
+        that change, a list is replaced whole): ``case.replace(forcing={"u_star_s": 0.47})``.
+        Raises ConfigError naming the field (pydantic's ``model_copy(update=...)`` validates
+        nothing)."""
+        new = validate_model(type(self), deep_merge(self.model_dump(), changes),
+                             f"{type(self).__name__}.replace")
+        for name, value in (self.__pydantic_private__ or {}).items():   # a study's file
+            setattr(new, name, value)
+        return new
 
 
 def content_hash(model: BaseModel | dict[str, Any], length: int = 16) -> str:
@@ -578,17 +589,6 @@ class RunSpec(BaseModel):
 # --------------------------------------------------------------------------------------------
 # Loading
 # --------------------------------------------------------------------------------------------
-def deep_merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
-    """Recursive dict merge (update wins); lists and scalars are replaced."""
-    out = dict(base)
-    for k, v in update.items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = deep_merge(out[k], v)
-        else:
-            out[k] = v
-    return out
-
-
 def _format_errors(err: ValidationError, source: str) -> str:
     lines = [f"{source}: invalid configuration"]
     for e in err.errors():
