@@ -15,7 +15,7 @@ from pathlib import Path
 import typer
 from typer.core import TyperGroup
 
-from . import __version__
+from ._identity import __version__
 from .config import (ConfigError, list_case_numbers, load_case, validate_file)
 
 USER_PANEL = "Run a study and read its results"

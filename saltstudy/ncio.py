@@ -18,7 +18,7 @@ from pathlib import Path
 
 import xarray as xr
 
-from . import __version__
+from ._identity import __version__
 
 __all__ = ["NC_LOCK", "CF_VERSION", "CF_COORDINATES", "CF_STANDARD_NAMES", "cf_attributes",
            "open_dataset", "open_lazy", "write_dataset", "is_complete"]

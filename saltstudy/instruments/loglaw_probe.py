@@ -160,7 +160,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     us_exp = u_star_expected(hs)
     k_co = int(np.argmin(np.abs(g.z_f - CO_HEIGHT)))
     k_st = int(np.argmin(np.abs(g.z_c - STREAK_HEIGHT)))
-    from .. import __version__
+    from .._identity import __version__
     out = {"grid": [g.nx, g.ny, g.nz], "L": [g.Lx, g.Ly, Lz], "drive": m.drive,
            "heights": list(HEIGHTS), "closure": scene.case.closure.model_dump(mode="json"),
            "package_version": __version__,

@@ -137,7 +137,7 @@ def register(app: typer.Typer) -> None:
 
 def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path]) -> Path:
     """Resolve the study's analysis archives under ``out`` and build the report. Returns index.html."""
-    from .. import __version__
+    from .._identity import __version__
     from ..config import load_study, study_file
     from ..report import build_report
     from . import keys as wkeys
