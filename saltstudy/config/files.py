@@ -1,6 +1,5 @@
 """Where the configuration files are, and reading them: the project root, the case files, the file a
-fidelity or study reference names, the folder of a study's own fidelities, and the merge of a
-file's overrides (a fidelity's ``based_on``, a scene's ``overrides``: :func:`deep_merge`).
+fidelity or study reference names, and the folder of a study's own fidelities.
 
 The layout (docs/USAGE.md, "Studies"): ``cases/caseNN.toml``; the shared fidelities in
 ``workflows/fidelities/``; a study ``workflows/NAME.toml`` with the rungs and variants only it runs
@@ -15,7 +14,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-__all__ = ["ConfigError", "project_root", "read_toml", "deep_merge", "case_path", "list_case_numbers",
+__all__ = ["ConfigError", "project_root", "read_toml", "case_path", "list_case_numbers",
            "locate_fidelity", "locate_study", "own_fidelity_folder"]
 
 
@@ -28,7 +27,7 @@ def project_root() -> Path:
     env = os.environ.get("SALTSTUDY_HOME")
     if env:
         return Path(env)
-    here = Path(__file__).resolve().parent.parent
+    here = Path(__file__).resolve().parents[2]
     if (here / "cases").is_dir():
         return here
     return Path.cwd()
@@ -44,17 +43,6 @@ def read_toml(path: Path) -> dict[str, Any]:
         raise ConfigError(f"{path}: not valid TOML ({exc})") from None
     except OSError as exc:   # a directory, no permission
         raise ConfigError(f"{path}: cannot be read ({exc.strerror or exc})") from None
-
-
-def deep_merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
-    """Recursive dict merge (update wins); lists and scalars are replaced."""
-    out = dict(base)
-    for k, v in update.items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = deep_merge(out[k], v)
-        else:
-            out[k] = v
-    return out
 
 
 def case_path(number: int, root: Path | None = None) -> Path:
