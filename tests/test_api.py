@@ -1,6 +1,6 @@
 """The study from Python (saltstudy/api.py, docs/USAGE.md "From Python"): the light import, the
 validating ``replace``, and the worked example docs/examples/own_scene.py end to end at smoke
-cost, with the cache, lazy samples and Table 2 it reads through."""
+cost (tests/conftest.py), with the cache, lazy samples and Table 2 it reads through."""
 from __future__ import annotations
 
 import math
@@ -55,7 +55,7 @@ def test_own_scene_example_end_to_end(own_scene):
     assert np.isnan(table2.u_star_s_stress_paper.sel(run="sand150um"))
     # each run's Fig. 8 point and z_m: Table 2 holds its analysis archive's numbers
     for label, case in (("case02", 2), ("sand150um", own_scene["case"])):
-        a = saltstudy.run(case, "smoke", out=out).analysis()
+        a = saltstudy.run(case, own_scene["fidelity"], out=out).analysis()
         row = table2.sel(run=label)
         assert float(row.G_tot) == float(a.G_tot) > 0
         assert float(row.z_m) == float(a.z_m) > 0
@@ -68,7 +68,7 @@ def test_own_scene_example_end_to_end(own_scene):
 
 def test_a_run_again_is_cached_and_a_study_finds_it(own_scene):
     out, own = own_scene["out"], own_scene["case"]
-    again = saltstudy.run(2, "smoke", out=out)
+    again = saltstudy.run(2, own_scene["fidelity"], out=out)
     assert [o.status for o in again.outcomes] == ["cached"] * 3
     with again.samples() as s:                      # lazily: dask arrays, read when computed
         assert s.u.chunks is not None
@@ -77,7 +77,7 @@ def test_a_run_again_is_cached_and_a_study_finds_it(own_scene):
     # the same two runs as a study written in code: its scene, case 2 with the example's
     # changes, is the example's run (a label is no part of a run's key)
     changes = {"soil": {"modes": [{"mu": own.soil.modes[0].mu}]}, "particles": {"Q": own.particles.Q}}
-    study = saltstudy.Study(name="mine", fidelity="smoke", cases=(2,), report=False,
+    study = saltstudy.Study(name="mine", fidelity=str(own_scene["fidelity"]), cases=(2,), report=False,
                             scenes=[{"label": "sand150um", "case": 2, "overrides": changes}])
     res = saltstudy.open_results(study, out=out)
     assert res.labels == ["case02", "sand150um"] and all(r.ok for r in res.runs.values())

@@ -8,7 +8,8 @@ saltation height z_m on the profile of the flux it bounds, drawn from the xarray
 hands back.
 
     python docs/examples/own_scene.py                     # the quick fidelity, a few minutes
-    python docs/examples/own_scene.py --fidelity smoke    # seconds per run (tests/test_api.py)
+    python docs/examples/own_scene.py --fidelity smoke    # seconds per run (the tests: half of
+                                                          # it, tests/conftest.py)
 
 The figure of the quick fidelity is docs/examples/own_scene.png (docs/USAGE.md, "From Python").
 """
@@ -63,7 +64,7 @@ def draw(table2: xr.Dataset, analyses: dict[str, xr.Dataset], names: dict[str, s
     return fig
 
 
-def main(fidelity: str = "quick", out: Path | None = None,
+def main(fidelity: str | Path = "quick", out: Path | None = None,
          figure: Path = HERE / "own_scene.png") -> xr.Dataset:
     """Run both scenes (cached), draw ``figure`` and return their Table 2."""
     fid = saltstudy.load_fidelity(fidelity)
