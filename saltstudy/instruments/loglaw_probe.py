@@ -160,7 +160,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     us_exp = u_star_expected(hs)
     k_co = int(np.argmin(np.abs(g.z_f - CO_HEIGHT)))
     k_st = int(np.argmin(np.abs(g.z_c - STREAK_HEIGHT)))
-    from .. import __version__
+    from .._identity import __version__
     out = {"grid": [g.nx, g.ny, g.nz], "L": [g.Lx, g.Ly, Lz], "drive": m.drive,
            "heights": list(HEIGHTS), "closure": scene.case.closure.model_dump(mode="json"),
            "package_version": __version__,
@@ -263,12 +263,15 @@ def _writer(path: str):
 
 
 def register_probe(app) -> None:
-    """Add ``saltstudy probe loglaw`` to the given typer app."""
+    """Add the ``saltstudy probe`` group to the given typer app: ``loglaw``, the other probes
+    and the investigations' reports (report/cli_commands.py)."""
     import typer
 
     from ..config import ConfigError
 
-    probe_app = typer.Typer(no_args_is_help=True, help="Diagnostic runs of the flow solver.")
+    probe_app = typer.Typer(no_args_is_help=True, help="Diagnostic runs of the model (the flow "
+                            "alone, the grains' layer, a run's archives) and the reports of "
+                            "the investigations that use them.")
 
     @probe_app.command("loglaw")
     def loglaw(case: int = typer.Option(1, "--case", help="case number (its u*s and z0)"),
@@ -300,4 +303,6 @@ def register_probe(app) -> None:
     register_steady_layer(probe_app)
     from .column_budget import register_column_budget
     register_column_budget(probe_app)
+    from ..report.cli_commands import register as register_reports
+    register_reports(probe_app)
     app.add_typer(probe_app, name="probe")

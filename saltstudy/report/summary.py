@@ -183,7 +183,7 @@ def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Pa
 
 
 def _package_version() -> str:
-    from .. import __version__
+    from .._identity import __version__
     return __version__
 
 

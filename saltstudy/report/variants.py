@@ -3,7 +3,7 @@
 ``<variant>_s<seed>`` with the case from the run's own case number (the equilibrium screen's,
 reports/investigations/equilibrium/screen).
 
-    saltstudy variants-report reports/investigations/streamers/box   # reads summary.json, writes variants.{md,json}
+    saltstudy probe variants-report reports/investigations/streamers/box   # reads summary.json, writes variants.{md,json}
 
 Per case and variant: the mean over seeds of each statistic and half the range between seeds (with
 two seeds, the seed-to-seed scatter: a difference between variants smaller than it is not a

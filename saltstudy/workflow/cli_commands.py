@@ -84,10 +84,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Run one case: spin-up, saltation, analysis (cached like run-all; no report)."""
         from ..config import load_case, load_fidelity, resolve_scene
-        from . import keys as K
-        from .graph import run_case, warm_for
-        from .paths import task_dir
-        from .progress import ProgressDisplay, TaskRef
+        from .graph import run_scene
 
         out_dir = _out(out)
         try:
@@ -95,13 +92,8 @@ def register(app: typer.Typer) -> None:
             scene = resolve_scene(c, load_fidelity(fidelity))
         except ConfigError as exc:
             _fail(str(exc))
-        rk = K.run_keys(scene.label, scene)
-        refs = [TaskRef(f"spinup {rk.label}", task_dir(out_dir, "spinup", rk.spinup)),
-                TaskRef(f"saltation {rk.label}", task_dir(out_dir, "saltation", rk.saltation))]
         t0 = time.perf_counter()
-        with ProgressDisplay(refs, quiet=quiet):
-            warm_for([rk], out_dir)
-            outcomes = run_case(rk, out_dir)
+        _, outcomes = run_scene(scene, out_dir, quiet=quiet)
         for o in outcomes:
             typer.echo(f"{o.task:<9} {o.status:<8} {o.path or o.error or ''}")
         typer.echo(f"wall time {time.perf_counter() - t0:.1f} s")
@@ -145,7 +137,7 @@ def register(app: typer.Typer) -> None:
 
 def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path]) -> Path:
     """Resolve the study's analysis archives under ``out`` and build the report. Returns index.html."""
-    from .. import __version__
+    from .._identity import __version__
     from ..config import load_study, study_file
     from ..report import build_report
     from . import keys as wkeys

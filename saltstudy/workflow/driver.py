@@ -24,7 +24,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import SOURCE_KEY
+from .._identity import SOURCE_KEY
 from ..config import Scene
 from ..solver.simulation import (TIME_EPS, IterationInterval, Simulation, SpecifiedTimes,
                                  WallTimeInterval)

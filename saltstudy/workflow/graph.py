@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .. import SOURCE_KEY, __version__
+from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study, study_file
 from ..ncio import is_complete
 from . import keys as K
@@ -58,7 +58,7 @@ from .tasks import (analysis_task, continuation_task, report_done, report_task, 
                     spinup_task)
 from .warmup import ensure_warm
 
-__all__ = ["Outcome", "StudySummary", "build_graph", "run_study", "run_case", "warm_for"]
+__all__ = ["Outcome", "StudySummary", "build_graph", "run_study", "run_case", "run_scene", "warm_for"]
 
 
 @dataclass
@@ -169,6 +169,18 @@ def run_case(rk: "K.RunKeys", out_dir: Path) -> list[Outcome]:
     sa = _saltation(scene, rk.saltation, st, out_dir, SOURCE_KEY, None)
     an = _analysis(rk.label, rk.analysis, st, sa, out_dir)
     return [sp, sa, an]
+
+
+def run_scene(scene: Scene, out_dir: Path, quiet: bool = False) -> tuple["K.RunKeys", list[Outcome]]:
+    """One scene's run in this process as ``saltstudy run`` makes it: the kernels warmed as for
+    ``run-all`` (:func:`warm_for`), the progress displayed, the cache used; its keys and
+    :func:`run_case`'s outcomes."""
+    rk = K.run_keys(scene.label, scene)
+    refs = [TaskRef(f"{task} {rk.label}", task_dir(out_dir, task, getattr(rk, task)))
+            for task in ("spinup", "saltation")]
+    with ProgressDisplay(refs, quiet=quiet):
+        warm_for([rk], out_dir)
+        return rk, run_case(rk, Path(out_dir))
 
 
 # ------------------------------------------------------------------------------------------

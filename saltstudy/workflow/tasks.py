@@ -21,7 +21,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import SOURCE_KEY, __version__
+from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
