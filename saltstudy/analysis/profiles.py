@@ -108,9 +108,7 @@ def stress_u_star(z: np.ndarray, uw: np.ndarray, z_ref: float) -> float:
     return math.sqrt(abs(v)) if math.isfinite(v) else math.nan
 
 
-# ------------------------------------------------------------------------------------------
-# the statistics of one case
-# ------------------------------------------------------------------------------------------
+# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class WindProfiles:
     """The wind with grains over the sampling window (cell centres unless said)."""

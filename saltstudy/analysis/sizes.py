@@ -99,9 +99,7 @@ def bed_mass_fractions(soil_dict: dict | None, edges: np.ndarray) -> tuple[np.nd
     return lognormal_bin_fractions(modes, edges), "saltstudy.analysis.sizes.lognormal_bin_fractions"
 
 
-# ------------------------------------------------------------------------------------------
-# the statistics of one case
-# ------------------------------------------------------------------------------------------
+# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class SizeStatistics:
     #: Q-weighted grain counts per layer and diameter bin, summed over the samples (nz, d_bin)

@@ -1,5 +1,6 @@
 """Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow
-(``saltstudy bench particles``; docs/BENCHMARKS.md).
+(``saltstudy bench particles``, or ``python -m saltstudy.instruments.bench_particles [--json]
+[--phases] [--steps N] [--n 1e5 --n 1e6]``; docs/BENCHMARKS.md).
 
 The flow is a frozen synthetic log-law wind (u*s of case 2) with smooth periodic perturbations of
 30% u* in u, v, w; the parcels are spread in the lowest 0.3 m with random velocities, so they

@@ -601,10 +601,7 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     """
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
-    if runs and all(isinstance(v, RunData) for v in runs.values()):
-        loaded = dict(runs)  # type: ignore[arg-type]
-    else:
-        loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
+    loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
     results = convergence_by_case(loaded, order, reference)
     primary = next(iter(results))
     res = results[primary]

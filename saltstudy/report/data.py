@@ -321,7 +321,10 @@ def _load_one(label: str, path: Path | None, case_hint: int | None) -> RunData:
 def load_runs(runs: dict[str, str | Path | None], meta: dict[str, Any] | None = None
               ) -> dict[str, RunData]:
     """Read every archive (under the NetCDF lock). ``meta`` may give ``case_numbers``,
-    ``fidelities`` and ``wall_times`` per label; these win over the archives' attributes."""
+    ``fidelities`` and ``wall_times`` per label; these win over the archives' attributes.
+    Runs already read (all :class:`RunData`) are returned as they are."""
+    if runs and all(isinstance(v, RunData) for v in runs.values()):
+        return dict(runs)  # type: ignore[arg-type]
     meta = meta or {}
     cases = meta.get("case_numbers") or {}
     fids = meta.get("fidelities") or {}

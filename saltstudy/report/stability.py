@@ -315,10 +315,7 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
     provenance given (the workflow passes the package version and the checkout's commit)."""
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
-    if runs and all(isinstance(v, RunData) for v in runs.values()):
-        loaded = dict(runs)  # type: ignore[arg-type]
-    else:
-        loaded = load_runs(runs, {"wall_times": wall_times or {}})
+    loaded = load_runs(runs, {"wall_times": wall_times or {}})
     for label in failures or {}:
         if label not in loaded:
             loaded[label] = RunData(label, None, None, status="no archive")

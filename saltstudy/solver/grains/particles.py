@@ -103,13 +103,11 @@ class Threads:
     of chunks and runs, each with its own buffers, stream and stretch; every sum in a fixed
     order; the same compiled code).
 
-    Which is faster depends on the machine's load, not on the model: on a quiet machine the
-    worker threads start at once and the threads win by up to their count; on a machine shared
-    with other jobs a parallel region first waits for its workers to get a core (an empty
-    4-iteration prange, 2 threads, load 4: median 8.0 ms over 2000 calls; with
-    numba.set_num_threads(1) 3.6 us), more than the kernel's work at 10^5 parcels. Every
-    ``EXPLORE``-th call takes the other count, so that a change of load is noticed; a kernel's
-    first call in the process (its compilation or cache load) is not timed."""
+    Which is faster depends on the machine's load, not on the model: on a machine shared with
+    other jobs a parallel region first waits milliseconds for its workers to get a core, more
+    than the kernel's work at 10^5 parcels (measured: docs/BENCHMARKS.md). Every ``EXPLORE``-th
+    call takes the other count, so that a change of load is noticed; a kernel's first call in
+    the process (its compilation or cache load) is not timed."""
 
     EXPLORE = 32
 
@@ -221,7 +219,6 @@ class Saltation:
         self.last_step: dict = {}
         self._steps = 0
         self._vmax = 0.0
-        self._empty = np.zeros(0)
         self._e_zero = np.zeros((1, 1, 1))
 
     @property
