@@ -7,12 +7,13 @@ the semi-empirical laws at 200 µm (Figs. 3 and 8) and the paper's own values as
 """
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
 
+from ..physics.laws import GTOT_LAWS, Z0S_LAWS
 from .data import ReportContext, RunData
-from .laws import evaluate_law, load_laws
 from .plotting import (MARKERS, OWN_COLORS, FigureResult, add_legend, add_notes, case_color,
                        empty_axes, fmt_um, is_200um, new_figure, paper_u_star_ratio, u_star_ratio)
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
@@ -150,26 +151,21 @@ def _ref_threshold(ctx: ReportContext) -> tuple[float, RunData | None]:
     return math.nan, None
 
 
-def _draw_laws(ctx, ax, laws: dict, reason: str | None, res: FigureResult, d: float) -> None:
+def _draw_laws(ctx, ax, laws: dict, res: FigureResult, d: float) -> None:
+    """The semi-empirical laws (``physics.laws``: name -> (law, citation)) at the u*t of a
+    200 µm case; each law takes the quantities whose names its keywords have."""
     ut, src = _ref_threshold(ctx)
-    if reason:
-        res.notes.append("semi-empirical laws not drawn: physics.laws unavailable")
-        return
     if not math.isfinite(ut) or src is None:
         res.notes.append("semi-empirical laws not drawn: no u*t for µ1 = 200 µm")
         return
     ratio = _law_range(res)
-    q = dict(u_star_t=ut, d=d, rho=src.rho, rho_p=src.attr("rho_p", 2650.0), g=src.attr("g", 9.81),
-             z0=src.attr("z0", 1e-5), kappa=src.attr("kappa", 0.4), nu=src.attr("nu", 1.5e-5))
+    q = dict(d=d, rho=src.rho, rho_p=src.attr("rho_p", 2650.0), g=src.attr("g", 9.81),
+             z0=src.attr("z0", 1e-5), nu=src.attr("nu", 1.5e-5))
     styles = ["-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1))]
     colors = ["#1f77b4", "#9467bd", "#8c564b", "#d62728", "#17becf", "#bcbd22"]
-    for i, (name, entry) in enumerate(laws.items()):
-        fn, cite = (entry if isinstance(entry, tuple) else (entry, name))
-        try:
-            y = evaluate_law(fn, ratio * ut, **q)
-        except Exception as exc:
-            res.notes.append(f"law {name} not drawn ({type(exc).__name__})")
-            continue
+    for i, (name, (fn, cite)) in enumerate(laws.items()):
+        takes = inspect.signature(fn).parameters
+        y = np.asarray(fn(ratio * ut, ut, **{k: v for k, v in q.items() if k in takes}), dtype=float)
         ax.plot(ratio, y, color=colors[i % len(colors)], ls=styles[i % len(styles)], lw=1.2,
                 label=str(cite))
         res.data[f"law_{name}"] = y
@@ -192,8 +188,7 @@ def _finish(ax, res: FigureResult, ylabel: str, notes_at: str, legend_size: floa
 
 def fig03(ctx: ReportContext) -> FigureResult:
     ax, res = _scatter_figure(ctx, "z0s", size=(7.2, 5.2))
-    z0s_laws, _, reason = load_laws()
-    _draw_laws(ctx, ax, z0s_laws, reason, res, d=200e-6)
+    _draw_laws(ctx, ax, Z0S_LAWS, res, d=200e-6)
     if any(np.any(np.asarray(v) > 0) for v in res.data.values()):
         ax.set_yscale("log")
     ax.set_title("Fig. 3 — z0s vs u*s/u*t (laws at µ1 = 200 µm, u*t of case 2)", fontsize=10)
@@ -214,8 +209,7 @@ def fig04(ctx: ReportContext) -> FigureResult:
 
 def fig08(ctx: ReportContext) -> FigureResult:
     ax, res = _scatter_figure(ctx, "G_tot", size=(7.2, 5.2))
-    _, gtot_laws, reason = load_laws()
-    _draw_laws(ctx, ax, gtot_laws, reason, res, d=200e-6)
+    _draw_laws(ctx, ax, GTOT_LAWS, res, d=200e-6)
     ax.set_ylim(bottom=0)
     ax.set_title("Fig. 8 — G_tot vs u*s/u*t (laws at µ1 = 200 µm)", fontsize=10)
     ax.plot([], [], ls="none", label=f"{PAPER_LABEL}: G_tot close to Bagnold (1937) at low u*s,\n"
