@@ -259,19 +259,10 @@ class ReportContext:
         it has data or the study holds no run of case ``n`` (the figures draw the runs a study
         has, so a case it does not hold is nothing to note)."""
         r = self.by_case(n)
-        if r is None:
-            return None
-        if not r.ok:
-            return f"case {n}: {r.status}"
-        return None
+        return f"case {n}: {r.status}" if r is not None and not r.ok else None
 
     def present(self, cases: Iterable[int]) -> list[RunData]:
-        out = []
-        for n in cases:
-            r = self.by_case(n)
-            if r is not None and r.ok:
-                out.append(r)
-        return out
+        return [r for r in map(self.by_case, cases) if r is not None and r.ok]
 
     def scatter_runs(self) -> list[RunData]:
         """Runs for the scatter figures (3, 4, 8, 13): every case (one per number) plus any
