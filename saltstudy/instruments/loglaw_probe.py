@@ -1,9 +1,5 @@
 """Windowed log-law probe of the particle-free surface layer: the instrument behind the tables on
-the shear dip in reports/investigations/loglaw/README.md.
-
-    saltstudy probe loglaw [--case 1] [--fidelity reduced] [--drive top] [--t-end 300]
-                           [--window 100] [--grid JSON] [--overrides JSON]
-                           [--roll-damping RATE] [--json]
+the shear dip in reports/investigations/loglaw/README.md (``saltstudy probe loglaw``).
 
 Runs one case without grains from its initial state and, at the end of every ``window`` seconds,
 reports the means over that window (one profile per second):
@@ -24,10 +20,8 @@ reports the means over that window (one profile per second):
 - phi(z) on every level below Lz/2 (``phi_profile``), for plots;
 - with the dynamic closure, its C_s(z) and beta(z) (window means; beta 0 where undefined).
 
-``--grid`` and ``--overrides`` take JSON merged into the fidelity's ``grid`` block and into the
-case (validated like the files: a bad field is named); ``--drive`` sets ``forcing.drive`` over any
-given in ``--overrides``. ``--roll-damping RATE`` [s^-1] is a
-diagnostic, not a model: after every step it relaxes the x-mean of v (less its plane mean) and of
+``--drive`` sets ``forcing.drive`` over any given in ``--overrides``. ``--roll-damping RATE``
+[s^-1] is a diagnostic, not a model: after every step it relaxes the x-mean of v (less its plane mean) and of
 w towards zero at that rate, which removes the x-uniform roll circulation while leaving the
 field divergence-free (the x-mean of a solenoidal field is solenoidal in (y, z)). Comparing a run
 with and without it measures how much of the stress those box-locked modes carry.

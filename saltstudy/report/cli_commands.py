@@ -5,7 +5,6 @@ and ``saltstudy probe variants-report`` (model variants over seeds). A study's o
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 
