@@ -19,11 +19,12 @@ import numpy as np
 from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
+from .lock import LOCK_NAME, describe_holder, read_holder, record_alive
 from .paths import output_path, read_runs_file, task_dir
 from .progress import eta, format_duration, is_stale, read_progress, writer_gone
 from .tasks import read_task_json
 
-__all__ = ["StatusRow", "study_status", "format_status"]
+__all__ = ["StatusRow", "study_status", "format_status", "out_dir_state"]
 
 TASKS = ("spinup", "saltation", "analysis")
 
@@ -118,9 +119,13 @@ def study_status(study: Study, out_dir: Path, root: Path | None = None) -> list[
                 analyses[label] = key if state == "done" else None
     if study.report:
         rkey = K.report_key(study, analyses)
-        tj = read_task_json(task_dir(out_dir, "report", rkey)) or {}
+        d = task_dir(out_dir, "report", rkey)
+        tj = read_task_json(d) or {}
         if tj.get("state") == "done" and Path(tj.get("report_dir", "")).is_dir():
             rows.append(StatusRow("(all)", "report", "done", rkey, tj["report_dir"]))
+        elif tj.get("state") == "running":
+            state, detail = _running(d, tj)
+            rows.append(StatusRow("(all)", "report", state, rkey, detail))
         elif tj.get("state") == "failed":
             rows.append(StatusRow("(all)", "report", "failed", rkey, str(tj.get("error", ""))))
         else:
@@ -128,6 +133,21 @@ def study_status(study: Study, out_dir: Path, root: Path | None = None) -> list[
             st = "stale" if old.get("key") else "missing"
             rows.append(StatusRow("(all)", "report", st, rkey, old.get("dir", "")))
     return rows
+
+
+def out_dir_state(out_dir: Path) -> str:
+    """Who holds the out dir (``lock.py``): a live process, one that is gone, or none."""
+    path = Path(out_dir) / LOCK_NAME
+    if not path.exists():
+        return "out dir: not in use"
+    rec = read_holder(path)
+    if rec is None:
+        return f"out dir: {path} exists without a record (a process is taking it, or one died " \
+               "while taking it)"
+    if record_alive(rec, path):
+        return f"out dir: in use by {describe_holder(rec)}"
+    return (f"out dir: not in use; {path} was left by {describe_holder(rec)}, which is gone "
+            "(the next run takes it over)")
 
 
 def format_status(rows: list[StatusRow]) -> str:

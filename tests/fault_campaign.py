@@ -1,0 +1,265 @@
+"""Stop saltstudy commands at chosen instants, rerun them, and check what they leave (not a test
+module: tests/test_faults.py uses it).
+
+An instant is a write point of the package (saltstudy/faults.py: ``SALTSTUDY_FAULT`` freezes or
+kills the process at the k-th call of a named point) or a wall time. After each stop the checks
+are those of docs/USAGE.md, "Faults": ``saltstudy status`` tells the truth (a task is "done"
+exactly when its archive is complete, and then that archive is the uninterrupted run's, bit for
+bit; "running" only while its process lives; "partial" only beside a checkpoint; the out dir's
+holder named while it lives), the rerun completes, its archives equal the uninterrupted run's bit
+for bit, and nothing temporary is left (no ``*.tmp``, lock, checkpoint or report stage).
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from saltstudy.config import project_root
+from saltstudy.faults import FAULT_ENV
+from saltstudy.ncio import is_complete
+from saltstudy.workflow.paths import output_path, task_dir
+
+SALTSTUDY = str(Path(sys.executable).parent / "saltstudy")
+RUN_TIMEOUT_S = 1800        # a command: a bound for a cold numba compile on a busy machine
+
+#: the smoke fidelity at half its simulated times (the distributed test's cut, the same kernels)
+CUT = (("saltation_duration = 2.0", "saltation_duration = 1.0"), ("t_min = 1.0", "t_min = 0.5"),
+       ("t_max = 3.0", "t_max = 1.5"), ("window = 1.0", "window = 0.5"),
+       ("start = 1.0", "start = 0.4"), ("interval = 0.5", "interval = 0.3"))
+ALL_CASES = "cases = [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]"
+
+
+def make_home(root: Path, cases: list[int] | None = None, cut: bool = False,
+              checkpoint_interval: float | None = None, report: bool = True) -> Path:
+    """A project home (``SALTSTUDY_HOME``) with the package's cases and workflows, its smoke study
+    cut to ``cases``, its smoke fidelity cut in time (``cut``) and checkpointing every
+    ``checkpoint_interval`` s of wall time (a checkpoint's time changes no cache key)."""
+    h = Path(root)
+    for d in ("cases", "workflows"):
+        shutil.copytree(project_root() / d, h / d)
+    f = h / "workflows" / "fidelities" / "smoke.toml"
+    text = f.read_text()
+    for old, new in (CUT if cut else ()):
+        assert old in text, old
+        text = text.replace(old, new)
+    if checkpoint_interval is not None:
+        assert "checkpoint_interval_wall = 5.0" in text
+        text = text.replace("checkpoint_interval_wall = 5.0",
+                            f"checkpoint_interval_wall = {checkpoint_interval}")
+    f.write_text(text)
+    s = h / "workflows" / "smoke.toml"
+    text = s.read_text()
+    assert ALL_CASES in text
+    if cases is not None:
+        text = text.replace(ALL_CASES, f"cases = {list(cases)}")
+    s.write_text(text + ("" if report else "report = false\n"))
+    return h
+
+
+def env_for(home: Path, fault: str | None = None) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k not in ("SALTSTUDY_OUT", FAULT_ENV)}
+    env["SALTSTUDY_HOME"] = str(home)
+    if fault:
+        env[FAULT_ENV] = fault
+    return env
+
+
+def run(args: list[str], env: dict[str, str], timeout: float = RUN_TIMEOUT_S) -> subprocess.CompletedProcess:
+    """A saltstudy command to its end."""
+    return subprocess.run([SALTSTUDY, *args], env=env, capture_output=True, text=True, timeout=timeout)
+
+
+def launch(args: list[str], env: dict[str, str], log: Path) -> subprocess.Popen:
+    """A saltstudy command in its own session (so it and any child stop together), output to ``log``."""
+    fh = open(log, "wb")
+    try:
+        return subprocess.Popen([SALTSTUDY, *args], env=env, stdout=fh, stderr=subprocess.STDOUT,
+                                start_new_session=True)
+    finally:
+        fh.close()
+
+
+def frozen(pid: int) -> bool:
+    """True if process ``pid`` is stopped (SIGSTOP)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] in ("T", "t")
+
+
+def wait_frozen(p: subprocess.Popen, timeout: float = RUN_TIMEOUT_S) -> bool:
+    """Wait until ``p`` stops itself (True) or exits (False)."""
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if p.poll() is not None:
+            return False
+        if frozen(p.pid):
+            return True
+        time.sleep(0.05)
+    raise TimeoutError(f"pid {p.pid} neither stopped nor exited in {timeout} s")
+
+
+def kill(p: subprocess.Popen) -> None:
+    """SIGKILL ``p``'s whole session and reap it."""
+    try:
+        os.killpg(p.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    p.wait(timeout=60)
+
+
+def archives(out: Path) -> dict[str, Path]:
+    """``<task>/<key>/<name>.nc`` -> path of every archive under ``out``."""
+    return {p.relative_to(out).as_posix(): p for p in Path(out).glob("*/*/*.nc")}
+
+
+def same_archive(a: Path, b: Path) -> list[str]:
+    """Names of the variables whose values differ (bit for bit; NaN equals NaN)."""
+    with xr.open_dataset(a) as x, xr.open_dataset(b) as y:
+        names = set(x.variables) | set(y.variables)
+        return sorted(n for n in names if n not in x.variables or n not in y.variables
+                      or not np.array_equal(x[n].values, y[n].values, equal_nan=True))
+
+
+def differences(reference: Path, out: Path) -> list[str]:
+    """How the archives under ``out`` differ from those under ``reference`` (files and values)."""
+    ref, got = archives(reference), archives(out)
+    problems = [f"missing {n}" for n in sorted(set(ref) - set(got))]
+    problems += [f"not in the reference: {n}" for n in sorted(set(got) - set(ref))]
+    for n in sorted(set(ref) & set(got)):
+        diff = same_archive(ref[n], got[n])
+        if diff:
+            problems.append(f"{n}: {', '.join(diff)} differ")
+    return problems
+
+
+def leftovers(out: Path, report_dir: Path | None = None) -> list[str]:
+    """Files a finished run must not leave: temporary files, locks, checkpoints, report stages."""
+    found = [p for p in Path(out).rglob("*")
+             if p.name.endswith(".tmp") or p.name.endswith(".lock") or p.name == "checkpoint.npz"]
+    if report_dir is not None:
+        found += list(Path(report_dir).parent.glob(f".{Path(report_dir).name}.*.tmp"))
+        found += [p for p in Path(report_dir).glob("*") if p.name.endswith(".tmp")]
+    return sorted(str(p) for p in found)
+
+
+def status_cli(home: Path, out: Path, study: str = "smoke") -> tuple[list[tuple[str, ...]], str]:
+    """``saltstudy status`` as a user runs it: (label, task, state, key, detail) rows and its
+    out-dir line."""
+    r = run(["status", "--study", study, "--out", str(out)], env_for(home), timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    rows, lock_line = [], ""
+    for line in r.stdout.splitlines():
+        parts = line.split(None, 4)
+        if len(parts) >= 4 and len(parts[3]) == 20 and all(c in "0123456789abcdef" for c in parts[3]):
+            rows.append(tuple(parts) + ("",) * (5 - len(parts)))
+        elif line.startswith("out dir:"):
+            lock_line = line
+    return rows, lock_line
+
+
+def status_here(home: Path, out: Path, study: str = "smoke") -> tuple[list[tuple[str, ...]], str]:
+    """:func:`status_cli`'s rows and out-dir line from this process (the same functions, without
+    a process start)."""
+    from saltstudy.config import load_study
+    from saltstudy.workflow.status import out_dir_state, study_status
+
+    old = os.environ.get("SALTSTUDY_HOME")
+    os.environ["SALTSTUDY_HOME"] = str(home)
+    try:
+        rows = study_status(load_study(study), out)
+    finally:
+        if old is None:
+            del os.environ["SALTSTUDY_HOME"]
+        else:
+            os.environ["SALTSTUDY_HOME"] = old
+    return [(r.label, r.task, r.state, r.key, r.detail) for r in rows], out_dir_state(out)
+
+
+def status_problems(rows: list[tuple[str, ...]], lock_line: str, out: Path, reference: Path,
+                    live_pid: int | None) -> list[str]:
+    """Where the status rows (and the out-dir line) are not the truth about ``out`` (module doc).
+    ``live_pid``: the run's process if it lives (frozen), else None."""
+    problems = []
+    for label, task, state, key, detail in rows:
+        where = f"{label} {task} ({state}: {detail})"
+        if state == "running" and live_pid is None:
+            problems.append(f"{where}: running, but no process runs")
+        if task == "report":
+            tj = _task_json(task_dir(out, "report", key))
+            done = tj.get("state") == "done" and Path(tj.get("report_dir", "")).is_dir()
+            if done != (state == "done"):
+                problems.append(f"{where}: the report's marker says {tj.get('state')}")
+            continue
+        kind = "spinup" if task == "start" else task
+        archive = output_path(out, kind, key)
+        complete = is_complete(archive)
+        if complete != (state == "done"):
+            problems.append(f"{where}: the archive is {'complete' if complete else 'not complete'}")
+        if complete:
+            ref = output_path(reference, kind, key)
+            diff = same_archive(ref, archive) if ref.is_file() else ["(no reference archive)"]
+            if diff:
+                problems.append(f"{where}: differs from the uninterrupted run's ({diff})")
+        if state == "partial" and not (task_dir(out, kind, key) / "checkpoint.npz").is_file():
+            problems.append(f"{where}: partial without a checkpoint")
+        if state == "running":
+            tj = _task_json(task_dir(out, kind, key))
+            if tj.get("state") != "running" or tj.get("pid") != live_pid:
+                problems.append(f"{where}: running, but task.json says {tj.get('state')} by "
+                                f"pid {tj.get('pid')} (the run is pid {live_pid})")
+    if live_pid is not None and f"in use by saltstudy pid {live_pid} " not in lock_line:
+        problems.append(f"the out dir's holder, pid {live_pid}, is not named: {lock_line!r}")
+    if live_pid is None and not lock_line.startswith("out dir: not in use"):
+        problems.append(f"no process runs, yet: {lock_line!r}")
+    return problems
+
+
+def _task_json(d: Path) -> dict:
+    try:
+        return json.loads((Path(d) / "task.json").read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def read_trace(path: Path) -> list[tuple[float, int, str]]:
+    """(time, pid, point) of the ``trace`` hook's lines."""
+    rows = []
+    for line in Path(path).read_text().splitlines():
+        t, pid, name = line.split(" ", 2)
+        rows.append((float(t), int(pid), name))
+    return rows
+
+
+def point_instants(trace: list[tuple[float, int, str]], n: int) -> list[tuple[float, str]]:
+    """``n`` instants among the points of one process's trace: (fraction of the run, hook spec
+    'GLOB K'), spread evenly in time, and first every kind of point once (its middle call)."""
+    if not trace:
+        return []
+    t0, t1 = trace[0][0], trace[-1][0]
+    calls: list[tuple[float, str, int]] = []
+    count: dict[str, int] = {}
+    for t, _, name in trace:
+        count[name] = count.get(name, 0) + 1
+        calls.append(((t - t0) / max(t1 - t0, 1e-9), name, count[name]))
+    chosen: dict[tuple[str, int], float] = {}
+    for name in sorted(count):
+        mid = [c for c in calls if c[1] == name][(count[name] - 1) // 2]
+        chosen[(name, mid[2])] = mid[0]
+    for i in range(max(0, n - len(chosen))):
+        target = (i + 0.5) / max(1, n - len(chosen))
+        best = min((c for c in calls if (c[1], c[2]) not in chosen), key=lambda c: abs(c[0] - target),
+                   default=None)
+        if best is not None:
+            chosen[(best[1], best[2])] = best[0]
+    return sorted((f, f"{name} {k}") for (name, k), f in chosen.items())
