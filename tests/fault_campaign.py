@@ -243,7 +243,8 @@ def read_trace(path: Path) -> list[tuple[float, int, str]]:
 
 def point_instants(trace: list[tuple[float, int, str]], n: int) -> list[tuple[float, str]]:
     """``n`` instants among the points of one process's trace: (fraction of the run, hook spec
-    'GLOB K'), spread evenly in time, and first every kind of point once (its middle call)."""
+    'GLOB K'): every kind of point once (its middle call; if ``n`` is smaller, kinds spread over
+    the run), the rest spread evenly in time."""
     if not trace:
         return []
     t0, t1 = trace[0][0], trace[-1][0]
@@ -253,7 +254,10 @@ def point_instants(trace: list[tuple[float, int, str]], n: int) -> list[tuple[fl
         count[name] = count.get(name, 0) + 1
         calls.append(((t - t0) / max(t1 - t0, 1e-9), name, count[name]))
     chosen: dict[tuple[str, int], float] = {}
-    for name in sorted(count):
+    kinds = sorted(count, key=lambda name: next(c[0] for c in calls if c[1] == name))
+    if n < len(kinds):
+        kinds = [kinds[round(i * (len(kinds) - 1) / max(1, n - 1))] for i in range(n)]
+    for name in kinds:
         mid = [c for c in calls if c[1] == name][(count[name] - 1) // 2]
         chosen[(name, mid[2])] = mid[0]
     for i in range(max(0, n - len(chosen))):
@@ -263,3 +267,72 @@ def point_instants(trace: list[tuple[float, int, str]], n: int) -> list[tuple[fl
         if best is not None:
             chosen[(best[1], best[2])] = best[0]
     return sorted((f, f"{name} {k}") for (name, k), f in chosen.items())
+
+
+def campaign(home: Path, work: Path, n_points: int, n_wall: int, log: Path,
+             study: str = "smoke") -> dict:
+    """Run ``study`` of ``home`` once uninterrupted (tracing its write points), then once per
+    instant from an empty out dir: stopped there (a write point: the hook freezes it; a wall time:
+    SIGSTOP), status read while it lives, SIGKILL, status read, rerun to its end, every check of
+    the module doc. ``n_points`` instants among the traced points (progress.json's left out: its
+    calls follow the clock), ``n_wall`` at wall times spread over 5-95 % of the run. Writes the
+    summary to ``log`` (JSON) after every instant and returns it."""
+    ref, ref_report, trace = work / "ref", work / "ref-report", work / "trace.txt"
+    t0 = time.time()
+    r = run(["run-all", "--study", study, "--quiet", "--out", str(ref), "--report-dir",
+             str(ref_report)], env_for(home, f"trace {trace}"))
+    assert r.returncode == 0, r.stdout + r.stderr
+    wall = time.time() - t0
+    points = [x for x in read_trace(trace) if not x[2].startswith("progress.json")]
+    instants = [("point", f, spec) for f, spec in point_instants(points, n_points)]
+    instants += [("wall", 0.05 + 0.9 * (i + 0.5) / n_wall, "") for i in range(n_wall)]
+    summary = {"study": study, "reference_wall_s": round(wall, 1), "results": []}
+    for i, (kind, frac, spec) in enumerate(instants):
+        out, report = work / f"out{i}", work / f"report{i}"
+        args = ["run-all", "--study", study, "--quiet", "--out", str(out), "--report-dir", str(report)]
+        t_start = time.time()
+        p = launch(args, env_for(home, f"stop {spec}" if kind == "point" else None),
+                   work / f"run{i}.log")
+        if kind == "point":
+            stopped = wait_frozen(p)
+        else:
+            spec = f"{frac * wall:.1f} s"
+            while time.time() < t_start + frac * wall and p.poll() is None:
+                time.sleep(0.05)
+            stopped = p.poll() is None
+            if stopped:
+                os.killpg(p.pid, signal.SIGSTOP)
+        entry = {"instant": spec, "kind": kind, "fraction_of_run": round(frac, 3),
+                 "stopped": stopped, "stopped_after_s": round(time.time() - t_start, 1)}
+        problems: list[str] = []
+        if stopped:
+            rows, lock_line = status_cli(home, out, study)
+            problems += [f"live: {x}" for x in status_problems(rows, lock_line, out, ref, p.pid)]
+            entry["status_live"] = sorted({f"{r[1]} {r[2]}" for r in rows})
+            kill(p)
+            rows, lock_line = status_cli(home, out, study)
+            problems += [f"killed: {x}" for x in status_problems(rows, lock_line, out, ref, None)]
+            entry["status_killed"] = sorted({f"{r[1]} {r[2]}" for r in rows})
+        else:
+            p.wait()
+        rr = run(args, env_for(home))
+        if rr.returncode != 0:
+            problems.append(f"rerun exit {rr.returncode}: {rr.stderr[-2000:]}")
+        entry["rerun_computed"] = sum(line.startswith("[start] ") for line in rr.stderr.splitlines())
+        problems += differences(ref, out) + [f"left: {x}" for x in leftovers(out, report)]
+        rows, lock_line = status_cli(home, out, study)
+        problems += [f"after: {x}" for x in status_problems(rows, lock_line, out, ref, None)]
+        if {row[2] for row in rows} != {"done"}:
+            problems.append(f"after the rerun, status: {sorted({row[2] for row in rows})}")
+        if not (report / "index.html").is_file():
+            problems.append("no report after the rerun")
+        entry["problems"] = problems
+        summary["results"].append(entry)
+        res = summary["results"]
+        summary.update(instants=len(res), stopped=sum(e["stopped"] for e in res),
+                       passed=sum(e["stopped"] and not e["problems"] for e in res),
+                       failed=sum(bool(e["problems"]) for e in res))
+        Path(log).write_text(json.dumps(summary, indent=1))
+        shutil.rmtree(out, ignore_errors=True)
+        shutil.rmtree(report, ignore_errors=True)
+    return summary

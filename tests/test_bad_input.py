@@ -27,7 +27,8 @@ from pydantic import BaseModel
 from typer.testing import CliRunner
 
 from saltstudy.cli import app
-from saltstudy.config import Case, Fidelity, Study, project_root
+from fault_campaign import make_home
+from saltstudy.config import Case, Fidelity, Study
 from saltstudy.ncio import is_complete, write_dataset
 
 SETTINGS = settings(deadline=None, max_examples=int(__import__("os").environ.get("HYPO_N", 25)),
@@ -155,9 +156,8 @@ def test_the_walk_finds_the_bounded_fields():
 
 @pytest.fixture
 def home(tmp_path, monkeypatch):
-    h = tmp_path / "home"
-    for d in ("cases", "workflows"):
-        shutil.copytree(project_root() / d, h / d)
+    """A copy of the project's cases and workflows; the cache at ``tmp_path/out``."""
+    h = make_home(tmp_path / "home")
     monkeypatch.setenv("SALTSTUDY_HOME", str(h))
     monkeypatch.setenv("SALTSTUDY_OUT", str(tmp_path / "out"))
     return h

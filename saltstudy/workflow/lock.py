@@ -124,7 +124,8 @@ class DirLock:
         return self._fd is not None
 
     def _try_once(self) -> tuple[bool, dict[str, Any] | None]:
-        """(acquired, record found in the file)."""
+        """(acquired, the holder's record: {} if unreadable; None if the file was replaced
+        meanwhile, so that trying again at once is right)."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
@@ -133,7 +134,7 @@ class DirLock:
                 shared_locks = True
             except BlockingIOError:
                 os.close(fd)
-                return False, self._holder_record()
+                return False, self._holder_record() or {}
             except OSError as exc:
                 if exc.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.EINVAL):
                     raise
@@ -152,11 +153,10 @@ class DirLock:
                 os.close(fd)
                 return False, old
         except BaseException:
-            if fd is not None:
-                try:
-                    os.close(fd)
-                except OSError:
-                    pass
+            try:
+                os.close(fd)
+            except OSError:
+                pass
             raise
         rec = _record(self.what)
         os.ftruncate(fd, 0)
