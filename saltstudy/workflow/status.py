@@ -10,6 +10,7 @@ current key says so, with the reason), ``partial`` (a spin-up or saltation check
 from __future__ import annotations
 
 import json
+import platform
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -58,11 +59,12 @@ def _running(d: Path, tj: dict) -> tuple[str, str]:
              if isinstance(started, (int, float)) else "?")
     where = f"since {since} on {tj.get('host', '?')}"
     p = read_progress(d)
-    if p is None or "updated" not in p:
-        return "running", f"{where} (or killed)"
-    writer = p if "pid" in p else tj   # progress files written before they named their process
+    writer = p if p is not None and "pid" in p else tj   # progress files name their process
     if writer_gone(writer):
         return "stopped", f"{where}; its process ({writer['pid']}) is gone: it died or was killed"
+    if p is None or "updated" not in p:    # no progress yet (a report writes none)
+        here = tj.get("host") == platform.node() and isinstance(tj.get("pid"), int)
+        return "running", where + ("" if here else " (or killed: its process cannot be asked)")
     if is_stale(p):
         quiet_for = time.time() - float(p["updated"])
         return "stopped", f"{where}; no progress for {format_duration(quiet_for)}: its process died"
