@@ -93,7 +93,8 @@ def register(app: typer.Typer) -> None:
             summary = run_study(st, out_dir, workers=workers, scheduler=scheduler, quiet=quiet,
                                 report_dir=report_dir, started=started)
         _print_summary(summary)
-        if todo and not summary.solver_work:
+        if todo and not summary.solver_work and not any(o.status == "failed"
+                                                        for o in summary.outcomes):
             typer.echo("no solver work was needed (spin-ups and saltation runs all cached)")
         raise typer.Exit(summary.exit_code)
 

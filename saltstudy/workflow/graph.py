@@ -19,8 +19,10 @@ Execution
   as the local one (tests/test_workflow_distributed.py).
 
 A task that fails is recorded (``task.json``: state failed, error, traceback) and its dependents
-are skipped; the other runs go on. :func:`run_study` returns a summary whose ``exit_code`` is 1
-if anything failed.
+are skipped; the other runs go on, except after a full disk (``faults.DiskFull``), when a local run
+starts no further task. :func:`run_study` returns a summary whose ``exit_code`` is 1 if anything
+failed. It holds the out dir for the run (``lock.hold_out_dir``: another saltstudy process there
+is refused, or waited for) and first tidies what killed runs left in its tasks' directories.
 
 Cluster example (dask-jobqueue, SLURM): one task per job, each job with N cores for numba::
 

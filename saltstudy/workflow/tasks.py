@@ -2,9 +2,11 @@
 
 Each takes its configuration and its input paths, writes one output into its cache directory
 ``<out>/<task>/<key>/`` and returns the output's path. Each first checks for a complete output
-(:func:`saltstudy.ncio.is_complete`: readable and marked complete) and returns it untouched if
-present; an incomplete, truncated or corrupt file is never trusted but recomputed. Each records
-what it did in ``task.json`` beside its output (state, config slice, inputs, wall time, error).
+(:func:`saltstudy.ncio.is_complete`: readable, marked complete, where it was written) and returns
+it untouched if present; an incomplete, truncated, corrupt or misplaced file is never trusted but
+recomputed. While it computes, a task holds its directory (``task.lock``: a second process on the
+same task waits, then finds the output) and records what it does in ``task.json`` beside its
+output (state, config slice, inputs, wall time, error).
 
 They know nothing of dask (graph.py wraps them), so ``saltstudy run CASE`` calls them directly.
 """
@@ -480,6 +482,7 @@ def build_report_staged(build_report: Callable[..., Path], study_name: str,
         if old.is_dir() and not (pid.isdigit() and pid_alive(int(pid))):
             shutil.rmtree(old, ignore_errors=True)      # a stage left by a stopped build
     stage = report_dir.parent / f".{report_dir.name}.{os.getpid()}.tmp"
+    shutil.rmtree(stage, ignore_errors=True)     # of an earlier process that had this pid
     stage.mkdir()
     try:
         point("report:write")
