@@ -31,7 +31,7 @@ from fault_campaign import make_home
 from saltstudy.config import Case, Fidelity, Study
 from saltstudy.ncio import is_complete, write_dataset
 
-SETTINGS = settings(deadline=None, max_examples=int(__import__("os").environ.get("HYPO_N", 25)),
+SETTINGS = settings(deadline=None, max_examples=15,
                     suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 

@@ -137,7 +137,7 @@ def test_a_second_run_on_one_out_dir_refuses_at_once_or_waits(home, reference, t
             res = CliRunner().invoke(app, [*args, "--out", str(out)])
             assert res.exit_code == 3 and named in res.output, (args, res.output)
         assert not (tmp_path / "report").exists()
-        assert _status(home, out, reference, a.pid, cli=True) == []
+        assert _status(home, out, reference, a.pid) == []
         deadline = time.time() + 300
         while "[wait]" not in (tmp_path / "w.log").read_text():
             assert waiter.poll() is None and time.time() < deadline, (tmp_path / "w.log").read_text()
