@@ -150,3 +150,44 @@ def test_a_netcdf_write_on_a_full_disk_names_the_file_and_leaves_no_temporary(tm
     monkeypatch.setattr(F, "_free", lambda d: 10 ** 9)         # not full: the error as it was
     with pytest.raises(RuntimeError, match="HDF error"):
         write_dataset(ds, tmp_path / "key" / "spinup.nc")
+
+
+# ------------------------------------------------------------------------------------------
+def _fake_build(fail_after: int | None = None):
+    """A build_report stand-in: reads the summary it replaces, writes two figures, a summary and
+    index.html (raising after ``fail_after`` files)."""
+    def build(study, runs, report_dir, meta):
+        report_dir = Path(report_dir)
+        old = json.loads((report_dir / "summary.json").read_text()) \
+            if (report_dir / "summary.json").is_file() else {}
+        for i, name in enumerate(("fig01.png", "fig02.png", "summary.json", "index.html")):
+            if fail_after is not None and i == fail_after:
+                raise RuntimeError("stopped midway")
+            text = json.dumps({"build": meta["n"], "previous": old.get("build")}) \
+                if name == "summary.json" else f"{name} of build {meta['n']}"
+            (report_dir / name).write_text(text)
+        return report_dir / "index.html"
+    return build
+
+
+def test_a_report_stopped_midway_leaves_the_old_one_whole(tmp_path):
+    from saltstudy.workflow.tasks import build_report_staged
+
+    rep = tmp_path / "reports" / "smoke"
+    rep.mkdir(parents=True)
+    (rep / "FINDINGS.md").write_text("by hand")
+    build_report_staged(_fake_build(), "smoke", {}, rep, {"n": 1})
+    assert (rep / "fig01.png").read_text() == "fig01.png of build 1"
+    with pytest.raises(RuntimeError, match="midway"):
+        build_report_staged(_fake_build(fail_after=1), "smoke", {}, rep, {"n": 2})
+    assert sorted(p.name for p in rep.iterdir()) == ["FINDINGS.md", "fig01.png", "fig02.png",
+                                                      "index.html", "summary.json"]
+    assert all("build 1" in (rep / n).read_text() for n in ("fig01.png", "fig02.png", "index.html"))
+    assert list(rep.parent.glob(".smoke.*.tmp")) == []
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    (rep.parent / f".smoke.{dead.pid}.tmp").mkdir()          # a stage a killed build left
+    build_report_staged(_fake_build(), "smoke", {}, rep, {"n": 3})
+    assert json.loads((rep / "summary.json").read_text()) == {"build": 3, "previous": 1}
+    assert (rep / "FINDINGS.md").read_text() == "by hand"
+    assert list(rep.parent.glob(".smoke.*.tmp")) == []
