@@ -232,6 +232,15 @@ def _task_json(d: Path) -> dict:
         return {}
 
 
+def _first_point(path: Path) -> float | None:
+    """The time of the first point of a trace, once its line is whole."""
+    try:
+        line = Path(path).read_text().split("\n", 1)
+    except OSError:
+        return None
+    return float(line[0].split()[0]) if len(line) == 2 else None
+
+
 def read_trace(path: Path) -> list[tuple[float, int, str]]:
     """(time, pid, point) of the ``trace`` hook's lines."""
     rows = []
@@ -275,29 +284,35 @@ def campaign(home: Path, work: Path, n_points: int, n_wall: int, log: Path,
     instant from an empty out dir: stopped there (a write point: the hook freezes it; a wall time:
     SIGSTOP), status read while it lives, SIGKILL, status read, rerun to its end, every check of
     the module doc. ``n_points`` instants among the traced points (progress.json's left out: its
-    calls follow the clock), ``n_wall`` at wall times spread over 5-95 % of the run. Writes the
+    calls follow the clock), ``n_wall`` at wall times spread over 5-95 % of the run, counted from
+    the run's first write point (the reference's first warms the kernels' cache). Writes the
     summary to ``log`` (JSON) after every instant and returns it."""
     ref, ref_report, trace = work / "ref", work / "ref-report", work / "trace.txt"
-    t0 = time.time()
     r = run(["run-all", "--study", study, "--quiet", "--out", str(ref), "--report-dir",
              str(ref_report)], env_for(home, f"trace {trace}"))
     assert r.returncode == 0, r.stdout + r.stderr
-    wall = time.time() - t0
-    points = [x for x in read_trace(trace) if not x[2].startswith("progress.json")]
+    traced = read_trace(trace)
+    wall = traced[-1][0] - traced[0][0]
+    points = [x for x in traced if not x[2].startswith("progress.json")]
     instants = [("point", f, spec) for f, spec in point_instants(points, n_points)]
     instants += [("wall", 0.05 + 0.9 * (i + 0.5) / n_wall, "") for i in range(n_wall)]
-    summary = {"study": study, "reference_wall_s": round(wall, 1), "results": []}
+    summary = {"study": study, "reference_run_s": round(wall, 1), "results": []}
     for i, (kind, frac, spec) in enumerate(instants):
         out, report = work / f"out{i}", work / f"report{i}"
         args = ["run-all", "--study", study, "--quiet", "--out", str(out), "--report-dir", str(report)]
         t_start = time.time()
-        p = launch(args, env_for(home, f"stop {spec}" if kind == "point" else None),
+        own_trace = work / f"trace{i}.txt"
+        p = launch(args, env_for(home, f"stop {spec}" if kind == "point" else f"trace {own_trace}"),
                    work / f"run{i}.log")
         if kind == "point":
             stopped = wait_frozen(p)
         else:
-            spec = f"{frac * wall:.1f} s"
-            while time.time() < t_start + frac * wall and p.poll() is None:
+            spec = f"{frac * wall:.1f} s after the first write"
+            first = None
+            while first is None and p.poll() is None:
+                first = _first_point(own_trace)
+                time.sleep(0.02)
+            while first is not None and time.time() < first + frac * wall and p.poll() is None:
                 time.sleep(0.05)
             stopped = p.poll() is None
             if stopped:
