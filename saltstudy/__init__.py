@@ -25,6 +25,8 @@ def _source_key(here: Path | None = None) -> str:
         for f in files:
             h.update(f.relative_to(here).as_posix().encode())   # a moved file is another source
             h.update(f.read_bytes())
+    if os.environ.get("SALTSTUDY_STRICT_IEEE", "") not in ("", "0"):   # _jit.STRICT_IEEE
+        h.update(b"strict-ieee")
     return h.hexdigest()[:12]
 
 

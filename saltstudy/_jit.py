@@ -7,11 +7,20 @@ by a hash of the package's numerical sources (set in ``saltstudy/__init__.py``),
 """
 from __future__ import annotations
 
+import os
+
 import numba
 import numba.core.cpu
 from llvmlite import binding as _llvm
 
-FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}
+#: ``SALTSTUDY_STRICT_IEEE=1`` compiles every kernel without fast-math: a check, not a mode to run
+#: studies in. With ``reassoc`` and ``contract`` LLVM chooses the order of sums and products from
+#: the code around them, so an edit that only removes a dead branch can move the last bit of a
+#: result (and a turbulent run amplifies it); under strict IEEE two versions that do the same
+#: arithmetic give the same bits. The source key (``saltstudy.SOURCE_KEY``) names the mode, so its
+#: kernels and archives are cached apart.
+STRICT_IEEE = os.environ.get("SALTSTUDY_STRICT_IEEE", "") not in ("", "0")
+FASTMATH = set() if STRICT_IEEE else {"nsz", "arcp", "contract", "afn", "reassoc"}
 
 #: serial kernels (particles per parcel, small loops)
 jit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)

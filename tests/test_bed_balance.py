@@ -1,6 +1,5 @@
 """The layer's momentum balance at the bed: the impact record's momentum, mu_b two ways, and the
-readings of the text on the bed (normal impact speed, launch from the bed, the bulk law's wind and
-instant)."""
+readings of the text on the bed (normal impact speed)."""
 from __future__ import annotations
 
 import math
@@ -10,8 +9,7 @@ import pytest
 
 from test_particles_helpers import component, scene
 from saltstudy.analysis.balance import bed_exchange, budget_friction
-from saltstudy.solver.grains.splash_kernels import (EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT,
-                                             _rise_from_bed)
+from saltstudy.solver.grains.splash_kernels import EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT
 
 
 def _impacts_on_the_layer(s, rng, m, speed, angle_deg, d=2e-4):
@@ -96,101 +94,6 @@ def test_normal_impact_speed_reading_takes_w_in_eqs_6_and_8():
     assert speed.mean() == pytest.approx(0.6056 * v, rel=0.03)      # eq. 7, truncated normal
 
 
-def test_rise_from_the_bed_is_ballistic_through_the_layer():
-    """A launch from z = 0 at w reaches the layer's top h at sqrt(w^2 - 2 g h), moved
-    horizontally by its speed times the rise time; a slower one is left at the top of its hop,
-    w^2 / 2g, inside the layer, with no vertical speed."""
-    g, h = 9.81, 5e-4
-    x, y, z, w = _rise_from_bed(1.0, 0.1, 0.3, g, h, 2.0, 1.0, 10.0, 5.0)
-    wt = math.sqrt(0.09 - 2 * g * h)
-    tr = (0.3 - wt) / g
-    assert (x, y, z, w) == pytest.approx((2.0 + tr, 1.0 + 0.1 * tr, h, wt), rel=1e-12)
-    x, y, z, w = _rise_from_bed(1.0, 0.0, 0.05, g, h, 9.99999, 1.0, 10.0, 5.0)
-    assert z == pytest.approx(0.05 ** 2 / (2 * g), rel=1e-12) and z < h and w == 0.0
-    assert 0.0 <= x < 10.0                       # wrapped around the periodic domain
-
-
-def test_launch_from_the_bed_leaves_slow_ejecta_inside_and_splashes_them_next_step():
-    """splash.launch_height = "bed": after a step of impacts, the rebounds and ejecta are either on
-    the layer's top moving up or inside it at the top of their hop, without vertical speed; the
-    next step splashes every one left inside. Parcels are conserved through both steps."""
-    sc = scene(2, physics={"two_way_coupling": False, "tke_particle_sink": False},
-               splash={"launch_height": "bed"})
-    s, st = component(sc, gravity=False)
-    h = sc.case.splash.impact_layer
-    rng = np.random.default_rng(8)
-    m = 3000
-    a = math.radians(15.0)
-    s.add_parcels(rng.uniform(0, 2.4, m), rng.uniform(0, 1.6, m), np.full(m, h + 1e-6),
-                  u=1.5 * math.cos(a), w=-1.5 * math.sin(a), d=2e-4)
-    s.dynamics(st, 1e-3)
-    first = dict(s.last_step)
-    assert first["n_impacts"] == m
-    top = s.z == h
-    inside = s.z < h
-    assert np.all(top | inside) and inside.sum() > 100 and top.sum() > 100
-    assert np.all(s.w[top] > 0) and np.all(s.w[inside] == 0.0)
-    n_inside = int(inside.sum())
-    s.dynamics(st, 1e-3)
-    second = s.last_step
-    assert second["n_impacts"] >= n_inside
-    assert s.n == m + first["n_ejections"] + second["n_ejections"] - (
-        first["n_depositions"] + second["n_depositions"])
-
-
-def test_bed_launch_and_detection_step_exclude_each_other():
-    from saltstudy.config import ConfigError, load_case
-
-    with pytest.raises(ConfigError, match="launch_height"):
-        load_case(2, overrides={"splash": {"launch_height": "bed", "detection_step": 2e-4}})
-
-
-def test_bulk_law_reads_the_second_level_when_asked():
-    """surface.stress_level = "second": the bed stress is -C_d2 |U_2| u_2 with
-    C_d2 = [kappa / ln(z_2 / z0)]^2 from the second level's wind, whatever the first level's."""
-    from saltstudy.solver.model import build_stepper
-    from saltstudy.solver.grid import Grid
-
-    for level, k in (("first", 0), ("second", 1)):
-        sc = scene(2, surface={"stress_level": level})
-        grid = Grid.from_spec(sc.fidelity.grid)
-        st = build_stepper(sc, grid, None)
-        u = np.zeros(grid.shape)
-        v = np.zeros(grid.shape)
-        u[:, :, 0] = 1.0
-        u[:, :, 1] = 3.0
-        taux, tauy = np.empty(grid.shape[:2]), np.empty(grid.shape[:2])
-        st.bed_stress_into(u, v, taux, tauy)
-        cd = (0.4 / math.log(grid.z_c[k] / sc.case.surface.z0)) ** 2
-        U = (1.0, 3.0)[k]
-        assert np.allclose(taux, -cd * U * U, rtol=1e-12) and np.allclose(tauy, 0.0)
-
-
-def test_bed_stress_from_the_wind_before_the_grains_drag():
-    """surface.stress_instant = "step_start": the bed stress of a step is the bulk law of the wind
-    before the components act. A component that stops the first level's wind: with "stage" the
-    bed then exerts no stress in that step; with "step_start" it still drags the level with the
-    stress of the wind it had, which leaves the level slower."""
-    from saltstudy.solver.model import Model
-
-    class StopFirstLevel:
-        name = "stop"
-
-        def dynamics(self, state, dt):
-            state.u[:, :, 0] = 0.0
-
-        def max_dt(self, state):
-            return math.inf
-
-    u0 = {}
-    for instant in ("stage", "step_start"):
-        sc = scene(2, surface={"stress_instant": instant})
-        m = Model.from_scene(sc)
-        m.state.u[...] = 5.0
-        m.components.append(StopFirstLevel())
-        m.step(1e-3)
-        u0[instant] = float(m.state.u[:, :, 0].mean())
-    assert u0["step_start"] < u0["stage"] - 1e-4
 
 
 def test_bed_exchange_of_linear_records():

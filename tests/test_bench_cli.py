@@ -105,20 +105,41 @@ def test_bench_particles_fills_the_grid_of_the_fidelity_asked_and_names_a_bad_on
 
 
 def test_bench_particles_phases_sum_within_the_step_and_leave_the_solver_as_it_was():
-    from saltstudy.instruments import bench_particles
     from saltstudy.solver.grains import particles
 
-    before = {k: getattr(particles, k) for k in bench_particles.PHASE_KERNELS}
+    def names():
+        return {k: v for k, v in vars(particles).items() if not k.startswith("__")}
+
+    before = names()
     out = _json(["bench", "particles", "--n", "3000", "--steps", "12", "--phases", "--json"])
     (r,) = out["runs"]
     ph = r["phases_ns_per_parcel_step"]
     # over 12 steps the advance and the implicit estimate (two-way) run every step, the
     # reordering once (every particles.SORT_INTERVAL = 10 steps)
-    assert {"_advance_all", "implicit_coefficients", "_sort"} <= set(ph)
+    assert {"advance_all", "implicit_coefficients", "cell_order", "gather"} <= set(ph)
+    assert set(ph) <= set(particles.StepKernels._fields)
     assert all(v > 0 for v in ph.values())
     # the kernels are timed inside the timed steps: together they cannot exceed the step
     assert sum(ph.values()) <= r["steps_ns_per_parcel_step"] * (1 + 1e-9)
-    assert {k: getattr(particles, k) for k in before} == before
+    assert names() == before
+
+
+def test_timed_kernels_hands_the_component_its_own_kernels_back():
+    """bench_particles.timed_kernels times a component's kernels through its ``kernels`` record:
+    inside, each is a timer around the component's own; after, the record is the one it had."""
+    from test_particles_helpers import component, scene
+
+    from saltstudy.instruments.bench_particles import timed_kernels
+    from saltstudy.solver.grains import particles
+
+    s, _ = component(scene(2))
+    assert s.kernels is particles.KERNELS
+    acc = {}
+    with timed_kernels(acc, s):
+        assert s.kernels != particles.KERNELS
+        assert s.kernels.collect_events(0, s._flag, s._ev) == 0
+    assert s.kernels is particles.KERNELS
+    assert list(acc) == ["collect_events"] and acc["collect_events"] >= 0.0
 
 
 @pytest.mark.slow   # compiles a second copy of every grain kernel (~1.5 min on 2 cores)
@@ -187,7 +208,7 @@ def test_bench_scene_saltation_phases_time_the_grain_kernels_inside_a_real_run(t
                  "0.1", "--phases", "--out", str(tmp_path), "--json"])
     (m,) = out["schemes"].values()
     ph = m["phases_ns_per_parcel_step"]
-    assert {"_advance_all", "implicit_coefficients"} <= set(ph)
+    assert {"advance_all", "implicit_coefficients"} <= set(ph)
     (r,) = m["rounds"]
     assert sum(ph.values()) <= r["ns_per_parcel_step"] * (1 + 1e-9)
     assert out["start"] == "the fidelity's own spin-up"

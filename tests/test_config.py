@@ -84,7 +84,10 @@ def test_paper_fidelity_is_the_papers_setup():
 def test_scene_scales_release_with_area_and_q():
     c = load_case(2)
     paper = resolve_scene(c, load_fidelity("paper"))
-    assert paper.n_initial == 10_000 and paper.Q == 600
+    # the paper fidelity weighs parcels for a count per m2: fewer, heavier parcels, the same mass
+    w = paper.fidelity.q_multiplier
+    assert w > 1 and paper.Q == pytest.approx(600 * w)
+    assert paper.n_initial == round(10_000 / w)
     red = resolve_scene(c, load_fidelity("reduced"))
     g = red.fidelity.grid
     # released mass per unit area is the paper's at every fidelity (to the rounding of one parcel)
@@ -362,3 +365,43 @@ def test_bad_scene_case_exits_2_naming_the_field(tmp_path, case, overrides, need
         assert res.exit_code == 2, (args, res.output)
         assert all(n in res.output for n in needles), (args, res.output)
     assert not (tmp_path / "out").exists()          # rejected before the cache is touched
+
+
+def test_parcel_weight_for_a_count_is_the_case_count_over_the_target(tmp_path):
+    """fidelity.parcels_per_m2: each case's parcels weigh count_at_Q / target times its Q, the
+    count read from data/airborne_counts.toml; the resolved scene carries that weight, and the
+    same inputs give the same weight."""
+    from saltstudy.config import airborne_counts, parcel_weight
+
+    counts, source = airborne_counts()
+    assert sorted(counts) == list(range(1, 11)) and "summary.json" in source
+    f = tmp_path / "count.toml"
+    f.write_text('based_on = "smoke"\nparcels_per_m2 = 2000.0\n')
+    fid = load_fidelity(f)
+    assert fid.parcels_per_m2 == 2000.0 and fid.q_multiplier == 1.0
+    for n in (2, 7):
+        sc = resolve_scene(load_case(n), fid)
+        assert sc.fidelity.q_multiplier == counts[n] / 2000.0
+        assert sc.Q == pytest.approx(load_case(n).particles.Q * counts[n] / 2000.0, rel=1e-15)
+        assert resolve_scene(load_case(n), fid) == sc
+    assert parcel_weight(load_case(2), 4000.0) == pytest.approx(0.5 * parcel_weight(load_case(2), 2000.0))
+    # a file's own choice replaces its parent's; both in one file is an error naming the field
+    g = tmp_path / "heavier.toml"
+    g.write_text(f'based_on = "{f}"\nq_multiplier = 5.0\n')
+    h = load_fidelity(g)
+    assert h.parcels_per_m2 is None and h.q_multiplier == 5.0
+    both = tmp_path / "both.toml"
+    both.write_text('based_on = "smoke"\nparcels_per_m2 = 2000.0\nq_multiplier = 5.0\n')
+    with pytest.raises(ConfigError, match="q_multiplier"):
+        load_fidelity(both)
+
+
+def test_parcel_weight_needs_the_count_of_the_case_as_it_stands(tmp_path):
+    f = tmp_path / "count.toml"
+    f.write_text('based_on = "smoke"\nparcels_per_m2 = 2000.0\n')
+    fid = load_fidelity(f)
+    windier = load_case(2, overrides={"forcing": {"u_star_s": 0.9}})
+    with pytest.raises(ConfigError, match="parcels_per_m2.*physics differs"):
+        resolve_scene(windier, fid)
+    reseeded = load_case(2, overrides={"seed": 7})
+    assert resolve_scene(reseeded, fid).fidelity.q_multiplier == resolve_scene(load_case(2), fid).fidelity.q_multiplier

@@ -51,9 +51,9 @@ def test_no_parcels_no_numbers():
 
 
 def test_parcel_balance_and_limiting_step():
-    c = {"n_parcels": 120, "n_ejections": 40, "n_entrained": 5, "n_depositions": 25}
+    c = {"n_parcels": 115, "n_ejections": 40, "n_depositions": 25}
     assert parcel_balance(c, 100) == 0
-    assert parcel_balance(dict(c, n_parcels=119), 100) == -1       # a parcel lost
+    assert parcel_balance(dict(c, n_parcels=114), 100) == -1       # a parcel lost
     assert limiting_step(0.01, 0.02, math.inf, 0.05) == "courant"
     assert limiting_step(0.03, 0.02, 0.015, 0.05) == "grains"
     assert limiting_step(math.inf, math.inf, math.inf, 0.05) == "dt_max"

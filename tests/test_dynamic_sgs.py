@@ -261,7 +261,7 @@ def test_coefficient_falls_toward_the_wall_in_a_spun_up_layer():
     range, is below its value in the layer above, and beta < 1 there (Porte-Agel et al. 2000)."""
     from saltstudy.instruments.loglaw_probe import build_scene, probe_loglaw
 
-    scene = build_scene(1, "quick", "top", None, '{"closure": {"model": "dynamic", "near_wall": false}}')
+    scene = build_scene(1, "quick", "top", None, '{"closure": {"model": "dynamic"}}')
     res = probe_loglaw(scene, 150.0, 50.0, log=lambda s: None)
     dyn = res["windows"][-1]["dynamic"]
     z, cs, beta = (np.asarray(dyn[k]) for k in ("z", "c_s", "beta"))

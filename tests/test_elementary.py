@@ -11,7 +11,7 @@ import pytest
 from saltstudy._jit import jit
 from saltstudy.solver.numerics.elementary import (EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, log_small,
                                          pow_0687, pow_0687_table)
-from saltstudy.solver.grains.particles import _crossing_time
+from saltstudy.solver.grains.motion import _crossing_time
 
 getcontext().prec = 40
 A = Decimal(0.687)  # the double the kernels' `** 0.687` raises to

@@ -30,8 +30,8 @@ def test_bench_profile_writes_a_listing_of_the_advance_with_sample_counts(tmp_pa
     assert res.exit_code == 0, res.output
     s = json.loads((tmp_path / "summary.json").read_text())
     kernels = [f["kernel"] for f in s["functions"]]
-    assert "_advance_all" in kernels and "implicit_coefficients" in kernels
-    adv = next(f for f in s["functions"] if f["kernel"] == "_advance_all")
+    assert "advance_all" in kernels and "implicit_coefficients" in kernels
+    adv = next(f for f in s["functions"] if f["kernel"] == "advance_all")
     assert 0.0 < adv["share_of_kernels"] <= 1.0
     lines = (tmp_path / adv["listing"]).read_text().splitlines()
     counts = [int(line.split()[0]) for line in lines]

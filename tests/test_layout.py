@@ -120,13 +120,20 @@ def test_no_module_over_800_lines():
     assert not long, f"modules over {MAX_LINES} lines (split them along their processes): {long}"
 
 
-def test_the_grain_steps_kernels_called_by_name_exist():
-    """particles.Threads calls the step's parallel kernels by name from the module's globals."""
+def test_the_grain_step_calls_its_kernels_through_one_record():
+    """particles.KERNELS holds every kernel a step calls, each a compiled function of the grain
+    modules (a benchmark passes its own record, nothing rebinds a module's names); the parallel
+    ones, run through particles.Threads, are among them."""
     from saltstudy.solver.grains import particles
 
-    names = re.findall(r'Threads\("(\w+)"\)', (PKG / "solver/grains/particles.py").read_text())
-    assert names
-    assert [n for n in names if not callable(getattr(particles, n, None))] == []
+    assert set(particles.PARALLEL) <= set(particles.StepKernels._fields)
+    for name, kernel in particles.KERNELS._asdict().items():
+        assert hasattr(kernel, "py_func"), name
+        assert kernel.__module__.startswith("saltstudy.solver.grains."), name
+
+
+#: names with a leading underscore that are public by their owner's documentation (namedtuple's)
+PUBLIC_UNDERSCORED = {"_asdict", "_replace", "_fields", "_make", "_field_defaults"}
 
 
 def _private_definitions(files: list[Path]) -> set[str]:
@@ -178,7 +185,31 @@ def test_no_private_name_crosses_a_part():
                             bad.append(f"{f.relative_to(ROOT)}: from {mod} import {a.name}")
                 elif (isinstance(node, ast.Attribute) and node.attr.startswith("_")
                       and not node.attr.startswith("__") and node.attr not in own
+                      and node.attr not in PUBLIC_UNDERSCORED
                       and not (isinstance(node.value, ast.Name)
                                and node.value.id in ("self", "cls"))):
                     bad.append(f"{f.relative_to(ROOT)}:{node.lineno}: .{node.attr}")
     assert not bad, "private names used across parts:\n" + "\n".join(bad)
+
+
+
+def test_grain_modules_import_only_what_they_use():
+    """Each name a grain module imports is used in it (read by a kernel, called, re-exported in
+    ``__all__``)."""
+    unused = {}
+    for path in sorted((PKG / "solver" / "grains").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        imported = {a.asname or a.name.split(".")[0] for node in tree.body
+                    if isinstance(node, (ast.Import, ast.ImportFrom)) for a in node.names}
+        imported.discard("annotations")
+        used = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)}
+        used |= {n.value.id for n in ast.walk(tree)
+                 if isinstance(n, ast.Attribute) and isinstance(n.value, ast.Name)}
+        exported = set()
+        for node in tree.body:
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", "") == "__all__"
+                                                    for t in node.targets):
+                exported = {e.value for e in node.value.elts}
+        if imported - used - exported:
+            unused[path.name] = sorted(imported - used - exported)
+    assert unused == {}

@@ -1,6 +1,6 @@
 """interp.locate: the stencil of a point on the staggered, stretched grid, against its definition
 computed directly (a search over all faces), on random points and on the faces and centres
-themselves, for every near-bed setting."""
+themselves."""
 from __future__ import annotations
 
 import math
@@ -11,7 +11,8 @@ import pytest
 from saltstudy._jit import jit
 from saltstudy.config import load_fidelity
 from saltstudy.solver.grid import Grid
-from saltstudy.solver.grains.interp import NEAR_BED_WIND, GridGeometry, locate
+from saltstudy.solver.grains.interp import (GEO_LOG_TOP, GEO_RDX, GEO_RDY, LOG_LEVEL,
+                                           GridGeometry, locate)
 
 
 @jit
@@ -37,8 +38,8 @@ def _reference(g: GridGeometry, x, y, z):
         hi = f >= 0.5
         return i % n, f, np.where(hi, i, i - 1) % n, np.where(hi, f - 0.5, f + 0.5)
 
-    ixf, fxf, ixc, fxc = faces_centres(x * geo[11], nx)
-    jyf, fyf, jyc, fyc = faces_centres(y * geo[12], ny)
+    ixf, fxf, ixc, fxc = faces_centres(x * geo[GEO_RDX], nx)
+    jyf, fyf, jyc, fyc = faces_centres(y * geo[GEO_RDY], ny)
     kcell = np.clip(np.searchsorted(g.z_f, z, side="right") - 1, 0, nz - 1)
     kcell = np.where(z <= 0.0, 0, kcell)
     fzf = np.clip((z - g.z_f[kcell]) * g.rdz_f[kcell], 0.0, 1.0)
@@ -46,8 +47,8 @@ def _reference(g: GridGeometry, x, y, z):
     above = kc >= nz - 1
     kcs = np.clip(kc, 0, nz - 2)
     fzc = np.where(above, 1.0, np.minimum((z - g.z_c[kcs]) * g.rdz_c[kcs], 1.0))
-    islog = z < geo[8]
-    kc = np.where(islog, int(geo[9]), kcs)
+    islog = z < geo[GEO_LOG_TOP]
+    kc = np.where(islog, LOG_LEVEL, kcs)
     fzc = np.where(islog, 0.0, fzc)
     ints = np.stack([ixf, ixc, jyf, jyc, kc, kcell, kcell, islog.astype(np.int64)], axis=1)
     floats = np.stack([fxf, fxc, fyf, fyc, fzc, fzf], axis=1)
@@ -55,10 +56,10 @@ def _reference(g: GridGeometry, x, y, z):
 
 
 @pytest.mark.parametrize("fidelity", ["smoke", "reduced", "paper"])
-@pytest.mark.parametrize("near_bed", sorted(NEAR_BED_WIND))
-def test_locate_matches_the_stencil_definition(fidelity, near_bed):
+def test_locate_matches_the_stencil_definition(fidelity):
     grid = Grid.from_spec(load_fidelity(fidelity).grid)
-    g = GridGeometry(grid, 1e-5, near_bed)
+    g = GridGeometry(grid, 1e-5)
+    assert g.geo[GEO_LOG_TOP] == g.z_f[1]  # the log region is the whole first cell
     rng = np.random.default_rng(7)
     n = 20000
     # random heights, denser near the bed, and every face and centre exactly, and just beside
@@ -76,10 +77,9 @@ def test_locate_matches_the_stencil_definition(fidelity, near_bed):
     ri, rf = _reference(g, x, y, z)
     assert np.array_equal(ints, ri)
     assert np.array_equal(floats[:, :6], rf)
-    # the log law's factor: ln(z / z0) / ln(z_c[k_read] / z0) in the log region, 1 above it
+    # the log law's factor: ln(z / z0) / ln(z_c[1] / z0) in the log region, 1 above it
     islog = ri[:, 7] == 1
     zz = np.maximum(z[islog], 1.0001e-5)
-    k_read = NEAR_BED_WIND[near_bed][1]
-    want = np.log(zz / 1e-5) / math.log(g.z_c[k_read] / 1e-5)
+    want = np.log(zz / 1e-5) / math.log(g.z_c[LOG_LEVEL] / 1e-5)
     np.testing.assert_allclose(floats[islog, 6], want, rtol=1e-13, atol=1e-15)
     assert np.all(floats[~islog, 6] == 1.0)

@@ -108,10 +108,10 @@ def test_bad_probe_input_names_the_option_or_field():
 
 def test_probe_runs_windows_on_the_smoke_grid():
     scene = build_scene(1, "smoke", "pressure_gradient", '{"nx": 16, "ny": 12}',
-                        '{"closure": {"near_wall": false}}')
+                        '{"closure": {"delta": "geometric"}}')
     lines = []
     res = probe_loglaw(scene, 4.0, 2.0, roll_damping=0.5, log=lines.append)
-    assert scene.case.closure.near_wall is False and res["drive"] == "pressure_gradient"
+    assert scene.case.closure.delta == "geometric" and res["drive"] == "pressure_gradient"
     assert res["grid"][:2] == [16, 12]
     assert [round(r["t"]) for r in res["windows"]] == [2, 4]
     for r in res["windows"]:

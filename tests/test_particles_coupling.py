@@ -48,19 +48,19 @@ def test_exchange_conserves_horizontal_momentum():
 
 
 def test_heavily_loaded_cells_relax_monotonically():
-    """Grain mass 100x the air mass in every cell: air and grains relax to the common velocity
-    without overshoot, even with dt >> T_p. Each grain reads and loads its own cell ("blend"):
-    under the paper's near-bed wind the first cell's grains read and load the second level, so
-    the load is not the same in every cell by design."""
-    sc = scene(7, physics={"tke_particle_sink": False}, particles={"near_bed_wind": "blend"})
+    """Grain mass 100x the air mass in every cell above the first: air and grains relax to the
+    common velocity without overshoot, even with dt >> T_p. Each grain reads and loads its own
+    cell (the first cell's grains read and load the second level: tests/test_particles_nearbed.py);
+    the first level's air is untouched."""
+    sc = scene(7, physics={"tke_particle_sink": False})
     grid = Grid.uniform(4, 4, 4, 0.4, 0.4, 0.4)
     st = FlowState.zeros(grid)
     s = Saltation(grid, sc)
     s.prm[G_INDEX] = 0.0
     U0 = 4.0
     st.u[...] = U0
-    # one parcel at every cell centre: every u face gets the same load
-    xc, yc, zc = np.meshgrid(grid.x_c, grid.y_c, grid.z_c, indexing="ij")
+    # one parcel at every cell centre above the first cell: every u face there gets the same load
+    xc, yc, zc = np.meshgrid(grid.x_c, grid.y_c, grid.z_c[1:], indexing="ij")
     d = 90e-6
     m_air = 1.2 * grid.dx * grid.dy * grid.dz_c[0]
     m_p = math.pi / 6 * 2650 * d ** 3
@@ -72,15 +72,16 @@ def test_heavily_loaded_cells_relax_monotonically():
     ua, up = [U0], [0.0]
     for _ in range(30):
         s.dynamics(st, 2 * tp)
-        ua.append(st.u.mean())
+        assert np.all(st.u[:, :, 0] == U0)
+        ua.append(st.u[:, :, 1:].mean())
         up.append(s.u.mean())
-        assert np.ptp(st.u) < 1e-10 and np.ptp(s.u) < 1e-10  # stays homogeneous
+        assert np.ptp(st.u[:, :, 1:]) < 1e-10 and np.ptp(s.u) < 1e-10  # stays homogeneous
     ua, up = np.array(ua), np.array(up)
     assert np.all(np.diff(ua) <= 1e-12) and np.all(np.diff(up) >= -1e-12)   # monotone
     assert ua.min() >= V - 1e-12 and up.max() <= V + 1e-12                    # no overshoot
     assert abs(ua[-1] - V) < 1e-6 and abs(up[-1] - V) < 1e-6
     # momentum of the pair conserved
-    tot = m_air * ua * grid.nx * grid.ny * grid.nz + s.Q * m_p * up * s.n
+    tot = m_air * ua * grid.nx * grid.ny * (grid.nz - 1) + s.Q * m_p * up * s.n
     assert np.all(np.abs(tot - tot[0]) < 1e-12 * tot[0])
 
 
@@ -159,8 +160,7 @@ def test_exchange_conserves_momentum_with_fast_parcels_across_the_periodic_bound
     assert np.all(np.isfinite(st.u)) and np.all((s.x >= 0) & (s.x < g.Lx))
 
 
-@pytest.mark.parametrize("has_sgs", [False, True])
-def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
+def test_chunk_assign_partitions_live_parcels_into_slab_runs():
     """chunk_assign against a plain numpy reference: every live parcel (flag 0) in exactly one
     chunk, in increasing index order, inside its chunk's slabs; the chunks' slab runs tile the
     domain with about n / N_CHUNKS parcels each; the per-chunk maxima are those of its parcels,
@@ -173,22 +173,21 @@ def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
     x = np.concatenate([rng.uniform(0, nx * dx, n // 2), rng.normal(3.0, 0.4, n - n // 2)])
     x = np.mod(x, nx * dx)
     u = rng.normal(2.0, 1.5, n)
-    su = rng.normal(0.0, 0.3, n) if has_sgs else np.zeros(0)
     trem = np.where(rng.random(n) < 0.1, rng.uniform(0, 1e-3, n), 0.0)
     flag = np.where(rng.random(n) < 0.05, rng.choice([-1, 1], n), 0).astype(np.int8)
     hist = np.zeros(nx, dtype=np.int64)
-    slab_stats = np.zeros((nx, 3))
+    slab_stats = np.zeros((nx, 2))
     bounds = np.zeros(2 * N_CHUNKS + 1, dtype=np.int64)
     cid = np.zeros(n, dtype=np.int64)
     cstart = np.zeros(N_CHUNKS + 1, dtype=np.int64)
     idx = np.full(n, -1, dtype=np.int64)
-    stats = np.zeros((N_CHUNKS, 3))
+    stats = np.zeros((N_CHUNKS, 2))
     v = rng.normal(0.0, 1.0, n)
     w = rng.normal(0.0, 1.0, n)
     z = rng.uniform(0.0, 0.5, n)
     pmax = np.zeros(3)
-    chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
-                 stats, v, w, z, pmax)
+    chunk_assign(n, x, u, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx, stats,
+                 v, w, z, pmax)
 
     live = np.flatnonzero(flag == 0)
     slab = np.floor(x / dx).astype(int) % nx
@@ -207,8 +206,7 @@ def test_chunk_assign_partitions_live_parcels_into_slab_runs(has_sgs):
         assert abs(mine.size - live.size / N_CHUNKS) <= per_slab.max()
         if mine.size:
             assert stats[c, 0] == np.abs(u[mine]).max()
-            assert stats[c, 1] == (np.abs(su[mine]).max() if has_sgs else 0.0)
-            assert stats[c, 2] == trem[mine].max()
+            assert stats[c, 1] == trem[mine].max()
     # the live parcels' maxima for the step's levels and speed limit (Saltation._levels)
     assert pmax[0] == np.maximum(np.abs(u[live]), np.abs(v[live])).max()
     assert pmax[1] == z[live].max()
@@ -224,8 +222,8 @@ def test_implicit_estimate_in_lanes_matches_one_parcel_at_a_time():
     and without a drag rate, in and above the log region, k T within and beyond the
     polynomial's range, time credits, a partial last block."""
     from saltstudy.solver.grains import coupling
-    from saltstudy.solver.grains.coupling import (Flow, drag_rate, implicit_estimate, interp_faces,
-                                           interp_fluid, locate, parcel_weight, pool_add_tri2)
+    from saltstudy.solver.grains.coupling import (Flow, drag_rate, implicit_estimate, interp_fluid,
+                                                  locate, parcel_weight, pool_add_tri2)
 
     sc = scene(2)
     s, st = component(sc)
@@ -243,7 +241,7 @@ def test_implicit_estimate_in_lanes_matches_one_parcel_at_a_time():
     assert np.any(s._kd[:n] * dt > coupling.EXPM1_TAYLOR_MAX)
     s._work_init()
     nx, ny, nz = g.shape
-    coupling.chunk_assign(n, s._x, s._u, s._su, s._flag, s._trem, g.dx, nx, s._hist,
+    coupling.chunk_assign(n, s._x, s._u, s._flag, s._trem, g.dx, nx, s._hist,
                           s._slab_stats, s._bounds, s._cid, s._cstart, s._idx, s._stats, s._v,
                           s._w, s._z, s._pmax)
     nk = s._levels(st, dt)
@@ -263,7 +261,6 @@ def test_implicit_estimate_in_lanes_matches_one_parcel_at_a_time():
     pool = np.zeros_like(s._pool)
     G = s.geom.record
     rho, nu, grav, rho_p, Q = s.prm[:5]
-    paper = G.geo[9] == G.geo[10]
     for c in range(coupling.N_CHUNKS):
         sl, L, off = s._ranges[c]
         csz = L * ny * nk * 2
@@ -271,23 +268,17 @@ def test_implicit_estimate_in_lanes_matches_one_parcel_at_a_time():
             p = int(s._idx[q])
             stc = locate(s._x[p], s._y[p], s._z[p], G, nx, ny, nz)
             dp, k = s._d[p], s._kd[p]
-            ou = ov = 0.0
-            if (stc.islog and not paper) or k <= 0.0:
+            if k <= 0.0:
                 ur, vr, wr = interp_fluid(st.u, st.v, st.w, stc, nx, ny)
-                if k <= 0.0:
-                    rel = math.sqrt((ur - s._u[p]) ** 2 + (vr - s._v[p]) ** 2
-                                    + (wr - s._w[p]) ** 2)
-                    k = drag_rate(rel, dp / nu, rho_p * dp * dp / (18.0 * rho * nu))
-                    s._kd[p] = -k
-                if stc.islog and not paper:
-                    u0, v0, _ = interp_faces(st.u, st.v, st.w, nz, nz + 1, stc, nx, ny)
-                    ou, ov = ur - u0, vr - v0
+                rel = math.sqrt((ur - s._u[p]) ** 2 + (vr - s._v[p]) ** 2 + (wr - s._w[p]) ** 2)
+                k = drag_rate(rel, dp / nu, rho_p * dp * dp / (18.0 * rho * nu))
+                s._kd[p] = -k
             T = dt + s._trem[p]
             _, cp, wt = implicit_estimate(k, T, parcel_weight(Q, rho_p, dp), s._w[p], grav)
-            ah = cp * stc.lfac if (stc.islog and paper) else cp
-            pool_add_tri2(pool, off, sl, nx, ny, nk, ah, cp * (s._u[p] - ou), stc.ixf, stc.fxf,
+            ah = cp * stc.lfac   # the log law's factor in the log region, 1 above it
+            pool_add_tri2(pool, off, sl, nx, ny, nk, ah, cp * s._u[p], stc.ixf, stc.fxf,
                           stc.jyc, stc.fyc, stc.kc, stc.fzc)
-            pool_add_tri2(pool, off + csz, sl, nx, ny, nk, ah, cp * (s._v[p] - ov), stc.ixc,
+            pool_add_tri2(pool, off + csz, sl, nx, ny, nk, ah, cp * s._v[p], stc.ixc,
                           stc.fxc, stc.jyf, stc.fyf, stc.kc, stc.fzc)
             pool_add_tri2(pool, off + 2 * csz, sl, nx, ny, nk, cp, cp * wt, stc.ixc, stc.fxc,
                           stc.jyc, stc.fyc, stc.kf, stc.fzf)

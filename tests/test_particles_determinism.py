@@ -7,12 +7,14 @@ import numpy as np
 from test_particles_helpers import component, scene, synthetic_flow
 
 
-def _run(threads=None, steps=30, ckpt_at=None):
+def _run(threads=None, steps=30, ckpt_at=None, prepare=None):
     if threads is not None:
         numba.set_num_threads(threads)
     try:
         sc = scene(2)
         s, st = component(sc)
+        if prepare is not None:
+            prepare(s)
         synthetic_flow(st, 0.54, sc.case.surface.z0)
         s.activate(st)
         # plus grains near the bed, moving, so that they splash within the run
@@ -72,11 +74,17 @@ def test_thread_count_chosen_call_by_call_leaves_the_result(monkeypatch):
     from saltstudy.solver.grains import particles
 
     ref = _run(threads=1)
-    kernels = [v for v in vars(particles).values() if isinstance(v, particles.Threads)]
-    assert {k.kernel for k in kernels} >= {"implicit_coefficients", "_advance_all", "splash_runs"}
     monkeypatch.setattr(particles.Threads, "EXPLORE", 2)
-    for k in kernels:  # both counts timed: from here on the choice alternates
-        monkeypatch.setattr(k, "cost", [1.0, 1.0])
+    threads = []
+
+    def both_timed(s):
+        """Both counts timed: from here on each kernel's choice alternates."""
+        for name in particles.PARALLEL:
+            t = getattr(s._run, name)
+            assert isinstance(t, particles.Threads) and t.kernel is getattr(s.kernels, name)
+            t.cost = [1.0, 1.0]
+            threads.append(t)
+
     used = {}
     real = numba.set_num_threads
 
@@ -86,9 +94,12 @@ def test_thread_count_chosen_call_by_call_leaves_the_result(monkeypatch):
 
     monkeypatch.setattr(particles.numba, "set_num_threads", spy)
     try:
-        flipped = _run()
+        flipped = _run(prepare=both_timed)
     finally:
         monkeypatch.undo()
+    assert {t.kernel for t in threads} >= {particles.KERNELS.implicit_coefficients,
+                                          particles.KERNELS.advance_all,
+                                          particles.KERNELS.splash_runs}
     assert used.get(1, 0) > 30  # one-thread calls did happen
     _same(ref, flipped)
 

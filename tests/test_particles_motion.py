@@ -8,7 +8,7 @@ import pytest
 
 from test_particles_helpers import (component, exact_slip, scene, synthetic_flow,
                                     terminal_velocity)
-from saltstudy.solver.grains import particles
+from saltstudy.solver.grains.layout import _TOL, DRAG_TOL
 from saltstudy.solver.grains.interp import wrap_periodic
 
 
@@ -115,7 +115,7 @@ def _saltating(tol, steps, n=3000):
     """A two-way coupled cloud of parcels in a frozen perturbed log-law wind (they splash)."""
     sc = scene(2)
     s, st = component(sc)
-    s.prm[particles._TOL] = tol
+    s.prm[_TOL] = tol
     synthetic_flow(st, sc.case.forcing.u_star_s, sc.case.surface.z0)
     rng = np.random.default_rng(3)
     g = s.grid
@@ -132,7 +132,7 @@ def test_drag_rate_iteration_error_far_below_its_tolerance():
     ~DRAG_TOL^2 off: the cold first step (k from rest) agrees with a 1e-13 tolerance to round-off,
     and so does a warm one."""
     for steps in (1, 3):
-        a = _saltating(particles.DRAG_TOL, steps)
+        a = _saltating(DRAG_TOL, steps)
         b = _saltating(1e-13, steps)
         assert a.n == b.n
         for f in ("u", "v", "w", "z"):

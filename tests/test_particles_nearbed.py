@@ -1,10 +1,7 @@
-"""The wind a grain sees in the first grid cell and where its drag goes: particles.near_bed_wind.
+"""The wind a grain sees in the first grid cell and where its drag goes: the paper's [12].
 
-"paper" is the paper's [12]: in the whole first cell (z < z_f[1]) the log law from the second
-level, the drag back to the second level. "cell-drag": the same wind, the drag in the cell holding
-the grain (eq. 2 read literally). "first-level": below z_c[0] the log law from the first level,
-the drag there. "blend": the log law only below z_c[0], the drag of those grains on the first
-level, trilinear between the first two levels above z_c[0].
+In the whole first cell (z < z_f[1]) the log law from the second level, the drag (momentum and
+TKE sink) back to the second level; trilinear above (solver/grains/interp.py).
 """
 from __future__ import annotations
 
@@ -14,7 +11,6 @@ import numpy as np
 import pytest
 
 from test_particles_helpers import component, scene, synthetic_flow
-from saltstudy.config import ConfigError, load_case
 from saltstudy.solver.grid import Grid
 from saltstudy.solver.grains.particles import Saltation
 from saltstudy.solver.state import FlowState
@@ -23,11 +19,8 @@ KAPPA = 0.4
 RHO = 1.2
 
 
-def _scene(mode: str, case: int = 2, **physics):
-    over = {"particles": {"near_bed_wind": mode}}
-    if physics:
-        over["physics"] = physics
-    return scene(case, **over)
+def _scene(case: int = 2, **physics):
+    return scene(case, physics=physics) if physics else scene(case)
 
 
 def _air_momentum(st):
@@ -36,15 +29,12 @@ def _air_momentum(st):
     return np.array([RHO * np.sum(st.u * vol), RHO * np.sum(st.v * vol)])
 
 
-@pytest.mark.parametrize("mode", ["paper", "cell-drag", "first-level"])
-def test_coupling_conserves_horizontal_momentum_in_the_first_cell(mode):
-    """(a) Grains in the first cell (and some above it), heavy loading, two-way with each of the
-    paper's readings: the air's momentum change plus the grains' is zero to round-off, and the
-    exchange did something. Where the grains load the level they read, the loaded air and the
-    grains relax together (no new extremes); with "cell-drag" they load a level they do not read,
-    so nothing bounds that level's response (a grain mass 100x the air's moves it 100x the grains'
-    own change)."""
-    s, st = component(_scene(mode, 7), gravity=False)
+def test_coupling_conserves_horizontal_momentum_in_the_first_cell():
+    """(a) Grains in the first cell (and some above it), heavy loading, two-way: the air's
+    momentum change plus the grains' is zero to round-off, and the exchange did something; the
+    grains load the level they read, so the loaded air and the grains relax together (no new
+    extremes)."""
+    s, st = component(_scene(7), gravity=False)
     synthetic_flow(st, 0.57, 1e-5, amp=0.5)
     st.w[...] = 0.0  # no vertical motion: no grain reaches the bed (splash is no exchange)
     g = s.grid
@@ -65,18 +55,15 @@ def test_coupling_conserves_horizontal_momentum_in_the_first_cell(mode):
     p1 = _air_momentum(st) + s.grain_momentum()[:2]
     assert np.all(np.abs(p1 - p0) <= 1e-12 * scale), (p1 - p0) / scale
     assert abs(s.counters()["momentum_to_air"][0]) > 1e-3 * scale
-    if mode != "cell-drag":
-        assert np.abs(st.u).max() <= 1.05 * bound  # stable: no new extremes
+    assert np.abs(st.u).max() <= 1.05 * bound  # stable: no new extremes
 
 
-@pytest.mark.parametrize("mode", ["paper", "cell-drag", "first-level", "blend"])
-def test_wind_seen_in_the_first_cell_of_a_log_law_wind(mode):
+def test_wind_seen_in_the_first_cell_of_a_log_law_wind():
     """(b) A horizontally uniform wind u(z) = u*/kappa ln(z/z0) on the staggered grid: grains at
-    several heights in the first cell see the log law itself with "paper" and "cell-drag" (to
-    round-off), both in the interpolation the diagnostics use and in the step (10 um grains, dt >>
-    T_p: they end the step at the wind they see); with "first-level" and "blend" only below
-    z_c[0], below the log law above it (linear between the first two levels)."""
-    sc = _scene(mode, two_way_coupling=False, tke_particle_sink=False)
+    several heights in the first cell see the log law itself (to round-off), both in the
+    interpolation the diagnostics use and in the step (10 um grains, dt >> T_p: they end the step
+    at the wind they see)."""
+    sc = _scene(two_way_coupling=False, tke_particle_sink=False)
     s, st = component(sc, gravity=False)
     g = s.grid
     z0, us = sc.case.surface.z0, 0.54
@@ -93,22 +80,14 @@ def test_wind_seen_in_the_first_cell_of_a_log_law_wind(mode):
     assert np.array_equal(s.z[order], zs)  # no vertical motion (w = 0, no gravity)
     stepped = s.u[order]
     assert np.all(vseen == 0.0) and np.all(wseen == 0.0)
-    below = zs < g.z_c[0]
-    if mode in ("paper", "cell-drag"):
-        np.testing.assert_allclose(seen, law, rtol=1e-14, atol=0)
-        np.testing.assert_allclose(stepped, law, rtol=1e-14, atol=0)
-    else:
-        np.testing.assert_allclose(seen[below], law[below], rtol=1e-14, atol=0)
-        np.testing.assert_allclose(stepped[below], law[below], rtol=1e-14, atol=0)
-        # above z_c[0], linear between the first two levels: below the concave log law
-        assert np.all(seen[~below] < law[~below] * (1 - 1e-3))
-        np.testing.assert_allclose(stepped[~below], seen[~below], rtol=1e-14, atol=0)
+    np.testing.assert_allclose(seen, law, rtol=1e-14, atol=0)
+    np.testing.assert_allclose(stepped, law, rtol=1e-14, atol=0)
 
 
-def test_paper_wind_is_discontinuous_at_the_first_cell_top_by_the_documented_amount():
-    """Across z_f[1] the "paper" wind goes from the log law to the linear value between the first
-    two levels: in an exact log profile the latter is lower by (interp.py's doc) 2-3 %."""
-    sc = _scene("paper", two_way_coupling=False, tke_particle_sink=False)
+def test_wind_is_discontinuous_at_the_first_cell_top_by_the_documented_amount():
+    """Across z_f[1] the wind goes from the log law to the linear value between the first two
+    levels: in an exact log profile the latter is lower by (interp.py's doc) 2-3 %."""
+    sc = _scene(two_way_coupling=False, tke_particle_sink=False)
     s, st = component(sc)
     g = s.grid
     z0 = sc.case.surface.z0
@@ -123,19 +102,12 @@ def test_paper_wind_is_discontinuous_at_the_first_cell_top_by_the_documented_amo
     assert -0.03 < jump < -0.015
 
 
-@pytest.mark.parametrize("mode, frac, levels", [("paper", 0.3, {1}), ("paper", 0.8, {1}),
-                                                ("cell-drag", 0.3, {0}), ("cell-drag", 0.8, {0}),
-                                                ("first-level", 0.3, {0}),
-                                                ("first-level", 0.8, {0, 1}),
-                                                ("blend", 0.3, {0}), ("blend", 0.8, {0, 1})])
-def test_drag_of_a_grain_in_the_first_cell_lands_where_the_reading_puts_it(mode, frac, levels):
+@pytest.mark.parametrize("frac", [0.3, 0.8])
+def test_drag_of_a_grain_in_the_first_cell_goes_to_the_level_it_reads(frac):
     """(c) One grain at rest in a uniform wind, at frac * z_f[1] (below / above z_c[0] = z_f[1]/2):
-    the air's momentum change is on level 1 only with "paper" (the level the log law reads), on
-    level 0 only with "cell-drag" (the cell holding the grain: eq. 2 read literally), on level 0
-    (below z_c[0]) or levels 0 and 1 (above) with "first-level" and "blend"; it is minus the
-    grain's, to round-off; the TKE sink is in the level-1 cell with "paper", in the cell holding
-    the grain otherwise."""
-    s, st = component(_scene(mode), gravity=False)
+    the air's momentum change is on level 1 only (the level the log law reads) and minus the
+    grain's, to round-off; the TKE sink is in the level-1 cell."""
+    s, st = component(_scene(), gravity=False)
     g = s.grid
     st.u[...] = 5.0
     st.e[...] = 0.2
@@ -146,12 +118,12 @@ def test_drag_of_a_grain_in_the_first_cell_lands_where_the_reading_puts_it(mode,
     s.dynamics(st, 1e-3)
     du = st.u - u0
     changed = set(np.flatnonzero(np.any(du != 0.0, axis=(0, 1))).tolist())
-    assert changed == levels
+    assert changed == {1}
     air = np.sum(du * RHO * g.dx * g.dy * g.dz_c)
     grain = s.Q * s.mass[0] * s.u[0]
     assert grain > 0 and abs(air + grain) <= 1e-12 * grain
     i, j = int(0.55 / g.dx), int(0.45 / g.dy)
-    k = 1 if mode == "paper" else 0
+    k = 1
     assert np.flatnonzero(st.tke_sink).tolist() == [np.ravel_multi_index((i, j, k), g.shape)]
     tp = 2650 * (200e-6) ** 2 / (18 * RHO * 1.5e-5)
     tl = s.tlc[k] / math.sqrt(0.2)
@@ -160,12 +132,12 @@ def test_drag_of_a_grain_in_the_first_cell_lands_where_the_reading_puts_it(mode,
     assert st.tke_sink[i, j, k] == pytest.approx(expect, rel=1e-9)
 
 
-def test_paper_heavily_loaded_first_cell_relaxes_monotonically():
-    """Grain mass 100x the air's in every first-cell column, "paper": the level-1 air and the
+def test_heavily_loaded_first_cell_relaxes_monotonically():
+    """Grain mass 100x the air's in every first-cell column: the level-1 air and the
     grains relax, without overshoot, to the common state in which the grains move at the log law
     of the level-1 air, u_p = l U_1, with momentum conserved (the implicit exchange's weights are
     l w_pf, coupling.py)."""
-    sc = _scene("paper", 7, tke_particle_sink=False)
+    sc = _scene(7, tke_particle_sink=False)
     grid = Grid.uniform(4, 4, 4, 0.4, 0.4, 0.4)
     st = FlowState.zeros(grid)
     s = Saltation(grid, sc)
@@ -196,21 +168,3 @@ def test_paper_heavily_loaded_first_cell_relaxes_monotonically():
     assert abs(ua[-1] - V) < 1e-6 and abs(up[-1] - lf * V) < 1e-6
     tot = m_air * ua * grid.nx * grid.ny + s.Q * m_p * up * s.n
     assert np.all(np.abs(tot - tot[0]) < 1e-12 * tot[0])
-
-
-def test_config_rejects_an_unknown_near_bed_wind_naming_the_field():
-    """(d)"""
-    with pytest.raises(ConfigError, match="near_bed_wind"):
-        load_case(2, overrides={"particles": {"near_bed_wind": "log"}})
-    assert load_case(2).particles.near_bed_wind == "paper"
-
-
-def test_the_setting_keys_the_saltation_task_not_the_spinup():
-    """A study rerun with the other setting recomputes the saltation (and what follows), and
-    shares the spin-up."""
-    from saltstudy.workflow.keys import run_keys
-
-    a = run_keys("case02", _scene("blend"))
-    b = run_keys("case02", _scene("paper"))
-    assert a.spinup == b.spinup
-    assert a.saltation != b.saltation and a.analysis != b.analysis

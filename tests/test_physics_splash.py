@@ -1,26 +1,30 @@
-"""Splash laws (eqs. 6-9): jitted scalars, samplers against their specification, expectations."""
+"""Splash laws (eqs. 6-9): the draws the kernels make against their specification, expectations."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from saltstudy._jit import jit
 from saltstudy.config import Soil, SoilMode, Splash, load_case
-from saltstudy.physics.soil import mass_weighted_moment, sample_diameters
-from saltstudy.physics.splash import (ejection_number_mean, mean_ejecta_number, mean_ejecta_speed,
-                                      mean_rebound_fraction, mean_rebound_speed,
-                                      mean_splash_energy_ratio, mean_splash_energy_terms,
-                                      rebound_probability, rebound_speed_ratio_moments,
-                                      sample_ejecta_number, sample_ejection, sample_rebound,
-                                      sample_truncated_normal, std_rebound_speed,
+from saltstudy.physics.soil import mass_weighted_moment, soil_arrays
+from saltstudy.physics.splash import (draw_impact, ejecta_number, ejection_number_mean,
+                                      ejection_speed, launch_angle, mean_ejecta_number,
+                                      mean_ejecta_speed, mean_rebound_fraction,
+                                      mean_rebound_speed, mean_splash_energy_ratio,
+                                      mean_splash_energy_terms, rebound_probability,
+                                      rebound_speed, rebound_speed_ratio_moments,
+                                      splash_constants, splash_impacts, std_rebound_speed,
                                       truncated_normal_moments, vertical_angle_moments)
 
 SPLASH = Splash()
+SOIL = Soil()
 G = 9.81
 N = 100_000
+SP = splash_constants(SPLASH, SOIL, G)
 
 
 def _within(sample, mean, std, kurtosis=3.0, k=4.0):
@@ -31,15 +35,46 @@ def _within(sample, mean, std, kurtosis=3.0, k=4.0):
     return abs(sample.mean() - mean) < k * se_mean and abs(sample.std() - std) < k * se_std
 
 
-# ---------------------------------------------------------------- jitted scalar laws
-def test_jitted_rebound_probability():
+@jit
+def _draws(rng, kind, a, b, c, n):
+    """n draws of one law: 0 rebound_speed(a, b, c), 1 launch_angle(a, b), 2 ejecta_number(a),
+    3 ejection_speed(a, b)."""
+    out = np.empty(n)
+    for i in range(n):
+        if kind == 0:
+            out[i] = rebound_speed(rng, a, b, c)
+        elif kind == 1:
+            out[i] = launch_angle(rng, a, b)
+        elif kind == 2:
+            out[i] = ejecta_number(rng, a)
+        else:
+            out[i] = ejection_speed(rng, a, b)
+    return out
+
+
+@jit
+def _impacts(rng, v, sp, n):
+    """n impacts at speed v (draw_impact): rebounded, v_reb, alpha_v, alpha_h, N_ej each."""
+    out = np.empty((n, 5))
+    for i in range(n):
+        reb, vr, av, ah, nej = draw_impact(rng, v, v, sp)
+        out[i, 0] = 1.0 if reb else 0.0
+        out[i, 1] = vr
+        out[i, 2] = av
+        out[i, 3] = ah
+        out[i, 4] = nej
+    return out
+
+
+# ---------------------------------------------------------------- the scalar laws
+def test_rebound_probability():
     assert rebound_probability(0.0, 0.95, 2.0) == 0.0
     assert rebound_probability(1.0, 0.95, 2.0) == pytest.approx(0.95 * (1 - math.exp(-2.0)), rel=1e-14)
     assert rebound_probability(50.0, 0.95, 2.0) == pytest.approx(0.95, rel=1e-12)
     assert rebound_probability(0.7, 0.95, 2.0) == pytest.approx(rebound_probability.py_func(0.7, 0.95, 2.0))
 
 
-def test_jitted_ejection_number():
+def test_ejection_number():
     # 0.03 * 3 / sqrt(9.81 * 2e-4) = 0.09 / 0.0442945 = 2.03186
     assert ejection_number_mean(3.0, 0.03, G, 200e-6) == pytest.approx(2.03186, abs=1e-5)
     assert ejection_number_mean(3.0, 0.03, G, 200e-6) == mean_ejecta_number(3.0, SPLASH, G, 200e-6)
@@ -58,25 +93,25 @@ def test_truncated_normal_moments_known_values():
 
 
 @settings(deadline=None, max_examples=25)
-@given(mean=st.floats(-2.0, 2.0), std=st.floats(0.2, 2.0), lower=st.floats(-1.0, 0.5))
-def test_truncated_normal_sampler_matches_moments(mean, std, lower):
-    assume(0.5 * math.erfc(-(mean - lower) / std / math.sqrt(2)) >= 0.05)   # keep redraws cheap
-    rng = np.random.default_rng(11)
-    x = sample_truncated_normal(mean, std, rng, 20_000, lower=lower)
-    assert np.all(x > lower)
-    m, s = truncated_normal_moments(mean, std, lower)
+@given(mean=st.floats(0.0, 2.0), std=st.floats(0.2, 2.0))
+def test_redrawn_rebound_ratio_matches_the_truncated_moments(mean, std):
+    """rebound_speed redraws the negative draws: its ratio to v_imp is N(mean, std) truncated to
+    >= 0, whose moments truncated_normal_moments gives."""
+    x = _draws(np.random.default_rng(11), 0, 2.0, mean, std, 20_000) / 2.0
+    assert np.all(x >= 0)
+    m, s = truncated_normal_moments(mean, std, 0.0)
     assert abs(x.mean() - m) < 4.5 * s / math.sqrt(x.size)
 
 
 # ---------------------------------------------------------------- rebound
 @pytest.mark.parametrize("v_imp", [0.5, 2.0, 5.0])
-def test_sample_rebound_matches_specification(v_imp):
-    rng = np.random.default_rng(2013)
-    reb, speed, av, ah = sample_rebound(v_imp, SPLASH, rng, N)
-    assert reb.dtype == bool and speed.shape == av.shape == ah.shape == (N,)
+def test_rebound_draws_match_specification(v_imp):
+    out = _impacts(np.random.Generator(np.random.PCG64(2013)), v_imp, SP, N)
+    reb = out[:, 0] == 1.0
     p = mean_rebound_fraction(v_imp, SPLASH)
     assert p == pytest.approx(0.95 * (1 - math.exp(-2 * v_imp)))
     assert abs(reb.mean() - p) < 4 * math.sqrt(p * (1 - p) / N)
+    speed, av, ah = out[reb, 1], np.degrees(out[reb, 2]), np.degrees(out[reb, 3])
     assert np.all(speed > 0)
     assert _within(speed, mean_rebound_speed(v_imp, SPLASH), std_rebound_speed(v_imp, SPLASH))
     assert np.all((av > 0) & (av < 180))
@@ -86,39 +121,26 @@ def test_sample_rebound_matches_specification(v_imp):
 
 def test_rebound_speed_mean_is_the_truncated_one_not_0p6():
     """The test above can fail: the untruncated mean 0.6 v_imp is rejected by the same sample."""
-    rng = np.random.default_rng(2013)
-    _, speed, _, _ = sample_rebound(2.0, SPLASH, rng, N)
+    speed = _draws(np.random.default_rng(2013), 0, 2.0, 0.6, 0.25, N)
     m, s = rebound_speed_ratio_moments(SPLASH)
     assert abs(speed.mean() - 0.6 * 2.0) > 4 * 2.0 * s / math.sqrt(N)
+    assert abs(speed.mean() - m * 2.0) < 4 * 2.0 * s / math.sqrt(N)
     assert m == pytest.approx(0.60564, abs=1e-5)
 
 
-def test_sample_rebound_array_of_speeds():
-    rng = np.random.default_rng(5)
-    v = rng.uniform(0.1, 4.0, N)
-    reb, speed, _, _ = sample_rebound(v, SPLASH, rng)
-    p = mean_rebound_fraction(v, SPLASH)
-    assert abs(reb.sum() - p.sum()) < 4 * math.sqrt(np.sum(p * (1 - p)))
-    ratio = speed / v
-    m, s = rebound_speed_ratio_moments(SPLASH)
-    assert _within(ratio, m, s)
-
-
 def test_vertical_rebound_angles_redrawn_not_clipped():
-    rng = np.random.default_rng(9)
-    _, _, av, _ = sample_rebound(1.0, SPLASH, rng, N)
+    av = np.degrees(_draws(np.random.default_rng(9), 1, math.radians(30.0), math.radians(15.0),
+                           0.0, N))
     # near 0 the density of a redrawn (truncated) normal is that of N(30, 15) / Phi(2), no atom at 0
     assert np.min(av) > 0 and np.mean(av < 1.0) < 0.01
 
 
 # ---------------------------------------------------------------- ejecta number
 @pytest.mark.parametrize("v_imp", [0.3, 1.0, 3.0, 7.5])
-def test_sample_ejecta_number(v_imp):
-    rng = np.random.default_rng(42)
-    k = sample_ejecta_number(v_imp, SPLASH, G, 200e-6, rng, N)
+def test_ejecta_number_by_stochastic_rounding(v_imp):
+    k = _impacts(np.random.default_rng(42), v_imp, SP, N)[:, 4]
     mean = mean_ejecta_number(v_imp, SPLASH, G, 200e-6)
     f = mean - math.floor(mean)
-    assert k.dtype == np.int64
     assert set(np.unique(k)) <= {math.floor(mean), math.floor(mean) + 1}
     assert abs(k.mean() - mean) < 4 * math.sqrt(f * (1 - f) / N) + 1e-12
     assert k.var() == pytest.approx(f * (1 - f), abs=4 * math.sqrt(f * (1 - f) / N) + 1e-12)
@@ -127,37 +149,44 @@ def test_sample_ejecta_number(v_imp):
 def test_ejecta_number_integer_mean_is_deterministic():
     d_mean = 200e-6
     v = 2.0 * math.sqrt(G * d_mean) / SPLASH.a_ej        # N = 2 exactly
-    k = sample_ejecta_number(v, SPLASH, G, d_mean, np.random.default_rng(0), 1000)
+    k = _draws(np.random.default_rng(0), 2, ejection_number_mean(v, SPLASH.a_ej, G, d_mean), 0.0,
+               0.0, 1000)
     assert np.all(k == 2)
 
 
 # ---------------------------------------------------------------- ejection
 @pytest.mark.parametrize("v_imp", [1.0, 4.0])
-def test_sample_ejection_matches_specification(v_imp):
-    rng = np.random.default_rng(77)
-    speed, av, ah = sample_ejection(v_imp, SPLASH, rng, N)
+def test_ejection_draws_match_specification(v_imp):
+    impactors = np.full(N // 20, v_imp)
+    launch, parent = splash_impacts(np.random.default_rng(77), impactors, 0.0 * impactors,
+                                    0.0 * impactors, np.full(N // 20, 1.0), SP,
+                                    *soil_arrays(SOIL))
+    ejecta = launch[:, 3] != 1.0          # rebounds keep the impactor's (here unphysical) diameter
+    u, v, w = launch[ejecta, 0], launch[ejecta, 1], launch[ejecta, 2]
+    speed = np.sqrt(u * u + v * v + w * w)
     m = mean_ejecta_speed(v_imp, SPLASH)
     assert m == pytest.approx(0.08 * v_imp)
     assert _within(speed, m, m, kurtosis=9.0)                  # exponential: std = mean
-    assert _within(av, *vertical_angle_moments(60.0, 15.0))
+    # the impactors move along x: the horizontal angle is small, and an elevation above 90 deg
+    # points upwind (u < 0)
+    c = np.sign(u) * np.hypot(u, v)
+    assert _within(np.degrees(np.arctan2(w, c)), *vertical_angle_moments(60.0, 15.0))
     assert vertical_angle_moments(60.0, 15.0)[0] == pytest.approx(60.0, abs=0.003)
-    assert _within(ah, 0.0, 10.0)
+    assert _within(np.degrees(np.arctan(v / u)), 0.0, 10.0)
+    assert np.array_equal(parent, np.sort(parent))             # impact after impact
 
 
 # ---------------------------------------------------------------- energy
 def test_energy_ratio_matches_monte_carlo():
-    """Simulate 1e5 impacts (rebound + ejecta with diameters from the soil) and compare."""
-    rng = np.random.default_rng(99)
+    """Splash 1e5 impacts (rebound + ejecta with diameters from the soil) and compare."""
     soil = Soil(modes=(SoilMode(mu=200e-6, sigma=1.2),))
     v, d_imp = 3.0, 180e-6
-    reb, vr, _, _ = sample_rebound(v, SPLASH, rng, N)
-    k = sample_ejecta_number(v, SPLASH, G, soil.mean_diameter, rng, N)
-    n_ej = int(k.sum())
-    ve, _, _ = sample_ejection(v, SPLASH, rng, n_ej)
-    de = sample_diameters(soil, rng, n_ej)
-    owner = np.repeat(np.arange(N), k)
-    e_ej = np.bincount(owner, weights=de ** 3 * ve ** 2, minlength=N)   # rho_p pi/12 cancels
-    per_impact = (reb * d_imp ** 3 * vr ** 2 + e_ej) / (d_imp ** 3 * v ** 2)
+    ui = np.full(N, v)
+    launch, parent = splash_impacts(np.random.default_rng(99), ui, 0.0 * ui, 0.0 * ui,
+                                    np.full(N, d_imp), splash_constants(SPLASH, soil, G),
+                                    *soil_arrays(soil))
+    e_out = launch[:, 3] ** 3 * np.sum(launch[:, :3] ** 2, axis=1)    # rho_p pi/12 cancels
+    per_impact = np.bincount(parent, weights=e_out, minlength=N) / (d_imp ** 3 * v ** 2)
     ratio = mean_splash_energy_ratio(v, d_imp, soil, SPLASH, G)
     assert abs(per_impact.mean() - ratio) < 4 * per_impact.std() / math.sqrt(N)
     reb_term, ej_term = mean_splash_energy_terms(v, d_imp, soil, SPLASH, G)

@@ -8,18 +8,22 @@ def _scene(overrides: dict | None = None, fidelity: str = "paper") -> dict:
     return resolve_scene(case, load_fidelity(fidelity)).model_dump(mode="json")
 
 
-def test_the_paper_model_at_the_paper_fidelity_departs_in_nothing():
-    paper_model = {"closure": {"near_wall": False}, "particles": {"near_bed_wind": "paper"}}
-    assert model_departures(_scene(paper_model)) == []
+def test_the_paper_model_at_the_paper_fidelity_departs_only_in_its_parcel_weight():
+    """The paper fidelity keeps the paper's rule for the parcel count (~2,000 airborne per m2),
+    which at the model's load is another weight than the paper's Q: that, and only that, is named."""
+    paper_model = {"closure": {"model": "deardorff"}}
+    lines = model_departures(_scene(paper_model))
+    assert len(lines) == 1 and "2000 airborne parcels per m2" in lines[0]
+    fine = model_departures(_scene(paper_model, fidelity="fine"))
+    assert not any("parcels" in line for line in fine)
 
 
 def test_each_departure_is_named_by_its_config_field():
-    text = " ".join(model_departures(_scene({"closure": {"model": "dynamic", "near_wall": True},
-                                                  "particles": {"near_bed_wind": "blend"}},
+    text = " ".join(model_departures(_scene({"closure": {"model": "dynamic"},
+                                                  "splash": {"impact_speed": "normal"}},
                                                  fidelity="reduced")))
     assert "dynamic" in text
-    assert "closure.near_wall" in text
-    assert "particles.near_bed_wind" in text
+    assert "splash.impact_speed" in text
     assert f"{load_fidelity('reduced').q_multiplier:g}x heavier" in text
     assert "relaxation" in text
 

@@ -68,7 +68,7 @@ def test_paper_case_is_a_case_of_table2_unchanged_but_for_the_seed():
         load_case(2, overrides={"forcing": {"u_star_s": 0.20}}),
         load_case(2, overrides={"soil": {"modes": [{"mu": 2.5e-4}]}}),
         load_case(2, overrides={"particles": {"Q": 1200}}),
-        load_case(2, overrides={"closure": {"near_wall": True}}),
+        load_case(2, overrides={"closure": {"model": "dynamic"}}),
         load_case(2, overrides={"splash": {"a_ej": 0.05}}),
     ]
     for c in changed:

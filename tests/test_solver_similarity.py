@@ -47,7 +47,7 @@ def test_molecular_viscosity_breaks_similarity_only_slightly():
     """With the real air viscosity the scaled fields differ, but by far less than the turbulence.
     The difference is largest at the first level, where the molecular viscosity is the largest
     share of the total: after 60 steps 1.1 % of the largest velocity fluctuation under the paper's
-    closure, 0.3 % with the near-wall mixing length (whose viscosity swamps the molecular one)."""
+    closure."""
     a, b = (r["u"] for r in _runs_at_u_star_and_twice(nu=1.5e-5))
     fluct = np.abs(a - a.mean(axis=(0, 1))).max()
     assert 0 < np.abs(b / 2.0 - a).max() < 0.02 * fluct
@@ -56,13 +56,13 @@ def test_molecular_viscosity_breaks_similarity_only_slightly():
 def test_rescale_restart_scales_velocities_and_squares():
     ck = {"u": np.ones((2, 2, 2)), "v": np.full((2, 2, 2), -1.0), "w": np.zeros((2, 2, 3)),
           "e": np.full((2, 2, 2), 0.5), "p": np.full((2, 2, 2), 2.0), "t": 10.0, "step": 7,
-          "u_drive": 3.0, "controller/tau_ref_filtered": 0.25, "controller/integral": -0.1,
+          "u_drive": 3.0, "controller/tau_ref_filtered": 0.25, "controller/tau_ref_last": -0.1,
           "rng_state": "{}"}
     r = rescale_restart(ck, 1.5)
     assert r["u"][0, 0, 0] == 1.5 and r["v"][0, 0, 0] == -1.5 and r["u_drive"] == 4.5
     assert r["e"][0, 0, 0] == pytest.approx(1.125) and r["p"][0, 0, 0] == pytest.approx(4.5)
     assert r["controller/tau_ref_filtered"] == pytest.approx(0.5625)
-    assert r["controller/integral"] == pytest.approx(-0.225)
+    assert r["controller/tau_ref_last"] == pytest.approx(-0.225)
     assert r["t"] == 10.0 and r["step"] == 7 and r["rng_state"] == "{}"
     assert ck["u"][0, 0, 0] == 1.0                      # the input is not modified
 

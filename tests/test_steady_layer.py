@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from saltstudy.config import load_case
+from saltstudy.config import Splash, load_case
 from saltstudy.instruments.steady_layer import (LayerParams, fly_grains, log_wind,
                                                 solve_steady_layer, splash_generation,
                                                 wind_from_stress)
@@ -24,8 +24,8 @@ def test_a_heavy_grain_in_still_air_flies_a_parabola():
     nb = zn.size - 1
     drag, mt, fl = np.zeros(nb), np.zeros(nb), np.zeros(nb)
     out = np.zeros((1, 6))
-    fly_grains(u0, np.zeros(1), w0, d, np.array([h]), un, lz0, idl, 0.0, 3.0, 0.4, 1.2, 1.5e-5,
-               rho_p, g, h, 1e-5, 5.0, drag, mt, fl, out)
+    fly_grains(u0, np.zeros(1), w0, d, un, lz0, idl, 0.0, 3.0, 0.4, 1.2, 1.5e-5, rho_p, g, h,
+               1e-5, 5.0, drag, mt, fl, out)
     t = 2 * 0.5 / g
     m = math.pi / 6 * rho_p * 2e-4 ** 3
     assert out[0, 5] == 1.0
@@ -45,7 +45,7 @@ def test_constant_stress_gives_the_log_law():
 def test_splash_generation_draws_eqs_6_and_8_and_keeps_the_books(impact_speed):
     """Impacts at 2 m/s and 10 deg: rebounds with P_reb of the speed eq. 6 takes, ejecta per
     impact eq. 8's mean; the bed's momentum per impact is the impactor's minus the launches'."""
-    p = LayerParams(impact_speed=impact_speed, n_impacts=100)
+    p = LayerParams(splash=Splash(impact_speed=impact_speed), n_impacts=100)
     rng = np.random.default_rng(1)
     n, v, a = 40000, 2.0, math.radians(10.0)
     ui, vi, wi = np.full(n, v * math.cos(a)), np.zeros(n), np.full(n, -v * math.sin(a))
@@ -83,7 +83,7 @@ def test_the_steady_layer_replaces_itself_and_balances_its_momentum():
 
 def test_layer_params_reject_bad_input():
     with pytest.raises(ValueError, match="impact_speed"):
-        LayerParams(impact_speed="fast")
+        LayerParams(splash=Splash(impact_speed="fast"))
     with pytest.raises(ValueError, match="u_star"):
         LayerParams(u_star=-1.0)
     with pytest.raises(ValueError, match="bed_fluid_fraction"):

@@ -102,7 +102,7 @@ def test_stability_smoke_study_end_to_end(home, tmp_path):
         assert 0 < row["max_cfl"] < 2.0, (label, row)
         assert math.isfinite(row["u_max"]) and math.isfinite(row["w_absmax"])
         assert row["wall_time_s"] > 0
-        # parcels are only created by release, splash and entrainment, removed by deposition
+        # parcels are only created by release and splash, removed by deposition
         assert row["parcel_balance"] == 0, (label, row)
         assert row["loading_max"] > 0 and row["dt_over_tau_c"] > 0
         assert row["limiting_step"].split()[0] in ("courant", "diffusion", "grains", "dt_max")

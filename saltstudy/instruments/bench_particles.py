@@ -9,8 +9,9 @@ splash, sub-step and couple two-way as in a run. Timing excludes compilation (on
 
 ``--phases`` also times each kernel the component calls (the implicit estimate, the parcel
 advance, the bed events, the reordering, ...), as ns per parcel-step over the timed steps: where
-the time goes, for whoever works on the speed target. The kernels are wrapped for the bench only,
-and the solver is left as it was afterwards.
+the time goes, for whoever works on the speed target. The component is given its kernels each
+wrapped in a timer (its ``kernels`` record, particles.StepKernels) for the timed steps, and its
+own back afterwards; nothing else is touched.
 
 ``--against REV`` times this checkout against the grain component of git revision REV: REV's
 ``saltstudy/``, ``cases/`` and ``workflows/`` are extracted (``git archive``) under
@@ -38,7 +39,7 @@ import numpy as np
 
 from .revision import RevisionError, revision_path, run_isolated
 
-__all__ = ["bench_particles", "compare_particles", "register_bench"]
+__all__ = ["bench_particles", "compare_particles", "register_bench", "timed_kernels"]
 
 #: the package this module belongs to (``saltstudy``); from ``__package__``, which ``python -m``
 #: keeps (``__name__`` is then ``__main__``)
@@ -99,37 +100,26 @@ def _emit(out: dict, as_json: bool, lines) -> None:
 #: thread's work, so it measures the code with NUMBA_NUM_THREADS=1
 _clock = time.perf_counter
 
-#: the kernels of Saltation.dynamics timed by --phases (module-level names in solver/grains/particles.py)
-PHASE_KERNELS = ("implicit_coefficients", "implicit_corrections", "_advance_all", "splash_runs",
-                 "ejecta_reserve", "apply_exchange", "chunk_assign", "air_maxima",
-                 "_collect_events", "_compact")
-
-
 @contextmanager
-def _timed_kernels(acc: dict, component):
-    """Accumulate wall seconds per kernel in ``acc`` while inside (and the parcel reordering,
-    ``component._sort``, as "_sort"); restores the originals on exit."""
-    from ..solver.grains import particles
-
-    saved = {name: getattr(particles, name) for name in PHASE_KERNELS}
+def timed_kernels(acc: dict, component):
+    """Accumulate wall seconds per kernel of the grain component's step in ``acc`` (keyed by
+    particles.StepKernels' names) while inside: the component runs its kernels each wrapped in a
+    timer, and its own again on exit."""
+    saved = component.kernels
 
     def timed(name, f):
-        def g(*args, **kw):
+        def g(*args):
             t0 = _clock()
-            out = f(*args, **kw)
+            out = f(*args)
             acc[name] = acc.get(name, 0.0) + _clock() - t0
             return out
         return g
 
-    for name, f in saved.items():
-        setattr(particles, name, timed(name, f))
-    component._sort = timed("_sort", component._sort)
+    component.kernels = type(saved)(*(timed(name, f) for name, f in saved._asdict().items()))
     try:
         yield
     finally:
-        for name, f in saved.items():
-            setattr(particles, name, f)
-        del component._sort
+        component.kernels = saved
 
 
 def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, dt: float = 0.005,
@@ -153,7 +143,7 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
         acc: dict = {}
         parcel_steps = 0
         wall = 0.0
-        with _timed_kernels(acc, s) if phases else nullcontext():
+        with timed_kernels(acc, s) if phases else nullcontext():
             for _ in range(steps):
                 n0 = max(s.n, 1)
                 t0 = _clock()
@@ -286,8 +276,6 @@ def register_bench(bench_app) -> None:
 
 
 if __name__ == "__main__":
-    import sys
-
     args = sys.argv[1:]
     ns = [float(args[i + 1]) for i, a in enumerate(args) if a == "--n"] or [1e5, 1e6]
     st = int(args[args.index("--steps") + 1]) if "--steps" in args else 20

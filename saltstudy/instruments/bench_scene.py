@@ -164,7 +164,7 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
     ``phases``: the grain kernels' ns per parcel-step as ``bench particles --phases`` times them)."""
     from contextlib import nullcontext
 
-    from .bench_particles import _timed_kernels
+    from .bench_particles import timed_kernels
     from ..solver.model import Model
     from ..solver.simulation import IterationInterval, Simulation
     from ..solver.tiling import project_restart
@@ -198,7 +198,7 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
 
     sim = Simulation(m, stop_time=seconds)
     sim.add_callback("tally", after_step, IterationInterval(1))
-    timed = _timed_kernels(acc, m.components[0]) if phases and m.components else nullcontext()
+    timed = timed_kernels(acc, m.components[0]) if phases and m.components else nullcontext()
     try:
         with timed:
             before_step()

@@ -4,8 +4,9 @@
 
 Test grains hop over a flat bed in a horizontally uniform wind u(z). Each impact is splashed by
 the paper's law (eqs. 6-9: rebound with P_reb, N_ej ejecta by stochastic rounding, their speeds
-and angles), each rebound and ejectum is flown with the paper's drag (eqs. 3-4, Clift's f(Re_p))
-to its next impact on the 0.5 mm layer, and the wind is the mixing-length profile of the stress
+and angles; physics.splash.splash_impacts, the draws the LES's bed events make), each rebound and
+ejectum is flown with the paper's drag (eqs. 3-4, Clift's f(Re_p), the exact relaxation over a
+step: physics.drag) to its next impact on the 0.5 mm layer, and the wind is the mixing-length profile of the stress
 the grains leave to the air (Owen 1964; the same closure as the 1-D models of Werner 1990 and Kok
 & Renno 2009, which the paper cites)::
 
@@ -31,20 +32,24 @@ The LES differs: its wind is turbulent and, below its second level, the log law 
 ([12]); so read the probe's numbers as the splash law's equilibrium, against which the LES's
 numbers and each reading of the paper's text can be placed before a run.
 
-The case's splash readings carry over (config.Splash): ``impact_speed`` ("magnitude": v_imp of
-eqs. 6-9 is the impact speed |u_p|; "normal": eqs. 6 and 8 take |w_p|, eqs. 7 and 9 |u_p|) and
-``launch_height`` ("layer_top": rebounds and ejecta leave from z = 0.5 mm; "bed": from z = 0, and
-one whose hop does not reach the layer's top meets the bed again at the top of its hop).
+The case's splash reading carries over (config.Splash): ``impact_speed`` ("magnitude": v_imp of
+eqs. 6-9 is the impact speed |u_p|; "normal": eqs. 6 and 8 take |w_p|, eqs. 7 and 9 |u_p|).
+Rebounds and ejecta leave from the impact layer's top, z = 0.5 mm, as in the LES.
 """
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
 from .._jit import jit
+from ..config import Soil, SoilMode, Splash
+from ..physics.drag import (drag_correction, particle_response_time, particle_reynolds,
+                            relaxation, relaxed_position)
+from ..physics.soil import sample_diameters, soil_arrays
+from ..physics.splash import splash_constants, splash_impacts
 
 __all__ = ["LayerParams", "SteadyLayer", "solve_steady_layer", "fly_grains", "splash_generation",
            "log_wind", "wind_from_stress", "register_steady_layer"]
@@ -59,7 +64,8 @@ T_MAX = 5.0
 
 @dataclass(frozen=True)
 class LayerParams:
-    """Everything the steady layer depends on (SI). Splash constants as config.Splash."""
+    """Everything the steady layer depends on (SI): the wind, the one-mode soil, the air and
+    the splash constants and reading (config.Splash)."""
     u_star: float = 0.54
     mu: float = 200e-6
     sigma: float = 1.2
@@ -69,30 +75,14 @@ class LayerParams:
     g: float = 9.81
     kappa: float = 0.40
     z0: float = 1.0e-5
-    h_imp: float = 5.0e-4
-    p_reb_max: float = 0.95
-    gamma_reb: float = 2.0
-    reb_speed_mean: float = 0.6
-    reb_speed_std: float = 0.25
-    reb_angle_v: tuple[float, float] = (30.0, 15.0)
-    reb_angle_h: tuple[float, float] = (0.0, 10.0)
-    a_ej: float = 0.03
-    ej_speed_mean: float = 0.08
-    ej_angle_v: tuple[float, float] = (60.0, 15.0)
-    ej_angle_h: tuple[float, float] = (0.0, 10.0)
-    impact_speed: str = "magnitude"
-    launch_height: str = "layer_top"
+    splash: Splash = field(default_factory=Splash)
     n_impacts: int = 4000
     dt: float = 5.0e-5
     z_top: float = 3.0
     n_levels: int = 240
 
     def __post_init__(self):
-        if self.impact_speed not in ("magnitude", "normal"):
-            raise ValueError(f"impact_speed={self.impact_speed!r}: 'magnitude' or 'normal'")
-        if self.launch_height not in ("layer_top", "bed"):
-            raise ValueError(f"launch_height={self.launch_height!r}: 'layer_top' or 'bed'")
-        for name in ("u_star", "mu", "rho_p", "rho", "nu", "g", "z0", "h_imp", "dt"):
+        for name in ("u_star", "mu", "rho_p", "rho", "nu", "g", "z0", "dt"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name}={getattr(self, name)!r}: must be > 0")
         if self.sigma < 1.0:
@@ -103,21 +93,28 @@ class LayerParams:
     @classmethod
     def from_case(cls, case, u_star: float | None = None, **kw) -> "LayerParams":
         """The steady layer of a config.Case (one-mode soil): its u*s (or ``u_star``), soil, air,
-        roughness and splash constants and readings."""
+        roughness and splash."""
         if len(case.soil.modes) != 1:
             raise ValueError("soil.modes: the steady layer takes a one-mode soil")
-        mode, sp, air = case.soil.modes[0], case.splash, case.air
+        mode, air = case.soil.modes[0], case.air
         return cls(u_star=case.forcing.u_star_s if u_star is None else u_star, mu=mode.mu,
                    sigma=mode.sigma, rho_p=case.soil.rho_p, rho=air.rho, nu=air.nu, g=air.g,
-                   kappa=air.kappa, z0=case.surface.z0, h_imp=sp.impact_layer,
-                   p_reb_max=sp.p_reb_max, gamma_reb=sp.gamma_reb, reb_speed_mean=sp.reb_speed_mean,
-                   reb_speed_std=sp.reb_speed_std, reb_angle_v=(sp.reb_angle_v_mean,
-                                                                sp.reb_angle_v_std),
-                   reb_angle_h=(sp.reb_angle_h_mean, sp.reb_angle_h_std), a_ej=sp.a_ej,
-                   ej_speed_mean=sp.ej_speed_mean, ej_angle_v=(sp.ej_angle_v_mean,
-                                                               sp.ej_angle_v_std),
-                   ej_angle_h=(sp.ej_angle_h_mean, sp.ej_angle_h_std),
-                   impact_speed=sp.impact_speed, launch_height=sp.launch_height, **kw)
+                   kappa=air.kappa, z0=case.surface.z0, splash=case.splash, **kw)
+
+    @property
+    def h_imp(self) -> float:
+        """The impact layer's depth [m]."""
+        return self.splash.impact_layer
+
+    def soil(self) -> Soil:
+        """The one-mode soil as config.Soil."""
+        return Soil(modes=(SoilMode(mu=self.mu, sigma=self.sigma),), rho_p=self.rho_p)
+
+    def as_dict(self) -> dict:
+        """The parameters as plain data (the splash as its fields)."""
+        d = {f.name: getattr(self, f.name) for f in fields(self)}
+        d["splash"] = self.splash.model_dump()
+        return d
 
 
 @dataclass
@@ -183,61 +180,44 @@ def _wind_at(z, lz0, idl, nz, un, u_star_top, kappa, z_top):
 
 
 @jit
-def fly_grains(u0, v0, w0, d, z_start, un, lz0, idl, u_star_top, z_top, kappa, rho, nu, rho_p, g,
-               h_imp, dt, t_max, drag_bin, mass_time_bin, flux_bin, out):
-    """Fly each grain from (z_start[i], velocity u0, v0, w0) until it meets the impact layer.
+def fly_grains(u0, v0, w0, d, un, lz0, idl, u_star_top, z_top, kappa, rho, nu, rho_p, g, h_imp, dt,
+               t_max, drag_bin, mass_time_bin, flux_bin, out):
+    """Fly each grain from the impact layer's top (velocity u0, v0, w0) until it meets the layer
+    again.
 
-    The drag (eqs. 3-4, f(Re_p) = 1 + 0.15 Re_p^0.687) is integrated exactly over each step dt with
-    the drag rate and the wind frozen at the step's start. A grain above the layer's top impacts
-    where it crosses it downwards (linear within the step); one launched inside the layer (from
-    the bed) impacts at the top of its hop if that stays inside. Per grain, ``out`` gets (flight
-    time, impact u, v, w, streamwise hop length, 1 if it landed); the bins (by the ln-z node
-    interval of the grain's height at the step's start) accumulate the streamwise drag impulse
-    m du, the mass-time m dt and the flux m u dt, all per grain of unit number."""
+    The drag (eqs. 3-4, physics.drag) is integrated exactly over each step dt with the drag rate
+    and the wind frozen at the step's start. A grain impacts where it crosses the layer's top
+    downwards (linear within the step). Per grain, ``out`` gets (flight time, impact u, v, w,
+    streamwise hop length, 1 if it landed); the bins (by the ln-z node interval of the grain's
+    height at the step's start) accumulate the streamwise drag impulse m du, the mass-time m dt
+    and the flux m u dt, all per grain of unit number."""
     nz = un.shape[0]
     for i in range(u0.shape[0]):
         di = d[i]
         m = math.pi / 6.0 * rho_p * di * di * di
-        tp = rho_p * di * di / (18.0 * rho * nu)
+        tp = particle_response_time(di, rho_p, rho, nu)
         x = 0.0
-        z = z_start[i]
+        z = h_imp
         u = u0[i]
         v = v0[i]
         w = w0[i]
         t = 0.0
-        inside = z < h_imp
         landed = 0.0
         while t < t_max:
             uf = _wind_at(z, lz0, idl, nz, un, u_star_top, kappa, z_top)
-            ru = uf - u
-            rel = math.sqrt(ru * ru + v * v + w * w)
-            k = (1.0 + 0.15 * (rel * di / nu) ** 0.687) / tp
-            E = math.exp(-k * dt)
-            omk = (1.0 - E) / k
-            wt = -g / k
-            un_ = uf + (u - uf) * E
-            vn = v * E
-            wn = wt + (w - wt) * E
-            zn = z + wt * dt + (w - wt) * omk
-            xn = x + uf * dt + (u - uf) * omk
+            rel = math.sqrt((uf - u) ** 2 + v * v + w * w)
+            ik = tp / drag_correction(particle_reynolds(rel, di, nu))
+            wt = -g * ik
+            un_, vn, wn, omk = relaxation(math.expm1(-dt / ik), ik, uf, 0.0, wt, u, v, w)
+            zn = relaxed_position(z, wt, w, dt, omk)
+            xn = relaxed_position(x, uf, u, dt, omk)
             s = (math.log(z) - lz0) * idl if z > 0.0 else -1.0
             b = int(s) if s >= 0.0 else -1
             if b >= 0 and b < nz - 1:
                 drag_bin[b] += m * (un_ - u)
                 mass_time_bin[b] += m * dt
                 flux_bin[b] += m * 0.5 * (u + un_) * dt
-            if inside:
-                if zn >= h_imp:
-                    inside = False
-                elif wn <= 0.0:  # the top of a hop that stays inside the layer
-                    out[i, 0] = t + dt
-                    out[i, 1] = un_
-                    out[i, 2] = vn
-                    out[i, 3] = wn
-                    out[i, 4] = xn
-                    landed = 1.0
-                    break
-            elif zn < h_imp:
+            if zn < h_imp:
                 f = (z - h_imp) / (z - zn)
                 out[i, 0] = t + f * dt
                 out[i, 1] = u + f * (un_ - u)
@@ -255,61 +235,17 @@ def fly_grains(u0, v0, w0, d, z_start, un, lz0, idl, u_star_top, z_top, kappa, r
         out[i, 5] = landed
 
 
-def _angle(rng, mean_deg, std_deg, n):
-    """Normal launch angles redrawn outside (0, 180) deg, in radians (as the solver's splash)."""
-    a = rng.normal(mean_deg, std_deg, n)
-    for _ in range(1000):
-        bad = (a <= 0.0) | (a >= 180.0)
-        if not bad.any():
-            break
-        a[bad] = rng.normal(mean_deg, std_deg, int(bad.sum()))
-    return np.radians(a)
-
-
-def _diameters(rng, p: LayerParams, n: int) -> np.ndarray:
-    """Diameters from the soil's mass size distribution (eq. 5, one mode), as the solver draws."""
-    return p.mu * np.exp(math.log(p.sigma) * rng.normal(0.0, 1.0, n))
-
-
 def splash_generation(rng, p: LayerParams, ui, vi, wi, di):
-    """Splash the impacts (velocities ui, vi, wi < 0, diameters di) by eqs. 6-9 under the reading.
+    """Splash the impacts (velocities ui, vi, wi < 0, diameters di) by eqs. 6-9 under the reading
+    (physics.splash.splash_impacts).
 
     Returns (launch arrays u, v, w, d, parent index, per-impact streamwise and vertical momentum
     given to the bed: m_imp u_imp - sum m_out u_out and m_imp |w_imp| + sum m_out w_out)."""
     n = ui.size
-    speed = np.sqrt(ui * ui + vi * vi + wi * wi)
-    v_law = np.abs(wi) if p.impact_speed == "normal" else speed      # eqs. 6 and 8
-    heading = np.arctan2(vi, ui)
-    reb = rng.random(n) < p.p_reb_max * (1.0 - np.exp(-p.gamma_reb * v_law))
-    r = rng.normal(p.reb_speed_mean, p.reb_speed_std, n)
-    for _ in range(1000):
-        bad = r < 0.0
-        if not bad.any():
-            break
-        r[bad] = rng.normal(p.reb_speed_mean, p.reb_speed_std, int(bad.sum()))
-    vr = np.maximum(r, 0.0) * speed
-    av = _angle(rng, *p.reb_angle_v, n)
-    ah = np.radians(rng.normal(*p.reb_angle_h, n))
-    nbar = p.a_ej * v_law / math.sqrt(p.g * p.mu)
-    nej = np.floor(nbar).astype(np.int64)
-    nej += (rng.random(n) < nbar - nej).astype(np.int64)
-    parent_e = np.repeat(np.arange(n), nej)
-    ne = parent_e.size
-    ve = rng.exponential(1.0, ne) * p.ej_speed_mean * speed[parent_e]
-    ave = _angle(rng, *p.ej_angle_v, ne)
-    ahe = np.radians(rng.normal(*p.ej_angle_h, ne))
-    de = _diameters(rng, p, ne)
-    # launches: rebounds (the impactor's diameter), then ejecta
-    idx_r = np.nonzero(reb)[0]
-    c_r = vr[idx_r] * np.cos(av[idx_r])
-    ph_r = heading[idx_r] + ah[idx_r]
-    c_e = ve * np.cos(ave)
-    ph_e = heading[parent_e] + ahe
-    u = np.concatenate([c_r * np.cos(ph_r), c_e * np.cos(ph_e)])
-    v = np.concatenate([c_r * np.sin(ph_r), c_e * np.sin(ph_e)])
-    w = np.concatenate([vr[idx_r] * np.sin(av[idx_r]), ve * np.sin(ave)])
-    d = np.concatenate([di[idx_r], de])
-    parent = np.concatenate([idx_r, parent_e])
+    soil = p.soil()
+    launch, parent = splash_impacts(rng, ui, vi, wi, di, splash_constants(p.splash, soil, p.g),
+                                    *soil_arrays(soil))
+    u, v, w, d = launch.T
     m_imp = np.pi / 6.0 * p.rho_p * di ** 3
     m_out = np.pi / 6.0 * p.rho_p * d ** 3
     px = m_imp * ui - np.bincount(parent, weights=m_out * u, minlength=n)
@@ -340,10 +276,9 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     ui = np.full(n, 0.94)
     vi = np.zeros(n)
     wi = np.full(n, -0.34)
-    di = _diameters(rng, p, n)
+    di = sample_diameters(p.soil(), rng, n)
     m_mean = np.pi / 6.0 * p.rho_p * p.mu ** 3
     R = 0.05 * rho_u2 / (m_mean * 1.0)   # a twentieth of Owen's rate: the layer grows from below
-    z_launch = 0.0 if p.launch_height == "bed" else p.h_imp
     keep = []
     for gen in range(generations):
         u, v, w, d, parent, px, pz = splash_generation(rng, p, ui, vi, wi, di)
@@ -352,8 +287,8 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
         mt_bin = np.zeros(nz - 1)
         fl_bin = np.zeros(nz - 1)
         out = np.zeros((nl, 6))
-        fly_grains(u, v, w, d, np.full(nl, z_launch), un, lz0, idl, p.u_star, p.z_top, p.kappa,
-                   p.rho, p.nu, p.rho_p, p.g, p.h_imp, p.dt, T_MAX, drag_bin, mt_bin, fl_bin, out)
+        fly_grains(u, v, w, d, un, lz0, idl, p.u_star, p.z_top, p.kappa, p.rho, p.nu, p.rho_p, p.g,
+                   p.h_imp, p.dt, T_MAX, drag_bin, mt_bin, fl_bin, out)
         landed = out[:, 5] > 0
         lam = landed.sum() / n
         m_l = np.pi / 6.0 * p.rho_p * d ** 3
@@ -418,7 +353,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     return SteadyLayer(
         # a layer whose grains take more than rho u*^2 has a wind the clipped air stress cannot
         # give (momentum is not conserved there): not a steady state of the model
-        params=asdict(p), converged=bool(tau_g0 <= 1.02 * rho_u2 and (
+        params=p.as_dict(), converged=bool(tau_g0 <= 1.02 * rho_u2 and (
             abs(lam_k.mean() - 1.0) < 3 * lam_se + 0.01 if bed_fluid_fraction is None
             else abs(tau_bed / rho_u2 - bed_fluid_fraction) < 0.02)),
         generations=len(keep), growth=float(lam_k.mean()), growth_se=lam_se,

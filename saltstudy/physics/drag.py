@@ -1,6 +1,9 @@
-"""Grain drag: Clift et al. (1978) correction and the Stokes response time (paper eqs. 3-4).
+"""Grain drag: Clift et al. (1978) correction, the Stokes response time and the exact relaxation
+of a grain's velocity under the drag over a step (paper eqs. 3-4).
 
-The scalar laws are numba-jitted so solver kernels call the same code as the tests.
+The laws are numba functions (``saltstudy._jit.device``: small, inlined into the callers by LLVM)
+that the grain kernels (solver/grains), the steady-layer probe and the tests call alike; numpy
+callers take them element-wise through ``.py_func``.
 
 With eq. (4), the drag per unit mass of eq. (3) is f(Re_p) (u - u_p) / T_p with the Stokes response
 time T_p = rho_p d^2 / (18 rho nu). A grain falling in still air (the paper's eq. 3 has no buoyancy
@@ -9,6 +12,14 @@ term, rho_p >> rho) therefore reaches the terminal velocity w_t that solves
     f(Re_t) w_t = g T_p,   Re_t = w_t d / nu,
 
 which reduces to the Stokes value w_s = g T_p when Re_t -> 0.
+
+Over a step h with the drag rate k = f(Re_p) / T_p and the seen velocity u_s frozen, eq. 3 is
+integrated exactly (:func:`relaxation`, :func:`relaxed_position`)::
+
+    u(h) = u_t + (u_p - u_t) E,   x(h) = x_p + u_t h + (u_p - u_t)(1 - E)/k,
+    u_t = u_s - g / k e_z,        E = exp(-k h)
+
+so a grain with T_p << h lands on its terminal velocity instead of overshooting it.
 """
 from __future__ import annotations
 
@@ -16,28 +27,66 @@ import math
 
 import numpy as np
 
-from .._jit import jit
+from .._jit import device
 
-__all__ = ["drag_correction", "particle_response_time", "particle_reynolds",
-           "terminal_velocity", "stokes_terminal_velocity", "terminal_velocity_residual"]
+__all__ = ["clift_factor", "clift_slope", "drag_correction", "particle_response_time",
+           "particle_reynolds", "relaxation", "relaxed_position", "terminal_velocity",
+           "stokes_terminal_velocity", "terminal_velocity_residual", "CLIFT_EXPONENT"]
+
+#: the exponent of the Clift et al. (1978) correction f(Re_p) = 1 + 0.15 Re_p^0.687
+CLIFT_EXPONENT = 0.687
 
 
-@jit
+@device
+def clift_factor(re687: float) -> float:
+    """f(Re_p) = 1 + 0.15 Re_p^0.687 (Schiller & Naumann, in Clift et al. 1978; valid Re_p < ~800)
+    from ``re687`` = Re_p^0.687 (the kernels evaluate the power their own way)."""
+    return 1.0 + 0.15 * re687
+
+
+@device
+def clift_slope(re687: float) -> float:
+    """Re_p df/dRe_p = 0.15 * 0.687 Re_p^0.687 from ``re687`` = Re_p^0.687."""
+    return (0.15 * 0.687) * re687
+
+
+@device
 def drag_correction(re_p: float) -> float:
-    """f(Re_p) = 1 + 0.15 Re_p^0.687 (Schiller & Naumann, in Clift et al. 1978), valid Re_p < ~800."""
-    return 1.0 + 0.15 * re_p ** 0.687
+    """f(Re_p) = 1 + 0.15 Re_p^0.687 (:func:`clift_factor`) at the particle Reynolds number."""
+    return clift_factor(re_p ** 0.687)
 
 
-@jit
+@device
 def particle_response_time(d: float, rho_p: float, rho: float, nu: float) -> float:
     """Stokes response time T_p = rho_p d^2 / (18 rho nu) [s] (paper section 4.2)."""
     return rho_p * d * d / (18.0 * rho * nu)
 
 
-@jit
+@device
 def particle_reynolds(rel_speed: float, d: float, nu: float) -> float:
     """Re_p = |u - u_p| d / nu [-]."""
     return math.fabs(rel_speed) * d / nu
+
+
+@device
+def relaxation(em, ik, us, vs, wt, up, vp, wp):
+    """The grain's velocity after a step h of eq. 3 with k (ik = 1/k [s]) and the target
+    velocity (us, vs, wt) frozen, em = expm1(-k h): (u, v, w) at the end [m s^-1] and
+    (1 - E) / k [s], the displacement factor of the transient (:func:`relaxed_position`). The
+    target is the seen wind with the settling velocity -g/k added to its vertical part."""
+    E = 1.0 + em
+    ome_k = -em * ik
+    un = us + (up - us) * E
+    vn = vs + (vp - vs) * E
+    wn = wt + (wp - wt) * E
+    return un, vn, wn, ome_k
+
+
+@device
+def relaxed_position(x0, target, v0, h, ome_k):
+    """A coordinate after a step h of the relaxation (:func:`relaxation`) from x0 at velocity
+    v0 towards the target velocity: x0 + target h + (v0 - target) (1 - E)/k [m]."""
+    return x0 + target * h + (v0 - target) * ome_k
 
 
 def stokes_terminal_velocity(d, rho_p, rho, nu, g):
@@ -45,7 +94,7 @@ def stokes_terminal_velocity(d, rho_p, rho, nu, g):
 
     ``d`` [m] may be an array; densities [kg m^-3], ``nu`` [m^2 s^-1], ``g`` [m s^-2].
     """
-    w = g * rho_p * np.asarray(d, dtype=float) ** 2 / (18.0 * rho * nu)
+    w = g * particle_response_time.py_func(np.asarray(d, dtype=float), rho_p, rho, nu)
     return float(w) if w.ndim == 0 else w
 
 
@@ -54,7 +103,8 @@ def terminal_velocity_residual(w, d, rho_p, rho, nu, g):
     w = np.asarray(w, dtype=float)
     d = np.asarray(d, dtype=float)
     re = w * d / nu
-    return (1.0 + 0.15 * re ** 0.687) * w - g * rho_p * d * d / (18.0 * rho * nu)
+    return clift_factor.py_func(re ** CLIFT_EXPONENT) * w - g * particle_response_time.py_func(
+        d, rho_p, rho, nu)
 
 
 def terminal_velocity(d, rho_p, rho, nu, g, rtol: float = 1e-13, max_iter: int = 100):
@@ -69,13 +119,13 @@ def terminal_velocity(d, rho_p, rho, nu, g, rtol: float = 1e-13, max_iter: int =
     d_arr = np.asarray(d, dtype=float)
     if np.any(d_arr <= 0):
         raise ValueError("grain diameter must be positive")
-    target = g * rho_p * d_arr * d_arr / (18.0 * rho * nu)       # g T_p = Stokes speed
+    target = g * particle_response_time.py_func(d_arr, rho_p, rho, nu)  # g T_p = Stokes speed
     w = target.copy()
     for _ in range(max_iter):
-        re = w * d_arr / nu
-        f = 1.0 + 0.15 * re ** 0.687
+        re687 = (w * d_arr / nu) ** CLIFT_EXPONENT
+        f = clift_factor.py_func(re687)
         F = f * w - target
-        dF = f + 0.15 * 0.687 * re ** 0.687                        # d(f w)/dw
+        dF = f + clift_slope.py_func(re687)                         # d(f w)/dw
         step = F / dF
         w = w - step
         if np.all(np.abs(step) <= rtol * np.abs(w)):

@@ -1,27 +1,37 @@
 """Splash laws at the bed, paper eqs. 6-9 (section 2.3).
 
-Scalar laws are numba-jitted so the solver's bed kernel uses the same code as the tests. The numpy
-samplers below draw whole batches from a :class:`numpy.random.Generator` with the constants of a
-:class:`saltstudy.config.Splash`; the analytic expectations next to them are what the tests and the
-solver's energy check compare with.
+The laws are numba functions drawing from a :class:`numpy.random.Generator`, one per process: the
+grain kernels' bed events (solver/grains/splash_kernels.py), the steady-layer probe
+(instruments/steady_layer.py) and the tests call the same code. They take the splash constants as
+one float vector (:func:`splash_constants`, indices ``SP_*``). The analytic expectations at the
+end are what the tests and the energy check compare the draws with.
 
 Conventions (the paper leaves these open; chosen here and documented):
 
-* Rebound speed (eq. 7): v_reb = r v_imp with r ~ N(<r>, s_r) = N(0.6, 0.25) *truncated to r > 0 by
-  redrawing* the non-positive draws (a rebound must leave the bed). Redrawing samples exactly the
-  truncated normal, whose mean is <r> + s_r phi(a)/(1 - Phi(a)) with a = -<r>/s_r (= -2.4): 0.60564,
-  not 0.6 (see :func:`truncated_normal_moments`, :func:`rebound_speed_ratio_moments`). The
-  probability of a redraw is Phi(-2.4) = 0.82 %.
+* Rebound (eq. 6): a Bernoulli draw with P_reb = p_max (1 - exp(-gamma_reb v_imp)).
+* Rebound speed (eq. 7): v_reb ~ N(<r> v_imp, s_r v_imp) = N(0.6 v_imp, 0.25 v_imp) *truncated to
+  v_reb >= 0 by redrawing* the negative draws (a rebound must leave the bed). Redrawing samples
+  exactly the truncated normal, whose mean is <r> + s_r phi(a)/(1 - Phi(a)) times v_imp with
+  a = -<r>/s_r (= -2.4): 0.60564 v_imp, not 0.6 v_imp (see :func:`truncated_normal_moments`,
+  :func:`rebound_speed_ratio_moments`). The probability of a redraw is Phi(-2.4) = 0.82 %.
 * Vertical launch angles (rebound N(30, 15) deg, ejection N(60, 15) deg) are likewise redrawn when
   outside (0, 180) deg: a launch must point upward (angles above 90 deg point upwind, allowed). This
   moves the rebound mean angle to 30.83 deg (P(redraw) = Phi(-2) = 2.3 %) and the ejection mean by
-  < 0.002 deg. Horizontal angles are plain normal draws (N(0, 10) deg), never truncated.
+  < 0.002 deg. Horizontal angles are plain normal draws (N(0, 10) deg) relative to the impactor's
+  horizontal direction of motion, never truncated.
 * Ejecta number (eq. 8): the mean N = a v_imp / sqrt(g <d_p>) is a real number; the integer drawn is
   floor(N) + Bernoulli(N - floor(N)) ("stochastic rounding"): its mean is exactly N and its variance
   f (1 - f), f = N - floor(N), the smallest possible for an integer with mean N.
-* Ejection speed (eq. 9): exponential with mean 0.08 v_imp (Rice et al. 1995), untruncated.
-* Samplers draw speed and angles for *every* entry (whether it rebounds or not) so that the random
-  stream does not depend on the outcomes; callers select with the returned mask.
+* Ejection speed (eq. 9): exponential with mean 0.08 v_imp (Rice et al. 1995), untruncated;
+  diameters from the soil's mass distribution (eq. 5, :func:`saltstudy.physics.soil.draw_diameter`).
+* Every impact ejects N_ej grains, whether the impactor rebounds or deposits (as in Kok & Renno
+  2009, whose scheme the paper follows).
+* ``splash.impact_speed = "normal"`` gives eqs. 6 and 8 the normal impact speed |w| instead of
+  |u_p| (:func:`law_speed`); eqs. 7 and 9 keep |u_p|.
+
+Draws per impact, in this order (:func:`draw_impact`, then :func:`draw_ejectum` per ejectum): the
+rebound's Bernoulli draw; if it rebounds, its speed, vertical and horizontal angle; the number of
+ejecta; per ejectum its diameter, speed, vertical and horizontal angle.
 """
 from __future__ import annotations
 
@@ -30,22 +40,47 @@ import math
 import numpy as np
 
 from .._jit import jit
+from .soil import draw_diameter
 
 __all__ = [
-    "rebound_probability", "ejection_number_mean",
-    "sample_rebound", "sample_ejecta_number", "sample_ejection", "sample_truncated_normal",
+    "rebound_probability", "ejection_number_mean", "rebound_speed", "launch_angle",
+    "ejecta_number", "ejection_speed", "launch_velocity", "law_speed", "draw_rebound",
+    "draw_ejecta_number", "draw_impact", "draw_ejectum", "ejecta_max", "splash_impacts",
+    "splash_constants",
     "truncated_normal_moments", "rebound_speed_ratio_moments", "vertical_angle_moments",
     "mean_rebound_fraction", "mean_rebound_speed", "std_rebound_speed", "mean_ejecta_number",
     "mean_ejecta_speed", "mean_splash_energy_terms", "mean_splash_energy_ratio",
-    "ANGLE_V_BOUNDS_DEG",
+    "ANGLE_V_BOUNDS_DEG", "SP_PMAX", "SP_GAMMA", "SP_REB_M", "SP_REB_S", "SP_RAV_M", "SP_RAV_S",
+    "SP_RAH_M", "SP_RAH_S", "SP_A", "SP_EJ_M", "SP_EAV_M", "SP_EAV_S", "SP_EAH_M", "SP_EAH_S",
+    "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN", "SP_RHO_P", "SP_NORMAL",
 ]
 
 #: vertical launch angles outside this open interval [deg] are redrawn
 ANGLE_V_BOUNDS_DEG = (0.0, 180.0)
 
+#: indices into the splash constants vector (:func:`splash_constants`; angles in radians)
+SP_PMAX, SP_GAMMA, SP_REB_M, SP_REB_S, SP_RAV_M, SP_RAV_S, SP_RAH_M, SP_RAH_S = range(8)
+SP_A, SP_EJ_M, SP_EAV_M, SP_EAV_S, SP_EAH_M, SP_EAH_S = range(8, 14)
+SP_IMPACT_LAYER, SP_G, SP_DMEAN, SP_RHO_P = range(14, 18)
+SP_NORMAL = 18  # 1: eqs. 6 and 8 take the normal impact speed |w| (config.Splash.impact_speed)
+
+
+def splash_constants(splash, soil, g: float) -> np.ndarray:
+    """The splash constants of a :class:`saltstudy.config.Splash` (angles to radians) with the
+    soil's <d_p> and rho_p (:class:`saltstudy.config.Soil`) and g [m s^-2], as the laws take them."""
+    r = math.radians
+    return np.array([
+        splash.p_reb_max, splash.gamma_reb, splash.reb_speed_mean, splash.reb_speed_std,
+        r(splash.reb_angle_v_mean), r(splash.reb_angle_v_std), r(splash.reb_angle_h_mean),
+        r(splash.reb_angle_h_std), splash.a_ej, splash.ej_speed_mean, r(splash.ej_angle_v_mean),
+        r(splash.ej_angle_v_std), r(splash.ej_angle_h_mean), r(splash.ej_angle_h_std),
+        splash.impact_layer, g, soil.mean_diameter, soil.rho_p,
+        1.0 if splash.impact_speed == "normal" else 0.0,
+    ], dtype=np.float64)
+
 
 # --------------------------------------------------------------------------------------------
-# Scalar laws (numba; called from solver kernels)
+# The laws, one process each (numba)
 # --------------------------------------------------------------------------------------------
 @jit
 def rebound_probability(v_imp: float, p_reb_max: float, gamma_reb: float) -> float:
@@ -57,6 +92,140 @@ def rebound_probability(v_imp: float, p_reb_max: float, gamma_reb: float) -> flo
 def ejection_number_mean(v_imp: float, a_ej: float, g: float, d_mean: float) -> float:
     """Mean number of ejecta N_ej = a v_imp / sqrt(g <d_p>), eq. 8 (Kok & Renno 2009)."""
     return a_ej * v_imp / math.sqrt(g * d_mean)
+
+
+@jit
+def rebound_speed(rng, v_imp, ratio_mean, ratio_std):
+    """v_reb [m s^-1] ~ N(<r> v_imp, s_r v_imp) redrawn while negative (eq. 7, module doc)."""
+    vr = -1.0
+    for _ in range(1000):
+        vr = rng.normal(ratio_mean * v_imp, ratio_std * v_imp)
+        if vr >= 0.0:
+            break
+    if vr < 0.0:
+        vr = 0.0
+    return vr
+
+
+@jit
+def launch_angle(rng, mean, std):
+    """A vertical launch angle [rad] ~ N(mean, std) redrawn until it lies in (0, pi): the grain
+    leaves the bed upwards."""
+    for _ in range(1000):
+        a = rng.normal(mean, std)
+        if 0.0 < a < math.pi:
+            return a
+    return mean
+
+
+@jit
+def ejecta_number(rng, nbar) -> int:
+    """eq. 8's mean ``nbar`` as a whole number of ejecta by stochastic rounding (module doc):
+    floor(nbar), plus one with probability nbar - floor(nbar) (one uniform draw)."""
+    n0 = int(math.floor(nbar))
+    if rng.random() < nbar - n0:
+        n0 += 1
+    return n0
+
+
+@jit
+def ejection_speed(rng, v_imp, ratio_mean):
+    """v_ej [m s^-1], exponential with mean <v_ej>/v_imp times v_imp (eq. 9)."""
+    return rng.exponential(ratio_mean * v_imp)
+
+
+@jit
+def launch_velocity(speed, av, phi):
+    """Velocity (u, v, w) [m s^-1] of a grain leaving the bed at speed, elevation av, heading phi
+    (radians)."""
+    c = speed * math.cos(av)
+    return c * math.cos(phi), c * math.sin(phi), speed * math.sin(av)
+
+
+@jit
+def law_speed(v_imp, wp, sp):
+    """The speed eqs. 6 and 8 take: the impact speed, or its normal component (SP_NORMAL)."""
+    return abs(wp) if sp[SP_NORMAL] != 0.0 else v_imp
+
+
+@jit
+def draw_rebound(rng, v_law, v_imp, sp):
+    """Rebound draw (eqs. 6-7): (rebounds, v_reb, alpha_v, alpha_h) with angles in radians;
+    ``v_law`` is the speed eq. 6 takes (:func:`law_speed`), ``v_imp`` the impact speed that
+    eq. 7 scales."""
+    p = rebound_probability(v_law, sp[SP_PMAX], sp[SP_GAMMA])
+    if rng.random() >= p:
+        return False, 0.0, 0.0, 0.0
+    vr = rebound_speed(rng, v_imp, sp[SP_REB_M], sp[SP_REB_S])
+    av = launch_angle(rng, sp[SP_RAV_M], sp[SP_RAV_S])
+    ah = rng.normal(sp[SP_RAH_M], sp[SP_RAH_S])
+    return True, vr, av, ah
+
+
+@jit
+def draw_ejecta_number(rng, v_law, sp) -> int:
+    """N_ej of eq. 8 at the speed ``v_law`` (:func:`law_speed`) as a whole number
+    (:func:`ejecta_number`)."""
+    return ejecta_number(rng, ejection_number_mean(v_law, sp[SP_A], sp[SP_G], sp[SP_DMEAN]))
+
+
+@jit
+def draw_impact(rng, v_law, v_imp, sp):
+    """The outcome of an impact at speed v_imp (eqs. 6-8): (rebounds, v_reb, alpha_v, alpha_h,
+    number of ejecta) (:func:`draw_rebound`, :func:`draw_ejecta_number`)."""
+    reb, vr, av, ah = draw_rebound(rng, v_law, v_imp, sp)
+    return reb, vr, av, ah, draw_ejecta_number(rng, v_law, sp)
+
+
+@jit
+def draw_ejectum(rng, v_imp, sp, cum, mu, lnsig):
+    """One grain ejected by an impact at speed v_imp: (d [m] from the soil (eq. 5; ``cum, mu,
+    lnsig`` from soil.soil_arrays), v_ej (eq. 9), alpha_v, alpha_h [rad])."""
+    dq = draw_diameter(rng, cum, mu, lnsig)
+    ve = ejection_speed(rng, v_imp, sp[SP_EJ_M])
+    av = launch_angle(rng, sp[SP_EAV_M], sp[SP_EAV_S])
+    ah = rng.normal(sp[SP_EAH_M], sp[SP_EAH_S])
+    return dq, ve, av, ah
+
+
+@jit
+def ejecta_max(v_imp, sp) -> int:
+    """The most ejecta an impact at speed v_imp can draw: floor(nbar) + 1 (eq. 8 at the impact
+    speed, which bounds it at the normal speed too)."""
+    return int(math.floor(ejection_number_mean(v_imp, sp[SP_A], sp[SP_G], sp[SP_DMEAN]))) + 1
+
+
+@jit
+def splash_impacts(rng, ui, vi, wi, di, sp, cum, mu, lnsig):
+    """Splash a batch of impacts (velocities ui, vi, wi [m s^-1], wi <= 0, diameters di [m]) by
+    the laws above, impact after impact in the order of the module doc. Returns the launches, a
+    row (u, v, w, d) per rebound and ejectum, and their impacts' indices."""
+    n = ui.shape[0]
+    room = n
+    for i in range(n):
+        room += ejecta_max(math.sqrt(ui[i] * ui[i] + vi[i] * vi[i] + wi[i] * wi[i]), sp)
+    launch = np.empty((room, 4))
+    parent = np.empty(room, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        up = ui[i]
+        vp = vi[i]
+        wp = wi[i]
+        v_imp = math.sqrt(up * up + vp * vp + wp * wp)
+        phi = math.atan2(vp, up) if (up != 0.0 or vp != 0.0) else 0.0
+        reb, vr, av, ah, nej = draw_impact(rng, law_speed(v_imp, wp, sp), v_imp, sp)
+        if reb:
+            launch[m, 0], launch[m, 1], launch[m, 2] = launch_velocity(vr, av, phi + ah)
+            launch[m, 3] = di[i]
+            parent[m] = i
+            m += 1
+        for _ in range(nej):
+            dq, ve, av, ah = draw_ejectum(rng, v_imp, sp, cum, mu, lnsig)
+            launch[m, 0], launch[m, 1], launch[m, 2] = launch_velocity(ve, av, phi + ah)
+            launch[m, 3] = dq
+            parent[m] = i
+            m += 1
+    return launch[:m], parent[:m]
 
 
 # --------------------------------------------------------------------------------------------
@@ -96,23 +265,6 @@ def truncated_normal_moments(mean: float, std: float, lower: float = -math.inf,
     return m, math.sqrt(max(var, 0.0))
 
 
-def sample_truncated_normal(mean: float, std: float, rng: np.random.Generator, n: int,
-                            lower: float = -math.inf, upper: float = math.inf,
-                            max_rounds: int = 10_000) -> np.ndarray:
-    """``n`` draws of N(mean, std^2) restricted to the open interval (lower, upper), by redrawing."""
-    x = rng.normal(mean, std, n)
-    bad = ~((x > lower) & (x < upper))
-    rounds = 0
-    while bad.any():
-        rounds += 1
-        if rounds > max_rounds:
-            raise RuntimeError("sample_truncated_normal: acceptance probability too small")
-        k = int(bad.sum())
-        x[bad] = rng.normal(mean, std, k)
-        bad = ~((x > lower) & (x < upper))
-    return x
-
-
 def rebound_speed_ratio_moments(splash) -> tuple[float, float]:
     """(mean, std) of v_reb / v_imp: N(0.6, 0.25) truncated to > 0 -> (0.60564, 0.24307)."""
     return truncated_normal_moments(splash.reb_speed_mean, splash.reb_speed_std, 0.0, math.inf)
@@ -124,77 +276,19 @@ def vertical_angle_moments(mean_deg: float, std_deg: float) -> tuple[float, floa
 
 
 # --------------------------------------------------------------------------------------------
-# Samplers (numpy)
-# --------------------------------------------------------------------------------------------
-def _speeds(v_imp, n):
-    v = np.asarray(v_imp, dtype=float)
-    if n is None:
-        v = np.atleast_1d(v).ravel()
-        n = v.size
-    else:
-        v = np.broadcast_to(v, (n,))
-    if np.any(v < 0):
-        raise ValueError("impact speeds must be >= 0")
-    return v, n
-
-
-def sample_rebound(v_imp, splash, rng: np.random.Generator, n: int | None = None):
-    """Draw rebound outcomes for impacts at speed(s) ``v_imp`` [m s^-1] (scalar with ``n``, or array).
-
-    Returns ``(rebounded, speed, angle_v_deg, angle_h_deg)``, each of length n:
-    ``rebounded`` bool with P = P_reb(v_imp) (eq. 6); ``speed`` [m s^-1] = r v_imp with r from the
-    truncated normal of eq. 7 (see module docstring); ``angle_v_deg`` N(30, 15) deg restricted to
-    (0, 180); ``angle_h_deg`` N(0, 10) deg. Speed and angles are drawn for every entry.
-    """
-    v, n = _speeds(v_imp, n)
-    p = splash.p_reb_max * (1.0 - np.exp(-splash.gamma_reb * v))
-    rebounded = rng.random(n) < p
-    r = sample_truncated_normal(splash.reb_speed_mean, splash.reb_speed_std, rng, n, 0.0, math.inf)
-    angle_v = sample_truncated_normal(splash.reb_angle_v_mean, splash.reb_angle_v_std, rng, n,
-                                      *ANGLE_V_BOUNDS_DEG)
-    angle_h = rng.normal(splash.reb_angle_h_mean, splash.reb_angle_h_std, n)
-    return rebounded, r * v, angle_v, angle_h
-
-
-def sample_ejecta_number(v_imp, splash, g: float, d_mean: float, rng: np.random.Generator,
-                         n: int | None = None) -> np.ndarray:
-    """Integer numbers of ejecta (int64) per impact: floor(N) + Bernoulli(N - floor(N)), N of eq. 8.
-
-    ``g`` [m s^-2], ``d_mean`` = <d_p> [m] (``Soil.mean_diameter``).
-    """
-    v, n = _speeds(v_imp, n)
-    mean = splash.a_ej * v / math.sqrt(g * d_mean)
-    base = np.floor(mean)
-    extra = rng.random(n) < (mean - base)
-    return base.astype(np.int64) + extra.astype(np.int64)
-
-
-def sample_ejection(v_imp, splash, rng: np.random.Generator, n: int | None = None):
-    """Draw ``n`` ejecta launched by impacts at ``v_imp`` [m s^-1].
-
-    Returns ``(speed, angle_v_deg, angle_h_deg)``: speed exponential with mean 0.08 v_imp (eq. 9),
-    angle_v N(60, 15) deg restricted to (0, 180), angle_h N(0, 10) deg. Diameters are drawn separately
-    with :func:`saltstudy.physics.soil.sample_diameters`.
-    """
-    v, n = _speeds(v_imp, n)
-    speed = rng.exponential(1.0, n) * (splash.ej_speed_mean * v)
-    angle_v = sample_truncated_normal(splash.ej_angle_v_mean, splash.ej_angle_v_std, rng, n,
-                                      *ANGLE_V_BOUNDS_DEG)
-    angle_h = rng.normal(splash.ej_angle_h_mean, splash.ej_angle_h_std, n)
-    return speed, angle_v, angle_h
-
-
-# --------------------------------------------------------------------------------------------
-# Analytic expectations (numpy, vectorised over v_imp)
+# Analytic expectations (numpy, vectorised over v_imp; the laws element-wise)
 # --------------------------------------------------------------------------------------------
 def _r(x):
     return float(x) if np.ndim(x) == 0 else x
 
 
+_rebound_probability = np.vectorize(rebound_probability, otypes=[float])
+_ejection_number_mean = np.vectorize(ejection_number_mean, otypes=[float])
+
+
 def mean_rebound_fraction(v_imp, splash):
     """Expected fraction of impacts that rebound, P_reb(v_imp) of eq. 6 [-]."""
-    v = np.asarray(v_imp, dtype=float)
-    return _r(splash.p_reb_max * (1.0 - np.exp(-splash.gamma_reb * v)))
+    return _r(_rebound_probability(v_imp, splash.p_reb_max, splash.gamma_reb))
 
 
 def mean_rebound_speed(v_imp, splash):
@@ -209,7 +303,7 @@ def std_rebound_speed(v_imp, splash):
 
 def mean_ejecta_number(v_imp, splash, g: float, d_mean: float):
     """E[N_ej] = a v_imp / sqrt(g <d_p>) [-] (eq. 8; exact for stochastic rounding)."""
-    return _r(splash.a_ej * np.asarray(v_imp, dtype=float) / math.sqrt(g * d_mean))
+    return _r(_ejection_number_mean(v_imp, splash.a_ej, g, d_mean))
 
 
 def mean_ejecta_speed(v_imp, splash):
@@ -231,11 +325,10 @@ def mean_splash_energy_terms(v_imp, d_imp, soil, splash, g: float,
     """
     from .soil import mass_weighted_moment
 
-    v = np.asarray(v_imp, dtype=float)
-    p = splash.p_reb_max * (1.0 - np.exp(-splash.gamma_reb * v))
+    p = np.asarray(mean_rebound_fraction(v_imp, splash))
     rm, rs = rebound_speed_ratio_moments(splash)
     rebound = p * (rm * rm + rs * rs)
-    n_ej = splash.a_ej * v / math.sqrt(g * soil.mean_diameter)
+    n_ej = np.asarray(mean_ejecta_number(v_imp, splash, g, soil.mean_diameter))
     if ejecta_require_rebound:
         n_ej = n_ej * p
     mass_ratio = mass_weighted_moment(soil, 3.0) / d_imp ** 3

@@ -53,59 +53,26 @@ PAPER_DZ_BOTTOM = 0.01
 PAPER_DX = 0.10
 
 
-#: how Table 2's caption names each reading of the paper's near-bed wind other than "paper"
-NEAR_BED_WIND_CAPTIONS = {
-    "cell-drag": "the drag of a first-cell grain in the first cell, which it does not read",
-    "first-level": "below the first level the log law from the first level, its drag there",
-    "blend": "below the first level the log law from the second level, blended into it above "
-             "the first level, the drag on the first level",
-}
-
-
 def model_departures(scene: dict) -> list[str]:
     """Where a run's model and cost depart from the paper's description, in words, from the run's
     resolved scene (``{"case": ..., "fidelity": ...}`` as archived). Physics first, then cost."""
     case, fid = scene.get("case", {}) or {}, scene.get("fidelity", {}) or {}
-    clo, par = case.get("closure", {}) or {}, case.get("particles", {}) or {}
+    clo = case.get("closure", {}) or {}
     out = []
     if clo.get("model", "deardorff") != "deardorff":
         out.append(f"SGS closure {clo['model']} (the paper: Deardorff's TKE model)")
-    if clo.get("near_wall", False):
-        out.append("a near-wall mixing-length eddy viscosity below 3 grid spacings "
-                   "(closure.near_wall, not in the paper)")
-    if clo.get("two_part", False):
-        out.append("the two-part SGS model of Sullivan et al. (1994) (closure.two_part)")
-    nbw = par.get("near_bed_wind", "paper")
-    if nbw != "paper":
-        out.append(NEAR_BED_WIND_CAPTIONS[nbw] + " (particles.near_bed_wind; the paper's [12]: "
-                   "the log law from the second level over the whole first cell, its drag there)")
-    dstep = (case.get("splash", {}) or {}).get("detection_step", 0.0) or 0.0
-    if dstep > 0:
-        out.append(f"the bed met at the end of {1e3 * dstep:g} ms steps, a grain splashed where it "
-                   "is found inside the impact layer and again if it has not left it "
-                   "(splash.detection_step; the paper's text: when it reaches the layer)")
-    rounding = (case.get("splash", {}) or {}).get("ejection_rounding", "stochastic")
-    if rounding != "stochastic":
-        out.append(f"eq. 8's number of ejecta as its {'floor' if rounding == 'floor' else 'nearest integer'}"
-                   " (splash.ejection_rounding; the paper does not say how it becomes whole)")
     spl = case.get("splash", {}) or {}
     if spl.get("impact_speed", "magnitude") != "magnitude":
         out.append("eqs. 6 and 8 of the normal impact speed |w| (splash.impact_speed; the paper: "
                    "the impact velocity, read as the speed)")
-    if spl.get("launch_height", "layer_top") != "layer_top":
-        out.append("rebounds and ejecta launched from the bed z = 0 (splash.launch_height; the "
-                   "paper is silent: the model launches them from the 0.5 mm layer's top)")
-    srf = case.get("surface", {}) or {}
-    if srf.get("stress_level", "first") != "first":
-        out.append("the bulk drag law of the second level's wind (surface.stress_level; the "
-                   "paper: bulk aerodynamic drag laws, read at the first level)")
-    if srf.get("stress_instant", "stage") != "stage":
-        out.append("the bed stress from the wind before the grains' drag of each step "
-                   "(surface.stress_instant)")
     if (case.get("forcing", {}) or {}).get("drive", "top") != "top":
         out.append("a mean pressure-gradient drive (the paper: a top drive)")
     q = fid.get("q_multiplier", 1.0)
-    if q != 1.0:
+    count = fid.get("parcels_per_m2")
+    if count is not None:
+        out.append(f"parcels {q:.3g}x the paper's Q, weighed for {count:g} airborne parcels per m2 "
+                   "(the paper's rule for its Q, [28]; the count at Q from data/airborne_counts.toml)")
+    elif q != 1.0:
         out.append(f"parcels {q:g}x heavier than the paper's Q")
     if ((fid.get("relaxation", {}) or {}).get("gain", 0.0) or 0.0) > 0:
         out.append("a column relaxation force over the first seconds of saltation")

@@ -17,7 +17,6 @@ A scene without saltation never imports the grain component.
 """
 from __future__ import annotations
 
-import inspect
 import json
 import math
 import time
@@ -63,8 +62,7 @@ def build_stepper(scene, grid: Grid, workers: int | None = None) -> Stepper:
     bounds = Boundaries(z0=case.surface.z0, kappa=case.air.kappa, damping_depth=scene.damping_depth,
                         damping_timescale=fid.grid.damping_timescale, damp_u=not pg,
                         body_force=(pressure_gradient_force(case.forcing.u_star_s, grid.Lz)
-                                    if pg else 0.0),
-                        stress_level=case.surface.stress_level)
+                                    if pg else 0.0))
     return Stepper(grid, closure, bounds, FlowNumerics.from_time(fid.time), workers=workers)
 
 
@@ -90,9 +88,6 @@ class Model:
         self.z_ref = z_ref_effective(scene.case.forcing.z_ref, grid.Lz, self.damping_depth)
         #: the pressure-gradient body force G [m s^-2] (0 with the top drive)
         self.body_force = float(stepper.body_force)
-        #: the bed stress from the wind before the grains' drag, once per step
-        #: (config.Surface.stress_instant)
-        self.bed_stress_at_step_start = scene.case.surface.stress_instant == "step_start"
 
     # ---- construction -------------------------------------------------------------------------
     @classmethod
@@ -111,9 +106,7 @@ class Model:
         z_ref = z_ref_effective(case.forcing.z_ref, grid.Lz, depth)
         controller = DriveController(grid, case.forcing.u_star_s, z_ref,
                                      case.forcing.controller_timescale, stepper.f_c,
-                                     case.air.kappa, case.surface.z0,
-                                     stress_gain=fid.relaxation.stress_gain,
-                                     stress_timescale=fid.relaxation.stress_timescale)
+                                     case.air.kappa, case.surface.z0)
         rng = np.random.default_rng(case.seed)
         components = []
         if saltation and case.physics.saltation:
@@ -195,17 +188,10 @@ class Model:
             raise ValueError(f"step: dt must be positive and finite (got {dt!r})")
         t0 = time.perf_counter()
         s = self.state
-        st = self.stepper
-        if self.bed_stress_at_step_start and st.wall:
-            # the bulk drag law of the wind before the grains' drag of this step, held over its
-            # stages (config.Surface.stress_instant)
-            st.bed_stress_into(s.u, s.v, st.taux, st.tauy)
-            st.bed_frozen = True
         for c in self.components:
             c.dynamics(s, dt)
         t_comp = time.perf_counter() - t0
         self.stepper.step(s, dt)
-        st.bed_frozen = False
         s.t += dt
         s.step += 1
         self._rate_cache = None
@@ -228,12 +214,7 @@ class Model:
         s, st = self.state, self.stepper
         if st.wall:
             st.bed_stress_into(s.u, s.v, st.taux, st.tauy)
-        extra = 0.0
-        for c in self.components:
-            f = getattr(c, "stress_at", None)
-            if f is not None:
-                extra += float(f(s, self.z_ref))
-        return self.controller.measure(s, st.closure.cml_v, st.closure.nu_mol, st.taux, extra)
+        return self.controller.measure(s, st.closure.cml_v, st.closure.nu_mol, st.taux)
 
     def damped_mean_u(self) -> np.ndarray:
         """Horizontal-mean u on the levels the drive sees (zeros elsewhere: weight zero there)."""
@@ -255,16 +236,8 @@ class Model:
             raise RuntimeError("activate_saltation: this model has no grain component "
                                "(saltation=False or case.physics.saltation = false)")
         for c in self.components:
-            act = getattr(c, "activate", None)
-            if act is None:
-                continue
-            params = inspect.signature(act).parameters
-            if "rng" in params or len(params) >= 2:
-                act(self.state, self.rng)
-            else:
-                act(self.state)
+            c.activate(self.state)
         self.t_activation = float(self.state.t)
-        self.controller.answers_stress = self.controller.stress_gain > 0
 
     # ---- checkpoint --------------------------------------------------------------------------
     def checkpoint(self) -> dict:

@@ -1,8 +1,7 @@
 """Reynolds-number similarity of the particle-free neutral surface layer over a rough bed.
 
 Without grains, buoyancy or a resolved viscous layer, the LES equations (advection, pressure,
-Deardorff SGS TKE, the log-law wall stress with a fixed z0, the near-wall mean-field closure, the
-drive) have no velocity scale of their own: if (u, e, p)(x, t) solves them at friction velocity
+Deardorff SGS TKE, the log-law wall stress with a fixed z0, the drive) have no velocity scale of their own: if (u, e, p)(x, t) solves them at friction velocity
 u*1, then (a u, a^2 e, a^2 p)(x, a t) solves them at u*2 = a u*1. One spun-up flow therefore
 serves every case with the same bed, domain and closure: spin it up once at a reference u*
 (``fidelity.spinup.u_star_ref``) and rescale it to each case's u*s when saltation is activated.
@@ -26,8 +25,7 @@ __all__ = ["rescale_restart", "VELOCITY_ENTRIES", "SQUARED_ENTRIES", "INVARIANT_
 # Restart entries that scale like a velocity [m s^-1] and like a velocity squared
 # ([m^2 s^-2]: SGS TKE, kinematic pressure, kinematic stresses held by the drive controller).
 VELOCITY_ENTRIES = ("u", "v", "w", "u_drive")
-SQUARED_ENTRIES = ("e", "p", "controller/tau_ref_filtered", "controller/tau_ref_last",
-                   "controller/integral")
+SQUARED_ENTRIES = ("e", "p", "controller/tau_ref_filtered", "controller/tau_ref_last")
 #: entries of the flow's own parts that carry no velocity scale: the dynamic closure's
 #: (C_s Delta)^2 [m^2] and beta [-] are lengths and ratios of the resolved field, unchanged
 #: by a uniform rescaling of the velocities

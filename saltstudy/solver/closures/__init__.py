@@ -1,1 +1,1 @@
-"""Subgrid-scale closures: Deardorff's TKE (the paper's), dynamic Smagorinsky, near-wall and two-part options, chosen by ``closure.make_closure``."""
+"""Subgrid-scale closures: Deardorff's TKE (the paper's) and dynamic Smagorinsky, chosen by ``closure.make_closure``."""

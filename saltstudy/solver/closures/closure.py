@@ -1,6 +1,5 @@
-"""The SGS closure as one object (MicroHH's diffusion group): the eddy viscosity of each RK3 stage,
-the SGS TKE it carries, and the optional mean-field parts, built by ``make_closure`` from a case's
-``closure`` section.
+"""The SGS closure as one object (MicroHH's diffusion group): the eddy viscosity of each RK3 stage
+and the SGS TKE it carries, built by ``make_closure`` from a case's ``closure`` section.
 
 * ``DeardorffClosure``: the paper's 1.5-order prognostic TKE (sgs.py); the stepper integrates e.
 * ``DynamicClosure``: the plane-averaged scale-dependent dynamic Smagorinsky model
@@ -8,16 +7,11 @@ the SGS TKE it carries, and the optional mean-field parts, built by ``make_closu
   inside its local equilibrium).
 * ``NoClosure``: no SGS stress (inviscid tests, advection checks); it costs nothing.
 
-Either SGS model may carry one mean-field part on the plane-mean shear: the near-wall mixing-length
-viscosity (nearwall.py) or the two-part model of Sullivan et al. (1994) (twopart.py). A part that
-is off is not constructed.
-
 What the stepper reads: ``nu_mol``, the per-level arrays ``l`` (dissipation length), ``cml`` and
 ``cml_v`` (c_m times the horizontal and vertical viscosity lengths: nu_h = cml sqrt(e) + nu_mol),
-``rv`` (vertical over horizontal viscosity), ``ceps_l`` (c_eps / l), ``mdu``, ``mdv`` (plane-mean
-shears the TKE production takes out; zeros but with the two-part model) and ``rlog`` (the log-law
+``rv`` (vertical over horizontal viscosity), ``ceps_l`` (c_eps / l) and ``rlog`` (the log-law
 shear at the first level per unit first-level velocity, 1/(z_1 ln(z_1/z0)) [m^-1]); and the hooks
-``begin_step``, ``viscosity``, ``mean_field``, ``end_step``.
+``begin_step``, ``viscosity``, ``end_step``.
 """
 from __future__ import annotations
 
@@ -61,8 +55,6 @@ class NoClosure:
     #: whether it carries an SGS stress (False: the stepper integrates no diffusion)
     diffuses = False
     dynamic = None
-    near_wall = None
-    two_part = None
 
     def __init__(self, grid, nu_mol: float = 0.0, rlog: float = 0.0):
         nz = grid.nz
@@ -73,17 +65,12 @@ class NoClosure:
         self.cml_v = np.zeros(nz)
         self.rv = np.ones(nz)
         self.ceps_l = np.zeros(nz)
-        self.mdu = np.zeros(nz + 1)
-        self.mdv = np.zeros(nz + 1)
 
-    def begin_step(self, state, dt: float, bed_stress_into) -> None:
+    def begin_step(self, state, dt: float) -> None:
         pass
 
     def viscosity(self, u, v, w, e, nu) -> None:
         nu[...] = 0.0
-
-    def mean_field(self, u, v, cdt: float) -> None:
-        pass
 
     def end_step(self, state, dt: float, nu) -> None:
         pass
@@ -96,13 +83,12 @@ class NoClosure:
 
 
 class _EddyViscosityClosure(NoClosure):
-    """What both SGS models share: the lengths, and the optional mean-field part."""
+    """What both SGS models share: the lengths."""
 
     diffuses = True
 
-    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, wall: bool):
+    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float):
         super().__init__(grid, nu_mol, rlog)
-        self.grid = grid
         self.kappa = float(kappa)
         self.l = length_scale(grid, kappa, delta=spec.delta)
         l_h, l_v = viscosity_lengths(grid, kappa, spec.viscosity, spec.delta)
@@ -112,44 +98,6 @@ class _EddyViscosityClosure(NoClosure):
         # relative 1e-5 - 1e-3 of nu_t)
         self.rv = np.ascontiguousarray(l_v / l_h)
         self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l, spec.delta) / self.l)
-        self.near_wall = None
-        self.two_part = None
-        if spec.near_wall and wall:
-            from .nearwall import NearWallMeanViscosity
-            self.near_wall = NearWallMeanViscosity(grid, self.kappa, spec.near_wall_layer)
-        if spec.two_part and wall:
-            from .twopart import TwoPartModel
-            self.two_part = TwoPartModel(grid, self.kappa, self.rlog)
-            self.mdu, self.mdv = self.two_part.mdu, self.two_part.mdv
-
-    def mean_field(self, u, v, cdt: float) -> None:
-        if self.near_wall is not None:
-            self.near_wall.apply(u, v, cdt)
-        if self.two_part is not None:
-            self.two_part.apply(u, v, cdt)
-
-    def _begin_mean_field(self, state, dt: float, bed_stress_into) -> None:
-        """The mean-field part's slow terms, held over the stages of the step; ``bed_stress_into(u, v,
-        taux, tauy)`` is the stepper's bulk drag law (Stepper.bed_stress_into)."""
-        if self.near_wall is not None:
-            self.near_wall.update(state, self.cml_v, self.nu_mol, dt)
-        if self.two_part is not None:
-            from .twopart import wall_friction_velocity
-            tp = self.two_part
-            tp.update_gamma(state)
-            self._scale_by_gamma(tp.gamma)
-            # the plane mean of the gamma-scaled viscosity on face 1 (nu = c l sqrt(e) for both
-            # closures: the dynamic model's e is diagnosed from its viscosity)
-            e = state.e
-            nu1 = 0.5 * (self.cml[0] * float(np.sqrt(np.maximum(e[:, :, 0], 0.0)).mean())
-                         + self.cml[1] * float(np.sqrt(np.maximum(e[:, :, 1], 0.0)).mean()))
-            nx, ny = state.grid.nx, state.grid.ny
-            taux, tauy = np.empty((nx, ny)), np.empty((nx, ny))
-            bed_stress_into(state.u, state.v, taux, tauy)
-            tp.update_mean_viscosity(nu1, wall_friction_velocity(taux, tauy), dt)
-
-    def _scale_by_gamma(self, gamma) -> None:
-        raise NotImplementedError
 
 
 class DeardorffClosure(_EddyViscosityClosure):
@@ -157,20 +105,6 @@ class DeardorffClosure(_EddyViscosityClosure):
     sink of eq. A1 is applied once per step, e <- e / (1 + rate dt), stable for any rate."""
 
     prognostic_e = True
-
-    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, wall: bool):
-        super().__init__(grid, spec, kappa, nu_mol, rlog, wall)
-        if self.two_part is not None:
-            # the acting c_m l is gamma times the closure's own (updated in place every step)
-            self._cml_base = self.cml.copy()
-            self.cml = self._cml_base.copy()
-            self.cml_v = self.cml
-
-    def begin_step(self, state, dt: float, bed_stress_into) -> None:
-        self._begin_mean_field(state, dt, bed_stress_into)
-
-    def _scale_by_gamma(self, gamma) -> None:
-        np.multiply(self._cml_base, gamma, out=self.cml)
 
     def viscosity(self, u, v, w, e, nu) -> None:
         compute_nu(e, self.cml, self.nu_mol, nu)
@@ -185,10 +119,10 @@ class DynamicClosure(_EddyViscosityClosure):
     every ``dynamic_interval`` steps, nu from each stage's strain, e diagnosed from the new state
     at the end of the step (with the grain sink inside its equilibrium)."""
 
-    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, wall: bool):
+    def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float):
         if spec.viscosity != "isotropic":
             raise ValueError("the dynamic closure has one eddy viscosity: viscosity must be 'isotropic'")
-        super().__init__(grid, spec, kappa, nu_mol, rlog, wall)
+        super().__init__(grid, spec, kappa, nu_mol, rlog)
         from .dynamic import DynamicSmagorinsky
         self.dynamic = DynamicSmagorinsky(grid, self.kappa, self.rlog, spec.delta,
                                           spec.dynamic_interval)
@@ -201,13 +135,9 @@ class DynamicClosure(_EddyViscosityClosure):
         self._sink = None
         self._e_stage = np.zeros(grid.shape)
 
-    def begin_step(self, state, dt: float, bed_stress_into) -> None:
+    def begin_step(self, state, dt: float) -> None:
         self.dynamic.maybe_update(state)
         self._sink = state.tke_sink
-        self._begin_mean_field(state, dt, bed_stress_into)
-
-    def _scale_by_gamma(self, gamma) -> None:
-        self.dynamic.set_scale(gamma)
 
     def viscosity(self, u, v, w, e, nu) -> None:
         self.dynamic.viscosity(u, v, w, self._sink, self.nu_mol, nu, self._e_stage)
@@ -228,8 +158,8 @@ def make_closure(grid, spec=None, *, kappa: float = 0.4, z0: float = 1e-5, nu_mo
                  wall: bool = True, enabled: bool = True):
     """The closure object of a case's ``closure`` section (config.Closure; None: the defaults).
 
-    ``wall``: the bed carries the log-law stress (the strain on the bed face is the log-law shear;
-    the mean-field parts need it); ``enabled`` = False gives ``NoClosure``."""
+    ``wall``: the bed carries the log-law stress (the strain on the bed face is the log-law shear);
+    ``enabled`` = False gives ``NoClosure``."""
     if spec is None:
         from ...config import Closure
         spec = Closure()
@@ -238,7 +168,5 @@ def make_closure(grid, spec=None, *, kappa: float = 0.4, z0: float = 1e-5, nu_mo
         return NoClosure(grid, nu_mol, rlog)
     if spec.model not in CLOSURES:
         raise ValueError(f"closure must be one of {CLOSURES} (got {spec.model!r})")
-    if spec.two_part and spec.near_wall:
-        raise ValueError("the two-part model carries its own mean-field viscosity: no near-wall layer")
     cls = DynamicClosure if spec.model == "dynamic" else DeardorffClosure
-    return cls(grid, spec, kappa, nu_mol, rlog, wall)
+    return cls(grid, spec, kappa, nu_mol, rlog)

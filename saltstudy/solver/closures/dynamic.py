@@ -351,11 +351,8 @@ class DynamicSmagorinsky:
         self.delta = (grid.dx * grid.dy * grid.dz_c) ** (1.0 / 3.0)
         #: C_K l: the paper's nu_t = C_K l sqrt(e) that defines the diagnosed e [m]
         self.ckl = np.ascontiguousarray(C_M * length_scale(grid, kappa, delta=delta))
+        #: the coefficient scale (C_s Delta)^2 per level [m^2]
         self.cs2d2 = np.zeros(nz)
-        #: a factor on the coefficient per level (the two-part model's isotropy factor; else 1)
-        self.scale = np.ones(nz)
-        #: the acting coefficient scale (C_s Delta)^2 [m^2]
-        self.c_eff = np.zeros(nz)
         self.beta = np.full(nz, np.nan)
         self.sums = np.zeros((nz, 4))
         self.ceps_l = np.zeros(nz)
@@ -372,8 +369,7 @@ class DynamicSmagorinsky:
         return np.sqrt(self.cs2d2) / self.delta
 
     def _derived(self) -> None:
-        np.multiply(self.cs2d2, self.scale, out=self.c_eff)
-        c = self.c_eff
+        c = self.cs2d2
         pos = c > 0
         ceps = np.zeros_like(c)
         ceps[pos] = self.ckl[pos] ** 3 / c[pos] ** 2
@@ -394,11 +390,6 @@ class DynamicSmagorinsky:
         self.ready = True
         self.n_updates += 1
 
-    def set_scale(self, factor: np.ndarray) -> None:
-        """Scale the acting coefficient by ``factor`` per level (kept until the next call)."""
-        self.scale[...] = factor
-        self._derived()
-
     def maybe_update(self, state) -> None:
         """Update at steps that are multiples of ``interval`` (and whenever no coefficient is held)."""
         if not self.ready or state.step % self.interval == 0:
@@ -408,11 +399,11 @@ class DynamicSmagorinsky:
         """nu and the diagnosed e in place from (u, v, w) and the grain sink rate (or None)."""
         g = self.grid
         with_sink = sink is not None
-        smagorinsky_viscosity(u, v, w, self.c_eff, self.ckl, sink if with_sink else nu, with_sink,
+        smagorinsky_viscosity(u, v, w, self.cs2d2, self.ckl, sink if with_sink else nu, with_sink,
                               nu_mol, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c, g.rdz_f, self.rlog, E_MIN, nu, e)
 
     def checkpoint(self) -> dict:
-        return {"cs2d2": self.cs2d2.copy(), "beta": self.beta.copy(), "scale": self.scale.copy()}
+        return {"cs2d2": self.cs2d2.copy(), "beta": self.beta.copy()}
 
     def restore(self, data: dict) -> None:
         c = np.asarray(data["cs2d2"], dtype=np.float64)
@@ -422,7 +413,5 @@ class DynamicSmagorinsky:
         self.cs2d2[...] = c
         if "beta" in data:
             self.beta[...] = np.asarray(data["beta"], dtype=np.float64)
-        if "scale" in data:
-            self.scale[...] = np.asarray(data["scale"], dtype=np.float64)
         self._derived()
         self.ready = True

@@ -66,7 +66,7 @@ __all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "wall_blend", "length_scale", "visc
            "eddy_viscosity", "diff_u_at", "diff_v_at", "diff_w_at", "tke_tendency_at",
            "diff_u_split_at", "diff_v_split_at", "diff_w_split_at", "tke_split_at",
            "vertical_coupling",
-           "strain_sq_at", "strain_sq_fluct_at",
+           "strain_sq_at",
            "compute_nu", "sgs_stress_uw_profile"]
 
 C_M = 0.1            #: Deardorff (1980) / Moeng (1984) eddy-viscosity constant
@@ -278,17 +278,7 @@ def diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
 
 @device
 def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
-    """2 S_ij S_ij at the cell centre (i, j, k) [s^-2]: ``strain_sq_fluct_at`` with nothing taken out."""
-    return strain_sq_fluct_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog,
-                              0.0, 0.0, 0.0, 0.0)
-
-
-@device
-def strain_sq_fluct_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog,
-                       mub, mvb, mut, mvt):
-    """2 s_ij s_ij at the cell centre (i, j, k) [s^-2] of the strain less the plane-mean shear
-    (mub, mvb) on the face below and (mut, mvt) on the face above [s^-1] (zeros: the whole strain;
-    the two-part model, twopart.py, takes the mean out), split as (horizontal part, vertical part):
+    """2 S_ij S_ij at the cell centre (i, j, k) [s^-2], split as (horizontal part, vertical part):
     (2 S_11^2 + 2 S_22^2 + 4 S_12^2, 2 S_33^2 + 4 S_13^2 + 4 S_23^2), the parts that work against
     the horizontal and the vertical viscosity (module doc).
 
@@ -323,39 +313,31 @@ def strain_sq_fluct_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdz
         a1 = u[ip, j, k] * rlog
         b0 = v[i, j, k] * rlog
         b1 = v[i, jp, k] * rlog
-    a0 -= mub
-    a1 -= mub
-    b0 -= mvb
-    b1 -= mvb
     q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
     if top:
         kt = k + 1
         rdz = rdzf[kt]
-        a0 = (u[i, j, kt] - u[i, j, k]) * rdz + (w[i, j, kt] - w[im, j, kt]) * rdx - mut
-        a1 = (u[ip, j, kt] - u[ip, j, k]) * rdz + (w[ip, j, kt] - w[i, j, kt]) * rdx - mut
-        b0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy - mvt
-        b1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy - mvt
+        a0 = (u[i, j, kt] - u[i, j, k]) * rdz + (w[i, j, kt] - w[im, j, kt]) * rdx
+        a1 = (u[ip, j, kt] - u[ip, j, k]) * rdz + (w[ip, j, kt] - w[i, j, kt]) * rdx
+        b0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy
+        b1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy
         q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
     return acc, 2.0 * s33 * s33 + 0.25 * q
 
 
 @device
 def tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                 rlog, ceps_over_l_k, mdu, mdv):
+                 rlog, ceps_over_l_k):
     """de/dt at the centre without advection (eq. A1) split for a vertically implicit scheme:
     (P + horizontal transport [m^2 s^-3], a, c [s^-1] of the vertical transport, r [s^-1] of the
     dissipation) with de/dt = P + transport_h + c (e_k+1 - e_k) - a (e_k - e_k-1) - r e_k and
     r = c_eps e^{1/2} / l, so that r e = eps = c_eps e^{3/2} / l.
 
     Horizontal fluxes with nu, vertical ones with nu rv (as in A1's nu_th, nu_tv); the transport
-    is 2 nu_t grad e with the face viscosities as two-point means. The production works on the
-    strain less the plane-mean shears ``mdu``, ``mdv`` on the faces (nz+1,) [s^-1]: zeros, except
-    with the two-part model (twopart.py), whose e is the energy of the fluctuations."""
+    is 2 nu_t grad e with the face viscosities as two-point means."""
     ec = e[i, j, k]
     nuc = nu[i, j, k]
-    kt = k + 1 if top else k
-    sh, sv = strain_sq_fluct_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog,
-                                mdu[k], mdv[k], mdu[kt], mdv[kt])
+    sh, sv = strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog)
     nvc = nuc * rv[k]
     prod = nuc * sh + nvc * sv
     fe = (nuc + nu[ip, j, k]) * (e[ip, j, k] - ec) * rdx
@@ -374,11 +356,11 @@ def tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy
 
 @device
 def tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                    rlog, ceps_over_l_k, mdu, mdv):
+                    rlog, ceps_over_l_k):
     """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (eq. A1, all
     explicit; ``tke_split_at``)."""
     x, a, c, r = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
-                              rdzf, rlog, ceps_over_l_k, mdu, mdv)
+                              rdzf, rlog, ceps_over_l_k)
     ec = e[i, j, k]
     ep = ec if ec > 0.0 else 0.0
     return x + vertical_coupling(e, i, j, k, a, c, top, bot) - r * ep

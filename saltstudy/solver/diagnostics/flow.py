@@ -79,19 +79,11 @@ def stress_profile(model) -> tuple[np.ndarray, np.ndarray]:
     return _resolved_uw(model), _sgs_uw(model)
 
 
-def _grain_stress(model, z: float) -> float:
-    total = 0.0
-    for c in model.components:
-        f = getattr(c, "stress_at", None)
-        if f is not None:
-            total += float(f(model.state, z))
-    return total
-
-
 def u_star_at(model, z: float) -> float:
-    """sqrt|resolved + SGS (+ grain, if a component reports it) u-w stress| at height z [m s^-1]."""
+    """sqrt|resolved + SGS u-w stress| at height z [m s^-1] (the air's: read above the saltation
+    layer, where the grains carry none)."""
     res, sgs = stress_profile(model)
-    tot = float(np.interp(z, model.state.grid.z_f, res + sgs)) + _grain_stress(model, z)
+    tot = float(np.interp(z, model.state.grid.z_f, res + sgs))
     return math.sqrt(abs(tot))
 
 
@@ -127,9 +119,6 @@ def flow_profiles(model) -> dict:
     tke = 0.5 * (((uc - um) ** 2).mean(axis=(0, 1)) + ((vc - vm) ** 2).mean(axis=(0, 1))
                  + ((wc - wm) ** 2).mean(axis=(0, 1)))
     res, sgs = stress_profile(model)
-    for mean_field in (clo.near_wall, clo.two_part):  # the mean-field part of the modelled stress
-        if mean_field is not None:
-            sgs = sgs - mean_field.stress_profile()
     nu = _nu(model)
     eps, transfer = _sgs_profiles(s.e, s.u, s.v, s.w, nu, clo.rv, 1.0 / g.dx, 1.0 / g.dy, g.rdz_c,
                                   g.rdz_f, clo.rlog, clo.ceps_l)

@@ -15,7 +15,7 @@ An explicit exchange would need ``dt < ~tau_c_min``; the point-implicit one (sol
 is built to stay bounded beyond that, and ``dt / tau_c_min`` says how far a scene pushes it.
 ``Re_p`` uses the resolved air velocity at the parcel (the SGS part is not in it).
 
-Parcel bookkeeping: parcels aloft = released + ejected + entrained - deposited, exactly (counts,
+Parcel bookkeeping: parcels aloft = released + ejected - deposited, exactly (counts,
 not masses: an ejected parcel carries its own diameter). A non-zero residual means parcels were
 lost or created outside the splash and deposition events.
 """
@@ -36,7 +36,7 @@ HEALTH_SERIES: dict[str, tuple[str, str]] = {
     "loading_max": ("1", "largest grain-to-air mass ratio of a grid cell"),
     "tau_c_min": ("s", "lower bound on the coupled grain-air relaxation time, "
                        "1 / (k_max (1 + loading_max))"),
-    "parcel_balance": ("1", "parcels aloft minus (released + ejected + entrained - deposited)"),
+    "parcel_balance": ("1", "parcels aloft minus (released + ejected - deposited)"),
 }
 
 
@@ -74,7 +74,6 @@ def coupling_stiffness(model) -> dict[str, float]:
 
 
 def parcel_balance(counters: dict[str, Any], n_released: int) -> int:
-    """Parcels aloft minus (released + ejected + entrained - deposited): 0 when nothing leaks."""
+    """Parcels aloft minus (released + ejected - deposited): 0 when nothing leaks."""
     return int(counters["n_parcels"]) - (int(n_released) + int(counters["n_ejections"])
-                                         + int(counters.get("n_entrained", 0))
                                          - int(counters["n_depositions"]))

@@ -33,30 +33,14 @@ In a statistically steady state the horizontally averaged momentum balance makes
 (resolved + SGS + grain) equal to M at every height below the damping layer. The controller therefore
 sets u_drive so that M = u*s^2 (feed-forward on the measured layer-mean <u>), i.e.
 
-    u_ff = (u*s^2 + c + sum_k f_k <u>_k dz_c[k]) / F,     F = sum_k f_k dz_c[k]   [m s^-1],
+    u_ff = (u*s^2 + sum_k f_k <u>_k dz_c[k]) / F,     F = sum_k f_k dz_c[k]   [m s^-1],
 
 and lets u_drive relax to u_ff with the time scale ``forcing.controller_timescale`` T_c (so the drive
 changes slowly and the noisy layer mean is filtered). The total stress at z_ref_eff = min(z_ref,
 (Lz - D)/2) is measured every step and filtered with an exponential running mean of time scale T_c
-(``tau_ref_filtered``); an optional slow integral term c (time scale ``integral_timescale``, off by
-default: the steady balance already pins the stress) trims any residual offset from it. A grain
-component may report its stress at z_ref through ``extra_stress`` (the hook; zero above the
-saltation layer in practice).
-
-A drive that answers the stress at z_ref (the fidelity's ``relaxation.stress_gain`` K_p > 0). After
-activation the column above z_ref carries the particle-free flow's momentum and gives it up over
-minutes: with M held at u*s^2 the stress there is tau(z_ref) = M - dP/dt, read 1.23 u*s^2 over the
-laptop study's 12-42 s window (``saltstudy probe column-budget``, reports/reduced/FINDINGS.md).
-With K_p the controller's target becomes
-
-    M = u*s^2 - K_p (tau_f - u*s^2),    tau_f: tau(z_ref) filtered over ``stress_timescale`` T_s,
-
-and u_drive follows it with the same T_s. The fixed point is unchanged (a steady column has
-tau(z_ref) = M, hence tau(z_ref) = M = u*s^2); a column out of balance is driven back about
-(1 + K_p) times faster, through the damping layer and the turbulence between it and z_ref (a lag of
-a few seconds, so K_p (T_s + lag) must stay well below the column's own time, ~40 s). The spin-up
-and the staggered starts do not use it (their particle-free columns are already in balance), so
-they stay shared with runs that do not.
+(``tau_ref_filtered``) for the record; the drive itself needs no integral term: the steady balance
+already pins the stress to what it feeds. The grains' stress is zero at z_ref (above the saltation
+layer), so the measured stress is the air's, resolved plus SGS.
 
 Initial u_drive (feed-forward from the log law): U_top + u*s^2/F with U_top = (u*s/kappa)
 ln(z_top/z0), z_top the top of the free (undamped) region.
@@ -147,17 +131,11 @@ class DriveController:
     """Feed-forward momentum-flux controller of ``state.u_drive`` (see module docstring)."""
 
     def __init__(self, grid, u_star: float, z_ref: float, timescale: float, f_c: np.ndarray,
-                 kappa: float, z0: float, integral_timescale: float | None = None,
-                 stress_gain: float = 0.0, stress_timescale: float = 2.0):
+                 kappa: float, z0: float):
         self.grid = grid
-        self.stress_gain = float(stress_gain)           # K_p [-]
-        self.stress_timescale = float(stress_timescale)  # T_s [s]
-        self.answers_stress = False   # set on saltation activation when K_p > 0 (Model.activate)
-        self.tau_ref_fast = math.nan  # tau(z_ref) filtered over T_s [m^2 s^-2]
         self.u_star = float(u_star)
         self.z_ref = float(z_ref)
         self.timescale = float(timescale)
-        self.integral_timescale = integral_timescale
         self.f_dz = np.ascontiguousarray(f_c * grid.dz_c)
         self.F = float(self.f_dz.sum())
         self.kappa, self.z0 = float(kappa), float(z0)
@@ -168,7 +146,6 @@ class DriveController:
         self.w_hi = float((self.z_ref - zf[kb]) / (zf[kb + 1] - zf[kb]))
         self.tau_ref_filtered = math.nan   # running mean of the total stress at z_ref [m^2 s^-2]
         self.tau_ref_last = math.nan
-        self.integral = 0.0                # c [m^2 s^-2]
 
     @property
     def target_stress(self) -> float:
@@ -188,13 +165,8 @@ class DriveController:
         return u_top + (self.target_stress / self.F if self.F > 0 else 0.0)
 
     def momentum_target(self) -> float:
-        """M the drive feeds [m^2 s^-2]: u*s^2 + c, less K_p (tau_f - u*s^2) when it answers the
-        stress at z_ref (bounded to [0, 2 u*s^2]: a single gust must not reverse the drive)."""
-        m = self.target_stress + self.integral
-        if self.answers_stress and not math.isnan(self.tau_ref_fast):
-            m -= self.stress_gain * (self.tau_ref_fast - self.target_stress)
-            m = min(2.0 * self.target_stress, max(0.0, m))
-        return m
+        """M the drive feeds [m^2 s^-2]: u*s^2."""
+        return self.target_stress
 
     def feed_forward(self, u_mean: np.ndarray) -> float:
         """u_ff for the horizontal-mean profile <u>(z) (nz,) [m s^-1]."""
@@ -202,8 +174,7 @@ class DriveController:
             return float(u_mean[-1])
         return (self.momentum_target() + float(np.dot(self.f_dz, u_mean))) / self.F
 
-    def measure(self, state, cml: np.ndarray, nu_mol: float, taux: np.ndarray,
-                extra_stress: float = 0.0) -> float:
+    def measure(self, state, cml: np.ndarray, nu_mol: float, taux: np.ndarray) -> float:
         """Total kinematic stress -<u'w'> magnitude at z_ref [m^2 s^-2] (positive for a drag)."""
         g = self.grid
         vals = []
@@ -211,33 +182,20 @@ class DriveController:
             r, s = total_stress_at_face(state.u, state.w, state.e, k, cml, nu_mol, g.dz_f,
                                         1.0 / g.dx, taux)
             vals.append(r + s)
-        tau = (1.0 - self.w_hi) * vals[0] + self.w_hi * vals[1] + extra_stress
+        tau = (1.0 - self.w_hi) * vals[0] + self.w_hi * vals[1]
         return -tau
 
     def update(self, state, dt: float, u_mean: np.ndarray, tau_ref: float) -> None:
-        """Advance the filters, the integral and u_drive over dt (u_drive lags by T_c, or by T_s
-        while the drive answers the stress at z_ref)."""
+        """Advance the stress filter and u_drive over dt (u_drive lags by T_c)."""
         self.tau_ref_last = tau_ref
         a = min(1.0, dt / self.timescale)
         self.tau_ref_filtered = _running_mean(self.tau_ref_filtered, tau_ref, a)
-        if self.integral_timescale:
-            self.integral += dt / self.integral_timescale * (self.target_stress - self.tau_ref_filtered)
-            lim = 0.5 * self.target_stress
-            self.integral = min(lim, max(-lim, self.integral))
-        if self.answers_stress:
-            a = min(1.0, dt / self.stress_timescale)
-            self.tau_ref_fast = _running_mean(self.tau_ref_fast, tau_ref, a)
         state.u_drive += a * (self.feed_forward(u_mean) - state.u_drive)
 
     # ---- checkpoint ------------------------------------------------------------------------
     def checkpoint(self) -> dict:
-        return {"tau_ref_filtered": float(self.tau_ref_filtered), "tau_ref_last": float(self.tau_ref_last),
-                "integral": float(self.integral), "tau_ref_fast": float(self.tau_ref_fast),
-                "answers_stress": float(self.answers_stress)}
+        return {"tau_ref_filtered": float(self.tau_ref_filtered), "tau_ref_last": float(self.tau_ref_last)}
 
     def restore(self, data: dict) -> None:
         self.tau_ref_filtered = float(data["tau_ref_filtered"])
         self.tau_ref_last = float(data["tau_ref_last"])
-        self.integral = float(data["integral"])
-        self.tau_ref_fast = float(data.get("tau_ref_fast", math.nan))
-        self.answers_stress = bool(data.get("answers_stress", 0.0))

@@ -6,11 +6,11 @@ stage.
 for phi = (u, v, w, e), each stage followed by the pressure projection of (u, v, w) (pressure.py).
 Per stage: boundary (bed stress, eddy viscosity of the stage input from the closure) -> one fused
 kernel for advection + SGS diffusion + Rayleigh damping + drive (u_drive through the damping layer,
-or a uniform body force G) of u, v, w -> the closure's mean-field part, if any -> one fused kernel
-for the SGS TKE equation (advection, production, transport, dissipation) when the closure carries
-e -> projection. The closure's ``end_step`` then applies the particle sink of e (paper eq. A1,
-rates in ``state.tke_sink`` [s^-1]) implicitly, e <- e / (1 + rate dt), unconditionally stable
-for any rate, or diagnoses e (dynamic closure, closure.py).
+or a uniform body force G) of u, v, w -> one fused kernel for the SGS TKE equation (advection,
+production, transport, dissipation) when the closure carries e -> projection. The closure's
+``end_step`` then applies the particle sink of e (paper eq. A1, rates in ``state.tke_sink``
+[s^-1]) implicitly, e <- e / (1 + rate dt), unconditionally stable for any rate, or diagnoses e
+(dynamic closure, closure.py).
 
 The vertical SGS diffusion is explicit or implicit (``FlowNumerics.vertical_diffusion``, from the
 fidelity's ``time`` section): implicit, each stage solves one tridiagonal system per column for
@@ -81,8 +81,7 @@ class Boundaries:
     a free-slip bed), a Rayleigh layer of ``damping_depth`` [m] with time scale
     ``damping_timescale`` [s] at the lid acting on u too (``damp_u``, the top drive) or on v and w
     only, and a uniform streamwise body force ``body_force`` G [m s^-2] (the pressure-gradient
-    drive, forcing.py). ``stress_level``: the level whose wind the bulk drag law reads
-    (config.Surface.stress_level)."""
+    drive, forcing.py)."""
     z0: float = 1.0e-5
     kappa: float = 0.4
     wall: bool = True
@@ -90,7 +89,6 @@ class Boundaries:
     damping_timescale: float = 5.0
     damp_u: bool = True
     body_force: float = 0.0
-    stress_level: str = "first"
 
 
 @device
@@ -185,34 +183,33 @@ def _uvw_slab(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, im, ip, cd
 
 @device
 def _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, rdzc,
-             rdzf, rlog, ceps_lk, e_min, mdu, mdv, order):
+             rdzf, rlog, ceps_lk, e_min, order):
     if order == 4:
         te = adv_scalar4_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     else:
         te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     te += tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                          rlog, ceps_lk, mdu, mdv)
+                          rlog, ceps_lk)
     val = eb[i, j, k] + cdt * te
     eo[i, j, k] = val if val > e_min else e_min
 
 
 @device
 def _e_column(e, u, v, w, nu, rv, eb, eo, i, j, im, ip, jm, jp, cdt, rdx, rdy, rdzc, rdzf, rlog,
-              ceps_l, e_min, mdu, mdv, order):
+              ceps_l, e_min, order):
     # one column, levels peeled; the stage kernel calls it with a literal order (as _uvw_column)
     nz = e.shape[2]
     _e_point(e, u, v, w, nu, rv, eb, eo, i, j, 0, im, ip, jm, jp, True, False, cdt, rdx, rdy, rdzc,
-             rdzf, rlog, ceps_l[0], e_min, mdu, mdv, order)
+             rdzf, rlog, ceps_l[0], e_min, order)
     for k in range(1, nz - 1):
         _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, True, True, cdt, rdx, rdy, rdzc,
-                 rdzf, rlog, ceps_l[k], e_min, mdu, mdv, order)
+                 rdzf, rlog, ceps_l[k], e_min, order)
     _e_point(e, u, v, w, nu, rv, eb, eo, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, rdx, rdy,
-             rdzc, rdzf, rlog, ceps_l[nz - 1], e_min, mdu, mdv, order)
+             rdzc, rdzf, rlog, ceps_l[nz - 1], e_min, order)
 
 
 @pjit
-def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min, mdu, mdv,
-               order):
+def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min, order):
     """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above);
     rdzc, rdzf: 1/dz_c, 1/dz_f; order: the horizontal order of the advection, 2 or 4."""
     nx, ny, nz = e.shape
@@ -225,10 +222,10 @@ def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps
             jp = (j + 1) % ny
             if order == 4:
                 _e_column(e, u, v, w, nu, rv, eb, eo, i, j, im, ip, jm, jp, cdt, rdx, rdy, rdzc, rdzf,
-                          rlog, ceps_l, e_min, mdu, mdv, 4)
+                          rlog, ceps_l, e_min, 4)
             else:
                 _e_column(e, u, v, w, nu, rv, eb, eo, i, j, im, ip, jm, jp, cdt, rdx, rdy, rdzc, rdzf,
-                          rlog, ceps_l, e_min, mdu, mdv, 2)
+                          rlog, ceps_l, e_min, 2)
 
 
 class Stepper:
@@ -246,12 +243,7 @@ class Stepper:
         self.numerics = numerics
         self.z0, self.kappa = float(boundaries.z0), float(boundaries.kappa)
         self.wall = bool(boundaries.wall)
-        #: the level the bulk drag law reads (0: the first, 1: the second)
-        self.wall_level = {"first": 0, "second": 1}[boundaries.stress_level]
-        self.cd = (drag_coefficient(float(grid.z_c[self.wall_level]), self.z0, self.kappa)
-                   if self.wall else 0.0)
-        #: the bed stress held over the step's stages (Model.step with stress_instant "step_start")
-        self.bed_frozen = False
+        self.cd = drag_coefficient(float(grid.z_c[0]), self.z0, self.kappa) if self.wall else 0.0
         self.f_c, self.f_f = damping_profiles(grid, boundaries.damping_depth,
                                               boundaries.damping_timescale)
         self.f_cu = self.f_c if boundaries.damp_u else np.zeros_like(self.f_c)
@@ -270,27 +262,17 @@ class Stepper:
 
     # ---- pieces ----------------------------------------------------------------------------
     def bed_stress_into(self, u, v, taux, tauy) -> None:
-        """taux, tauy (nx, ny): the bulk drag law's kinematic bed stress [m^2 s^-2] from the wind
-        of the level it reads (``wall_level``); zero for a free-slip bed."""
-        if not self.wall:
-            taux[...] = 0.0
-            tauy[...] = 0.0
-        elif self.wall_level == 0:
+        """taux, tauy (nx, ny): the bulk drag law's kinematic bed stress [m^2 s^-2] from the first
+        level's wind; zero for a free-slip bed."""
+        if self.wall:
             surface_stress_into(u, v, self.cd, taux, tauy)
         else:
-            k = self.wall_level
-            surface_stress_into(u[:, :, k:], v[:, :, k:], self.cd, taux, tauy)
+            taux[...] = 0.0
+            tauy[...] = 0.0
 
     def boundary(self, u, v, w, e) -> None:
-        """Bed stress (unless held over the step: ``bed_frozen``) and the closure's nu_t for one
-        stage input."""
-        if self.bed_frozen:
-            pass
-        elif self.wall:
-            self.bed_stress_into(u, v, self.taux, self.tauy)
-        else:
-            self.taux[...] = 0.0
-            self.tauy[...] = 0.0
+        """Bed stress and the closure's nu_t for one stage input."""
+        self.bed_stress_into(u, v, self.taux, self.tauy)
         self.closure.viscosity(u, v, w, e, self.nu)
 
     def stage(self, inp, base, out, cdt: float, u_drive: float, p, store_p: bool = False) -> None:
@@ -315,14 +297,12 @@ class Stepper:
             _momentum_stage(gu, gv, gw, self.nu, clo.rv, self.taux, self.tauy, bu, bv, bw, ou, ov, ow,
                             cdt, rdx, rdy, g.dz_c, g.dz_f, self.f_c, self.f_cu, self.f_f, u_drive,
                             self.body_force, adv, self.diffusing, self.order)
-        clo.mean_field(ou, ov, cdt)
         if clo.prognostic_e and self.implicit:
             tke_stage_implicit(ge, gu, gv, gw, self.nu, clo.rv, be, oe, cdt, self.theta, rdx, rdy,
-                               g.rdz_c, g.rdz_f, clo.rlog, clo.ceps_l, E_MIN, clo.mdu, clo.mdv,
-                               self.order)
+                               g.rdz_c, g.rdz_f, clo.rlog, clo.ceps_l, E_MIN, self.order)
         elif clo.prognostic_e:
             _tke_stage(ge, gu, gv, gw, self.nu, clo.rv, be, oe, cdt, rdx, rdy, g.rdz_c, g.rdz_f,
-                       clo.rlog, clo.ceps_l, E_MIN, clo.mdu, clo.mdv, self.order)
+                       clo.rlog, clo.ceps_l, E_MIN, self.order)
         elif oe is not be and self.closure.dynamic is None:
             oe[...] = be
         self.pressure.project(ou, ov, ow, p if store_p else None, cdt, increment=self.implicit)
@@ -332,7 +312,7 @@ class Stepper:
         the step's pressure."""
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
-        self.closure.begin_step(state, dt, self.bed_stress_into)
+        self.closure.begin_step(state, dt)
         self.stage(state, state, a, c1 * dt, state.u_drive, state.p)
         self.stage(a, state, b, c2 * dt, state.u_drive, state.p)
         self.stage(b, state, state, c3 * dt, state.u_drive, state.p, store_p=True)

@@ -198,7 +198,7 @@ def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo,
 
 @device
 def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, theta, rdx, rdy, rdzc,
-            rdzf, rlog, ceps_lk, mdu, mdv, order, S):
+            rdzf, rlog, ceps_lk, order, S):
     """Row k of the e system of column (i, j) into S[0:4] (right-hand side, sub-, main and
     super-diagonal): advection (horizontal order 2 or 4), production and horizontal transport
     explicit, the vertical transport theta-weighted, the dissipation implicit about the input's
@@ -208,7 +208,7 @@ def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, thet
     else:
         te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     x, a, c, rd = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
-                               rdzf, rlog, ceps_lk, mdu, mdv)
+                               rdzf, rlog, ceps_lk)
     S[0, k] = eb[i, j, k] + cdt * (te + x + (1.0 - theta) * vertical_coupling(eb, i, j, k, a, c, top,
                                                                                 bot))
     ct = cdt * theta
@@ -219,24 +219,24 @@ def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, thet
 
 @device
 def _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, rdzc, rdzf, rlog,
-                   ceps_l, mdu, mdv, order, S):
+                   ceps_l, order, S):
     # the rows of the e system of column (i, j); called with a literal order = 4 (as
     # _uvw_column_rows)
     ny, nz = e.shape[1], e.shape[2]
     jm = j - 1 if j > 0 else ny - 1
     jp = j + 1 if j + 1 < ny else 0
     _e_rows(e, u, v, w, nu, rv, eb, i, j, 0, im, ip, jm, jp, True, False, cdt, theta, rdx,
-            rdy, rdzc, rdzf, rlog, ceps_l[0], mdu, mdv, order, S)
+            rdy, rdzc, rdzf, rlog, ceps_l[0], order, S)
     for k in range(1, nz - 1):
         _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, True, True, cdt, theta, rdx,
-                rdy, rdzc, rdzf, rlog, ceps_l[k], mdu, mdv, order, S)
+                rdy, rdzc, rdzf, rlog, ceps_l[k], order, S)
     _e_rows(e, u, v, w, nu, rv, eb, i, j, nz - 1, im, ip, jm, jp, False, True, cdt, theta,
-            rdx, rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], mdu, mdv, order, S)
+            rdx, rdy, rdzc, rdzf, rlog, ceps_l[nz - 1], order, S)
 
 
 @pjit
 def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, rdzf, rlog, ceps_l,
-                       e_min, mdu, mdv, order):
+                       e_min, order):
     """eo = max(eb + cdt (advection + P + transport_h + (1 - theta) D eb + theta D eo - r eo),
     e_min) with r = c_eps e^{1/2} / l of the input e, a tridiagonal solve per column (module
     doc); rdzc, rdzf: 1/dz_c, 1/dz_f; order: the horizontal order of the advection, 2 or 4."""
@@ -250,10 +250,10 @@ def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, r
         for j in range(ny):
             if order == 4:
                 _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, rdzc,
-                               rdzf, rlog, ceps_l, mdu, mdv, 4, S)
+                               rdzf, rlog, ceps_l, 4, S)
             else:
                 _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, rdzc,
-                               rdzf, rlog, ceps_l, mdu, mdv, order, S)
+                               rdzf, rlog, ceps_l, order, S)
             solve_tridiagonal(S[1], S[2], S[3], S[0], cp, 0, nz)
             for k in range(nz):
                 val = S[0, k]

@@ -7,10 +7,10 @@ from __future__ import annotations
 from numba import prange
 
 from ..._jit import jit_borrow, pjit
-from .interp import GEO_LOG_LEVEL, GEO_LOG_READ, ijit
+from .interp import ijit
 from .layout import (
     _ACTIVE, _DT, _FIX, _G, _H, _HIMP, _HIT, _K, _LANES, _LZ, _NU, _Out, _Q, _QM, _RHO, _RHOP,
-    _RT, _RU, _RV, _RW, _SGS, _Step, _T, _TKE, _TOL, _TP, _TWOWAY, _UN, _VN, _WN, _XN, _YN, _ZN)
+    _RT, _RU, _RV, _RW, _Step, _T, _TKE, _TOL, _TP, _TWOWAY, _UN, _VN, _WN, _XN, _YN, _ZN)
 from .drag import _drag_lanes, _drag_rate
 from .motion import (
     _lane_move, _lane_start, _lane_stencil, _load_lane, _relax_and_move, _substep_length,
@@ -29,10 +29,6 @@ def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx,
     while True:
         st, us, vs, ws = _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz)
         h = _substep_length(T, t, wp, G.dz_c[st.kcell], nsub)
-        if S.sgs:
-            us += P.su[p]
-            vs += P.sv[p]
-            ws += P.sw[p]
         k, kq, emq = _drag_rate(k, h, us - up, vs - vp, ws - wp, itp, dnu, S)
         xn, yn, zn, un, vn, wn, h, hit, _ = _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws,
                                                             k, kq, emq, h, S, True)
@@ -118,7 +114,7 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
     _finish_lane (deposits, further sub-steps, the parcel stored). Each parcel's arithmetic is
     that of one parcel at a time; only the order of the deposits into the pool differs
     (round-off). The helpers are inlined here by LLVM (``_jit.device``); the prange over chunks
-    is in _advance_all. Compiled without reference counting (``jit_borrow``): the lane scratch
+    is in advance_all. Compiled without reference counting (``jit_borrow``): the lane scratch
     comes from the caller.
     """
     nx = F.u.shape[0]
@@ -127,8 +123,7 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
     tol = prm[_TOL]
     S = _Step(prm[_DT], prm[_G], prm[_HIMP], tol, tol * tol, G.geo[2], G.geo[3], prm[_LZ],
               prm[_RHO], prm[_NU], prm[_RHOP], prm[_Q], prm[_TWOWAY] != 0.0, prm[_TKE] != 0.0,
-              prm[_SGS] != 0.0, F.du.shape[2], G.geo[GEO_LOG_LEVEL] == G.geo[GEO_LOG_READ],
-              int(G.geo[GEO_LOG_LEVEL]))
+              F.du.shape[2])
     s = W.ranges[c, 0]
     L = W.ranges[c, 1]
     off = W.ranges[c, 2]
@@ -148,7 +143,7 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
             T = dt + tr
             if tr != 0.0:  # few have one: the array is not rewritten every step
                 P.trem[p] = 0.0
-            if P.z[p] < S.h_imp:  # already inside the impact layer: splash now
+            if P.z[p] < S.h_imp:  # placed inside the impact layer (add_parcels): splash now
                 li[_ACTIVE + l] = 0
                 if P.kd[p] < 0.0:  # the implicit estimate's k0 (coupling.py): none yet
                     P.kd[p] = 0.0
@@ -179,7 +174,7 @@ def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
 
 
 @pjit
-def _advance_all(dt, nk, ncomp, ct, prm, P, F, G, W):
+def advance_all(dt, nk, ncomp, ct, prm, P, F, G, W):
     """All parcels over dt, chunk-parallel (see _advance_chunk)."""
     for c in prange(W.ranges.shape[0]):
         _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W)

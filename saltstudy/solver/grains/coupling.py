@@ -8,7 +8,7 @@ faces of the air's momentum change is therefore exactly minus the sum of the par
 impulses: the exchange conserves total momentum to round-off. Exceptions, by design: the share of a
 vertical impulse that falls on the bed face (w, k = 0) goes into the ground, and parcels in the
 log-law region (interp.py) deposit with the horizontal weights on one level: level 1, the level
-they read ("paper"), or level 0 ("blend").
+they read.
 
 Point-implicit exchange (stiff, mass-loaded cells). Over a step ``dt`` a parcel with drag rate
 ``k_p = f(Re_p)/T_p`` (eqs. 3-4) relaxing exponentially towards the fluid velocity ``u_s`` it sees
@@ -27,18 +27,13 @@ parcel impulses ``c_p (u_s,p - u~_p)`` (sum_f w_pf = 1). The parcels' *actual* i
 slightly (drag-rate iteration, sub-steps, bed crossings); the difference (actual - modelled) is
 deposited with the trilinear weights as well, so total momentum is conserved to round-off. (Depositing
 the actual impulses with the weights, with the implicit estimate used only for the seen velocity,
-is *not* stable for modes the interpolation smooths: it blows up in the loading test.) In the log region a parcel sees ``l_p`` times the bilinear level-1 wind,
-``l_p = ln(z_p/z0) / ln(z_c[1]/z0) < 1``:
-
-* "paper" (it deposits on level 1 too): it sees ``u_s,p = l_p sum_f w_pf U_f'``, the log law of
-  the new air, so its weights are ``l_p w_pf`` in A: ``U_f' = (M_f U_f + sum_p w_pf c_p u~_p) /
-  (M_f + sum_p w_pf c_p l_p)``, a convex combination of U_f and the u~_p / l_p (the level-1 wind a
-  parcel in equilibrium implies), and the air's change is again exactly minus the modelled
-  impulses ``c_p (l_p sum_f w_pf U_f' - u~_p)``.
-* "blend" (it deposits on level 0): its offset ``o_p = u_raw,p - sum_f w_pf U_f`` (level-0
-  weights) is subtracted from u~_p so that ``u_s,p`` is still its raw velocity plus the
-  interpolated ``delta = U' - U``; level-0 modes are then damped by (1 + a lambda)/(1 + a) <= 1
-  per step (a = loading, lambda <= 1 the interpolation's smoothing factor).
+is *not* stable for modes the interpolation smooths: it blows up in the loading test.) In the log
+region a parcel sees ``l_p`` times the bilinear level-1 wind, ``l_p = ln(z_p/z0) / ln(z_c[1]/z0) <
+1``, and deposits on level 1 too: it sees ``u_s,p = l_p sum_f w_pf U_f'``, the log law of the new
+air, so its weights are ``l_p w_pf`` in A: ``U_f' = (M_f U_f + sum_p w_pf c_p u~_p) / (M_f + sum_p
+w_pf c_p l_p)``, a convex combination of U_f and the u~_p / l_p (the level-1 wind a parcel in
+equilibrium implies), and the air's change is again exactly minus the modelled impulses ``c_p (l_p
+sum_f w_pf U_f' - u~_p)``.
 
 Buffers. Each of the ``N_CHUNKS`` parcel chunks deposits into its own buffers (no races; the
 chunks' buffers are summed in chunk order, so the result does not depend on the thread count).
@@ -58,9 +53,9 @@ with the SGS model's own wall-limited length ``l(z)`` and ``c_eps = 0.19 + 0.74 
 (:mod:`saltstudy.solver.closures.sgs`), the local e of the cell, and ``C0 = 2.1``, a value
 widely used for the Lagrangian structure-function constant in stochastic particle models; the
 paper does not state its C0. Where ``e <= 0``, ``T_L`` is infinite and the sink vanishes. Each
-parcel contributes to the cell that holds it (a parcel in the log region with "paper": the level-1
-cell above it, the one it read, with that cell's e and T_L), weighted by the fraction of the step
-it spent there.
+parcel contributes to the cell that holds it (a parcel in the log region: the level-1 cell above
+it, the one it read, with that cell's e and T_L), weighted by the fraction of the step it spent
+there.
 """
 from __future__ import annotations
 
@@ -71,9 +66,10 @@ import numpy as np
 from numba import prange
 
 from ..._jit import jit, jit_borrow, pjit
+from ...physics.drag import clift_factor, particle_response_time
 from ..numerics.elementary import EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, pow_0687
 from ..closures.sgs import C0_LAGRANGIAN
-from .interp import ijit, interp_faces, interp_fluid, locate, pool_add_tri2, wrap_index
+from .interp import ijit, interp_fluid, locate, pool_add_tri2, wrap_index
 
 __all__ = ["Parcels", "Flow", "C0_LAGRANGIAN", "face_inverse_masses",
            "lagrangian_time_coefficients", "chunk_bounds", "chunk_assign", "chunk_ranges",
@@ -82,9 +78,8 @@ __all__ = ["Parcels", "Flow", "C0_LAGRANGIAN", "face_inverse_masses",
 
 #: The records the grain kernels take (named tuples of arrays: numba passes each as one argument,
 #: its fields are static members, so reading them costs what separate arguments would).
-#: The parcels' arrays (length: capacity; the first n live; su, sv, sw length 0 without the SGS
-#: velocity):
-Parcels = namedtuple("Parcels", "x y z u v w d kd flag trem su sv sw")
+#: The parcels' arrays (length: capacity; the first n live):
+Parcels = namedtuple("Parcels", "x y z u v w d kd flag trem")
 #: The air the parcels see, at the start of the step: u, v, w faces and the SGS TKE e (nx, ny, nz);
 #: tlc per level, T_L = tlc[k] / sqrt(e) (``lagrangian_time_coefficients``); two-way, the
 #: implicit change du, dv, dw on the lowest nk levels and U, V, W = u + du etc. there (placeholders
@@ -127,8 +122,8 @@ def chunk_bounds(n, c, nc):
 @ijit
 def drag_rate(rel, dnu, tp):
     """k = f(Re_p) / T_p [s^-1] (eqs. 3-4), Re_p = |u - u_p| d / nu; dnu = d / nu [s m^-1].
-    physics.drag.drag_correction with the power inlined (elementary.pow_0687)."""
-    return (1.0 + 0.15 * pow_0687(rel * dnu)) / tp
+    physics.drag.clift_factor with the power inlined (elementary.pow_0687)."""
+    return clift_factor(pow_0687(rel * dnu)) / tp
 
 
 @ijit
@@ -161,13 +156,13 @@ _ASSIGN_BLOCKS = 32
 
 
 @pjit
-def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
+def chunk_assign(n, x, u, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
                  stats, v, w, z, pmax):
     """Split the live parcels (flag 0) into chunks of consecutive x-slabs holding about equal
     numbers of parcels: chunk c owns slabs [bounds[c], bounds[c+1]); its parcels are
     idx[cstart[c]:cstart[c+1]] in increasing index order (deterministic, thread-free).
-    stats[c] = (max |u_p|, max |su_p|, max trem) over its parcels; hist[i] and slab_stats[i]
-    (nx, 3) end up as the slab -> chunk map and the slabs' maxima. pmax = (max over the live
+    stats[c] = (max |u_p|, max trem) over its parcels; hist[i] and slab_stats[i] (nx, 2) end up
+    as the slab -> chunk map and the slabs' maxima. pmax = (max over the live
     parcels of max(|u_p|, |v_p|), of z_p and of |(u_p, v_p, w_p)|): the step's parcel-speed
     limit and the levels the deposit buffers need (particles.Saltation._levels), here so that
     the parcels are read once.
@@ -178,9 +173,8 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
     chunk, summed in block order), so the order within a chunk is the serial one."""
     nc = cstart.shape[0] - 1
     nb = _ASSIGN_BLOCKS
-    has_sgs = su.shape[0] > 0
     hb = np.zeros((nb, nx), dtype=np.int64)
-    sb = np.zeros((nb, nx, 3))
+    sb = np.zeros((nb, nx, 2))
     pb = np.zeros((nb, 3))
     for b in prange(nb):
         vh = 0.0
@@ -195,12 +189,8 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
             a = abs(u[p])
             if a > sb[b, i, 0]:
                 sb[b, i, 0] = a
-            if has_sgs:
-                a = abs(su[p])
-                if a > sb[b, i, 1]:
-                    sb[b, i, 1] = a
-            if trem[p] > sb[b, i, 2]:
-                sb[b, i, 2] = trem[p]
+            if trem[p] > sb[b, i, 1]:
+                sb[b, i, 1] = trem[p]
             a = max(abs(u[p]), abs(v[p]))
             if a > vh:
                 vh = a
@@ -222,11 +212,11 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
     live = 0
     for i in range(nx):
         m = 0
-        for r in range(3):
+        for r in range(2):
             slab_stats[i, r] = 0.0
         for b in range(nb):
             m += hb[b, i]
-            for r in range(3):
+            for r in range(2):
                 if sb[b, i, r] > slab_stats[i, r]:
                     slab_stats[i, r] = sb[b, i, r]
         hist[i] = m
@@ -249,10 +239,9 @@ def chunk_assign(n, x, u, su, flag, trem, dx, nx, hist, slab_stats, bounds, cid,
         m = 0
         stats[c, 0] = 0.0
         stats[c, 1] = 0.0
-        stats[c, 2] = 0.0
         for i in range(bounds[c], bounds[c + 1]):
             m += hist[i]
-            for r in range(3):
+            for r in range(2):
                 if slab_stats[i, r] > stats[c, r]:
                     stats[c, r] = slab_stats[i, r]
             hist[i] = c
@@ -338,46 +327,38 @@ def air_maxima(u, w, umax):
 #: one parcel at a time leaves the core waiting on). The lanes live in the chunk's lane scratch
 #: of the advance (particles.Work), row r of lane l at r * EST_LANES + l.
 EST_LANES = 64
-(_EU, _EV, _EW, _ED, _EK, _ET, _EOU, _EOV, _ELF, _ECP, _EWT,
- _EFXF, _EFXC, _EFYF, _EFYC, _EFZC, _EFZF) = (r * EST_LANES for r in range(17))
+(_EU, _EV, _EW, _ED, _EK, _ET, _ELF, _ECP, _EWT,
+ _EFXF, _EFXC, _EFYF, _EFYC, _EFZC, _EFZF) = (r * EST_LANES for r in range(15))
 (_EXF, _EXC, _EYF, _EYC, _EKC, _EKF, _EOK) = (r * EST_LANES for r in range(7))
 #: rows of the lane scratch the estimate needs (floats, integers)
-EST_ROWS_F = 17
+EST_ROWS_F = 15
 EST_ROWS_I = 7
 
 
 @ijit
-def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, paper, G, nx, ny, nz):
-    """Scalar stage 1 of implicit lane l (parcel p): its stencil, the parcel's values, a first
-    drag rate if it has none (stored as kd = -k0 for the advance) and the log offset of "blend"
-    (module doc)."""
+def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, G, nx, ny, nz):
+    """Scalar stage 1 of implicit lane l (parcel p): its stencil, the parcel's values and a first
+    drag rate if it has none (stored as kd = -k0 for the advance)."""
     st = locate(P.x[p], P.y[p], P.z[p], G, nx, ny, nz)
     dp = P.d[p]
     k = P.kd[p]
     up = P.u[p]
     vp = P.v[p]
     wp = P.w[p]
-    ou = 0.0
-    ov = 0.0
-    if (st.islog and not paper) or k <= 0.0:
+    if k <= 0.0:
         ur, vr, wr = interp_fluid(F.u, F.v, F.w, st, nx, ny)
-        if k <= 0.0:
-            rel = math.sqrt((ur - up) ** 2 + (vr - vp) ** 2 + (wr - wp) ** 2)
-            k = drag_rate(rel, dp / nu, rho_p * dp * dp / (18.0 * rho * nu))
-            # the advance takes k0 = -kd (and finds its own first drag rate, from the slip
-            # in the new air): a parcel without a drag rate carries its estimate's
-            P.kd[p] = -k
-        if st.islog and not paper:
-            u0, v0, w0 = interp_faces(F.u, F.v, F.w, nz, nz + 1, st, nx, ny)
-            ou = ur - u0
-            ov = vr - v0
-    lf[_EU + l] = up - ou
-    lf[_EV + l] = vp - ov
+        rel = math.sqrt((ur - up) ** 2 + (vr - vp) ** 2 + (wr - wp) ** 2)
+        k = drag_rate(rel, dp / nu, particle_response_time(dp, rho_p, rho, nu))
+        # the advance takes k0 = -kd (and finds its own first drag rate, from the slip
+        # in the new air): a parcel without a drag rate carries its estimate's
+        P.kd[p] = -k
+    lf[_EU + l] = up
+    lf[_EV + l] = vp
     lf[_EW + l] = wp
     lf[_ED + l] = dp
     lf[_EK + l] = k
     lf[_ET + l] = dt + P.trem[p]  # the parcel's own step (time credit after a splash)
-    lf[_ELF + l] = st.lfac if (st.islog and paper) else 1.0  # A's horizontal weight factor
+    lf[_ELF + l] = st.lfac  # A's horizontal weight factor (1 above the log region)
     lf[_EFXF + l] = st.fxf
     lf[_EFXC + l] = st.fxc
     lf[_EFYF + l] = st.fyf
@@ -445,7 +426,6 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, 
     g = prm[2]
     rho_p = prm[3]
     Q = prm[4]
-    paper = G.geo[9] == G.geo[10]  # the log region deposits on the level it reads
     s = ranges[c, 0]
     L = ranges[c, 1]
     off = ranges[c, 2]
@@ -457,7 +437,7 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, 
     for q0 in range(cstart[c], qend, EST_LANES):
         nb = min(EST_LANES, qend - q0)
         for l in range(nb):
-            _estimate_load(lf, li, l, idx[q0 + l], P, F, dt, nu, rho, rho_p, paper, G, nx, ny, nz)
+            _estimate_load(lf, li, l, idx[q0 + l], P, F, dt, nu, rho, rho_p, G, nx, ny, nz)
         for l in range(nb):
             _estimate_lane(lf, li, l, g, Q, rho_p, False)
         for l in range(nb):
@@ -470,14 +450,13 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, 
 @pjit
 def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i):
     """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
-    A[c, comp] += w c_p (u, v of a parcel in the log region with "paper": w c_p l_p) and
-    B[c, comp] += w c_p (u~_p - o_p), with c_p and u~_p from implicit_estimate.
+    A[c, comp] += w c_p (u, v of a parcel in the log region: w c_p l_p) and
+    B[c, comp] += w c_p u~_p, with c_p and u~_p from implicit_estimate.
 
     Records: P :data:`Parcels`, F :data:`Flow` (its u, v, w: the air at the start of the step),
     G :data:`interp.Geometry`. prm: [rho, nu, g, rho_p, Q].
     A and B live interleaved in the chunk's pool range (``ranges``, see ``chunk_ranges``): comp
-    0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs. o_p is the log-law offset of a
-    parcel in the log region with "blend" (module doc), 0 elsewhere. A parcel without a drag
+    0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs. A parcel without a drag
     rate (kd = 0: released, rebounded, ejected) gets one from its slip in this air, stored as
     kd = -k0 for the advance (particles.py), which recomputes the estimate from k0 and T.
     lane_f, lane_i: per chunk, at least EST_ROWS_F and EST_ROWS_I rows of EST_LANES (the

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from .interp import ijit, pool_add_tri, slab_of
+from .interp import LOG_LEVEL, ijit, pool_add_tri, slab_of
 
 
 @ijit
@@ -19,9 +19,9 @@ def _reaction(mu_, mv_, mw_, Qm, un, vn, wn, up, vp, wp, h, S):
 @ijit
 def _reaction_to_air(O, st, ru, rv, rw, S, nx, ny):
     """Two-way: the air's impulse (ru, rv, rw) (_reaction) deposited with the weights of Stencil
-    st (the log region: the horizontal weights on one level, interp.py)."""
+    st (the log region: the horizontal weights on level LOG_LEVEL, interp.py)."""
     if st.islog:
-        kc = S.klog
+        kc = LOG_LEVEL
         fzc = 0.0
     else:
         kc = st.kc
@@ -34,11 +34,11 @@ def _reaction_to_air(O, st, ru, rv, rw, S, nx, ny):
 
 
 @ijit
-def _tke_level(st, S):
+def _tke_level(st):
     """The level of the cell whose TKE sink a parcel feeds (coupling.py, eq. A1): the cell holding
-    it; in the log region, the level its drag goes to. Its column is (st.ixf, st.jyf), the cell
-    holding the parcel (floor(x / dx) is ixf)."""
-    return S.klog if st.islog else st.kcell
+    it; in the log region, the level its drag goes to (LOG_LEVEL). Its column is (st.ixf, st.jyf),
+    the cell holding the parcel (floor(x / dx) is ixf)."""
+    return LOG_LEVEL if st.islog else st.kcell
 
 
 @ijit
@@ -54,7 +54,7 @@ def _tke_rate(e, tlc_k, Qm, k, tp, h, S):
 @ijit
 def _tke_to_air(O, st, rate, S, nx, ny):
     """The TKE-sink rate deposited on the parcel's cell (_tke_level)."""
-    kcell = _tke_level(st, S)
+    kcell = _tke_level(st)
     kk = kcell if kcell < O.nk else O.nk - 1
     O.pool[O.off + ((O.ct * O.L + slab_of(st.ixf, O.s, nx)) * ny + st.jyf) * O.nk + kk] += rate
 
@@ -67,6 +67,6 @@ def _to_air(O, F, st, mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, k, tp, h, S, nx
         ru, rv, rw = _reaction(mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, h, S)
         _reaction_to_air(O, st, ru, rv, rw, S, nx, ny)
     if S.tke:
-        kt = _tke_level(st, S)
+        kt = _tke_level(st)
         rate = _tke_rate(F.e[st.ixf, st.jyf, kt], F.tlc[kt], qm, k, tp, h, S)
         _tke_to_air(O, st, rate, S, nx, ny)

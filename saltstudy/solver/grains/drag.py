@@ -1,11 +1,12 @@
-"""Drag on a grain (eq. 3 with Clift's Re^0.687 correction): the drag rate's fixed point, its Newton
-update and the short series that update exp(-k h) and Re^0.687 from their last evaluation, scalar
-and per lane.
+"""Drag on a grain (eq. 3 with Clift's Re^0.687 correction, physics/drag.py): the drag rate's fixed
+point, its Newton update and the short series that update exp(-k h) and Re^0.687 from their last
+evaluation, scalar and per lane.
 """
 from __future__ import annotations
 
 import math
 
+from ...physics.drag import clift_factor, clift_slope
 from ..numerics.elementary import (
     EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, pow_0687, pow_0687_table)
 from .interp import ijit
@@ -32,12 +33,6 @@ def _re687_shift(rel, irelq, rpq):
     e = rel * irelq - 1.0
     return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
         _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
-
-
-@ijit
-def _response_time(dp, S):
-    """T_p = rho_p d^2 / (18 rho nu) (eq. 4)."""
-    return S.rho_p * dp * dp / (18.0 * S.rho * S.nu)
 
 
 @ijit
@@ -114,7 +109,7 @@ def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, 
     the next k, whether |F(k) - k| was already within the tolerance (S.tol k for a Newton update,
     S.tol_fp k for a plain one; the update is applied all the same) and 1 / |slip|."""
     irel = 1.0 / rel if rel > 0.0 else 0.0
-    F = (1.0 + 0.15 * rp) * itp
+    F = clift_factor(rp) * itp
     G = F - k
     kn = F
     lim = S.tol_fp
@@ -123,7 +118,7 @@ def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, 
         db = E * ((E - phi) * ik + h * E) - h * beta
         daz = (Dw - gk) * db - gk * ik * (1.0 - beta)
         drel = ((ax * Du + ay * Dv) * db + az * daz) * irel
-        den = 1.0 - (0.15 * 0.687) * rp * drel * irel * itp
+        den = 1.0 - clift_slope(rp) * drel * irel * itp
         if den > 0.1:
             kt = k + G / den
             if kt > 0.0:

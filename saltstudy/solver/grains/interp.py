@@ -8,42 +8,23 @@ Layout (``grid.py``): ``u[i, j, k]`` at ``(x_f[i], y_c[j], z_c[k])``, ``v[i, j, 
 ``(x_c[i], y_f[j], z_c[k])``, ``w[i, j, k]`` at ``(x_c[i], y_c[j], z_f[k])`` with ``w[..., 0] = 0``
 (the bed). Periodic in x and y by modular indices.
 
-Near the bed: the log-law region. The horizontal fluid velocity there is extrapolated from one
-level k_r (the second, k = 1, but in "first-level") with the log law, bilinear in x, y at that
-level::
+Near the bed: the log-law region, the paper's [12] ("In the lower grid cell, the horizontal wind
+velocity components at the particle position were extrapolated from the resolved fluid components
+of the second grid cell using a logarithmic profile"). The region is the whole first cell,
+``z < z_f[1]``; the horizontal fluid velocity there is extrapolated from the second level
+(``LOG_LEVEL``, k = 1) with the log law, bilinear in x, y at that level::
 
-    u(z) = u(z_c[k_r]) ln(z / z0) / ln(z_c[k_r] / z0)           (z clipped to >= 1.0001 z0)
+    u(z) = u(z_c[1]) ln(z / z0) / ln(z_c[1] / z0)           (z clipped to >= 1.0001 z0)
 
-Where the region ends, which level it reads and where the drag reaction of a parcel in it goes is
-the case's ``particles.near_bed_wind`` (``GridGeometry(grid, z0, near_bed)``):
-
-* ``"paper"``, the paper's [12] ("In the lower grid cell, the horizontal wind velocity components
-  at the particle position were extrapolated from the resolved fluid components of the second
-  grid cell using a logarithmic profile"): the region is the whole first cell, ``z < z_f[1]``,
-  and the reaction goes back to level 1, the level the parcel read, with the same horizontal
-  weights (momentum exact; the TKE sink likewise goes to the level-1 cell). From ``z_f[1]`` up
-  the usual trilinear interpolation, which between ``z_f[1]`` and ``z_c[1]`` is linear between
-  levels 0 and 1. The seen wind is *not* continuous at ``z_f[1]``: the linear value there is
-  ``(1 - f) u_0 + f u_1`` with ``f = (z_f[1] - z_c[0]) / (z_c[1] - z_c[0])`` (0.39 on the smoke
-  grid, 0.45 on the paper's, 0.50 on the reduced one), the log law's is
-  ``u_1 ln(z_f[1]/z0) / ln(z_c[1]/z0)``. In an exact log profile (z0 = 10 um) the linear value is
-  below the log law by 1.9 % (reduced grid) to 2.9 % (smoke grid; paper's 2.4 %); in the LES add
-  ``(1 - f)`` times the departure of the level-0 wind from the log law extrapolated to ``z_c[0]``
-  (about half of the "blend" jump below).
-* ``"cell-drag"``, [12]'s wind with eq. 2's sum "over the particles in the grid cell" read
-  literally: the wind as in "paper", the reaction of a parcel of the first cell to level 0, the
-  cell holding it, which it does not read (momentum exact; coupling.py's implicit exchange
-  carries the offset between the two levels, as for "blend").
-* ``"first-level"``, [12] read in the paper's model's own indexing: ARPS counts a level below the
-  ground (Xue et al. 2000), so its "second grid cell" is the first level above the bed. The region
-  is ``z < z_c[0]``, below the first level, the log law extrapolates the first level's wind
-  (continuous at z_c[0]), and the reaction goes back to level 0, the level read and the cell
-  holding the parcel. Trilinear from z_c[0] up.
-* ``"blend"`` (a departure from the paper): the region is ``z < z_c[0]`` only, and the reaction
-  of a parcel in it goes, with the same horizontal weights, to level 0, a level it never read
-  (momentum still exact; coupling.py's implicit exchange carries the offset between the two).
-  From ``z_c[0]`` up, trilinear between levels 0 and 1, so the seen wind jumps at ``z_c[0]`` by the
-  level-0 wind's departure from the log law of level 1 (7-30 % in the LES).
+and the drag reaction of a parcel in it goes back to level 1, the level the parcel read, with the
+same horizontal weights (momentum exact; the TKE sink likewise goes to the level-1 cell). From
+``z_f[1]`` up the usual trilinear interpolation, which between ``z_f[1]`` and ``z_c[1]`` is linear
+between levels 0 and 1. The seen wind is *not* continuous at ``z_f[1]``: the linear value there is
+``(1 - f) u_0 + f u_1`` with ``f = (z_f[1] - z_c[0]) / (z_c[1] - z_c[0])`` (0.39 on the smoke
+grid, 0.45 on the paper's, 0.50 on the reduced one), the log law's is
+``u_1 ln(z_f[1]/z0) / ln(z_c[1]/z0)``. In an exact log profile (z0 = 10 um) the linear value is
+below the log law by 1.9 % (reduced grid) to 2.9 % (smoke grid; paper's 2.4 %); in the LES add
+``(1 - f)`` times the departure of the level-0 wind from the log law extrapolated to ``z_c[0]``.
 
 Vertical velocity is interpolated between the z-faces in all, so it goes linearly to ``w = 0``
 at the bed (face 0); the part of a vertical reaction that falls on face 0 is taken by the bed (it
@@ -58,7 +39,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..._jit import device, jit
+from ..._jit import device
 from ..grid import Grid
 from ..numerics.elementary import log_small
 from ..numerics.simd import fma2, fma4, load2
@@ -68,32 +49,27 @@ from ..numerics.simd import fma2, fma4, load2
 #: stack, ~25 ns per call, most of the parcel step)
 ijit = device
 
-__all__ = ["GridGeometry", "Geometry", "Stencil", "NEAR_BED_WIND", "GEO_LOG_TOP", "GEO_LOG_LEVEL",
-           "GEO_LOG_READ", "GEO_RDX", "GEO_RDY", "GEO_RZ0", "GEO_RLUT", "wrap_periodic", "locate", "interp_fluid",
-           "interp_faces", "deposit_faces", "level_of", "slab_of", "wrap_index", "pool_add_tri",
-           "pool_add_tri2"]
+__all__ = ["GridGeometry", "Geometry", "Stencil", "LOG_LEVEL", "GEO_LOG_TOP", "GEO_RDX", "GEO_RDY",
+           "GEO_RZ0", "GEO_RLUT", "wrap_periodic", "locate", "interp_fluid", "level_of", "slab_of",
+           "wrap_index", "pool_add_tri", "pool_add_tri2"]
 
 #: Where a point sits on the staggered grid (``locate``): the x index and fraction of the x-faces
 #: (u) and of the x-centres (v, w), the same in y, the lower centre level ``kc`` with fraction
 #: ``fzc`` (u, v), the lower face ``kf`` with fraction ``fzf`` (w), whether the point is in the
-#: log-law region (``islog``; then ``lfac`` is the log-law factor, ``kc`` the level its horizontal
-#: drag reaction goes to and ``fzc`` = 0) and the level of the cell holding it (``kcell``).
+#: log-law region (``islog``; then ``lfac`` is the log-law factor, ``kc`` = LOG_LEVEL the level it
+#: reads and its horizontal drag reaction goes to, and ``fzc`` = 0) and the level of the cell
+#: holding it (``kcell``).
 #: Indices ``ix + 1`` etc. are taken modulo n by the users. (A named tuple: numba passes it by
 #: value, its fields are static members.)
-Stencil = namedtuple("Stencil", "ixf fxf ixc fxc jyf fyf jyc fyc kc fzc kf fzf lfac islog kcell kread")
-#: the settings of ``particles.near_bed_wind``: (top of the log region: "face1" z_f[1] or
-#: "centre0" z_c[0]; the level whose wind the log law extrapolates; the level the drag of a parcel
-#: in the log region goes to)
-NEAR_BED_WIND = {"paper": ("face1", 1, 1), "cell-drag": ("face1", 1, 0),
-                 "first-level": ("centre0", 0, 0), "blend": ("centre0", 1, 0)}
-#: indices in ``GridGeometry.geo`` of the log region's top, of its deposit level and of the level
-#: it reads (the levels as floats)
+Stencil = namedtuple("Stencil", "ixf fxf ixc fxc jyf fyf jyc fyc kc fzc kf fzf lfac islog kcell")
+#: the level whose wind the log law of the first cell extrapolates, and where the drag of a parcel
+#: there goes (module doc): the second
+LOG_LEVEL = 1
+#: index in ``GridGeometry.geo`` of the log region's top, z_f[1]
 GEO_LOG_TOP = 8
-GEO_LOG_LEVEL = 9
-GEO_LOG_READ = 10
 #: indices in ``GridGeometry.geo`` of 1 / dx, 1 / dy, 1 / z0 and 1 / lut_dz (locate multiplies:
 #: a division is a long dependency for the parcel's stencil, twice per parcel-step)
-GEO_RDX, GEO_RDY, GEO_RZ0, GEO_RLUT = 11, 12, 13, 14
+GEO_RDX, GEO_RDY, GEO_RZ0, GEO_RLUT = 9, 10, 11, 12
 #: The grid as the parcel kernels take it (``GridGeometry.record``): ``rdz_f[k] = 1 / (z_f[k+1] -
 #: z_f[k])``, ``rdz_c[k] = 1 / (z_c[k+1] - z_c[k])``
 Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut rdz_f rdz_c")
@@ -102,16 +78,14 @@ Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut rdz_f rdz_c")
 class GridGeometry:
     """The arrays and scalars the parcel kernels need, in numba-friendly form.
 
-    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[k_read] / z0), z_log, k_log,
-    k_read, 1 / dx, 1 / dy, 1 / z0, 1 / lut_dz] with the log region ``z < z_log``, ``k_read`` the level whose wind its log law
-    extrapolates and ``k_log`` the level the drag of a parcel in it goes to (module doc,
-    :data:`NEAR_BED_WIND`); ``z_f (nz+1)``,
+    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[1] / z0), z_f[1], 1 / dx,
+    1 / dy, 1 / z0, 1 / lut_dz] (the log region is ``z < z_f[1]``, module doc); ``z_f (nz+1)``,
     ``z_c (nz)``,
     ``lut`` int64: ``lut[m]`` is the face index k with ``z_f[k] <= m * lut_dz`` (a fast start for
     the vertical search on the stretched grid); ``log_den = ln(z_c[1] / z0)``.
     """
 
-    def __init__(self, grid: Grid, z0: float, near_bed: str = "blend"):
+    def __init__(self, grid: Grid, z0: float):
         self.nx, self.ny, self.nz = grid.shape
         self.z_f = np.ascontiguousarray(grid.z_f, dtype=np.float64)
         self.z_c = np.ascontiguousarray(grid.z_c, dtype=np.float64)
@@ -123,15 +97,9 @@ class GridGeometry:
         self.lut = np.clip(np.searchsorted(self.z_f, zs, side="right") - 1, 0, self.nz - 1).astype(np.int64)
         if self.nz < 2:
             raise ValueError("the log-law extrapolation needs at least two levels")
-        if near_bed not in NEAR_BED_WIND:
-            raise ValueError(f"near_bed: {near_bed!r} is none of {sorted(NEAR_BED_WIND)}")
-        self.near_bed = near_bed
-        top, k_read, k_log = NEAR_BED_WIND[near_bed]
-        z_log = self.z_f[1] if top == "face1" else self.z_c[0]
         self.geo = np.array([grid.dx, grid.dy, grid.Lx, grid.Ly, z0, lut_dz, grid.Lz,
-                             1.0 / math.log(self.z_c[k_read] / z0), z_log, float(k_log),
-                             float(k_read), 1.0 / grid.dx, 1.0 / grid.dy, 1.0 / z0, 1.0 / lut_dz],
-                            dtype=np.float64)
+                             1.0 / math.log(self.z_c[LOG_LEVEL] / z0), self.z_f[1], 1.0 / grid.dx,
+                             1.0 / grid.dy, 1.0 / z0, 1.0 / lut_dz], dtype=np.float64)
         if not z0 < self.z_c[0]:
             raise ValueError(f"z0 ({z0}) must lie below the first level ({self.z_c[0]})")
         self.rdz_f = np.ascontiguousarray(1.0 / np.diff(self.z_f))
@@ -231,7 +199,7 @@ def locate(x, y, z, G, nx, ny, nz):
     lfac = 1.0
     if z < geo[GEO_LOG_TOP]:  # the log region
         islog = True
-        kc = int(geo[GEO_LOG_LEVEL])  # its deposit level
+        kc = LOG_LEVEL  # the level it reads and deposits on
         fzc = 0.0
         z0 = geo[4]
         zz = z if z > 1.0001 * z0 else 1.0001 * z0
@@ -245,8 +213,7 @@ def locate(x, y, z, G, nx, ny, nz):
             fzc = (z - G.z_c[kc]) * G.rdz_c[kc]
             if fzc > 1.0:
                 fzc = 1.0
-    return Stencil(ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell,
-                   int(geo[GEO_LOG_READ]))
+    return Stencil(ixf, fxf, ixc, fxc, jyf, fyf, jyc, fyc, kc, fzc, kf, fzf, lfac, islog, kcell)
 
 
 @ijit
@@ -290,76 +257,13 @@ def interp_fluid(u, v, w, st, nx, ny):
     """Resolved fluid velocity at a located point (Stencil ``st``; trilinear, log law in the log
     region)."""
     if st.islog:
-        uf = st.lfac * _bil(u, st.ixf, st.fxf, st.jyc, st.fyc, st.kread, nx, ny)
-        vf = st.lfac * _bil(v, st.ixc, st.fxc, st.jyf, st.fyf, st.kread, nx, ny)
+        uf = st.lfac * _bil(u, st.ixf, st.fxf, st.jyc, st.fyc, LOG_LEVEL, nx, ny)
+        vf = st.lfac * _bil(v, st.ixc, st.fxc, st.jyf, st.fyf, LOG_LEVEL, nx, ny)
     else:
         uf = _tri(u, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
         vf = _tri(v, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)
     wf = _tri(w, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny)
     return uf, vf, wf
-
-
-@ijit
-def interp_faces(du, dv, dw, nk_c, nk_w, st, nx, ny):
-    """Interpolate face fields (limited to the lowest ``nk_c`` / ``nk_w`` levels) with the *deposit*
-    weights of Stencil ``st`` (log region: level ``st.kc``, weights summing to one). Levels beyond
-    the arrays read as 0."""
-    kc = st.kc
-    fzc = st.fzc
-    if st.islog:  # a constant: the compiler folds the vertical weights
-        fzc = 0.0
-    if kc + 1 < nk_c:
-        a = _tri(du, st.ixf, st.fxf, st.jyc, st.fyc, kc, fzc, nx, ny)
-        b = _tri(dv, st.ixc, st.fxc, st.jyf, st.fyf, kc, fzc, nx, ny)
-    else:
-        a = 0.0
-        b = 0.0
-    if st.kf + 1 < nk_w:
-        c = _tri(dw, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny)
-    else:
-        c = 0.0
-    return a, b, c
-
-
-@ijit
-def _add_tri(buf, val, i0, fx, j0, fy, k0, fz, nx, ny, nk):
-    """buf[i, j, k] += w_ijk * val with trilinear weights; levels >= nk are folded onto nk - 1
-    (a safety net: momentum stays conserved, only its position is approximate)."""
-    i1 = i0 + 1
-    if i1 == nx:
-        i1 = 0
-    j1 = j0 + 1
-    if j1 == ny:
-        j1 = 0
-    k1 = k0 + 1
-    if k0 >= nk:
-        k0 = nk - 1
-    if k1 >= nk:
-        k1 = nk - 1
-    gx = 1.0 - fx
-    gy = 1.0 - fy
-    gz = 1.0 - fz
-    buf[i0, j0, k0] += gx * gy * gz * val
-    buf[i0, j0, k1] += gx * gy * fz * val
-    buf[i0, j1, k0] += gx * fy * gz * val
-    buf[i0, j1, k1] += gx * fy * fz * val
-    buf[i1, j0, k0] += fx * gy * gz * val
-    buf[i1, j0, k1] += fx * gy * fz * val
-    buf[i1, j1, k0] += fx * fy * gz * val
-    buf[i1, j1, k1] += fx * fy * fz * val
-
-
-@ijit
-def deposit_faces(bu, bv, bw, val_u, val_v, val_w, st, nx, ny):
-    """Scatter (val_u, val_v, val_w) to the u, v, w face buffers with the deposit weights of
-    Stencil ``st``.
-
-    ``bw`` level 0 is the bed face: what lands there is the bed's share (not added to the air).
-    """
-    nk_c = bu.shape[2]
-    _add_tri(bu, val_u, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny, nk_c)
-    _add_tri(bv, val_v, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny, nk_c)
-    _add_tri(bw, val_w, st.ixc, st.fxc, st.jyc, st.fyc, st.kf, st.fzf, nx, ny, bw.shape[2])
 
 
 # ---- chunk-private deposit buffers limited to a range of x-slabs (coupling.py) ----------------
@@ -380,8 +284,9 @@ def slab_of(i, s, nx):
 
 @ijit
 def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
-    """pool[base + slab-local trilinear stencil] += w_ijk * val (as _add_tri: levels >= nk fold
-    onto nk - 1). ``base = off + comp * L * ny * nk``. A column's two levels are contiguous: one
+    """pool[base + slab-local trilinear stencil] += w_ijk * val with trilinear weights (levels
+    >= nk fold onto nk - 1: a safety net, momentum stays conserved, only its position is
+    approximate). ``base = off + comp * L * ny * nk``. A column's two levels are contiguous: one
     2-wide fused multiply-add each (simd.fma2)."""
     i1 = i0 + 1
     if i1 == nx:

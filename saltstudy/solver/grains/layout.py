@@ -27,7 +27,7 @@ MAX_SUBSTEPS = 16
 _LANES = 64
 
 # indices of the kernels' parameter vector
-_RHO, _NU, _G, _RHOP, _Q, _HIMP, _TOL, _LZ, _DT, _TWOWAY, _TKE, _SGS = range(12)
+_RHO, _NU, _G, _RHOP, _Q, _HIMP, _TOL, _LZ, _DT, _TWOWAY, _TKE = range(11)
 
 #: The drag-rate iteration evaluates exp(-k h) and Re_p^0.687 at arguments close to those of its
 #: previous evaluation; there they are updated from the previous values by short series, exact to
@@ -53,28 +53,27 @@ _B1, _B2, _B3, _B4, _B5, _B6, _B7, _B8, _B9, _B10 = binomial_coefficients(CLIFT_
 # takes them alone (_rest_of_step). Between the passes a lane's values wait in the chunk's lane
 # scratch, one row of _LANES values per quantity, flat: row r of lane l at r * _LANES + l (a
 # constant offset from one base pointer).
-(_X, _Y, _Z, _U, _V, _W, _D, _KD, _T, _US, _VS, _WS, _SU, _SV, _SW, _DZK, _EC, _TLC,
+(_X, _Y, _Z, _U, _V, _W, _D, _KD, _T, _US, _VS, _WS, _DZK, _EC, _TLC,
  _FXF, _FXC, _FYF, _FYC, _FZC, _FZF,
  _TP, _ITP, _DNU, _QM, _H, _IH, _DU, _DV, _DW, _MU, _MV, _MW,
  _K, _KQ, _EMQ, _IRELQ, _RPQ,
- _XN, _YN, _ZN, _UN, _VN, _WN, _RU, _RV, _RW, _RT) = (r * _LANES for r in range(51))
+ _XN, _YN, _ZN, _UN, _VN, _WN, _RU, _RV, _RW, _RT) = (r * _LANES for r in range(48))
 
-# _X ... _W the parcel at the start, _D its diameter, _KD its stored drag rate, _T its step (dt
-# plus its time credit); _US, _VS, _WS the resolved wind it sees (with the SGS part _SU, _SV, _SW
-# once _lane_start has added it); _DZK the height of the cell holding it; _EC the SGS TKE of
-# the cell its TKE sink goes to and _TLC that level's T_L coefficient; _FXF ... _FZF the
-# stencil's fractions; _TP T_p, _ITP 1 / T_p, _DNU d / nu, _QM Q m_p; _H the sub-step, _IH 1 / h;
-# _DU, _DV, _DW the slip at its start; _MU, _MV, _MW the modelled impulse of the implicit
+# _X ... _W the parcel at the start, _D its diameter, _KD its stored drag rate, _T its step (dt plus
+# its time credit); _US, _VS, _WS the resolved wind it sees; _DZK the height of the cell holding it;
+# _EC the SGS TKE of the cell its TKE sink goes to and _TLC that level's T_L coefficient; _FXF ...
+# _FZF the stencil's fractions; _TP T_p, _ITP 1 / T_p, _DNU d / nu, _QM Q m_p; _H the sub-step, _IH
+# 1 / h; _DU, _DV, _DW the slip at its start; _MU, _MV, _MW the modelled impulse of the implicit
 # estimate; _K the drag rate (the iteration's current value), _KQ, _EMQ, _IRELQ, _RPQ the
-# iteration's last evaluation (_EMQ: the estimate's expm1 before the first); _XN ... _WN the
-# parcel at the end of the sub-step (_H then the sub-step as taken); _RU, _RV, _RW the air's
-# impulse and _RT the TKE-sink rate the sub-step deposits
-_LANE_ROWS_F = 51
+# iteration's last evaluation (_EMQ: the estimate's expm1 before the first); _XN ... _WN the parcel
+# at the end of the sub-step (_H then the sub-step as taken); _RU, _RV, _RW the air's impulse and
+# _RT the TKE-sink rate the sub-step deposits
+_LANE_ROWS_F = 48
 
 (_ACTIVE, _ITER, _FIX, _E0, _HIT, _XF, _XC, _YF, _YC, _KC, _KF, _LOG, _KCELL) = (
     r * _LANES for r in range(13))
 
-# _ACTIVE 1 if the lane takes its sub-step (0: the parcel was in the impact layer already);
+# _ACTIVE 1 if the lane takes its sub-step (0: the parcel was inside the impact layer already);
 # _ITER 1 while its drag rate iterates; _FIX 1 if a vectorized pass left it to the exact one;
 # _E0 1 if the first drag evaluation's expm1 is the implicit estimate's (same k and h: the same
 # number); _HIT 1 if the sub-step ended at the bed; _XF ... _KF the stencil's indices, _LOG 1 in
@@ -82,9 +81,7 @@ _LANE_ROWS_F = 51
 _LANE_ROWS_I = 13
 
 #: the scalars of a step, as _advance_chunk reads them once from prm and geo
-#: (paper: the log region deposits on klog, the level it reads; otherwise on another level)
-_Step = namedtuple("_Step", "dt g h_imp tol tol_fp Lx Ly Lz rho nu rho_p Q twoway tke sgs nkb "
-                   "paper klog")
+_Step = namedtuple("_Step", "dt g h_imp tol tol_fp Lx Ly Lz rho nu rho_p Q twoway tke nkb")
 
 #: the chunks' work: their parcels (idx[cstart[c]:cstart[c+1]], coupling.chunk_assign), pool
 #: ranges (coupling.chunk_ranges) and pool, results (vmax, nhit per chunk) and lane scratch

@@ -1,4 +1,4 @@
-"""A grain's motion over one sub-step: the wind it sees (resolved and SGS), the relaxation of its
+"""A grain's motion over one sub-step: the wind it sees, the relaxation of its
 velocity towards that wind under the drag rate, the move, gravity, and the crossing of the 0.5 mm
 impact layer.
 """
@@ -7,15 +7,16 @@ from __future__ import annotations
 import math
 
 from ..._jit import jit
+from ...physics.drag import clift_factor, particle_response_time, relaxation, relaxed_position
 from .coupling import estimate_weights, parcel_weight
 from ..numerics.elementary import expm1_small
-from .interp import Stencil, _bil, _tri, ijit, locate, wrap_periodic
+from .interp import LOG_LEVEL, Stencil, _bil, _tri, ijit, locate, wrap_periodic
 from .layout import (
     MAX_SUBSTEPS, _ACTIVE, _D, _DNU, _DU, _DV, _DW, _DZK, _E0, _EC, _EMQ, _FIX, _FXC, _FXF,
     _FYC, _FYF, _FZC, _FZF, _H, _HIT, _IH, _IRELQ, _ITER, _ITP, _K, _KC, _KCELL, _KD, _KF, _KQ,
-    _LOG, _MU, _MV, _MW, _QM, _RPQ, _RT, _RU, _RV, _RW, _SU, _SV, _SW, _T, _TLC, _TP, _U, _UN,
+    _LOG, _MU, _MV, _MW, _QM, _RPQ, _RT, _RU, _RV, _RW, _T, _TLC, _TP, _U, _UN,
     _US, _V, _VN, _VS, _W, _WN, _WS, _X, _XC, _XF, _XN, _Y, _YC, _YF, _YN, _Z, _ZN)
-from .drag import _expm1_arg, _expm1_near, _pow687, _response_time
+from .drag import _expm1_arg, _expm1_near, _pow687
 from .deposit import _reaction, _tke_level, _tke_rate
 
 
@@ -89,26 +90,17 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
 @ijit
 def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
     """The wind a parcel at (xp, yp, zp) sees, and its Stencil (interp.locate): the resolved
-    velocity interpolated trilinearly, with the log law in the log region (interp.py); two-way,
-    of the air after the implicit exchange: the fluid's plus the change delta interpolated with
-    the deposit weights (zero beyond the buffer levels S.nkb). Where both use the same weights
-    (above the log region; in it with "paper") the sum is read from U = u + delta."""
+    velocity interpolated trilinearly, with the log law of level LOG_LEVEL in the log region
+    (interp.py); two-way, of the air after the implicit exchange, read from U = u + delta (the
+    parcel's drag goes where it reads; zero change beyond the buffer levels S.nkb)."""
     st = locate(xp, yp, zp, G, nx, ny, nz)
-    kr = st.kread
-    if st.islog and S.paper:  # the log law of the (new) air at the level read, where the drag goes
-        if S.twoway and kr < S.nkb:
-            us = st.lfac * _bil(F.U, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
-            vs = st.lfac * _bil(F.V, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
+    if st.islog:  # the log law of the (new) air at the level read, where the drag goes
+        if S.twoway and LOG_LEVEL < S.nkb:
+            us = st.lfac * _bil(F.U, st.ixf, st.fxf, st.jyc, st.fyc, LOG_LEVEL, nx, ny)
+            vs = st.lfac * _bil(F.V, st.ixc, st.fxc, st.jyf, st.fyf, LOG_LEVEL, nx, ny)
         else:
-            us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
-            vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
-    elif st.islog:  # blend, cell-drag: the log law of the level read plus the change delta of
-        # the level the drag goes to (coupling.py)
-        us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, kr, nx, ny)
-        vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, kr, nx, ny)
-        if S.twoway and S.klog < S.nkb:
-            us += _bil(F.du, st.ixf, st.fxf, st.jyc, st.fyc, S.klog, nx, ny)
-            vs += _bil(F.dv, st.ixc, st.fxc, st.jyf, st.fyf, S.klog, nx, ny)
+            us = st.lfac * _bil(F.u, st.ixf, st.fxf, st.jyc, st.fyc, LOG_LEVEL, nx, ny)
+            vs = st.lfac * _bil(F.v, st.ixc, st.fxc, st.jyf, st.fyf, LOG_LEVEL, nx, ny)
     elif S.twoway and st.kc + 1 < S.nkb:
         us = _tri(F.U, st.ixf, st.fxf, st.jyc, st.fyc, st.kc, st.fzc, nx, ny)
         vs = _tri(F.V, st.ixc, st.fxc, st.jyf, st.fyf, st.kc, st.fzc, nx, ny)
@@ -157,13 +149,9 @@ def _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
     lf[_US + l] = us
     lf[_VS + l] = vs
     lf[_WS + l] = ws
-    if S.sgs:
-        lf[_SU + l] = P.su[p]
-        lf[_SV + l] = P.sv[p]
-        lf[_SW + l] = P.sw[p]
     lf[_DZK + l] = G.dz_c[st.kcell]
     if S.tke:
-        kt = _tke_level(st, S)
+        kt = _tke_level(st)
         lf[_EC + l] = F.e[st.ixf, st.jyf, kt]
         lf[_TLC + l] = F.tlc[kt]
     lf[_FXF + l] = st.fxf
@@ -188,16 +176,15 @@ def _lane_stencil(lf, li, l):
     """Lane l's Stencil (interp.locate) as _load_lane kept it."""
     return Stencil(li[_XF + l], lf[_FXF + l], li[_XC + l], lf[_FXC + l], li[_YF + l],
                    lf[_FYF + l], li[_YC + l], lf[_FYC + l], li[_KC + l], lf[_FZC + l],
-                   li[_KF + l], lf[_FZF + l], 1.0, li[_LOG + l] != 0, li[_KCELL + l], 0)
+                   li[_KF + l], lf[_FZF + l], 1.0, li[_LOG + l] != 0, li[_KCELL + l])
 
 
 @ijit
 def _lane_start(lf, li, l, S, exact):
     """Stage 2 of lane l (vectorized; exact: a lane it left): the parcel's constants, the sub-step
-    (_substep_length), the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate
-    with its k0, T and weights, coupling.estimate_weights), the seen velocity with its SGS part,
-    the slip, a first drag rate if the parcel has none (its kd is then -k0:
-    coupling.implicit_coefficients), and the drag iteration's start."""
+    (_substep_length), the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate with
+    its k0, T and weights, coupling.estimate_weights), the slip, a first drag rate if the parcel has
+    none (its kd is then -k0: coupling.implicit_coefficients), and the drag iteration's start."""
     active = li[_ACTIVE + l] != 0
     dp = lf[_D + l]
     T = lf[_T + l]
@@ -208,7 +195,7 @@ def _lane_start(lf, li, l, S, exact):
     vs = lf[_VS + l]
     ws = lf[_WS + l]
     k = lf[_KD + l]
-    tp = _response_time(dp, S)
+    tp = particle_response_time(dp, S.rho_p, S.rho, S.nu)
     qm = parcel_weight(S.Q, S.rho_p, dp)
     h = _substep_length(T, 0.0, wp, lf[_DZK + l], 0)
     k0 = k if k > 0.0 else -k
@@ -224,17 +211,13 @@ def _lane_start(lf, li, l, S, exact):
             mu_ = cc * (us - up)
             mv_ = cc * (vs - vp)
             mw_ = cc * (ws - wtil)
-    if S.sgs:
-        us += lf[_SU + l]
-        vs += lf[_SV + l]
-        ws += lf[_SW + l]
     Du = us - up
     Dv = vs - vp
     Dw = ws - wp
     dnu = dp / S.nu
     if k <= 0.0:  # drag_rate (coupling.py)
         rp, ok2 = _pow687(math.sqrt(Du * Du + Dv * Dv + Dw * Dw) * dnu, exact)
-        k = (1.0 + 0.15 * rp) / tp
+        k = clift_factor(rp) / tp
         ok = ok and ok2
     lf[_TP + l] = tp
     lf[_ITP + l] = 1.0 / tp
@@ -262,31 +245,12 @@ def _lane_start(lf, li, l, S, exact):
 
 
 @ijit
-def _relax(em, ik, us, vs, wt, up, vp, wp):
-    """Drag: the exact relaxation over a sub-step with k (ik = 1/k) and the seen velocity frozen,
-    E = 1 + em = exp(-k h), towards (us, vs, wt), wt = ws - g/k: the velocities at the end and
-    (1 - E)/k, the displacement factor of the transient."""
-    E = 1.0 + em
-    ome_k = -em * ik
-    un = us + (up - us) * E
-    vn = vs + (vp - vs) * E
-    wn = wt + (wp - wt) * E
-    return un, vn, wn, ome_k
-
-
-@ijit
-def _height(zp, wt, wp, h, ome_k):
-    """z after h of the relaxation (_relax)."""
-    return zp + wt * h + (wp - wt) * ome_k
-
-
-@ijit
 def _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, h_imp):
     """A sub-step that ends below the impact layer (zn < h_imp) is cut at the crossing
     (_crossing_time): the cut sub-step and the parcel's velocities there."""
     h = _crossing_time(zp, wt, wp - wt, k, h, h_imp, zn)
     em = expm1_small(-k * h)
-    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
+    un, vn, wn, ome_k = relaxation(em, ik, us, vs, wt, up, vp, wp)
     return h, un, vn, wn, ome_k
 
 
@@ -294,8 +258,8 @@ def _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, h_imp):
 def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
     """Horizontal position after h of the relaxation, wrapped into the periodic domain; a parcel
     above the lid is reflected. Returns (x, y, z, w)."""
-    xn = xp + us * h + (up - us) * ome_k
-    yn = yp + vs * h + (vp - vs) * ome_k
+    xn = relaxed_position(xp, us, up, h, ome_k)
+    yn = relaxed_position(yp, vs, vp, h, ome_k)
     if zn > S.Lz:  # reflect at the lid
         zn = 2.0 * S.Lz - zn
         wn = -wn
@@ -305,15 +269,15 @@ def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
 @ijit
 def _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, S, exact):
     """A sub-step of h with drag rate k (kq, emq: the iteration's last evaluation): drag (exact
-    relaxation, _relax), the height, the bed crossing (exact only: a sub-step ending in the
-    impact layer is cut there), the move. Returns the parcel's (x, y, z, u, v, w), the sub-step
-    as taken, whether it ended in the impact layer and whether the numbers are exact
+    relaxation, physics.drag.relaxation), the height, the bed crossing (exact only: a sub-step
+    ending in the impact layer is cut there), the move. Returns the parcel's (x, y, z, u, v, w), the
+    sub-step as taken, whether it ended in the impact layer and whether the numbers are exact
     (_expm1_near; without ``exact`` a hit's are not: no cut)."""
     ik = 1.0 / k
     em, ok = _expm1_near(k, h, kq, emq, exact)
     wt = ws - S.g * ik
-    un, vn, wn, ome_k = _relax(em, ik, us, vs, wt, up, vp, wp)
-    zn = _height(zp, wt, wp, h, ome_k)
+    un, vn, wn, ome_k = relaxation(em, ik, us, vs, wt, up, vp, wp)
+    zn = relaxed_position(zp, wt, wp, h, ome_k)
     hit = zn < S.h_imp
     if exact and hit:
         h, un, vn, wn, ome_k = _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, S.h_imp)

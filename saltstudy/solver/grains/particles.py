@@ -10,7 +10,8 @@ Equation of motion (eqs. 3-4)::
     du_p/dt = k_p (u_s - u_p) + g,    k_p = f(Re_p) / T_p,   T_p = rho_p d^2 / (18 rho nu),
     f(Re_p) = 1 + 0.15 Re_p^0.687 (Clift et al. 1978),        g = (0, 0, -g)
 
-integrated *exactly* over a (sub)step h with k_p and the seen fluid velocity u_s frozen::
+integrated *exactly* over a (sub)step h with k_p and the seen fluid velocity u_s frozen
+(physics.drag.relaxation, relaxed_position)::
 
     u(h) = u_t + (u_p - u_t) E,   x(h) = x_p + u_t h + (u_p - u_t)(1 - E)/k_p,
     u_t = u_s + g / k_p,          E = exp(-k_p h)
@@ -34,98 +35,66 @@ impact layer (z = ``splash.impact_layer``, 0.5 mm) is stopped at the crossing, f
 Newton on the analytic z(t); it then splashes (:mod:`splash_kernels`). The rebound and the ejecta
 start at the impact point with the rest of the step as a time credit and are integrated over
 ``dt + credit`` in the next step, inside that step's implicit exchange (integrating them at once
-would exchange their momentum explicitly, which is unstable for small grains at high loading). A parcel reaching the lid
-is reflected (it does not happen at the cases' heights).
+would exchange their momentum explicitly, which is unstable for small grains at high loading). A
+parcel found inside the impact layer at the start of a step (placed there by ``add_parcels``)
+splashes at once. A parcel reaching the lid is reflected (it does not happen at the cases'
+heights).
 
-Fluid velocity at a parcel: trilinear on the staggered grid, log law from the second level near
-the bed: in the whole first cell with the drag going back to the second level (the paper's [12],
-``particles.near_bed_wind = "paper"``) or below the first level only (``"blend"``), see
+Fluid velocity at a parcel: trilinear on the staggered grid, log law from the second level in the
+whole first cell with the drag going back to the second level (the paper's [12]), see
 :mod:`interp`. Two-way coupling, the point-implicit exchange and the TKE sink: :mod:`coupling`.
 
 Work split: the per-parcel integration is ``prange``-parallel over a fixed number of chunks with
-chunk-private deposit buffers (race-free, and reductions in a fixed order, so results do not
-depend on the numba thread count). The bed events are split into a fixed number of runs of
-consecutive impacts, each with its own random stream, splashed in parallel
-(splash_kernels.splash_runs); the other random draws (release, SGS velocity, entrainment) are in
-serial kernels on the component's main stream. A chunk is a run of x-slabs with about
-n / N_CHUNKS parcels (processed in index order), so its buffers cover only those slabs plus a
-margin (coupling.py), and only the levels parcels can reach within the step; the buffers persist
-across steps. The per-parcel code is inlined (interp.py ``ijit``) into a serial per-chunk loop
-(``_advance_chunk``: blocks of parcels in passes over the block, the branch-free ones vectorized
-by LLVM; see the comment above ``_wind_seen``) called from the prange. Two-way, the modelled
-impulse of the implicit estimate and the first sub-step's drag impulse share their weights and
-are deposited as one value; the advance recomputes the estimate's coefficients from the same
-inputs (coupling.implicit_estimate), so nothing per parcel is kept between the two passes. A
-step has few parallel regions (chunk assignment, the estimate, its solve, the advance, the bed
-events, the air's update), and each runs on all the numba threads or on one, whichever its
-recent calls ran faster (``Threads``): on a machine shared with other jobs a region first
-waits for its worker threads to get a core, milliseconds, more than a region's work at 10^5
-parcels. The results are the same either way.
-
-Optional processes (off by default, not constructed when off):
-
-* ``physics.sgs_particle_velocity``: the seen velocity gets a stochastic SGS part, an
-  Ornstein-Uhlenbeck process per parcel with variance (2/3) e and time scale T_L (same T_L as the
-  TKE sink), ``u' <- R u' + sqrt(1 - R^2) sqrt(2e/3) xi``, ``R = exp(-dt / T_L)`` - a simplified
-  form of the Vinkovic et al. (2006) model the paper cites (isotropic, no drift correction).
-* ``physics.aerodynamic_entrainment``: in each surface cell where the local surface stress
-  tau_s = rho (kappa U_1 / ln(z_c0 / z0))^2 exceeds tau_t = rho u*t^2 (Shao & Lu 2000, with <d>),
-  grains are lifted at the rate N_a = zeta (tau_s - tau_t) [grains m^-2 s^-1] (the excess-stress
-  form of Anderson & Haff 1991, also used by Kok & Renno 2009). ``ENTRAINMENT_ZETA`` = 1e5
-  grains N^-1 s^-1 is an order-of-magnitude value, not verified against the sources: tune it. Parcels
-  (rate * area * dt / Q, stochastically rounded) start on the impact layer at a random point of the
-  cell, straight up at the local u*, diameters from the soil.
+chunk-private deposit buffers (race-free, and reductions in a fixed order, so results do not depend
+on the numba thread count). The bed events are split into a fixed number of runs of consecutive
+impacts, each with its own random stream, splashed in parallel (splash_kernels.splash_runs); the
+release's random draws are in a serial kernel on the component's main stream. A chunk is a run of
+x-slabs with about n / N_CHUNKS parcels (processed in index order), so its buffers cover only those
+slabs plus a margin (coupling.py), and only the levels parcels can reach within the step; the
+buffers persist across steps. The per-parcel code is inlined (interp.py ``ijit``) into a serial
+per-chunk loop (``_advance_chunk``: blocks of parcels in passes over the block, the branch-free ones
+vectorized by LLVM; see layout.py's section comment on the lane rows) called from the prange.
+Two-way, the modelled impulse of the implicit estimate and the first sub-step's drag impulse share
+their weights and are deposited as one value; the advance recomputes the estimate's coefficients
+from the same inputs (coupling.implicit_estimate), so nothing per parcel is kept between the two
+passes. A step has few parallel regions (chunk assignment, the estimate, its solve, the advance, the
+bed events, the air's update), and each runs on all the numba threads or on one, whichever its
+recent calls ran faster (``Threads``): on a machine shared with other jobs a region first waits for
+its worker threads to get a core, milliseconds, more than a region's work at 10^5 parcels. The
+results are the same either way. The kernels a step calls come as one record (``StepKernels``, the
+component's ``kernels``; ``KERNELS`` by default): a benchmark passes its own (e.g. each kernel
+wrapped in a timer) without touching this module.
 """
 import json
 import math
 import time
+from collections import namedtuple
+
 import numba
 import numpy as np
 
-from .coupling import (
-    EST_LANES, EST_ROWS_F, EST_ROWS_I, N_CHUNKS, Flow, Parcels, air_maxima, chunk_ranges,
-    face_inverse_masses, lagrangian_time_coefficients)
-# the step's parallel kernels, called by name through Threads (this module's globals)
-from .coupling import (apply_exchange, chunk_assign, implicit_coefficients,  # noqa: F401
-                       implicit_corrections)
-from .splash_kernels import splash_runs  # noqa: F401
+from ...physics.soil import soil_arrays
+from ...physics.splash import splash_constants
 from ..grid import Grid
+from ..state import FlowState
+from .advance import advance_all
+from .coupling import (
+    EST_LANES, EST_ROWS_F, EST_ROWS_I, N_CHUNKS, Flow, Parcels, air_maxima, apply_exchange,
+    chunk_assign, chunk_ranges, face_inverse_masses, implicit_coefficients, implicit_corrections,
+    lagrangian_time_coefficients)
 from .interp import GridGeometry
+from .layout import _DT, _LANE_ROWS_F, _LANE_ROWS_I, _LANES, DRAG_TOL, Work
+from .population import cell_order, collect_events, compact, fluid_at, gather, release
 from .splash_kernels import (
     EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, N_EN, NO_LAUNCH, ImpactLog,
-    ejecta_reserve, impact_log_arrays, soil_arrays, splash_params)
-from ..state import FlowState
-from .layout import (
-    DRAG_MAXIT, DRAG_TOL, MAX_SUBSTEPS, NEWTON_MAXIT, Work, _ACTIVE, _B1, _B10, _B2, _B3, _B4,
-    _B5, _B6, _B7, _B8, _B9, _D, _DNU, _DT, _DU, _DV, _DW, _DZK, _E0, _EC, _EMQ, _FIX, _FXC,
-    _FXF, _FYC, _FYF, _FZC, _FZF, _G, _H, _HIMP, _HIT, _IH, _IRELQ, _ITER, _ITP, _K, _KC,
-    _KCELL, _KD, _KF, _KQ, _LANES, _LANE_ROWS_F, _LANE_ROWS_I, _LOG, _LZ, _MU, _MV, _MW, _NEAR,
-    _NU, _Out, _Q, _QM, _RHO, _RHOP, _RPQ, _RT, _RU, _RV, _RW, _SGS, _SU, _SV, _SW, _Step, _T,
-    _TKE, _TLC, _TOL, _TP, _TWOWAY, _U, _UN, _US, _V, _VN, _VS, _W, _WN, _WS, _X, _X2, _X3, _X4,
-    _X5, _X6, _X7, _X8, _X9, _XC, _XF, _XN, _Y, _YC, _YF, _YN, _Z, _ZN)
-from .drag import (
-    _drag_lanes, _drag_rate, _drag_rate_update, _expm1_arg, _expm1_lane, _expm1_near,
-    _expm1_shift, _lane_drag_update, _newton_update, _pow687, _re687_lane, _re687_near,
-    _re687_shift, _response_time, _slip_at)
-from .deposit import (
-    _reaction, _reaction_to_air, _tke_level, _tke_rate, _tke_to_air, _to_air)
-from .motion import (
-    _bed_crossing, _crossing_time, _height, _lane_move, _lane_start, _lane_stencil, _load_lane,
-    _move, _relax, _relax_and_move, _substep_length, _wind_seen)
-from .advance import (
-    _advance_all, _advance_chunk, _finish_lane, _hit, _rest_of_step, _track_speed)
-from .population import (
-    _cell_order, _collect_events, _compact, _entrain, _fluid_at, _fluid_at_range, _gather,
-    _release, _sgs_update)
+    ejecta_reserve, impact_log_arrays, splash_runs)
 
-__all__ = ["Saltation", "DRAG_TOL", "MAX_SUBSTEPS", "RNG_SPAWN_KEY",
-           "ENTRAINMENT_ZETA"]
+__all__ = ["Saltation", "StepKernels", "KERNELS", "PARALLEL", "Threads", "RNG_SPAWN_KEY",
+           "SORT_INTERVAL", "N_SPLASH_RUNS"]
 
 #: the grains' main random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct
 #: from any stream the flow derives from the same seed with another key
 RNG_SPAWN_KEY = 0x5A17
-#: Anderson & Haff (1991) excess-stress entrainment coefficient [grains N^-1 s^-1] (see doc)
-ENTRAINMENT_ZETA = 1.0e5
 #: the impacts of a step are splashed in this many runs, each with its own random stream
 #: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY, SPLASH_STREAM, run)); fixed, not the thread
 #: count, so that a run is bit-for-bit the same with any number of threads
@@ -134,12 +103,26 @@ SPLASH_STREAM = 1
 #: parcels are reordered by cell every this many steps (cache locality of gathers and scatters)
 SORT_INTERVAL = 10
 
+#: The compiled kernels a step calls, by name (module doc): the parallel ones (``PARALLEL``)
+#: each through its own ``Threads``, the serial ones directly. Any callables with the same
+#: arguments will do (a benchmark wraps each in a timer).
+StepKernels = namedtuple("StepKernels", "chunk_assign implicit_coefficients implicit_corrections "
+                         "advance_all ejecta_reserve splash_runs apply_exchange air_maxima "
+                         "collect_events compact cell_order gather")
+#: the solver's own kernels
+KERNELS = StepKernels(chunk_assign, implicit_coefficients, implicit_corrections, advance_all,
+                      ejecta_reserve, splash_runs, apply_exchange, air_maxima, collect_events,
+                      compact, cell_order, gather)
+#: the kernels of StepKernels that open a parallel region (work: parcels, impacts or grid columns)
+PARALLEL = ("chunk_assign", "implicit_coefficients", "implicit_corrections", "advance_all",
+            "splash_runs", "apply_exchange", "gather")
+
 
 class Threads:
-    """The thread count of one of the step's parallel kernels, chosen per call: the numba
-    threads or one, by their recent times per unit of work. The results do not depend on it
-    (a fixed number of chunks and runs, each with its own buffers, stream and stretch; every
-    sum in a fixed order; the same compiled code).
+    """A parallel kernel of the step run on a thread count chosen per call: the numba threads or
+    one, by their recent times per unit of work. The results do not depend on it (a fixed number
+    of chunks and runs, each with its own buffers, stream and stretch; every sum in a fixed
+    order; the same compiled code).
 
     Which is faster depends on the machine's load, not on the model: on a quiet machine the
     worker threads start at once and the threads win by up to their count; on a machine shared
@@ -147,12 +130,11 @@ class Threads:
     4-iteration prange, 2 threads, load 4: median 8.0 ms over 2000 calls; with
     numba.set_num_threads(1) 3.6 us), more than the kernel's work at 10^5 parcels. Every
     ``EXPLORE``-th call takes the other count, so that a change of load is noticed; a kernel's
-    first call in the process (its compilation or cache load) is not timed. The kernel is
-    looked up by name in this module at each call (the bench's ``--phases`` wraps it there)."""
+    first call in the process (its compilation or cache load) is not timed."""
 
     EXPLORE = 32
 
-    def __init__(self, kernel: str):
+    def __init__(self, kernel):
         self.kernel = kernel
         self.cost = [0.0, 0.0]  # recent seconds per unit of work, [all threads, one]; 0: untimed
         self.calls = 0
@@ -167,31 +149,21 @@ class Threads:
             i = best if self.calls % self.EXPLORE else 1 - best
         nt = numba.get_num_threads()
         if nt == 1:
-            return globals()[self.kernel](*args)
+            return self.kernel(*args)
         t0 = time.perf_counter()
         if i == 1:
             numba.set_num_threads(1)
             try:
-                out = globals()[self.kernel](*args)
+                out = self.kernel(*args)
             finally:
                 numba.set_num_threads(nt)
         else:
-            out = globals()[self.kernel](*args)
+            out = self.kernel(*args)
         c = (time.perf_counter() - t0) / max(work, 1)
         if self.seen:
             self.cost[i] = c if self.cost[i] == 0.0 else 0.5 * (self.cost[i] + c)
         self.seen = True
         return out
-
-
-#: the thread counts of the step's parallel kernels (work: parcels, impacts or grid columns)
-_ASSIGN = Threads("chunk_assign")
-_IMPLICIT = Threads("implicit_coefficients")
-_CORRECT = Threads("implicit_corrections")
-_ADVANCE = Threads("_advance_all")
-_SPLASH = Threads("splash_runs")
-_APPLY = Threads("apply_exchange")
-_GATHER = Threads("_gather")
 
 
 # coupling.implicit_coefficients computes its estimates in the same lane scratch
@@ -204,14 +176,17 @@ class Saltation:
     Public API: ``name``, ``activate(state)``, ``dynamics(state, dt)``, ``max_dt(state)``,
     ``checkpoint()``, ``restore(data)``; ``n`` (live parcels) and the views ``x, y, z, u, v, w, d``
     (length n), ``mass`` (per real grain, kg), ``Q``, ``counters()`` (cumulative), ``last_step``
-    (per-step counters), ``fluid_at_parcels(state)``, ``add_parcels(...)`` (tests, tools).
+    (per-step counters), ``fluid_at_parcels(state)``, ``add_parcels(...)`` (tests, tools);
+    ``kernels``, the :data:`StepKernels` its steps call (``KERNELS``; settable, e.g. by a
+    benchmark).
     """
 
     name = "saltation"
     #: courant number of parcels on the horizontal grid (max_dt)
     parcel_courant = 1.0
 
-    def __init__(self, grid: Grid, scene, capacity: int | None = None):
+    def __init__(self, grid: Grid, scene, capacity: int | None = None,
+                 kernels: StepKernels = KERNELS):
         case = scene.case
         self.grid = grid
         self.scene = scene
@@ -227,11 +202,9 @@ class Saltation:
         phys = case.physics
         self.two_way = bool(phys.two_way_coupling)
         self.tke_sink = bool(phys.tke_particle_sink)
-        self.sgs = bool(phys.sgs_particle_velocity)
-        self.entrainment = bool(phys.aerodynamic_entrainment)
-        self.near_bed_wind = case.particles.near_bed_wind
-        self.geom = GridGeometry(grid, self.z0, self.near_bed_wind)
-        self.sp = splash_params(case.splash, case.soil, self.g)
+        self.kernels = kernels
+        self.geom = GridGeometry(grid, self.z0)
+        self.sp = splash_constants(case.splash, case.soil, self.g)
         self.h_imp = float(case.splash.impact_layer)
         self.cum, self.mu, self.lnsig = soil_arrays(case.soil)
         self.inv_mc, self.inv_mw = face_inverse_masses(grid, self.rho)
@@ -241,8 +214,7 @@ class Saltation:
         self.inv_vol = np.ascontiguousarray(1.0 / grid.cell_volume)
         self.tlc = lagrangian_time_coefficients(grid, self.kappa, delta=case.closure.delta)
         self.prm = np.array([self.rho, self.nu, self.g, self.rho_p, self.Q, self.h_imp, DRAG_TOL,
-                             grid.Lz, 1.0, float(self.two_way), float(self.tke_sink),
-                             float(self.sgs)])
+                             grid.Lz, 1.0, float(self.two_way), float(self.tke_sink)])
         ss = np.random.SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,))
         self.rng = np.random.Generator(np.random.PCG64(ss))
         # one stream per run of impacts (splash_kernels.ejecta_reserve): the bed events of a step
@@ -255,8 +227,7 @@ class Saltation:
         self.activated = False
         self.t_activation = math.nan
         # cumulative counters (parcel events) and energies (J, real grains)
-        self._cum = {"n_impacts": 0, "n_rebounds": 0, "n_ejections": 0, "n_depositions": 0,
-                     "n_entrained": 0}
+        self._cum = {"n_impacts": 0, "n_rebounds": 0, "n_ejections": 0, "n_depositions": 0}
         self.E_impact = 0.0
         self.E_splash = 0.0
         #: streamwise and vertical momentum the grains gave the bed [kg m s^-1] (splash_kernels EN_*)
@@ -273,16 +244,21 @@ class Saltation:
         self._vmax = 0.0
         self._empty = np.zeros(0)
         self._e_zero = np.zeros((1, 1, 1))
-        if self.entrainment:
-            A_N, gam = case.threshold.A_N, case.threshold.gamma
-            dm = case.soil.mean_diameter
-            ut2 = A_N * ((self.rho_p - self.rho) * self.g * dm / self.rho + gam / (self.rho * dm))
-            self.prm_e = np.array([self.rho, self.kappa, self.z0, self.rho * ut2, ENTRAINMENT_ZETA,
-                                   self.Q, self.h_imp])
+
+    @property
+    def kernels(self) -> StepKernels:
+        """The kernels the step calls (:data:`StepKernels`); setting it gives each parallel one
+        a new ``Threads``."""
+        return self._kernels
+
+    @kernels.setter
+    def kernels(self, kernels: StepKernels) -> None:
+        self._kernels = kernels
+        self._run = kernels._replace(**{f: Threads(getattr(kernels, f)) for f in PARALLEL})
 
     # ---- storage ---------------------------------------------------------------------------
     #: per parcel: position, velocity, diameter, drag rate, time credit, and the time and place
-    #: of its launch from the bed (splash_kernels.ImpactLog; NO_LAUNCH if released or entrained)
+    #: of its launch from the bed (splash_kernels.ImpactLog; NO_LAUNCH if released)
     _FIELDS = ("x", "y", "z", "u", "v", "w", "d", "kd", "trem", "tl", "xl", "yl")
 
     def _alloc(self, cap: int) -> None:
@@ -295,15 +271,11 @@ class Saltation:
         # without numba's negative-index wraparound
         self._idx = np.zeros(cap, dtype=np.uint32)
         self._cid = np.zeros(cap, dtype=np.int64)
-        if self.sgs:
-            self._su, self._sv, self._sw = np.zeros(cap), np.zeros(cap), np.zeros(cap)
-        else:
-            self._su = self._sv = self._sw = np.zeros(0)
 
     def _parcels(self) -> Parcels:
         """The parcel arrays as the kernels take them (coupling.Parcels)."""
         return Parcels(self._x, self._y, self._z, self._u, self._v, self._w, self._d, self._kd,
-                       self._flag, self._trem, self._su, self._sv, self._sw)
+                       self._flag, self._trem)
 
     @property
     def capacity(self) -> int:
@@ -319,12 +291,6 @@ class Saltation:
             a = np.zeros(new, dtype=old.dtype)
             a[:cap] = old
             setattr(self, "_" + f, a)
-        if self.sgs:
-            for f in ("su", "sv", "sw"):
-                old = getattr(self, "_" + f)
-                a = np.zeros(new)
-                a[:cap] = old
-                setattr(self, "_" + f, a)
 
     def __getattr__(self, name):
         if name in ("x", "y", "z", "u", "v", "w", "d"):
@@ -353,8 +319,6 @@ class Saltation:
         self._flag[sl] = 0
         self._trem[sl] = 0.0
         self._tl[sl] = NO_LAUNCH
-        if self.sgs:
-            self._su[sl] = self._sv[sl] = self._sw[sl] = 0.0
         self.n += m
 
     # ---- component protocol ------------------------------------------------------------------
@@ -367,7 +331,7 @@ class Saltation:
         m = self.n_initial
         self._grow(self.n + m)
         self._tl[self.n:self.n + m] = NO_LAUNCH
-        _release(self.rng, self.n, m, self._x, self._y, self._z, self._u, self._v, self._w,
+        release(self.rng, self.n, m, self._x, self._y, self._z, self._u, self._v, self._w,
                  self._d, self._kd, self._flag, self._trem, self.grid.Lx, self.grid.Ly, self.h_imp,
                  self.release_depth, self.cum, self.mu, self.lnsig)
         self.n += m
@@ -389,7 +353,7 @@ class Saltation:
         air's max |w| (air_maxima, which also keeps max |u| per level in self._umax)."""
         vh, ztop, vtot = self._pmax
         self._vmax = float(vh)
-        wmax = air_maxima(state.u, state.w, self._umax) if state.w.size else 0.0
+        wmax = self._run.air_maxima(state.u, state.w, self._umax) if state.w.size else 0.0
         # rebounds leave at <= ~2 v_imp (the normal tail is redrawn only below 0), ejecta slower
         reach = ztop + (max(vtot, wmax) * 2.5 + 1.0) * dt
         k = int(np.searchsorted(self.grid.z_f, reach, side="right"))
@@ -400,10 +364,10 @@ class Saltation:
         nx, ny, nz = self.grid.shape
         nc = N_CHUNKS
         self._hist = np.zeros(nx, dtype=np.int64)
-        self._slab_stats = np.zeros((nx, 3))
+        self._slab_stats = np.zeros((nx, 2))
         self._bounds = np.zeros(2 * nc + 1, dtype=np.int64)
         self._cstart = np.zeros(nc + 1, dtype=np.int64)
-        self._stats = np.zeros((nc, 3))
+        self._stats = np.zeros((nc, 2))
         self._margin = np.zeros(nc, dtype=np.int64)
         self._ranges = np.zeros((nc, 3), dtype=np.int64)
         self._vmaxc = np.zeros(nc)
@@ -443,13 +407,8 @@ class Saltation:
         geo = self.geom
         if not hasattr(self, "_ranges"):
             self._work_init()
-        step = {"n_impacts": 0, "n_rebounds": 0, "n_ejections": 0, "n_depositions": 0,
-                "n_entrained": 0}
-        if self.entrainment:
-            step["n_entrained"] = self._do_entrainment(state, dt)
-        if self.sgs and self.n > 0:
-            _sgs_update(self.rng, self.n, dt, self._x, self._y, self._z, self._su, self._sv,
-                        self._sw, state.e, self.tlc, geo.geo, geo.z_f, geo.lut, nx, ny, nz)
+        K = self._run
+        step = {"n_impacts": 0, "n_rebounds": 0, "n_ejections": 0, "n_depositions": 0}
         if self.n > 0 and self._steps % SORT_INTERVAL == 0:
             self._sort()
         self._steps += 1
@@ -458,11 +417,11 @@ class Saltation:
         two, tke = self.two_way, self.tke_sink
         # chunks of consecutive x-slabs with about equal parcel counts: each chunk's deposit
         # buffers cover only its slabs, widened by the stencil and by how far its parcels can move
-        _ASSIGN(n, n, self._x, self._u, self._su, self._flag, self._trem, g.dx, nx, self._hist,
-                self._slab_stats, self._bounds, self._cid, self._cstart, self._idx, self._stats,
-                self._v, self._w, self._z, self._pmax)
+        K.chunk_assign(n, n, self._x, self._u, self._flag, self._trem, g.dx, nx, self._hist,
+                       self._slab_stats, self._bounds, self._cid, self._cstart, self._idx,
+                       self._stats, self._v, self._w, self._z, self._pmax)
         nk = self._levels(state, dt) if n > 0 else 2
-        ef = state.e if (tke or self.sgs) else self._e_zero
+        ef = state.e if tke else self._e_zero
         if two:
             du, dv, dw, Uc, Vc, Wc = self._grid_views(nk)
         else:
@@ -472,10 +431,11 @@ class Saltation:
         if two:
             self._margin[:] = 2  # stencil (+1 for rounding): the parcels do not move in this pass
             self._layout(self._margin, 3 * 2 * ny * nk)
-            _IMPLICIT(n, self._cstart, self._idx, P, F, dt, self.prm, geo.record, self._pool,
-                      self._ranges, nk, self._lane_f, self._lane_i)
-            _CORRECT(nx * ny * nk, self._pool, self._ranges, self.inv_mc, self.inv_mw, state.u,
-                     state.v, state.w, du, dv, dw, Uc, Vc, Wc, self._dmax, self._acc)
+            K.implicit_coefficients(n, self._cstart, self._idx, P, F, dt, self.prm, geo.record,
+                                    self._pool, self._ranges, nk, self._lane_f, self._lane_i)
+            K.implicit_corrections(nx * ny * nk, self._pool, self._ranges, self.inv_mc,
+                                   self.inv_mw, state.u, state.v, state.w, du, dv, dw, Uc, Vc, Wc,
+                                   self._dmax, self._acc)
             dumax = float(self._dmax.max())
         else:
             dumax = 0.0
@@ -483,15 +443,15 @@ class Saltation:
         if n > 0:
             uair = float(self._umax[:nk].max()) + dumax  # the levels parcels can reach
             st = self._stats
-            vb = np.maximum(st[:, 0], uair + st[:, 1])
-            mg = vb * (dt + st[:, 2]) / g.dx
+            vb = np.maximum(st[:, 0], uair)
+            mg = vb * (dt + st[:, 1]) / g.dx
             mg = np.where(np.isfinite(mg), np.minimum(mg, nx), nx)  # NaN: the whole domain
             self._margin[:] = np.ceil(mg).astype(np.int64) + 2
         ncomp = 3 * int(two) + int(tke)
         self._layout(self._margin, ncomp * ny * nk)
         W = Work(self._cstart, self._idx, self._ranges, self._pool, self._vmaxc, self._nhit,
                  self._lane_f, self._lane_i)
-        _ADVANCE(n, dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, W)
+        K.advance_all(n, dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, W)
         # bed events (self._splash). Rebounds and ejecta leave the bed at the impact point with the
         # rest of the step as a time credit: they are integrated over dt + credit in the next step,
         # inside its implicit exchange (integrating them now, outside it, would be an explicit
@@ -508,9 +468,9 @@ class Saltation:
             n_dead = self._splash(n, n_ev)
         if n_dead:
             dead = np.sort(self._dead[:n_dead])[::-1].copy()
-            self.n = _compact(dead, n_dead, self.n, self._x, self._y, self._z, self._u, self._v,
-                              self._w, self._d, self._kd, self._flag, self._trem, self._su,
-                              self._sv, self._sw, self._tl, self._xl, self._yl)
+            self.n = K.compact(dead, n_dead, self.n, self._x, self._y, self._z, self._u, self._v,
+                               self._w, self._d, self._kd, self._flag, self._trem, self._tl,
+                               self._xl, self._yl)
         # momentum to the air, TKE sink
         if two or tke:
             if tke:
@@ -523,10 +483,10 @@ class Saltation:
             else:
                 top, tke_out = nk, self._e_zero
             tot = self._tot
-            bed = _APPLY(nx * ny * nk, self._pool, self._ranges, nk, two, du, dv, dw,
-                         self.inv_mc, self.inv_mw, self.m_c, self.m_w, state.u, state.v, state.w,
-                         tot, tke, 3 if two else 0, max(nk, top), self.inv_vol, tke_out,
-                         self._acc, self._part)
+            bed = K.apply_exchange(nx * ny * nk, self._pool, self._ranges, nk, two, du, dv, dw,
+                                   self.inv_mc, self.inv_mw, self.m_c, self.m_w, state.u,
+                                   state.v, state.w, tot, tke, 3 if two else 0, max(nk, top),
+                                   self.inv_vol, tke_out, self._acc, self._part)
             if two:
                 self.momentum_to_air += tot
                 self.momentum_to_bed += bed
@@ -551,12 +511,13 @@ class Saltation:
         run appends its ejecta in a stretch reserved after n (ejecta_reserve); the stretches are
         then closed up in run order. Fills cnt and en and the dead list self._dead; returns the
         number of dead parcels."""
-        _collect_events(n, self._flag, self._ev)
+        K = self._run
+        K.collect_events(n, self._flag, self._ev)
         ev = self._ev[:n_ev].copy()  # _grow replaces self._ev
         nr = N_SPLASH_RUNS
         lo = np.zeros(nr + 1, dtype=np.int64)
         res = np.zeros(nr, dtype=np.int64)
-        ejecta_reserve(ev, n_ev, self._u, self._v, self._w, self.sp, lo, res)
+        K.ejecta_reserve(ev, n_ev, self._u, self._v, self._w, self.sp, lo, res)
         base = n + np.concatenate(([0], np.cumsum(res)))  # run r appends in [base[r], base[r+1])
         if base[-1] > self.capacity:
             self._grow(max(2 * self.capacity, int(base[-1])))
@@ -564,9 +525,9 @@ class Saltation:
         en_r = np.zeros((nr, N_EN))
         out = np.zeros((nr, 3), dtype=np.int64)
         log = ImpactLog(self._tl, self._xl, self._yl, *self.impact_counts, self._log_prm)
-        _SPLASH(n_ev, self.splash_rngs, ev, lo, base, self._x, self._y, self._z, self._u,
-                self._v, self._w, self._d, self._kd, self._flag, self._trem, self._dead, self.sp,
-                self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out, log)
+        K.splash_runs(n_ev, self.splash_rngs, ev, lo, base, self._x, self._y, self._z, self._u,
+                      self._v, self._w, self._d, self._kd, self._flag, self._trem, self._dead,
+                      self.sp, self.cum, self.mu, self.lnsig, self.Q, cnt_r, en_r, out, log)
         # close up the runs' ejecta stretches, in run order; the dead lists likewise
         dst = n
         dead = []
@@ -581,8 +542,6 @@ class Saltation:
             dst += m
             dead.append(self._dead[lo[r]:lo[r] + out[r, 2]])
         self._flag[n:dst] = 0
-        if self.sgs:  # ejecta start without an SGS velocity
-            self._su[n:dst] = self._sv[n:dst] = self._sw[n:dst] = 0.0
         self.n = dst
         self._cnt[:] = cnt_r.sum(axis=0)
         self._en[:] = en_r.sum(axis=0)
@@ -605,33 +564,14 @@ class Saltation:
         if getattr(self, "_sort_tmp", None) is None or self._sort_tmp.shape[0] != self.capacity:
             self._sort_tmp = np.empty(self.capacity)
         key, perm = self._sort_key, self._sort_perm
-        _cell_order(n, self._x, self._y, self._z, g.geo, g.z_f, g.lut, g.nx, g.ny, g.nz, key, perm,
-                    self._sort_count)
-        names = list(self._FIELDS) + (["su", "sv", "sw"] if self.sgs else [])
-        for f in names:
+        K = self._run
+        K.cell_order(n, self._x, self._y, self._z, g.geo, g.z_f, g.lut, g.nx, g.ny, g.nz, key, perm,
+                     self._sort_count)
+        for f in self._FIELDS:
             a = getattr(self, "_" + f)
-            _GATHER(n, n, perm, a, self._sort_tmp)
+            K.gather(n, n, perm, a, self._sort_tmp)
             setattr(self, "_" + f, self._sort_tmp)
             self._sort_tmp = a
-
-    def _do_entrainment(self, state: FlowState, dt: float) -> int:
-        n0 = self.n
-        while True:
-            # worst case per cell is bounded by the stress; grow generously, then retry from the
-            # saved RNG state so that no draw is lost or repeated
-            saved = self.rng.bit_generator.state
-            n = _entrain(self.rng, self.n, dt, state.u, state.v, self.geom.geo, self.geom.z_c,
-                         self.prm_e, self._x, self._y, self._z, self._u, self._v, self._w, self._d,
-                         self._kd, self._flag, self._trem, self.cum, self.mu, self.lnsig)
-            if n >= 0:
-                break
-            self.rng.bit_generator.state = saved
-            self._grow(2 * self.capacity)
-        if self.sgs:
-            self._su[n0:n] = self._sv[n0:n] = self._sw[n0:n] = 0.0
-        self._tl[n0:n] = NO_LAUNCH
-        self.n = n
-        return n - n0
 
     # ---- diagnostics support -----------------------------------------------------------------
     def counters(self) -> dict:
@@ -657,7 +597,7 @@ class Saltation:
     def fluid_at_parcels(self, state: FlowState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Resolved fluid velocity (u_f, v_f, w_f) interpolated at every live parcel."""
         out = np.empty((3, self.n))
-        _fluid_at(self.n, self._x, self._y, self._z, state.u, state.v, state.w, self.geom.record,
+        fluid_at(self.n, self._x, self._y, self._z, state.u, state.v, state.w, self.geom.record,
                   out)
         return out[0], out[1], out[2]
 
@@ -671,9 +611,6 @@ class Saltation:
         """Flat dict of arrays/scalars; the RNG state as a JSON string. Bit-for-bit resumable."""
         n = self.n
         data = {f"grain_{f}": getattr(self, "_" + f)[:n].copy() for f in self._FIELDS}
-        if self.sgs:
-            for f in ("su", "sv", "sw"):
-                data[f"grain_{f}"] = getattr(self, "_" + f)[:n].copy()
         data["grain_n"] = n
         data["grain_rng_state"] = json.dumps(self.rng.bit_generator.state)
         data["grain_splash_rng_states"] = json.dumps([g.bit_generator.state
@@ -702,9 +639,6 @@ class Saltation:
                 getattr(self, "_" + f)[:n] = np.asarray(data[f"grain_{f}"], dtype=np.float64)
             elif f == "tl":   # a checkpoint without launch records: no hop ends known
                 self._tl[:n] = NO_LAUNCH
-        if self.sgs and "grain_su" in data:
-            for f in ("su", "sv", "sw"):
-                getattr(self, "_" + f)[:n] = np.asarray(data[f"grain_{f}"], dtype=np.float64)
         self._flag[:n] = 0
         self.n = n
         st = data["grain_rng_state"]

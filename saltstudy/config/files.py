@@ -27,7 +27,7 @@ def project_root() -> Path:
     env = os.environ.get("SALTSTUDY_HOME")
     if env:
         return Path(env)
-    here = Path(__file__).resolve().parent.parent
+    here = Path(__file__).resolve().parents[2]
     if (here / "cases").is_dir():
         return here
     return Path.cwd()

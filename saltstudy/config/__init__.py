@@ -1,0 +1,33 @@
+"""Validated, frozen configuration models for cases, fidelities, studies and resolved scenes.
+
+A *case* (``cases/caseNN.toml``) fixes the physics of one run of Dupont et al. (2013, Table 2):
+wind, soil, splash constants, physics switches, Q and the seed. A *fidelity*
+(``workflows/fidelities/NAME.toml``) fixes only what costs: domain, grid, time-step policy,
+durations, sampling and the parcel-count knob. A *study* (``workflows/NAME.toml``) names which cases
+run at which fidelities; the rungs and variants only it runs sit in the folder named for it
+(``workflows/NAME/``). A :class:`Scene` is one case resolved against one fidelity: everything the
+solver needs, and nothing else.
+
+All lengths in m, times in s, velocities in m s^-1, densities in kg m^-3, angles in degrees.
+Defaults carry over the paper's values (sections 2.1-2.4, Appendix A); see ``data/dupont2013.toml``.
+"""
+from __future__ import annotations
+
+from .base import PAPER_AREA_M2, Frozen, content_hash
+from .case import (Air, Case, Closure, Forcing, Particles, Physics, Soil, SoilMode, Splash, Surface,
+                   Threshold)
+from .fidelity import Fidelity, GridSpec, Outputs, Relaxation, Sampling, SpinUp, TimeStepping
+from .files import ConfigError, case_path, list_case_numbers, project_root, read_toml
+from .loading import (airborne_counts, deep_merge, load_case, load_fidelity, load_study, parcel_weight,
+                      resolve_scene, study_fidelity_folder, study_file, study_runs, validate_file,
+                      validate_model)
+from .study import RunSpec, Scene, SceneSpec, Study
+
+__all__ = [
+    "Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Closure", "Physics",
+    "Particles", "Case", "GridSpec", "TimeStepping", "SpinUp", "Sampling", "Relaxation", "Outputs",
+    "Fidelity", "SceneSpec", "Study", "Scene", "RunSpec", "ConfigError", "Frozen", "content_hash",
+    "project_root", "read_toml", "load_case", "load_fidelity", "load_study", "resolve_scene", "case_path",
+    "list_case_numbers", "deep_merge", "PAPER_AREA_M2", "study_runs", "study_file",
+    "study_fidelity_folder", "validate_model", "validate_file", "airborne_counts", "parcel_weight",
+]

@@ -1,0 +1,166 @@
+"""The fidelity: what a run costs, never its physics: domain and grid, time stepping and its numerics,
+spin-up, saltation length, sampling, the parcel weight, the column relaxation, checkpoints."""
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from .base import Frozen
+
+__all__ = ["GridSpec", "TimeStepping", "SpinUp", "Sampling", "Relaxation", "Outputs", "Fidelity"]
+
+
+# --------------------------------------------------------------------------------------------
+# Fidelity: the cost
+# --------------------------------------------------------------------------------------------
+class GridSpec(Frozen):
+    """Domain and grid. Uniform in x, y; stretched cubically in the level index in z."""
+    Lx: float = Field(..., gt=0, description="domain length [m]")
+    Ly: float = Field(..., gt=0, description="domain width [m]")
+    Lz: float = Field(..., gt=0, description="domain height [m]")
+    nx: int = Field(..., ge=4)
+    ny: int = Field(..., ge=4)
+    nz: int = Field(..., ge=4)
+    dz_bottom: float = Field(0.01, gt=0, description="first level thickness [m]")
+    dz_top: float | None = Field(None, gt=0, description="top level thickness [m] (None: free)")
+    damping_depth: float = Field(3.0, ge=0, description="Rayleigh damping layer depth [m]")
+    damping_timescale: float = Field(5.0, gt=0, description="Rayleigh damping time at the lid [s]")
+
+    @model_validator(mode="after")
+    def _fits(self) -> "GridSpec":
+        if self.damping_depth >= self.Lz:
+            raise ValueError(f"damping_depth ({self.damping_depth} m) must be less than the domain "
+                             f"height Lz ({self.Lz} m)")
+        if self.dz_bottom * self.nz >= self.Lz:
+            raise ValueError(f"dz_bottom*nz ({self.dz_bottom * self.nz:g} m) must be below Lz "
+                             f"({self.Lz} m) for a grid stretched upwards")
+        if self.dz_top is not None and self.dz_top < self.dz_bottom:
+            raise ValueError("dz_top must not be smaller than dz_bottom")
+        return self
+
+    @property
+    def dx(self) -> float:
+        return self.Lx / self.nx
+
+    @property
+    def dy(self) -> float:
+        return self.Ly / self.ny
+
+    @property
+    def n_cells(self) -> int:
+        return self.nx * self.ny * self.nz
+
+
+class TimeStepping(Frozen):
+    """Adaptive time step of the RK3 flow step (solver/flow/stepper.py): Delta t = min(CFL limit,
+    diffusion limit, dt_max), and how the vertical SGS diffusion is integrated (numerics: a case means the same with either)."""
+    cfl: float = Field(0.8, gt=0, le=1.5, description="advective Courant number")
+    diffusion_number: float = Field(
+        0.4, gt=0, le=0.5, description="explicit diffusion limit: dt <= diffusion_number / "
+        "max 2 nu (dx^-2 + dy^-2 [+ dz^-2 when the vertical diffusion is explicit])")
+    dt_max: float = Field(0.05, gt=0, description="largest step [s]")
+    dt_fixed: float | None = Field(None, gt=0, description="fixed step [s] (None: adaptive)")
+    vertical_diffusion: Literal["explicit", "implicit"] = Field(
+        "implicit", description="vertical SGS diffusion of u, v, w, e (and the SGS dissipation): "
+        "'explicit' in the RK3 stages, its limit from the thinnest levels; 'implicit', a "
+        "tridiagonal solve per column in each stage (solver/flow/vertical_diffusion.py), no vertical "
+        "diffusion limit")
+    implicit_weight: float = Field(
+        0.5, ge=0.5, le=1.0, description="theta of the implicit vertical diffusion: 0.5 "
+        "Crank-Nicolson in each stage (second order), 1 backward Euler (first order, damps the "
+        "stiff modes at once)")
+    advection_order: Literal[2, 4] = Field(
+        2, description="horizontal order of the advection (momentum and SGS TKE) and of the "
+        "projection's divergence and gradient: 2, or 4 (Morinishi et al. 1998, fully conservative; "
+        "the paper's model ARPS advects momentum at fourth order); an integer because it is the "
+        "order of the differences; the vertical stays second order (solver/flow/advection.py)")
+
+
+class SpinUp(Frozen):
+    """Flow-only spin-up. Stops once steady (see solver.spinup) or at ``t_max``."""
+    t_min: float = Field(..., ge=0, description="shortest spin-up [s]")
+    t_max: float = Field(..., gt=0, description="longest spin-up [s]")
+    window: float = Field(..., gt=0, description="averaging window of the steadiness test [s]")
+    tolerance: float = Field(0.03, gt=0, description="relative change of u* and resolved TKE "
+                                                    "between consecutive windows")
+    u_star_ref: float | None = Field(
+        None, gt=0, lt=5.0,
+        description="spin up once at this friction velocity [m s^-1] and rescale the flow to each "
+                    "case's u*s by Reynolds-number similarity (solver.similarity); None: spin up "
+                    "at the case's own u*s. t_min, t_max and window are then times at u_star_ref")
+    stagger: float = Field(
+        0.0, ge=0, le=60.0,
+        description="[s] case n starts its saltation from the spin-up continued particle-free for "
+                    "(n - 1) x stagger more seconds (a chain shared by the cases), so that cases "
+                    "sharing one spin-up start at different phases of its slow swings instead of "
+                    "one; 0: every case starts from the spin-up's end")
+
+    @model_validator(mode="after")
+    def _order(self) -> "SpinUp":
+        if self.t_min > self.t_max:
+            raise ValueError("t_min must not exceed t_max")
+        return self
+
+
+class Sampling(Frozen):
+    """When statistics are taken, in seconds after saltation activation."""
+    start: float = Field(..., ge=0, description="first 3-D sample [s after activation]")
+    interval: float = Field(..., gt=0, description="time between 3-D samples [s]")
+    count: int = Field(..., ge=1, description="number of 3-D samples")
+    plane_interval: float = Field(0.1, gt=0, description="time between 2-D C_p, u(0.1 m) fields [s]")
+    series_interval: float = Field(0.05, gt=0, description="time between series records [s]")
+
+    @property
+    def end(self) -> float:
+        return self.start + (self.count - 1) * self.interval
+
+
+class Relaxation(Frozen):
+    """Column relaxation after activation (solver/flow/relaxation.py): a uniform body force
+    -K (tau_bed - u*s^2) / Lz that brings the particle-free column to the saltation equilibrium
+    about (1 + K) times faster, switched off before sampling. Off by default: a cost knob for a
+    short window, not the paper's physics."""
+    gain: float = Field(0.0, ge=0, le=20, description="K [-]: 0 switches the relaxation off")
+    timescale: float = Field(1.0, gt=0, description="running-mean time of the bed stress [s]")
+    until: float = Field(0.0, ge=0, description="active until this time after activation [s]")
+
+
+class Outputs(Frozen):
+    """What a run writes beyond what analysis needs."""
+    full_snapshots: bool = Field(False, description="write full 3-D u, v, w, e at sampling times")
+    animation: bool = Field(False, description="keep every C_p plane for an animation")
+
+
+class Fidelity(Frozen):
+    """Cost knobs only: the same physics at every fidelity."""
+    name: str
+    description: str = ""
+    grid: GridSpec
+    time: TimeStepping = TimeStepping()
+    spinup: SpinUp
+    saltation_duration: float = Field(..., gt=0, description="saltation run length [s]")
+    sampling: Sampling
+    q_multiplier: float = Field(1.0, gt=0, description="Q is multiplied by this (fewer parcels)")
+    parcels_per_m2: float | None = Field(
+        None, gt=0, description="[m^-2] weigh each case's parcels so that its saltation layer holds "
+        "about this many airborne parcels per m2 of bed, as the paper chose its Q (~2,000 per m2 in "
+        "every case, its [28]): q_multiplier = the case's count at its Q "
+        "(data/airborne_counts.toml) / parcels_per_m2, set when a case is resolved at this "
+        "fidelity (config/loading.py); None: q_multiplier as given")
+    checkpoint_interval_wall: float = Field(120.0, gt=0, description="wall-clock s between checkpoints")
+    saltation_dt_fixed: float | None = Field(
+        None, gt=0, description="fixed step of the saltation phase only [s] (None: adaptive); the "
+        "stability study's deliberately too large step, run from a spin-up made with a stable one")
+    relaxation: Relaxation = Relaxation()
+    outputs: Outputs = Outputs()
+
+    @model_validator(mode="after")
+    def _sampling_inside_run(self) -> "Fidelity":
+        if self.sampling.end > self.saltation_duration + 1e-9:
+            raise ValueError(f"sampling ends at {self.sampling.end:g} s, after the saltation run "
+                             f"({self.saltation_duration:g} s)")
+        if self.relaxation.gain > 0 and self.relaxation.until > self.sampling.start + 1e-9:
+            raise ValueError(f"relaxation.until ({self.relaxation.until:g} s) must not exceed "
+                             f"sampling.start ({self.sampling.start:g} s): the sampled flow must run free")
+        return self

@@ -1,0 +1,275 @@
+"""Reading cases, fidelities and studies from their files, validated, with errors that name the file,
+the field and the reason; a study expanded into its runs."""
+from __future__ import annotations
+
+import os
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from .case import Case
+from .fidelity import Fidelity
+from .files import (ConfigError, case_path, locate_fidelity, locate_study, own_fidelity_folder,
+                    read_toml)
+from .study import RunSpec, Scene, SceneSpec, Study
+
+__all__ = ["deep_merge", "validate_model", "load_case", "load_fidelity", "load_study", "study_file",
+           "study_fidelity_folder", "resolve_scene", "study_runs", "validate_file", "airborne_counts",
+           "parcel_weight"]
+
+
+# --------------------------------------------------------------------------------------------
+# Loading
+# --------------------------------------------------------------------------------------------
+def deep_merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
+    """Recursive dict merge (update wins); lists and scalars are replaced."""
+    out = dict(base)
+    for k, v in update.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = deep_merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+def _format_errors(err: ValidationError, source: str) -> str:
+    lines = [f"{source}: invalid configuration"]
+    for e in err.errors():
+        loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
+        msg = e["msg"].removeprefix("Value error, ")
+        if e["type"] == "extra_forbidden":
+            msg = "unknown key (not a field of this section)"
+        lines.append(f"  {loc}: {msg}")
+    return "\n".join(lines)
+
+
+def validate_model(cls: type[BaseModel], data: dict[str, Any], source: str) -> Any:
+    try:
+        return cls.model_validate(data)
+    except ValidationError as err:
+        raise ConfigError(_format_errors(err, source)) from None
+
+
+def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
+              root: Path | None = None) -> Case:
+    """Load a case by number or path, apply ``overrides`` (deep-merged), validate."""
+    if isinstance(ref, int) or (isinstance(ref, str) and ref.isdigit()):
+        path = case_path(int(ref), root)
+        if not path.exists():
+            raise ConfigError(f"case {int(ref)}: unknown case (no {path})")
+    else:
+        path = Path(ref)
+    data = read_toml(path)
+    if overrides:
+        data = deep_merge(data, overrides)
+    return validate_model(Case, data, str(path))
+
+
+def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
+                   chain: tuple[Path, ...] = ()) -> tuple[Path, dict]:
+    """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins).
+    A parent's name is looked up beside the file first, then in workflows/fidelities/: a study's
+    own ``smoke.toml`` may be ``based_on = "smoke"``, the shared one."""
+    path = locate_fidelity(ref, root, own)
+    data = read_toml(path)
+    if "q_multiplier" in data and "parcels_per_m2" in data:
+        raise ConfigError(f"{path}: q_multiplier: the parcel weight is given by q_multiplier or by "
+                          "parcels_per_m2, not both")
+    base = data.pop("based_on", None)
+    if base is None:
+        return path, data
+    if not isinstance(base, str):
+        raise ConfigError(f"{path}: based_on: must be the name of another fidelity, or STUDY/NAME "
+                          f"(got {base!r})")
+    here = (*chain, path.resolve())
+    try:
+        parent_path = locate_fidelity(base, root, path.parent)
+        if parent_path.resolve() == here[-1] and "/" not in base:
+            parent_path = locate_fidelity(base, root, None)
+        if parent_path.resolve() in here:
+            names = " -> ".join(x.stem for x in (*here, parent_path))
+            raise ConfigError(f"circular ({names})")
+        _, parent = _fidelity_data(parent_path, root, None, here)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: based_on: {exc}") from None
+    parent.pop("name", None)
+    # the file's own choice of parcel weight replaces its parent's, whichever way it is given
+    for mine, other in (("q_multiplier", "parcels_per_m2"), ("parcels_per_m2", "q_multiplier")):
+        if mine in data:
+            parent.pop(other, None)
+    return path, deep_merge(parent, data)
+
+
+def _load_fidelity(ref: str | Path, root: Path | None, own: Path | None) -> Fidelity:
+    path, data = _fidelity_data(ref, root, own)
+    data.setdefault("name", path.stem)
+    return validate_model(Fidelity, data, str(path))
+
+
+def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
+    """Load a fidelity by name (``workflows/fidelities/NAME.toml``), by ``STUDY/NAME`` (a study's
+    own fidelity, ``workflows/STUDY/NAME.toml``) or by path. A file may start from another with
+    ``based_on = "NAME"`` (a file beside it, else workflows/fidelities/) or ``"STUDY/NAME"`` and
+    list only what differs (sections are deep-merged, the file wins)."""
+    return _load_fidelity(ref, root, None)
+
+
+def load_study(ref: str | Path, root: Path | None = None) -> Study:
+    """Load a study by name, by its folder under workflows/ or by path. A scene's ``case`` that is a
+    relative file path is taken relative to the directory of the study file and stored absolute,
+    so that the study means the same case file from any working directory; an absolute path
+    (``~`` expanded) is kept as is. The study's fidelity names resolve first among its own
+    fidelities (:func:`study_fidelity_folder`), then in workflows/fidelities/."""
+    path = locate_study(ref, root)
+    data = read_toml(path)
+    data.setdefault("name", path.stem)
+    scenes = data.get("scenes")
+    if isinstance(scenes, list):
+        data["scenes"] = [_scene_case_from(path, s) for s in scenes]
+    study = validate_model(Study, data, str(path))
+    study._file = Path(os.path.abspath(path))
+    return study
+
+
+def study_file(study: Study) -> Path | None:
+    """The file ``study`` was loaded from (None for a study built in code)."""
+    return study._file
+
+
+def study_fidelity_folder(study: Study) -> Path | None:
+    """The folder of a study's own fidelities (files.own_fidelity_folder); None for a study
+    built in code."""
+    return own_fidelity_folder(study._file) if study._file is not None else None
+
+
+def _scene_case_from(study_path: Path, scene: Any) -> Any:
+    """``scene`` with a case file path made absolute against the study file's directory."""
+    if not isinstance(scene, dict):
+        return scene
+    ref = scene.get("case")
+    if not isinstance(ref, str) or not ref.strip() or ref.strip().isdigit():
+        return scene
+    p = Path(ref).expanduser()
+    if not p.is_absolute():
+        p = Path(os.path.abspath(study_path.parent / p))
+    return {**scene, "case": str(p)}
+
+
+def resolve_scene(case: Case, fidelity: Fidelity, label: str | None = None) -> Scene:
+    """One case at one fidelity. With ``fidelity.parcels_per_m2`` the scene's fidelity carries the
+    case's own weight, ``q_multiplier = count / parcels_per_m2`` (``parcel_weight``)."""
+    if fidelity.parcels_per_m2 is not None:
+        fid = fidelity.model_dump()
+        fid["q_multiplier"] = parcel_weight(case, fidelity.parcels_per_m2)
+        fidelity = validate_model(Fidelity, fid, f"fidelity '{fidelity.name}'")
+    return Scene(label=label or case.label, case=case, fidelity=fidelity)
+
+
+def airborne_counts() -> tuple[dict[int, float], str]:
+    """The model's airborne parcels per m2 at each paper case's Q (``data/airborne_counts.toml``)
+    and where they were measured."""
+    text = resources.files("saltstudy").joinpath("data/airborne_counts.toml").read_text("utf-8")
+    data = tomllib.loads(text)
+    return {int(k): float(v) for k, v in data["count_at_Q"].items()}, str(data["source"])
+
+
+def parcel_weight(case: Case, parcels_per_m2: float) -> float:
+    """The multiple of the case's Q that leaves about ``parcels_per_m2`` airborne parcels per m2
+    [1]: the case's count at its Q over ``parcels_per_m2``. The count is the model's, measured for
+    the paper's cases as they stand (``airborne_counts``); a case whose physics differs from its
+    numbered file's has none, and a ConfigError says so."""
+    counts, source = airborne_counts()
+    where = "fidelity.parcels_per_m2"
+    if case.number not in counts:
+        raise ConfigError(f"{where}: no airborne count for case {case.number} ({source} holds "
+                          f"cases {sorted(counts)}); give the fidelity a q_multiplier instead")
+    physics = {"name", "description", "seed"}
+    stock = load_case(case.number).model_dump(mode="json", exclude=physics)
+    if case.model_dump(mode="json", exclude=physics) != stock:
+        raise ConfigError(f"{where}: case {case.number}'s physics differs from "
+                          f"cases/case{case.number:02d}.toml, for which the airborne count was "
+                          "measured; give the fidelity a q_multiplier instead")
+    return counts[case.number] / parcels_per_m2
+
+
+def _scene_case(study: Study, scene: SceneSpec, root: Path | None) -> Case:
+    """The case of a study's scene, its overrides applied. A reference that names no valid case
+    is a ConfigError naming ``scenes.<label>.case``; overrides that make the case invalid, one
+    naming ``scenes.<label>.overrides``."""
+    where = f"study '{study.name}': scenes.{scene.label}"
+    ref = scene.case
+    if isinstance(ref, str) and not ref.strip().isdigit():
+        p = Path(ref).expanduser()
+        if not p.exists():
+            raise ConfigError(f"{where}.case: no such case file {p}")
+        if not p.is_file():
+            raise ConfigError(f"{where}.case: {p} is not a file")
+    try:
+        case = load_case(ref, root=root)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}.case: {exc}") from None
+    if not scene.overrides:
+        return case
+    try:
+        return load_case(ref, overrides=scene.overrides, root=root)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}.overrides: {exc}") from None
+
+
+def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
+    """Expand a study into its runs (each a resolved scene). Raises ConfigError on bad references."""
+    runs: list[RunSpec] = []
+    ladder = list(study.fidelities) or [study.fidelity]
+    own = study_fidelity_folder(study)
+    fid_cache: dict[str, Fidelity] = {}
+
+    def fid(name: str, field: str) -> Fidelity:
+        if name not in fid_cache:
+            try:
+                fid_cache[name] = _load_fidelity(name, root, own)
+            except ConfigError as exc:
+                raise ConfigError(f"study '{study.name}': {field}: {exc}") from None
+        return fid_cache[name]
+
+    if len(ladder) > 1:
+        for fname in ladder:
+            if "/" in fname:      # a rung's name is part of its runs' labels (case02@NAME)
+                raise ConfigError(
+                    f"study '{study.name}': fidelities: '{fname}': a rung is a NAME, of the study's "
+                    f"own folder or of workflows/fidelities/ (a file there may be based_on = \"{fname}\")")
+    for n in study.cases:
+        case = load_case(n, root=root)
+        for fname in ladder:
+            if n not in study.ladder_cases.get(fname, study.cases):
+                continue
+            label = case.label if len(ladder) == 1 else f"{case.label}@{fname}"
+            field = "fidelities" if study.fidelities else "fidelity"
+            runs.append(RunSpec(label=label, scene=resolve_scene(case, fid(fname, field), label)))
+    for s in study.scenes:
+        case = _scene_case(study, s, root)
+        case = case.model_validate({**case.model_dump(), "name": s.label})
+        field = f"scenes.{s.label}.fidelity" if s.fidelity else "fidelity"
+        scene = resolve_scene(case, fid(s.fidelity or study.fidelity, field), s.label)
+        runs.append(RunSpec(label=s.label, scene=scene))
+    labels = [r.label for r in runs]
+    dup = {x for x in labels if labels.count(x) > 1}
+    if dup:
+        raise ConfigError(f"study '{study.name}': duplicate run labels {sorted(dup)}")
+    return runs
+
+
+def validate_file(path: Path) -> str:
+    """Validate a case, fidelity or study file; return what it is. Raises ConfigError."""
+    data = read_toml(path)
+    if "forcing" in data or "particles" in data or "number" in data:
+        load_case(path)
+        return "case"
+    if "grid" in data or "based_on" in data:
+        load_fidelity(path)
+        return "fidelity"
+    study = load_study(path)
+    study_runs(study)
+    return "study"

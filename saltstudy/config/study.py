@@ -1,0 +1,151 @@
+"""The study (which cases run at which fidelities, and extra scenes), the scene (one case resolved at
+one fidelity: everything one run needs) and a study's runs."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
+
+from .base import PAPER_AREA_M2, Frozen
+from .case import Case
+from .fidelity import Fidelity
+
+__all__ = ["SceneSpec", "Study", "Scene", "RunSpec"]
+
+
+# --------------------------------------------------------------------------------------------
+# Study
+# --------------------------------------------------------------------------------------------
+class SceneSpec(Frozen):
+    """An extra run of a study: a case with overrides (e.g. an extreme scene)."""
+    label: str = Field(..., pattern=r"^[A-Za-z0-9_.\-]+$")
+    case: int | str = Field(
+        ..., description="a case number (cases/caseNN.toml) or the path of a case file; a relative "
+        "path is relative to the directory of the study file (load_study makes it absolute)")
+    fidelity: str | None = None
+    overrides: dict[str, Any] = Field(default_factory=dict)
+    expect: Literal["complete", "blow-up"] = Field(
+        "complete", description="'blow-up': the scene must stop with a solver blow-up (a stability "
+        "study's deliberately unstable step); run-all then fails if it completes instead")
+
+    @field_validator("case")
+    @classmethod
+    def _case_ref(cls, v: int | str) -> int | str:
+        if isinstance(v, int) and v < 0:
+            raise ValueError(f"case = {v}: a case number is >= 0")
+        if isinstance(v, str) and not v.strip():
+            raise ValueError("case: an empty path; give a case number or a case file")
+        return v
+
+
+class Study(Frozen):
+    """Which cases run at which fidelities."""
+    name: str = Field(..., pattern=r"^[A-Za-z0-9_.\-]+$")
+    description: str = ""
+    fidelity: str | None = Field(None, description="default fidelity of the study")
+    fidelities: tuple[str, ...] = Field((), description="a ladder: every case runs at each")
+    reference: str | None = Field(None, description="the fidelity of fidelities that the convergence "
+                                  "report compares the others with (default: the last listed)")
+    cases: tuple[int, ...] = ()
+    ladder_cases: dict[str, tuple[int, ...]] = Field(
+        default_factory=dict, description="a rung of fidelities that only some of cases run (a rung "
+        "too costly for all): fidelity -> cases; every other rung runs every case")
+    scenes: tuple[SceneSpec, ...] = ()
+    report: bool = True
+    flux_law: Literal["creyssels2009"] | None = Field(
+        None, description="a measured flux law the report holds each run's G_tot against, at the "
+        "run's own stress u* (report/fluxlaw.py): 'creyssels2009', the wind tunnel of Creyssels et "
+        "al. (2009) for 242 um grains of 2500 kg m^-3")
+    # the file load_study read (absolute; None for a study built in code): where the study's own
+    # fidelities are looked up (study_fidelity_folder). Private: not part of what the study means.
+    _file: Path | None = PrivateAttr(None)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> "Study":
+        if not self.cases and not self.scenes:
+            raise ValueError("a study needs at least one entry in cases or scenes")
+        if self.cases and not (self.fidelity or self.fidelities):
+            raise ValueError("fidelity: a study with cases needs a fidelity (or fidelities)")
+        for s in self.scenes:
+            if not (s.fidelity or self.fidelity):
+                raise ValueError(f"scenes.{s.label}.fidelity: no fidelity for this scene")
+        if self.reference is not None and self.reference not in self.fidelities:
+            raise ValueError(f"reference: {self.reference!r} is not one of fidelities "
+                             f"{list(self.fidelities)}")
+        for fname, subset in self.ladder_cases.items():
+            if fname not in self.fidelities:
+                raise ValueError(f"ladder_cases.{fname}: not one of fidelities {list(self.fidelities)}")
+            extra = sorted(set(subset) - set(self.cases))
+            if extra:
+                raise ValueError(f"ladder_cases.{fname}: cases {extra} are not in cases {list(self.cases)}")
+        return self
+
+
+class Scene(Frozen):
+    """One case resolved at one fidelity: everything one run needs."""
+    label: str
+    case: Case
+    fidelity: Fidelity
+
+    # Derived, cost-adjusted parcel settings.
+    @property
+    def Q(self) -> float:
+        """Real grains per parcel after the fidelity's ``q_multiplier``."""
+        return self.case.particles.Q * self.fidelity.q_multiplier
+
+    @property
+    def n_initial(self) -> int:
+        """Parcels released at activation: the paper's 10 000 per 300 m^2, at equal released mass."""
+        g = self.fidelity.grid
+        n = self.case.particles.n_initial * (g.Lx * g.Ly) / PAPER_AREA_M2 / self.fidelity.q_multiplier
+        return max(1, int(round(n)))
+
+    @property
+    def damping_depth(self) -> float:
+        """Depth of the Rayleigh layer the model builds [m]: the fidelity's with the top drive,
+        none with the pressure-gradient drive."""
+        return self.fidelity.grid.damping_depth if self.case.forcing.drive == "top" else 0.0
+
+    def spinup_scene(self) -> "Scene":
+        """The scene the particle-free spin-up runs: this one, or with ``fidelity.spinup.u_star_ref``
+        set, this one at that friction velocity (rescaled to u*s at activation)."""
+        u_ref = self.fidelity.spinup.u_star_ref
+        if u_ref is None or u_ref == self.case.forcing.u_star_s:
+            return self
+        forcing = self.case.forcing.model_copy(update={"u_star_s": float(u_ref)})
+        return self.model_copy(update={"case": self.case.model_copy(update={"forcing": forcing})})
+
+    @property
+    def spinup_scale(self) -> float:
+        """u*s / the spin-up's u* [1]: the similarity factor applied to the spun-up flow."""
+        return self.case.forcing.u_star_s / self.spinup_scene().case.forcing.u_star_s
+
+    def spinup_slice(self) -> dict[str, Any]:
+        """What determines the particle-free spin-up (cases sharing it share one spin-up)."""
+        c, f = self.spinup_scene().case, self.fidelity
+        return {
+            "air": c.air.model_dump(mode="json"),
+            "surface": c.surface.model_dump(mode="json"),
+            "closure": c.closure.model_dump(mode="json"),
+            "forcing": c.forcing.model_dump(mode="json"),
+            "seed": c.seed,
+            "grid": f.grid.model_dump(mode="json"),
+            "time": f.time.model_dump(mode="json"),
+            # where a case starts along the shared spin-up is the start's, not the spin-up's
+            "spinup": f.spinup.model_dump(mode="json", exclude={"stagger"}),
+        }
+
+    @property
+    def start_links(self) -> int:
+        """Links of ``fidelity.spinup.stagger`` seconds between the spin-up's end and this case's
+        start: case number - 1 when staggered, else 0."""
+        st = self.fidelity.spinup.stagger
+        return max(0, int(self.case.number) - 1) if st > 0 else 0
+
+
+class RunSpec(BaseModel):
+    """One run in a study: label and resolved scene."""
+    model_config = ConfigDict(frozen=True)
+    label: str
+    scene: Scene
