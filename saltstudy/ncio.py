@@ -59,12 +59,20 @@ def is_complete(path: str | os.PathLike) -> bool:
     path = Path(path)
     if not path.is_file():
         return False
+    import netCDF4
+
+    # the global attributes only, through netCDF4 (HDF5 refuses at open a file shorter than its
+    # header says): xarray's open also decodes every variable's metadata and loads the index
+    # coordinates, 2.5 to 50 times longer (the smoke study's archives at a load of 16: 0.14-0.6 s
+    # against 0.013-0.10 s each), and a run asks once per task and again per dependent
     try:
         with NC_LOCK:
-            with xr.open_dataset(path, engine="netcdf4") as ds:
-                written_as = ds.attrs.get(WRITTEN_AS_ATTR)
-                if written_as is not None and str(written_as) != _written_as(path):
-                    return False
-                return int(ds.attrs.get(COMPLETE_ATTR, 0)) == 1
+            with netCDF4.Dataset(path, "r") as nc:
+                attrs = set(nc.ncattrs())
+                written_as = nc.getncattr(WRITTEN_AS_ATTR) if WRITTEN_AS_ATTR in attrs else None
+                complete = nc.getncattr(COMPLETE_ATTR) if COMPLETE_ATTR in attrs else 0
+        if written_as is not None and str(written_as) != _written_as(path):
+            return False
+        return int(complete) == 1
     except Exception:  # truncated, corrupt, or not NetCDF: never trusted
         return False

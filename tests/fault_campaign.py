@@ -66,8 +66,15 @@ def make_home(root: Path, cases: list[int] | None = None, cut: bool = False,
 
 
 def env_for(home: Path, fault: str | None = None) -> dict[str, str]:
+    """The environment of a command on ``home`` (with the hook ``fault``), its numba kernels on
+    one thread: a test runs several processes at once (a frozen holder and a waiter, two workers)
+    on a machine of CI's two cores, and numba's parallel regions stall when threads outnumber
+    cores (the cut case 9 under a load of 15: 51 s of CPU on two threads, 5 s on one;
+    ``/usr/bin/time saltstudy run-all --study smoke`` with ``NUMBA_NUM_THREADS`` 2 and 1). Every
+    run of a test has it, so they remain one realization."""
     env = {k: v for k, v in os.environ.items() if k not in ("SALTSTUDY_OUT", FAULT_ENV)}
     env["SALTSTUDY_HOME"] = str(home)
+    env["NUMBA_NUM_THREADS"] = "1"
     if fault:
         env[FAULT_ENV] = fault
     return env
@@ -158,8 +165,13 @@ def status_cli(home: Path, out: Path, study: str = "smoke") -> tuple[list[tuple[
     out-dir line."""
     r = run(["status", "--study", study, "--out", str(out)], env_for(home), timeout=300)
     assert r.returncode == 0, r.stdout + r.stderr
+    return parse_status(r.stdout)
+
+
+def parse_status(text: str) -> tuple[list[tuple[str, ...]], str]:
+    """The (label, task, state, key, detail) rows and the out-dir line of ``status``'s output."""
     rows, lock_line = [], ""
-    for line in r.stdout.splitlines():
+    for line in text.splitlines():
         parts = line.split(None, 4)
         if len(parts) >= 4 and len(parts[3]) == 20 and all(c in "0123456789abcdef" for c in parts[3]):
             rows.append(tuple(parts) + ("",) * (5 - len(parts)))
