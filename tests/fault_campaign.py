@@ -295,8 +295,8 @@ def campaign(home: Path, work: Path, n_points: int, n_wall: int, log: Path,
     """Run ``study`` of ``home`` once uninterrupted (tracing its write points), then once per
     instant from an empty out dir: stopped there (a write point: the hook freezes it; a wall time:
     SIGSTOP), status read while it lives, SIGKILL, status read, rerun to its end, every check of
-    the module doc. ``n_points`` instants among the traced points (progress.json's left out: its
-    calls follow the clock), ``n_wall`` at wall times spread over 5-95 % of the run, counted from
+    the module doc. ``n_points`` instants among the traced points (progress.json's left out and
+    the checkpoints after the second: their calls follow the clock), ``n_wall`` at wall times spread over 5-95 % of the run, counted from
     the run's first write point (the reference's first warms the kernels' cache). Writes the
     summary to ``log`` (JSON) after every instant and returns it."""
     ref, ref_report, trace = work / "ref", work / "ref-report", work / "trace.txt"
@@ -305,7 +305,14 @@ def campaign(home: Path, work: Path, n_points: int, n_wall: int, log: Path,
     assert r.returncode == 0, r.stdout + r.stderr
     traced = read_trace(trace)
     wall = traced[-1][0] - traced[0][0]
-    points = [x for x in traced if not x[2].startswith("progress.json")]
+    # progress.json and the checkpoints follow the clock: their k-th call in a rerun comes at
+    # another moment or not at all; of the checkpoints, the first two (in the spin-up) are chosen
+    points, seen = [], {}
+    for x in traced:
+        seen[x[2]] = seen.get(x[2], 0) + 1
+        if not x[2].startswith("progress.json") and (not x[2].startswith("checkpoint.npz")
+                                                     or seen[x[2]] <= 2):
+            points.append(x)
     instants = [("point", f, spec) for f, spec in point_instants(points, n_points)]
     instants += [("wall", 0.05 + 0.9 * (i + 0.5) / n_wall, "") for i in range(n_wall)]
     summary = {"study": study, "reference_run_s": round(wall, 1), "results": []}

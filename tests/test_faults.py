@@ -246,13 +246,13 @@ def test_kill_campaign_over_the_smoke_study(tmp_path):
     """The smoke study (ten cases, report) stopped at 34 instants over its whole run, each from an
     empty out dir (fault_campaign.campaign): 26 write points that the traced uninterrupted run
     reached, 8 wall times. ``SALTSTUDY_CAMPAIGN_CASES`` (e.g. ``9``) cuts the study to those
-    cases at the default tests' cut fidelity (with the report), a campaign of the same instants
+    cases at the default tests' cut fidelity and checkpoint interval (with the report), a campaign of the same instants
     that a busy machine finishes in an hour. The result goes to ``$SALTSTUDY_CAMPAIGN_LOG``
     (default: the test's tmp dir) as JSON; docs/USAGE.md, "Faults", records it."""
     dest = Path(os.environ.get("SALTSTUDY_CAMPAIGN_LOG", tmp_path / "campaign.json"))
     cases = os.environ.get("SALTSTUDY_CAMPAIGN_CASES")
-    home = (fc.make_home(tmp_path / "home", cases=[int(c) for c in cases.split(",")], cut=True)
-            if cases else fc.make_home(tmp_path / "home"))
+    home = (fc.make_home(tmp_path / "home", cases=[int(c) for c in cases.split(",")], cut=True,
+                         checkpoint_interval=0.2) if cases else fc.make_home(tmp_path / "home"))
     summary = fc.campaign(home, tmp_path, n_points=26, n_wall=8, log=dest)
     failed = [e for e in summary["results"] if e["problems"]]
     assert not failed, json.dumps(failed, indent=1)

@@ -197,7 +197,7 @@ def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
     meta["keys"] = {l: {"spinup": k.spinup, "saltation": k.saltation, "analysis": k.analysis}
                     for l, k in wkeys.study_keys(st).items()}
     with hold_out_dir(out_dir, wait=wait, log=emit):
-        runs = wpaths.analysis_paths(st, out_dir)
+        runs = wpaths.analysis_paths(study, out_dir)
         return build_report_staged(build_report, study_name, runs, Path(report_dir),
                                    cache_meta(meta))
 
