@@ -62,6 +62,9 @@ def model_departures(scene: dict) -> list[str]:
     out = []
     if clo.get("model", "deardorff") != "deardorff":
         out.append(f"SGS closure {clo['model']} (the paper: Deardorff's TKE model)")
+    elif clo.get("viscosity", "isotropic") != "anisotropic":
+        out.append("one SGS eddy viscosity for every stress (closure.viscosity; the paper's eq. A1: "
+                   "a horizontal and a vertical one)")
     spl = case.get("splash", {}) or {}
     if spl.get("impact_speed", "magnitude") != "magnitude":
         out.append("eqs. 6 and 8 of the normal impact speed |w| (splash.impact_speed; the paper: "
