@@ -203,7 +203,7 @@ def fig04(ctx: ReportContext) -> FigureResult:
         ax.plot(xr_, rng, color=PAPER_COLOR, ls="--", lw=2, marker="D", ms=7, alpha=0.8,
                 label=f"{PAPER_LABEL}: z_m {rng[0]:g}–{rng[1]:g} m, linear, cases 1–6")
     ax.set_ylim(bottom=0)
-    ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s², u*s from the stress at z_ref)")
+    ax.set_title("Fig. 4 — saltation height z_m\n(τp = 0.1 % of ρu*s², u*s from the stress at z_ref)")
     return _finish(ax, res, r"saltation height $z_m$ [m]", "lower right", 7.5)
 
 
