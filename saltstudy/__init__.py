@@ -2,46 +2,43 @@
 
 A software reproduction of Dupont, Bergametti, Marticorena & Simoens (2013), *Modeling saltation
 intermittency*, J. Geophys. Res. Atmos. 118, doi:10.1002/jgrd.50528.
+
+From Python (docs/USAGE.md, "From Python"; the command line: ``saltstudy --help``):
+
+* ``load_case(2)``, ``load_fidelity("quick")``, ``load_study("quick")``: the validated, frozen
+  records ``Case``, ``Fidelity``, ``Study``; ``list_case_numbers()``. ``record.replace(...)``
+  is a changed copy, validated (``case.replace(forcing={"u_star_s": 0.47})``); a bad value
+  raises ``ConfigError`` naming the field and the reason.
+* ``run(case, fidelity, out=None)``: one case, cached and resumed as ``saltstudy run``; a ``Run``
+  with ``.analysis()`` (xarray Dataset), ``.samples()`` and ``.spinup()`` (lazy, dask).
+* ``run_study("quick")``: a study as ``saltstudy run-all``; ``open_results("quick")``: the
+  study's runs in the cache. Both give ``Results``: ``.runs``, ``.analysis(label)``,
+  ``.samples(label)``, ``.table2()`` (Table 2 beside the paper, an xarray Dataset).
+
+Importing ``saltstudy`` loads none of these (nor numba or dask) until one is used.
 """
 from __future__ import annotations
 
-import hashlib
-import os
-from pathlib import Path
+from ._identity import SOURCE_KEY, __version__
 
-__version__ = "0.1.0"
-
-
-def _source_key(here: Path | None = None) -> str:
-    """Hash of the numerical sources that a run executes (``_jit.py``, ``physics/``, ``solver/``;
-    the instruments that measure the model live outside them, so an edit to a benchmark or a probe
-    makes no archive stale and recompiles no kernel): the workflow's cache keys and numba's
-    on-disk cache (``_jit.py``) are keyed by it."""
-    here = here or Path(__file__).resolve().parent
-    h = hashlib.sha256(__version__.encode())
-    for sub in ("_jit.py", "physics", "solver"):
-        p = here / sub
-        files = [p] if p.is_file() else sorted(p.rglob("*.py"))
-        for f in files:
-            h.update(f.relative_to(here).as_posix().encode())   # a moved file is another source
-            h.update(f.read_bytes())
-    if os.environ.get("SALTSTUDY_STRICT_IEEE", "") not in ("", "0"):   # _jit.STRICT_IEEE
-        h.update(b"strict-ieee")
-    return h.hexdigest()[:12]
+#: the public names, by the module each comes from (imported on first use)
+_CONFIG_NAMES = ("Case", "Fidelity", "Study", "ConfigError", "load_case", "load_fidelity",
+                 "load_study", "list_case_numbers")
+_API_NAMES = ("Run", "Results", "run", "run_study", "open_results")
+__all__ = [*_CONFIG_NAMES, *_API_NAMES, "__version__"]
 
 
-SOURCE_KEY = _source_key()
+def __getattr__(name: str):
+    if name in _CONFIG_NAMES:
+        from . import config as module
+    elif name in _API_NAMES:
+        from . import api as module
+    else:
+        raise AttributeError(f"module 'saltstudy' has no attribute {name!r}")
+    value = getattr(module, name)
+    globals()[name] = value
+    return value
 
-if "NUMBA_CACHE_DIR" not in os.environ:
-    _base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "saltstudy" / "numba"
-    os.environ["NUMBA_CACHE_DIR"] = str(_base / SOURCE_KEY)
-# numba's workqueue layer aborts when kernels are called from several threads (dask threads);
-# prefer OpenMP, then TBB.
-os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp tbb workqueue")
-# The OpenMP worker threads sleep as soon as a parallel region ends instead of spinning for a
-# while (libgomp's default): between the flow's parallel regions the pressure solve's FFTs run on
-# other threads (solver/flow/pressure.py), which a spinning worker keeps from a core on a 2-core
-# machine. The two threads' speed-up on the paper's grid with this policy: docs/BENCHMARKS.md,
-# "Single precision and the flow's threads" (`NUMBA_NUM_THREADS=1|2 saltstudy bench flow
-# --fidelity paper`; `OMP_WAIT_POLICY=ACTIVE` in the environment times libgomp's default).
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})

@@ -1,9 +1,10 @@
 """The ``saltstudy`` command line.
 
 Each area of the package adds its own commands through a ``register(app)`` function in its
-``cli_commands.py`` (workflow: run-all, run, status, figures; analysis: analyse; report: the
-investigations' reports; instruments: bench, probe). This module holds the commands that only
-need the configuration.
+``cli_commands.py`` (workflow: run-all, run, status, figures; analysis: analyse; instruments:
+the ``bench`` and ``probe`` groups, ``probe`` with the investigations' reports of
+report/cli_commands.py). This module holds the commands that only need the configuration, and
+the top level's order and one-line helps (:data:`TOP_LEVEL`).
 """
 from __future__ import annotations
 
@@ -12,11 +13,40 @@ import json
 from pathlib import Path
 
 import typer
+from typer.core import TyperGroup
 
-from . import __version__
+from ._identity import __version__
 from .config import (ConfigError, list_case_numbers, load_case, validate_file)
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+USER_PANEL = "Run a study and read its results"
+INSTRUMENTS_PANEL = "Instruments: what measures the model"
+
+#: ``saltstudy --help`` as a newcomer reads it, in this order: the user's commands, then the
+#: instruments' groups; each with its one line of help
+TOP_LEVEL: dict[str, tuple[str, str]] = {
+    "run-all": ("Run a study (default: quick) and build its report.", USER_PANEL),
+    "run": ("Run one case at one fidelity: spin-up, saltation, analysis.", USER_PANEL),
+    "status": ("Which runs of a study are done, stale, failed or missing.", USER_PANEL),
+    "figures": ("Redraw a study's report (Figures 1-13, Table 2) from its archives.", USER_PANEL),
+    "cases": ("The paper's ten cases: list them, or show one in full.", USER_PANEL),
+    "validate": ("Check a case, fidelity or study file before running it.", USER_PANEL),
+    "analyse": ("Compute one run's statistics (analysis.nc) from its archives.", USER_PANEL),
+    "bench": ("Speed benchmarks of the solver.", INSTRUMENTS_PANEL),
+    "probe": ("Diagnostic runs of the model and the investigations' reports.", INSTRUMENTS_PANEL),
+}
+
+
+class _TopLevel(TyperGroup):
+    """Lists the commands in :data:`TOP_LEVEL`'s order (typer lists single commands before
+    groups)."""
+
+    def list_commands(self, ctx) -> list[str]:
+        names = super().list_commands(ctx)
+        order = list(TOP_LEVEL)
+        return sorted(names, key=lambda n: order.index(n) if n in order else len(order))
+
+
+app = typer.Typer(cls=_TopLevel, add_completion=False, no_args_is_help=True,
                   help="LES + Lagrangian saltation: reproduce Dupont et al. (2013).")
 cases_app = typer.Typer(no_args_is_help=True, help="The cases of the study (Table 2).")
 app.add_typer(cases_app, name="cases")
@@ -89,7 +119,7 @@ def validate(path: Path = typer.Argument(..., help="a case, fidelity or study TO
 
 
 for _area in ("saltstudy.workflow.cli_commands", "saltstudy.analysis.cli_commands",
-              "saltstudy.report.cli_commands", "saltstudy.instruments.cli_commands"):
+              "saltstudy.instruments.cli_commands"):
     try:
         _mod = importlib.import_module(_area)
     except ModuleNotFoundError as _exc:  # an area not yet present in this checkout
@@ -97,3 +127,7 @@ for _area in ("saltstudy.workflow.cli_commands", "saltstudy.analysis.cli_command
             raise
         continue
     _mod.register(app)
+
+for _info in (*app.registered_commands, *app.registered_groups):
+    if _info.name in TOP_LEVEL:
+        _info.short_help, _info.rich_help_panel = TOP_LEVEL[_info.name]

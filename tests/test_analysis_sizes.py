@@ -19,20 +19,24 @@ def test_band_mass_fractions_weight_counts_by_d_cubed():
     assert np.all(np.isnan(f[2]))                  # a band without grains
 
 
-def test_lognormal_bed_fractions_match_numerical_integral_of_eq5():
-    mu, sigma = 2e-4, 1.2
-    edges = np.geomspace(mu / sigma ** 3, mu * sigma ** 3, 25)
-    f = sz.lognormal_bin_fractions([(1.0, mu, sigma)], edges)
-    assert f.sum() == pytest.approx(1.0)
-    # trapezoid integral of dM/dln d (eq. 5) over each bin, renormalised
+def _eq5_bins(mu, sigma, edges):
+    """Trapezoid integral of dM/dln d (eq. 5, one mode) over each bin, renormalised."""
     s = math.log(sigma)
     num = []
     for a, b in zip(edges[:-1], edges[1:]):
         x = np.linspace(math.log(a), math.log(b), 2001)
         dens = np.exp(-(x - math.log(mu)) ** 2 / (2 * s * s)) / (math.sqrt(2 * math.pi) * s)
         num.append(np.trapezoid(dens, x))
-    num = np.array(num) / np.sum(num)
-    assert np.allclose(f, num, atol=1e-6)
+    return np.array(num) / np.sum(num)
+
+
+def test_bed_fractions_match_numerical_integral_of_eq5():
+    mu, sigma = 2e-4, 1.2
+    edges = np.geomspace(mu / sigma ** 3, mu * sigma ** 3, 25)
+    soil = {"modes": [{"mass_fraction": 1.0, "mu": mu, "sigma": sigma}], "rho_p": 2650.0}
+    f, _ = sz.bed_mass_fractions(soil, edges)
+    assert f.sum() == pytest.approx(1.0)
+    assert np.allclose(f, _eq5_bins(mu, sigma, edges), atol=1e-6)
     assert int(np.argmax(f)) in (11, 12)           # the median sits in the middle bins
 
 
@@ -41,7 +45,7 @@ def test_bed_fractions_from_case_soil_and_band_edges():
     edges = np.geomspace(1e-4, 4e-4, 11)
     f, src = sz.bed_mass_fractions(soil, edges)
     assert f.sum() == pytest.approx(1.0)
-    assert np.allclose(f, sz.lognormal_bin_fractions([(1.0, 2e-4, 1.2)], edges), atol=1e-9)
+    assert np.allclose(f, _eq5_bins(2e-4, 1.2, edges), atol=1e-6)
     assert src
     f, _ = sz.bed_mass_fractions(None, edges)
     assert np.all(np.isnan(f))

@@ -209,7 +209,7 @@ def test_stability_table(tmp_path):
     assert rows["fine_sand"]["w_absmax"] == pytest.approx(0.7)
     assert rows["fine_sand"]["E_splash_over_E_impact"] == pytest.approx(0.4)
     md = (tmp_path / "rep" / "stability.md").read_text()
-    assert "n/a" in md                          # no momentum budget anywhere
+    assert "n/a" in md                          # fine_sand has no step limits
     assert "SolverBlowUp: step 12" in md
     line = next(l for l in md.splitlines() if l.startswith("| crash |"))
     assert line.count("n/a") >= 6

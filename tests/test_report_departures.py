@@ -8,14 +8,21 @@ def _scene(overrides: dict | None = None, fidelity: str = "paper") -> dict:
     return resolve_scene(case, load_fidelity(fidelity)).model_dump(mode="json")
 
 
-def test_the_paper_model_at_the_paper_fidelity_departs_only_in_its_parcel_weight():
-    """The paper fidelity keeps the paper's rule for the parcel count (~2,000 airborne per m2),
-    which at the model's load is another weight than the paper's Q: that, and only that, is named."""
-    paper_model = {"closure": {"model": "deardorff"}}
-    lines = model_departures(_scene(paper_model))
-    assert len(lines) == 1 and "2000 airborne parcels per m2" in lines[0]
-    fine = model_departures(_scene(paper_model, fidelity="fine"))
-    assert not any("parcels" in line for line in fine)
+def test_a_paper_case_at_the_paper_fidelity_departs_in_its_viscosity_and_parcel_weight():
+    """The stock case at the paper fidelity: one eddy viscosity (the default) and the paper's rule
+    for the parcel count (~2,000 airborne per m2), which at the model's load is another weight
+    than the paper's Q; nothing else."""
+    lines = model_departures(_scene())
+    assert len(lines) == 2
+    assert "closure.viscosity" in lines[0] and "2000 airborne parcels per m2" in lines[1]
+    fine = model_departures(_scene({"closure": {"viscosity": "anisotropic"}}, fidelity="fine"))
+    assert not any("parcels" in line or "viscosity" in line for line in fine)
+
+
+def test_one_eddy_viscosity_is_named_against_eq_a1s_pair():
+    one = " ".join(model_departures(_scene({"closure": {"viscosity": "isotropic"}}, "fine")))
+    pair = " ".join(model_departures(_scene({"closure": {"viscosity": "anisotropic"}}, "fine")))
+    assert "closure.viscosity" in one and "closure.viscosity" not in pair
 
 
 def test_each_departure_is_named_by_its_config_field():

@@ -69,7 +69,7 @@ def test_only_the_last_windows_count_and_the_peak_is_the_strongest_mode():
 def test_report_command_writes_the_table_and_figures(tmp_path):
     (tmp_path / "good.json").write_text(json.dumps(_probe(lambda z: np.ones_like(z))))
     (tmp_path / "low.json").write_text(json.dumps(_probe(lambda z: 0.7 * np.ones_like(z))))
-    res = CliRunner().invoke(app, ["loglaw-report", str(tmp_path)])
+    res = CliRunner().invoke(app, ["probe", "loglaw-report", str(tmp_path)])
     assert res.exit_code == 0, res.output
     assert "good: all pass" in res.output and "low: fails" in res.output
     for f in ("summary.json", "summary.md", "phi.png", "spanwise.png"):
@@ -80,6 +80,6 @@ def test_report_command_writes_the_table_and_figures(tmp_path):
 
 
 def test_report_of_an_empty_directory_is_a_clear_error(tmp_path):
-    res = CliRunner().invoke(app, ["loglaw-report", str(tmp_path)])
+    res = CliRunner().invoke(app, ["probe", "loglaw-report", str(tmp_path)])
     assert res.exit_code == 2
     assert "no probe results" in res.output

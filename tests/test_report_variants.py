@@ -54,12 +54,12 @@ def test_report_command_writes_the_tables(tmp_path):
     runs = {f"c2_v_s{s}": {"label": f"c2_v_s{s}", "status": "ok", "G_tot": 0.02 * s,
                            "archive": _archive(tmp_path, f"c2_v_s{s}", 0.5, 1.0)} for s in (1, 2)}
     (tmp_path / "summary.json").write_text(json.dumps({"cases": runs}))
-    r = CliRunner().invoke(app, ["variants-report", str(tmp_path)])
+    r = CliRunner().invoke(app, ["probe", "variants-report", str(tmp_path)])
     assert r.exit_code == 0, r.output
     md = (tmp_path / "variants.md").read_text()
     assert "### Case 2" in md and "30 ± 10" in md                   # G_tot in g/m/s
     (tmp_path / "summary.json").write_text(json.dumps({"cases": {}}))
-    r = CliRunner().invoke(app, ["variants-report", str(tmp_path)])
+    r = CliRunner().invoke(app, ["probe", "variants-report", str(tmp_path)])
     assert r.exit_code == 2 and "[c<case>_]<variant>_s<seed>" in r.output
 
 

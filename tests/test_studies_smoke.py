@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
 from pathlib import Path
 
@@ -46,13 +47,22 @@ def home(tmp_path, monkeypatch):
     return h
 
 
+@pytest.fixture
+def home_with_case2(home, own_scene):
+    """``home`` whose cache starts as a copy of the worked example's (conftest.py): its fidelity
+    is this smoke's, so case 2's spin-up and saltation are found there, not computed again."""
+    shutil.copytree(own_scene["out"], os.environ["SALTSTUDY_OUT"])
+    return home
+
+
 def _run_all(study: str, report_dir):
     r = CliRunner().invoke(app, ["run-all", "--study", study, "--quiet", "--report-dir", str(report_dir)])
     assert r.exit_code == 0, r.output
     return r.output
 
 
-def test_convergence_smoke_study_end_to_end(home, tmp_path):
+def test_convergence_smoke_study_end_to_end(home_with_case2, tmp_path):
+    home = home_with_case2
     rep = tmp_path / "rep"
     _run_all(str(home / "studies" / "convergence-smoke.toml"), rep)
     js = json.loads((rep / "convergence.json").read_text())
@@ -118,7 +128,7 @@ def test_stability_smoke_study_end_to_end(home, tmp_path):
     assert all(label in text for label in labels)
 
 
-def test_scene_study_below_threshold_end_to_end(home, tmp_path):
+def test_scene_study_below_threshold_end_to_end(home_with_case2, tmp_path):
     """A study of one's own: a scene of case 2 below the fluid threshold and a scene from a case
     file beside the study file. Table 2 has a row per run under its label; the calm scene is
     marked, with its numbers, as holding no saltation; summary.json carries the grains per m²."""

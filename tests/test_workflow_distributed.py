@@ -1,8 +1,7 @@
 """`saltstudy run-all --scheduler ADDRESS` on a real dask.distributed cluster on loopback.
 
-The cluster is started as the README's recipe starts one by hand: a scheduler (`dask scheduler`)
-and two worker processes of one thread each (`dask worker --nthreads 1`), all on 127.0.0.1 with
-ports the system picks, all stopped in a ``finally``. The smoke study (cut to cases 2 and 9, which
+The cluster is started as docs/USAGE.md starts one by hand (tests/cluster_helpers.py: a scheduler
+and two worker processes of one thread each, on 127.0.0.1), all stopped in a ``finally``. The smoke study (cut to cases 2 and 9, which
 share a spin-up, at half the simulated time, without the report, to keep the default test run
 short) runs through them into one cache and through the default local scheduler into another;
 the archives must be the same files with the same numbers.
@@ -16,24 +15,20 @@ running process would differ at round-off and give another realization.
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
 
+from cluster_helpers import start_cluster, stop
 from saltstudy.config import project_root
 
-PY = sys.executable
 SALTSTUDY = str(Path(sys.executable).parent / "saltstudy")
 RUN_TIMEOUT_S = 900          # each run-all: a bound for a cold numba compile on a slow machine
-START_TIMEOUT_S = 90         # scheduler up and both workers registered
 
 
 @pytest.fixture
@@ -60,63 +55,6 @@ def home(tmp_path, monkeypatch):
     return h
 
 
-def _start(args: list[str], log: Path) -> subprocess.Popen:
-    """A process in its own session (so that it and any child it starts can be stopped together)."""
-    fh = open(log, "wb")
-    try:
-        return subprocess.Popen(args, stdout=fh, stderr=subprocess.STDOUT, start_new_session=True)
-    finally:
-        fh.close()
-
-
-def _stop(procs: list[subprocess.Popen]) -> None:
-    for p in procs:
-        if p.poll() is None:
-            try:
-                os.killpg(p.pid, signal.SIGTERM)
-            except ProcessLookupError:
-                pass
-    deadline = time.time() + 15
-    for p in procs:
-        try:
-            p.wait(timeout=max(0.1, deadline - time.time()))
-        except subprocess.TimeoutExpired:
-            try:
-                os.killpg(p.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-            p.wait(timeout=10)
-
-
-def _start_cluster(tmp: Path, procs: list[subprocess.Popen]) -> tuple[str, list[int]]:
-    """Scheduler + two 1-thread worker processes on loopback; returns (address, worker pids)."""
-    from distributed import Client
-
-    sched_file = tmp / "scheduler.json"
-    procs.append(_start([PY, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-                         "--port", "0", "--no-dashboard", "--scheduler-file", str(sched_file)],
-                        tmp / "scheduler.log"))
-    deadline = time.time() + START_TIMEOUT_S
-    while not sched_file.is_file():
-        assert procs[0].poll() is None, (tmp / "scheduler.log").read_text()
-        assert time.time() < deadline, "the scheduler did not start"
-        time.sleep(0.2)
-    time.sleep(0.2)   # the file is written whole, but give a slow machine a moment
-    address = json.loads(sched_file.read_text())["address"]
-    assert address.startswith("tcp://127.0.0.1:")
-    pids = []
-    for i in (1, 2):
-        p = _start([PY, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
-                    "--no-nanny", "--host", "127.0.0.1", "--no-dashboard",
-                    "--local-directory", str(tmp / f"worker{i}")], tmp / f"worker{i}.log")
-        procs.append(p)
-        pids.append(p.pid)
-    with Client(address, timeout=START_TIMEOUT_S) as client:
-        client.wait_for_workers(2, timeout=START_TIMEOUT_S)
-        assert sorted(client.nthreads().values()) == [1, 1]
-    return address, pids
-
-
 def _run_all(out: Path, *extra: str) -> str:
     r = subprocess.run([SALTSTUDY, "run-all", "--study", "smoke", "--quiet", "--out", str(out), *extra],
                        capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
@@ -136,14 +74,14 @@ def test_run_all_on_a_loopback_cluster_writes_the_local_archives(home, tmp_path)
     _run_all(local)                                   # the default (threaded, local) scheduler
     procs: list[subprocess.Popen] = []
     try:
-        address, worker_pids = _start_cluster(tmp_path, procs)
+        address, worker_pids = start_cluster(tmp_path, procs)
         out = _run_all(dist, "--scheduler", address)
         assert "study smoke:" in out and "report: not built" in out    # report = false
         # every solver task ran in one of the two worker processes, none in the client
         pids = {json.loads(p.read_text())["pid"] for p in dist.glob("*/*/task.json")}
         assert pids and pids <= set(worker_pids), (pids, worker_pids)
     finally:
-        _stop(procs[::-1])
+        stop(procs[::-1])
     assert all(p.poll() is not None for p in procs)
 
     a, b = _archives(local), _archives(dist)

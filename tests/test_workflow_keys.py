@@ -190,19 +190,19 @@ def test_source_key_follows_the_kernels_not_the_tools(tmp_path):
     import shutil
 
     import saltstudy
-    from saltstudy import _source_key
+    from saltstudy._identity import source_key
     pkg = Path(saltstudy.__file__).resolve().parent
     copy = tmp_path / "saltstudy"
     for sub in ("physics", "solver", "instruments"):
         shutil.copytree(pkg / sub, copy / sub, ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy(pkg / "_jit.py", copy / "_jit.py")
-    base = _source_key(copy)
+    base = source_key(copy)
     assert base == saltstudy.SOURCE_KEY
     tools = sorted((copy / "instruments").glob("*.py"))
     assert {"bench_scene.py", "bench_particles.py", "loglaw_probe.py"} <= {f.name for f in tools}
     for f in tools:
         f.write_text(f.read_text() + "\n# an edit\n")
-    assert _source_key(copy) == base
+    assert source_key(copy) == base
     adv = copy / "solver" / "flow" / "advection.py"
     adv.write_text(adv.read_text() + "\n# an edit\n")
-    assert _source_key(copy) != base
+    assert source_key(copy) != base

@@ -20,7 +20,7 @@ from typer.testing import CliRunner
 
 from saltstudy.cli import app
 from saltstudy.config import load_case, load_fidelity, load_study, project_root, resolve_scene
-from saltstudy.ncio import is_complete, open_dataset
+from saltstudy.ncio import CF_VERSION, is_complete, open_dataset
 from saltstudy.solver.state import SolverBlowUp
 from saltstudy.workflow import archives, keys
 from saltstudy.workflow.driver import Interrupted
@@ -79,6 +79,7 @@ def test_run_all_caches_and_reruns_only_what_changed(home, tmp_path):
         for task in ("spinup", "saltation"):
             with xr.open_dataset(output_path(out, task, getattr(k, task))) as ds:
                 assert archives.check_metadata(ds) == []
+                assert ds.attrs["Conventions"] == CF_VERSION      # tests/test_cf_archives.py
                 for a in ("case_json", "package_version", "fidelity", "seed", "wall_time_s"):
                     assert a in ds.attrs
                 assert ds.attrs["wall_time_s"] > 0

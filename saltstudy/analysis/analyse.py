@@ -84,7 +84,7 @@ def analyse_case(samples_path: str | Path, spinup_path: str | Path | None, out_p
     attrs["spinup_path"] = str(spinup_path) if spinup_path is not None else ""
     if "converged" in sp_attrs:
         attrs["spinup_converged"] = int(bool(sp_attrs["converged"]))
-    from .. import __version__
+    from .._identity import __version__
     attrs["analysis_version"] = __version__
     attrs["analysis_seconds"] = float(_time.perf_counter() - t_start)
     ds.attrs = attrs

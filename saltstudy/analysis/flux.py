@@ -24,53 +24,37 @@ z_m (section 3.2 [37])
 
 tau_p(0): the grain-borne share of the momentum flux at the bed (section 3.2 [40], Fig. 6)
     The paper: "At the surface, tau_p increases with u*s, to reach about 50% of the above flow
-    momentum flux in case 6", read from Fig. 6, tau_p / (rho u*s^2), whose lowest point is its
-    0-1 cm cell, and u*s the stress reading (``u*^2 = |<u'w'>|`` at 2 m, section 3.1 [33]).
-    Eq. 10 gives tau_p as the *mean over a layer*; a grid whose first layer is 2 cm thick
-    averages the steep near-bed profile over twice the depth and reads a different number for
-    the same flow. So the bed value is defined at z = 0, not at a level:
-    ``tau_p_bed`` (:func:`bed_value`) is ``A`` of the exponential ``tau_p(z) = A exp(-z/H)``
-    (the paper's "tau_p increases exponentially with depth", after Owen 1964) whose *layer
-    means* over the lowest layers match eq. 10's values -- the layers with their top face at or
-    below ``BED_FIT_FRACTION`` z_m (about 1.5 e-folding heights, the same depth of air on any
-    grid), at least the lowest two. Averaging the exponential over each layer exactly makes the
-    answer independent of the layers' thicknesses when the profile is exponential; when it is
-    not, the fit still spans the same physical depth on every grid. ``tau_p_surface_fraction``
-    = ``tau_p_bed / (rho u*^2)`` with ``u*`` the stress reading at the reference height
-    (extrapolated to the bed for the pressure-gradient drive, whose total stress falls
-    linearly), not the log-law fit. When the profile is steeper near the bed than the fitted
-    exponential (structure thinner than the layers), no layer data can show it: the fit then
-    reads low, but by the same amount on a 1 cm and a 2 cm first level (within ~3 % for two-
-    exponential profiles with a 5-20 mm near-bed part, where the lowest layer's means differ
-    by 15-20 %).
-    The paper's own reading is its first cell's mean, 0-1 cm, which for an exponential of
-    e-folding height H is ``H (1 - exp(-1 cm/H)) / 1 cm`` of the bed value (0.87 at H = 3.5 cm);
-    ``tau_p_paper_cell_fraction`` is that mean of the fitted exponential over
-    ``rho u*^2`` (:meth:`BedValue.layer_mean`), to set beside Fig. 6's lowest points.
-    A cross-check that assumes no profile shape (:func:`budget_bed_fraction`): in a steady,
-    horizontally uniform layer the total stress is the same at every height, and at the bed
-    it is carried by the air (the wall stress, ``uw`` at the bed face) and the grains; so
-    ``tau_p(0) / tau_total = 1 - tau_air(0) / tau_total``. It holds for the time mean only
-    as far as the run is steady over the sampling window.
+    momentum flux in case 6", read from Fig. 6 (tau_p / (rho u*s^2), lowest point its 0-1 cm
+    cell; u*s the stress reading at 2 m, section 3.1 [33]). A layer mean depends on the layer's
+    thickness where the profile is steep, so the bed value is defined at z = 0: ``tau_p_bed``
+    (:func:`bed_value`) is ``A`` of the exponential ``A exp(-z/H)`` (after Owen 1964) whose
+    exact *layer means* fit eq. 10's values over the layers with their top at or below
+    ``BED_FIT_FRACTION`` z_m (about 1.5 e-folding heights, the same depth of air on any grid; at
+    least two layers). A profile steeper near the bed than the fit reads low, but by the same
+    amount on a 1 cm and a 2 cm first level (within ~3 % for two-exponential profiles with a
+    5-20 mm near-bed part, where the lowest layer means differ by 15-20 %).
+    ``tau_p_surface_fraction`` = ``tau_p_bed / (rho u*^2)``, u* the stress reading at the
+    reference height (extrapolated to the bed for the pressure-gradient drive).
+    ``tau_p_paper_cell_fraction``: the fit's mean over the paper's 0-1 cm cell
+    (:meth:`BedValue.layer_mean`; 0.87 of the bed value at H = 3.5 cm), beside Fig. 6's points.
+    A cross-check without a profile shape (:func:`budget_bed_fraction`): in a steady, uniform
+    layer the total stress is the same at every height and at the bed is carried by the air and
+    the grains, so ``tau_p(0) / tau_total = 1 - tau_air(0) / tau_total`` (as far as the run is
+    steady over the window).
 
 G, G_tot (eq. 11, section 3.2 [41]-[42])
     ``G(z) = <pmu>/(Lx Ly dz)`` [kg m-2 s-1], the horizontal and time mean of eq. 11;
     ``G_tot = sum_k G_k dz_k = <sum pmu>/(Lx Ly)`` [kg m-1 s-1].
-    ``z_m_flux995``: the height below which 99.5 % of G_tot lies; G is constant in each layer,
-    so the cumulative flux is piecewise linear in z and is inverted exactly.
+    ``z_m_flux995``: the height below which 99.5 % of G_tot lies (the cumulative flux is
+    piecewise linear in z, inverted exactly).
 
 sigma_G (section 4.3 [55])
-    The paper: "the mean standard deviation sigma_G of the mean total saltation flux <G_tot>
-    has been estimated from the instantaneous flux such as sigma_G = sqrt(<G_tot'^2>)" (the prime is
-    lost in the typeset text; without it the expression is the RMS, not a standard deviation).
-    The quantity under the average is the *instantaneous total flux* G_tot(t), the domain-wide
-    flux whose mean is <G_tot>, and its variability is temporal (the paper introduces it next to
-    the temporal variation of the particle number, Fig. 1). So ``sigma_G`` = standard deviation
-    over the sampling window of the recorded series ``G_tot_series`` (many more, and evenly
-    spaced, values than the 3-D samples). The alternative reading, the spread of the *local*
-    column flux ``G_col(x, y, t)`` about its time-space mean, measures the spatial streamer
-    contrast at the grid scale rather than the variability of the total flux; it is stored as
-    ``sigma_G_local`` (see :func:`sigma_local`).
+    The paper: "sigma_G = sqrt(<G_tot'^2>)" of "the instantaneous flux" (the prime is lost in the
+    typeset text; without it the expression is the RMS). The quantity is the domain-wide total
+    flux G_tot(t), its variability temporal (introduced beside Fig. 1's particle number), so
+    ``sigma_G`` is the standard deviation over the sampling window of ``G_tot_series``. The
+    spread of the local column flux about its time-space mean, the streamer contrast at the grid
+    scale, is ``sigma_G_local`` (:func:`sigma_local`).
 
 The statistics of one case built on these: :func:`grain_profiles` (tau_p, G and z_m),
 :func:`bed_share_statistics` (tau_p at the bed over rho u*^2, two ways) and
@@ -349,9 +333,7 @@ def pooled_mean_std(chunks) -> tuple[float, float]:
     return mean, math.sqrt(m2 / n)
 
 
-# ------------------------------------------------------------------------------------------
-# the statistics of one case
-# ------------------------------------------------------------------------------------------
+# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class GrainProfiles:
     """The grains' momentum and mass flux over the sampling window, and the saltation height."""

@@ -157,9 +157,7 @@ def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hi
     return out
 
 
-# ------------------------------------------------------------------------------------------
-# the statistics of one case
-# ------------------------------------------------------------------------------------------
+# ---- the statistics of one case ----
 #: the dimension of each distribution of :func:`impact_statistics` (the others are scalars)
 IMPACT_DIMS = {"impact_speed_pdf": ("v_imp",), "replacement_by_speed": ("v_imp",),
                "impacts_by_speed": ("v_imp",), "impact_angle_pdf": ("impact_angle",),

@@ -5,27 +5,11 @@ profile; with grains a log profile and constant stress hold above the saltation 
 saltation friction velocity ``u*s`` and roughness length ``z0s``. The paper reads u* from the
 stress, ``u*^2 = |<u'w'>|`` at z = 2 m, and z0 from a regression of ``<u> = (u*/kappa) ln(z/z0)``.
 
-This module provides
-
-* :func:`faces_to_centres` - the momentum flux ``uw_res + uw_sgs`` is stored on the faces
-  ``z_w``; the centre value is the mean of the two faces of the cell;
-* :func:`log_law_fit` - least squares of ``<u>`` on ``ln z`` over a height range:
-  slope ``a = u*/kappa``, intercept ``b = -(u*/kappa) ln z0``, so ``u* = kappa a`` and
-  ``z0 = exp(-b/a)``;
-* :func:`fit_range` - the documented range of that fit (see its docstring);
-* :func:`stress_u_star` - ``sqrt|uw|`` interpolated to a reference height.
-
-and the statistics of one case built on them:
-
-* :func:`wind_profiles` - the window means of the wind, the momentum flux (resolved + SGS) and
-  the TKE with grains, and the stress u* at the reference height ``z_ref_eff``; for the
-  pressure-gradient drive, whose total stress falls linearly to the lid, that u* is carried
-  down to the bed (``u*_0^2 = u*(z_ref)^2 / (1 - z_ref/H)``);
-* :func:`log_law_statistics` - ``u_star_s, z0s`` from the fit over ``[max(0.3 m, z_m), top]``
-  (z_m from tau_p with the stress u*, :func:`saltstudy.analysis.flux.grain_profiles`), ``z0s``
-  with u* held at the stress value, and the scatter of the same fit over the single samples;
-* :func:`spinup_reference` - the particle-free spin-up's profiles on the case's levels and its
-  ``u_star_0, z0_0`` from the same fit above 0.3 m.
+The momentum flux ``uw_res + uw_sgs`` is stored on the faces ``z_w``; the fit is least squares
+of ``<u>`` on ``ln z`` (``u* = kappa a``, ``z0 = exp(-b/a)`` for slope a and intercept b) over
+``[max(0.3 m, z_m), top]`` (:func:`fit_range`). For the pressure-gradient drive, whose total
+stress falls linearly to the lid, the stress u* is carried down to the bed
+(``u*_0^2 = u*(z_ref)^2 / (1 - z_ref/H)``).
 """
 from __future__ import annotations
 
@@ -124,9 +108,7 @@ def stress_u_star(z: np.ndarray, uw: np.ndarray, z_ref: float) -> float:
     return math.sqrt(abs(v)) if math.isfinite(v) else math.nan
 
 
-# ------------------------------------------------------------------------------------------
-# the statistics of one case
-# ------------------------------------------------------------------------------------------
+# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class WindProfiles:
     """The wind with grains over the sampling window (cell centres unless said)."""

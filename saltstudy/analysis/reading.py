@@ -1,22 +1,10 @@
 """Reading a case's archives for the analysis: ``samples.nc`` and ``spinup.nc`` as arrays.
 
 The analysis reads the archives only, never the solver, so everything it knows about the run
-comes from here:
-
-* :func:`read_archive` - the global attributes, the coordinates and the variables of an archive;
-  the large ones (``LAZY_VARIABLES``: the 3-D wind, the column flux and the wind planes, several
-  GB at the paper's fidelity) become :class:`LazyVar` handles read slice by slice;
-* :class:`Rows` - a block of a variable's first axis (the half windows' samples and planes)
-  indexed like the whole variable, so that a half window never loads a lazy variable whole;
-* :func:`case_info` - the pieces of the resolved scene (attribute ``case_json``) the statistics
-  need: the domain height and damping depth, the drive, the reference height, the soil, the
-  threshold's constants and the parcel weight;
-* :class:`Frame` (:func:`frame_of`) - the grid, the air and grain constants, the time axes and
-  the sampling window of one analysis, shared by every statistic;
-* the time means and sums of the 3-D samples' profiles (:func:`time_mean`, :func:`time_sum`);
-* :func:`rescale_spinup_profiles` - a spin-up shared by similarity brought to the case's u*s;
-* :func:`check_parcel_counts` - samples.nc stores C_p, not parcel counts: a check that the
-  parcel weight the counting noise assumes is the one that made C_p.
+comes from here. The large variables (``LAZY_VARIABLES``: the 3-D wind, the column flux and the
+wind planes, several GB at the paper's fidelity) are read slice by slice (:class:`LazyVar`,
+:class:`Rows`); :class:`Frame` holds what every statistic shares. samples.nc stores C_p, not
+parcel counts: :func:`check_parcel_counts` checks the parcel weight the counting noise assumes.
 
 The sampling window runs from the first to the last 3-D sample (one sample: to the end of the
 run); the 2-D planes are read over the same window (t >= first 3-D sample).

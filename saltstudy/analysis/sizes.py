@@ -7,8 +7,7 @@ is the *mass* fraction per bin, ``n d^3 / sum(n d^3)`` with d the bin centre (th
 
 The bed distribution ``psd_bed`` is the soil's lognormal mass-size distribution (eq. 5)
 integrated over each bin, renormalised over the bins so that both sum to one over the same
-bins. It comes from ``saltstudy.physics.soil.bin_mass_fractions(soil, edges)`` when that
-exists; otherwise from :func:`lognormal_bin_fractions` here (the same integral).
+bins (``saltstudy.physics.soil.bin_mass_fractions``).
 
 :func:`size_statistics` gives one case's distributions (and the height-summed size histogram
 the Stokes numbers read, :mod:`saltstudy.analysis.stokes`); :func:`threshold_statistics` the
@@ -26,7 +25,7 @@ import numpy as np
 from .reading import Frame, time_sum
 from .schema import Variables
 
-__all__ = ["DEFAULT_BAND_EDGES", "band_edges_for", "band_mass_fractions", "lognormal_bin_fractions",
+__all__ = ["DEFAULT_BAND_EDGES", "band_edges_for", "band_mass_fractions",
            "bed_mass_fractions", "SizeStatistics", "size_statistics", "threshold_u_star",
            "threshold_statistics"]
 
@@ -63,45 +62,19 @@ def band_mass_fractions(hist_z: np.ndarray, z: np.ndarray, d_bin: np.ndarray,
     return out
 
 
-def lognormal_bin_fractions(modes, edges: np.ndarray) -> np.ndarray:
-    """Mass fraction of a multimodal lognormal (eq. 5) in each bin, renormalised over the bins.
-
-    ``modes``: iterable of (mass_fraction, mu [m], sigma) - mu the mass median diameter.
-    """
-    edges = np.asarray(edges, dtype=np.float64)
-    frac = np.zeros(edges.size - 1)
-    for m, mu, sigma in modes:
-        s = math.log(sigma)
-        with np.errstate(divide="ignore"):
-            t = (np.log(np.maximum(edges, 1e-300)) - math.log(mu)) / (s * math.sqrt(2.0))
-        cdf = 0.5 * (1.0 + np.array([math.erf(v) for v in t]))
-        frac += m * np.diff(cdf)
-    tot = frac.sum()
-    return frac / tot if tot > 0 else np.full(frac.size, np.nan)
-
-
 def bed_mass_fractions(soil_dict: dict | None, edges: np.ndarray) -> tuple[np.ndarray, str]:
     """(psd_bed, source) for the soil of the case (a dict as in ``Case.soil``)."""
     if not soil_dict:
         return np.full(len(edges) - 1, np.nan), "unknown soil"
-    try:
-        from ..config import Soil
-        from ..physics import soil as soil_mod  # written by the physics engineer
-        soil = Soil.model_validate(soil_dict)
-        f = np.asarray(soil_mod.bin_mass_fractions(soil, np.asarray(edges)), dtype=np.float64)
-        tot = np.nansum(f)
-        if f.shape == (len(edges) - 1,) and tot > 0:
-            return f / tot, "saltstudy.physics.soil.bin_mass_fractions"
-    except (ImportError, AttributeError):
-        pass
-    modes = [(m.get("mass_fraction", 1.0), m.get("mu", 2e-4), m.get("sigma", 1.2))
-             for m in soil_dict.get("modes", [{}])]
-    return lognormal_bin_fractions(modes, edges), "saltstudy.analysis.sizes.lognormal_bin_fractions"
+    from ..config import Soil
+    from ..physics.soil import bin_mass_fractions
+    f = np.asarray(bin_mass_fractions(Soil.model_validate(soil_dict), np.asarray(edges)),
+                   dtype=np.float64)
+    tot = np.nansum(f)
+    return (f / tot if tot > 0 else np.full(f.size, np.nan)), "saltstudy.physics.soil.bin_mass_fractions"
 
 
-# ------------------------------------------------------------------------------------------
-# the statistics of one case
-# ------------------------------------------------------------------------------------------
+# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class SizeStatistics:
     #: Q-weighted grain counts per layer and diameter bin, summed over the samples (nz, d_bin)
@@ -145,11 +118,7 @@ def threshold_u_star(info: dict, rho: float, rho_p: float, g: float) -> float:
     modes = soil.get("modes") or [{}]
     d_mean = sum(float(m.get("mass_fraction", 1.0)) * float(m.get("mu", 2e-4)) for m in modes)
     th = info.get("threshold") or {}
-    try:
-        from ..physics.threshold import threshold_friction_velocity  # optional: NaN without it
-    except ImportError:
-        log.warning("saltstudy.physics.threshold missing: u_star_t is NaN")
-        return math.nan
+    from ..physics.threshold import threshold_friction_velocity
     try:
         return float(threshold_friction_velocity(d_mean, rho_p, rho, g, float(th.get("A_N", 0.0123)),
                                                  float(th.get("gamma", 3.0e-4))))

@@ -1,19 +1,9 @@
 """The streamers of one case (paper section 4.1, Table 2, Figs. 9-10): the readings of
 :mod:`saltstudy.analysis.streamers` applied to the case's planes over the sampling window.
 
-* :func:`concentration_readings` - from the C_p planes: lambda_x, lambda_y (the core of the
-  time-averaged autocorrelation, > 0.4), the spanwise spectrum S_c and delta_y by the three
-  readings, each with the paper's parcel-count noise; beside them the same lengths with the
-  run's own noise, with none, and with the noise of the paper's count, the noise's share of the
-  variance and the parcels per column;
-* :func:`streak_readings` - the spanwise spectrum S_u and delta_y_u of the wind at the 0.1 m plane
-  (the streaks of u, Figs. 9b, 10b);
-* :func:`above_first_cell_readings` - lambda_x, lambda_y and delta_y of the grains above the
-  first grid cell (C_p_above): the same readings without the slow first-cell population;
-* :func:`space_time_readings` - the peak of the space-time correlation of C_p against time lag,
-  and from it the streamers' speed and lifetime;
-* :func:`lagged_wind_correlation` - R_cu_lag, the correlation of C_p with the past wind at the
-  plane heights (beyond eq. 12, the paper's remark in [51]).
+lambda_x, lambda_y, S_c and delta_y of C_p (and of the grains above the first cell), S_u and
+delta_y_u of the wind at 0.1 m, the streamers' speed and lifetime, and R_cu_lag (C_p against
+the past wind at the plane heights: beyond eq. 12, the paper's remark in [51]).
 
 :class:`ParcelNoise` holds the parcel-count noise these readings remove: the run's parcels weigh
 ``w`` grains on columns of dx dy, the paper's weigh the case's Q on its 0.1 m columns, and the

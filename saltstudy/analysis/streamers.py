@@ -1,165 +1,80 @@
 """Aeolian streamers from the C_p planes: lambda_x, lambda_y, delta_y, lifetime and speed.
 
 ``C_p(x, y)`` is the vertically integrated, Q-weighted grain count per unit bed area [m-2]
-(paper section 4.1, Fig. 9a), recorded every ``plane_interval`` seconds. All fields are periodic
-in x and y, so every correlation and spectrum here is computed with FFTs on the full periodic
-domain (no windowing, no padding). Each plane is reduced to its deviation from its own spatial
-mean before correlating: the statistics describe the spatial pattern, not the drift of the
-domain mean.
+(paper section 4.1, Fig. 9a), recorded every ``plane_interval`` seconds. The fields are periodic,
+so every correlation and spectrum is an FFT on the full domain (no window, no padding), of each
+plane's deviation from its own spatial mean (the pattern, not the drift of the domain mean).
 
 Parcel-count (sampling) noise (beyond the paper)
-    C_p counts parcels of ``w`` grains each (``w`` = the run's parcel weight, the case's Q times
-    the fidelity's ``q_multiplier``; samples.nc attribute ``Q``), so a column of area
-    ``A = dx dy`` holds ``N = C_p A / w`` parcels. samples.nc keeps C_p, not N: the counts are
-    recovered from C_p and ``w`` (:func:`parcels_per_cell`). Given the concentration pattern,
-    the count of each column is Poisson: its variance is its mean. Averaged over the plane the
-    noise is white in space with variance ``n_bar`` parcels^2, ``n_bar`` the plane's mean count
-    per column, i.e. in C_p units
+    A column of area ``A = dx dy`` holds ``N = C_p A / w`` parcels of ``w`` grains (samples.nc
+    attribute ``Q``: the case's Q times the fidelity's ``q_multiplier``). Given the pattern, N is
+    Poisson, so the noise is white with variance ``s^2 = mean(C_p) w / A`` in C_p units
+    (:func:`poisson_noise_variance`): it adds ``s^2`` to every non-zero 2-D Fourier mode and a
+    floor ``s^2 dy`` per two-sided mode to the spanwise spectrum. It is not estimated from the
+    high-wavenumber band: streamers 2.5-6 cells wide put real power there.
 
-        ``s^2 = n_bar (w / A)^2 = mean(C_p) w / A``        (:func:`poisson_noise_variance`)
+    The paper's estimate carried the noise of its own parcels (the case's Q on 0.1 m columns,
+    about 20 parcels per column in case 2): ``s_paper^2 = mean(C_p) Q / A_paper``. **The reported
+    statistics (lambda_x, lambda_y, S_c, R_cu) carry the paper's noise level**: ``s^2 - s_paper^2``
+    is removed from each plane (added when negative), so that parcel weight and column size are
+    pure cost knobs for Table 2's noisy numbers. Kept beside them: ``*_noise_free`` (all of
+    ``s^2`` removed), ``*_raw`` (nothing removed) and ``*_paper_count``
+    (:func:`count_noise_variance`: the relative noise of the paper's 2,000 parcels per m2, [28],
+    for a run whose airborne count is not the paper's).
 
-    known from the plane's mean alone. It adds ``s^2`` to every non-zero 2-D Fourier mode (to
-    the autocovariance at zero lag) and a flat floor ``s^2 dy`` per two-sided mode to the
-    spanwise spectrum, and nothing else. It is *not* estimated from the high-wavenumber band:
-    streamers 2.5-6 cells wide put real power there.
-
-    The paper's own estimate carried the noise of its own parcels: the case's Q on 0.1 m x 0.1 m
-    columns (about 20 parcels per column in case 2, 6e5 parcels over 200 x 150 columns), i.e.
-    ``s_paper^2 = mean(C_p) Q / A_paper`` in C_p units, which depends on the concentration, not
-    on the grid. A run with heavier parcels or other columns has ``s^2`` instead.
-    **The reported statistics (lambda_x, lambda_y, the spectrum S_c, R_cu) carry the paper's
-    noise level**: ``s^2 - s_paper^2`` is removed from each plane (added when it is negative: a
-    run whose columns hold more parcels than the paper's would). Why: Table 2's numbers are the
-    noisy estimate, and this makes the parcel weight and the column size pure cost knobs for
-    them -- at the paper's Q and grid nothing is removed and the analysis is the paper's. The
-    paper's noise is small (at 20 parcels per column and a C_p contrast of order one, a few %
-    of the variance), so the noise-free values (``lambda_x_noise_free``,
-    ``lambda_y_noise_free``: all of ``s^2`` removed, the streamer core of the concentration
-    pattern itself) are kept beside them, and so are the run's own values (``*_raw``: nothing
-    removed) and those with the noise of the paper's *count* (``*_paper_count``,
-    :func:`count_noise_variance`: the run's noise replaced by 1/20 of mean(C_p)^2 on 0.1 m
-    columns, the relative noise of 2,000 parcels per m2, [28]). The paper-level reading assumes
-    the paper's parcels carried the run's concentration; a run holding k times the paper's
-    airborne grains at Q is then read k times less noisy than the paper's field was, and the
-    paper-count reading is the one that sees the paper's noise when the model's count is not
-    the paper's.
-
-    The Poisson variance is that of independent parcels. Parcels ejected together from one
-    impact travel together for a while, which raises the variance of the counts at the scale of
-    such clusters by a factor F (the counts' variance over their mean); a parcel's ejecta are
-    parcels of its own weight, so that excess also scales with the weight, and the paper's
-    level would be reached by removing ``F (s^2 - s_paper^2)``. F is not known from the counts
-    (a pattern 2-4 cells wide looks the same), so F = 1 is removed and the reported values lie
-    between the run's raw ones and the paper-level ones when F > 1.
-    ``C_p_small_scale_over_poisson`` (:func:`small_scale_power` over ``s^2``), the power at
-    wavelengths under 4 cells in both directions -- where an elongated pattern has little --
-    over the Poisson floor, bounds F from above: 1.5-1.7 in the reduced study (measured when
-    that band was the noise estimate), 1.9-2.5 in the smoke study's tiny grid.
+    Parcels ejected together travel together for a while, which raises the count variance at
+    the clusters' scale by a factor F that the counts cannot tell from a 2-4 cell pattern; F = 1
+    is removed, so with F > 1 the reported values lie between the raw and the paper-level ones.
+    ``C_p_small_scale_over_poisson`` (:func:`small_scale_power` over ``s^2``: wavelengths under
+    4 cells in both directions) bounds F from above: 1.5-1.7 in the reduced study, 1.9-2.5 on
+    the smoke study's tiny grid.
 
 lambda_x, lambda_y (section 4.1 [46], Table 2)
-    "estimated from time-average spatial autocorrelation of C_p in the horizontal section. We
-    defined the core of the streamer as the region where the autocorrelation is higher than 0.4".
-    :func:`autocorrelation_2d` averages the spatial autocovariance of the planes over time and
-    normalises it by its value at zero lag (the time-averaged spatial variance), after the
-    sampling-noise variance to remove has been taken out of every non-zero Fourier mode of each
-    plane. The ratio of the averages, rather than the average of per-plane ratios, because a
-    plane's noise-corrected variance is a small difference at ~1 parcel per column; planes
-    without variance (no grains) are skipped.
-    :func:`core_length` reads the extent of the > 0.4 region through the origin along one axis:
-    twice the first lag at which the correlation drops below 0.4 (linear interpolation between
-    the bracketing lags). NaN if it stays above 0.4 up to half the domain (the core then spans
-    the periodic domain and has no measurable length).
+    The extent of the core, where the time-averaged spatial autocorrelation exceeds 0.4
+    (:func:`autocorrelation_2d`, :func:`core_length`): twice the first lag at which it drops
+    below 0.4 (linear interpolation), NaN if it stays above up to half the domain. The
+    autocovariance is averaged over the planes with variance, after the noise, and normalised
+    by its zero lag (the ratio of averages: a plane's noise-corrected variance is a small
+    difference at ~1 parcel per column).
 
-delta_y (section 4.1 [46], [49], Fig. 10; the reading: docs/STREAMERS.md)
-    "The two-dimensional Fourier transform of C_p averaged in time and over longitudinal
-    wavelengths shows a well-defined maximum ... corresponding to the mean lateral spacing
-    delta_y between streamers". By Parseval in x, the 2-D power spectrum averaged over kx equals
-    the 1-D spanwise spectrum averaged over x rows; :func:`spanwise_spectrum` returns it as a
-    one-sided density in ky (cycles m-1; ``sum S dky`` = variance), with the spectra of
-    ``N_BLOCKS`` contiguous time blocks (:func:`spanwise_spectrum_blocks`) for its sampling
-    error. :func:`spanwise_spacing` reads delta_y three ways, each judged against that error:
+delta_y (section 4.1 [46], [49], Fig. 10; which reading and why: docs/STREAMERS.md)
+    The spanwise spectrum (the 2-D spectrum averaged over kx, by Parseval the 1-D spectrum
+    averaged over x rows), a one-sided density in ky [cycles m-1] with the spectra of
+    ``N_BLOCKS`` contiguous time blocks for its sampling error (:func:`spanwise_spectrum_blocks`),
+    read three ways by :func:`spanwise_spacing`: the premultiplied peak (Table 2's, on the
+    spectrum with the paper's noise), the density peak (on the raw spectrum) and twice the
+    first minimum of the spanwise autocorrelation.
 
-    * premultiplied (Table 2's reading, ``delta_y``): ``1/ky`` at the peak of ``ky S(ky)`` on a
-      logarithmic wavelength axis (:func:`premultiplied_peak`), read on the spectrum with the
-      paper's parcel noise (S_c): white noise rises as ky there, and heavier parcels must not
-      tilt it. A k^-1 density is flat in this form and has no peak;
-    * density: ``1/ky`` at the peak of ``S(ky)`` (:func:`spectral_peak`), read on the spectrum
-      with the run's noise in it: a flat floor moves neither the peak nor its prominence;
-    * correlation: twice the lag of the first minimum of the spanwise autocorrelation
-      (averaged over x and time, from S: :func:`spanwise_autocovariance`) after which the
-      correlation rises again by ``CORRELATION_N_SE`` standard errors
-      (:func:`correlation_minimum`). It reads the alternation of high and low values, and
-      individually varying streaks (each with its own amplitude) add a bump at zero lag of the
-      streaks' own width, which moves the first minimum out: over such streaks it reads a
-      longer spacing than the spectra.
+    A spectral peak (:func:`_prominent_maximum`) is an interior local maximum, modes
+    ``2 <= m < M`` (not the domain mode nor the last), standing ``PEAK_N_SE`` standard errors
+    above its base, the higher of the two valley floors that separate it from a higher point or
+    an end (topographic prominence). A periodogram average scatters in proportion to its mean,
+    so the relative block variance is pooled over ``PEAK_POOL_MODES`` modes on either side and
+    scaled by the peak and the base. The errors are those of the raw spectrum (removing a known
+    floor shifts a spectrum, not its scatter). With fewer than ``MIN_BLOCKS`` blocks a peak must
+    stand ``PEAK_FALLBACK_MARGIN`` above its base. The highest accepted peak wins, refined by a
+    parabola through its neighbours. Measured on Poisson parcel counts:
 
-    The spectral peaks share one criterion (:func:`_prominent_maximum`), with no limit on the
-    wavelength but the grid's (a local maximum needs a neighbour on each side, so the shortest
-    spacing is just over 2 cells):
-
-    * candidates are interior local maxima, modes ``2 <= m < M`` (not the domain-scale mode
-      m = 1, whose "spacing" is the domain width, and not the last mode M);
-    * each candidate's *base* is the higher of the two valley floors that separate it from a
-      higher point (or from the ends of the spectrum) on its left and its right (topographic
-      prominence);
-    * it counts as a peak if ``S_peak - base >= PEAK_N_SE * sqrt(se_peak^2 + se_base^2)``. The
-      standard errors come from the scatter of the block spectra: a periodogram average has a
-      standard deviation proportional to its mean, so the relative block variance is pooled over
-      the ``PEAK_POOL_MODES`` modes on either side of the candidate (more degrees of freedom
-      than one mode's 7) and scaled by ``S_peak`` and ``base``. ``PEAK_N_SE`` = 4.5 allows for
-      the selection of a maximum over a minimum among ~20-70 modes. Measured on Poisson parcel
-      counts: on pure noise (64 x 48 columns, 20 or 300 planes, 1.25 or 20 parcels per
-      column) it accepts a peak in 1 record of 400; a lattice of streaks 2.5-6 cells apart
-      (64 x 60 columns)
-      whose count intensity varies by 11 % (spatial standard deviation over mean) is found,
-      at the right spacing, in 34 records of 40 at 1.25 parcels per column over 100 planes
-      (4.0 standard errors: 10 false peaks in 400; 5.0: 25 of 40 found);
-    * the standard errors are those of the spectrum with the run's noise in it (the "raw"
-      spectrum; for the premultiplied reading times ky): removing a known floor shifts a
-      spectrum, not its scatter, and the noise a peak stands out of is the run's. A
-      heavier-parcel run therefore finds a peak only where it stands out of its own (larger)
-      noise. In the premultiplied reading ``ky S_raw`` grows along the spectrum, so a valley
-      floor at long wavelengths has a small error and the higher floor need not be the one a
-      peak stands least out of: the peak must stand out of both floors;
-    * measured on the same records of pure Poisson noise (both densities): the premultiplied
-      reading accepts a peak in none of 1200 records of 64 x 48 columns (20, 100 or 300
-      planes) and none of 400 of 64 x 150 (20 or 60 planes); the density reading in 8 of 1200
-      and 6 of 400 (the false rate grows with the number of modes searched). A faint lattice
-      (coherent streaks 3-6 cells apart, intensity standard deviation 5 % of the mean, 64 x 60
-      columns, 100 planes, 1.25 parcels per column) is found at its spacing in 72 records of 80
-      by the density reading and 26 of 80 by the premultiplied one: white noise rises as ky in
-      premultiplied form and lifts the floor on a peak's short-wavelength side;
-    * the Nyquist mode of an even number of cells holds the density of half a bin (so that
-      ``sum S dky`` is the variance); the premultiplied reading doubles it to a point density,
-      or a spectrum rising to the Nyquist mode would show a false peak one mode before it;
-    * with fewer than ``MIN_BLOCKS`` blocks (fewer than 4 planes) there is no error estimate and
-      a peak must stand ``PEAK_FALLBACK_MARGIN`` (20 %) above its base;
-    * of the accepted peaks the highest wins; its ky is refined by a parabola through the three
-      points around it (in ln ky for the premultiplied reading). A monotonically decaying
-      density (or one whose only maximum is the domain mode), or white noise, has no accepted
-      density peak; a premultiplied spectrum that is flat or monotonic up to either end, or
-      white noise, has no accepted premultiplied peak: the reading is NaN. A decaying density
-      with a knee (white at long wavelengths, steeper than k^-1 at short ones) has a
-      premultiplied peak at the knee and no density peak: there the readings part.
-
-    The correlation minimum is judged on the autocovariance of the blocks: its standard error
-    at each lag is the blocks' standard deviation over sqrt(nb), squared and pooled over
-    ``PEAK_POOL_MODES`` lags on either side. On the pure-noise records above it accepts a
-    minimum in none of 1200 (64 x 48) and 1 of 400 (64 x 150); one lag's own 7 degrees of
-    freedom would let 3 and 4 pass. Only the first local minimum is judged: a periodic
-    pattern's later minima are as deep as its first, and one of them standing out where the
-    first does not would read a multiple of the spacing. On the faint lattice above it finds
-    the spacing in 1 record of 80: it is the least sensitive reading.
+    * density reading, PEAK_N_SE = 4.5 (for the selection of a maximum among ~20-70 modes): a
+      false peak in 1 record of 400 (64 x 48 columns, 20 or 300 planes, 1.25 or 20 parcels per
+      column); a lattice of streaks 2.5-6 cells apart (64 x 60, intensity s.d. 11 % of the
+      mean, 1.25 parcels per column, 100 planes) found at its spacing in 34 of 40 (4.0 standard
+      errors: 10 false peaks in 400; 5.0: 25 of 40 found);
+    * false peaks on pure noise: premultiplied none of 1200 (64 x 48; 20, 100, 300 planes) and
+      none of 400 (64 x 150); density 8 of 1200 and 6 of 400. A faint lattice (3-6 cells, s.d.
+      5 %, 64 x 60, 100 planes, 1.25 parcels per column) is found in 72 of 80 by the density
+      and 26 of 80 by the premultiplied reading (white noise rises as ky there);
+    * correlation minimum (errors pooled over ``PEAK_POOL_MODES`` lags): false in none of 1200
+      and 1 of 400 (one lag's own 7 degrees of freedom would let 3 and 4 pass); the faint
+      lattice in 1 of 80: the least sensitive reading.
 
 Streamer lifetime and propagation speed (beyond the paper; compare Baas and Sherman 2005,
 quoted in section 4.1 [46]: lifetime 0.5-1 s, speed 3.6 m s-1)
-    :func:`space_time_correlation` correlates ``C_p'(t)`` with ``C_p'(t + tau)`` at all spatial
-    lags (normalised per pair of planes, averaged over time origins). For each ``tau`` the peak
-    value ``R*(tau)`` and its position ``(X*(tau), Y*(tau))`` (parabolic sub-grid refinement,
-    unwrapped across the periodic boundary) describe the moving frame.
-    ``streamer_speed`` = least-squares slope through the origin of ``X*(tau)`` against ``tau``
-    over the lags with ``R* >= 1/e``; ``streamer_lifetime`` = the lag at which ``R*`` first
-    drops below ``1/e`` (linear interpolation), NaN if it does not within the lag range.
+    :func:`space_time_correlation`: the peak ``R*(tau)`` of the correlation of ``C_p'(t)`` with
+    ``C_p'(t + tau)`` over spatial lags and its position ``(X*, Y*)`` (parabolic refinement,
+    unwrapped). ``streamer_speed``: the least-squares slope through the origin of X* against tau
+    over the lags with ``R* >= 1/e``; ``streamer_lifetime``: the lag at which R* first drops
+    below 1/e (interpolated), NaN if it does not within the lag range.
 """
 from __future__ import annotations
 
@@ -240,11 +155,8 @@ def poisson_noise_variance(planes: np.ndarray, grains_per_parcel: float,
 def count_noise_variance(planes: np.ndarray, parcels_per_m2: float,
                          cell_area: float) -> np.ndarray:
     """Per-plane variance [m-4] of the Poisson noise C_p would carry if its mean were made of
-    ``parcels_per_m2`` parcels per m2 on columns of area ``A``: ``mean(C_p)^2 / (n A)``, the
-    same relative noise (1 / parcels per column) whatever the concentration. For the paper's
-    count (2,000 per m2 at its Q, [28]) on its 0.1 m columns that is 1/20 of mean(C_p)^2: the
-    noise of the paper's field, where :func:`poisson_noise_variance` at the paper's Q is the
-    noise of the paper's parcels carrying the run's concentration."""
+    ``parcels_per_m2`` parcels per m2 on columns of area ``A``: ``mean(C_p)^2 / (n A)`` (the
+    paper's 2,000 per m2, [28], on 0.1 m columns: 1/20 of mean(C_p)^2)."""
     if not (parcels_per_m2 > 0 and cell_area > 0):
         return np.full(np.shape(planes)[0], np.nan)
     return _plane_means(planes) ** 2 / (parcels_per_m2 * cell_area)
@@ -274,14 +186,10 @@ def centred_lags(n: int, d: float) -> np.ndarray:
 
 
 def autocorrelation_2d(planes: np.ndarray, noise: np.ndarray | None = None) -> np.ndarray:
-    """Time-averaged normalised periodic autocorrelation of (nt, nx, ny) planes.
-
-    Returned fftshift-ed: zero lag at ``[nx//2, ny//2]`` (see :func:`centred_lags`). ``noise``
-    (nt,): white-noise variance removed from each plane, from every non-zero Fourier mode (the
-    expected effect of white noise on a plane whose mean has been removed). The autocovariance
-    is averaged over the planes with variance and normalised by its zero-lag value (module
-    docstring). All NaN if no plane has variance or none is left after the noise.
-    """
+    """Time-averaged normalised periodic autocorrelation of (nt, nx, ny) planes, fftshift-ed
+    (zero lag at ``[nx//2, ny//2]``, :func:`centred_lags`). ``noise`` (nt,): white-noise variance
+    removed from every non-zero Fourier mode of each plane. All NaN if no plane has variance or
+    none is left after the noise."""
     planes = np.asarray(planes, dtype=np.float64)
     nt, nx, ny = planes.shape
     dev, var = deviation_planes(planes)
@@ -332,16 +240,11 @@ def spanwise_spectrum_blocks(planes: np.ndarray, dy: float, n_blocks: int = N_BL
                              noise: np.ndarray | None = None
                              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(ky [cycles m-1], S(ky), standard error of S, block spectra (nb, nky)) of (nt, nx, ny)
-    planes.
-
-    One-sided density: ``sum_m S_m dky`` = mean spatial variance of the planes (dky = 1/Ly).
-    Averaged over x (= over kx by Parseval) and time. The blocks are ``min(n_blocks, nt)``
-    contiguous runs of planes; the standard error is their standard deviation over sqrt(nb)
-    (NaN with fewer than 4 planes, and then no blocks: shape (0, nky)).
+    planes: the one-sided density (``sum_m S_m dky`` = mean spatial variance, dky = 1/Ly),
+    averaged over x and time. The blocks are ``min(n_blocks, nt)`` contiguous runs of planes;
+    the error is their standard deviation over sqrt(nb) (NaN, and no blocks, under 4 planes).
     ``noise`` (nt,): each plane's white-noise variance s^2, whose floor is subtracted (``s^2/ny``
-    per two-sided mode of a row, ``(1 - 1/nx) s^2/ny`` at ky = 0 where the rows' means keep
-    only their deviation from the plane's).
-    """
+    per two-sided mode, ``(1 - 1/nx) s^2/ny`` at ky = 0: the rows' means are deviations)."""
     planes = np.asarray(planes, dtype=np.float64)
     nt, nx, ny = planes.shape
     Ly = ny * dy
@@ -416,14 +319,11 @@ def _prominent_maximum(F: np.ndarray, scale: np.ndarray, rel2: np.ndarray | None
                        n_se: float, pool: int, fallback_margin: float,
                        both_valleys: bool = False) -> int:
     """Mode of the highest interior maximum of ``F`` (modes ``2 <= m < M``) that stands out of
-    its topographic base (module docstring); -1 when none does.
-
-    The standard error of ``F`` at mode i is ``sqrt(r2) scale[i]``, r2 the mean of ``rel2``
-    over the ``pool`` modes on either side of the candidate (a periodogram average scatters in
-    proportion to its mean, ``scale``). With ``both_valleys`` the peak must stand out of each
-    of its two valley floors, not only the higher: where ``scale`` varies along the spectrum
-    the higher floor need not be the one the peak stands least out of. Without ``rel2`` a peak
-    must stand ``fallback_margin`` times its base's magnitude above it."""
+    its topographic base (module docstring); -1 when none does. The error of ``F`` at mode i is
+    ``sqrt(r2) scale[i]``, r2 the mean of ``rel2`` over ``pool`` modes on either side. With
+    ``both_valleys`` the peak must stand out of both valley floors (where ``scale`` varies the
+    higher floor need not be the one it stands least out of). Without ``rel2``: a relative
+    ``fallback_margin`` above the base."""
     M = F.size - 1
     best_m, best_f = -1, -math.inf
     for m in range(2, M):
@@ -473,23 +373,15 @@ def premultiplied_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None 
                        S_raw: np.ndarray | None = None, nyquist_half_bin: bool = False,
                        n_se: float = PEAK_N_SE, pool: int = PEAK_POOL_MODES,
                        fallback_margin: float = PEAK_FALLBACK_MARGIN) -> float:
-    """ky [cycles m-1] of the peak of the premultiplied spectrum ``ky S(ky)`` on a logarithmic
-    wavelength axis (the reading of delta_y that Table 2 uses, docs/STREAMERS.md); NaN when
-    there is none.
+    """ky [cycles m-1] of the peak of ``ky S(ky)`` on a logarithmic wavelength axis (Table 2's
+    delta_y, docs/STREAMERS.md); NaN when there is none (a flat k^-1 density, or a spectrum
+    rising or falling to either end).
 
-    ``S`` [variance m]: the density to read (for C_p, the one carrying the paper's parcel
-    noise). ``blocks`` (nb, nky) and ``S_raw``: the block spectra of the record with all its
-    noise in, and their mean (default ``S``); the standard error of ``ky S`` at a mode is
-    ``ky`` times that of ``S_raw`` (removing a known noise floor shifts the spectrum, not its
-    scatter). The peak must stand out of its base as in :func:`spectral_peak`; the longest
-    resolved wavelength (mode 1) and the Nyquist mode are never peaks, so a premultiplied
-    spectrum that is flat (a k^-1 density) or rises or falls to either end has none. The
-    position is refined by a parabola through the three modes around the maximum in ln ky.
-
-    ``nyquist_half_bin``: the last mode is the Nyquist mode of an even number of cells, where
-    :func:`spanwise_spectrum_blocks` gives the density of a half bin (so that ``sum S dky`` is
-    the variance); it is doubled to the point density, else a spectrum rising to the Nyquist
-    mode (white noise, premultiplied) would show a false peak one mode before it."""
+    ``S`` [variance m]: the density to read. ``blocks`` (nb, nky) and ``S_raw`` (default ``S``):
+    the block spectra with all the record's noise in and their mean; the error of ``ky S`` is
+    ``ky`` times that of ``S_raw``. ``nyquist_half_bin``: the last mode is the Nyquist mode of an
+    even number of cells, which holds the density of half a bin; it is doubled to a point
+    density, else a spectrum rising to it (white noise) would show a false peak one mode before."""
     ky = np.asarray(ky, dtype=np.float64)
     S = np.array(S, dtype=np.float64)
     S_raw = S.copy() if S_raw is None else np.array(S_raw, dtype=np.float64)
@@ -540,19 +432,14 @@ def correlation_minimum(ky: np.ndarray, S: np.ndarray, dy: float,
                         pool: int = PEAK_POOL_MODES,
                         fallback_rise: float = CORRELATION_FALLBACK_RISE) -> float:
     """Lag [m] of the first minimum of the spanwise autocorrelation that stands out of the
-    sampling noise (delta_y of the correlation reading is twice it); NaN when there is none.
+    sampling noise (the correlation reading of delta_y is twice it); NaN when there is none.
 
-    The autocovariance C and its standard error come from ``S`` and the block spectra
-    (:func:`spanwise_autocovariance`; the error is the blocks' standard deviation over
-    sqrt(nb), its square pooled over the ``pool`` lags on either side). A local minimum at lag
-    j (0 < j < ny//2: the half-domain lag, where every periodic correlation is stationary, is
-    not one) counts if the correlation rises from it again, before the half-domain lag, by
-    ``n_se`` standard errors of the difference: the alternation of high and low values that a
-    spacing is. It need not be negative: a red background (motions larger than the spacing)
-    lifts the whole correlation without moving the alternation. Only the first local minimum
-    is judged (a later one standing out where the first does not would be a multiple of the
-    spacing); it is refined by a parabola through its neighbours. With fewer than
-    ``MIN_BLOCKS`` blocks the rise must be ``fallback_rise`` in correlation units."""
+    A local minimum at lag j (0 < j < ny//2: every periodic correlation is stationary at the
+    half-domain lag) counts if the correlation rises from it again, before ny//2, by ``n_se``
+    standard errors of the difference (the blocks' standard deviation over sqrt(nb), squared
+    and pooled over ``pool`` lags on either side; with fewer than ``MIN_BLOCKS`` blocks a rise of
+    ``fallback_rise`` in correlation units). It need not be negative: a red background lifts the
+    whole correlation without moving the alternation. Refined by a parabola."""
     ky = np.asarray(ky, dtype=np.float64)
     S = np.asarray(S, dtype=np.float64)
     if S.size < 4 or not np.all(np.isfinite(S)):
@@ -605,12 +492,10 @@ def spanwise_spacing(planes: np.ndarray, dy: float, noise: np.ndarray | None = N
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray, SpanwiseSpacing]:
     """(ky, S, standard error of S, delta_y by the three readings) of (nt, nx, ny) planes.
 
-    ``S`` is the spanwise density with ``noise`` (nt,) removed (:func:`spanwise_spectrum`; for
-    C_p, the run's parcel noise less the paper's). The premultiplied peak is read on it; the
-    density peak on the spectrum with all the record's noise in (a flat floor moves neither a
-    peak of the density nor its prominence); the correlation minimum on ``S`` (white noise
-    touches only the zero lag). Every reading's sampling error comes from the blocks of the
-    record with all its noise in: that is the scatter a spacing must stand out of."""
+    ``S``: the spanwise density with ``noise`` (nt,) removed (for C_p, the run's parcel noise
+    less the paper's), on which the premultiplied peak and the correlation minimum (white noise
+    touches only its zero lag) are read; the density peak is read on the raw spectrum (a flat
+    floor moves neither the peak nor its prominence). Every error is the raw record's."""
     ky, S, se, blocks = spanwise_spectrum_blocks(planes, dy, n_blocks, noise)
     S_raw = S
     if noise is not None:

@@ -13,14 +13,13 @@ Defaults carry over the paper's values (sections 2.1-2.4, Appendix A); see ``dat
 """
 from __future__ import annotations
 
-from .base import PAPER_AREA_M2, Frozen, content_hash
+from .base import PAPER_AREA_M2, Frozen, content_hash, deep_merge, validate_model
 from .case import (Air, Case, Closure, Forcing, Particles, Physics, Soil, SoilMode, Splash, Surface,
                    Threshold)
 from .fidelity import Fidelity, GridSpec, Outputs, Relaxation, Sampling, SpinUp, TimeStepping
 from .files import ConfigError, case_path, list_case_numbers, project_root, read_toml
-from .loading import (airborne_counts, deep_merge, load_case, load_fidelity, load_study, parcel_weight,
-                      resolve_scene, study_fidelity_folder, study_file, study_runs, validate_file,
-                      validate_model)
+from .loading import (airborne_counts, load_case, load_fidelity, load_study, parcel_weight,
+                      resolve_scene, study_fidelity_folder, study_file, study_runs, validate_file)
 from .study import RunSpec, Scene, SceneSpec, Study
 
 __all__ = [

@@ -8,51 +8,20 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
-
+from .base import deep_merge, validate_model
 from .case import Case
 from .fidelity import Fidelity
 from .files import (ConfigError, case_path, locate_fidelity, locate_study, own_fidelity_folder,
                     read_toml)
 from .study import RunSpec, Scene, SceneSpec, Study
 
-__all__ = ["deep_merge", "validate_model", "load_case", "load_fidelity", "load_study", "study_file",
-           "study_fidelity_folder", "resolve_scene", "study_runs", "validate_file", "airborne_counts",
-           "parcel_weight"]
+__all__ = ["load_case", "load_fidelity", "load_study", "study_file", "study_fidelity_folder",
+           "resolve_scene", "study_runs", "validate_file", "airborne_counts", "parcel_weight"]
 
 
 # --------------------------------------------------------------------------------------------
 # Loading
 # --------------------------------------------------------------------------------------------
-def deep_merge(base: dict[str, Any], update: dict[str, Any]) -> dict[str, Any]:
-    """Recursive dict merge (update wins); lists and scalars are replaced."""
-    out = dict(base)
-    for k, v in update.items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = deep_merge(out[k], v)
-        else:
-            out[k] = v
-    return out
-
-
-def _format_errors(err: ValidationError, source: str) -> str:
-    lines = [f"{source}: invalid configuration"]
-    for e in err.errors():
-        loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
-        msg = e["msg"].removeprefix("Value error, ")
-        if e["type"] == "extra_forbidden":
-            msg = "unknown key (not a field of this section)"
-        lines.append(f"  {loc}: {msg}")
-    return "\n".join(lines)
-
-
-def validate_model(cls: type[BaseModel], data: dict[str, Any], source: str) -> Any:
-    try:
-        return cls.model_validate(data)
-    except ValidationError as err:
-        raise ConfigError(_format_errors(err, source)) from None
-
-
 def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
               root: Path | None = None) -> Case:
     """Load a case by number or path, apply ``overrides`` (deep-merged), validate."""

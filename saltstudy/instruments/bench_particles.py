@@ -1,7 +1,6 @@
-"""Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow.
-
-    python -m saltstudy.instruments.bench_particles [--json] [--phases] [--steps N] [--n 1e5 --n 1e6]
-    saltstudy bench particles ...          (registered by instruments/cli_commands.py via register_bench)
+"""Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow
+(``saltstudy bench particles``, or ``python -m saltstudy.instruments.bench_particles [--json]
+[--phases] [--steps N] [--n 1e5 --n 1e6]``; docs/BENCHMARKS.md).
 
 The flow is a frozen synthetic log-law wind (u*s of case 2) with smooth periodic perturbations of
 30% u* in u, v, w; the parcels are spread in the lowest 0.3 m with random velocities, so they
@@ -13,13 +12,8 @@ the time goes, for whoever works on the speed target. The component is given its
 wrapped in a timer (its ``kernels`` record, particles.StepKernels) for the timed steps, and its
 own back afterwards; nothing else is touched.
 
-``--against REV`` times this checkout against the grain component of git revision REV: REV's
-``saltstudy/``, ``cases/`` and ``workflows/`` are extracted (``git archive``) under
-``~/.cache/saltstudy/compare/<sha>/`` with the package renamed, and rounds of ``--steps`` steps
-alternate between the two (the order flipped every round) on the same set-up, each round of each
-side in a fresh process that builds that side alone (instruments/revision.py says why: in one
-process the side first built there ran up to 16 % faster). REV's kernels compile on first use and are
-cached beside this checkout's (numba's cache, keyed by this checkout's sources).
+``--against REV`` times this checkout against the grain component of git revision REV, rounds of
+``--steps`` steps alternating between the two, each in a fresh process (instruments/revision.py).
 
 ``--cpu-time`` times the main thread's CPU time instead of the wall: with
 ``NUMBA_NUM_THREADS=1`` the code's work, which other jobs on the machine hardly move (their

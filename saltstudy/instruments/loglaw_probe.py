@@ -1,9 +1,5 @@
 """Windowed log-law probe of the particle-free surface layer: the instrument behind the tables on
-the shear dip in reports/investigations/loglaw/README.md.
-
-    saltstudy probe loglaw [--case 1] [--fidelity reduced] [--drive top] [--t-end 300]
-                           [--window 100] [--grid JSON] [--overrides JSON]
-                           [--roll-damping RATE] [--json]
+the shear dip in reports/investigations/loglaw/README.md (``saltstudy probe loglaw``).
 
 Runs one case without grains from its initial state and, at the end of every ``window`` seconds,
 reports the means over that window (one profile per second):
@@ -24,10 +20,8 @@ reports the means over that window (one profile per second):
 - phi(z) on every level below Lz/2 (``phi_profile``), for plots;
 - with the dynamic closure, its C_s(z) and beta(z) (window means; beta 0 where undefined).
 
-``--grid`` and ``--overrides`` take JSON merged into the fidelity's ``grid`` block and into the
-case (validated like the files: a bad field is named); ``--drive`` sets ``forcing.drive`` over any
-given in ``--overrides``. ``--roll-damping RATE`` [s^-1] is a
-diagnostic, not a model: after every step it relaxes the x-mean of v (less its plane mean) and of
+``--drive`` sets ``forcing.drive`` over any given in ``--overrides``. ``--roll-damping RATE``
+[s^-1] is a diagnostic, not a model: after every step it relaxes the x-mean of v (less its plane mean) and of
 w towards zero at that rate, which removes the x-uniform roll circulation while leaving the
 field divergence-free (the x-mean of a solenoidal field is solenoidal in (y, z)). Comparing a run
 with and without it measures how much of the stress those box-locked modes carry.
@@ -160,7 +154,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     us_exp = u_star_expected(hs)
     k_co = int(np.argmin(np.abs(g.z_f - CO_HEIGHT)))
     k_st = int(np.argmin(np.abs(g.z_c - STREAK_HEIGHT)))
-    from .. import __version__
+    from .._identity import __version__
     out = {"grid": [g.nx, g.ny, g.nz], "L": [g.Lx, g.Ly, Lz], "drive": m.drive,
            "heights": list(HEIGHTS), "closure": scene.case.closure.model_dump(mode="json"),
            "package_version": __version__,
@@ -263,12 +257,15 @@ def _writer(path: str):
 
 
 def register_probe(app) -> None:
-    """Add ``saltstudy probe loglaw`` to the given typer app."""
+    """Add the ``saltstudy probe`` group to the given typer app: ``loglaw``, the other probes
+    and the investigations' reports (report/cli_commands.py)."""
     import typer
 
     from ..config import ConfigError
 
-    probe_app = typer.Typer(no_args_is_help=True, help="Diagnostic runs of the flow solver.")
+    probe_app = typer.Typer(no_args_is_help=True, help="Diagnostic runs of the model (the flow "
+                            "alone, the grains' layer, a run's archives) and the reports of "
+                            "the investigations that use them.")
 
     @probe_app.command("loglaw")
     def loglaw(case: int = typer.Option(1, "--case", help="case number (its u*s and z0)"),
@@ -300,4 +297,6 @@ def register_probe(app) -> None:
     register_steady_layer(probe_app)
     from .column_budget import register_column_budget
     register_column_budget(probe_app)
+    from ..report.cli_commands import register as register_reports
+    register_reports(probe_app)
     app.add_typer(probe_app, name="probe")

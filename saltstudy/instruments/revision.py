@@ -5,12 +5,8 @@ archive``) under ``~/.cache/saltstudy/compare/<sha>/`` with the package renamed
 
 Each timed round of a comparison runs in a fresh process (``run_isolated``) that imports and
 builds one side only, and the sides alternate between rounds, so that the machine's drift falls
-on both. Two sides in one process are not on the same footing: two copies of the same sources
-(one revision extracted twice under two names), timed in alternating rounds in one process at
-10^5 parcels on one thread, gave the side first built in the process its bed events 22-31 %
-and its implicit estimate 10 % faster, whichever name it had (the whole step 1 % and 16 %). In
-fresh processes this checkout against its own HEAD gave -3 % at 10^5 and +1 % at 10^6 parcels,
-inside the rounds' scatter (docs/BENCHMARKS.md).
+on both. In one process the side built first ran up to 16 % faster, whichever it was
+(measured with two copies of the same sources: docs/BENCHMARKS.md).
 """
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""The splash law's own steady saltation layer, in one dimension and without the LES.
-
-    saltstudy probe steady-layer [--case 2] [--u-star 0.54] [--overrides JSON] [--json]
+"""The splash law's own steady saltation layer, in one dimension and without the LES
+(``saltstudy probe steady-layer``).
 
 Test grains hop over a flat bed in a horizontally uniform wind u(z). Each impact is splashed by
 the paper's law (eqs. 6-9: rebound with P_reb, N_ej ejecta by stochastic rounding, their speeds

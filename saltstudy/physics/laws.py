@@ -63,9 +63,7 @@ def log_law_u(z, u_star, z0, kappa=0.40):
     return _out(u_star / kappa * np.log(z / z0))
 
 
-# --------------------------------------------------------------------------------------------
-# Fig. 3: saltation roughness length z0s [m]
-# --------------------------------------------------------------------------------------------
+# ---- Fig. 3: saltation roughness length z0s [m] ----
 
 
 def log_law_shape(z, H: float | None = None) -> np.ndarray:
@@ -191,9 +189,7 @@ def sherman1992_z0s(u_star, u_star_t, *, z0=1.0e-5, g=9.81, C_m=0.132):
     return _out(C_m * excess * excess / g + z0)
 
 
-# --------------------------------------------------------------------------------------------
-# Fig. 8: total saltation flux G_tot [kg m^-1 s^-1]
-# --------------------------------------------------------------------------------------------
+# ---- Fig. 8: total saltation flux G_tot [kg m^-1 s^-1] ----
 def bagnold1937_flux(u_star, u_star_t=None, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
                      D=D_REF, c=1.5):
     """Bagnold (1937) G = c sqrt(d/D) rho u*^3 / g [kg m^-1 s^-1], c = 1.5, D = 250 um.

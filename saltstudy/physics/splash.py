@@ -79,9 +79,7 @@ def splash_constants(splash, soil, g: float) -> np.ndarray:
     ], dtype=np.float64)
 
 
-# --------------------------------------------------------------------------------------------
-# The laws, one process each (numba)
-# --------------------------------------------------------------------------------------------
+# ---- The laws, one process each (numba) ----
 @jit
 def rebound_probability(v_imp: float, p_reb_max: float, gamma_reb: float) -> float:
     """P_reb = p_max (1 - exp(-gamma_reb v_imp)), eq. 6 (Anderson & Haff 1991); p_max = 0.95."""
@@ -228,9 +226,7 @@ def splash_impacts(rng, ui, vi, wi, di, sp, cum, mu, lnsig):
     return launch[:m], parent[:m]
 
 
-# --------------------------------------------------------------------------------------------
-# Truncated normal
-# --------------------------------------------------------------------------------------------
+# ---- Truncated normal ----
 def _phi(x: float) -> float:
     return 0.0 if math.isinf(x) else math.exp(-0.5 * x * x) / math.sqrt(2.0 * math.pi)
 
@@ -275,9 +271,7 @@ def vertical_angle_moments(mean_deg: float, std_deg: float) -> tuple[float, floa
     return truncated_normal_moments(mean_deg, std_deg, *ANGLE_V_BOUNDS_DEG)
 
 
-# --------------------------------------------------------------------------------------------
-# Analytic expectations (numpy, vectorised over v_imp; the laws element-wise)
-# --------------------------------------------------------------------------------------------
+# ---- Analytic expectations (numpy, vectorised over v_imp; the laws element-wise) ----
 def _r(x):
     return float(x) if np.ndim(x) == 0 else x
 

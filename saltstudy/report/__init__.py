@@ -6,20 +6,13 @@ load matplotlib.
 """
 from __future__ import annotations
 
-__all__ = ["build_report", "build_convergence_report", "build_stability_report", "make_animation"]
+_LAZY = {"build_report": "build", "build_convergence_report": "convergence",
+         "build_stability_report": "stability", "make_animation": "animation"}
+__all__ = list(_LAZY)
 
 
 def __getattr__(name: str):
-    if name == "build_report":
-        from .build import build_report
-        return build_report
-    if name == "build_convergence_report":
-        from .convergence import build_convergence_report
-        return build_convergence_report
-    if name == "build_stability_report":
-        from .stability import build_stability_report
-        return build_stability_report
-    if name == "make_animation":
-        from .animation import make_animation
-        return make_animation
-    raise AttributeError(name)
+    if name not in _LAZY:
+        raise AttributeError(name)
+    from importlib import import_module
+    return getattr(import_module(f".{_LAZY[name]}", __name__), name)

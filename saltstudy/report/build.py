@@ -163,14 +163,20 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     return index
 
 
-def _study_field(meta: dict[str, Any], name: str) -> Any:
-    """A field of the study's configuration (``meta["study_config"]``, a dict or its JSON)."""
+def _study_config(meta: dict[str, Any]) -> Any:
+    """The study's configuration (``meta["study_config"]``: a dict, its JSON, or other text)."""
     cfg = meta.get("study_config")
     if isinstance(cfg, str):
         try:
-            cfg = json.loads(cfg)
+            return json.loads(cfg)
         except ValueError:
-            return None
+            pass
+    return cfg
+
+
+def _study_field(meta: dict[str, Any], name: str) -> Any:
+    """A field of the study's configuration, None when it is not a dict."""
+    cfg = _study_config(meta)
     return cfg.get(name) if isinstance(cfg, dict) else None
 
 
@@ -287,12 +293,7 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
                      f"<td>{_fmt_s(r.wall_time_s)}</td>"
                      f"<td style='text-align:left'>{e(str(r.path) if r.path else '—')}</td></tr>")
     parts.append("</tbody></table>")
-    cfg = meta.get("study_config")
-    if isinstance(cfg, str):
-        try:
-            cfg = json.loads(cfg)
-        except ValueError:
-            pass
+    cfg = _study_config(meta)
     parts.append("<h2 id='config'>Study configuration</h2>")
     parts.append(f"<pre>{e(json.dumps(cfg, indent=2) if not isinstance(cfg, str) else cfg)}</pre>"
                  if cfg is not None else "<p>not provided</p>")

@@ -1,10 +1,10 @@
-"""The report commands of the investigations: ``loglaw-report`` (particle-free log-law probes) and
-``variants-report`` (model variants over seeds). A study's own report: ``saltstudy figures``
-(workflow/cli_commands.py), which finds its archives in the cache."""
+"""The report commands of the investigations, in the ``probe`` group beside the probes
+(instruments/loglaw_probe.py): ``saltstudy probe loglaw-report`` (particle-free log-law probes)
+and ``saltstudy probe variants-report`` (model variants over seeds). A study's own report:
+``saltstudy figures`` (workflow/cli_commands.py), which finds its archives in the cache."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 
@@ -12,6 +12,7 @@ __all__ = ["register"]
 
 
 def register(app: typer.Typer) -> None:
+    """Add the investigations' report commands to ``app`` (the ``probe`` group)."""
     @app.command("loglaw-report")
     def loglaw_report(
         directory: Path = typer.Argument(..., help="directory of `saltstudy probe loglaw --json` results"),

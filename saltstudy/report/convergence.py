@@ -1,35 +1,25 @@
 """Error against run time for a convergence ladder (one case at a ladder of fidelities).
 
-For each statistic (u*s read from the stress at 2 m and from the free log fit, z0s with the
-stress u*s, z_m, G_tot, z_q = G's e-folding height, sigma_G/G_tot, lambda_x, lambda_y, delta_y, the
-tau_p surface fraction, R_cu in the upper layer, the height z/z_m above which the Stokes number
-stays below 1 and the airborne grain count N_air) and each rung:
-* its value ± an error bar, the larger of two estimates of one run's noise: half the difference
-  between the statistic over the two halves of the sampling window (analysis ``<stat>_halves``),
-  and, where the study repeats a run with only the seed changed, the seeds' scatter (see
-  :func:`seed_noise`); and whether the difference from the reference lies inside the two runs'
-  bars added in quadrature (then it is not a result);
+For each statistic (``CONV_STATS``) and each rung:
+* its value ± an error bar, the larger of two estimates of one run's noise (``NOISE_NOTE``:
+  the two half windows, and the seeds' scatter where the study repeats a run with only the seed
+  changed, :func:`seed_noise`); and whether the difference from the reference lies inside the
+  two runs' bars added in quadrature (then it is not a result);
 * the relative difference from the *reference* rung: the study's ``reference`` fidelity when it
   names one (a sensitivity study: one-knob variants of a base fidelity), else the finest rung (the
   declared order's last, else the largest wall time);
-* the relative error against the paper (where the paper gives a value: Table 2 for u*s, lambda_x,
-  lambda_y, delta_y; its Fig. 4 line for z_m of cases 1-6; 0.3 for R_cu of cases 1-6; 0.5 for the
-  tau_p fraction of case 6; 0.1 z_m for the St height of soils with mu1 >= 200 um; the 10-20 %
-  range for sigma_G/G_tot, where the error is the distance to the nearer bound and 0 inside; the
-  paper gives no per-case z0s, G_tot, z_q or N_air),
-plotted against the wall-clock time of the rung (its spin-up + saltation run; the spin-up's share is
-listed beside it: rungs on the same grid share one spin-up, so a study pays it once); and a table
-naming the cheapest rung within 10 % and within 25 % of the reference, per statistic, among the
-rungs whose own error bar is no wider than that threshold (:func:`_resolves`).
+* the relative error against the paper where it gives a value (:func:`_paper_error`; for the
+  10-20 % range of sigma_G/G_tot the distance to the nearer bound, 0 inside),
+plotted against the wall-clock time of the rung (spin-up + saltation; rungs on one grid share a
+spin-up, so a study pays it once); and a table naming the cheapest rung within 10 % and 25 % of
+the reference, per statistic, among the rungs whose own error bar is no wider than that
+threshold (:func:`_resolves`). ``N_air`` (mean parcel count x Q: the real grains in the air)
+compares across parcel weights.
 
-``N_air`` = mean parcel count over the sampling window x Q: the real grains in the air, the same
-physical quantity whatever the parcel weight, so Q-variants compare directly.
-
-A study may run its ladder for several cases (a wind's errors are not another's): each case is
-compared with its own run at the reference fidelity. ``convergence.png`` draws the case with the
-most rungs (the *primary* case, whose reference, cheapest rungs and figure head
-``convergence.json``); each other case gets ``convergence_caseNN.png`` and its own section.
-``convergence_summary.png`` puts every case's ladder in one figure (:func:`ladder_summary`).
+A study may run its ladder for several cases: each case is compared with its own run at the
+reference fidelity. ``convergence.png`` draws the case with the most rungs (the *primary* case,
+which heads ``convergence.json``); each other case gets ``convergence_caseNN.png`` and its own
+section; ``convergence_summary.png`` puts every case's ladder in one figure (:func:`ladder_summary`).
 """
 from __future__ import annotations
 
@@ -601,10 +591,7 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     """
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
-    if runs and all(isinstance(v, RunData) for v in runs.values()):
-        loaded = dict(runs)  # type: ignore[arg-type]
-    else:
-        loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
+    loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
     results = convergence_by_case(loaded, order, reference)
     primary = next(iter(results))
     res = results[primary]

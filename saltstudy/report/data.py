@@ -259,19 +259,10 @@ class ReportContext:
         it has data or the study holds no run of case ``n`` (the figures draw the runs a study
         has, so a case it does not hold is nothing to note)."""
         r = self.by_case(n)
-        if r is None:
-            return None
-        if not r.ok:
-            return f"case {n}: {r.status}"
-        return None
+        return f"case {n}: {r.status}" if r is not None and not r.ok else None
 
     def present(self, cases: Iterable[int]) -> list[RunData]:
-        out = []
-        for n in cases:
-            r = self.by_case(n)
-            if r is not None and r.ok:
-                out.append(r)
-        return out
+        return [r for r in map(self.by_case, cases) if r is not None and r.ok]
 
     def scatter_runs(self) -> list[RunData]:
         """Runs for the scatter figures (3, 4, 8, 13): every case (one per number) plus any
@@ -321,7 +312,10 @@ def _load_one(label: str, path: Path | None, case_hint: int | None) -> RunData:
 def load_runs(runs: dict[str, str | Path | None], meta: dict[str, Any] | None = None
               ) -> dict[str, RunData]:
     """Read every archive (under the NetCDF lock). ``meta`` may give ``case_numbers``,
-    ``fidelities`` and ``wall_times`` per label; these win over the archives' attributes."""
+    ``fidelities`` and ``wall_times`` per label; these win over the archives' attributes.
+    Runs already read (all :class:`RunData`) are returned as they are."""
+    if runs and all(isinstance(v, RunData) for v in runs.values()):
+        return dict(runs)  # type: ignore[arg-type]
     meta = meta or {}
     cases = meta.get("case_numbers") or {}
     fids = meta.get("fidelities") or {}

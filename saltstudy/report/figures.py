@@ -9,19 +9,9 @@ reference marks labelled "Dupont et al. 2013". This module holds the figures' re
 7, 11, 12: the layer along the height), ``streamer_figures`` (Figs. 9, 10), with the conventions
 they share in ``plotting``.
 
-Axes, normalisations and case groupings follow the paper's captions:
-  1 parcels per m2 at Q vs t (every case)        8 G_tot vs u*s/u*t with G_tot laws (200 um)
-  2 <u>/u_ref and <u'w'> vs z, with/without grains 9 C_p/C_pmax and u/u_max at 0.1 m, cases 1, 4, 6
-  3 z0s vs u*s/u*t with z0s laws                  10 spanwise spectra of C_p and u(0.1 m)
-  4 z_m vs u*s/u*t                                11 R_cu vs z/z_m
-  5 size distribution in air vs bed (90/200/400)  12 St vs z/z_m
-  6 tau_p/(rho u*s^2) vs z/z_m                    13 sigma_G/G_tot vs u*s/u*t
-  7 <G>/<G_tot> vs z/z_m
-Panels (a) of Figs 6, 7, 10-12 hold cases 1-6 (various u*s), panels (b) cases 2, 7-10 (various mu1).
-In these, in Fig. 9's rows, in Fig. 2 (case 2) and in Fig. 5's panels (cases 7, 2, 10: mu1 = 90,
-200, 400 um), a case the study lacks gives its place to the study's nearest run along the
-figure's parameter, labelled as standing in for it, or is left out (report/panels.py); a panel
-or row with no run to draw is not drawn.
+Axes, normalisations and case groupings follow the paper's captions (``CAPTIONS``); a case the
+study lacks gives its place to the study's nearest run along the figure's parameter, or is left
+out (report/panels.py).
 """
 from __future__ import annotations
 
@@ -41,11 +31,8 @@ __all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "figure_data_d
            "error_figure", "fig01", "fig02", "fig03", "fig04", "fig05", "fig06", "fig07", "fig08",
            "fig09", "fig10", "fig11", "fig12", "fig13"]
 
-FIGURES: dict[str, Callable[[ReportContext], FigureResult]] = {
-    "fig01": fig01, "fig02": fig02, "fig03": fig03, "fig04": fig04, "fig05": fig05,
-    "fig06": fig06, "fig07": fig07, "fig08": fig08, "fig09": fig09, "fig10": fig10,
-    "fig11": fig11, "fig12": fig12, "fig13": fig13,
-}
+FIGURES: dict[str, Callable[[ReportContext], FigureResult]] = {f.__name__: f for f in (
+    fig01, fig02, fig03, fig04, fig05, fig06, fig07, fig08, fig09, fig10, fig11, fig12, fig13)}
 
 CAPTIONS = {
     "fig01": "Airborne parcels per m² of bed vs time since activation, every case converted to "

@@ -2,7 +2,7 @@
 side, judged against fixed acceptance bands, with one figure of phi(z) and one of the near-bed
 spanwise spectrum of u.
 
-    saltstudy loglaw-report DIR        # reads DIR/*.json, writes DIR/summary.{json,md}, DIR/*.png
+    saltstudy probe loglaw-report DIR  # reads DIR/*.json, writes DIR/summary.{json,md}, DIR/*.png
 
 Each probe file holds windows of 100 s (or so); a probe is summarised by the mean of its last
 ``n_last`` windows (the first ones still carry the spin-up). The bands are those of the closure's

@@ -1,17 +1,11 @@
 """Which run fills each place of a per-case figure: the paper's case, or the study's nearest one.
 
-The paper's per-case figures show fixed cases: Fig. 2 shows case 2; Fig. 5 a panel for each of
-cases 7, 2 and 10 (µ1 = 90, 200, 400 µm); Fig. 9 has a row for each of cases 1, 4 and 6;
-Figs. 6, 7, 10, 11 and 12 have a panel of cases 1–6 (u*s varies, µ1 = 200 µm) and a panel of
-cases 2, 7–10 (µ1 varies, u*s ≈ 0.54 m s⁻¹). Figs. 2, 5 and 9 look for their cases by u*s at the
-case's µ1, so a run stands in only for a case of its own grain size. A study holds a subset of
-them (the default study ``quick`` runs cases 2, 6, 7, 9 and 10). :func:`panel_runs` gives each
-of the paper's cases of a figure the run that draws it:
-
-* the study's own run of that case (``ReportContext.by_case``) when it has usable data;
-* else the nearest run the study has along the parameter the figure varies, drawn under its own
-  label with the paper's case it stands nearest to (:meth:`PanelRun.stand_in`), never as that case;
-* else nothing: the place is dropped (the figure draws no empty frame for it).
+The paper's per-case figures show fixed cases (figures.CAPTIONS): Figs. 6, 7, 10, 11 and 12 a
+panel of cases 1–6 (u*s varies, µ1 = 200 µm) and one of cases 2, 7–10 (µ1 varies); Figs. 2, 5
+and 9 look for their cases by u*s at the case's µ1. :func:`panel_runs` gives each place the
+study's own run of that case when it has usable data, else the nearest run along the figure's
+parameter, drawn under its own label with the case it stands in for (:meth:`PanelRun.stand_in`),
+else nothing (the figure draws no empty frame).
 
 **Which runs may stand in.** One run per case number (the one ``by_case`` picks) and every run
 without a case number (a scene of the user's own), each at most once per figure: a run that

@@ -23,9 +23,7 @@ from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_r
 __all__ = ["fig02", "fig05", "fig06", "fig07", "fig11", "fig12", "FIG2_PROFILES", "FIG5_PANELS"]
 
 
-# ------------------------------------------------------------------------------------------------
-# Fig 2
-# ------------------------------------------------------------------------------------------------
+# ---- Fig 2 ----
 def _interp_log(z: np.ndarray, v: np.ndarray, z0: float) -> float:
     ok = np.isfinite(v) & (z > 0)
     if ok.sum() < 2:
@@ -121,9 +119,7 @@ def fig02(ctx: ReportContext) -> FigureResult:
     return res
 
 
-# ------------------------------------------------------------------------------------------------
-# Fig 5
-# ------------------------------------------------------------------------------------------------
+# ---- Fig 5 ----
 #: the paper's Fig. 5 panels: (letter, grain size µ1 [µm], the paper's case drawn)
 FIG5_PANELS = (("a", 90, 7), ("b", 200, 2), ("c", 400, 10))
 
@@ -191,9 +187,7 @@ def fig05(ctx: ReportContext) -> FigureResult:
     return res
 
 
-# ------------------------------------------------------------------------------------------------
-# profile figures: 6, 7, 11, 12
-# ------------------------------------------------------------------------------------------------
+# ---- profile figures: 6, 7, 11, 12 ----
 #: the profile variables as the figures write them
 _SYMBOL = {"tau_p": "τp", "G": "⟨G⟩", "R_cu": "R_cu", "St": "St"}
 

@@ -7,12 +7,13 @@ the semi-empirical laws at 200 µm (Figs. 3 and 8) and the paper's own values as
 """
 from __future__ import annotations
 
+import inspect
 import math
 
 import numpy as np
 
+from ..physics.laws import GTOT_LAWS, Z0S_LAWS
 from .data import ReportContext, RunData
-from .laws import evaluate_law, load_laws
 from .plotting import (MARKERS, OWN_COLORS, FigureResult, add_legend, add_notes, case_color,
                        empty_axes, fmt_um, is_200um, new_figure, paper_u_star_ratio, u_star_ratio)
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
@@ -22,9 +23,7 @@ from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_
 __all__ = ["fig01", "fig03", "fig04", "fig08", "fig13"]
 
 
-# ------------------------------------------------------------------------------------------------
-# Fig 1
-# ------------------------------------------------------------------------------------------------
+# ---- Fig 1 ----
 def fig01(ctx: ReportContext) -> FigureResult:
     """Airborne parcels per m² of bed against time since activation, every case at its own Q
     (report/saltation.py), beside the paper's ≈ 2,000 per m² that all its cases hold ([28], [31])."""
@@ -91,9 +90,7 @@ def fig01(ctx: ReportContext) -> FigureResult:
     return res
 
 
-# ------------------------------------------------------------------------------------------------
-# scatter figures: 3, 4, 8, 13
-# ------------------------------------------------------------------------------------------------
+# ---- scatter figures: 3, 4, 8, 13 ----
 def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
     """Computed ``var`` vs u*s/u*t for every run, dots; 200 um cases circles, others squares."""
     xs, ys = [], []
@@ -154,94 +151,79 @@ def _ref_threshold(ctx: ReportContext) -> tuple[float, RunData | None]:
     return math.nan, None
 
 
-def _draw_laws(ctx, ax, laws: dict, reason: str | None, res: FigureResult, d: float) -> None:
+def _draw_laws(ctx, ax, laws: dict, res: FigureResult, d: float) -> None:
+    """The semi-empirical laws (``physics.laws``: name -> (law, citation)) at the u*t of a
+    200 µm case; each law takes the quantities whose names its keywords have."""
     ut, src = _ref_threshold(ctx)
-    if reason:
-        res.notes.append("semi-empirical laws not drawn: physics.laws unavailable")
-        return
     if not math.isfinite(ut) or src is None:
         res.notes.append("semi-empirical laws not drawn: no u*t for µ1 = 200 µm")
         return
     ratio = _law_range(res)
-    q = dict(u_star_t=ut, d=d, rho=src.rho, rho_p=src.attr("rho_p", 2650.0), g=src.attr("g", 9.81),
-             z0=src.attr("z0", 1e-5), kappa=src.attr("kappa", 0.4), nu=src.attr("nu", 1.5e-5))
+    q = dict(d=d, rho=src.rho, rho_p=src.attr("rho_p", 2650.0), g=src.attr("g", 9.81),
+             z0=src.attr("z0", 1e-5), nu=src.attr("nu", 1.5e-5))
     styles = ["-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1))]
     colors = ["#1f77b4", "#9467bd", "#8c564b", "#d62728", "#17becf", "#bcbd22"]
-    for i, (name, entry) in enumerate(laws.items()):
-        fn, cite = (entry if isinstance(entry, tuple) else (entry, name))
-        try:
-            y = evaluate_law(fn, ratio * ut, **q)
-        except Exception as exc:
-            res.notes.append(f"law {name} not drawn ({type(exc).__name__})")
-            continue
+    for i, (name, (fn, cite)) in enumerate(laws.items()):
+        takes = inspect.signature(fn).parameters
+        y = np.asarray(fn(ratio * ut, ut, **{k: v for k, v in q.items() if k in takes}), dtype=float)
         ax.plot(ratio, y, color=colors[i % len(colors)], ls=styles[i % len(styles)], lw=1.2,
                 label=str(cite))
         res.data[f"law_{name}"] = y
 
 
-def fig03(ctx: ReportContext) -> FigureResult:
-    fig, axes = new_figure(size=(7.2, 5.2))
-    ax = axes[0, 0]
+def _scatter_figure(ctx: ReportContext, var: str, size=(6.4, 4.6)) -> tuple[object, FigureResult]:
+    """(axes, result) of a figure of ``var`` against u*s/u*t with every run drawn (:func:`_scatter`)."""
+    fig, axes = new_figure(size=size)
     res = FigureResult(fig)
-    _scatter(ctx, ax, "z0s", res)
-    z0s_laws, _, reason = load_laws()
-    _draw_laws(ctx, ax, z0s_laws, reason, res, d=200e-6)
-    if any(np.any(np.asarray(v) > 0) for v in res.data.values()):
-        ax.set_yscale("log")
-    ax.set_ylabel(r"saltation roughness length $z_{0s}$ [m]")
-    ax.set_title("Fig. 3 — z0s vs u*s/u*t (laws at µ1 = 200 µm, u*t of case 2)", fontsize=10)
-    add_legend(ax, below=True, fontsize=7)
-    add_notes(ax, res.notes, "upper left")
+    _scatter(ctx, axes[0, 0], var, res)
+    return axes[0, 0], res
+
+
+def _finish(ax, res: FigureResult, ylabel: str, notes_at: str, legend_size: float) -> FigureResult:
+    ax.set_ylabel(ylabel)
+    add_legend(ax, below=True, fontsize=legend_size)
+    add_notes(ax, res.notes, notes_at)
     return res
 
 
+def fig03(ctx: ReportContext) -> FigureResult:
+    ax, res = _scatter_figure(ctx, "z0s", size=(7.2, 5.2))
+    _draw_laws(ctx, ax, Z0S_LAWS, res, d=200e-6)
+    if any(np.any(np.asarray(v) > 0) for v in res.data.values()):
+        ax.set_yscale("log")
+    ax.set_title("Fig. 3 — z0s vs u*s/u*t (laws at µ1 = 200 µm, u*t of case 2)", fontsize=10)
+    return _finish(ax, res, r"saltation roughness length $z_{0s}$ [m]", "upper left", 7)
+
+
 def fig04(ctx: ReportContext) -> FigureResult:
-    fig, axes = new_figure()
-    ax = axes[0, 0]
-    res = FigureResult(fig)
-    _scatter(ctx, ax, "z_m", res)
+    ax, res = _scatter_figure(ctx, "z_m")
     rng = paper_results().get("fig4_zm_cases_1_to_6_m")
     if rng:
         xr_ = [paper_u_star_ratio(1), paper_u_star_ratio(6)]
         ax.plot(xr_, rng, color=PAPER_COLOR, ls="--", lw=2, marker="D", ms=7, alpha=0.8,
                 label=f"{PAPER_LABEL}: z_m {rng[0]:g}–{rng[1]:g} m, linear, cases 1–6")
-    ax.set_ylabel(r"saltation height $z_m$ [m]")
     ax.set_ylim(bottom=0)
-    ax.set_title("Fig. 4 — saltation height z_m (τp = 0.1 % of ρu*s², u*s from the stress at z_ref)")
-    add_legend(ax, below=True, fontsize=7.5)
-    add_notes(ax, res.notes, "lower right")
-    return res
+    ax.set_title("Fig. 4 — saltation height z_m\n(τp = 0.1 % of ρu*s², u*s from the stress at z_ref)")
+    return _finish(ax, res, r"saltation height $z_m$ [m]", "lower right", 7.5)
 
 
 def fig08(ctx: ReportContext) -> FigureResult:
-    fig, axes = new_figure(size=(7.2, 5.2))
-    ax = axes[0, 0]
-    res = FigureResult(fig)
-    _scatter(ctx, ax, "G_tot", res)
-    _, gtot_laws, reason = load_laws()
-    _draw_laws(ctx, ax, gtot_laws, reason, res, d=200e-6)
-    ax.set_ylabel(r"total saltation flux $\langle G_{tot}\rangle$ [kg m⁻¹ s⁻¹]")
+    ax, res = _scatter_figure(ctx, "G_tot", size=(7.2, 5.2))
+    _draw_laws(ctx, ax, GTOT_LAWS, res, d=200e-6)
     ax.set_ylim(bottom=0)
     ax.set_title("Fig. 8 — G_tot vs u*s/u*t (laws at µ1 = 200 µm)", fontsize=10)
     ax.plot([], [], ls="none", label=f"{PAPER_LABEL}: G_tot close to Bagnold (1937) at low u*s,\n"
                                      "close to Sørensen (2004) at high u*s")
-    add_legend(ax, below=True, fontsize=7)
-    add_notes(ax, res.notes, "upper right")
-    return res
+    return _finish(ax, res, r"total saltation flux $\langle G_{tot}\rangle$ [kg m⁻¹ s⁻¹]",
+                   "upper right", 7)
 
 
 def fig13(ctx: ReportContext) -> FigureResult:
-    fig, axes = new_figure()
-    ax = axes[0, 0]
-    res = FigureResult(fig)
-    _scatter(ctx, ax, "sigma_G_over_G_tot", res)
+    ax, res = _scatter_figure(ctx, "sigma_G_over_G_tot")
     band = paper_results().get("fig13_sigmaG_over_Gtot")
     if band:
         ax.axhspan(band[0], band[1], color=PAPER_COLOR, alpha=0.25, zorder=0,
                    label=f"{PAPER_LABEL}: {band[0]:.0%}–{band[1]:.0%}")
-    ax.set_ylabel(r"$\sigma_G / \langle G_{tot}\rangle$ [-]")
     ax.set_ylim(bottom=0)
     ax.set_title("Fig. 13 — relative standard deviation of the saltation flux")
-    add_legend(ax, below=True, fontsize=7.5)
-    add_notes(ax, res.notes, "lower right")
-    return res
+    return _finish(ax, res, r"$\sigma_G / \langle G_{tot}\rangle$ [-]", "lower right", 7.5)

@@ -40,18 +40,6 @@ STABILITY_COLUMNS = (
     ("E_splash_over_E_impact", "E_splash/E_impact [-]"), ("wall_time_s", "wall time [s]"),
 )
 
-_MOMENTUM_NAMES = ("momentum_budget_residual", "momentum_closure", "momentum_residual",
-                   "momentum_budget_closure")
-
-
-def _num(x: Any) -> float:
-    try:
-        v = float(np.asarray(x).max()) if np.ndim(x) else float(x)
-    except (TypeError, ValueError):
-        return math.nan
-    return v
-
-
 def _from_ds(ds: xr.Dataset | None, out: dict[str, Any], source: str) -> None:
     """Fill what ``ds`` provides into ``out`` (keys not yet set only)."""
     if ds is None:
@@ -62,28 +50,15 @@ def _from_ds(ds: xr.Dataset | None, out: dict[str, Any], source: str) -> None:
             out[key] = value
             out.setdefault("_sources", {})[key] = f"{source}: {how}"
 
-    for key in ("max_cfl",):
-        if key in ds.variables:
-            put(key, float(np.nanmax(ds[key].values)), f"max of {key}")
-        elif key in ds.attrs:
-            put(key, _num(ds.attrs[key]), f"attribute {key}")
+    if "max_cfl" in ds.variables:
+        put("max_cfl", float(np.nanmax(ds["max_cfl"].values)), "max of max_cfl")
     for var in ("u", "u_plane"):
         if var in ds.variables and ds[var].ndim >= 2:
             vals = ds[var].values
             put("u_min", float(np.nanmin(vals)), f"min of {var}")
             put("u_max", float(np.nanmax(vals)), f"max of {var}")
-    for key in ("u_min", "u_max", "w_absmax"):
-        if key in ds.variables and ds[key].ndim == 0:
-            put(key, float(ds[key].values), key)
-        elif key in ds.attrs:
-            put(key, _num(ds.attrs[key]), f"attribute {key}")
     if "w" in ds.variables and ds["w"].ndim >= 2:
         put("w_absmax", float(np.nanmax(np.abs(ds["w"].values))), "max |w|")
-    for name in _MOMENTUM_NAMES:
-        if name in ds.variables and ds[name].ndim == 0:
-            put("momentum_closure", float(ds[name].values), name)
-        elif name in ds.attrs:
-            put("momentum_closure", _num(ds.attrs[name]), f"attribute {name}")
     if "E_splash_over_E_impact" in ds.variables and ds["E_splash_over_E_impact"].ndim == 0:
         put("E_splash_over_E_impact", float(ds["E_splash_over_E_impact"].values), "scalar")
     if "E_splash" in ds.variables and "E_impact" in ds.variables:
@@ -184,7 +159,7 @@ def _open_samples(path: Path) -> xr.Dataset | None:
     """samples.nc may be large: read only the variables the table uses."""
     keep = ("max_cfl", "u", "v", "w", "e", "E_splash", "E_impact", "dt_courant",
             "dt_diffusion", "dt_grains", "loading_max", "tau_c_min", "parcel_balance", "u_star_ref",
-            "G_tot_series") + _MOMENTUM_NAMES
+            "G_tot_series")
     try:
         with NC_LOCK:
             with xr.open_dataset(path, engine="netcdf4") as ds:
@@ -315,10 +290,7 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
     provenance given (the workflow passes the package version and the checkout's commit)."""
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
-    if runs and all(isinstance(v, RunData) for v in runs.values()):
-        loaded = dict(runs)  # type: ignore[arg-type]
-    else:
-        loaded = load_runs(runs, {"wall_times": wall_times or {}})
+    loaded = load_runs(runs, {"wall_times": wall_times or {}})
     for label in failures or {}:
         if label not in loaded:
             loaded[label] = RunData(label, None, None, status="no archive")

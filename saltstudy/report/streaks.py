@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["premultiplied_over_variance", "streak_curves", "streaks_figure", "LAMBDA_LEVEL"]
+__all__ = ["premultiplied_over_variance", "streak_curves", "streaks_figure", "VariantGrid",
+           "LAMBDA_LEVEL"]
 
 #: the level of C_p's autocorrelation whose lag is λ/2 (analysis/streamers.py, ``CORE_LEVEL``)
 LAMBDA_LEVEL = 0.4
@@ -73,14 +74,43 @@ def streak_curves(archive: str | Path) -> dict[str, Any] | None:
             "S_u": premultiplied_over_variance(ky, S_u, Ly, dy)}
 
 
+class VariantGrid:
+    """A figure of one row of four panels per case for runs by variant (a colour each, in the
+    order first met) and seed (a line style each); ``runs``: case -> [(variant, seed, curves)]."""
+
+    def __init__(self, runs: dict[int, list]):
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        self.runs = runs
+        self.variants = list(dict.fromkeys(v for rows in runs.values() for v, _, _ in rows))
+        self.colours = {v: f"C{i}" for i, v in enumerate(self.variants)}
+        self.seeds = sorted({s for rows in runs.values() for _, s, _ in rows})
+        self.cases = sorted(runs)
+        self.fig, self.axes = plt.subplots(len(self.cases), 4, figsize=(16, 3.4 * len(self.cases)),
+                                           squeeze=False, constrained_layout=True)
+
+    def rows(self, case: int) -> list:
+        """The case's runs, by variant then seed."""
+        return sorted(self.runs[case], key=lambda r: (self.variants.index(r[0]), r[1]))
+
+    def line_style(self, seed) -> str:
+        return ("-", "--", ":", "-.")[self.seeds.index(seed) % 4]
+
+    def save(self, path: Path) -> Path:
+        import matplotlib.pyplot as plt
+
+        self.fig.savefig(path, dpi=100)
+        plt.close(self.fig)
+        return path
+
+
 def streaks_figure(runs: dict[int, list], path: Path) -> Path | None:
     """One row per case, four panels: C_p's autocorrelation along x and along y, the
     premultiplied spectra of C_p and of u at 0.1 m; a colour per variant, a line style per seed.
     ``runs``: case -> [(variant, seed, :func:`streak_curves` of its archive)]
     (``variants.variant_runs``). None when there is no run."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.ticker import LogLocator
 
     from .plotting import plain_log
@@ -88,21 +118,16 @@ def streaks_figure(runs: dict[int, list], path: Path) -> Path | None:
 
     if not runs:
         return None
-    variants = list(dict.fromkeys(v for rows in runs.values() for v, _, _ in rows))
-    colours = {v: f"C{i}" for i, v in enumerate(variants)}
-    seeds = sorted({s for rows in runs.values() for _, s, _ in rows})
-    cases = sorted(runs)
+    grid = VariantGrid(runs)
     table = paper_table2()
-    fig, axes = plt.subplots(len(cases), 4, figsize=(16, 3.4 * len(cases)), squeeze=False,
-                             constrained_layout=True)
-    for row, case in enumerate(cases):
-        ax = axes[row]
+    for row, case in enumerate(grid.cases):
+        ax = grid.axes[row]
         paper = table.get(case, {})
-        for v, seed, c in sorted(runs[case], key=lambda r: (variants.index(r[0]), r[1])):
-            ls = ("-", "--", ":", "-.")[seeds.index(seed) % 4]
+        for v, seed, c in grid.rows(case):
+            ls = grid.line_style(seed)
             for k, key in enumerate(("x", "y", "S_c", "S_u")):
                 xs, ys = c[key]
-                ax[k].plot(xs, ys, ls, color=colours[v], lw=1.2, label=f"{v} s{seed}")
+                ax[k].plot(xs, ys, ls, color=grid.colours[v], lw=1.2, label=f"{v} s{seed}")
         for k, key in enumerate(("lambda_x_m", "lambda_y_m")):
             ax[k].axhline(LAMBDA_LEVEL, color="0.5", lw=0.8)
             half = paper.get(key, math.nan) / 2.0
@@ -128,9 +153,7 @@ def streaks_figure(runs: dict[int, list], path: Path) -> Path | None:
             a.grid(alpha=0.3, which="both")
         ax[0].legend(fontsize=7)
         ax[2].legend(fontsize=7)
-    fig.suptitle("The streamers by case (row), variant (colour) and seed (line style); "
+    grid.fig.suptitle("The streamers by case (row), variant (colour) and seed (line style); "
                  f"λ = 2 × the lag where the autocorrelation falls below {LAMBDA_LEVEL:g}",
                  fontsize=10)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    return grid.save(path)

@@ -20,9 +20,7 @@ from .streaks import premultiplied_over_variance
 __all__ = ["fig09", "fig10", "FIG9_CASES"]
 
 
-# ------------------------------------------------------------------------------------------------
-# Fig 9
-# ------------------------------------------------------------------------------------------------
+# ---- Fig 9 ----
 def fig09(ctx: ReportContext) -> FigureResult:
     """A row per paper case 1, 4, 6 (top to bottom): the study's run of the case, or its nearest
     run by u*s at µ1 = 200 µm (``panels.py``), titled with the case it stands in for; a row the
@@ -77,9 +75,7 @@ def fig09(ctx: ReportContext) -> FigureResult:
 FIG9_CASES = (1, 4, 6)
 
 
-# ------------------------------------------------------------------------------------------------
-# Fig 10
-# ------------------------------------------------------------------------------------------------
+# ---- Fig 10 ----
 def fig10(ctx: ReportContext) -> FigureResult:
     """The premultiplied spanwise spectra ky S(ky) against wavelength on a log axis, the form
     Table 2's delta_y is read from (docs/STREAMERS.md), over the variance: the area under each

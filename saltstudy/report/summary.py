@@ -20,19 +20,8 @@ Layout::
                                    "units": {"u_star_s": "m s-1", ...}}}, ...}}
 
 A plain case is keyed by its number as a string; any other run (ladder rung, scene) by its label.
-NaN (undefined) is written as null; JSON has no NaN. ``saltation.status`` is "sustained", "no
-sustained saltation" (the run's statistics are not of saltation: u*s below u*t, or fewer parcels
-aloft than released; report/saltation.py) or "undefined" (no archive or no counts).
-
-Wall time. ``total_wall_time_s`` is what a stopwatch gives for ``saltstudy run-all``: from the
-command's start (``meta["run_started"]``, epoch seconds) to the end of the report, with the
-warm-up compile, the shared spin-up once and the tasks one after another as they ran; tasks found
-in the cache cost nothing in it (``tasks_from_cache`` of ``tasks_total`` distinct tasks were found
-done when the run began: 0 for a stopwatch of the whole study). ``task_time_sum_s`` adds the
-recorded times of the study's tasks (from the archives: each distinct spin-up once, each saltation run, each analysis), whether they
-ran now or were cached; a ``cases`` entry's ``wall_time_s`` is that run's spin-up + saltation, so
-the per-case values add up to more than either when cases share a spin-up. Rebuilt without a run
-(``saltstudy figures``), the report keeps the elapsed time of the summary it replaces, else null.
+NaN (undefined) is written as null; JSON has no NaN. What the wall times count and the
+``saltation`` entry: docs/ARCHITECTURE.md (``summary.json``).
 """
 from __future__ import annotations
 
@@ -183,7 +172,7 @@ def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Pa
 
 
 def _package_version() -> str:
-    from .. import __version__
+    from .._identity import __version__
     return __version__
 
 

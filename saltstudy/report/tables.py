@@ -19,7 +19,8 @@ from .reference import CASES_WIND, PAPER_LABEL, TABLE2_COLUMNS, paper_results, p
 from .saltation import NO_SALTATION, saltation_state
 
 __all__ = ["Cell", "model_departures", "table2_rows", "scalar_results", "table2_markdown", "table2_html",
-           "results_markdown", "results_html", "st_below_one_height", "fmt", "rel_diff"]
+           "table2_dataset", "results_markdown", "results_html", "st_below_one_height", "fmt",
+           "rel_diff"]
 
 
 def fmt(v: float | None, digits: int = 3) -> str:
@@ -61,6 +62,9 @@ def model_departures(scene: dict) -> list[str]:
     out = []
     if clo.get("model", "deardorff") != "deardorff":
         out.append(f"SGS closure {clo['model']} (the paper: Deardorff's TKE model)")
+    elif clo.get("viscosity", "isotropic") != "anisotropic":
+        out.append("one SGS eddy viscosity for every stress (closure.viscosity; the paper's eq. A1: "
+                   "a horizontal and a vertical one)")
     spl = case.get("splash", {}) or {}
     if spl.get("impact_speed", "magnitude") != "magnitude":
         out.append("eqs. 6 and 8 of the normal impact speed |w| (splash.impact_speed; the paper: "
@@ -313,6 +317,50 @@ def table2_markdown(ctx: ReportContext) -> str:
     lines += ["", f"## Results stated in the text — computed vs {PAPER_LABEL}", "",
               results_markdown(ctx)]
     return "\n".join(lines) + "\n"
+
+
+def table2_dataset(ctx: ReportContext) -> "xr.Dataset":
+    """Table 2 as the report shows it, as an xarray Dataset along ``run`` (the rows of
+    :func:`table2_rows`, in their order): per column its computed value (SI), and where the
+    paper gives the column ``<name>_paper`` (NaN beside a run that is not one of the paper's
+    cases unchanged) and ``<name>_rel_diff`` ((computed - paper) / paper), and ``<name>_se``
+    where the analysis gives a standard error. A run without an archive, or without sustained
+    saltation, has NaN statistics, as in the report: ``status``, ``saltation`` and
+    ``saltation_reason`` say which and why."""
+    import xarray as xr
+
+    rows = table2_rows(ctx)
+    run = [r["label"] for r in rows]
+
+    def column(values, units: str, long_name: str, dtype=float) -> xr.DataArray:
+        return xr.DataArray(np.asarray(values, dtype=dtype), dims=("run",),
+                            attrs={"units": units, "long_name": long_name})
+
+    shown = [r["status"] == "ok" and not _no_saltation(r) for r in rows]
+    data: dict[str, xr.DataArray] = {}
+    for var, pkey, lab, unit in TABLE2_COLUMNS:
+        cells = [r["cells"][var] if ok else Cell(math.nan, math.nan, math.nan)
+                 for r, ok in zip(rows, shown)]
+        data[var] = column([c.computed for c in cells], unit, lab)
+        if var in TABLE2_SE:
+            data[f"{var}_se"] = column([c.se for c in cells], unit, f"standard error of {lab}")
+        if pkey:
+            data[f"{var}_paper"] = column([c.paper for c in cells], unit, f"{lab}, {PAPER_LABEL}")
+            data[f"{var}_rel_diff"] = column([c.rel for c in cells], "1",
+                                             f"{lab}: (computed - paper) / paper")
+    data["paper_case"] = column([-1 if r["paper_case"] is None else r["paper_case"] for r in rows],
+                                "1", "the paper's case the run is, unchanged (-1: a case of one's own)",
+                                int)
+    data["status"] = column([r["status"] for r in rows], "1", "the run's archive: ok, or why not", str)
+    data["saltation"] = column([r["saltation"].status for r in rows], "1",
+                               "whether the run holds saltation (report/saltation.py)", str)
+    data["saltation_reason"] = column([r["saltation"].reason for r in rows], "1",
+                                      "the numbers that decide it", str)
+    return xr.Dataset(data, coords={"run": ("run", run, {"long_name": "the run's label"}),
+                                    "name": ("run", [r["name"] for r in rows],
+                                             {"long_name": "the row's name in the report"})},
+                      attrs={"title": f"Table 2 — computed beside {PAPER_LABEL}", "study": ctx.study,
+                             "model": _departures_text(ctx)})
 
 
 def results_markdown(ctx: ReportContext) -> str:

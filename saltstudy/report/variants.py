@@ -3,7 +3,7 @@
 ``<variant>_s<seed>`` with the case from the run's own case number (the equilibrium screen's,
 reports/investigations/equilibrium/screen).
 
-    saltstudy variants-report reports/investigations/streamers/box   # reads summary.json, writes variants.{md,json}
+    saltstudy probe variants-report reports/investigations/streamers/box   # reads summary.json, writes variants.{md,json}
 
 Per case and variant: the mean over seeds of each statistic and half the range between seeds (with
 two seeds, the seed-to-seed scatter: a difference between variants smaller than it is not a
@@ -26,7 +26,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .streaks import streak_curves, streaks_figure
+from .streaks import VariantGrid, streak_curves, streaks_figure
 
 __all__ = ["LABEL", "STATS", "variants_table", "build_variants_report", "phi_air", "stokes_budget",
            "layer_figure", "variant_runs"]
@@ -278,28 +278,19 @@ def layer_figure(summary: dict[str, Any], path: Path) -> Path | None:
     parcels per m2 at the case's Q by height band, the impact-speed density, the grains back per
     impact against impact speed (1: a steady layer) and the hop flight-time density; the paper's
     ~2,000 parcels per m2 ([28], [31]) beside the bands. None when no run carries the anatomy."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     from .saltation import paper_parcels_per_m2
 
     runs = variant_runs(summary, _layer_curves)
     if not runs:
         return None
-    variants = list(dict.fromkeys(v for rows in runs.values() for v, _, _ in rows))
-    colours = {v: f"C{i}" for i, v in enumerate(variants)}
-    seeds = sorted({s for rows in runs.values() for _, s, _ in rows})
-    cases = sorted(runs)
-    fig, axes = plt.subplots(len(cases), 4, figsize=(16, 3.4 * len(cases)), squeeze=False,
-                             constrained_layout=True)
-    nbar = len(variants) * len(seeds)
-    width = 0.8 / nbar
-    for row, case in enumerate(cases):
-        ax = axes[row]
-        for v, seed, c in sorted(runs[case], key=lambda r: (variants.index(r[0]), r[1])):
+    grid = VariantGrid(runs)
+    variants, colours, seeds = grid.variants, grid.colours, grid.seeds
+    width = 0.8 / (len(variants) * len(seeds))
+    for row, case in enumerate(grid.cases):
+        ax = grid.axes[row]
+        for v, seed, c in grid.rows(case):
             k = variants.index(v) * len(seeds) + seeds.index(seed)
-            ls = ("-", "--", ":", "-.")[seeds.index(seed) % 4]
+            ls = grid.line_style(seed)
             b = c["band_parcels_per_m2_at_Q"]
             x = np.arange(b.size) - 0.4 + (k + 0.5) * width
             ax[0].bar(x, b, width, color=colours[v], alpha=1.0 if seeds.index(seed) == 0 else 0.55,
@@ -322,8 +313,6 @@ def layer_figure(summary: dict[str, Any], path: Path) -> Path | None:
         ax[3].set(xlabel="hop flight time [ms]", ylabel="probability density [ms$^{-1}$]",
                   xscale="log")
         ax[3].legend(fontsize=7)
-    fig.suptitle("The saltation layer by case (row), variant (colour) and seed (line style, bar "
-                 "shade)", fontsize=10)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-    return path
+    grid.fig.suptitle("The saltation layer by case (row), variant (colour) and seed (line style, "
+                      "bar shade)", fontsize=10)
+    return grid.save(path)

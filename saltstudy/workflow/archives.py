@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .. import SOURCE_KEY, __version__
+from .._identity import SOURCE_KEY, __version__
 from ..config import Scene
 from ..solver.diagnostics.health import HEALTH_SERIES
 
@@ -48,7 +48,7 @@ META: dict[str, tuple[str, str]] = {
     "v": ("m s-1", "spanwise velocity"),
     "w": ("m s-1", "vertical velocity"),
     "e": ("m2 s-2", "subgrid-scale turbulent kinetic energy"),
-    "p": ("m2 s-2", "kinematic pressure"),
+    "p": ("m2 s-2", "kinematic pressure p/rho (pressure over the air density: no CF standard name)"),
     "u_mean": ("m s-1", "horizontal mean of u"),
     "uw_res": ("m2 s-2", "resolved kinematic momentum flux <u'w'>"),
     "uw_sgs": ("m2 s-2", "subgrid-scale kinematic momentum flux"),
@@ -115,6 +115,10 @@ META: dict[str, tuple[str, str]] = {
 
 PLANE_HEIGHTS = (0.02, 0.05, 0.1, 0.2, 0.4)
 
+#: the study the archives reproduce (their global attribute ``references``)
+REFERENCE = ("Dupont, S., G. Bergametti, B. Marticorena and S. Simoëns (2013), Modeling saltation "
+             "intermittency, J. Geophys. Res. Atmos. 118, doi:10.1002/jgrd.50528")
+
 
 def z_ref_eff(scene: Scene) -> float:
     """Height where u* is read (ARCHITECTURE.md, Forcing): below the damping layer, if any (the
@@ -142,6 +146,9 @@ def global_attrs(scene: Scene, wall_time_s: float, key: str) -> dict[str, Any]:
     c, f = scene.case, scene.fidelity
     return {
         "title": f"saltstudy {scene.label} at fidelity {f.name}",
+        "source": f"saltstudy {__version__}: large-eddy simulation of the surface layer two-way "
+                  "coupled with Lagrangian sand grains",
+        "references": REFERENCE,
         "case_json": scene.model_dump_json(),
         "package_version": __version__,
         "source_key": SOURCE_KEY,

@@ -1,7 +1,8 @@
 """Workflow commands: ``run-all``, ``run``, ``status``, ``figures`` (registered on the typer app by cli.py).
 
 Exit codes: 0 success; 1 a task failed (the others ran; see ``saltstudy status``); 2 bad input
-(unknown study/case, invalid file) — then nothing in the cache is touched.
+(unknown study/case, invalid file) — then nothing in the cache is touched; 3 the out dir is in
+use by another saltstudy process (named; ``--wait`` waits for it instead: workflow/lock.py).
 """
 from __future__ import annotations
 
@@ -19,11 +20,27 @@ DEFAULT_STUDY = "quick"
 DEFAULT_FIDELITY = "smoke"
 
 _OUT_HELP = "cache directory (default: $SALTSTUDY_OUT, else <project>/.saltstudy-cache)"
+_WAIT_HELP = ("if another saltstudy process uses the out dir, wait for it to finish (default: "
+              "refuse at once, exit 3)")
+#: exit code when the out dir is in use by another process
+EXIT_BUSY = 3
 
 
 def _fail(message: str, code: int = 2) -> None:
     typer.echo(f"error: {message}", err=True)
     raise typer.Exit(code)
+
+
+def _hold(out_dir: Path, wait: bool):
+    """Hold the out dir for a command (``lock.hold_out_dir``); exit 3 naming the holder if it is
+    in use and ``wait`` is not given."""
+    from .lock import Busy, hold_out_dir
+    from .progress import emit
+
+    try:
+        return hold_out_dir(out_dir, wait=wait, log=emit)
+    except Busy as exc:
+        _fail(f"{exc}; rerun with --wait to wait for it, or use another --out", EXIT_BUSY)
 
 
 def _out(out: Optional[Path]) -> Path:
@@ -46,6 +63,7 @@ def register(app: typer.Typer) -> None:
         quiet: bool = typer.Option(False, "--quiet", help="plain log lines instead of a live display"),
         report_dir: Optional[Path] = typer.Option(None, "--report-dir",
                                                   help="where the report goes (default: <project>/reports/<study>)"),
+        wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
     ) -> None:
         """Run a whole study (spin-up, saltation, analysis per case; one report), reusing the cache."""
         started = time.time()   # the origin of the report's elapsed wall time (summary.json)
@@ -61,17 +79,22 @@ def register(app: typer.Typer) -> None:
             runs = K.study_keys(st)
         except ConfigError as exc:
             _fail(str(exc))
-        todo = [(l, t) for l, rk in runs.items() for t in ("spinup", "saltation", "analysis")
-                if not _complete(output_path(out_dir, t, getattr(rk, t)))]
         typer.echo(f"study {st.name}: {len(runs)} runs, out dir {out_dir}")
-        if not todo:
-            typer.echo("all runs cached: no solver work to do")
-        else:
-            typer.echo(f"{len(todo)} of {3 * len(runs)} run tasks to compute")
-        summary = run_study(st, out_dir, workers=workers, scheduler=scheduler, quiet=quiet,
-                            report_dir=report_dir, started=started)
+        held = _hold(out_dir, wait)
+        if held.lock.waited_s > 1.0:
+            started = time.time()     # the run starts when the other has finished
+        with held:
+            todo = [(l, t) for l, rk in runs.items() for t in ("spinup", "saltation", "analysis")
+                    if not _complete(output_path(out_dir, t, getattr(rk, t)))]
+            if not todo:
+                typer.echo("all runs cached: no solver work to do")
+            else:
+                typer.echo(f"{len(todo)} of {3 * len(runs)} run tasks to compute")
+            summary = run_study(st, out_dir, workers=workers, scheduler=scheduler, quiet=quiet,
+                                report_dir=report_dir, started=started)
         _print_summary(summary)
-        if todo and not summary.solver_work:
+        if todo and not summary.solver_work and not any(o.status == "failed"
+                                                        for o in summary.outcomes):
             typer.echo("no solver work was needed (spin-ups and saltation runs all cached)")
         raise typer.Exit(summary.exit_code)
 
@@ -81,13 +104,11 @@ def register(app: typer.Typer) -> None:
         fidelity: str = typer.Option(DEFAULT_FIDELITY, "--fidelity", help="fidelity name or file"),
         out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
         quiet: bool = typer.Option(False, "--quiet", help="plain log lines instead of a live display"),
+        wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
     ) -> None:
         """Run one case: spin-up, saltation, analysis (cached like run-all; no report)."""
         from ..config import load_case, load_fidelity, resolve_scene
-        from . import keys as K
-        from .graph import run_case, warm_for
-        from .paths import task_dir
-        from .progress import ProgressDisplay, TaskRef
+        from .graph import run_scene
 
         out_dir = _out(out)
         try:
@@ -95,13 +116,9 @@ def register(app: typer.Typer) -> None:
             scene = resolve_scene(c, load_fidelity(fidelity))
         except ConfigError as exc:
             _fail(str(exc))
-        rk = K.run_keys(scene.label, scene)
-        refs = [TaskRef(f"spinup {rk.label}", task_dir(out_dir, "spinup", rk.spinup)),
-                TaskRef(f"saltation {rk.label}", task_dir(out_dir, "saltation", rk.saltation))]
         t0 = time.perf_counter()
-        with ProgressDisplay(refs, quiet=quiet):
-            warm_for([rk], out_dir)
-            outcomes = run_case(rk, out_dir)
+        with _hold(out_dir, wait):
+            _, outcomes = run_scene(scene, out_dir, quiet=quiet)
         for o in outcomes:
             typer.echo(f"{o.task:<9} {o.status:<8} {o.path or o.error or ''}")
         typer.echo(f"wall time {time.perf_counter() - t0:.1f} s")
@@ -114,7 +131,7 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Per run and task: done / stale / failed / partial / running / stopped / missing."""
         from ..config import load_study
-        from .status import format_status, study_status
+        from .status import format_status, out_dir_state, study_status
 
         out_dir = _out(out)
         try:
@@ -124,6 +141,7 @@ def register(app: typer.Typer) -> None:
             _fail(str(exc))
         typer.echo(f"study {st.name}, out dir {out_dir}")
         typer.echo(format_status(rows))
+        typer.echo(out_dir_state(out_dir))
 
     @app.command("figures")
     def figures(
@@ -132,38 +150,49 @@ def register(app: typer.Typer) -> None:
                                                               "(default: $SALTSTUDY_OUT or .saltstudy-cache)"),
         report_dir: Optional[Path] = typer.Option(None, "--report-dir",
                                                   help="where the report goes (default: reports/<study>)"),
+        wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
     ) -> None:
         """Figures 1-13, Table 2 beside the paper, summary.json and index.html from the archives."""
         from ..config import ConfigError
+        from .lock import Busy
         try:
-            index = figures_command(study, out, report_dir)
+            index = figures_command(study, out, report_dir, wait=wait)
         except ConfigError as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(2)
+        except Busy as exc:
+            _fail(f"{exc}; rerun with --wait to wait for it, or use another --out", EXIT_BUSY)
         typer.echo(f"report: {index}")
 
 
-def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path]) -> Path:
-    """Resolve the study's analysis archives under ``out`` and build the report. Returns index.html."""
-    from .. import __version__
+def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
+                    wait: bool = False) -> Path:
+    """Resolve the study's analysis archives under ``out`` and build the report, holding the out
+    dir (``wait``: wait for another holder, else ``lock.Busy``). Returns index.html."""
+    from .._identity import __version__
     from ..config import load_study, study_file
     from ..report import build_report
     from . import keys as wkeys
     from . import paths as wpaths
+    from .lock import hold_out_dir
+    from .progress import emit
     from .report_meta import cache_meta
+    from .tasks import build_report_staged
 
     out_dir = Path(out) if out is not None else wpaths.default_out_dir()
-    runs = wpaths.analysis_paths(study, out_dir)
+    st = load_study(study)
     study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
     if report_dir is None:
         report_dir = wpaths.default_report_dir(study_name)
     meta = {"study": study_name, "out_dir": str(out_dir), "package_version": __version__}
     # the cache keys let the report find failure records and samples.nc (stability, animation)
-    st = load_study(study)
     meta["study_file"] = str(study_file(st))
     meta["keys"] = {l: {"spinup": k.spinup, "saltation": k.saltation, "analysis": k.analysis}
                     for l, k in wkeys.study_keys(st).items()}
-    return build_report(study_name, runs, Path(report_dir), cache_meta(meta))
+    with hold_out_dir(out_dir, wait=wait, log=emit):
+        runs = wpaths.analysis_paths(study, out_dir)
+        return build_report_staged(build_report, study_name, runs, Path(report_dir),
+                                   cache_meta(meta))
 
 
 def _complete(path: Path) -> bool:

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -24,8 +23,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import SOURCE_KEY
+from .._identity import SOURCE_KEY
 from ..config import Scene
+from ..faults import write_atomic
 from ..solver.simulation import (TIME_EPS, IterationInterval, Simulation, SpecifiedTimes,
                                  WallTimeInterval)
 from . import archives
@@ -151,13 +151,11 @@ def save_checkpoint(path: Path, model_ckpt: dict[str, Any], sim_ckpt: dict[str, 
             sim["callbacks"][name].append(k)
     meta = dict(meta, model_kinds=kinds, source_key=SOURCE_KEY, simulation=sim)
     arrays["meta"] = np.asarray(json.dumps(meta))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")  # per process: never two writers on one file
-    with open(tmp, "wb") as fh:
-        np.savez(fh, **arrays)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as fh:   # a file, not a name: np.savez would append ".npz" to it
+            np.savez(fh, **arrays)
+
+    write_atomic(path, write, sum(a.nbytes for a in arrays.values()))
 
 
 def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]] | None:

@@ -19,8 +19,10 @@ Execution
   as the local one (tests/test_workflow_distributed.py).
 
 A task that fails is recorded (``task.json``: state failed, error, traceback) and its dependents
-are skipped; the other runs go on. :func:`run_study` returns a summary whose ``exit_code`` is 1
-if anything failed.
+are skipped; the other runs go on, except after a full disk (``faults.DiskFull``), when a local run
+starts no further task. :func:`run_study` returns a summary whose ``exit_code`` is 1 if anything
+failed. It holds the out dir for the run (``lock.hold_out_dir``: another saltstudy process there
+is refused, or waited for) and first tidies what killed runs left in its tasks' directories.
 
 Cluster example (dask-jobqueue, SLURM): one task per job, each job with N cores for numba::
 
@@ -47,18 +49,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .. import SOURCE_KEY, __version__
+from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study, study_file
+from ..faults import DiskFull
 from ..ncio import is_complete
 from . import keys as K
 from .paths import (default_report_dir, output_path, read_runs_file, runs_file, study_dir, task_dir,
                     write_json_atomic)
 from .progress import ProgressDisplay, TaskRef, emit
+from .lock import hold_out_dir
 from .tasks import (analysis_task, continuation_task, report_done, report_task, saltation_task,
-                    spinup_task)
+                    spinup_task, tidy_leftovers)
 from .warmup import ensure_warm
 
-__all__ = ["Outcome", "StudySummary", "build_graph", "run_study", "run_case", "warm_for"]
+__all__ = ["Outcome", "StudySummary", "build_graph", "run_study", "run_case", "run_scene", "warm_for"]
 
 
 @dataclass
@@ -85,11 +89,21 @@ def _limit_numba_threads(n: int | None) -> None:
         numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
 
 
+class _DiskFullStop:
+    """In a local run, the first full disk stops the tasks not yet started (each would compute for
+    nothing: its archive could not be written). A process-wide record, armed by
+    :func:`run_study` for its own run only (a cluster's workers never arm it)."""
+    armed = False
+    error: str | None = None
+
+
 def _call(task: str, key: str, labels: list[str], out_path: Path, fn, *args, **kw) -> Outcome:
     """Run one task function, turning any error into a failed Outcome (the graph goes on)."""
     name = f"{task} {','.join(labels)}"
     if task != "report" and is_complete(out_path):
         return Outcome(task, key, labels, "cached", str(out_path))
+    if _DiskFullStop.error is not None:
+        return Outcome(task, key, labels, "skipped", None, f"not run: {_DiskFullStop.error}")
     emit(f"[start] {name} ({key})")
     t0 = time.perf_counter()
     try:
@@ -99,6 +113,8 @@ def _call(task: str, key: str, labels: list[str], out_path: Path, fn, *args, **k
         emit(f"[FAILED] {name}: {type(exc).__name__}: {exc}")
         if not isinstance(exc, Exception):
             raise
+        if isinstance(exc, DiskFull) and _DiskFullStop.armed:
+            _DiskFullStop.error = str(exc)
         return Outcome(task, key, labels, "failed", None, f"{type(exc).__name__}: {exc}", wall)
     wall = time.perf_counter() - t0
     if path is None:
@@ -160,15 +176,30 @@ def _report(study: Study, analyses: list[tuple[str, Outcome]], out_dir: Path, re
                  report_dir, rkey, meta, emit)
 
 
-def run_case(rk: "K.RunKeys", out_dir: Path) -> list[Outcome]:
+def run_case(rk: "K.RunKeys", out_dir: Path, wait: bool = False) -> list[Outcome]:
     """One run's tasks in order, in this process (``saltstudy run``): its spin-up, the links of
-    its staggered start, its saltation and its analysis; [spin-up, saltation, analysis]."""
-    scene = rk.scene
-    sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
-    st = _start(scene, rk, sp, out_dir, SOURCE_KEY, None)
-    sa = _saltation(scene, rk.saltation, st, out_dir, SOURCE_KEY, None)
-    an = _analysis(rk.label, rk.analysis, st, sa, out_dir)
+    its staggered start, its saltation and its analysis; [spin-up, saltation, analysis]. The out
+    dir is held as by :func:`run_study` (``wait``: wait for another holder, else Busy)."""
+    with hold_out_dir(out_dir, wait=wait, log=emit):
+        _tidy(out_dir, [rk])
+        scene = rk.scene
+        sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
+        st = _start(scene, rk, sp, out_dir, SOURCE_KEY, None)
+        sa = _saltation(scene, rk.saltation, st, out_dir, SOURCE_KEY, None)
+        an = _analysis(rk.label, rk.analysis, st, sa, out_dir)
     return [sp, sa, an]
+
+
+def run_scene(scene: Scene, out_dir: Path, quiet: bool = False) -> tuple["K.RunKeys", list[Outcome]]:
+    """One scene's run in this process as ``saltstudy run`` makes it: the kernels warmed as for
+    ``run-all`` (:func:`warm_for`), the progress displayed, the cache used; its keys and
+    :func:`run_case`'s outcomes."""
+    rk = K.run_keys(scene.label, scene)
+    refs = [TaskRef(f"{task} {rk.label}", task_dir(out_dir, task, getattr(rk, task)))
+            for task in ("spinup", "saltation")]
+    with ProgressDisplay(refs, quiet=quiet):
+        warm_for([rk], out_dir)
+        return rk, run_case(rk, Path(out_dir))
 
 
 # ------------------------------------------------------------------------------------------
@@ -356,21 +387,61 @@ def warm_workers(client, runs, out_dir: Path) -> None:
         emit(f"[warm-up] on the workers failed ({type(exc).__name__}: {exc}); tasks compile in-process")
 
 
+def _tidy(out_dir: Path, runs, study_name: str | None = None) -> None:
+    """What killed processes left in the task directories of ``runs`` that no live process holds
+    (locks, temporary files, the checkpoint beside a complete archive: a run computes its
+    incomplete tasks and tidies them then, but finds the complete ones in the cache), and in the
+    study's record folder. Called with the out dir held."""
+    for rk in runs:
+        for task, key in (("spinup", rk.spinup), *(("spinup", k) for k in rk.links),
+                          ("saltation", rk.saltation), ("analysis", rk.analysis)):
+            tidy_leftovers(task_dir(out_dir, task, key), output_path(out_dir, task, key))
+    if study_name is not None:
+        for tmp in study_dir(out_dir, study_name).glob("*.tmp"):
+            tmp.unlink(missing_ok=True)
+        for d in Path(out_dir).glob("report/*"):
+            tidy_leftovers(d, None)
+
+
+def _lost_worker(exc: BaseException) -> str:
+    """The error of a task whose worker died (killed, out of memory, its node lost)."""
+    text = f"{type(exc).__name__}: {exc}"
+    if type(exc).__name__ == "KilledWorker":
+        text += (" (the workers running it died: killed, out of memory or their node lost; rerun "
+                 "the command: a spin-up or saltation run resumes from its last checkpoint)")
+    return text
+
+
 def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | None = None,
               quiet: bool = False, report_dir: Path | None = None, root: Path | None = None,
-              started: float | None = None) -> StudySummary:
+              started: float | None = None, wait: bool = False) -> StudySummary:
     """Build and execute the study's graph; never raises for a failed task (see summary).
 
+    The out dir is held for the run (``lock.hold_out_dir``): if another process holds it,
+    :class:`saltstudy.workflow.lock.Busy` is raised, or with ``wait`` the run waits for it.
     ``started``: when the run began (epoch seconds; default now), the origin of the report's
-    elapsed wall time."""
+    elapsed wall time (the time spent waiting for the out dir is not counted)."""
+    started = time.time() if started is None else float(started)
+    with hold_out_dir(out_dir, wait=wait, log=emit) as lock:
+        if lock.waited_s > 1.0:
+            started = time.time()
+        _DiskFullStop.armed, _DiskFullStop.error = scheduler is None, None
+        try:
+            return _run_study(study, out_dir, workers, scheduler, quiet, report_dir, root, started)
+        finally:
+            _DiskFullStop.armed, _DiskFullStop.error = False, None
+
+
+def _run_study(study: Study, out_dir: Path, workers: int, scheduler: str | None, quiet: bool,
+               report_dir: Path | None, root: Path | None, started: float) -> StudySummary:
     import dask
 
-    started = time.time() if started is None else float(started)
     cores = os.cpu_count() or 1
     numba_threads = max(1, cores // workers) if (scheduler is None and workers > 1) else None
     plan = build_graph(study, out_dir, report_dir, numba_threads, root, run_started=started)
     names = list(plan.graph)
     study_dir(out_dir, study.name).mkdir(parents=True, exist_ok=True)
+    _tidy(out_dir, plan.runs.values(), study.name)
     results: dict[str, Outcome] = {}
     with ProgressDisplay(plan.task_refs, quiet=quiet):
         if scheduler is None:
@@ -390,8 +461,11 @@ def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | No
                     except Exception as exc:  # a worker died (killed, out of memory, ...)
                         task = n.split(":")[0]
                         results[n] = Outcome(task, "?", [n.split(":")[-1]], "failed",
-                                             error=f"{type(exc).__name__}: {exc}")
-    _record_runs(out_dir, plan, results)
+                                             error=_lost_worker(exc))
+    try:
+        _record_runs(out_dir, plan, results)
+    except OSError as exc:   # a full disk: the archives are what counts, the record is a summary
+        emit(f"[warning] {runs_file(out_dir, study.name)} not updated: {exc}")
     # shared spin-ups appear once per label in `results`: report each task once
     seen: dict[tuple[str, str], Outcome] = {}
     for n in names:

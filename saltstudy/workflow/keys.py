@@ -28,7 +28,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from .. import SOURCE_KEY, __version__
+from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study, study_runs
 
 __all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "continuation_key",

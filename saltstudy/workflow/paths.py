@@ -23,6 +23,7 @@ import os
 from pathlib import Path
 
 from ..config import Study, load_study, project_root
+from ..faults import write_atomic
 
 __all__ = ["default_out_dir", "task_dir", "output_path", "OUTPUT_NAMES", "study_dir", "runs_file",
            "analysis_paths", "default_report_dir", "read_runs_file", "write_json_atomic"]
@@ -73,11 +74,8 @@ def read_runs_file(out_dir: Path, study_name: str) -> dict:
 
 def write_json_atomic(path: Path, data: dict) -> None:
     """Write JSON to a temporary name and rename, so a reader never sees half a file."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(json.dumps(data, indent=1, sort_keys=True, default=str))
-    os.replace(tmp, path)
+    text = json.dumps(data, indent=1, sort_keys=True, default=str)
+    write_atomic(path, lambda tmp: tmp.write_text(text), len(text), sync=False)
 
 
 def analysis_paths(study: Study | str | Path, out_dir: Path | None = None) -> dict[str, Path | None]:

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from .lock import pid_alive
 from .paths import write_json_atomic
 
 __all__ = ["ProgressFile", "read_progress", "is_stale", "writer_gone", "ProgressDisplay", "TaskRef", "format_duration", "emit"]
@@ -99,13 +100,7 @@ def writer_gone(p: dict) -> bool:
     pid = p.get("pid")
     if not isinstance(pid, int) or p.get("host") != platform.node():
         return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return True
-    except OSError:  # exists but belongs to someone else
-        return False
-    return False
+    return not pid_alive(pid)
 
 
 def is_stale(p: dict, now: float | None = None) -> bool:

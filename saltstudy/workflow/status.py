@@ -10,6 +10,7 @@ current key says so, with the reason), ``partial`` (a spin-up or saltation check
 from __future__ import annotations
 
 import json
+import platform
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,11 +20,12 @@ import numpy as np
 from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
+from .lock import LOCK_NAME, describe_holder, read_holder, record_alive
 from .paths import output_path, read_runs_file, task_dir
 from .progress import eta, format_duration, is_stale, read_progress, writer_gone
 from .tasks import read_task_json
 
-__all__ = ["StatusRow", "study_status", "format_status"]
+__all__ = ["StatusRow", "study_status", "format_status", "out_dir_state"]
 
 TASKS = ("spinup", "saltation", "analysis")
 
@@ -57,11 +59,12 @@ def _running(d: Path, tj: dict) -> tuple[str, str]:
              if isinstance(started, (int, float)) else "?")
     where = f"since {since} on {tj.get('host', '?')}"
     p = read_progress(d)
-    if p is None or "updated" not in p:
-        return "running", f"{where} (or killed)"
-    writer = p if "pid" in p else tj   # progress files written before they named their process
+    writer = p if p is not None and "pid" in p else tj   # progress files name their process
     if writer_gone(writer):
         return "stopped", f"{where}; its process ({writer['pid']}) is gone: it died or was killed"
+    if p is None or "updated" not in p:    # no progress yet (a report writes none)
+        here = tj.get("host") == platform.node() and isinstance(tj.get("pid"), int)
+        return "running", where + ("" if here else " (or killed: its process cannot be asked)")
     if is_stale(p):
         quiet_for = time.time() - float(p["updated"])
         return "stopped", f"{where}; no progress for {format_duration(quiet_for)}: its process died"
@@ -118,9 +121,13 @@ def study_status(study: Study, out_dir: Path, root: Path | None = None) -> list[
                 analyses[label] = key if state == "done" else None
     if study.report:
         rkey = K.report_key(study, analyses)
-        tj = read_task_json(task_dir(out_dir, "report", rkey)) or {}
+        d = task_dir(out_dir, "report", rkey)
+        tj = read_task_json(d) or {}
         if tj.get("state") == "done" and Path(tj.get("report_dir", "")).is_dir():
             rows.append(StatusRow("(all)", "report", "done", rkey, tj["report_dir"]))
+        elif tj.get("state") == "running":
+            state, detail = _running(d, tj)
+            rows.append(StatusRow("(all)", "report", state, rkey, detail))
         elif tj.get("state") == "failed":
             rows.append(StatusRow("(all)", "report", "failed", rkey, str(tj.get("error", ""))))
         else:
@@ -128,6 +135,21 @@ def study_status(study: Study, out_dir: Path, root: Path | None = None) -> list[
             st = "stale" if old.get("key") else "missing"
             rows.append(StatusRow("(all)", "report", st, rkey, old.get("dir", "")))
     return rows
+
+
+def out_dir_state(out_dir: Path) -> str:
+    """Who holds the out dir (``lock.py``): a live process, one that is gone, or none."""
+    path = Path(out_dir) / LOCK_NAME
+    if not path.exists():
+        return "out dir: not in use"
+    rec = read_holder(path)
+    if rec is None:
+        return f"out dir: {path} exists without a record (a process is taking it, or one died " \
+               "while taking it)"
+    if record_alive(rec, path):
+        return f"out dir: in use by {describe_holder(rec)}"
+    return (f"out dir: not in use; {path} was left by {describe_holder(rec)}, which is gone "
+            "(the next run takes it over)")
 
 
 def format_status(rows: list[StatusRow]) -> str:

@@ -2,9 +2,11 @@
 
 Each takes its configuration and its input paths, writes one output into its cache directory
 ``<out>/<task>/<key>/`` and returns the output's path. Each first checks for a complete output
-(:func:`saltstudy.ncio.is_complete`: readable and marked complete) and returns it untouched if
-present; an incomplete, truncated or corrupt file is never trusted but recomputed. Each records
-what it did in ``task.json`` beside its output (state, config slice, inputs, wall time, error).
+(:func:`saltstudy.ncio.is_complete`: readable, marked complete, where it was written) and returns
+it untouched if present; an incomplete, truncated, corrupt or misplaced file is never trusted but
+recomputed. While it computes, a task holds its directory (``task.lock``: a second process on the
+same task waits, then finds the output) and records what it does in ``task.json`` beside its
+output (state, config slice, inputs, wall time, error).
 
 They know nothing of dask (graph.py wraps them), so ``saltstudy run CASE`` calls them directly.
 """
@@ -13,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import shutil
 import time
 import traceback
 from collections import deque
@@ -21,14 +24,16 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import SOURCE_KEY, __version__
+from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study
+from ..faults import disk_full, point
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
 from ..solver.similarity import rescale_restart
 from .driver import Interrupted, add_checkpoints, load_checkpoint, run_saltation
 from .paths import output_path, task_dir, write_json_atomic
-from .progress import ProgressFile
+from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
+from .progress import ProgressFile, emit
 from .report_meta import cache_meta
 
 __all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "read_attrs",
@@ -71,27 +76,85 @@ def read_attrs(path: Path) -> dict[str, Any]:
 
 
 class _Running:
-    """Context: task.json says running; on error it says failed (with the reason) and re-raises."""
+    """Context: the task's directory claimed (``lock.claim_task``: a process that computes the same
+    task is waited for), its leftovers tidied, task.json saying running; on error it says failed
+    (with the reason) and re-raises.
 
-    def __init__(self, directory: Path, task: str, **fields: Any):
+    ``output``: the task's archive, or a function telling whether the task is done. If another
+    process completed it while this one waited, ``done`` is True, nothing is recorded, and the
+    task returns its output."""
+
+    def __init__(self, directory: Path, task: str, output: Path | Callable[[], bool] | None = None,
+                 **fields: Any):
         self.directory, self.task, self.fields = directory, task, fields
+        self.finished = ((lambda: is_complete(output)) if isinstance(output, Path)
+                         else output if output is not None else (lambda: False))
         self.t0 = time.perf_counter()
+        self.done = False
+        self._lock = None
 
     def __enter__(self) -> "_Running":
         self.directory.mkdir(parents=True, exist_ok=True)
-        write_task_json(self.directory, task=self.task, state="running", started=time.time(),
-                        error=None, **self.fields)
+        name = f"{self.task} {self.fields.get('label') or self.fields.get('study') or ''}".strip()
+        self._lock = claim_task(self.directory, name, emit)
+        try:
+            self.done = bool(self.finished())
+            tidy_task_dir(self.directory, self.done)
+            if not self.done:
+                write_task_json(self.directory, task=self.task, state="running", started=time.time(),
+                                error=None, **self.fields)
+        except BaseException:
+            self._lock.release()
+            raise
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            if not self.done:
+                self._record(exc_type, exc, tb)
+        finally:
+            self._lock.release()
+
+    def _record(self, exc_type, exc, tb) -> None:
         wall = time.perf_counter() - self.t0
         if exc is None:
             write_task_json(self.directory, state="done", finished=time.time(), task_wall_s=wall)
-        else:
+            return
+        try:   # best effort (a full disk may refuse it): the task's own error is what propagates
             write_task_json(self.directory, state="failed", finished=time.time(), task_wall_s=wall,
                             error=f"{type(exc).__name__}: {exc}",
                             traceback="".join(traceback.format_exception(exc_type, exc, tb))[-4000:])
-            ProgressFile(self.directory, self.task, "", "").write(0.0, "failed", str(exc))
+        except OSError:
+            pass
+        ProgressFile(self.directory, self.task, "", "").write(0.0, "failed", str(exc))
+
+
+def tidy_task_dir(directory: Path, done: bool) -> None:
+    """Remove what a killed process left in a task's directory, whose lock the caller holds (so
+    no live process writes there): temporary files, and the checkpoint of a task whose archive
+    is complete (``done``: killed between the archive's rename and the checkpoint's removal)."""
+    for tmp in Path(directory).glob("*.tmp"):
+        tmp.unlink(missing_ok=True)
+    if done:
+        (Path(directory) / "checkpoint.npz").unlink(missing_ok=True)
+
+
+def tidy_leftovers(directory: Path, output: Path | None) -> None:
+    """:func:`tidy_task_dir` for a task this run does not compute, if it left anything (a lock, a
+    temporary file, a checkpoint) and no process holds it."""
+    d = Path(directory)
+    if not (d / TASK_LOCK_NAME).exists() and not (d / "checkpoint.npz").exists() \
+            and not any(d.glob("*.tmp")):
+        return
+    lock = DirLock(d / TASK_LOCK_NAME, f"task {d.name}")
+    try:
+        lock.acquire(wait=False)
+    except Busy:
+        return
+    try:
+        tidy_task_dir(d, output is not None and is_complete(output))
+    finally:
+        lock.release()
 
 
 # ------------------------------------------------------------------------------------------
@@ -165,7 +228,9 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
                 else checkpoint_interval)
     d = task_dir(out_dir, "spinup", key)
     ckpt_path = d / "checkpoint.npz"
-    with _Running(d, "spinup", key=key, label=scene.label, config=scene.spinup_slice()):
+    with _Running(d, "spinup", path, key=key, label=scene.label, config=scene.spinup_slice()) as run:
+        if run.done:
+            return path
         t0 = time.perf_counter()
         sp = scene.fidelity.spinup
         loaded = load_checkpoint(ckpt_path)
@@ -258,8 +323,10 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
     scene = scene.spinup_scene()
     duration = float(scene.fidelity.spinup.stagger)
     d = task_dir(out_dir, "spinup", key)
-    with _Running(d, "continuation", key=key, label=scene.label,
-                  inputs={"parent": str(parent_path)}, duration=duration):
+    with _Running(d, "continuation", path, key=key, label=scene.label,
+                  inputs={"parent": str(parent_path)}, duration=duration) as run:
+        if run.done:
+            return path
         t0 = time.perf_counter()
         parent = open_dataset(parent_path)
         restart = archives.restart_from_dataset(parent)
@@ -320,8 +387,10 @@ def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: s
         raise FileNotFoundError(f"{spinup_path}: spin-up archive missing or incomplete")
     d = task_dir(out_dir, "saltation", key)
     ckpt_path = d / "checkpoint.npz"
-    with _Running(d, "saltation", key=key, label=scene.label, inputs={"spinup": str(spinup_path)},
-                  config=keys.saltation_slice(scene)):
+    with _Running(d, "saltation", path, key=key, label=scene.label, inputs={"spinup": str(spinup_path)},
+                  config=keys.saltation_slice(scene)) as run:
+        if run.done:
+            return path
         sp = open_dataset(spinup_path)
         restart = archives.restart_from_dataset(sp)
         # a spin-up shared by similarity ran at another u*: rescale it to this case's u*s
@@ -353,7 +422,10 @@ def analysis_task(samples_path: Path, spinup_path: Path, out_dir: Path, key: str
     from ..analysis.analyse import analyse_case
 
     d = task_dir(out_dir, "analysis", key)
-    with _Running(d, "analysis", key=key, inputs={"samples": str(samples_path), "spinup": str(spinup_path)}):
+    with _Running(d, "analysis", path, key=key,
+                  inputs={"samples": str(samples_path), "spinup": str(spinup_path)}) as run:
+        if run.done:
+            return path
         wall = (float(read_attrs(samples_path).get("wall_time_s", 0.0))
                 + float(read_attrs(spinup_path).get("wall_time_s", 0.0)))
         analyse_case(samples_path, spinup_path, path, wall_time_s=wall)
@@ -382,7 +454,55 @@ def report_task(study: Study, runs: dict[str, Path | None], out_dir: Path, repor
     except ImportError as exc:
         log(f"report: skipped (saltstudy.report.build_report not available: {exc})")
         return None
-    with _Running(d, "report", key=key, study=study.name, report_dir=str(report_dir),
-                  inputs={k: (str(v) if v else None) for k, v in runs.items()}):
-        build_report(study.name, runs, Path(report_dir), cache_meta(meta or {}))
+    with _Running(d, "report", lambda: report_done(out_dir, key, report_dir), key=key,
+                  study=study.name, report_dir=str(report_dir),
+                  inputs={k: (str(v) if v else None) for k, v in runs.items()}) as run:
+        if not run.done:
+            build_report_staged(build_report, study.name, runs, Path(report_dir),
+                                cache_meta(meta or {}))
     return Path(report_dir)
+
+
+#: what ``build_report`` reads from the report directory it rebuilds
+_REPORT_INPUTS = ("FINDINGS.md", "summary.json")
+
+
+def build_report_staged(build_report: Callable[..., Path], study_name: str,
+                        runs: dict[str, Path | None], report_dir: Path,
+                        meta: dict[str, Any]) -> Path:
+    """``build_report`` into ``.<name>.<pid>.tmp`` beside ``report_dir``, then each file renamed
+    into ``report_dir``, ``index.html`` last: a report stopped midway leaves whole files of the old
+    report or of the new one (and the stage, which the next build of that report removes), never
+    a half-written figure. Files of ``report_dir`` that the build does not write (the hand-written
+    FINDINGS.md) stay. Returns ``report_dir/index.html``."""
+    report_dir = Path(report_dir)
+    report_dir.parent.mkdir(parents=True, exist_ok=True)
+    for old in report_dir.parent.glob(f".{report_dir.name}.*.tmp"):
+        pid = old.name[len(report_dir.name) + 2:-len(".tmp")]
+        if old.is_dir() and not (pid.isdigit() and pid_alive(int(pid))):
+            shutil.rmtree(old, ignore_errors=True)      # a stage left by a stopped build
+    stage = report_dir.parent / f".{report_dir.name}.{os.getpid()}.tmp"
+    shutil.rmtree(stage, ignore_errors=True)     # of an earlier process that had this pid
+    stage.mkdir()
+    try:
+        point("report:write")
+        for name in _REPORT_INPUTS:
+            if (report_dir / name).is_file():
+                shutil.copy2(report_dir / name, stage / name)
+        try:
+            build_report(study_name, runs, stage, meta)
+        except OSError as exc:
+            full = disk_full(stage / "index.html", None, exc)
+            if full is not None:
+                raise full from exc
+            raise
+        point("report:tmp")
+        report_dir.mkdir(parents=True, exist_ok=True)
+        made = sorted((p for p in stage.iterdir() if p.name != "FINDINGS.md"),
+                      key=lambda p: p.name == "index.html")
+        for p in made:
+            os.replace(p, report_dir / p.name)
+        point("report:done")
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return report_dir / "index.html"

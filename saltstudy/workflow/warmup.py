@@ -28,6 +28,7 @@ import tempfile
 from pathlib import Path
 
 from ..config import Fidelity, Scene
+from ..faults import FAULT_ENV
 
 __all__ = ["warm_scene", "signature", "ensure_warm"]
 
@@ -106,8 +107,10 @@ def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -
     with tempfile.TemporaryDirectory(prefix="saltstudy-warmup-") as tmp:
         spec = Path(tmp) / "scenes.json"
         spec.write_text(json.dumps([warm_scene(s).model_dump(mode="json") for s in reps.values()]))
+        # without the fault hook: a test that stops its run at a write point means the run's
+        env = {k: v for k, v in os.environ.items() if k != FAULT_ENV}
         proc = subprocess.run([sys.executable, "-m", "saltstudy.workflow.warmup", str(spec), tmp],
-                              capture_output=True, text=True)
+                              capture_output=True, text=True, env=env)
     if proc.returncode != 0:
         if log is not None:
             tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]

@@ -12,7 +12,7 @@ from numba import prange
 
 from ..._jit import pjit
 from ...physics.laws import invert_log_law_shape, log_law_profile, log_law_shape, regress_log_law
-from ..closures.sgs import C_M, E_MIN, sgs_stress_uw_profile, strain_sq_at
+from ..closures.sgs import sgs_stress_uw_profile, strain_sq_at
 
 __all__ = ["flow_profiles", "flow_planes", "cell_centred_velocity", "u_star_at", "stress_profile",
            "resolved_tke_volume_mean", "log_law_shape", "log_law_profile", "fit_log_law"]

@@ -6,8 +6,6 @@ cells in z (``grid.z_f``); a parcel belongs to the layer holding it.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..grains.particles import Saltation

@@ -217,16 +217,21 @@ def locate(x, y, z, G, nx, ny, nz):
 
 
 @ijit
-def _tri(f, i0, fx, j0, fy, k0, fz, nx, ny):
-    """Trilinear value of f around (i0+fx, j0+fy, k0+fz) with periodic i, j."""
+def _upper_corner(i0, fx, j0, fy, nx, ny):
+    """(i0 + 1, j0 + 1) wrapped (i0, j0 are in range) and the lower corner's weights 1 - fx, 1 - fy."""
     i1 = i0 + 1
     if i1 == nx:
         i1 = 0
     j1 = j0 + 1
     if j1 == ny:
         j1 = 0
-    gx = 1.0 - fx
-    gy = 1.0 - fy
+    return i1, j1, 1.0 - fx, 1.0 - fy
+
+
+@ijit
+def _tri(f, i0, fx, j0, fy, k0, fz, nx, ny):
+    """Trilinear value of f around (i0+fx, j0+fy, k0+fz) with periodic i, j."""
+    i1, j1, gx, gy = _upper_corner(i0, fx, j0, fy, nx, ny)
     gz = 1.0 - fz
     # each column's two levels in one load (simd.load2; k0 + 1 < nz by the callers)
     f000, f001 = load2(f, i0, j0, k0)
@@ -240,14 +245,7 @@ def _tri(f, i0, fx, j0, fy, k0, fz, nx, ny):
 
 @ijit
 def _bil(f, i0, fx, j0, fy, k, nx, ny):
-    i1 = i0 + 1
-    if i1 == nx:
-        i1 = 0
-    j1 = j0 + 1
-    if j1 == ny:
-        j1 = 0
-    gx = 1.0 - fx
-    gy = 1.0 - fy
+    i1, j1, gx, gy = _upper_corner(i0, fx, j0, fy, nx, ny)
     return (gx * (gy * f[i0, j0, k] + fy * f[i0, j1, k])
             + fx * (gy * f[i1, j0, k] + fy * f[i1, j1, k]))
 
@@ -288,14 +286,7 @@ def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
     >= nk fold onto nk - 1: a safety net, momentum stays conserved, only its position is
     approximate). ``base = off + comp * L * ny * nk``. A column's two levels are contiguous: one
     2-wide fused multiply-add each (simd.fma2)."""
-    i1 = i0 + 1
-    if i1 == nx:
-        i1 = 0
-    j1 = j0 + 1
-    if j1 == ny:
-        j1 = 0
-    gx = 1.0 - fx
-    gy = 1.0 - fy
+    i1, j1, gx, gy = _upper_corner(i0, fx, j0, fy, nx, ny)
     gz = 1.0 - fz
     r0 = base + slab_of(i0, s, nx) * ny * nk
     r1 = base + slab_of(i1, s, nx) * ny * nk
@@ -328,14 +319,7 @@ def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
 def pool_add_tri2(pool, base, s, nx, ny, nk, va, vb, i0, fx, j0, fy, k0, fz):
     """As pool_add_tri for a pair of interleaved buffers (stride 2): (+ w va, + w vb). A column's
     two levels are four contiguous values: one 4-wide fused multiply-add each (simd.fma4)."""
-    i1 = i0 + 1
-    if i1 == nx:
-        i1 = 0
-    j1 = j0 + 1
-    if j1 == ny:
-        j1 = 0
-    gx = 1.0 - fx
-    gy = 1.0 - fy
+    i1, j1, gx, gy = _upper_corner(i0, fx, j0, fy, nx, ny)
     gz = 1.0 - fz
     r0 = base + 2 * slab_of(i0, s, nx) * ny * nk
     r1 = base + 2 * slab_of(i1, s, nx) * ny * nk

@@ -17,53 +17,32 @@ integrated *exactly* over a (sub)step h with k_p and the seen fluid velocity u_s
     u_t = u_s + g / k_p,          E = exp(-k_p h)
 
 so a grain with T_p << h is stable and lands on its terminal velocity. k_p is evaluated at the
-slip ``E * (mean slip over the step) + (1 - E) * (end-of-step slip)`` of the frozen-k solution, by a
-fixed-point iteration warm-started from the previous step (tolerance ``DRAG_TOL``). For
-k_p h << 1 this is the step-mean slip (second order in h); for k_p h >> 1 it is the end slip, and
-then a grain falling from rest cannot overshoot its terminal velocity whatever h / T_p (if the end
-slip exceeded the terminal slip, k_p would exceed its terminal value and the end slip would fall
-short of it); it lands on the root of f(Re) w = g T_p to the iteration tolerance.
-The fixed point k = F(k) is found by safeguarded Newton (dF/dk is analytic: no extra
-transcendental per iteration; plain fixed-point updates if Newton would leave (0, inf) or F is
-not contracting), stopped when ``|F(k) - k| <= DRAG_TOL k``; the last Newton update is then
-applied, so k is accurate to about DRAG_TOL^2 (a plain fixed-point update must meet DRAG_TOL^2
-itself; typically two evaluations of F).
+slip ``E * (mean slip over the step) + (1 - E) * (end-of-step slip)`` of the frozen-k solution:
+the step-mean slip (second order) for k_p h << 1, the end slip for k_p h >> 1, where a grain
+falling from rest then cannot overshoot its terminal velocity whatever h / T_p. The fixed point
+is found by safeguarded Newton (:mod:`drag`), warm-started from the previous step, to
+``DRAG_TOL``; the last Newton update is applied, so k is accurate to about DRAG_TOL^2.
 
-Sub-steps: a parcel is sub-stepped so that it moves at most one local cell height per sub-step
-(re-interpolating the fluid velocity), at most ``MAX_SUBSTEPS`` per step. A parcel that crosses the
-impact layer (z = ``splash.impact_layer``, 0.5 mm) is stopped at the crossing, found by safeguarded
-Newton on the analytic z(t); it then splashes (:mod:`splash_kernels`). The rebound and the ejecta
-start at the impact point with the rest of the step as a time credit and are integrated over
-``dt + credit`` in the next step, inside that step's implicit exchange (integrating them at once
-would exchange their momentum explicitly, which is unstable for small grains at high loading). A
-parcel found inside the impact layer at the start of a step (placed there by ``add_parcels``)
-splashes at once. A parcel reaching the lid is reflected (it does not happen at the cases'
-heights).
+Sub-steps: a parcel moves at most one local cell height per sub-step (re-interpolating the
+wind), at most ``MAX_SUBSTEPS`` per step. A parcel that crosses the impact layer
+(``splash.impact_layer``, 0.5 mm) is stopped at the crossing (:mod:`motion`) and splashes
+(:mod:`splash_kernels`); the rebound and the ejecta start there with the rest of the step as a
+time credit, integrated over ``dt + credit`` in the next step inside that step's implicit
+exchange (integrating them at once would exchange their momentum explicitly, which is unstable
+for small grains at high loading). A parcel placed inside the impact layer (``add_parcels``)
+splashes at once; one reaching the lid is reflected. The wind at a parcel: :mod:`interp`; the
+two-way exchange and the TKE sink: :mod:`coupling`.
 
-Fluid velocity at a parcel: trilinear on the staggered grid, log law from the second level in the
-whole first cell with the drag going back to the second level (the paper's [12]), see
-:mod:`interp`. Two-way coupling, the point-implicit exchange and the TKE sink: :mod:`coupling`.
-
-Work split: the per-parcel integration is ``prange``-parallel over a fixed number of chunks with
-chunk-private deposit buffers (race-free, and reductions in a fixed order, so results do not depend
-on the numba thread count). The bed events are split into a fixed number of runs of consecutive
-impacts, each with its own random stream, splashed in parallel (splash_kernels.splash_runs); the
-release's random draws are in a serial kernel on the component's main stream. A chunk is a run of
-x-slabs with about n / N_CHUNKS parcels (processed in index order), so its buffers cover only those
-slabs plus a margin (coupling.py), and only the levels parcels can reach within the step; the
-buffers persist across steps. The per-parcel code is inlined (interp.py ``ijit``) into a serial
-per-chunk loop (``_advance_chunk``: blocks of parcels in passes over the block, the branch-free ones
-vectorized by LLVM; see layout.py's section comment on the lane rows) called from the prange.
-Two-way, the modelled impulse of the implicit estimate and the first sub-step's drag impulse share
-their weights and are deposited as one value; the advance recomputes the estimate's coefficients
-from the same inputs (coupling.implicit_estimate), so nothing per parcel is kept between the two
-passes. A step has few parallel regions (chunk assignment, the estimate, its solve, the advance, the
-bed events, the air's update), and each runs on all the numba threads or on one, whichever its
-recent calls ran faster (``Threads``): on a machine shared with other jobs a region first waits for
-its worker threads to get a core, milliseconds, more than a region's work at 10^5 parcels. The
-results are the same either way. The kernels a step calls come as one record (``StepKernels``, the
-component's ``kernels``; ``KERNELS`` by default): a benchmark passes its own (e.g. each kernel
-wrapped in a timer) without touching this module.
+Work split: the parcels go in a fixed number of chunks (``prange``, chunk-private deposit
+buffers: :mod:`coupling`), the impacts in a fixed number of runs each with its own random stream
+(:mod:`splash_kernels`), the release's draws in a serial kernel on the main stream, so results do
+not depend on the numba thread count. The per-parcel code is inlined (interp.py ``ijit``) into a
+per-chunk loop over blocks of parcels (:mod:`advance`; the lane rows: layout.py). Two-way, the
+estimate's impulse and the first sub-step's drag impulse share their weights and are deposited
+as one value; the advance recomputes the estimate's coefficients from the same inputs, so
+nothing per parcel is kept between the two passes. Each parallel region runs on all the threads
+or on one, whichever ran faster recently (``Threads``). The kernels a step calls come as one
+record (``StepKernels``; ``KERNELS`` by default) that a benchmark may replace.
 """
 import json
 import math
@@ -124,13 +103,11 @@ class Threads:
     of chunks and runs, each with its own buffers, stream and stretch; every sum in a fixed
     order; the same compiled code).
 
-    Which is faster depends on the machine's load, not on the model: on a quiet machine the
-    worker threads start at once and the threads win by up to their count; on a machine shared
-    with other jobs a parallel region first waits for its workers to get a core (an empty
-    4-iteration prange, 2 threads, load 4: median 8.0 ms over 2000 calls; with
-    numba.set_num_threads(1) 3.6 us), more than the kernel's work at 10^5 parcels. Every
-    ``EXPLORE``-th call takes the other count, so that a change of load is noticed; a kernel's
-    first call in the process (its compilation or cache load) is not timed."""
+    Which is faster depends on the machine's load, not on the model: on a machine shared with
+    other jobs a parallel region first waits milliseconds for its workers to get a core, more
+    than the kernel's work at 10^5 parcels (measured: docs/BENCHMARKS.md). Every ``EXPLORE``-th
+    call takes the other count, so that a change of load is noticed; a kernel's first call in
+    the process (its compilation or cache load) is not timed."""
 
     EXPLORE = 32
 
@@ -242,7 +219,6 @@ class Saltation:
         self.last_step: dict = {}
         self._steps = 0
         self._vmax = 0.0
-        self._empty = np.zeros(0)
         self._e_zero = np.zeros((1, 1, 1))
 
     @property

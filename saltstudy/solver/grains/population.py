@@ -28,19 +28,9 @@ def compact(dead, n_dead, n, x, y, z, u, v, w, d, kd, flag, trem, tl, xl, yl):
         q = dead[i]
         last = n - 1
         if q != last:
-            x[q] = x[last]
-            y[q] = y[last]
-            z[q] = z[last]
-            u[q] = u[last]
-            v[q] = v[last]
-            w[q] = w[last]
-            d[q] = d[last]
-            kd[q] = kd[last]
+            for a in (x, y, z, u, v, w, d, kd, trem, tl, xl, yl):
+                a[q] = a[last]
             flag[q] = flag[last]
-            trem[q] = trem[last]
-            tl[q] = tl[last]
-            xl[q] = xl[last]
-            yl[q] = yl[last]
         n -= 1
     return n
 

@@ -10,14 +10,8 @@ The impacts of a step are split into a fixed number of runs of consecutive impac
 of the parcel arrays, so the runs go in parallel (``splash_runs``) and the result does not depend
 on how many threads there are.
 
-Reading of section 2.3 (documented choice). "When a particle reaches the lower 0.5 mm layer ... [it]
-is assumed to rebound, eject other particles, or deposit on the surface following its velocity."
-The rebound is a Bernoulli draw with P_reb (eq. 6); "the rebounding particle can also eject other
-particles", with N_ej (eq. 8) a function of v_imp only. We read the ejection as independent of the
-rebound (as in Kok & Renno 2009, whose scheme the paper follows): *every* impact ejects
-N_ej grains on average, whether the impactor rebounds or deposits. So an impact has one of four
-outcomes: rebound, rebound + ejecta, deposit, deposit + ejecta. The draws per impact and their
-order: physics/splash.py.
+Every impact ejects N_ej grains on average, whether the impactor rebounds or deposits (the
+reading of section 2.3 and the order of the draws: physics/splash.py).
 
 The rebound and the ejecta start at the impact point, on the impact layer's top, where the
 parcel kernel located the crossing, and are integrated for the rest of the step by the caller.

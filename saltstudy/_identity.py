@@ -1,0 +1,45 @@
+"""The package's identity, which every part may import: its version and the source key, the hash
+of the numerical sources a run executes. Importing it points numba's on-disk cache at a
+directory of that key before any kernel compiles (``_jit.py``)."""
+from __future__ import annotations
+
+import hashlib
+import os
+from pathlib import Path
+
+__version__ = "0.1.0"
+
+
+def source_key(here: Path | None = None) -> str:
+    """Hash of the numerical sources that a run executes (``_jit.py``, ``physics/``, ``solver/``;
+    the instruments that measure the model live outside them, so an edit to a benchmark or a probe
+    makes no archive stale and recompiles no kernel): the workflow's cache keys and numba's
+    on-disk cache (``_jit.py``) are keyed by it."""
+    here = here or Path(__file__).resolve().parent
+    h = hashlib.sha256(__version__.encode())
+    for sub in ("_jit.py", "physics", "solver"):
+        p = here / sub
+        files = [p] if p.is_file() else sorted(p.rglob("*.py"))
+        for f in files:
+            h.update(f.relative_to(here).as_posix().encode())   # a moved file is another source
+            h.update(f.read_bytes())
+    if os.environ.get("SALTSTUDY_STRICT_IEEE", "") not in ("", "0"):   # _jit.STRICT_IEEE
+        h.update(b"strict-ieee")
+    return h.hexdigest()[:12]
+
+
+SOURCE_KEY = source_key()
+
+if "NUMBA_CACHE_DIR" not in os.environ:
+    _base = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "saltstudy" / "numba"
+    os.environ["NUMBA_CACHE_DIR"] = str(_base / SOURCE_KEY)
+# numba's workqueue layer aborts when kernels are called from several threads (dask threads);
+# prefer OpenMP, then TBB.
+os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp tbb workqueue")
+# The OpenMP worker threads sleep as soon as a parallel region ends instead of spinning for a
+# while (libgomp's default): between the flow's parallel regions the pressure solve's FFTs run on
+# other threads (solver/flow/pressure.py), which a spinning worker keeps from a core on a 2-core
+# machine. The two threads' speed-up on the paper's grid with this policy: docs/BENCHMARKS.md,
+# "Single precision and the flow's threads" (`NUMBA_NUM_THREADS=1|2 saltstudy bench flow
+# --fidelity paper`; `OMP_WAIT_POLICY=ACTIVE` in the environment times libgomp's default).
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

@@ -1,0 +1,293 @@
+"""Who may write where: one process holds an out dir, one process at a time computes a task.
+
+Two ``run-all`` on one out dir would compute the same tasks and replace each other's files; so
+``run-all``, ``run`` and ``figures`` first take ``<out>/saltstudy.lock``, and a second one
+refuses at once, naming the holder (pid, host, start time, command), or with ``--wait`` waits for
+it to finish and then finds its work in the cache. Each task also takes ``<task dir>/task.lock``
+while it computes: a process that reaches a task another computes (a worker of a run whose client
+was stopped; a worker the scheduler wrongly took for dead) waits for it, then returns its archive.
+
+The lock is the kernel's (``flock``) on the file, so it goes with its process however the process
+ends (SIGKILL, a crash, a lost node's lease): a killed run leaves its file naming a process that is
+gone, and the next run takes it over, saying so. The file holds the holder's record (JSON) and is
+removed on release. Where the file system does not share ``flock`` between hosts (an NFS mount
+without locking), the record decides: the holder touches the file every :data:`HEARTBEAT_S`
+seconds, and a record from another host is honoured until it has not been touched for
+:data:`STALE_AFTER` seconds (a process on this host's, while its pid lives).
+"""
+from __future__ import annotations
+
+import errno
+import fcntl
+import json
+import os
+import platform
+import shlex
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+__all__ = ["LOCK_NAME", "TASK_LOCK_NAME", "Busy", "DirLock", "hold_out_dir", "claim_task",
+           "read_holder", "describe_holder", "record_alive", "pid_alive", "HEARTBEAT_S"]
+
+LOCK_NAME = "saltstudy.lock"
+TASK_LOCK_NAME = "task.lock"
+#: [s] how often a holder touches its lock file (read by hosts that do not share flock)
+HEARTBEAT_S = 15.0
+#: [s] a record from another host untouched for this long belongs to a process that is gone
+#: (eight heartbeats: an NFS client may cache a file's attributes for up to a minute)
+STALE_AFTER = 120.0
+POLL_S = 0.5
+
+
+class Busy(RuntimeError):
+    """The lock is held by another live process (``holder``: its record)."""
+
+    def __init__(self, what: str, holder: dict[str, Any] | None):
+        self.what, self.holder = what, holder or {}
+        super().__init__(f"{what} is in use by {describe_holder(self.holder)}")
+
+
+def describe_holder(rec: dict[str, Any]) -> str:
+    """'saltstudy pid 123 on host, started 2024-01-01 12:00:00 (`saltstudy run-all ...`)'."""
+    if not rec:
+        return "another saltstudy process (its record is being written)"
+    started = rec.get("started")
+    when = (time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(started))
+            if isinstance(started, (int, float)) else "?")
+    return (f"saltstudy pid {rec.get('pid', '?')} on {rec.get('host', '?')}, started {when} "
+            f"(`{rec.get('command', '?')}`)")
+
+
+def _record(what: str) -> dict[str, Any]:
+    return {"pid": os.getpid(), "host": platform.node(), "started": time.time(),
+            "command": " ".join(shlex.quote(a) for a in [Path(sys.argv[0]).name, *sys.argv[1:]]),
+            "cwd": os.getcwd(), "what": what}
+
+
+def read_holder(path: Path) -> dict[str, Any] | None:
+    """The record in a lock file, or None (no file, or empty or unreadable)."""
+    try:
+        text = Path(path).read_text()
+    except OSError:
+        return None
+    try:
+        rec = json.loads(text)
+    except ValueError:
+        return None
+    return rec if isinstance(rec, dict) else None
+
+
+def pid_alive(pid: Any) -> bool:
+    """True if a process with this pid exists on this host."""
+    if not isinstance(pid, int):
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:     # exists, owned by someone else
+        return True
+    return True
+
+
+def record_alive(rec: dict[str, Any] | None, path: Path) -> bool:
+    """Judged from the record alone (a file system without shared flock): its process lives."""
+    if not rec:
+        return False
+    if rec.get("host") == platform.node():
+        return pid_alive(rec.get("pid"))
+    try:
+        touched = os.stat(path).st_mtime
+    except OSError:
+        return False
+    return time.time() - touched < STALE_AFTER
+
+
+class DirLock:
+    """An exclusive lock on the file ``path`` naming its holder (module doc)."""
+
+    def __init__(self, path: Path, what: str):
+        self.path, self.what = Path(path), what
+        self._fd: int | None = None
+        self._stop = threading.Event()
+        self._beat: threading.Thread | None = None
+        #: the record of a process that held the lock and is gone (taken over), if any
+        self.taken_over: dict[str, Any] | None = None
+        #: [s] how long :meth:`acquire` waited for another holder
+        self.waited_s = 0.0
+
+    @property
+    def held(self) -> bool:
+        return self._fd is not None
+
+    def _try_once(self) -> tuple[bool, dict[str, Any] | None]:
+        """(acquired, the holder's record: {} if unreadable; None if the file was replaced
+        meanwhile, so that trying again at once is right)."""
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                shared_locks = True
+            except BlockingIOError:
+                os.close(fd)
+                return False, self._holder_record() or {}
+            except OSError as exc:
+                if exc.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.EINVAL):
+                    raise
+                shared_locks = False      # no flock here: the record decides
+            try:
+                same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
+            except FileNotFoundError:
+                same = False
+            if not same:                  # released (removed) between our open and our lock
+                os.close(fd)
+                return False, None
+            old = read_holder(self.path)
+            if old and old.get("pid") != os.getpid() and (
+                    not shared_locks or old.get("host") != platform.node()) \
+                    and record_alive(old, self.path):
+                os.close(fd)
+                return False, old
+        except BaseException:
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+            raise
+        rec = _record(self.what)
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, json.dumps(rec).encode(), 0)
+        self._fd = fd
+        self.taken_over = old or None
+        return True, None
+
+    def _holder_record(self) -> dict[str, Any] | None:
+        """The holder's record; it writes it just after taking the lock, so give it a moment."""
+        for _ in range(10):
+            rec = read_holder(self.path)
+            if rec:
+                return rec
+            time.sleep(0.05)
+        return None
+
+    def acquire(self, wait: bool = False, on_wait: Callable[[dict[str, Any] | None], None] | None = None,
+                timeout: float | None = None) -> "DirLock":
+        """Take the lock; if another live process holds it, raise :class:`Busy`, or with ``wait``
+        call ``on_wait(holder)`` once and poll until it is free (``timeout`` s at most)."""
+        if self.held:
+            raise RuntimeError(f"{self.path}: already held by this object")
+        t0 = time.monotonic()
+        told = False
+        while True:
+            got, holder = self._try_once()
+            if got:
+                break
+            if holder is None:          # between two holders: try again at once
+                continue
+            if not wait or (timeout is not None and time.monotonic() - t0 > timeout):
+                raise Busy(self.what, holder)
+            if not told and on_wait is not None:
+                on_wait(holder)
+                told = True
+            time.sleep(POLL_S)
+        self.waited_s = time.monotonic() - t0 if told else 0.0
+        self._stop.clear()
+        self._beat = threading.Thread(target=self._heartbeat, daemon=True,
+                                      name=f"saltstudy-lock-{self.path.name}")
+        self._beat.start()
+        return self
+
+    def _heartbeat(self) -> None:
+        while not self._stop.wait(HEARTBEAT_S):
+            try:
+                os.utime(self.path)
+            except OSError:
+                pass
+
+    def release(self) -> None:
+        """Remove the file, then let the lock go (a waiter that opened the old file sees it is
+        gone and takes the new one)."""
+        if self._fd is None:
+            return
+        self._stop.set()
+        try:
+            self.path.unlink(missing_ok=True)
+        finally:
+            fd, self._fd = self._fd, None
+            os.close(fd)
+
+    def __enter__(self) -> "DirLock":
+        if not self.held:
+            self.acquire()
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.release()
+
+
+class _Held:
+    """This process's hold on an out dir, counted: the command line takes it before it looks at
+    the cache, and the run it starts takes it again."""
+
+    def __init__(self, lock: DirLock):
+        self.lock, self.count = lock, 0
+
+    def __enter__(self) -> DirLock:
+        return self.lock
+
+    def __exit__(self, *exc: Any) -> None:
+        self.release()
+
+    def release(self) -> None:
+        self.count -= 1
+        if self.count == 0:
+            _HELD.pop(str(self.lock.path), None)
+            self.lock.release()
+
+
+_HELD: dict[str, _Held] = {}
+_HELD_LOCK = threading.Lock()
+
+
+def hold_out_dir(out_dir: Path, wait: bool = False, log: Callable[[str], None] | None = None,
+                 timeout: float | None = None) -> _Held:
+    """Take ``<out>/saltstudy.lock`` (refuse with :class:`Busy`, or wait) for a ``with`` block; a
+    process that holds it already holds it once more. Logs a take-over."""
+    path = Path(os.path.abspath(Path(out_dir) / LOCK_NAME))
+    with _HELD_LOCK:
+        held = _HELD.get(str(path))
+        if held is not None:
+            held.count += 1
+            return held
+    lock = DirLock(path, f"out dir {out_dir}")
+
+    def waiting(holder: dict[str, Any] | None) -> None:
+        if log is not None:
+            log(f"[wait] out dir {out_dir} is in use by {describe_holder(holder or {})}; "
+                "waiting for it to finish")
+
+    lock.acquire(wait=wait, on_wait=waiting, timeout=timeout)
+    if lock.taken_over and log is not None:
+        log(f"[lock] taking over {lock.path}: it was held by {describe_holder(lock.taken_over)}, "
+            "which is gone")
+    held = _Held(lock)
+    held.count = 1
+    with _HELD_LOCK:
+        _HELD[str(path)] = held
+    return held
+
+
+def claim_task(directory: Path, name: str, log: Callable[[str], None] | None = None) -> DirLock:
+    """Take ``<task dir>/task.lock``, waiting for another process that computes the task."""
+    lock = DirLock(Path(directory) / TASK_LOCK_NAME, name)
+
+    def waiting(holder: dict[str, Any] | None) -> None:
+        if log is not None:
+            log(f"[wait] {name} is being computed by {describe_holder(holder or {})}; waiting "
+                "for it")
+
+    return lock.acquire(wait=True, on_wait=waiting)
