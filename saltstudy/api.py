@@ -1,21 +1,14 @@
 """The study from Python: load and change a case, run it, read the results as xarray objects.
 
-Everything here goes through the workflow that ``saltstudy run-all`` and ``saltstudy run`` use:
-the same cache (a run computed once is found again, from the command line or from here), the
-same resume after an interruption and the same progress display. The names are importable from
-``saltstudy`` itself (``saltstudy.load_case``, ``saltstudy.run``, ...)::
+Everything goes through the workflow of ``saltstudy run-all`` and ``run`` (same cache, resume and
+progress display); the names are importable from ``saltstudy`` (docs/USAGE.md, "From Python")::
 
-    import saltstudy
-
-    case = saltstudy.load_case(2)                        # a Case (pydantic, validated, frozen)
-    coarse = case.replace(name="coarse", soil={"modes": [{"mu": 300e-6}]})
-    fid = saltstudy.load_fidelity("quick")
-    run = saltstudy.run(coarse, fid)                     # spin-up, saltation, analysis (cached)
+    case = saltstudy.load_case(2).replace(name="coarse", soil={"modes": [{"mu": 300e-6}]})
+    run = saltstudy.run(case, saltstudy.load_fidelity("quick"))   # cached
     a = run.analysis()                                   # analysis.nc as an xarray Dataset
-    res = saltstudy.open_results("quick")                # a study's runs in the cache
-    res.table2()                                         # Table 2 beside the paper (Dataset)
+    saltstudy.open_results("quick").table2()             # Table 2 beside the paper
 
-Lengths in m, times in s, velocities in m s-1, as in the archives (docs/USAGE.md, "From Python").
+Lengths in m, times in s, velocities in m s-1, as in the archives.
 """
 from __future__ import annotations
 

@@ -1,10 +1,6 @@
-"""The ``saltstudy`` command line.
-
-Each area of the package adds its own commands through a ``register(app)`` function in its
-``cli_commands.py`` (workflow: run-all, run, status, figures; analysis: analyse; instruments:
-the ``bench`` and ``probe`` groups, ``probe`` with the investigations' reports of
-report/cli_commands.py). This module holds the commands that only need the configuration, and
-the top level's order and one-line helps (:data:`TOP_LEVEL`).
+"""The ``saltstudy`` command line: each area adds its commands through ``register(app)`` in its
+``cli_commands.py``; here the configuration-only commands and the top level's order
+(:data:`TOP_LEVEL`).
 """
 from __future__ import annotations
 

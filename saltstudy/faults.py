@@ -1,26 +1,16 @@
 """The package's write points: the full-disk error, and a test hook that stops the process at one.
 
-Every file the package writes goes through one of a few functions (``ncio.write_dataset``, the
-checkpoint and JSON writers of the workflow, the report's staging), each of which calls
-:func:`point` at three moments of a write, named ``<file name>:<moment>``:
+Every file the package writes goes through a few writers (``ncio.write_dataset``, the workflow's
+checkpoint and JSON writers, the report's staging), each calling :func:`point` named
+``<file name>:<moment>`` at ``write`` (before the temporary file), ``tmp`` (complete, not yet
+renamed) and ``done`` (renamed), e.g. ``samples.nc:tmp``, ``report:done``.
 
-* ``write``: before the temporary file is written,
-* ``tmp``: the temporary file is complete, not yet renamed into place,
-* ``done``: renamed into place (what follows, e.g. deleting a redundant checkpoint, not yet done).
+The test hook ``SALTSTUDY_FAULT`` (read at every call; docs/USAGE.md "Faults", tests/test_faults.py):
 
-e.g. ``samples.nc:tmp``, ``checkpoint.npz:done``, ``task.json:write``, ``report:tmp``.
-
-The test hook (``SALTSTUDY_FAULT``, read at every call so a test may set it; unset, a call costs
-one dictionary lookup) is what the fault campaign (``tests/test_faults.py``, docs/USAGE.md
-"Faults") uses to stop a run at a chosen instant:
-
-* ``kill GLOB K``: SIGKILL this process at the K-th call (1-based, counted in this process) of a
-  point whose name matches the shell pattern GLOB, e.g. ``kill samples.nc:tmp 1``;
-* ``stop GLOB K``: SIGSTOP it there (frozen mid-write, so a test can read ``saltstudy status`` of a
-  live run, then kill it);
+* ``kill GLOB K``: SIGKILL this process at the K-th call (1-based) of a point matching GLOB;
+* ``stop GLOB K``: SIGSTOP it there (a test reads ``saltstudy status`` of a live run, then kills it);
 * ``enospc GLOB K``: raise ``OSError(ENOSPC)`` there, as a full disk does;
-* ``trace FILE``: append ``<unix time> <pid> <point>`` to FILE at every point (the campaign lists
-  the points an uninterrupted run reaches, then picks its instants among them).
+* ``trace FILE``: append ``<unix time> <pid> <point>`` to FILE at every point.
 
 Child processes that compile kernels (``workflow/warmup.py``) are started without it.
 """

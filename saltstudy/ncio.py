@@ -1,19 +1,11 @@
 """NetCDF I/O under one process-wide lock, written atomically.
 
-netCDF4's pip wheels segfault when several threads of one process read or write NetCDF, even
-separate files (netcdf4-python#1405, xarray#7079): every read and write in this package goes
-through :data:`NC_LOCK`. Writes go to ``<name>.<pid>.tmp`` (a name of this process: two writers
-never share one) and are renamed, so an interrupted write never leaves a file that a rerun would
-trust. A full disk raises :class:`saltstudy.faults.DiskFull` naming the file and the space.
-
-An archive records where it was written (``saltstudy_written_as``: its directory's name and its
-own, i.e. the cache key and the kind in the cache's layout) and, set last, that it is complete:
-:func:`is_complete` trusts a file only if it reads, says complete and sits where it was written,
-so a file from another key or of another kind, or one that is not ours, is recomputed.
-
-Every archive written declares the CF conventions (:func:`cf_attributes`): ``Conventions``, the
-axes of the grid's coordinates and the CF standard names of the variables that have one. The
-attributes only: the arrays are written as given.
+netCDF4's wheels segfault when threads of one process touch NetCDF, even separate files
+(netcdf4-python#1405, xarray#7079): all I/O goes through :data:`NC_LOCK`. Writes go to
+``<name>.<pid>.tmp`` and are renamed; a full disk raises :class:`saltstudy.faults.DiskFull`. An
+archive records where it was written (``saltstudy_written_as``) and, last, that it is complete:
+:func:`is_complete` trusts a file only if it reads, says complete and sits where it was written.
+Archives declare the CF conventions (:func:`cf_attributes`: attributes only).
 """
 from __future__ import annotations
 

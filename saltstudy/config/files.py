@@ -1,12 +1,4 @@
-"""Where the configuration files are, and reading them: the project root, the case files, the file a
-fidelity or study reference names, and the folder of a study's own fidelities.
-
-The layout (docs/USAGE.md, "Studies"): ``cases/caseNN.toml``; the shared fidelities in
-``workflows/fidelities/``; a study ``workflows/NAME.toml`` with the rungs and variants only it runs
-in the folder named for it, ``workflows/NAME/``; a study in a folder of its own name
-(``workflows/investigations/knobs/knobs.toml``) keeps them beside itself. The models these files
-validate into are in :mod:`saltstudy.config`.
-"""
+"""Where the configuration files are, and reading them (layout: docs/USAGE.md, "Studies")."""
 from __future__ import annotations
 
 import os

@@ -1,20 +1,10 @@
 """Grain drag: Clift et al. (1978) correction, the Stokes response time and the exact relaxation
-of a grain's velocity under the drag over a step (paper eqs. 3-4).
+of a grain's velocity over a step (paper eqs. 3-4).
 
-The laws are numba functions (``saltstudy._jit.device``: small, inlined into the callers by LLVM)
-that the grain kernels (solver/grains), the steady-layer probe and the tests call alike; numpy
-callers take them element-wise through ``.py_func``.
-
-With eq. (4), the drag per unit mass of eq. (3) is f(Re_p) (u - u_p) / T_p with the Stokes response
-time T_p = rho_p d^2 / (18 rho nu). A grain falling in still air (the paper's eq. 3 has no buoyancy
-term, rho_p >> rho) therefore reaches the terminal velocity w_t that solves
-
-    f(Re_t) w_t = g T_p,   Re_t = w_t d / nu,
-
-which reduces to the Stokes value w_s = g T_p when Re_t -> 0.
-
-Over a step h with the drag rate k = f(Re_p) / T_p and the seen velocity u_s frozen, eq. 3 is
-integrated exactly (:func:`relaxation`, :func:`relaxed_position`)::
+numba device functions (``_jit.device``) shared by the grain kernels, the steady-layer probe and
+the tests; numpy callers use ``.py_func``. The drag per unit mass is f(Re_p) (u - u_p) / T_p with
+T_p = rho_p d^2 / (18 rho nu); the terminal velocity solves f(Re_t) w_t = g T_p. Over a step h with
+k = f(Re_p) / T_p and the seen velocity u_s frozen, eq. 3 is integrated exactly::
 
     u(h) = u_t + (u_p - u_t) E,   x(h) = x_p + u_t h + (u_p - u_t)(1 - E)/k,
     u_t = u_s - g / k e_z,        E = exp(-k h)

@@ -1,21 +1,11 @@
-"""Semi-empirical saltation laws drawn in the paper's Fig. 3 (z0s) and Fig. 8 (G_tot), and the log law.
+"""Semi-empirical saltation laws of the paper's Fig. 3 (z0s) and Fig. 8 (G_tot), and the log law.
 
-Every law takes the saltation friction velocity ``u_star`` [m s^-1] (numpy-vectorised) and the
-threshold ``u_star_t`` [m s^-1] first, then keyword-only parameters; all take the same keywords
-within a family so a figure can draw them by iterating over :data:`Z0S_LAWS` / :data:`GTOT_LAWS`
-(``name -> Law(func, citation)``, a 2-tuple).
-
-* z0s laws: ``f(u_star, u_star_t, *, z0=1e-5, g=9.81) -> z0s [m]``
-* G_tot laws: ``f(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650, g=9.81, nu=1.5e-5) -> [kg m^-1 s^-1]``
-  (Bagnold and Lettau & Lettau also take the reference diameter ``D`` = 250e-6 m).
-
-Below threshold (u_star <= u_star_t) laws that carry a threshold factor return 0 (fluxes) or z0
-(roughness); Charnock and Bagnold have no threshold and are evaluated as printed.
-
-Dimensional consistency (checked by ``tests/test_physics_laws.py`` by rescaling the units of every
-input): all printed forms are consistent except Owen's terminal velocity, printed
-w_t = -1.66 sqrt(rho_p g d). With rho_p in kg m^-3 that has units sqrt(kg m^-3 m s^-2 m) =
-sqrt(kg m^-1 s^-2) = sqrt(Pa), not m s^-1. See :func:`owen_terminal_velocity` for the form used.
+Every law takes ``u_star`` and the threshold ``u_star_t`` [m s^-1] first, then keyword-only
+parameters shared within a family (:data:`Z0S_LAWS`, :data:`GTOT_LAWS`: ``name -> Law(func,
+citation)``): z0s laws ``(z0=1e-5, g=9.81) -> [m]``; G_tot laws ``(d=200e-6, rho=1.2,
+rho_p=2650, g=9.81, nu=1.5e-5) -> [kg m^-1 s^-1]`` (Bagnold, Lettau & Lettau: also ``D``).
+Below threshold they return 0 or z0; Charnock and Bagnold have no threshold. All printed forms are dimensionally consistent except
+Owen's terminal velocity (:func:`owen_terminal_velocity`).
 """
 from __future__ import annotations
 

@@ -1,16 +1,11 @@
-"""Soil grain-size distribution: multimodal lognormal mass-size distribution (paper eq. 5).
-
-Marticorena & Bergametti (1995), as used by Dupont et al. (2013, eq. 5):
+"""Soil grain-size distribution: multimodal lognormal mass-size distribution (paper eq. 5;
+Marticorena & Bergametti 1995):
 
     dM/dln d = sum_j  m_j / (sqrt(2 pi) ln sigma_j)  exp( -(ln d - ln mu_j)^2 / (2 ln^2 sigma_j) )
 
-with m_j the mass fraction, mu_j the *mass* median diameter [m] and sigma_j the geometric standard
-deviation of mode j. The number distribution of a lognormal mass mode is lognormal with the same
-sigma and count median mu_j exp(-3 ln^2 sigma_j) (Hatch-Choate relations, since dN ~ dM / d^3).
-
-All diameters in m. ``soil`` arguments are :class:`saltstudy.config.Soil`. A grain's diameter is
-drawn by :func:`draw_diameter` (numba; the grain kernels' release and splash, the steady-layer
-probe and :func:`sample_diameters` call it).
+m_j the mass fraction, mu_j the mass median diameter [m], sigma_j the geometric standard deviation.
+A mode's number distribution is lognormal with count median mu_j exp(-3 ln^2 sigma_j)
+(Hatch-Choate). Diameters in m; :func:`draw_diameter` is the numba draw the kernels share.
 """
 from __future__ import annotations
 

@@ -1,37 +1,23 @@
 """Splash laws at the bed, paper eqs. 6-9 (section 2.3).
 
-The laws are numba functions drawing from a :class:`numpy.random.Generator`, one per process: the
-grain kernels' bed events (solver/grains/splash_kernels.py), the steady-layer probe
-(instruments/steady_layer.py) and the tests call the same code. They take the splash constants as
-one float vector (:func:`splash_constants`, indices ``SP_*``). The analytic expectations at the
-end are what the tests and the energy check compare the draws with.
+numba functions drawing from a :class:`numpy.random.Generator`, called alike by the grain kernels
+(solver/grains/splash_kernels.py), the steady-layer probe and the tests; the splash constants come
+as one float vector (:func:`splash_constants`, indices ``SP_*``). Conventions the paper leaves open:
 
-Conventions (the paper leaves these open; chosen here and documented):
+* Rebound (eq. 6): Bernoulli with P_reb = p_max (1 - exp(-gamma_reb v_imp)).
+* Rebound speed (eq. 7): N(0.6 v_imp, 0.25 v_imp) with negative draws redrawn (P = 0.82 %), so
+  its mean is 0.60564 v_imp (:func:`truncated_normal_moments`).
+* Vertical launch angles (rebound N(30, 15), ejection N(60, 15) deg) are redrawn outside (0, 180)
+  deg (rebound mean 30.83 deg); horizontal angles N(0, 10) deg relative to the impactor's
+  direction, never truncated.
+* Ejecta number (eq. 8): N = a v_imp / sqrt(g <d_p>) rounded stochastically, floor(N) +
+  Bernoulli(N - floor(N)): mean exactly N, least variance.
+* Ejection speed (eq. 9): exponential with mean 0.08 v_imp (Rice et al. 1995); diameters from the
+  soil's mass distribution (eq. 5). Every impact ejects, rebound or not (Kok & Renno 2009).
+* ``splash.impact_speed = "normal"`` gives eqs. 6 and 8 |w| instead of |u_p| (:func:`law_speed`).
 
-* Rebound (eq. 6): a Bernoulli draw with P_reb = p_max (1 - exp(-gamma_reb v_imp)).
-* Rebound speed (eq. 7): v_reb ~ N(<r> v_imp, s_r v_imp) = N(0.6 v_imp, 0.25 v_imp) *truncated to
-  v_reb >= 0 by redrawing* the negative draws (a rebound must leave the bed). Redrawing samples
-  exactly the truncated normal, whose mean is <r> + s_r phi(a)/(1 - Phi(a)) times v_imp with
-  a = -<r>/s_r (= -2.4): 0.60564 v_imp, not 0.6 v_imp (see :func:`truncated_normal_moments`,
-  :func:`rebound_speed_ratio_moments`). The probability of a redraw is Phi(-2.4) = 0.82 %.
-* Vertical launch angles (rebound N(30, 15) deg, ejection N(60, 15) deg) are likewise redrawn when
-  outside (0, 180) deg: a launch must point upward (angles above 90 deg point upwind, allowed). This
-  moves the rebound mean angle to 30.83 deg (P(redraw) = Phi(-2) = 2.3 %) and the ejection mean by
-  < 0.002 deg. Horizontal angles are plain normal draws (N(0, 10) deg) relative to the impactor's
-  horizontal direction of motion, never truncated.
-* Ejecta number (eq. 8): the mean N = a v_imp / sqrt(g <d_p>) is a real number; the integer drawn is
-  floor(N) + Bernoulli(N - floor(N)) ("stochastic rounding"): its mean is exactly N and its variance
-  f (1 - f), f = N - floor(N), the smallest possible for an integer with mean N.
-* Ejection speed (eq. 9): exponential with mean 0.08 v_imp (Rice et al. 1995), untruncated;
-  diameters from the soil's mass distribution (eq. 5, :func:`saltstudy.physics.soil.draw_diameter`).
-* Every impact ejects N_ej grains, whether the impactor rebounds or deposits (as in Kok & Renno
-  2009, whose scheme the paper follows).
-* ``splash.impact_speed = "normal"`` gives eqs. 6 and 8 the normal impact speed |w| instead of
-  |u_p| (:func:`law_speed`); eqs. 7 and 9 keep |u_p|.
-
-Draws per impact, in this order (:func:`draw_impact`, then :func:`draw_ejectum` per ejectum): the
-rebound's Bernoulli draw; if it rebounds, its speed, vertical and horizontal angle; the number of
-ejecta; per ejectum its diameter, speed, vertical and horizontal angle.
+Draws per impact, in order: the rebound's Bernoulli; if it rebounds, its speed, vertical and
+horizontal angle; the number of ejecta; per ejectum its diameter, speed and two angles.
 """
 from __future__ import annotations
 

@@ -1,15 +1,9 @@
 """xarray Datasets for ``spinup.nc`` and ``samples.nc`` (schemas in docs/ARCHITECTURE.md).
 
-Every variable and coordinate carries ``units`` and ``long_name``; global attributes hold the
-resolved scene as JSON (``case_json``), the package version, fidelity, seed, wall time and the
-physical constants analysis needs. Writing goes through :func:`saltstudy.ncio.write_dataset`
-(lock, temporary name, rename, completion mark).
-
-``spinup.nc`` also carries the solver's whole restart checkpoint, so that the saltation task
-restarts from the file exactly as from the model in memory: ``u, v, w, e, p`` under their schema
-names and staggered dimensions, any other array entry as ``restart__<name>`` and scalar entries as
-``restart__<name>`` attributes; the attribute ``restart_manifest`` (JSON) records each entry's
-kind so :func:`restart_from_dataset` rebuilds the identical dict.
+Every variable carries ``units`` and ``long_name``; global attributes hold the scene as JSON and
+the constants analysis needs. ``spinup.nc`` also carries the solver's whole restart checkpoint
+(``u, v, w, e, p`` under their names, other entries as ``restart__<name>`` variables or
+attributes, kinds in ``restart_manifest``), so :func:`restart_from_dataset` rebuilds it exactly.
 """
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""Workflow commands: ``run-all``, ``run``, ``status``, ``figures`` (registered on the typer app by cli.py).
-
-Exit codes: 0 success; 1 a task failed (the others ran; see ``saltstudy status``); 2 bad input
-(unknown study/case, invalid file) — then nothing in the cache is touched; 3 the out dir is in
-use by another saltstudy process (named; ``--wait`` waits for it instead: workflow/lock.py).
+"""Workflow commands ``run-all``, ``run``, ``status``, ``figures``. Exit codes: 0 success; 1 a
+task failed; 2 bad input (the cache untouched); 3 the out dir is held by another process.
 """
 from __future__ import annotations
 

@@ -1,16 +1,10 @@
 """A run's records and checkpoints on the one time loop (``solver.simulation.Simulation``), and
-the saltation run: activation, records on schedule, checkpoints.
+the saltation run.
 
-Records land exactly on their times: the simulation clips each step to the next record time
-(series every ``sampling.series_interval``, planes every ``sampling.plane_interval`` inside the
-sampling window — or over the whole run with ``outputs.animation`` — and 3-D samples at
-``sampling.start + i * sampling.interval``). Record times are computed as integer multiples,
-never accumulated, so they do not drift.
-
-Every ``fidelity.checkpoint_interval_wall`` seconds of wall time a run writes ``checkpoint.npz``
-(temporary name + ``os.replace``): the model's checkpoint and the simulation's (schedule positions,
-step count, the records so far). A rerun resumes from it; because the solver's restart is bit for
-bit, the final records equal those of an uninterrupted run.
+The simulation clips each step to the next record time; record times are integer multiples, never
+accumulated, so they do not drift. Every ``fidelity.checkpoint_interval_wall`` s of wall time a
+run writes ``checkpoint.npz`` atomically (model, simulation, records so far); the solver's restart
+is bit for bit, so a resumed run's records equal an uninterrupted one's.
 """
 from __future__ import annotations
 

@@ -1,20 +1,14 @@
 """Where the workflow keeps its outputs.
 
-The *out dir* (cache) is ``$SALTSTUDY_OUT`` if set, else ``<project root>/.saltstudy-cache``
-(the project root is ``$SALTSTUDY_HOME``, else the checkout; see :func:`saltstudy.config.project_root`).
-Every CLI command takes ``--out DIR`` to override it. Layout::
+The out dir (cache) is ``$SALTSTUDY_OUT``, else ``<project root>/.saltstudy-cache``; every CLI
+command takes ``--out DIR``. Layout (``<key>``: :mod:`saltstudy.workflow.keys`)::
 
-    <out>/spinup/<key>/spinup.nc        flow-only spin-up (restart state + profiles)
-    <out>/saltation/<key>/samples.nc    saltation run records
-    <out>/saltation/<key>/checkpoint.npz  last periodic checkpoint (deleted once samples.nc is written)
-    <out>/analysis/<key>/analysis.nc    statistics of one case
-    <out>/report/<key>/task.json        marker of a built report (the report itself: reports/<study>/)
-    <out>/<task>/<key>/task.json        what the task was (config slice, inputs, status, wall time)
-    <out>/<task>/<key>/progress.json    live progress (simulated time / target), read by the display
-    <out>/studies/<study>/runs.json     label -> keys of the last completed tasks of each run
-
-``<key>`` is the task's cache key (:mod:`saltstudy.workflow.keys`): a change of anything that
-determines a task's output gives a new directory, so nothing computed is ever overwritten.
+    <out>/spinup/<key>/spinup.nc          flow-only spin-up (restart state + profiles)
+    <out>/saltation/<key>/samples.nc      saltation run records (+ checkpoint.npz while running)
+    <out>/analysis/<key>/analysis.nc      statistics of one case
+    <out>/report/<key>/task.json          marker of a built report (the report: reports/<study>/)
+    <out>/<task>/<key>/task.json|progress.json   what the task was; live progress
+    <out>/studies/<study>/runs.json       label -> keys of the last completed tasks of each run
 """
 from __future__ import annotations
 

@@ -1,9 +1,5 @@
-"""Live progress: tasks write ``progress.json`` in their directory; the display polls the files.
-
-Files rather than a dask Queue/Variable because they work the same with threads, local processes
-and a distributed cluster on a shared file system (which the cache needs anyway), survive a
-worker's death, and need no connection back to the client. A task's callback writes at most once
-a second (atomically), so the cost is nil.
+"""Live progress: tasks write ``progress.json`` (at most once a second, atomically); the display
+polls the files, which work alike with threads, processes and a cluster, and survive a worker.
 """
 from __future__ import annotations
 

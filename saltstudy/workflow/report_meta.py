@@ -1,15 +1,8 @@
 """What the cache records about a study's runs, for its report (``report.build_report``'s
-``meta``): the workflow reads it and passes it on, so the report reads archives and its meta only.
-
-Given ``meta["out_dir"]`` and ``meta["keys"]`` (label -> {"spinup", "saltation", "analysis"} cache
-keys), :func:`cache_meta` adds, where absent:
-
-* ``failures``: label -> error of the first failed task of the run (its ``task.json``);
-* ``samples``: label -> ``samples.nc`` of the run, if present (stability report, animation);
-* ``checkpoints``: label -> the kept checkpoint of a stopped saltation run and its time;
-* ``source_key``: the solver-source key the archives were computed with (their ``task.json``), one
-  string when they agree, else the sorted distinct keys: a report redrawn later by ``figures``
-  names the code that made its numbers, not only the code that drew them (``commit``).
+``meta``). Given ``meta["out_dir"]`` and ``meta["keys"]``, :func:`cache_meta` adds, where absent:
+``failures`` (label -> first failed task's error), ``samples`` (label -> samples.nc),
+``checkpoints`` (a stopped saltation run's checkpoint and time) and ``source_key`` (of the
+archives' ``task.json``: one string, or the sorted distinct keys).
 """
 from __future__ import annotations
 

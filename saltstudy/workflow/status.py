@@ -1,11 +1,8 @@
 """``saltstudy status``: per run and task, is the output for the *current* config done?
 
-States: ``done`` (complete archive at the current key), ``stale`` (no output for the current
-configuration/code, but runs.json records an older complete one), ``failed`` (task.json at the
-current key says so, with the reason), ``partial`` (a spin-up or saltation checkpoint to resume from),
-``running`` (task.json says running and its progress file moved in the last few minutes),
-``stopped`` (task.json says running but nothing has moved for longer: the process died),
-``missing``.
+States: ``done``, ``stale`` (only an older key's output, per runs.json), ``failed``, ``partial``
+(a checkpoint to resume from), ``running`` (progress moved in the last minutes), ``stopped``
+(task.json says running, nothing moves), ``missing``.
 """
 from __future__ import annotations
 

@@ -1,21 +1,12 @@
 """Compile the numba kernels in a subprocess before a study's solver work.
 
-Why: kernels that numba compiles in the running process give results that differ at round-off
-(~1e-13 after a few seconds of flow) from the same kernels loaded from its on-disk cache, while
-every process that loads them from the cache is bit-identical to every other (docs/USAGE.md, "The
-cache, reruns and resumes"; tests/test_workflow_run.py repeats it). The turbulence amplifies a
-round-off difference into another realization.
-Without a warm-up the first run of a new source (which compiles) and any rerun or resumed run
-(which loads) are different realizations; with it, every solver task loads from the cache and a
-rerun, or a run resumed from its checkpoint, repeats the first run.
-
-How: for every distinct set of code paths among the scenes that still need solver work (same
-fidelity options and physics switches; sizes and durations do not change numba's type
-signatures), a child process runs one of them shrunk to the smoke grid for two seconds of flow
-and two of saltation (:func:`warm_scene`), in a temporary directory. A marker in the numba cache
-directory, keyed by that set and by the location and time stamps of the numerical sources (numba
-indexes its cache by source path and modification time: a checkout that only touches a file
-makes it compile again), makes the warm-up a no-op afterwards. Set ``SALTSTUDY_NO_WARMUP=1`` to skip it.
+Kernels compiled in the running process differ at round-off (~1e-13 after seconds of flow) from
+the same kernels loaded from numba's cache, and turbulence makes that another realization
+(docs/USAGE.md, "The cache, reruns and resumes"). With the warm-up every solver task loads from
+the cache, so a rerun or resumed run repeats the first run. For every distinct set of code paths
+among the pending scenes, a child runs one shrunk to the smoke grid (:func:`warm_scene`); a marker
+in the cache directory, keyed by that set and the sources' paths and time stamps (numba's cache
+index), makes it a no-op afterwards. ``SALTSTUDY_NO_WARMUP=1`` skips it.
 """
 from __future__ import annotations
 
