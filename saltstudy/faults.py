@@ -84,8 +84,7 @@ def format_bytes(n: float) -> str:
 
 
 class DiskFull(OSError):
-    """No space left on the device that holds an output: names the file, what it needs and what is
-    free. An ``OSError`` with ``errno.ENOSPC``."""
+    """No space left for an output (``errno.ENOSPC``): names the file, what it needs, what is free."""
 
     def __init__(self, path: str | os.PathLike, needed: int | None, free: int | None):
         self.path, self.needed, self.free = Path(path), needed, free
@@ -111,9 +110,8 @@ def _free(directory: Path) -> int | None:
 
 
 def disk_full(path: str | os.PathLike, needed: int | None, exc: BaseException) -> DiskFull | None:
-    """The :class:`DiskFull` to raise instead of ``exc``, a failure to write ``path``, if the disk
-    is full: ``exc`` says ENOSPC, or (netCDF/HDF5 reports a full disk as an 'HDF error') less than
-    ``needed`` bytes are free on the device. None otherwise."""
+    """The :class:`DiskFull` to raise instead of ``exc`` (writing ``path``) if ``exc`` says ENOSPC
+    or (HDF5 reports a full disk as an 'HDF error') less than ``needed`` bytes are free; else None."""
     path = Path(path)
     if isinstance(exc, DiskFull):
         return exc
@@ -127,10 +125,9 @@ def disk_full(path: str | os.PathLike, needed: int | None, exc: BaseException) -
 
 def write_atomic(path: str | os.PathLike, write: Callable[[Path], None], needed: int | None = None,
                  sync: bool = True) -> Path:
-    """``write(tmp)`` writes the file's content to ``tmp`` (``<name>.<pid>.tmp`` beside ``path``: a
-    name of this process, so two writers never share one), which is then (fsync'ed if ``sync``)
-    renamed to ``path``, with the write points of the module doc. On failure the temporary file is
-    removed; a full disk raises :class:`DiskFull` (``needed``: the size expected, in bytes)."""
+    """``write(tmp)`` writes ``<name>.<pid>.tmp`` beside ``path``, then renamed (fsync'ed if
+    ``sync``) with the module doc's write points; on failure the temporary file is removed and a
+    full disk raises :class:`DiskFull` (``needed``: the expected size in bytes)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")

@@ -20,23 +20,8 @@ SHAO_LU_GAMMA = 3.0e-4
 
 
 def threshold_friction_velocity(d, rho_p, rho, g, A_N=SHAO_LU_A_N, gamma=SHAO_LU_GAMMA):
-    """Shao & Lu (2000) threshold friction velocity u*t [m s^-1].
-
-    Parameters
-    ----------
-    d : float or array
-        grain diameter [m] (vectorised; numpy broadcasting)
-    rho_p, rho : float
-        grain and air density [kg m^-3]
-    g : float
-        gravity [m s^-2]
-    A_N : float
-        dimensionless constant (0.0123)
-    gamma : float
-        cohesion constant [kg s^-2] (3e-4)
-
-    Returns a float for scalar input, else an array shaped like ``d``.
-    """
+    """Shao & Lu (2000) threshold friction velocity u*t [m s^-1] at diameter(s) ``d`` [m];
+    densities [kg m^-3], g [m s^-2], A_N [-], gamma [kg s^-2]."""
     d_arr = np.asarray(d, dtype=float)
     if np.any(d_arr <= 0):
         raise ValueError("grain diameter must be positive")
@@ -45,11 +30,7 @@ def threshold_friction_velocity(d, rho_p, rho, g, A_N=SHAO_LU_A_N, gamma=SHAO_LU
 
 
 def threshold_for_soil(soil, air, threshold, d=None) -> float:
-    """u*t [m s^-1] of a configured case: Shao & Lu at the soil's mean diameter <d_p> (paper eq. 8).
-
-    ``soil``, ``air``, ``threshold`` are :class:`saltstudy.config.Soil`, ``Air``, ``Threshold``.
-    ``d`` [m] overrides the diameter (e.g. to test another definition); default ``soil.mean_diameter``.
-    """
+    """u*t [m s^-1] of a configured case: Shao & Lu at <d_p> (paper eq. 8), or at ``d`` [m]."""
     diameter = soil.mean_diameter if d is None else d
     return threshold_friction_velocity(diameter, soil.rho_p, air.rho, air.g, threshold.A_N,
                                        threshold.gamma)

@@ -29,8 +29,7 @@ def _fail(message: str, code: int = 2) -> None:
 
 
 def _hold(out_dir: Path, wait: bool):
-    """Hold the out dir for a command (``lock.hold_out_dir``); exit 3 naming the holder if it is
-    in use and ``wait`` is not given."""
+    """Hold the out dir for a command; exit 3 naming the holder if it is in use (without ``wait``)."""
     from .lock import Busy, hold_out_dir
     from .progress import emit
 
@@ -68,6 +67,7 @@ def register(app: typer.Typer) -> None:
         from . import keys as K
         from .graph import run_study
         from .paths import output_path
+        from ..ncio import is_complete
 
         out_dir = _out(out)
         # Validate everything before touching the cache: a bad study or case exits 2 here.
@@ -82,7 +82,7 @@ def register(app: typer.Typer) -> None:
             started = time.time()     # the run starts when the other has finished
         with held:
             todo = [(l, t) for l, rk in runs.items() for t in ("spinup", "saltation", "analysis")
-                    if not _complete(output_path(out_dir, t, getattr(rk, t)))]
+                    if not is_complete(output_path(out_dir, t, getattr(rk, t)))]
             if not todo:
                 typer.echo("all runs cached: no solver work to do")
             else:
@@ -150,13 +150,11 @@ def register(app: typer.Typer) -> None:
         wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
     ) -> None:
         """Figures 1-13, Table 2 beside the paper, summary.json and index.html from the archives."""
-        from ..config import ConfigError
         from .lock import Busy
         try:
             index = figures_command(study, out, report_dir, wait=wait)
         except ConfigError as exc:
-            typer.echo(f"error: {exc}", err=True)
-            raise typer.Exit(2)
+            _fail(str(exc))
         except Busy as exc:
             _fail(f"{exc}; rerun with --wait to wait for it, or use another --out", EXIT_BUSY)
         typer.echo(f"report: {index}")
@@ -164,8 +162,8 @@ def register(app: typer.Typer) -> None:
 
 def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
                     wait: bool = False) -> Path:
-    """Resolve the study's analysis archives under ``out`` and build the report, holding the out
-    dir (``wait``: wait for another holder, else ``lock.Busy``). Returns index.html."""
+    """Build the study's report from its analysis archives under ``out``, holding the out dir
+    (``wait``, else ``lock.Busy``). Returns index.html."""
     from .._identity import __version__
     from ..config import load_study, study_file
     from ..report import build_report
@@ -176,7 +174,7 @@ def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
     from .report_meta import cache_meta
     from .tasks import build_report_staged
 
-    out_dir = Path(out) if out is not None else wpaths.default_out_dir()
+    out_dir = _out(out)
     st = load_study(study)
     study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
     if report_dir is None:
@@ -192,16 +190,10 @@ def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
                                    cache_meta(meta))
 
 
-def _complete(path: Path) -> bool:
-    from ..ncio import is_complete
-
-    return is_complete(path)
-
-
 def _print_summary(summary) -> None:
-    counts: dict[str, int] = {}
-    for o in summary.outcomes:
-        counts[o.status] = counts.get(o.status, 0) + 1
+    from collections import Counter
+
+    counts = Counter(o.status for o in summary.outcomes)
     typer.echo(f"study {summary.study}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
                + f" in {summary.wall_s:.1f} s")
     expected = {id(o) for o in summary.expected_blowups}

@@ -20,9 +20,8 @@ from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study, study_runs
 
 __all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "continuation_key",
-           "start_keys", "saltation_key",
-           "analysis_key", "report_key", "RunKeys", "run_keys", "study_keys", "saltation_slice",
-           "area_source_key"]
+           "start_keys", "saltation_key", "analysis_key", "report_key", "RunKeys", "run_keys",
+           "study_keys", "saltation_slice", "area_source_key"]
 
 #: bump when spinup.nc / samples.nc change layout, so old archives are not mistaken for new ones
 ARCHIVE_FORMAT = 2
@@ -57,15 +56,14 @@ def spinup_key(scene: Scene) -> str:
 
 
 def continuation_key(parent: str, duration: float) -> str:
-    """One link of a staggered start: the particle-free flow of archive ``parent`` continued for
-    ``duration`` seconds (``fidelity.spinup.stagger``)."""
+    """One link of a staggered start: archive ``parent`` continued for ``duration`` s."""
     return hash_json({"task": "continuation", "inputs": [parent], "duration": float(duration),
                       "code": _code()})
 
 
 def start_keys(scene: Scene) -> list[str]:
-    """The archives between the spin-up and this scene's start: the spin-up's key, then one
-    continuation per link (``Scene.start_links``); the last is the one the saltation starts from."""
+    """The spin-up's key, then one continuation per link (``Scene.start_links``): the saltation
+    starts from the last."""
     out = [spinup_key(scene)]
     for _ in range(scene.start_links):
         out.append(continuation_key(out[-1], scene.fidelity.spinup.stagger))
@@ -75,7 +73,6 @@ def start_keys(scene: Scene) -> list[str]:
 def saltation_slice(scene: Scene) -> dict[str, Any]:
     """The whole resolved scene minus what cannot change the samples (see module docstring)."""
     case = scene.case.model_dump(mode="json")
-    # names are labels: two studies that run the same case at the same cost share its archives
     for k in ("description", "name"):
         case.pop(k, None)
     fid = scene.fidelity.model_dump(mode="json")

@@ -63,12 +63,8 @@ def _record(what: str) -> dict[str, Any]:
 def read_holder(path: Path) -> dict[str, Any] | None:
     """The record in a lock file, or None (no file, or empty or unreadable)."""
     try:
-        text = Path(path).read_text()
-    except OSError:
-        return None
-    try:
-        rec = json.loads(text)
-    except ValueError:
+        rec = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
         return None
     return rec if isinstance(rec, dict) else None
 
@@ -118,7 +114,7 @@ class DirLock:
 
     def _try_once(self) -> tuple[bool, dict[str, Any] | None]:
         """(acquired, the holder's record: {} if unreadable; None if the file was replaced
-        meanwhile, so that trying again at once is right)."""
+        meanwhile: try again at once)."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
@@ -223,8 +219,7 @@ class DirLock:
 
 
 class _Held:
-    """This process's hold on an out dir, counted: the command line takes it before it looks at
-    the cache, and the run it starts takes it again."""
+    """This process's counted hold on an out dir (the command line and the run it starts)."""
 
     def __init__(self, lock: DirLock):
         self.lock, self.count = lock, 0

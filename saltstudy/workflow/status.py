@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import platform
 import time
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,8 +50,7 @@ def _checkpoint_time(d: Path) -> float | None:
 
 
 def _running(d: Path, tj: dict) -> tuple[str, str]:
-    """A task whose task.json says running: alive if its progress file moved recently; a killed
-    process leaves both files saying running."""
+    """A task whose task.json says running: alive if its progress file moved recently."""
     started = tj.get("started")
     since = (time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(started))
              if isinstance(started, (int, float)) else "?")
@@ -152,10 +152,7 @@ def out_dir_state(out_dir: Path) -> str:
 def format_status(rows: list[StatusRow]) -> str:
     w = max([len(r.label) for r in rows] + [5])
     lines = [f"{'run':<{w}}  {'task':<9}  {'state':<7}  {'key':<20}  detail"]
-    for r in rows:
-        lines.append(f"{r.label:<{w}}  {r.task:<9}  {r.state:<7}  {r.key:<20}  {r.detail}")
-    counts: dict[str, int] = {}
-    for r in rows:
-        counts[r.state] = counts.get(r.state, 0) + 1
+    lines += [f"{r.label:<{w}}  {r.task:<9}  {r.state:<7}  {r.key:<20}  {r.detail}" for r in rows]
+    counts = Counter(r.state for r in rows)
     lines.append("; ".join(f"{v} {k}" for k, v in sorted(counts.items())))
     return "\n".join(lines)

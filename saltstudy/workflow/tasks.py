@@ -25,7 +25,7 @@ from ..faults import disk_full, point
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
 from ..solver.similarity import rescale_restart
-from .driver import Interrupted, add_checkpoints, load_checkpoint, run_saltation
+from .driver import add_checkpoints, load_checkpoint, run_saltation
 from .paths import output_path, task_dir, write_json_atomic
 from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
 from .progress import ProgressFile, emit
