@@ -212,7 +212,6 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
     from pathlib import Path
 
     from ..ncio import open_dataset
-    from ..solver.similarity import rescale_restart
     from ..workflow import archives
     from ..workflow.paths import default_out_dir
     from ..workflow.tasks import spinup_task
@@ -221,10 +220,7 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
     source = _scene(case, spinup_from, None) if spinup_from else scene
     # the workflow's own spin-up archive (returned at once when the cache holds it)
     sp_path = spinup_task(source, Path(out_dir) if out_dir else default_out_dir())
-    sp = open_dataset(sp_path)
-    restart = archives.restart_from_dataset(sp)
-    u_spin = float(sp.attrs.get("u_star_target", scene.case.forcing.u_star_s))
-    restart = rescale_restart(restart, scene.case.forcing.u_star_s / u_spin)
+    restart = archives.start_restart(open_dataset(sp_path), scene)
     start = "the fidelity's own spin-up"
     if spinup_from:
         from ..solver.grid import Grid

@@ -19,7 +19,7 @@ from ..config import Scene
 from ..solver.diagnostics.health import HEALTH_SERIES
 
 __all__ = ["META", "global_attrs", "plane_heights", "diameter_edges", "z_ref_eff", "coords_for",
-           "spinup_dataset", "restart_from_dataset", "samples_dataset", "check_metadata", "scalar_kind"]
+           "spinup_dataset", "restart_from_dataset", "start_restart", "samples_dataset", "check_metadata", "scalar_kind"]
 
 # name -> (units, long_name). One table for both archives, so a name means one thing everywhere.
 META: dict[str, tuple[str, str]] = {
@@ -214,10 +214,8 @@ def spinup_dataset(scene: Scene, grid, checkpoint: dict[str, Any], profiles: dic
                    history: dict[str, np.ndarray], converged: bool, reason: str, u_drive: float,
                    t_end: float, wall_time_s: float, key: str,
                    profile_window: tuple[float, float, int]) -> xr.Dataset:
-    """The spin-up archive: restart checkpoint, window-mean profiles, history of u* and TKE.
-
-    ``profiles`` are ``flow_profiles`` averaged over ``profile_window = (t0, t1, n_samples)``.
-    """
+    """The spin-up archive: restart checkpoint, ``flow_profiles`` averaged over ``profile_window =
+    (t0, t1, n_samples)``, history of u* and TKE."""
     coords = coords_for(grid)
     data: dict[str, xr.Variable] = {}
     attrs: dict[str, Any] = {}
@@ -282,6 +280,15 @@ def _history_vars(history: dict[str, np.ndarray]) -> dict[str, xr.Variable]:
     return out
 
 
+def start_restart(ds: xr.Dataset, scene: Scene) -> dict[str, Any]:
+    """The restart a saltation run of ``scene`` starts from: spinup.nc's, rescaled to the case's
+    u*s when the spin-up ran at another u* (solver.similarity)."""
+    from ..solver.similarity import rescale_restart
+
+    u_spin = float(ds.attrs.get("u_star_target", scene.case.forcing.u_star_s))
+    return rescale_restart(restart_from_dataset(ds), scene.case.forcing.u_star_s / u_spin)
+
+
 def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:
     """Rebuild the solver checkpoint dict stored in a spinup.nc (bit-for-bit)."""
     manifest = json.loads(ds.attrs["restart_manifest"])
@@ -312,11 +319,8 @@ _FIELDS_3D = ("u", "v", "w", "e", "p")
 def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]],
                     z_plane: np.ndarray, d_edges: np.ndarray, t_activation: float,
                     wall_time_s: float, key: str, n_steps: int) -> xr.Dataset:
-    """The saltation archive from the recorder's stacked groups.
-
-    ``records[group] = (times, {name: stacked array})`` for groups ``series``, ``plane``,
-    ``sample`` (see driver.Recorder).
-    """
+    """The saltation archive from the recorder's stacked groups, ``records[group] = (times,
+    {name: stacked array})`` (driver.Recorder)."""
     coords = coords_for(grid)
     del coords["x_u"], coords["y_v"]  # samples are cell-centred
     t_s, series = records["series"]
@@ -330,10 +334,8 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
     data: dict[str, xr.Variable] = {"d_edges": _var(("d_edge",), d_edges, "d_edges")}
     for name in _SERIES_NAMES:
         data[name] = _var(("time_series",), series[name], name, np.float64)
-    data["C_p"] = _compressed(_var(("time_plane", "x", "y"), planes["C_p"], "C_p", np.float64))
-    data["G_col"] = _compressed(_var(("time_plane", "x", "y"), planes["G_col"], "G_col", np.float64))
-    data["C_p_above"] = _compressed(_var(("time_plane", "x", "y"), planes["C_p_above"], "C_p_above",
-                                         np.float64))
+    for name in ("C_p", "G_col", "C_p_above"):
+        data[name] = _compressed(_var(("time_plane", "x", "y"), planes[name], name, np.float64))
     data["u_plane"] = _compressed(_var(("time_plane", "x", "y", "z_plane"), planes["u_plane"],
                                        "u_plane", np.float64))
     for name in _FIELDS_3D:
@@ -354,14 +356,10 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
         coords["outcome"] = _var(("outcome",), np.arange(3), "outcome")
         coords["hop_time"] = _var(("hop_time",), bins["hop_time_edges"][:-1], "hop_time")
         coords["hop_length"] = _var(("hop_length",), bins["hop_length_edges"][:-1], "hop_length")
-        data["impact_hist"] = _var(("time", "v_imp", "impact_angle"), samples["impact_hist"],
-                                   "impact_hist", np.int64)
-        data["impact_outcomes"] = _var(("time", "v_imp", "outcome"), samples["impact_outcomes"],
-                                       "impact_outcomes", np.int64)
-        data["hop_time_hist"] = _var(("time", "hop_time"), samples["hop_time_hist"],
-                                     "hop_time_hist", np.int64)
-        data["hop_length_hist"] = _var(("time", "hop_length"), samples["hop_length_hist"],
-                                       "hop_length_hist", np.int64)
+        for name, dims in (("impact_hist", ("v_imp", "impact_angle")),
+                           ("impact_outcomes", ("v_imp", "outcome")),
+                           ("hop_time_hist", ("hop_time",)), ("hop_length_hist", ("hop_length",))):
+            data[name] = _var(("time", *dims), samples[name], name, np.int64)
     attrs = global_attrs(scene, wall_time_s, key)
     attrs.update({"t_activation": float(t_activation), "n_steps": int(n_steps),
                   "planes_cover": "whole run" if scene.fidelity.outputs.animation

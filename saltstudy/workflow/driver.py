@@ -120,16 +120,15 @@ class Schedule:
 
     @property
     def end(self) -> float:
-        """The run's last time [s since activation] (the duration, as the record times hold it)."""
+        """The run's last time [s since activation]."""
         return self.events[-1][0]
 
 
 # ------------------------------------------------------------------------------------------
 def save_checkpoint(path: Path, model_ckpt: dict[str, Any], sim_ckpt: dict[str, Any],
                     meta: dict[str, Any]) -> None:
-    """Write a model checkpoint, a simulation checkpoint (``Simulation.checkpoint``: its arrays,
-    those of the stateful callbacks, are stored as arrays, the rest as JSON) and ``meta`` to
-    ``path`` atomically."""
+    """Write a model and a simulation checkpoint (callback arrays as arrays, the rest as JSON) and
+    ``meta`` to ``path`` atomically."""
     arrays: dict[str, np.ndarray] = {}
     kinds: dict[str, str] = {}
     for k, v in model_ckpt.items():
@@ -165,8 +164,8 @@ def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any], dict[st
         return None
     if meta.get("source_key") != SOURCE_KEY or "simulation" not in meta:
         return None
-    conv = {"bool": lambda a: bool(a), "int": lambda a: int(a), "float": lambda a: float(a),
-            "str": lambda a: str(a), "none": lambda a: None, "array": lambda a: np.ascontiguousarray(a)}
+    conv = {"bool": bool, "int": int, "float": float, "str": str, "none": lambda a: None,
+            "array": np.ascontiguousarray}
     model_ckpt = {k[len("model:"):]: conv[meta["model_kinds"][k[len("model:"):]]](v)
                   for k, v in flat.items() if k.startswith("model:")}
     sim = dict(meta.pop("simulation"))
@@ -178,9 +177,8 @@ def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any], dict[st
 def add_checkpoints(sim: Simulation, path: Path, interval: float,
                     meta: Callable[[], dict[str, Any]] | None = None,
                     interrupt_after_steps: int | None = None) -> None:
-    """Add to ``sim`` a checkpoint to ``path`` every ``interval`` s of wall time (``meta()``: what
-    else to store) and, as a test hook, a checkpoint and :class:`Interrupted` after
-    ``interrupt_after_steps`` steps of this run (a killed run)."""
+    """A checkpoint to ``path`` every ``interval`` s of wall time (with ``meta()``) and, as a test
+    hook, a checkpoint and :class:`Interrupted` after ``interrupt_after_steps`` steps of this run."""
     def write(s: Simulation) -> None:
         save_checkpoint(path, s.model.checkpoint(), s.checkpoint(), meta() if meta else {})
 
@@ -208,9 +206,8 @@ class SaltationResult:
 
 
 class SaltationRecords:
-    """The saltation run's records, by group (a Simulation callback per group, each on the
-    merged record times of ``Schedule``, so that groups due at one time see one instant); the
-    values come from ``solver.diagnostics.records``. Its state is the Recorder's."""
+    """The saltation run's records, a Simulation callback per group on the merged record times of
+    ``Schedule`` (values from ``solver.diagnostics.records``)."""
 
     def __init__(self, scene: Scene, model, n_released: int):
         self.scene, self.model, self.n_released = scene, model, n_released
@@ -280,12 +277,8 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                   progress: Callable[[float, float], None] | None = None,
                   checkpoint_interval: float | None = None,
                   interrupt_after_steps: int | None = None) -> SaltationResult:
-    """Activate saltation on the spun-up flow ``restart`` and run it, recording on schedule.
-
-    Resumes from ``checkpoint_path`` if it holds a valid checkpoint. ``interrupt_after_steps``
-    is a test hook: raise :class:`Interrupted` after that many steps *of this call* (a checkpoint
-    is written just before, so the rerun resumes from there).
-    """
+    """Activate saltation on the spun-up flow ``restart`` and run it, recording on schedule;
+    resumes from a valid ``checkpoint_path`` (``interrupt_after_steps``: :func:`add_checkpoints`)."""
     from ..solver.model import Model
 
     interval = (scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None

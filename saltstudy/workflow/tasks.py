@@ -24,7 +24,6 @@ from ..config import Scene, Study
 from ..faults import disk_full, point
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
-from ..solver.similarity import rescale_restart
 from .driver import add_checkpoints, load_checkpoint, run_saltation
 from .paths import output_path, task_dir, write_json_atomic
 from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
@@ -365,10 +364,7 @@ def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: s
         if run.done:
             return path
         sp = open_dataset(spinup_path)
-        restart = archives.restart_from_dataset(sp)
-        # a spin-up shared by similarity ran at another u*: rescale it to this case's u*s
-        u_spin = float(sp.attrs.get("u_star_target", scene.case.forcing.u_star_s))
-        restart = rescale_restart(restart, scene.case.forcing.u_star_s / u_spin)
+        restart = archives.start_restart(sp, scene)
         prog = ProgressFile(d, "saltation", scene.label, "saltation")
         res = run_saltation(scene, restart, ckpt_path, progress=prog,
                             checkpoint_interval=checkpoint_interval,

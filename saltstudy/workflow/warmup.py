@@ -49,8 +49,7 @@ def warm_scene(scene: Scene) -> Scene:
 
 
 def signature(scene: Scene) -> str:
-    """What selects code paths (hence numba specialisations): the fidelity's options and the
-    case's switches, not its sizes, durations or physical constants."""
+    """What selects code paths (numba specialisations): options and switches, not sizes or constants."""
     w = warm_scene(scene)
     c = scene.case
     sel = {"fidelity": w.fidelity.model_dump(mode="json", exclude={"name", "description"}),
@@ -79,11 +78,9 @@ def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
 
 
 def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -> bool:
-    """Warm the numba cache for ``scenes`` in a child process unless already done.
-
-    ``marker_dir``: where the done-markers live (default: ``$NUMBA_CACHE_DIR/warmup``). Returns
-    True if a child ran. A failing child is reported and ignored: the tasks then compile
-    in-process, as without a warm-up."""
+    """Warm the numba cache for ``scenes`` in a child process unless done (markers in ``marker_dir``,
+    default ``$NUMBA_CACHE_DIR/warmup``); True if a child ran. A failing child is reported and
+    ignored: the tasks then compile in-process."""
     if not scenes or os.environ.get("SALTSTUDY_NO_WARMUP"):
         return False
     reps: dict[str, Scene] = {}
@@ -98,7 +95,7 @@ def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -
     with tempfile.TemporaryDirectory(prefix="saltstudy-warmup-") as tmp:
         spec = Path(tmp) / "scenes.json"
         spec.write_text(json.dumps([warm_scene(s).model_dump(mode="json") for s in reps.values()]))
-        # without the fault hook: a test that stops its run at a write point means the run's
+        # without the fault hook: a test's write point means the run's
         env = {k: v for k, v in os.environ.items() if k != FAULT_ENV}
         proc = subprocess.run([sys.executable, "-m", "saltstudy.workflow.warmup", str(spec), tmp],
                               capture_output=True, text=True, env=env)
