@@ -179,9 +179,7 @@ def _compressed(v: xr.Variable) -> xr.Variable:
     return v
 
 
-# ------------------------------------------------------------------------------------------
-# spinup.nc
-# ------------------------------------------------------------------------------------------
+# ---- spinup.nc ----
 _STAGGERED = {"u": ("x_u", "y", "z"), "v": ("x", "y_v", "z"), "w": ("x", "y", "z_w"),
               "e": ("x", "y", "z"), "p": ("x", "y", "z")}
 
@@ -304,9 +302,7 @@ def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:
     return out
 
 
-# ------------------------------------------------------------------------------------------
-# samples.nc
-# ------------------------------------------------------------------------------------------
+# ---- samples.nc ----
 _SERIES_NAMES = ("n_parcels", "n_impacts", "n_rebounds", "n_ejections", "n_depositions",
                  "G_tot_series", "u_star_ref", "u_drive", "dt", "max_cfl", "E_impact", "E_splash",
                  "bed_px", "bed_pz", *HEALTH_SERIES)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
@@ -34,7 +34,6 @@ class Interrupted(RuntimeError):
     """Raised by the test hook ``interrupt_after_steps`` (simulates a killed run)."""
 
 
-# ------------------------------------------------------------------------------------------
 class Recorder:
     """In-memory records, by group; each group is a list of times and a list per variable."""
 
@@ -79,7 +78,6 @@ class Recorder:
         return r
 
 
-# ------------------------------------------------------------------------------------------
 @dataclass
 class Schedule:
     """Record times (s since activation), merged into one sorted list of (time, groups)."""
@@ -124,7 +122,6 @@ class Schedule:
         return self.events[-1][0]
 
 
-# ------------------------------------------------------------------------------------------
 def save_checkpoint(path: Path, model_ckpt: dict[str, Any], sim_ckpt: dict[str, Any],
                     meta: dict[str, Any]) -> None:
     """Write a model and a simulation checkpoint (callback arrays as arrays, the rest as JSON) and
@@ -191,7 +188,6 @@ def add_checkpoints(sim: Simulation, path: Path, interval: float,
         sim.add_callback("interrupt", interrupt, IterationInterval(interrupt_after_steps))
 
 
-# ------------------------------------------------------------------------------------------
 @dataclass
 class SaltationResult:
     records: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]]
@@ -202,7 +198,6 @@ class SaltationResult:
     wall_time_s: float
     n_steps: int
     resumed_from: float | None = None  # t since activation of the checkpoint resumed from
-    extra: dict = field(default_factory=dict)
 
 
 class SaltationRecords:
@@ -242,7 +237,9 @@ class SaltationRecords:
             raise KeyError(f"grain_profiles() lacks {missing} required by samples.nc")
         self.recorder.add("sample", sim.event_time, rec)
 
-    # the records' state, saved with the simulation (under the series callback's name)
+    #: the series group's callback, which carries the records' state (checkpoint, restore)
+    __call__ = series
+
     def checkpoint(self) -> dict[str, np.ndarray]:
         out = self.recorder.checkpoint()
         step = self.sim.last_step if self.sim is not None else None
@@ -255,22 +252,6 @@ class SaltationRecords:
         self.recorder = Recorder.restore({k: v for k, v in data.items() if k.startswith("rec:")})
         if last is not None:
             self.last = (float(last[0]), float(last[1]))
-
-
-class _SeriesCallback:
-    """The series group's callback, which carries the records' state."""
-
-    def __init__(self, records: SaltationRecords):
-        self.records = records
-
-    def __call__(self, sim: Simulation) -> None:
-        self.records.series(sim)
-
-    def checkpoint(self) -> dict[str, np.ndarray]:
-        return self.records.checkpoint()
-
-    def restore(self, data: dict[str, np.ndarray]) -> None:
-        self.records.restore(data)
 
 
 def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
@@ -301,7 +282,7 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                      dt_fixed=scene.fidelity.saltation_dt_fixed)
     recs = SaltationRecords(scene, model, n_released)
     recs.sim = sim
-    for group, call in (("series", _SeriesCallback(recs)), ("plane", recs.plane),
+    for group, call in (("series", recs), ("plane", recs.plane),
                         ("sample", recs.sample)):
         sim.add_callback(group, call, SpecifiedTimes(schedule.times(group)))
     if progress is not None:

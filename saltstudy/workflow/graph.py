@@ -169,7 +169,6 @@ def run_scene(scene: Scene, out_dir: Path, quiet: bool = False) -> tuple["K.RunK
         return rk, run_case(rk, Path(out_dir))
 
 
-# ------------------------------------------------------------------------------------------
 @dataclass
 class StudyPlan:
     study: Study
@@ -247,7 +246,6 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
     return StudyPlan(study, runs, finals, refs, report_dir)
 
 
-# ------------------------------------------------------------------------------------------
 @dataclass
 class StudySummary:
     study: str

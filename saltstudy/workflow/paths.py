@@ -20,7 +20,8 @@ from ..config import Study, load_study, project_root
 from ..faults import write_atomic
 
 __all__ = ["default_out_dir", "task_dir", "output_path", "OUTPUT_NAMES", "study_dir", "runs_file",
-           "analysis_paths", "default_report_dir", "read_runs_file", "write_json_atomic"]
+           "analysis_paths", "default_report_dir", "read_runs_file", "write_json_atomic",
+           "read_task_json", "read_checkpoint_meta"]
 
 #: the archive each task writes into its directory
 OUTPUT_NAMES = {"spinup": "spinup.nc", "saltation": "samples.nc", "analysis": "analysis.nc",
@@ -59,11 +60,28 @@ def runs_file(out_dir: Path, study_name: str) -> Path:
 
 def read_runs_file(out_dir: Path, study_name: str) -> dict:
     """The study's record of last completed keys per label (empty if none or unreadable)."""
-    p = runs_file(out_dir, study_name)
     try:
-        return json.loads(p.read_text())
+        return json.loads(runs_file(out_dir, study_name).read_text())
     except (OSError, ValueError):
         return {}
+
+
+def read_task_json(directory: Path) -> dict | None:
+    try:
+        return json.loads((Path(directory) / "task.json").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def read_checkpoint_meta(directory: Path) -> dict | None:
+    """The meta of a task directory's ``checkpoint.npz``; None if absent or unreadable."""
+    import numpy as np
+
+    try:
+        with np.load(Path(directory) / "checkpoint.npz", allow_pickle=False) as z:
+            return json.loads(str(z["meta"]))
+    except Exception:
+        return None
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
@@ -73,12 +91,8 @@ def write_json_atomic(path: Path, data: dict) -> None:
 
 
 def analysis_paths(study: Study | str | Path, out_dir: Path | None = None) -> dict[str, Path | None]:
-    """Label -> analysis.nc of each run of ``study`` for the *current* configuration and code.
-
-    ``None`` where that archive is missing or incomplete (not run yet, failed, or its inputs
-    changed since it was computed): the report never shows a result that does not match the
-    case files. Raises :class:`saltstudy.config.ConfigError` for a bad study or case.
-    """
+    """Label -> analysis.nc of each run of ``study`` for the *current* configuration and code, None
+    where missing or incomplete. Raises ConfigError for a bad study or case."""
     from . import keys as _keys
     from ..ncio import is_complete
 

@@ -6,7 +6,6 @@ States: ``done``, ``stale`` (only an older key's output, per runs.json), ``faile
 """
 from __future__ import annotations
 
-import json
 import platform
 import time
 from collections import Counter
@@ -19,9 +18,8 @@ from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
 from .lock import LOCK_NAME, describe_holder, read_holder, record_alive
-from .paths import output_path, read_runs_file, task_dir
+from .paths import output_path, read_checkpoint_meta, read_runs_file, read_task_json, task_dir
 from .progress import eta, format_duration, is_stale, read_progress, writer_gone
-from .tasks import read_task_json
 
 __all__ = ["StatusRow", "study_status", "format_status", "out_dir_state"]
 
@@ -38,12 +36,8 @@ class StatusRow:
 
 
 def _checkpoint_time(d: Path) -> float | None:
-    try:
-        with np.load(d / "checkpoint.npz", allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-        if meta is None:
-            return None
-        # saltation: time since activation; spin-up: time since its start
+    meta = read_checkpoint_meta(d)
+    try:   # saltation: time since activation; spin-up: time since its start
         return float(meta.get("t_since_activation", meta.get("t_spinup", np.nan)))
     except Exception:
         return None

@@ -7,7 +7,6 @@ know nothing of dask (graph.py wraps them).
 """
 from __future__ import annotations
 
-import json
 import os
 import platform
 import shutil
@@ -25,7 +24,7 @@ from ..faults import disk_full, point
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
 from .driver import add_checkpoints, load_checkpoint, run_saltation
-from .paths import output_path, task_dir, write_json_atomic
+from .paths import output_path, read_task_json, task_dir, write_json_atomic
 from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
 from .progress import ProgressFile, emit
 from .report_meta import cache_meta
@@ -51,13 +50,6 @@ def write_task_json(directory: Path, **fields: Any) -> None:
     d.update({"package_version": __version__, "source_key": SOURCE_KEY, "host": platform.node(),
               "pid": os.getpid()})
     write_json_atomic(Path(directory) / "task.json", d)
-
-
-def read_task_json(directory: Path) -> dict | None:
-    try:
-        return json.loads((Path(directory) / "task.json").read_text())
-    except (OSError, ValueError):
-        return None
 
 
 def read_attrs(path: Path) -> dict[str, Any]:
@@ -145,7 +137,6 @@ def tidy_leftovers(directory: Path, output: Path | None) -> None:
         lock.release()
 
 
-# ------------------------------------------------------------------------------------------
 class ProfileSamples:
     """Simulation callback: mean profiles sampled at least ``window``/20 s apart, the last
     ``window`` s kept (the spin-up's end, hence its last window, is not known ahead)."""
