@@ -161,8 +161,8 @@ def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any], dict[st
         return None
     if meta.get("source_key") != SOURCE_KEY or "simulation" not in meta:
         return None
-    conv = {"bool": bool, "int": int, "float": float, "str": str, "none": lambda a: None,
-            "array": np.ascontiguousarray}
+    conv = {"bool": lambda a: bool(a), "int": lambda a: int(a), "float": lambda a: float(a),
+            "str": lambda a: str(a), "none": lambda a: None, "array": lambda a: np.ascontiguousarray(a)}
     model_ckpt = {k[len("model:"):]: conv[meta["model_kinds"][k[len("model:"):]]](v)
                   for k, v in flat.items() if k.startswith("model:")}
     sim = dict(meta.pop("simulation"))
@@ -237,9 +237,7 @@ class SaltationRecords:
             raise KeyError(f"grain_profiles() lacks {missing} required by samples.nc")
         self.recorder.add("sample", sim.event_time, rec)
 
-    #: the series group's callback, which carries the records' state (checkpoint, restore)
-    __call__ = series
-
+    # the records' state, saved with the simulation (under the series callback's name)
     def checkpoint(self) -> dict[str, np.ndarray]:
         out = self.recorder.checkpoint()
         step = self.sim.last_step if self.sim is not None else None
@@ -252,6 +250,22 @@ class SaltationRecords:
         self.recorder = Recorder.restore({k: v for k, v in data.items() if k.startswith("rec:")})
         if last is not None:
             self.last = (float(last[0]), float(last[1]))
+
+
+class _SeriesCallback:
+    """The series group's callback, which carries the records' state."""
+
+    def __init__(self, records: SaltationRecords):
+        self.records = records
+
+    def __call__(self, sim: Simulation) -> None:
+        self.records.series(sim)
+
+    def checkpoint(self) -> dict[str, np.ndarray]:
+        return self.records.checkpoint()
+
+    def restore(self, data: dict[str, np.ndarray]) -> None:
+        self.records.restore(data)
 
 
 def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
@@ -282,7 +296,7 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                      dt_fixed=scene.fidelity.saltation_dt_fixed)
     recs = SaltationRecords(scene, model, n_released)
     recs.sim = sim
-    for group, call in (("series", recs), ("plane", recs.plane),
+    for group, call in (("series", _SeriesCallback(recs)), ("plane", recs.plane),
                         ("sample", recs.sample)):
         sim.add_callback(group, call, SpecifiedTimes(schedule.times(group)))
     if progress is not None:

@@ -63,8 +63,12 @@ def _record(what: str) -> dict[str, Any]:
 def read_holder(path: Path) -> dict[str, Any] | None:
     """The record in a lock file, or None (no file, or empty or unreadable)."""
     try:
-        rec = json.loads(Path(path).read_text())
-    except (OSError, ValueError):
+        text = Path(path).read_text()
+    except OSError:
+        return None
+    try:
+        rec = json.loads(text)
+    except ValueError:
         return None
     return rec if isinstance(rec, dict) else None
 
