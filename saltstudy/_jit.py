@@ -54,7 +54,7 @@ device = jit_borrow
 def like(ref, value):
     """``value`` in the floating type of ``ref`` (an array's dtype or a scalar's type): a float
     literal in a kernel is float64 and would promote single-precision stencils (``time.precision``);
-    for float64 fields the constant equals the literal, so those kernels compile to the same code."""
+    for float64 fields the constant equals the literal: those kernels compile to the same code."""
     t = ref.dtype.type if hasattr(ref, "dtype") else type(ref)
     return t(value)
 

@@ -5,10 +5,10 @@ checkpoint and JSON writers, the report's staging), each calling :func:`point` n
 ``<file name>:<moment>`` at ``write`` (before the temporary file), ``tmp`` (complete, not yet
 renamed) and ``done`` (renamed), e.g. ``samples.nc:tmp``, ``report:done``.
 
-The test hook ``SALTSTUDY_FAULT`` (read at every call; docs/USAGE.md "Faults", tests/test_faults.py):
+The test hook ``SALTSTUDY_FAULT`` (read at every call; docs/USAGE.md "Faults"):
 
 * ``kill GLOB K``: SIGKILL this process at the K-th call (1-based) of a point matching GLOB;
-* ``stop GLOB K``: SIGSTOP it there (a test reads ``saltstudy status`` of a live run, then kills it);
+* ``stop GLOB K``: SIGSTOP it there (a test reads ``saltstudy status`` of a live run);
 * ``enospc GLOB K``: raise ``OSError(ENOSPC)`` there, as a full disk does;
 * ``trace FILE``: append ``<unix time> <pid> <point>`` to FILE at every point.
 
@@ -84,7 +84,7 @@ def format_bytes(n: float) -> str:
 
 
 class DiskFull(OSError):
-    """No space left for an output (``errno.ENOSPC``): names the file, what it needs, what is free."""
+    """No space left for an output (``errno.ENOSPC``): names the file, its size, the free space."""
 
     def __init__(self, path: str | os.PathLike, needed: int | None, free: int | None):
         self.path, self.needed, self.free = Path(path), needed, free
@@ -111,7 +111,7 @@ def _free(directory: Path) -> int | None:
 
 def disk_full(path: str | os.PathLike, needed: int | None, exc: BaseException) -> DiskFull | None:
     """The :class:`DiskFull` to raise instead of ``exc`` (writing ``path``) if ``exc`` says ENOSPC
-    or (HDF5 reports a full disk as an 'HDF error') less than ``needed`` bytes are free; else None."""
+    or (HDF5 says 'HDF error' for a full disk) less than ``needed`` bytes are free; else None."""
     path = Path(path)
     if isinstance(exc, DiskFull):
         return exc

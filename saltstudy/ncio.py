@@ -79,7 +79,7 @@ def open_dataset(path: str | os.PathLike) -> xr.Dataset:
 
 
 def open_lazy(path: str | os.PathLike) -> xr.Dataset:
-    """Open a NetCDF file lazily (dask arrays, each read under :data:`NC_LOCK`); close it when done."""
+    """Open a NetCDF file lazily (dask arrays, reads under :data:`NC_LOCK`); close it when done."""
     with NC_LOCK:
         return xr.open_dataset(path, engine="netcdf4", chunks={}, lock=NC_LOCK)
 

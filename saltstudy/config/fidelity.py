@@ -80,11 +80,11 @@ class SpinUp(Frozen):
     tolerance: float = Field(0.03, gt=0, description="relative change of u* and resolved TKE "
                                                     "between consecutive windows")
     u_star_ref: float | None = Field(
-        None, gt=0, lt=5.0, description="spin up once at this u* [m s^-1] (times at it) and rescale "
+        None, gt=0, lt=5.0, description="spin up once at this u* [m s^-1] (times at it), rescale "
         "to each case's u*s by similarity (solver.similarity); None: at the case's own u*s")
     stagger: float = Field(
-        0.0, ge=0, le=60.0, description="[s] case n starts from the spin-up continued for (n - 1) x "
-        "stagger more seconds, spreading the cases over its slow swings; 0: from its end")
+        0.0, ge=0, le=60.0, description="[s] case n starts from the spin-up continued "
+        "(n - 1) x stagger more seconds, spreading the cases over its slow swings; 0: from its end")
 
     @model_validator(mode="after")
     def _order(self) -> "SpinUp":

@@ -52,7 +52,7 @@ def _known(folder: Path | None) -> str:
 
 
 def locate_fidelity(ref: str | Path, root: Path | None, own: Path | None = None) -> Path:
-    """The file of a fidelity reference: a ``.toml`` path; ``STUDY/NAME`` (``workflows/STUDY/NAME.toml``);
+    """The file of a fidelity reference: a ``.toml`` path; ``STUDY/NAME`` (``workflows/STUDY/``);
     or a NAME in ``own`` (a study's folder, or the file naming it as ``based_on``), else in
     ``workflows/fidelities/``."""
     p = Path(ref).expanduser()

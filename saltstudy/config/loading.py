@@ -37,7 +37,7 @@ def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
 def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
                    chain: tuple[Path, ...] = ()) -> tuple[Path, dict]:
     """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins);
-    the parent is looked up beside the file, then (or if that is the file) in workflows/fidelities/."""
+    the parent is looked up beside the file, then (or if that is it) in workflows/fidelities/."""
     path = locate_fidelity(ref, root, own)
     data = read_toml(path)
     if "q_multiplier" in data and "parcels_per_m2" in data:
@@ -128,7 +128,7 @@ def resolve_scene(case: Case, fidelity: Fidelity, label: str | None = None) -> S
 
 
 def airborne_counts() -> tuple[dict[int, float], str]:
-    """Airborne parcels per m2 at each paper case's Q, and their source (data/airborne_counts.toml)."""
+    """Airborne parcels per m2 at each paper case's Q, and their source (data/airborne_counts)."""
     text = resources.files("saltstudy").joinpath("data/airborne_counts.toml").read_text("utf-8")
     data = tomllib.loads(text)
     return {int(k): float(v) for k, v in data["count_at_Q"].items()}, str(data["source"])

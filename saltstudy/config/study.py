@@ -17,7 +17,7 @@ __all__ = ["SceneSpec", "Study", "Scene", "RunSpec"]
 class SceneSpec(Frozen):
     """An extra run of a study: a case with overrides (e.g. an extreme scene)."""
     label: str = Field(..., pattern=r"^[A-Za-z0-9_.\-]+$")
-    case: int | str = Field(..., description="a case number or a case file (relative to the study's)")
+    case: int | str = Field(..., description="a case number or file (relative to the study's)")
     fidelity: str | None = None
     overrides: dict[str, Any] = Field(default_factory=dict)
     expect: Literal["complete", "blow-up"] = Field(

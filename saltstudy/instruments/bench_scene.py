@@ -286,27 +286,21 @@ def register_bench_scene(bench_app) -> None:
                   fidelity: str = typer.Option("paper", "--fidelity", help="fidelity name"),
                   steps: int = typer.Option(20, "--steps", help="timed steps (median)"),
                   threads: list[int] = typer.Option([1, 2], "--threads", help="numba threads; repeat"),
-                  parcels: int = typer.Option(0, "--parcels", help="parcels to release (0: the "
-                                              "scene's own n_initial)"),
-                  saltation_dt: float = typer.Option(0.0, "--saltation-dt", help="mean step [s] "
-                                                     "of a real saltation run at this resolution, "
-                                                     "for the extrapolation (0: the measured one)"),
+                  parcels: int = typer.Option(0, "--parcels", help="parcels (0: n_initial)"),
+                  saltation_dt: float = typer.Option(0.0, "--saltation-dt", help="a real saltation "
+                                                     "run's mean step [s] (0: the measured one)"),
                   vertical_diffusion: list[str] = typer.Option(
                       [], "--vertical-diffusion", help="vertical diffusion scheme (explicit, "
                       "implicit); repeat to compare, alternating (default: the fidelity's)"),
                   saltation_seconds: float = typer.Option(
                       0.0, "--saltation-seconds", help="time this many seconds of the scene's real "
-                      "saltation run from its spin-up (from the cache, or computed) instead of "
-                      "extrapolating from a few steps"),
+                      "saltation run from its (cached) spin-up instead of extrapolating"),
                   rounds: int = typer.Option(1, "--rounds", help="alternating rounds of the "
                                              "schemes (--saltation-seconds)"),
-                  out: str = typer.Option(None, "--out", help="cache directory holding (or to hold) "
-                                          "the spin-up (--saltation-seconds)"),
+                  out: str = typer.Option(None, "--out", help="cache holding the spin-up"),
                   spinup_from: str = typer.Option(
-                      None, "--spinup-from", help="with --saltation-seconds: start from this "
-                      "fidelity's spin-up of the case (same horizontal spacing, smaller box) tiled "
-                      "onto the scene's grid (solver/tiling.py), e.g. --fidelity paper "
-                      "--spinup-from fine"),
+                      None, "--spinup-from", help="with --saltation-seconds: this fidelity's "
+                      "spin-up tiled onto this grid (e.g. --fidelity paper --spinup-from fine)"),
                   phases: bool = typer.Option(False, "--phases", help="with --saltation-seconds: "
                                               "also the grain kernels' ns per parcel-step"),
                   as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:

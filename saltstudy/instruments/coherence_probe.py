@@ -3,8 +3,8 @@ saltation archive (``saltstudy probe coherence RUN_DIR_OR_SAMPLES_NC [--lag 0.4]
 
 Averaged over time and x: the premultiplied spanwise spectra k_y S_c and k_y S_u(z) (Fig. 10),
 the co-spectrum k_y Co (with a standard error from time blocks) and the coherence squared
-|<Ĉ û*>|² / (<|Ĉ|²> <|û|²>). ``--lag TAU`` pairs C_p(t) with u(t - TAU). The paper reads C_p and
-u at 0.1 m peaking at the same wavelengths ([49]) and R_cu ~ 0.3 from the large eddies ([51]).
+|<Ĉ û*>|² / (<|Ĉ|²> <|û|²>). ``--lag TAU`` pairs C_p(t) with u(t - TAU). The paper reads C_p
+and u at 0.1 m peaking at the same wavelengths ([49]) and R_cu ~ 0.3 from the large eddies ([51]).
 """
 from __future__ import annotations
 
@@ -103,7 +103,8 @@ def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS, lag_s: float = 0.0,
                         "peak_kCo_m": float(lam[np.argmax(kCo)])})
     ds.close()
     return {"samples": str(samples), "field": field, "lag_s": float(lag_s),
-            "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(), "peak_kS_c_m": float(lam[np.argmax(kS_c)]), "heights": heights}
+            "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(),
+            "peak_kS_c_m": float(lam[np.argmax(kS_c)]), "heights": heights}
 
 
 def format_coherence(res: dict, n: int = 12) -> str:

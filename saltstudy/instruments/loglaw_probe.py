@@ -106,7 +106,7 @@ def build_scene(case: int = 1, fidelity: str = "reduced", drive: str = "top",
 
 def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
                  log=print, on_window=None) -> dict:
-    """Run ``scene`` without grains to ``t_end`` [s]; one summary per ``window`` [s] (module doc)."""
+    """Run ``scene`` without grains to ``t_end`` [s]; a summary per ``window`` [s] (module doc)."""
     from ..physics.laws import z0_at_fixed_u_star
     from ..solver.diagnostics.flow import fit_log_law, flow_profiles
     from ..solver.model import Model

@@ -58,7 +58,7 @@ def revision_path(rev: str) -> tuple[str, str]:
 
 _RESULT = "@@saltstudy-result@@"
 
-#: the child's program: its JSON result after a marker line (the kernels may print while they compile)
+#: the child's program: its JSON result after a marker line (compiling kernels may print)
 _CHILD = (
     "import importlib, json, sys\n"
     "sys.path[:0] = json.loads(sys.argv[1])\n"

@@ -297,12 +297,9 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     v_imp = np.concatenate([k["v_imp"] for k in keep])
     offs = np.concatenate([k["offspring"] for k in keep])
     edges = np.arange(0.0, 4.01, 0.25)
-    rep = {}
     b = np.digitize(v_imp, edges) - 1
-    for j in range(edges.size - 1):
-        s = b == j
-        if s.sum() >= 50:
-            rep[f"{edges[j]:.2f}-{edges[j + 1]:.2f}"] = float(offs[s].mean())
+    rep = {f"{edges[j]:.2f}-{edges[j + 1]:.2f}": float(offs[b == j].mean())
+           for j in range(edges.size - 1) if (b == j).sum() >= 50}
     tau_bed = max(rho_u2 - tau_g0, 0.0)
     lam_se = float(lam_k.std(ddof=1) / math.sqrt(lam_k.size)) if lam_k.size > 1 else math.nan
     mT = float(np.mean([k["mT"] for k in keep]))

@@ -4,8 +4,8 @@ Every law takes ``u_star`` and the threshold ``u_star_t`` [m s^-1] first, then k
 parameters shared within a family (:data:`Z0S_LAWS`, :data:`GTOT_LAWS`: ``name -> Law(func,
 citation)``): z0s laws ``(z0=1e-5, g=9.81) -> [m]``; G_tot laws ``(d=200e-6, rho=1.2,
 rho_p=2650, g=9.81, nu=1.5e-5) -> [kg m^-1 s^-1]`` (Bagnold, Lettau & Lettau: also ``D``).
-Below threshold they return 0 or z0; Charnock and Bagnold have no threshold. All printed forms are dimensionally consistent except
-Owen's terminal velocity (:func:`owen_terminal_velocity`).
+Below threshold they return 0 or z0; Charnock and Bagnold have no threshold. All printed forms
+are dimensionally consistent except Owen's terminal velocity (:func:`owen_terminal_velocity`).
 """
 from __future__ import annotations
 
@@ -20,8 +20,9 @@ __all__ = [
     "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law",
     "z0_at_fixed_u_star", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s", "bagnold1937_flux",
     "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux", "lettau1978_flux",
-    "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS", "creyssels2009_flux", "CREYSSELS2009_U_STAR",
-    "CREYSSELS2009_Q", "CREYSSELS2009_DECAY_HEIGHT", "CREYSSELS2009_GRAIN", "RAUPACH_A", "D_REF"]
+    "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS", "creyssels2009_flux",
+    "CREYSSELS2009_U_STAR", "CREYSSELS2009_Q", "CREYSSELS2009_DECAY_HEIGHT", "CREYSSELS2009_GRAIN",
+    "RAUPACH_A", "D_REF"]
 
 #: Reference diameter D of Bagnold (1937) and Lettau & Lettau (1978) [m]
 D_REF = 250e-6

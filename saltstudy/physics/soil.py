@@ -145,7 +145,7 @@ def diameter_bins(soil, nbins: int) -> np.ndarray:
 
 
 def bin_mass_fractions(soil, edges) -> np.ndarray:
-    """Mass fraction [-] of the soil in each bin [edges[i], edges[i+1]) (exact, not renormalised)."""
+    """Mass fraction [-] of the soil in each bin [edges[i], edges[i+1]) (exact, unnormalised)."""
     edges = np.asarray(edges, dtype=float)
     if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0):
         raise ValueError("edges must be a 1-D increasing array of at least 2 values")

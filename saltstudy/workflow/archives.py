@@ -19,7 +19,8 @@ from ..config import Scene
 from ..solver.diagnostics.health import HEALTH_SERIES
 
 __all__ = ["META", "global_attrs", "plane_heights", "diameter_edges", "z_ref_eff", "coords_for",
-           "spinup_dataset", "restart_from_dataset", "start_restart", "samples_dataset", "check_metadata", "scalar_kind"]
+           "spinup_dataset", "restart_from_dataset", "start_restart", "samples_dataset",
+           "check_metadata", "scalar_kind"]
 
 # name -> (units, long_name). One table for both archives, so a name means one thing everywhere.
 META: dict[str, tuple[str, str]] = {
@@ -180,6 +181,9 @@ def _compressed(v: xr.Variable) -> xr.Variable:
 
 
 # ---- spinup.nc ----
+#: ``flow_profiles`` name -> the spin-up archive's window-mean profile
+PROFILE_NAMES = {"u": "u_mean", "uw_res": "uw_res", "uw_sgs": "uw_sgs", "tke_res": "tke_res",
+                 "e_sgs": "e_sgs"}
 _STAGGERED = {"u": ("x_u", "y", "z"), "v": ("x", "y_v", "z"), "w": ("x", "y", "z_w"),
               "e": ("x", "y", "z"), "p": ("x", "y", "z")}
 
@@ -242,9 +246,7 @@ def spinup_dataset(scene: Scene, grid, checkpoint: dict[str, Any], profiles: dic
         if name not in data:
             raise ValueError(f"solver checkpoint lacks the field '{name}' required by spinup.nc "
                              f"(keys: {sorted(checkpoint)})")
-    prof_map = {"u": "u_mean", "uw_res": "uw_res", "uw_sgs": "uw_sgs", "tke_res": "tke_res",
-                "e_sgs": "e_sgs"}
-    for src, dst in prof_map.items():
+    for src, dst in PROFILE_NAMES.items():
         arr = np.asarray(profiles[src], dtype=np.float64)
         dim = "z_w" if arr.shape[0] == grid.nz + 1 else "z"
         data[dst] = _var((dim,), arr, dst)

@@ -29,7 +29,7 @@ def _fail(message: str, code: int = 2) -> None:
 
 
 def _hold(out_dir: Path, wait: bool):
-    """Hold the out dir for a command; exit 3 naming the holder if it is in use (without ``wait``)."""
+    """Hold the out dir for a command; exit 3 naming the holder if in use (without ``wait``)."""
     from .lock import Busy, hold_out_dir
     from .progress import emit
 

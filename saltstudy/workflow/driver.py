@@ -175,7 +175,7 @@ def add_checkpoints(sim: Simulation, path: Path, interval: float,
                     meta: Callable[[], dict[str, Any]] | None = None,
                     interrupt_after_steps: int | None = None) -> None:
     """A checkpoint to ``path`` every ``interval`` s of wall time (with ``meta()``) and, as a test
-    hook, a checkpoint and :class:`Interrupted` after ``interrupt_after_steps`` steps of this run."""
+    hook, a checkpoint and :class:`Interrupted` after ``interrupt_after_steps`` steps of a run."""
     def write(s: Simulation) -> None:
         save_checkpoint(path, s.model.checkpoint(), s.checkpoint(), meta() if meta else {})
 
@@ -273,7 +273,7 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                   checkpoint_interval: float | None = None,
                   interrupt_after_steps: int | None = None) -> SaltationResult:
     """Activate saltation on the spun-up flow ``restart`` and run it, recording on schedule;
-    resumes from a valid ``checkpoint_path`` (``interrupt_after_steps``: :func:`add_checkpoints`)."""
+    resumes from a valid ``checkpoint_path`` (``interrupt_after_steps``: add_checkpoints)."""
     from ..solver.model import Model
 
     interval = (scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None

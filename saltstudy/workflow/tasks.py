@@ -320,9 +320,8 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
             model.close()
         hist = {"t": np.concatenate([t_hist, rec.t]),
                 **{k: np.concatenate([history[k], rec.series[k]]) for k in rec.series}}
-        profiles = {src: np.asarray(parent[dst].values) for src, dst in
-                    (("u", "u_mean"), ("uw_res", "uw_res"), ("uw_sgs", "uw_sgs"),
-                     ("tke_res", "tke_res"), ("e_sgs", "e_sgs"))}
+        profiles = {src: np.asarray(parent[dst].values)
+                    for src, dst in archives.PROFILE_NAMES.items()}
         wall = time.perf_counter() - t0
         ds = archives.spinup_dataset(
             scene, grid, ckpt, profiles, hist, converged=bool(parent.attrs.get("converged", 0)),

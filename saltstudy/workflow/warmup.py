@@ -49,7 +49,7 @@ def warm_scene(scene: Scene) -> Scene:
 
 
 def signature(scene: Scene) -> str:
-    """What selects code paths (numba specialisations): options and switches, not sizes or constants."""
+    """What selects code paths (numba specialisations): options, switches; not sizes, constants."""
     w = warm_scene(scene)
     c = scene.case
     sel = {"fidelity": w.fidelity.model_dump(mode="json", exclude={"name", "description"}),
@@ -78,9 +78,9 @@ def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
 
 
 def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -> bool:
-    """Warm the numba cache for ``scenes`` in a child process unless done (markers in ``marker_dir``,
-    default ``$NUMBA_CACHE_DIR/warmup``); True if a child ran. A failing child is reported and
-    ignored: the tasks then compile in-process."""
+    """Warm the numba cache for ``scenes`` in a child process unless done (markers in
+    ``marker_dir``, default ``$NUMBA_CACHE_DIR/warmup``); True if a child ran. A failing child is
+    reported and ignored: the tasks then compile in-process."""
     if not scenes or os.environ.get("SALTSTUDY_NO_WARMUP"):
         return False
     reps: dict[str, Scene] = {}
