@@ -73,8 +73,7 @@ def relaxation(em, ik, us, vs, wt, up, vp, wp):
 
 @device
 def relaxed_position(x0, target, v0, h, ome_k):
-    """A coordinate after a step h of :func:`relaxation`: x0 + target h + (v0 - target) (1 - E)/k
-    [m]."""
+    """A coordinate after a step h of :func:`relaxation` [m] (module doc)."""
     return x0 + target * h + (v0 - target) * ome_k
 
 
