@@ -111,11 +111,7 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
     for n in n_list:
         n = int(n)
         s, st = _component(_PACKAGE, n, dt, case, fidelity)
-        times = []
-        imp = 0
-        acc: dict = {}
-        parcel_steps = 0
-        wall = 0.0
+        times, acc, imp, parcel_steps, wall = [], {}, 0, 0, 0.0
         with timed_kernels(acc, s) if phases else nullcontext():
             for _ in range(steps):
                 n0 = max(s.n, 1)

@@ -229,9 +229,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     un = log_wind(zn, p.u_star, p.kappa, p.z0)
     # first impacts: grains falling at 1 m/s at 20 degrees
     n = p.n_impacts
-    ui = np.full(n, 0.94)
-    vi = np.zeros(n)
-    wi = np.full(n, -0.34)
+    ui, vi, wi = np.full(n, 0.94), np.zeros(n), np.full(n, -0.34)
     di = sample_diameters(p.soil(), rng, n)
     m_mean = np.pi / 6.0 * p.rho_p * p.mu ** 3
     R = 0.05 * rho_u2 / (m_mean * 1.0)   # a twentieth of Owen's rate: the layer grows from below
@@ -239,9 +237,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     for gen in range(generations):
         u, v, w, d, parent, px, pz = splash_generation(rng, p, ui, vi, wi, di)
         nl = u.size
-        drag_bin = np.zeros(nz - 1)
-        mt_bin = np.zeros(nz - 1)
-        fl_bin = np.zeros(nz - 1)
+        drag_bin, mt_bin, fl_bin = np.zeros(nz - 1), np.zeros(nz - 1), np.zeros(nz - 1)
         out = np.zeros((nl, 6))
         fly_grains(u, v, w, d, un, lz0, idl, p.u_star, p.z_top, p.kappa, p.rho, p.nu, p.rho_p, p.g,
                    p.h_imp, p.dt, T_MAX, drag_bin, mt_bin, fl_bin, out)

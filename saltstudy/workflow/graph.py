@@ -188,15 +188,12 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
     out_dir = Path(out_dir)
     report_dir = Path(report_dir) if report_dir else default_report_dir(study.name)
     runs = K.study_keys(study, root)
-    spin_nodes: dict[str, Any] = {}
-    salt_nodes: dict[str, Any] = {}
-    an_nodes: dict[str, Any] = {}
+    spin_nodes, salt_nodes, an_nodes, finals = {}, {}, {}, {}   # dask.delayed by key or name
     refs: list[TaskRef] = []
+    analyses = []
     sharing: dict[str, list[str]] = {}
     for label, rk in runs.items():
         sharing.setdefault(rk.spinup, []).append(label)
-    analyses = []
-    finals: dict[str, Any] = {}
     for label, rk in runs.items():
         if rk.spinup not in spin_nodes:
             spin_nodes[rk.spinup] = dask.delayed(_spinup, pure=False)(

@@ -99,8 +99,6 @@ def analysis_paths(study: Study | str | Path, out_dir: Path | None = None) -> di
     if not isinstance(study, Study):
         study = load_study(study)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir()
-    result: dict[str, Path | None] = {}
-    for run, k in _keys.study_keys(study).items():
-        p = output_path(out_dir, "analysis", k.analysis)
-        result[run] = p if is_complete(p) else None
-    return result
+    paths = {run: output_path(out_dir, "analysis", k.analysis)
+             for run, k in _keys.study_keys(study).items()}
+    return {run: p if is_complete(p) else None for run, p in paths.items()}
