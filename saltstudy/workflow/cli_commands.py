@@ -50,12 +50,10 @@ def register(app: typer.Typer) -> None:
     def run_all(
         study: str = typer.Option(DEFAULT_STUDY, "--study", help="study name (workflows/NAME.toml) or a study file"),
         out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
-        workers: int = typer.Option(1, "--workers", min=1,
-                                    help="tasks at once locally; each gets cores // N numba threads "
-                                         "(1 on a laptop: the shared spin-up runs alone, and 2 "
-                                         "threads run the flow 1.74x faster than 1)"),
-        scheduler: Optional[str] = typer.Option(None, "--scheduler",
-                                                help="dask.distributed scheduler address, e.g. tcp://host:8786"),
+        workers: int = typer.Option(1, "--workers", min=1, help="tasks at once locally, each with "
+                                    "cores // N numba threads (1 on a laptop)"),
+        scheduler: Optional[str] = typer.Option(None, "--scheduler", help="dask.distributed "
+                                                "scheduler address, e.g. tcp://host:8786"),
         quiet: bool = typer.Option(False, "--quiet", help="plain log lines instead of a live display"),
         report_dir: Optional[Path] = typer.Option(None, "--report-dir",
                                                   help="where the report goes (default: <project>/reports/<study>)"),
@@ -143,8 +141,7 @@ def register(app: typer.Typer) -> None:
     @app.command("figures")
     def figures(
         study: str = typer.Option("reduced", "--study", help="study name (workflows/NAME.toml) or file"),
-        out: Optional[Path] = typer.Option(None, "--out", help="cache directory holding the archives "
-                                                              "(default: $SALTSTUDY_OUT or .saltstudy-cache)"),
+        out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
         report_dir: Optional[Path] = typer.Option(None, "--report-dir",
                                                   help="where the report goes (default: reports/<study>)"),
         wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
