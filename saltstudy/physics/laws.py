@@ -15,6 +15,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from .drag import terminal_velocity
+from .soil import scalar_or_array
 
 __all__ = [
     "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law",
@@ -41,14 +42,10 @@ def _ratio(u_star, u_star_t):
     return u, u_star_t / u
 
 
-def _out(x):
-    return float(x) if np.ndim(x) == 0 else x
-
-
 def log_law_u(z, u_star, z0, kappa=0.40):
     """Mean wind of the neutral log law u(z) = (u*/kappa) ln(z / z0) [m s^-1]; z, z0 [m], u* [m s^-1]."""
     z = np.asarray(z, dtype=float)
-    return _out(u_star / kappa * np.log(z / z0))
+    return scalar_or_array(u_star / kappa * np.log(z / z0))
 
 
 # ---- Fig. 3: saltation roughness length z0s [m] ----
@@ -136,7 +133,7 @@ def charnock_z0s(u_star, u_star_t=None, *, z0=1.0e-5, g=9.81, C_c=0.08):
     """Charnock-type z0s = C_c u*s^2 / g [m] (Charnock 1955; Sherman & Farrell 2008); C_c = 0.08
     (Rasmussen et al. 1985), 0.24 (Farrell 1999), 0.02 (Owen 1964). No threshold."""
     u = np.asarray(u_star, dtype=float)
-    return _out(C_c * u * u / g)
+    return scalar_or_array(C_c * u * u / g)
 
 
 #: A = b_r alpha^2 exp(-eta / G_r) with b_r = 8, alpha = 0.63, eta = 0.577216 (Euler's constant),
@@ -149,14 +146,14 @@ def raupach1991_z0s(u_star, u_star_t, *, z0=1.0e-5, g=9.81, A=RAUPACH_A):
     at and below threshold."""
     u, r = _ratio(u_star, u_star_t)
     r = np.minimum(r, 1.0)
-    return _out((A * u * u / (2.0 * g)) ** (1.0 - r) * z0 ** r)
+    return scalar_or_array((A * u * u / (2.0 * g)) ** (1.0 - r) * z0 ** r)
 
 
 def sherman1992_z0s(u_star, u_star_t, *, z0=1.0e-5, g=9.81, C_m=0.132):
     """Sherman (1992) modified Charnock z0s = C_m (u*s - u*t)^2 / g + z0 [m]; z0 below threshold."""
     u = np.asarray(u_star, dtype=float)
     excess = np.maximum(u - u_star_t, 0.0)
-    return _out(C_m * excess * excess / g + z0)
+    return scalar_or_array(C_m * excess * excess / g + z0)
 
 
 # ---- Fig. 8: total saltation flux G_tot [kg m^-1 s^-1] ----
@@ -165,7 +162,7 @@ def bagnold1937_flux(u_star, u_star_t=None, *, d=200e-6, rho=1.2, rho_p=2650.0, 
     """Bagnold (1937) G = c sqrt(d/D) rho u*^3 / g [kg m^-1 s^-1], c = 1.5, D = 250 um [m]; no
     threshold."""
     u = np.asarray(u_star, dtype=float)
-    return _out(c * np.sqrt(d / D) * rho * u ** 3 / g)
+    return scalar_or_array(c * np.sqrt(d / D) * rho * u ** 3 / g)
 
 
 def owen_terminal_velocity(d, rho_p, rho, g, nu=1.5e-5, form="consistent"):
@@ -181,11 +178,11 @@ def owen_terminal_velocity(d, rho_p, rho, g, nu=1.5e-5, form="consistent"):
     """
     d = np.asarray(d, dtype=float)
     if form == "consistent":
-        return _out(1.66 * np.sqrt(rho_p / rho * g * d))
+        return scalar_or_array(1.66 * np.sqrt(rho_p / rho * g * d))
     if form == "terminal":
-        return _out(terminal_velocity(d, rho_p, rho, nu, g))
+        return scalar_or_array(terminal_velocity(d, rho_p, rho, nu, g))
     if form == "printed":
-        return _out(1.66 * np.sqrt(rho_p * g * d))
+        return scalar_or_array(1.66 * np.sqrt(rho_p * g * d))
     raise ValueError(f"unknown form {form!r}: use 'consistent', 'terminal' or 'printed'")
 
 
@@ -196,21 +193,22 @@ def owen1964_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, 
     u, r = _ratio(u_star, u_star_t)
     wt = owen_terminal_velocity(d, rho_p, rho, g, nu, form=w_t_form)
     c = 0.25 + wt / (3.0 * u)
-    return _out(np.where(r < 1.0, c * rho * u ** 3 * (1.0 - r * r) / g, 0.0))
+    return scalar_or_array(np.where(r < 1.0, c * rho * u ** 3 * (1.0 - r * r) / g, 0.0))
 
 
 def kawamura_white_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
                         c=2.61):
     """Kawamura (1951) / White (1979) G = c rho u*^3 (1 + r)(1 - r^2) / g, r = u*t/u*, c = 2.61."""
     u, r = _ratio(u_star, u_star_t)
-    return _out(np.where(r < 1.0, c * rho * u ** 3 * (1.0 + r) * (1.0 - r * r) / g, 0.0))
+    return scalar_or_array(np.where(r < 1.0, c * rho * u ** 3 * (1.0 + r) * (1.0 - r * r) / g, 0.0))
 
 
 def lettau1978_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
                     D=D_REF, c=4.2):
     """Lettau & Lettau (1978) G = c sqrt(d/D) rho u*^3 (1 - u*t/u*) / g, c = 4.2, D = 250 um."""
     u, r = _ratio(u_star, u_star_t)
-    return _out(np.where(r < 1.0, c * np.sqrt(d / D) * rho * u ** 3 * (1.0 - r) / g, 0.0))
+    flux = c * np.sqrt(d / D) * rho * u ** 3 * (1.0 - r) / g
+    return scalar_or_array(np.where(r < 1.0, flux, 0.0))
 
 
 def sorensen2004_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
@@ -219,7 +217,7 @@ def sorensen2004_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.
     Dupont et al. (2013, Fig. 8)'s constants; zero below threshold."""
     u, r = _ratio(u_star, u_star_t)
     shape = (1.0 - r * r) * (alpha + gamma * r + beta * r * r)
-    return _out(np.where(r < 1.0, rho * u ** 3 * shape / g, 0.0))
+    return scalar_or_array(np.where(r < 1.0, rho * u ** 3 * shape / g, 0.0))
 
 
 #: Creyssels et al. (2009, J. Fluid Mech. 625, 47), wind tunnel, grains of 242 um and
@@ -237,7 +235,7 @@ def creyssels2009_flux(u_star, *, rho=1.2, g=9.81, C=1.38, u_star_th=0.206):
     m/s; zero below u*th. Within 7 % of :data:`CREYSSELS2009_Q` from 0.41 to 0.69 m/s, half the
     measured flux at 0.24 m/s."""
     u = np.asarray(u_star, dtype=float)
-    return _out(np.where(u > u_star_th, C * rho / g * (u * u - u_star_th ** 2), 0.0))
+    return scalar_or_array(np.where(u > u_star_th, C * rho / g * (u * u - u_star_th ** 2), 0.0))
 
 
 def _charnock(C_c):

@@ -35,7 +35,8 @@ def _modes(soil):
     return m, mu, s
 
 
-def _ret(a):
+def scalar_or_array(a):
+    """A float for a 0-d input, else the array: the laws' outputs follow their inputs' shape."""
     return float(a) if np.ndim(a) == 0 else a
 
 
@@ -44,7 +45,7 @@ def mass_density_dlnd(d, soil):
     x = np.log(np.asarray(d, dtype=float))[..., None]
     m, mu, s = _modes(soil)
     dens = m / (math.sqrt(2.0 * math.pi) * s) * np.exp(-((x - np.log(mu)) ** 2) / (2.0 * s * s))
-    return _ret(dens.sum(axis=-1))
+    return scalar_or_array(dens.sum(axis=-1))
 
 
 def number_density_dlnd(d, soil):
@@ -56,7 +57,7 @@ def number_density_dlnd(d, soil):
     w = w / w.sum()
     cmed = np.log(mu) - 3.0 * s * s
     dens = w / (math.sqrt(2.0 * math.pi) * s) * np.exp(-((x - cmed) ** 2) / (2.0 * s * s))
-    return _ret(dens.sum(axis=-1))
+    return scalar_or_array(dens.sum(axis=-1))
 
 
 def count_median(soil) -> float:
@@ -72,7 +73,7 @@ def mass_cdf(d, soil):
     with np.errstate(divide="ignore"):
         x = np.log(np.asarray(d, dtype=float))[..., None]
     m, mu, s = _modes(soil)
-    return _ret((m * norm_cdf((x - np.log(mu)) / s)).sum(axis=-1))
+    return scalar_or_array((m * norm_cdf((x - np.log(mu)) / s)).sum(axis=-1))
 
 
 def mass_median(soil, rtol: float = 1e-12) -> float:

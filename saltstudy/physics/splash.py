@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from .._jit import jit
-from .soil import draw_diameter
+from .soil import draw_diameter, scalar_or_array
 
 __all__ = [
     "rebound_probability", "ejection_number_mean", "rebound_speed", "launch_angle",
@@ -244,37 +244,33 @@ def vertical_angle_moments(mean_deg: float, std_deg: float) -> tuple[float, floa
 
 
 # ---- Analytic expectations (numpy, vectorised over v_imp; the laws element-wise) ----
-def _r(x):
-    return float(x) if np.ndim(x) == 0 else x
-
-
 _rebound_probability = np.vectorize(rebound_probability, otypes=[float])
 _ejection_number_mean = np.vectorize(ejection_number_mean, otypes=[float])
 
 
 def mean_rebound_fraction(v_imp, splash):
     """Expected fraction of impacts that rebound, P_reb(v_imp) of eq. 6 [-]."""
-    return _r(_rebound_probability(v_imp, splash.p_reb_max, splash.gamma_reb))
+    return scalar_or_array(_rebound_probability(v_imp, splash.p_reb_max, splash.gamma_reb))
 
 
 def mean_rebound_speed(v_imp, splash):
     """E[v_reb] [m s^-1] = 0.60564 v_imp (truncated normal of eq. 7)."""
-    return _r(rebound_speed_ratio_moments(splash)[0] * np.asarray(v_imp, dtype=float))
+    return scalar_or_array(rebound_speed_ratio_moments(splash)[0] * np.asarray(v_imp, dtype=float))
 
 
 def std_rebound_speed(v_imp, splash):
     """Standard deviation of v_reb [m s^-1] = 0.24307 v_imp (truncated normal of eq. 7)."""
-    return _r(rebound_speed_ratio_moments(splash)[1] * np.asarray(v_imp, dtype=float))
+    return scalar_or_array(rebound_speed_ratio_moments(splash)[1] * np.asarray(v_imp, dtype=float))
 
 
 def mean_ejecta_number(v_imp, splash, g: float, d_mean: float):
     """E[N_ej] = a v_imp / sqrt(g <d_p>) [-] (eq. 8; exact for stochastic rounding)."""
-    return _r(_ejection_number_mean(v_imp, splash.a_ej, g, d_mean))
+    return scalar_or_array(_ejection_number_mean(v_imp, splash.a_ej, g, d_mean))
 
 
 def mean_ejecta_speed(v_imp, splash):
     """E[v_ej] = 0.08 v_imp [m s^-1] (eq. 9)."""
-    return _r(splash.ej_speed_mean * np.asarray(v_imp, dtype=float))
+    return scalar_or_array(splash.ej_speed_mean * np.asarray(v_imp, dtype=float))
 
 
 def mean_splash_energy_terms(v_imp, d_imp, soil, splash, g: float,
@@ -293,7 +289,7 @@ def mean_splash_energy_terms(v_imp, d_imp, soil, splash, g: float,
         n_ej = n_ej * p
     mass_ratio = mass_weighted_moment(soil, 3.0) / d_imp ** 3
     ejecta = n_ej * mass_ratio * 2.0 * splash.ej_speed_mean ** 2
-    return _r(rebound), _r(ejecta)
+    return scalar_or_array(rebound), scalar_or_array(ejecta)
 
 
 def mean_splash_energy_ratio(v_imp, d_imp, soil, splash, g: float,
@@ -301,4 +297,4 @@ def mean_splash_energy_ratio(v_imp, d_imp, soil, splash, g: float,
     """E[KE_rebound + KE_ejecta] / KE_impact [-], which the paper (section 2.3, para. 24) keeps
     <= 1 on average."""
     reb, ej = mean_splash_energy_terms(v_imp, d_imp, soil, splash, g, ejecta_require_rebound)
-    return _r(np.asarray(reb) + np.asarray(ej))
+    return scalar_or_array(np.asarray(reb) + np.asarray(ej))
