@@ -3,18 +3,8 @@
 A software reproduction of Dupont, Bergametti, Marticorena & Simoens (2013), *Modeling saltation
 intermittency*, J. Geophys. Res. Atmos. 118, doi:10.1002/jgrd.50528.
 
-From Python (docs/USAGE.md, "From Python"; the command line: ``saltstudy --help``):
-
-* ``load_case(2)``, ``load_fidelity("quick")``, ``load_study("quick")``: the validated, frozen
-  records ``Case``, ``Fidelity``, ``Study``; ``list_case_numbers()``. ``record.replace(...)``
-  is a changed copy, validated (``case.replace(forcing={"u_star_s": 0.47})``); a bad value
-  raises ``ConfigError`` naming the field and the reason.
-* ``run(case, fidelity, out=None)``: one case, cached and resumed as ``saltstudy run``; a ``Run``
-  with ``.analysis()`` (xarray Dataset), ``.samples()`` and ``.spinup()`` (lazy, dask).
-* ``run_study("quick")``: a study as ``saltstudy run-all``; ``open_results("quick")``: the
-  study's runs in the cache. Both give ``Results``: ``.runs``, ``.analysis(label)``,
-  ``.samples(label)``, ``.table2()`` (Table 2 beside the paper, an xarray Dataset).
-
+From Python (saltstudy.api; docs/USAGE.md, "From Python"): ``load_case``, ``load_fidelity``,
+``load_study``, ``list_case_numbers``, ``run``, ``run_study``, ``open_results``; ``ConfigError``.
 Importing ``saltstudy`` loads none of these (nor numba or dask) until one is used.
 """
 from __future__ import annotations

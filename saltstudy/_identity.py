@@ -11,10 +11,8 @@ __version__ = "0.1.0"
 
 
 def source_key(here: Path | None = None) -> str:
-    """Hash of the numerical sources that a run executes (``_jit.py``, ``physics/``, ``solver/``;
-    the instruments that measure the model live outside them, so an edit to a benchmark or a probe
-    makes no archive stale and recompiles no kernel): the workflow's cache keys and numba's
-    on-disk cache (``_jit.py``) are keyed by it."""
+    """Hash of the numerical sources a run executes (``_jit.py``, ``physics/``, ``solver/``), which
+    keys the workflow's cache and numba's on-disk cache."""
     here = here or Path(__file__).resolve().parent
     h = hashlib.sha256(__version__.encode())
     for sub in ("_jit.py", "physics", "solver"):
@@ -36,10 +34,7 @@ if "NUMBA_CACHE_DIR" not in os.environ:
 # numba's workqueue layer aborts when kernels are called from several threads (dask threads);
 # prefer OpenMP, then TBB.
 os.environ.setdefault("NUMBA_THREADING_LAYER_PRIORITY", "omp tbb workqueue")
-# The OpenMP worker threads sleep as soon as a parallel region ends instead of spinning for a
-# while (libgomp's default): between the flow's parallel regions the pressure solve's FFTs run on
-# other threads (solver/flow/pressure.py), which a spinning worker keeps from a core on a 2-core
-# machine. The two threads' speed-up on the paper's grid with this policy: docs/BENCHMARKS.md,
-# "Single precision and the flow's threads" (`NUMBA_NUM_THREADS=1|2 saltstudy bench flow
-# --fidelity paper`; `OMP_WAIT_POLICY=ACTIVE` in the environment times libgomp's default).
+# OpenMP workers sleep when a parallel region ends instead of spinning: the pressure solve's FFTs
+# run on other threads between regions (docs/BENCHMARKS.md, "Single precision and the flow's
+# threads": `NUMBA_NUM_THREADS=1|2 saltstudy bench flow --fidelity paper`).
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")

@@ -1,9 +1,8 @@
 """One shared set of numba flags for every kernel of the package.
 
-``fastmath`` keeps NaN/Inf semantics (no ``nnan``/``ninf``): with those flags ``np.isnan`` is
-folded to False and the blow-up check silently stops working. The cache lives in a directory keyed
-by a hash of the package's numerical sources (set in ``saltstudy/__init__.py``), because numba's
-``cache=True`` does not notice edits to *other* modules a kernel calls.
+``fastmath`` keeps NaN/Inf semantics (no ``nnan``/``ninf``: they fold ``np.isnan`` to False and
+break the blow-up check). The cache directory is keyed by a hash of the numerical sources
+(_identity.py): numba's ``cache=True`` misses edits to other modules a kernel calls.
 """
 from __future__ import annotations
 
@@ -15,12 +14,9 @@ from llvmlite import binding as _llvm
 from numba.core import types as _types
 from numba.extending import overload as _overload
 
-#: ``SALTSTUDY_STRICT_IEEE=1`` compiles every kernel without fast-math: a check, not a mode to run
-#: studies in. With ``reassoc`` and ``contract`` LLVM chooses the order of sums and products from
-#: the code around them, so an edit that only removes a dead branch can move the last bit of a
-#: result (and a turbulent run amplifies it); under strict IEEE two versions that do the same
-#: arithmetic give the same bits. The source key (``saltstudy.SOURCE_KEY``) names the mode, so its
-#: kernels and archives are cached apart.
+#: ``SALTSTUDY_STRICT_IEEE=1`` compiles without fast-math, a check: with ``reassoc``/``contract``
+#: LLVM orders sums from the surrounding code, so removing a dead branch can move a result's last
+#: bit; under strict IEEE the same arithmetic gives the same bits. SOURCE_KEY names the mode.
 STRICT_IEEE = os.environ.get("SALTSTUDY_STRICT_IEEE", "") not in ("", "0")
 FASTMATH = set() if STRICT_IEEE else {"nsz", "arcp", "contract", "afn", "reassoc"}
 
@@ -31,33 +27,22 @@ pjit = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH
 
 
 def jit_with(**overrides):
-    """The shared flags with some overridden (e.g. ``parallel=True`` for a kernel with prange)."""
-    flags = dict(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH)
-    flags.update(overrides)
-    return numba.njit(**flags)
+    """The shared flags with some overridden."""
+    return numba.njit(**{**dict(cache=True, nogil=True, error_model="numpy", fastmath=FASTMATH),
+                         **overrides})
 
 
-#: serial per-parcel kernels that allocate nothing (scratch arrays come from the caller): compiled
-#: without numba's reference counting. With it, every call of an inlined helper that takes an array
-#: and branches inside (``interp.locate``, the trilinear deposits, ...) incremented and decremented
-#: that array's reference count -- an atomic on a cache line both threads share -- about 18 pairs
-#: per parcel-step, which the reference-count pruning pass cannot remove across the branches
-#: (measured by callgrind on the bench; a micro-benchmark of one such helper: 11 ns -> 3 ns per
-#: call). Falls back to the plain flags if numba no longer has the (private) option.
+#: serial per-parcel kernels that allocate nothing, compiled without numba's reference counting:
+#: its atomic increments in inlined helpers that take arrays cost ~18 pairs per parcel-step (one
+#: helper 11 -> 3 ns per call, callgrind on ``saltstudy bench particles``). Falls back to the
+#: plain flags where numba lacks the private option.
 jit_borrow = jit_with(_nrt=False) if hasattr(numba.core.cpu.CPUTargetOptions, "_nrt") else jit
 
 
-#: LLVM's inliner threshold for every kernel compiled in this process. The per-point functions of
-#: the stencils (advection, SGS fluxes, the peeled levels of a column) and of the parcel step are
-#: small but take many arrays, which numba passes as structs: above LLVM's default threshold (275)
-#: they stay out-of-line calls. Numba's own IR inlining (``inline="always"``) inlines them but
-#: re-types each copy, and each stage kernel took 3-9 minutes to compile. Measured on a 2-core
-#: VM, IR inlining against LLVM inlining at this threshold: `saltstudy bench flow --steps 10
-#: --no-big` from an empty cache 236 s against 59 s, 226 against 205 ns per cell-step; Stepper.step
-#: on the reduced grid (median of 10 steps, the first step for the compile), all four stages
-#: (explicit/implicit x advection order 2/4) compiled in 860 s against 81 s and ran at
-#: 177/195/277/346 against 117/142/187/248 ns per cell-step; the grain step (`saltstudy bench
-#: particles`, three alternating runs each) the same within the runs' +-15 % scatter.
+#: LLVM's inliner threshold: the per-point helpers take many arrays (structs), which the default
+#: threshold (275) leaves out of line; numba's IR inlining re-types each copy (minutes per kernel).
+#: ``saltstudy bench flow --steps 10 --no-big`` from an empty cache: 236 s with IR inlining, 59 s
+#: with this, and 226 against 205 ns per cell-step.
 LLVM_INLINE_THRESHOLD = 20000
 _llvm.set_option("saltstudy", f"-inline-threshold={LLVM_INLINE_THRESHOLD}")
 
@@ -67,13 +52,9 @@ device = jit_borrow
 
 
 def like(ref, value):
-    """``value`` in the floating type of ``ref`` (an array's dtype or a scalar's type).
-
-    Inside a kernel a float literal is a float64 and promotes float32 arithmetic to float64
-    (numba types by its arguments), so the stencils that run in single precision
-    (``time.precision``) write their constants as ``like(field, 0.5)``: float32 for float32
-    fields, and for float64 fields the same constant as the literal, so the double-precision
-    kernels compile to the same code."""
+    """``value`` in the floating type of ``ref`` (an array's dtype or a scalar's type): a float
+    literal in a kernel is float64 and would promote single-precision stencils (``time.precision``);
+    for float64 fields the constant equals the literal: those kernels compile to the same code."""
     t = ref.dtype.type if hasattr(ref, "dtype") else type(ref)
     return t(value)
 

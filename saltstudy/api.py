@@ -1,21 +1,14 @@
 """The study from Python: load and change a case, run it, read the results as xarray objects.
 
-Everything here goes through the workflow that ``saltstudy run-all`` and ``saltstudy run`` use:
-the same cache (a run computed once is found again, from the command line or from here), the
-same resume after an interruption and the same progress display. The names are importable from
-``saltstudy`` itself (``saltstudy.load_case``, ``saltstudy.run``, ...)::
+Everything goes through the workflow of ``saltstudy run-all`` and ``run`` (same cache, resume and
+progress display); the names are importable from ``saltstudy`` (docs/USAGE.md, "From Python")::
 
-    import saltstudy
-
-    case = saltstudy.load_case(2)                        # a Case (pydantic, validated, frozen)
-    coarse = case.replace(name="coarse", soil={"modes": [{"mu": 300e-6}]})
-    fid = saltstudy.load_fidelity("quick")
-    run = saltstudy.run(coarse, fid)                     # spin-up, saltation, analysis (cached)
+    case = saltstudy.load_case(2).replace(name="coarse", soil={"modes": [{"mu": 300e-6}]})
+    run = saltstudy.run(case, saltstudy.load_fidelity("quick"))   # cached
     a = run.analysis()                                   # analysis.nc as an xarray Dataset
-    res = saltstudy.open_results("quick")                # a study's runs in the cache
-    res.table2()                                         # Table 2 beside the paper (Dataset)
+    saltstudy.open_results("quick").table2()             # Table 2 beside the paper
 
-Lengths in m, times in s, velocities in m s-1, as in the archives (docs/USAGE.md, "From Python").
+Lengths in m, times in s, velocities in m s-1, as in the archives.
 """
 from __future__ import annotations
 
@@ -44,24 +37,15 @@ def _out(out: PathLike | None) -> Path:
     return Path(out).expanduser() if out is not None else default_out_dir()
 
 
-def _case(case: Case | int | PathLike) -> Case:
-    return case if isinstance(case, Case) else load_case(case)
-
-
-def _fidelity(fidelity: Fidelity | PathLike) -> Fidelity:
-    return fidelity if isinstance(fidelity, Fidelity) else load_fidelity(fidelity)
-
-
-def _study(study: Study | PathLike) -> Study:
-    return study if isinstance(study, Study) else load_study(study)
+def _loaded(value, model, load):
+    """``value`` if it is a ``model`` already, else ``load(value)`` (a number, name or file)."""
+    return value if isinstance(value, model) else load(value)
 
 
 @dataclass
 class Run:
-    """One run in the cache: a case at a fidelity, under its label.
-
-    ``paths`` names its archives (``spinup``, ``samples``, ``analysis``) whether they exist yet
-    or not; ``outcomes`` holds what each task did when the run was made from here."""
+    """One run in the cache: a case at a fidelity, under its label; ``paths`` names its archives
+    (existing or not), ``outcomes`` what each task did when the run was made from here."""
     label: str
     scene: Scene
     keys: K.RunKeys
@@ -109,8 +93,7 @@ class Run:
         return open_dataset(self._archive("analysis"))
 
     def samples(self) -> xr.Dataset:
-        """samples.nc, opened lazily (dask arrays: a slice is read when computed). Close it when
-        done: ``with run.samples() as s: ...``."""
+        """samples.nc, opened lazily (dask); close it when done: ``with run.samples() as s:``."""
         return open_lazy(self._archive("samples"))
 
     def spinup(self) -> xr.Dataset:
@@ -120,7 +103,7 @@ class Run:
 
 class Results:
     """Runs read together: a study's (:func:`open_results`, :func:`run_study`) or any runs
-    (``Results([run_a, run_b])``). ``runs`` maps each label to its :class:`Run`."""
+    (``Results([run_a, run_b])``); ``runs``: label -> :class:`Run`."""
 
     def __init__(self, runs: Iterable[Run] | Mapping[str, Run], study: str = "runs",
                  summary: StudySummary | None = None):
@@ -150,21 +133,17 @@ class Results:
             raise KeyError(f"{label!r}: not a run of {self.study} (runs: {', '.join(self.runs)})") from None
 
     def analysis(self, label: str) -> xr.Dataset:
-        """The run's analysis.nc as a Dataset (:meth:`Run.analysis`)."""
         return self[label].analysis()
 
     def samples(self, label: str) -> xr.Dataset:
-        """The run's samples.nc, lazily (:meth:`Run.samples`)."""
         return self[label].samples()
 
     def spinup(self, label: str) -> xr.Dataset:
-        """The run's spinup.nc, lazily (:meth:`Run.spinup`)."""
         return self[label].spinup()
 
     def table2(self) -> xr.Dataset:
-        """Table 2 as the report shows it, along ``run``: each statistic computed, with the
-        paper's value and the relative difference beside the runs that are the paper's cases
-        unchanged (``report.tables.table2_dataset``). ``.to_dataframe()`` gives a pandas table."""
+        """Table 2 as the report shows it, along ``run``, with the paper's values beside the
+        paper's cases (``report.tables.table2_dataset``; ``.to_dataframe()`` for pandas)."""
         from .report.data import ReportContext, load_runs
         from .report.tables import table2_dataset
 
@@ -174,16 +153,13 @@ class Results:
 
 def run(case: Case | int | PathLike, fidelity: Fidelity | PathLike, out: PathLike | None = None,
         label: str | None = None, quiet: bool = True) -> Run:
-    """Run one case at one fidelity in this process, as ``saltstudy run`` does: spin-up,
-    saltation and analysis, each taken from the cache when it is there (``out``: the cache
-    directory, default ``$SALTSTUDY_OUT`` or ``<project>/.saltstudy-cache``), an interrupted
-    run resumed from its checkpoint. ``case``: a :class:`Case`, a case number or a case file;
-    ``fidelity``: a :class:`Fidelity`, a name or a file; ``label``: the run's name (default the
-    case's ``name``, else ``caseNN``). A failed task does not raise: ``Run.outcomes`` holds its
-    error and ``Run.ok`` is False. ``quiet=False`` shows the live progress display."""
-    c = _case(case)
+    """Run one case at one fidelity in this process as ``saltstudy run`` does (cached, resumed).
+    ``case``: a :class:`Case`, number or file; ``fidelity``: a :class:`Fidelity`, name or file;
+    ``out``: the cache (default ``$SALTSTUDY_OUT``); ``label``: the run's name. A failed task
+    does not raise: ``Run.outcomes`` holds its error. ``quiet=False`` shows the progress."""
+    c = _loaded(case, Case, load_case)
     c = c.replace(name=label) if label else c         # the archives' label, as a study's scene
-    scene = resolve_scene(c, _fidelity(fidelity))
+    scene = resolve_scene(c, _loaded(fidelity, Fidelity, load_fidelity))
     r = Run.of(scene, out)
     _, r.outcomes = run_scene(scene, r.out, quiet=quiet)
     return r
@@ -195,12 +171,11 @@ def _runs_of(study: Study, out: Path) -> dict[str, Run]:
 
 def run_study(study: Study | PathLike, out: PathLike | None = None, workers: int = 1,
               quiet: bool = True, report_dir: PathLike | None = None) -> Results:
-    """Run a study as ``saltstudy run-all`` does (cache, resume, the shared spin-ups, one report
-    in ``report_dir``, default ``<project>/reports/<study>``) and open its results. ``study``:
-    a name (``workflows/NAME.toml``), a study file or a :class:`Study`. Failed tasks do not
-    raise: ``Results.summary`` lists them (``summary.exit_code`` is run-all's)."""
+    """Run a study (a name, file or :class:`Study`) as ``saltstudy run-all`` does, the report in
+    ``report_dir`` (default ``reports/<study>``), and open its results. Failed tasks do not raise:
+    ``Results.summary`` lists them."""
     started = time.time()
-    st, out_dir = _study(study), _out(out)
+    st, out_dir = _loaded(study, Study, load_study), _out(out)
     runs = _runs_of(st, out_dir)            # a bad case reference raises before anything runs
     summary = _run_study_graph(st, out_dir, workers=workers, quiet=quiet,
                                report_dir=Path(report_dir) if report_dir is not None else None,
@@ -209,8 +184,7 @@ def run_study(study: Study | PathLike, out: PathLike | None = None, workers: int
 
 
 def open_results(study: Study | PathLike, out: PathLike | None = None) -> Results:
-    """A study's runs in the cache ``out`` for the current case files, fidelities and code
-    (what ``saltstudy status`` calls done), without running anything: ``Run.ok`` says which
-    are there."""
-    st = _study(study)
+    """A study's runs in the cache ``out`` for the current configuration and code, without running
+    anything: ``Run.ok`` says which are there."""
+    st = _loaded(study, Study, load_study)
     return Results(_runs_of(st, _out(out)), st.name)

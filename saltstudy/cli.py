@@ -1,10 +1,6 @@
-"""The ``saltstudy`` command line.
-
-Each area of the package adds its own commands through a ``register(app)`` function in its
-``cli_commands.py`` (workflow: run-all, run, status, figures; analysis: analyse; instruments:
-the ``bench`` and ``probe`` groups, ``probe`` with the investigations' reports of
-report/cli_commands.py). This module holds the commands that only need the configuration, and
-the top level's order and one-line helps (:data:`TOP_LEVEL`).
+"""The ``saltstudy`` command line: each area adds its commands through ``register(app)`` in its
+``cli_commands.py``; here the configuration-only commands and the top level's order
+(:data:`TOP_LEVEL`).
 """
 from __future__ import annotations
 
@@ -21,8 +17,7 @@ from .config import (ConfigError, list_case_numbers, load_case, validate_file)
 USER_PANEL = "Run a study and read its results"
 INSTRUMENTS_PANEL = "Instruments: what measures the model"
 
-#: ``saltstudy --help`` as a newcomer reads it, in this order: the user's commands, then the
-#: instruments' groups; each with its one line of help
+#: ``saltstudy --help``'s order and one-line helps: the user's commands, then the instruments
 TOP_LEVEL: dict[str, tuple[str, str]] = {
     "run-all": ("Run a study (default: quick) and build its report.", USER_PANEL),
     "run": ("Run one case at one fidelity: spin-up, saltation, analysis.", USER_PANEL),
@@ -37,8 +32,7 @@ TOP_LEVEL: dict[str, tuple[str, str]] = {
 
 
 class _TopLevel(TyperGroup):
-    """Lists the commands in :data:`TOP_LEVEL`'s order (typer lists single commands before
-    groups)."""
+    """Lists the commands in :data:`TOP_LEVEL`'s order (typer lists groups last)."""
 
     def list_commands(self, ctx) -> list[str]:
         names = super().list_commands(ctx)
@@ -68,7 +62,7 @@ def _main(version: bool = typer.Option(False, "--version", help="print the versi
 @cases_app.command("list")
 def cases_list() -> None:
     """A table of the cases: u*s, mu1, Q, and u*t from Shao & Lu (2000)."""
-    from .physics.threshold import threshold_friction_velocity
+    from .physics.threshold import threshold_for_soil
 
     typer.echo(f"{'case':>4}  {'u*s [m/s]':>9}  {'mu1 [um]':>8}  {'sigma':>5}  {'Q':>7}  {'u*t [m/s]':>9}")
     for n in list_case_numbers():
@@ -77,8 +71,7 @@ def cases_list() -> None:
         except ConfigError as exc:
             fail(str(exc))
         mode = c.soil.modes[0]
-        ut = threshold_friction_velocity(c.soil.mean_diameter, c.soil.rho_p, c.air.rho, c.air.g,
-                                         c.threshold.A_N, c.threshold.gamma)
+        ut = threshold_for_soil(c.soil, c.air, c.threshold)
         mu = "+".join(f"{m.mu * 1e6:g}" for m in c.soil.modes)
         typer.echo(f"{n:>4}  {c.forcing.u_star_s:>9.2f}  {mu:>8}  {mode.sigma:>5.2f}  "
                    f"{c.particles.Q:>7g}  {ut:>9.3f}")
@@ -120,13 +113,7 @@ def validate(path: Path = typer.Argument(..., help="a case, fidelity or study TO
 
 for _area in ("saltstudy.workflow.cli_commands", "saltstudy.analysis.cli_commands",
               "saltstudy.instruments.cli_commands"):
-    try:
-        _mod = importlib.import_module(_area)
-    except ModuleNotFoundError as _exc:  # an area not yet present in this checkout
-        if _exc.name != _area:
-            raise
-        continue
-    _mod.register(app)
+    importlib.import_module(_area).register(app)
 
 for _info in (*app.registered_commands, *app.registered_groups):
     if _info.name in TOP_LEVEL:

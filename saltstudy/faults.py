@@ -1,26 +1,16 @@
 """The package's write points: the full-disk error, and a test hook that stops the process at one.
 
-Every file the package writes goes through one of a few functions (``ncio.write_dataset``, the
-checkpoint and JSON writers of the workflow, the report's staging), each of which calls
-:func:`point` at three moments of a write, named ``<file name>:<moment>``:
+Every file the package writes goes through a few writers (``ncio.write_dataset``, the workflow's
+checkpoint and JSON writers, the report's staging), each calling :func:`point` named
+``<file name>:<moment>`` at ``write`` (before the temporary file), ``tmp`` (complete, not yet
+renamed) and ``done`` (renamed), e.g. ``samples.nc:tmp``, ``report:done``.
 
-* ``write``: before the temporary file is written,
-* ``tmp``: the temporary file is complete, not yet renamed into place,
-* ``done``: renamed into place (what follows, e.g. deleting a redundant checkpoint, not yet done).
+The test hook ``SALTSTUDY_FAULT`` (read at every call; docs/USAGE.md "Faults"):
 
-e.g. ``samples.nc:tmp``, ``checkpoint.npz:done``, ``task.json:write``, ``report:tmp``.
-
-The test hook (``SALTSTUDY_FAULT``, read at every call so a test may set it; unset, a call costs
-one dictionary lookup) is what the fault campaign (``tests/test_faults.py``, docs/USAGE.md
-"Faults") uses to stop a run at a chosen instant:
-
-* ``kill GLOB K``: SIGKILL this process at the K-th call (1-based, counted in this process) of a
-  point whose name matches the shell pattern GLOB, e.g. ``kill samples.nc:tmp 1``;
-* ``stop GLOB K``: SIGSTOP it there (frozen mid-write, so a test can read ``saltstudy status`` of a
-  live run, then kill it);
+* ``kill GLOB K``: SIGKILL this process at the K-th call (1-based) of a point matching GLOB;
+* ``stop GLOB K``: SIGSTOP it there (a test reads ``saltstudy status`` of a live run);
 * ``enospc GLOB K``: raise ``OSError(ENOSPC)`` there, as a full disk does;
-* ``trace FILE``: append ``<unix time> <pid> <point>`` to FILE at every point (the campaign lists
-  the points an uninterrupted run reaches, then picks its instants among them).
+* ``trace FILE``: append ``<unix time> <pid> <point>`` to FILE at every point.
 
 Child processes that compile kernels (``workflow/warmup.py``) are started without it.
 """
@@ -94,8 +84,7 @@ def format_bytes(n: float) -> str:
 
 
 class DiskFull(OSError):
-    """No space left on the device that holds an output: names the file, what it needs and what is
-    free. An ``OSError`` with ``errno.ENOSPC``."""
+    """No space left for an output (``errno.ENOSPC``): names the file, its size, the free space."""
 
     def __init__(self, path: str | os.PathLike, needed: int | None, free: int | None):
         self.path, self.needed, self.free = Path(path), needed, free
@@ -121,9 +110,8 @@ def _free(directory: Path) -> int | None:
 
 
 def disk_full(path: str | os.PathLike, needed: int | None, exc: BaseException) -> DiskFull | None:
-    """The :class:`DiskFull` to raise instead of ``exc``, a failure to write ``path``, if the disk
-    is full: ``exc`` says ENOSPC, or (netCDF/HDF5 reports a full disk as an 'HDF error') less than
-    ``needed`` bytes are free on the device. None otherwise."""
+    """The :class:`DiskFull` to raise instead of ``exc`` (writing ``path``) if ``exc`` says ENOSPC
+    or (HDF5 says 'HDF error' for a full disk) less than ``needed`` bytes are free; else None."""
     path = Path(path)
     if isinstance(exc, DiskFull):
         return exc
@@ -137,10 +125,9 @@ def disk_full(path: str | os.PathLike, needed: int | None, exc: BaseException) -
 
 def write_atomic(path: str | os.PathLike, write: Callable[[Path], None], needed: int | None = None,
                  sync: bool = True) -> Path:
-    """``write(tmp)`` writes the file's content to ``tmp`` (``<name>.<pid>.tmp`` beside ``path``: a
-    name of this process, so two writers never share one), which is then (fsync'ed if ``sync``)
-    renamed to ``path``, with the write points of the module doc. On failure the temporary file is
-    removed; a full disk raises :class:`DiskFull` (``needed``: the size expected, in bytes)."""
+    """``write(tmp)`` writes ``<name>.<pid>.tmp`` beside ``path``, then renamed (fsync'ed if
+    ``sync``) with the module doc's write points; on failure the temporary file is removed and a
+    full disk raises :class:`DiskFull` (``needed``: the expected size in bytes)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")

@@ -1,19 +1,11 @@
 """NetCDF I/O under one process-wide lock, written atomically.
 
-netCDF4's pip wheels segfault when several threads of one process read or write NetCDF, even
-separate files (netcdf4-python#1405, xarray#7079): every read and write in this package goes
-through :data:`NC_LOCK`. Writes go to ``<name>.<pid>.tmp`` (a name of this process: two writers
-never share one) and are renamed, so an interrupted write never leaves a file that a rerun would
-trust. A full disk raises :class:`saltstudy.faults.DiskFull` naming the file and the space.
-
-An archive records where it was written (``saltstudy_written_as``: its directory's name and its
-own, i.e. the cache key and the kind in the cache's layout) and, set last, that it is complete:
-:func:`is_complete` trusts a file only if it reads, says complete and sits where it was written,
-so a file from another key or of another kind, or one that is not ours, is recomputed.
-
-Every archive written declares the CF conventions (:func:`cf_attributes`): ``Conventions``, the
-axes of the grid's coordinates and the CF standard names of the variables that have one. The
-attributes only: the arrays are written as given.
+netCDF4's wheels segfault when threads of one process touch NetCDF, even separate files
+(netcdf4-python#1405, xarray#7079): all I/O goes through :data:`NC_LOCK`. Writes go to
+``<name>.<pid>.tmp`` and are renamed; a full disk raises :class:`saltstudy.faults.DiskFull`. An
+archive records where it was written (``saltstudy_written_as``) and, last, that it is complete:
+:func:`is_complete` trusts a file only if it reads, says complete and sits where it was written.
+Archives declare the CF conventions (:func:`cf_attributes`: attributes only).
 """
 from __future__ import annotations
 
@@ -41,38 +33,28 @@ WRITTEN_AS_ATTR = "saltstudy_written_as"
 def _written_as(path: Path) -> str:
     return f"{path.parent.name}/{path.name}"
 
-#: the version of the CF conventions the archives follow (checked with the IOOS compliance
-#: checker, tests/test_cf_archives.py)
+#: the CF conventions the archives follow (IOOS compliance checker, tests/test_cf_archives.py)
 CF_VERSION = "CF-1.10"
 
 _X = {"axis": "X", "standard_name": "projection_x_coordinate"}
 _Y = {"axis": "Y", "standard_name": "projection_y_coordinate"}
 _Z = {"axis": "Z", "positive": "up", "standard_name": "height"}
-#: the grid's coordinates, by name in every archive: the model's plane x (streamwise) and y
-#: (spanwise) axes are CF's projection coordinates (with axis X/Y alone a CF checker takes them
-#: for longitude and latitude), z is the height above the bed. The times are seconds since an
-#: event of the run (the activation, the spin-up's start): CF's time axis needs a calendar epoch
-#: ("s since 2000-01-01"), and xarray would then read every time as a date, so they carry units
-#: and long_name and no axis.
+#: the grid's coordinates: x, y are CF projection coordinates (with axis X/Y alone a checker takes
+#: them for longitude, latitude), z the height. Times (s since an event of the run) carry no axis:
+#: CF's time axis needs a calendar epoch, and xarray would read them as dates.
 CF_COORDINATES: dict[str, dict[str, str]] = {
     "x": _X, "x_u": _X, "y": _Y, "y_v": _Y, "z": _Z, "z_w": _Z, "z_plane": _Z, "z_band": _Z}
-#: name -> (CF standard name, the units it takes); set only where a variable has those units,
-#: so a name of another meaning elsewhere is never mislabelled. The kinematic pressure p/rho
-#: (m2 s-2) has no CF standard name.
+#: name -> (CF standard name, the units it takes); set only where a variable has those units.
 CF_STANDARD_NAMES: dict[str, tuple[str, str]] = {
     "u": ("x_wind", "m s-1"), "v": ("y_wind", "m s-1"), "w": ("upward_air_velocity", "m s-1"),
     "u_plane": ("x_wind", "m s-1"),
-    # "the kinetic energy of all eddy-induced motion that is not resolved on the grid scale"
     "e": ("specific_turbulent_kinetic_energy_of_air", "m2 s-2"),
 }
 
 
 def cf_attributes(ds: xr.Dataset, history: str | None = None) -> xr.Dataset:
-    """A shallow copy of ``ds`` with the CF attributes of :data:`CF_COORDINATES` and
-    :data:`CF_STANDARD_NAMES` added (a caller's own attributes win), ``Conventions`` set, the
-    line ``history`` appended to the global ``history`` (CF's audit trail: an analysis.nc keeps
-    the line of the samples.nc it was made from) and no ``_FillValue`` on the coordinates (CF: a
-    coordinate has no missing values). The arrays are the same objects."""
+    """A shallow copy of ``ds`` with the CF attributes added (a caller's own win), ``Conventions``
+    set, ``history`` appended to the global ``history`` and no ``_FillValue`` on coordinates."""
     ds = ds.copy()
     ds.attrs["Conventions"] = CF_VERSION
     if history:
@@ -97,16 +79,13 @@ def open_dataset(path: str | os.PathLike) -> xr.Dataset:
 
 
 def open_lazy(path: str | os.PathLike) -> xr.Dataset:
-    """Open a NetCDF file lazily: dask arrays read on demand, each read under :data:`NC_LOCK`
-    (a run's samples.nc is several GB at the paper's fidelity). Close it when done
-    (``with open_lazy(p) as ds: ...``)."""
+    """Open a NetCDF file lazily (dask arrays, reads under :data:`NC_LOCK`); close it when done."""
     with NC_LOCK:
         return xr.open_dataset(path, engine="netcdf4", chunks={}, lock=NC_LOCK)
 
 
 def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
-    """Write ``ds`` to ``path`` atomically (temporary name, fsync, rename), under the lock, with
-    the CF attributes (:func:`cf_attributes`)."""
+    """Write ``ds`` to ``path`` atomically, under the lock, with the CF attributes."""
     path = Path(path)
     stamp = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     ds = cf_attributes(ds, f"{stamp} saltstudy {__version__}: {path.name}")
@@ -118,17 +97,15 @@ def write_dataset(ds: xr.Dataset, path: str | os.PathLike) -> Path:
 
 
 def is_complete(path: str | os.PathLike) -> bool:
-    """True if ``path`` is a readable archive that this package completely wrote under this name
-    (archives written before the name was recorded are judged by their completion mark alone)."""
+    """True if ``path`` is a readable archive this package completely wrote under this name (one
+    without the name recorded: by its completion mark alone)."""
     path = Path(path)
     if not path.is_file():
         return False
     import netCDF4
 
-    # the global attributes only, through netCDF4 (HDF5 refuses at open a file shorter than its
-    # header says): xarray's open also decodes every variable's metadata and loads the index
-    # coordinates, 2.5 to 50 times longer (the smoke study's archives at a load of 16: 0.14-0.6 s
-    # against 0.013-0.10 s each), and a run asks once per task and again per dependent
+    # the global attributes only, through netCDF4: xarray's open decodes every variable too, 2.5
+    # to 50 times longer (0.14-0.6 s against 0.013-0.10 s per smoke archive), asked once per task
     try:
         with NC_LOCK:
             with netCDF4.Dataset(path, "r") as nc:

@@ -1,15 +1,10 @@
 """Validated, frozen configuration models for cases, fidelities, studies and resolved scenes.
 
-A *case* (``cases/caseNN.toml``) fixes the physics of one run of Dupont et al. (2013, Table 2):
-wind, soil, splash constants, physics switches, Q and the seed. A *fidelity*
-(``workflows/fidelities/NAME.toml``) fixes only what costs: domain, grid, time-step policy,
-durations, sampling and the parcel-count knob. A *study* (``workflows/NAME.toml``) names which cases
-run at which fidelities; the rungs and variants only it runs sit in the folder named for it
-(``workflows/NAME/``). A :class:`Scene` is one case resolved against one fidelity: everything the
-solver needs, and nothing else.
-
-All lengths in m, times in s, velocities in m s^-1, densities in kg m^-3, angles in degrees.
-Defaults carry over the paper's values (sections 2.1-2.4, Appendix A); see ``data/dupont2013.toml``.
+A *case* (``cases/caseNN.toml``) fixes the physics of one run (Dupont et al. 2013, Table 2); a
+*fidelity* (``workflows/fidelities/NAME.toml``) only what costs (grid, steps, durations, sampling,
+parcels); a *study* (``workflows/NAME.toml``) which cases run at which fidelities. A
+:class:`Scene` is one case resolved against one fidelity. SI units, angles in degrees; defaults
+are the paper's (``data/dupont2013.toml``).
 """
 from __future__ import annotations
 

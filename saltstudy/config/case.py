@@ -9,13 +9,10 @@ from pydantic import Field, model_validator
 
 from .base import Frozen
 
-__all__ = ["Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Closure", "Physics",
-           "Particles", "Case"]
+__all__ = ["Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Closure",
+           "Physics", "Particles", "Case"]
 
 
-# --------------------------------------------------------------------------------------------
-# Case: the physics
-# --------------------------------------------------------------------------------------------
 class Air(Frozen):
     """Air properties (neutral, dry). Paper: Boussinesq fluid, section 2.1."""
     rho: float = Field(1.2, gt=0, description="air density rho [kg m^-3]")
@@ -67,10 +64,8 @@ class Splash(Frozen):
     ej_angle_h_std: float = Field(10.0, ge=0, description="sigma of alpha_hej [deg]")
     impact_layer: float = Field(5.0e-4, gt=0, lt=0.01, description="impact layer depth [m] (0.5 mm)")
     impact_speed: Literal["magnitude", "normal"] = Field(
-        "magnitude", description="the v_imp of eqs. 6 and 8 (rebound probability, number of "
-        "ejecta), which the paper calls the impact velocity: the impact speed |u_p| ('magnitude', "
-        "as Anderson & Haff 1991 and Kok & Renno 2009 use it), or its component normal to the bed "
-        "|w_p| ('normal'); eqs. 7 and 9 (rebound and ejection speeds) take |u_p| either way")
+        "magnitude", description="v_imp of eqs. 6 and 8: the impact speed |u_p| ('magnitude', as "
+        "Anderson & Haff 1991 and Kok & Renno 2009) or its normal part |w_p|; eqs. 7, 9 take |u_p|")
 
 
 class Threshold(Frozen):
@@ -86,36 +81,30 @@ class Forcing(Frozen):
     controller_timescale: float = Field(
         20.0, gt=0, description="relaxation time of the driving-velocity controller [s]")
     drive: Literal["top", "pressure_gradient"] = Field(
-        "top", description="top (default, the paper's set-up): base-state wind through the Rayleigh "
-        "layer with a slow u* controller, constant stress below it (on domains a few metres deep its "
-        "core is Couette-like, kappa z/u* dU/dz ~ 0.6 at 0.5-1.5 m); pressure_gradient: mean body "
-        "force, the stress falls linearly from rho u*s^2 at the bed and the log law holds in the lower "
-        "third (solver/flow/forcing.py), but a run must spin up for a few hundred seconds to reach it")
+        "top", description="top (the paper's): base-state wind through the Rayleigh layer with a "
+        "u* controller, constant stress below; pressure_gradient: mean body force, linear stress, "
+        "log law in the lower third after a few hundred seconds (solver/flow/forcing.py)")
 
 
 class Surface(Frozen):
-    """Rigid bed: log-law stress at the first level, C_d = [kappa / ln(z_1/z0)]^2 (the paper's bulk
-    drag law), from each RK3 stage's wind."""
+    """Rigid bed: the paper's bulk drag law C_d = [kappa / ln(z_1/z0)]^2 at the first level."""
     z0: float = Field(1.0e-5, gt=0, lt=0.1, description="roughness length z0 [m] (paper: 10 um)")
 
 
 class Closure(Frozen):
     """Turbulence closure: the SGS model and its options."""
     model: Literal["deardorff", "dynamic"] = Field(
-        "deardorff", description="SGS model: 'deardorff', the paper's 1.5-order prognostic TKE closure "
-        "with a fixed c_m (solver/closures/sgs.py); 'dynamic', the plane-averaged scale-dependent dynamic "
-        "Smagorinsky model of Porte-Agel et al. (2000) and Bou-Zeid et al. (2005), with the SGS TKE of "
-        "the paper's eq. A1 diagnosed in local equilibrium, grain sink included (solver/closures/dynamic.py)")
+        "deardorff", description="'deardorff': the paper's 1.5-order TKE closure; 'dynamic': the "
+        "scale-dependent dynamic Smagorinsky model (Porte-Agel et al. 2000, Bou-Zeid et al. 2005) "
+        "with eq. A1's SGS TKE in local equilibrium (solver/closures/)")
     dynamic_interval: int = Field(
         5, ge=1, le=100, description="steps between updates of the dynamic coefficient [-]")
     delta: Literal["scotti", "geometric"] = Field(
-        "scotti", description="SGS filter width: (dx dy dz)^(1/3) times the anisotropy factor of "
-        "Scotti, Meneveau & Lilly (1993) for flat cells ('scotti'), or without it ('geometric', "
-        "Deardorff 1980) (solver/closures/sgs.py)")
+        "scotti", description="filter width (dx dy dz)^(1/3) with the flat-cell factor of Scotti, "
+        "Meneveau & Lilly (1993) or without it ('geometric', Deardorff 1980)")
     viscosity: Literal["isotropic", "anisotropic"] = Field(
-        "isotropic", description="SGS eddy viscosity: one, with the filter length ('isotropic'), or "
-        "a horizontal one with sqrt(dx dy) and a vertical one with dz ('anisotropic', the nu_th and "
-        "nu_tv of the paper's eq. A1) (solver/closures/sgs.py)")
+        "isotropic", description="one eddy viscosity, or eq. A1's horizontal and vertical pair "
+        "nu_th, nu_tv ('anisotropic')")
 
     @model_validator(mode="after")
     def _one_viscosity_when_dynamic(self) -> "Closure":

@@ -11,9 +11,6 @@ from .base import Frozen
 __all__ = ["GridSpec", "TimeStepping", "SpinUp", "Sampling", "Relaxation", "Outputs", "Fidelity"]
 
 
-# --------------------------------------------------------------------------------------------
-# Fidelity: the cost
-# --------------------------------------------------------------------------------------------
 class GridSpec(Frozen):
     """Domain and grid. Uniform in x, y; stretched cubically in the level index in z."""
     Lx: float = Field(..., gt=0, description="domain length [m]")
@@ -53,8 +50,8 @@ class GridSpec(Frozen):
 
 
 class TimeStepping(Frozen):
-    """Adaptive time step of the RK3 flow step (solver/flow/stepper.py): Delta t = min(CFL limit,
-    diffusion limit, dt_max), and how the vertical SGS diffusion is integrated (numerics: a case means the same with either)."""
+    """Adaptive step of the RK3 flow step: min(CFL limit, diffusion limit, dt_max), and the flow's
+    numerics (solver/flow/stepper.py)."""
     cfl: float = Field(0.8, gt=0, le=1.5, description="advective Courant number")
     diffusion_number: float = Field(
         0.4, gt=0, le=0.5, description="explicit diffusion limit: dt <= diffusion_number / "
@@ -62,24 +59,17 @@ class TimeStepping(Frozen):
     dt_max: float = Field(0.05, gt=0, description="largest step [s]")
     dt_fixed: float | None = Field(None, gt=0, description="fixed step [s] (None: adaptive)")
     vertical_diffusion: Literal["explicit", "implicit"] = Field(
-        "implicit", description="vertical SGS diffusion of u, v, w, e (and the SGS dissipation): "
-        "'explicit' in the RK3 stages, its limit from the thinnest levels; 'implicit', a "
-        "tridiagonal solve per column in each stage (solver/flow/vertical_diffusion.py), no vertical "
-        "diffusion limit")
+        "implicit", description="vertical SGS diffusion: 'explicit' in the RK3 stages (limited by "
+        "the thinnest levels), or 'implicit', a tridiagonal solve per column and stage")
     implicit_weight: float = Field(
         0.5, ge=0.5, le=1.0, description="theta of the implicit vertical diffusion: 0.5 "
-        "Crank-Nicolson in each stage (second order), 1 backward Euler (first order, damps the "
-        "stiff modes at once)")
+        "Crank-Nicolson, 1 backward Euler (damps the stiff modes at once)")
     advection_order: Literal[2, 4] = Field(
-        2, description="horizontal order of the advection (momentum and SGS TKE) and of the "
-        "projection's divergence and gradient: 2, or 4 (Morinishi et al. 1998, fully conservative; "
-        "the paper's model ARPS advects momentum at fourth order); an integer because it is the "
-        "order of the differences; the vertical stays second order (solver/flow/advection.py)")
+        2, description="horizontal order of the advection and the projection: 2, or 4 (Morinishi "
+        "et al. 1998; the paper's ARPS advects momentum at fourth order); vertical: second order")
     precision: Literal["double", "single"] = Field(
-        "double", description="floating type of the flow: 'double' (float64), or 'single': the "
-        "fields u, v, w, e, p, the closure's viscosity and the stencils' arithmetic in float32, "
-        "the pressure solve and the grains (their state and the momentum they exchange) in "
-        "float64 (solver/flow/stepper.py; its cost and effect: docs/BENCHMARKS.md)")
+        "double", description="the flow's fields and stencils in float64, or float32 ('single'); "
+        "the pressure solve and the grains stay float64 (docs/BENCHMARKS.md)")
 
 
 class SpinUp(Frozen):
@@ -90,16 +80,11 @@ class SpinUp(Frozen):
     tolerance: float = Field(0.03, gt=0, description="relative change of u* and resolved TKE "
                                                     "between consecutive windows")
     u_star_ref: float | None = Field(
-        None, gt=0, lt=5.0,
-        description="spin up once at this friction velocity [m s^-1] and rescale the flow to each "
-                    "case's u*s by Reynolds-number similarity (solver.similarity); None: spin up "
-                    "at the case's own u*s. t_min, t_max and window are then times at u_star_ref")
+        None, gt=0, lt=5.0, description="spin up once at this u* [m s^-1] (times at it), rescale "
+        "to each case's u*s by similarity (solver.similarity); None: at the case's own u*s")
     stagger: float = Field(
-        0.0, ge=0, le=60.0,
-        description="[s] case n starts its saltation from the spin-up continued particle-free for "
-                    "(n - 1) x stagger more seconds (a chain shared by the cases), so that cases "
-                    "sharing one spin-up start at different phases of its slow swings instead of "
-                    "one; 0: every case starts from the spin-up's end")
+        0.0, ge=0, le=60.0, description="[s] case n starts from the spin-up continued "
+        "(n - 1) x stagger more seconds, spreading the cases over its slow swings; 0: from its end")
 
     @model_validator(mode="after")
     def _order(self) -> "SpinUp":
@@ -122,10 +107,9 @@ class Sampling(Frozen):
 
 
 class Relaxation(Frozen):
-    """Column relaxation after activation (solver/flow/relaxation.py): a uniform body force
-    -K (tau_bed - u*s^2) / Lz that brings the particle-free column to the saltation equilibrium
-    about (1 + K) times faster, switched off before sampling. Off by default: a cost knob for a
-    short window, not the paper's physics."""
+    """Column relaxation after activation (solver/flow/relaxation.py): a body force -K (tau_bed -
+    u*s^2) / Lz reaching the saltation equilibrium ~(1 + K) times faster, off before sampling; a
+    cost knob, off by default."""
     gain: float = Field(0.0, ge=0, le=20, description="K [-]: 0 switches the relaxation off")
     timescale: float = Field(1.0, gt=0, description="running-mean time of the bed stress [s]")
     until: float = Field(0.0, ge=0, description="active until this time after activation [s]")
@@ -148,15 +132,12 @@ class Fidelity(Frozen):
     sampling: Sampling
     q_multiplier: float = Field(1.0, gt=0, description="Q is multiplied by this (fewer parcels)")
     parcels_per_m2: float | None = Field(
-        None, gt=0, description="[m^-2] weigh each case's parcels so that its saltation layer holds "
-        "about this many airborne parcels per m2 of bed, as the paper chose its Q (~2,000 per m2 in "
-        "every case, its [28]): q_multiplier = the case's count at its Q "
-        "(data/airborne_counts.toml) / parcels_per_m2, set when a case is resolved at this "
-        "fidelity (config/loading.py); None: q_multiplier as given")
+        None, gt=0, description="[m^-2] weigh each case's parcels for about this many airborne per "
+        "m2, as the paper chose Q ([28]): q_multiplier from data/airborne_counts.toml "
+        "(config/loading.py); None: q_multiplier as given")
     checkpoint_interval_wall: float = Field(120.0, gt=0, description="wall-clock s between checkpoints")
     saltation_dt_fixed: float | None = Field(
-        None, gt=0, description="fixed step of the saltation phase only [s] (None: adaptive); the "
-        "stability study's deliberately too large step, run from a spin-up made with a stable one")
+        None, gt=0, description="fixed step of the saltation phase only [s] (None: adaptive)")
     relaxation: Relaxation = Relaxation()
     outputs: Outputs = Outputs()
 

@@ -1,12 +1,4 @@
-"""Where the configuration files are, and reading them: the project root, the case files, the file a
-fidelity or study reference names, and the folder of a study's own fidelities.
-
-The layout (docs/USAGE.md, "Studies"): ``cases/caseNN.toml``; the shared fidelities in
-``workflows/fidelities/``; a study ``workflows/NAME.toml`` with the rungs and variants only it runs
-in the folder named for it, ``workflows/NAME/``; a study in a folder of its own name
-(``workflows/investigations/knobs/knobs.toml``) keeps them beside itself. The models these files
-validate into are in :mod:`saltstudy.config`.
-"""
+"""Where the configuration files are, and reading them (layout: docs/USAGE.md, "Studies")."""
 from __future__ import annotations
 
 import os
@@ -51,13 +43,7 @@ def case_path(number: int, root: Path | None = None) -> Path:
 
 def list_case_numbers(root: Path | None = None) -> list[int]:
     d = (root or project_root()) / "cases"
-    out = []
-    for p in sorted(d.glob("case*.toml")):
-        try:
-            out.append(int(p.stem[4:]))
-        except ValueError:
-            continue
-    return out
+    return [int(p.stem[4:]) for p in sorted(d.glob("case*.toml")) if p.stem[4:].isdigit()]
 
 
 def _known(folder: Path | None) -> str:
@@ -66,10 +52,9 @@ def _known(folder: Path | None) -> str:
 
 
 def locate_fidelity(ref: str | Path, root: Path | None, own: Path | None = None) -> Path:
-    """The file of a fidelity reference: a file path (``.toml``); ``STUDY/NAME``, a fidelity that
-    a study keeps in its own folder (``workflows/STUDY/NAME.toml``, e.g. ``convergence/reduced-q4``);
-    or a NAME, looked up first in ``own`` (a study's own folder; for ``based_on``, the folder of
-    the file that names it), then in ``workflows/fidelities/``."""
+    """The file of a fidelity reference: a ``.toml`` path; ``STUDY/NAME`` (``workflows/STUDY/``);
+    or a NAME in ``own`` (a study's folder, or the file naming it as ``based_on``), else in
+    ``workflows/fidelities/``."""
     p = Path(ref).expanduser()
     if p.suffix == ".toml" or p.is_file():
         return p
@@ -88,9 +73,8 @@ def locate_fidelity(ref: str | Path, root: Path | None, own: Path | None = None)
 
 
 def locate_study(ref: str | Path, root: Path | None) -> Path:
-    """A study file from a name (``workflows/NAME.toml``), a path under workflows/ to a study file
-    or to a folder holding one of its name (``investigations/knobs`` ->
-    ``workflows/investigations/knobs/knobs.toml``), or a path."""
+    """A study file from a name (``workflows/NAME.toml``), a folder under workflows/ holding one of
+    its name (``investigations/knobs``), or a path."""
     p = Path(ref).expanduser()
     if p.suffix == ".toml" or p.is_file():
         return p
@@ -105,8 +89,7 @@ def locate_study(ref: str | Path, root: Path | None) -> Path:
 
 
 def own_fidelity_folder(study_file: Path) -> Path:
-    """The folder of a study's own fidelities, named for its file: the file's own folder when it
-    bears that name (``investigations/knobs/knobs.toml``), else the folder of that name beside the
-    file (``convergence.toml`` -> ``convergence/``)."""
+    """The folder of a study's own fidelities: the file's folder if named for it
+    (``knobs/knobs.toml``), else the folder of its name beside it (``convergence/``)."""
     folder = study_file.parent
     return folder if folder.name == study_file.stem else folder / study_file.stem

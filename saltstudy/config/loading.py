@@ -19,9 +19,6 @@ __all__ = ["load_case", "load_fidelity", "load_study", "study_file", "study_fide
            "resolve_scene", "study_runs", "validate_file", "airborne_counts", "parcel_weight"]
 
 
-# --------------------------------------------------------------------------------------------
-# Loading
-# --------------------------------------------------------------------------------------------
 def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
               root: Path | None = None) -> Case:
     """Load a case by number or path, apply ``overrides`` (deep-merged), validate."""
@@ -39,9 +36,8 @@ def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
 
 def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
                    chain: tuple[Path, ...] = ()) -> tuple[Path, dict]:
-    """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins).
-    A parent's name is looked up beside the file first, then in workflows/fidelities/: a study's
-    own ``smoke.toml`` may be ``based_on = "smoke"``, the shared one."""
+    """Raw TOML of a fidelity with its ``based_on`` parent deep-merged underneath (the file wins);
+    the parent is looked up beside the file, then (or if that is it) in workflows/fidelities/."""
     path = locate_fidelity(ref, root, own)
     data = read_toml(path)
     if "q_multiplier" in data and "parcels_per_m2" in data:
@@ -79,19 +75,14 @@ def _load_fidelity(ref: str | Path, root: Path | None, own: Path | None) -> Fide
 
 
 def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
-    """Load a fidelity by name (``workflows/fidelities/NAME.toml``), by ``STUDY/NAME`` (a study's
-    own fidelity, ``workflows/STUDY/NAME.toml``) or by path. A file may start from another with
-    ``based_on = "NAME"`` (a file beside it, else workflows/fidelities/) or ``"STUDY/NAME"`` and
-    list only what differs (sections are deep-merged, the file wins)."""
+    """Load a fidelity by name, ``STUDY/NAME`` or path (files.locate_fidelity); a file may start
+    ``based_on`` another and list only what differs (docs/USAGE.md, "Fidelities")."""
     return _load_fidelity(ref, root, None)
 
 
 def load_study(ref: str | Path, root: Path | None = None) -> Study:
-    """Load a study by name, by its folder under workflows/ or by path. A scene's ``case`` that is a
-    relative file path is taken relative to the directory of the study file and stored absolute,
-    so that the study means the same case file from any working directory; an absolute path
-    (``~`` expanded) is kept as is. The study's fidelity names resolve first among its own
-    fidelities (:func:`study_fidelity_folder`), then in workflows/fidelities/."""
+    """Load a study by name, folder under workflows/ or path; a scene's relative case file is made
+    absolute against the study file's directory."""
     path = locate_study(ref, root)
     data = read_toml(path)
     data.setdefault("name", path.stem)
@@ -109,8 +100,7 @@ def study_file(study: Study) -> Path | None:
 
 
 def study_fidelity_folder(study: Study) -> Path | None:
-    """The folder of a study's own fidelities (files.own_fidelity_folder); None for a study
-    built in code."""
+    """The folder of a study's own fidelities; None for a study built in code."""
     return own_fidelity_folder(study._file) if study._file is not None else None
 
 
@@ -138,18 +128,15 @@ def resolve_scene(case: Case, fidelity: Fidelity, label: str | None = None) -> S
 
 
 def airborne_counts() -> tuple[dict[int, float], str]:
-    """The model's airborne parcels per m2 at each paper case's Q (``data/airborne_counts.toml``)
-    and where they were measured."""
+    """Airborne parcels per m2 at each paper case's Q, and their source (data/airborne_counts)."""
     text = resources.files("saltstudy").joinpath("data/airborne_counts.toml").read_text("utf-8")
     data = tomllib.loads(text)
     return {int(k): float(v) for k, v in data["count_at_Q"].items()}, str(data["source"])
 
 
 def parcel_weight(case: Case, parcels_per_m2: float) -> float:
-    """The multiple of the case's Q that leaves about ``parcels_per_m2`` airborne parcels per m2
-    [1]: the case's count at its Q over ``parcels_per_m2``. The count is the model's, measured for
-    the paper's cases as they stand (``airborne_counts``); a case whose physics differs from its
-    numbered file's has none, and a ConfigError says so."""
+    """The multiple of the case's Q leaving about ``parcels_per_m2`` airborne per m2 [1]; a
+    ConfigError for a case whose physics differs from its numbered file's (no measured count)."""
     counts, source = airborne_counts()
     where = "fidelity.parcels_per_m2"
     if case.number not in counts:
@@ -165,9 +152,8 @@ def parcel_weight(case: Case, parcels_per_m2: float) -> float:
 
 
 def _scene_case(study: Study, scene: SceneSpec, root: Path | None) -> Case:
-    """The case of a study's scene, its overrides applied. A reference that names no valid case
-    is a ConfigError naming ``scenes.<label>.case``; overrides that make the case invalid, one
-    naming ``scenes.<label>.overrides``."""
+    """The case of a study's scene, overrides applied; errors name ``scenes.<label>.case`` or
+    ``.overrides``."""
     where = f"study '{study.name}': scenes.{scene.label}"
     ref = scene.case
     if isinstance(ref, str) and not ref.strip().isdigit():

@@ -14,20 +14,14 @@ from .fidelity import Fidelity
 __all__ = ["SceneSpec", "Study", "Scene", "RunSpec"]
 
 
-# --------------------------------------------------------------------------------------------
-# Study
-# --------------------------------------------------------------------------------------------
 class SceneSpec(Frozen):
     """An extra run of a study: a case with overrides (e.g. an extreme scene)."""
     label: str = Field(..., pattern=r"^[A-Za-z0-9_.\-]+$")
-    case: int | str = Field(
-        ..., description="a case number (cases/caseNN.toml) or the path of a case file; a relative "
-        "path is relative to the directory of the study file (load_study makes it absolute)")
+    case: int | str = Field(..., description="a case number or file (relative to the study's)")
     fidelity: str | None = None
     overrides: dict[str, Any] = Field(default_factory=dict)
     expect: Literal["complete", "blow-up"] = Field(
-        "complete", description="'blow-up': the scene must stop with a solver blow-up (a stability "
-        "study's deliberately unstable step); run-all then fails if it completes instead")
+        "complete", description="'blow-up': run-all fails if the scene completes")
 
     @field_validator("case")
     @classmethod
@@ -45,20 +39,16 @@ class Study(Frozen):
     description: str = ""
     fidelity: str | None = Field(None, description="default fidelity of the study")
     fidelities: tuple[str, ...] = Field((), description="a ladder: every case runs at each")
-    reference: str | None = Field(None, description="the fidelity of fidelities that the convergence "
-                                  "report compares the others with (default: the last listed)")
+    reference: str | None = Field(None, description="the convergence report's reference fidelity "
+                                  "(default: the last listed)")
     cases: tuple[int, ...] = ()
     ladder_cases: dict[str, tuple[int, ...]] = Field(
-        default_factory=dict, description="a rung of fidelities that only some of cases run (a rung "
-        "too costly for all): fidelity -> cases; every other rung runs every case")
+        default_factory=dict, description="fidelity -> the cases that rung runs (default: all)")
     scenes: tuple[SceneSpec, ...] = ()
     report: bool = True
     flux_law: Literal["creyssels2009"] | None = Field(
-        None, description="a measured flux law the report holds each run's G_tot against, at the "
-        "run's own stress u* (report/fluxlaw.py): 'creyssels2009', the wind tunnel of Creyssels et "
-        "al. (2009) for 242 um grains of 2500 kg m^-3")
-    # the file load_study read (absolute; None for a study built in code): where the study's own
-    # fidelities are looked up (study_fidelity_folder). Private: not part of what the study means.
+        None, description="a measured flux law the report compares G_tot with (report/fluxlaw.py)")
+    # the file load_study read (None for a study built in code), private: its fidelity folder
     _file: Path | None = PrivateAttr(None)
 
     @model_validator(mode="after")
@@ -88,7 +78,6 @@ class Scene(Frozen):
     case: Case
     fidelity: Fidelity
 
-    # Derived, cost-adjusted parcel settings.
     @property
     def Q(self) -> float:
         """Real grains per parcel after the fidelity's ``q_multiplier``."""
@@ -103,13 +92,11 @@ class Scene(Frozen):
 
     @property
     def damping_depth(self) -> float:
-        """Depth of the Rayleigh layer the model builds [m]: the fidelity's with the top drive,
-        none with the pressure-gradient drive."""
+        """Depth of the Rayleigh layer [m]: the fidelity's with the top drive, else none."""
         return self.fidelity.grid.damping_depth if self.case.forcing.drive == "top" else 0.0
 
     def spinup_scene(self) -> "Scene":
-        """The scene the particle-free spin-up runs: this one, or with ``fidelity.spinup.u_star_ref``
-        set, this one at that friction velocity (rescaled to u*s at activation)."""
+        """The scene the spin-up runs: this one, at ``fidelity.spinup.u_star_ref`` if set."""
         u_ref = self.fidelity.spinup.u_star_ref
         if u_ref is None or u_ref == self.case.forcing.u_star_s:
             return self
@@ -138,8 +125,7 @@ class Scene(Frozen):
 
     @property
     def start_links(self) -> int:
-        """Links of ``fidelity.spinup.stagger`` seconds between the spin-up's end and this case's
-        start: case number - 1 when staggered, else 0."""
+        """Stagger links between the spin-up's end and this case's start (case number - 1)."""
         st = self.fidelity.spinup.stagger
         return max(0, int(self.case.number) - 1) if st > 0 else 0
 

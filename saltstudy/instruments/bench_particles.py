@@ -1,24 +1,12 @@
 """Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow
 (``saltstudy bench particles``, or ``python -m saltstudy.instruments.bench_particles [--json]
-[--phases] [--steps N] [--n 1e5 --n 1e6]``; docs/BENCHMARKS.md).
+[--phases] [--steps N] [--n N]``; docs/BENCHMARKS.md).
 
-The flow is a frozen synthetic log-law wind (u*s of case 2) with smooth periodic perturbations of
-30% u* in u, v, w; the parcels are spread in the lowest 0.3 m with random velocities, so they
-splash, sub-step and couple two-way as in a run. Timing excludes compilation (one warm-up step).
-
-``--phases`` also times each kernel the component calls (the implicit estimate, the parcel
-advance, the bed events, the reordering, ...), as ns per parcel-step over the timed steps: where
-the time goes, for whoever works on the speed target. The component is given its kernels each
-wrapped in a timer (its ``kernels`` record, particles.StepKernels) for the timed steps, and its
-own back afterwards; nothing else is touched.
-
-``--against REV`` times this checkout against the grain component of git revision REV, rounds of
-``--steps`` steps alternating between the two, each in a fresh process (instruments/revision.py).
-
-``--cpu-time`` times the main thread's CPU time instead of the wall: with
-``NUMBA_NUM_THREADS=1`` the code's work, which other jobs on the machine hardly move (their
-load makes a wall-time comparison, and a parallel region's wait for its worker threads,
-scatter by tens of per cent).
+The flow is a frozen log-law wind (u*s of case 2) with 30% u* periodic perturbations; the parcels
+start in the lowest 0.3 m with random velocities, so they splash, sub-step and couple as in a run.
+``--phases`` times each kernel (particles.StepKernels) per parcel-step; ``--against REV`` alternates
+rounds with revision REV in fresh processes (instruments/revision.py); ``--cpu-time`` times the
+main thread's CPU time (with ``NUMBA_NUM_THREADS=1``: other jobs' load hardly moves it).
 """
 from __future__ import annotations
 
@@ -85,20 +73,16 @@ def _component(pkg: str, n: int, dt: float, case: int, fidelity: str):
 
 
 def _emit(out: dict, as_json: bool, lines) -> None:
-    """Print ``out`` as one JSON object, or else the text ``lines``."""
     print(json.dumps(out) if as_json else "\n".join(lines))
 
 
-#: the bench's clock: wall time, or with ``--cpu-time`` the calling thread's CPU time
-#: (time.thread_time), which other jobs on the machine hardly move; it counts only the main
-#: thread's work, so it measures the code with NUMBA_NUM_THREADS=1
+#: the bench's clock: wall time, or with ``--cpu-time`` the main thread's (time.thread_time)
 _clock = time.perf_counter
 
 @contextmanager
 def timed_kernels(acc: dict, component):
-    """Accumulate wall seconds per kernel of the grain component's step in ``acc`` (keyed by
-    particles.StepKernels' names) while inside: the component runs its kernels each wrapped in a
-    timer, and its own again on exit."""
+    """Accumulate seconds per kernel of the grain component's step in ``acc`` while inside (each
+    of particles.StepKernels wrapped in a timer)."""
     saved = component.kernels
 
     def timed(name, f):
@@ -118,25 +102,16 @@ def timed_kernels(acc: dict, component):
 
 def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, dt: float = 0.005,
                     case: int = 2, fidelity: str = "reduced", phases: bool = False) -> dict:
-    """Time ``steps`` component steps for each parcel count; print and return
-    {"threads": ..., "runs": [{"n_parcels", "ns_per_parcel_step", "mean_ns_per_parcel_step",
-    "n_end", "impacts_per_step"}]}. ``ns_per_parcel_step`` is the median step; the mean also
-    counts the steps that reorder the parcels (every ``particles.SORT_INTERVAL``-th), which the
-    median leaves out: it is the amortized cost of a run. ``phases``: each run also gets
-    ``phases_ns_per_parcel_step`` {kernel: ns} and ``steps_ns_per_parcel_step``, the whole steps
-    on the same footing (total time over total parcel-steps), which the kernels' sum cannot
-    exceed."""
+    """Time ``steps`` component steps per parcel count: the median step's ns per parcel-step, and
+    the mean, which includes the reordering steps (the amortized cost of a run). ``phases``: also
+    ns per parcel-step per kernel and of all timed steps, which the kernels' sum cannot exceed."""
     import numba
 
     runs = []
     for n in n_list:
         n = int(n)
         s, st = _component(_PACKAGE, n, dt, case, fidelity)
-        times = []
-        imp = 0
-        acc: dict = {}
-        parcel_steps = 0
-        wall = 0.0
+        times, acc, imp, parcel_steps, wall = [], {}, 0, 0, 0.0
         with timed_kernels(acc, s) if phases else nullcontext():
             for _ in range(steps):
                 n0 = max(s.n, 1)
@@ -178,8 +153,8 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
 
 def side_median(pkg: str, n: int, steps: int, dt: float, case: int, fidelity: str,
                 cpu_time: bool = False) -> float:
-    """One round of one side of ``compare_particles``, run in its own process: package ``pkg``'s
-    component (``_component``), ``steps`` steps timed; the median, ns per parcel-step."""
+    """One round of one side of ``compare_particles`` (in its own process): the median step of
+    package ``pkg``'s component, ns per parcel-step."""
     clock = time.thread_time if cpu_time else time.perf_counter
     s, st = _component(pkg, n, dt, case, fidelity)
     times = []
@@ -194,11 +169,8 @@ def side_median(pkg: str, n: int, steps: int, dt: float, case: int, fidelity: st
 def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: int = 7,
                       as_json: bool = False, dt: float = 0.005, case: int = 2,
                       fidelity: str = "reduced") -> dict:
-    """This checkout against revision ``against`` (module doc), per parcel count: the median over
-    rounds of each side's median step, ns per parcel-step, every round of every side in a fresh
-    process (revision.run_isolated: two sides in one process are not on the same footing).
-    Returns {"threads", "against", "runs": [{"n_parcels", "this", "against", "this_rounds",
-    "against_rounds"}]}."""
+    """This checkout against revision ``against``, per parcel count: the median over rounds of
+    each side's median step [ns per parcel-step], every round in a fresh process."""
     import numba
 
     name, path = revision_path(against)
@@ -231,7 +203,6 @@ def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: 
 
 
 def register_bench(bench_app) -> None:
-    """Add the ``particles`` command to the given typer sub-app (``saltstudy bench particles``)."""
     import typer
 
     @bench_app.command("particles")

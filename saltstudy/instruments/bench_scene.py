@@ -1,28 +1,13 @@
 """What one scene costs per step, and what a whole run of it would cost: ``saltstudy bench scene``.
 
-For each numba thread count: the flow alone (the scene's model from its initial state, a few warm
-steps, then ``steps`` timed steps), and the flow with ``parcels`` parcels released at activation
-(the same, with the grain component). Reported: median wall time per step, the mean adaptive step
-``dt`` (hence steps per simulated second), the parcels aloft, peak resident memory.
+Per numba thread count: median wall time per step of the flow alone and with ``parcels`` parcels,
+the mean step ``dt``, the parcels aloft, peak memory; extrapolated to the scene's spin-up and
+saltation durations, and to N cores by Amdahl's law from the 1 -> 2 thread speed-up (a best case).
+The flow is the initial perturbed log law, not a spun-up one (gusts shorten the step).
 
-Extrapolation to the scene's own run: spin-up ``spinup.t_min``..``t_max`` seconds of flow alone and
-``saltation_duration`` seconds with grains, at the measured s/step and steps per simulated second.
-To N cores: Amdahl's law with the serial fraction f that the 1 -> 2 thread speed-up S2 implies
-(f = 2/S2 - 1); one measured point, and memory bandwidth ignored, so it is a best case.
-
-Caveats, stated with the numbers: the flow is the initial log-law profile with perturbations, not a
-spun-up one (its Courant rate is set by the mean wind; gusts of a spun-up flow shorten the step), and
-the parcels start at rest in the lowest layer rather than in an equilibrium layer (the cost per
-parcel-step differs little: `saltstudy bench particles` measures it on a frozen flow).
-
-With ``saltation_seconds`` S (``--saltation-seconds``) nothing is extrapolated: from the scene's
-spin-up (the workflow's archive in the cache, computed there if absent) each vertical-diffusion
-scheme (``--vertical-diffusion``, repeatable; default the fidelity's) runs the first S seconds of
-the scene's real saltation run: the same release, the same column relaxation, the same adaptive
-step. Per scheme: steps and wall seconds per simulated second (all, the flow, the grains), which
-limit set each step (health.limiting_step), the process's peak memory after it. With ``rounds`` >
-1 the schemes alternate (the order flipped every round) and the medians over rounds are
-reported: separate runs on a machine whose speed drifts scatter by tens of per cent.
+With ``saltation_seconds`` S nothing is extrapolated: from the scene's cached spin-up each
+``--vertical-diffusion`` scheme runs the first S seconds of the real saltation run; with ``rounds``
+> 1 the schemes alternate and medians are reported (separate runs scatter by tens of per cent).
 """
 from __future__ import annotations
 
@@ -81,9 +66,8 @@ def measure(scene, steps: int, threads: int) -> dict:
 
 def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32),
                 saltation_dt: float | None = None) -> dict:
-    """Hours of one run of ``scene`` (spin-up + saltation) on each core count. ``saltation_dt``
-    [s]: the mean step of a real saltation run at this resolution, if known (the initial flow's
-    step is longer: the grain layer makes the near-bed diffusion limit stiffer)."""
+    """Hours of one run of ``scene`` on each core count; ``saltation_dt`` [s]: a real saltation
+    run's mean step, if known (the grain layer makes the diffusion limit stiffer)."""
     by = {r["threads"]: r for r in rows}
     f = scene.fidelity
 
@@ -159,9 +143,8 @@ def _with_scheme(scene, scheme: str):
 
 def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False,
                        phases: bool = False) -> dict:
-    """The first ``seconds`` of ``scene``'s saltation run from ``restart``: counts and wall
-    (``tiled``: a start carried from a smaller grid, projected first, solver/tiling.py;
-    ``phases``: the grain kernels' ns per parcel-step as ``bench particles --phases`` times them)."""
+    """The first ``seconds`` of ``scene``'s saltation run from ``restart`` (``tiled``: projected
+    first, solver/tiling.py; ``phases``: the grain kernels' ns per parcel-step)."""
     from contextlib import nullcontext
 
     from .bench_particles import timed_kernels
@@ -180,7 +163,6 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
     tally = {"wall": 0.0, "wall_grains": 0.0, "parcel_steps": 0}
 
     def before_step() -> None:
-        """The step's limits and parcels, read before it is taken."""
         tally["limits"] = step_limits(m)
         tally["n0"] = int(m.components[0].n) if m.components else 0
 
@@ -224,20 +206,12 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
                   saltation_seconds: float = 5.0, rounds: int = 1, out_dir=None,
                   as_json: bool = False, spinup_from: str | None = None,
                   phases: bool = False) -> dict:
-    """Each vertical-diffusion scheme over the first ``saltation_seconds`` of the scene's saltation
-    run from its spin-up (module doc). Returns {"case", "fidelity", "saltation_seconds",
-    "rounds", "threads", "spinup", "schemes": {NAME: {"steps_per_simulated_s",
-    "wall_per_simulated_s", "wall_per_simulated_s_flow", "wall_per_simulated_s_grains",
-    "limits", "peak_rss_MB", "rounds"}}}.
-
-    ``spinup_from``: start from that fidelity's spin-up of the case (same horizontal spacing, a
-    smaller box) tiled onto this fidelity's grid (solver/tiling.py), for a grid whose own spin-up
-    cannot be afforded; the output says so ("start"). ``phases``: each scheme also gets the grain
-    kernels' ns per parcel-step of its last round (as ``bench particles --phases``)."""
+    """Each vertical-diffusion scheme over the first ``saltation_seconds`` of the scene's
+    saltation run (module doc); medians by scheme under ``"schemes"``. ``spinup_from``: start from
+    that fidelity's spin-up tiled onto this grid (solver/tiling.py)."""
     from pathlib import Path
 
     from ..ncio import open_dataset
-    from ..solver.similarity import rescale_restart
     from ..workflow import archives
     from ..workflow.paths import default_out_dir
     from ..workflow.tasks import spinup_task
@@ -246,10 +220,7 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
     source = _scene(case, spinup_from, None) if spinup_from else scene
     # the workflow's own spin-up archive (returned at once when the cache holds it)
     sp_path = spinup_task(source, Path(out_dir) if out_dir else default_out_dir())
-    sp = open_dataset(sp_path)
-    restart = archives.restart_from_dataset(sp)
-    u_spin = float(sp.attrs.get("u_star_target", scene.case.forcing.u_star_s))
-    restart = rescale_restart(restart, scene.case.forcing.u_star_s / u_spin)
+    restart = archives.start_restart(open_dataset(sp_path), scene)
     start = "the fidelity's own spin-up"
     if spinup_from:
         from ..solver.grid import Grid
@@ -315,42 +286,38 @@ def register_bench_scene(bench_app) -> None:
                   fidelity: str = typer.Option("paper", "--fidelity", help="fidelity name"),
                   steps: int = typer.Option(20, "--steps", help="timed steps (median)"),
                   threads: list[int] = typer.Option([1, 2], "--threads", help="numba threads; repeat"),
-                  parcels: int = typer.Option(0, "--parcels", help="parcels to release (0: the "
-                                              "scene's own n_initial)"),
-                  saltation_dt: float = typer.Option(0.0, "--saltation-dt", help="mean step [s] "
-                                                     "of a real saltation run at this resolution, "
-                                                     "for the extrapolation (0: the measured one)"),
+                  parcels: int = typer.Option(0, "--parcels", help="parcels (0: n_initial)"),
+                  saltation_dt: float = typer.Option(0.0, "--saltation-dt", help="a real saltation "
+                                                     "run's mean step [s] (0: the measured one)"),
                   vertical_diffusion: list[str] = typer.Option(
                       [], "--vertical-diffusion", help="vertical diffusion scheme (explicit, "
                       "implicit); repeat to compare, alternating (default: the fidelity's)"),
                   saltation_seconds: float = typer.Option(
                       0.0, "--saltation-seconds", help="time this many seconds of the scene's real "
-                      "saltation run from its spin-up (from the cache, or computed) instead of "
-                      "extrapolating from a few steps"),
+                      "saltation run from its (cached) spin-up instead of extrapolating"),
                   rounds: int = typer.Option(1, "--rounds", help="alternating rounds of the "
                                              "schemes (--saltation-seconds)"),
-                  out: str = typer.Option(None, "--out", help="cache directory holding (or to hold) "
-                                          "the spin-up (--saltation-seconds)"),
+                  out: str = typer.Option(None, "--out", help="cache holding the spin-up"),
                   spinup_from: str = typer.Option(
-                      None, "--spinup-from", help="with --saltation-seconds: start from this "
-                      "fidelity's spin-up of the case (same horizontal spacing, smaller box) tiled "
-                      "onto the scene's grid (solver/tiling.py), e.g. --fidelity paper "
-                      "--spinup-from fine"),
+                      None, "--spinup-from", help="with --saltation-seconds: this fidelity's "
+                      "spin-up tiled onto this grid (e.g. --fidelity paper --spinup-from fine)"),
                   phases: bool = typer.Option(False, "--phases", help="with --saltation-seconds: "
                                               "also the grain kernels' ns per parcel-step"),
                   as_json: bool = typer.Option(False, "--json", help="one JSON object on stdout")) -> None:
         """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N
         cores; or, with --saltation-seconds, the real cost of each vertical-diffusion scheme."""
         from ..solver.flow.vertical_diffusion import VERTICAL_DIFFUSION
+
+        def fail(msg: str) -> None:
+            typer.echo(f"error: {msg}", err=True)
+            raise typer.Exit(2)
+
         bad = [v for v in vertical_diffusion if v not in VERTICAL_DIFFUSION]
         if bad:
-            typer.echo(f"error: --vertical-diffusion: unknown scheme {bad[0]!r} (known: "
-                       f"{', '.join(VERTICAL_DIFFUSION)})", err=True)
-            raise typer.Exit(2)
+            fail(f"--vertical-diffusion: unknown scheme {bad[0]!r} (known: "
+                 f"{', '.join(VERTICAL_DIFFUSION)})")
         if saltation_seconds < 0 or rounds < 1:
-            typer.echo("error: --saltation-seconds must be positive and --rounds at least 1",
-                       err=True)
-            raise typer.Exit(2)
+            fail("--saltation-seconds must be positive and --rounds at least 1")
         if saltation_seconds > 0:
             from pathlib import Path
             bench_schemes(case, fidelity, tuple(vertical_diffusion), saltation_seconds, rounds,
@@ -358,18 +325,13 @@ def register_bench_scene(bench_app) -> None:
             return
         for flag, given in (("--spinup-from", spinup_from), ("--phases", phases)):
             if given:
-                typer.echo(f"error: {flag}: needs --saltation-seconds", err=True)
-                raise typer.Exit(2)
+                fail(f"{flag}: needs --saltation-seconds")
         if len(vertical_diffusion) > 1:
-            typer.echo("error: --vertical-diffusion: comparing schemes needs --saltation-seconds",
-                       err=True)
-            raise typer.Exit(2)
+            fail("--vertical-diffusion: comparing schemes needs --saltation-seconds")
         if steps < 1:
-            typer.echo("error: --steps: must be at least 1", err=True)
-            raise typer.Exit(2)
+            fail("--steps: must be at least 1")
         if saltation_dt < 0:
-            typer.echo("error: --saltation-dt: must be positive (or 0 for the measured step)", err=True)
-            raise typer.Exit(2)
+            fail("--saltation-dt: must be positive (or 0 for the measured step)")
         bench_scene(case, fidelity, steps, tuple(threads), parcels or None, as_json,
                     saltation_dt or None,
                     vertical_diffusion[0] if vertical_diffusion else None)

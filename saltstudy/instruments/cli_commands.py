@@ -40,22 +40,14 @@ def register(app: typer.Typer) -> None:
         from ..solver.flow.vertical_diffusion import VERTICAL_DIFFUSION
         from ..solver.closures.closure import CLOSURES
         for opt, vals, known in (("--precision", precision, tuple(PRECISIONS)),
-                                 ("--vertical-diffusion", vertical_diffusion, VERTICAL_DIFFUSION)):
+                                 ("--vertical-diffusion", vertical_diffusion, VERTICAL_DIFFUSION),
+                                 ("--closure", closure, tuple(CLOSURES)),
+                                 ("--advection-order", advection_order, tuple(ADVECTION_ORDERS))):
             bad_v = [x for x in vals or () if x not in known]
             if bad_v:
-                typer.echo(f"error: {opt}: unknown value {bad_v[0]!r} (known: {', '.join(known)})",
-                           err=True)
+                typer.echo(f"error: {opt}: unknown value {bad_v[0]!r} (known: "
+                           f"{', '.join(map(str, known))})", err=True)
                 raise typer.Exit(2)
-        bad = [c for c in closure if c not in CLOSURES]
-        if bad:
-            typer.echo(f"error: --closure: unknown closure {bad[0]!r} (known: {', '.join(CLOSURES)})",
-                       err=True)
-            raise typer.Exit(2)
-        bad_order = [o for o in advection_order if o not in ADVECTION_ORDERS]
-        if bad_order:
-            typer.echo(f"error: --advection-order: {bad_order[0]} is not one of {ADVECTION_ORDERS}",
-                       err=True)
-            raise typer.Exit(2)
         if against:
             from .bench import compare_flow
             from .revision import RevisionError

@@ -1,25 +1,10 @@
 """Which eddies the grains follow: the spanwise co-spectrum and coherence of C_p and u(z) in one
-saltation archive.
+saltation archive (``saltstudy probe coherence RUN_DIR_OR_SAMPLES_NC [--lag 0.4] [--json]``).
 
-    saltstudy probe coherence RUN_DIR_OR_SAMPLES_NC [--lag 0.4] [--blocks 8] [--json]
-
-For the archive's C_p planes and its u planes at each sampled height (``u_plane``, z_plane), all
-averaged over time and the streamwise direction (over kx, by Parseval) as Table 2's spectra are:
-
-- the premultiplied spanwise spectra k_y S_c and k_y S_u(z), as the paper's Fig. 10 draws them;
-- the co-spectrum Co(k_y), the real part of the cross-spectrum of C_p and u(z): its area is the
-  covariance of the two, so k_y Co against ln(wavelength) shows at which spanwise scales C_p and u
-  vary together, with a standard error from contiguous time blocks;
-- the coherence squared |<Ĉ û*>|² / (<|Ĉ|²> <|û|²>) per wavelength: the share of C_p's variance at
-  that scale that is linear in u(z) at the same scale (0: unrelated, 1: locked).
-
-``--lag TAU`` pairs C_p(t) with u(t - TAU), the wind leading (TAU rounded to the planes'
-spacing): grains that answer an eddy late (Stokes number above 1) cohere with the past wind.
-
-The paper reads C_p and u at 0.1 m peaking at the same spanwise wavelengths (its [49]) and a
-correlation R_cu of 0.3 above 0.6 z_m from the large eddies ([51]); a co-spectrum at the u
-streaks' wavelength says the grains follow the streaks, one only at the box's widest modes says
-they follow the large eddies.
+Averaged over time and x: the premultiplied spanwise spectra k_y S_c and k_y S_u(z) (Fig. 10),
+the co-spectrum k_y Co (with a standard error from time blocks) and the coherence squared
+|<Ĉ û*>|² / (<|Ĉ|²> <|û|²>). ``--lag TAU`` pairs C_p(t) with u(t - TAU). The paper reads C_p
+and u at 0.1 m peaking at the same wavelengths ([49]) and R_cu ~ 0.3 from the large eddies ([51]).
 """
 from __future__ import annotations
 
@@ -36,12 +21,10 @@ __all__ = ["spanwise_cospectrum", "probe_coherence", "register_coherence"]
 
 def spanwise_cospectrum(a: np.ndarray, b: np.ndarray, dy: float, n_blocks: int = N_BLOCKS
                         ) -> dict[str, np.ndarray]:
-    """Spanwise spectra of two (nt, nx, ny) plane series ``a``, ``b`` on the same grid, averaged
-    over x and time: {"ky" [cycles m-1], "S_a", "S_b", "Co", "Co_se", "coherence2"}. One-sided
-    densities as :func:`saltstudy.analysis.streamers.spanwise_spectrum`: ``sum(S_a) / Ly`` is the
-    mean variance of a's planes and ``sum(Co) / Ly`` the mean covariance of a and b. Co_se: the
-    standard deviation over ``n_blocks`` contiguous time blocks / sqrt(n_blocks) (NaN with fewer
-    than 4 planes)."""
+    """Spanwise spectra of two (nt, nx, ny) plane series averaged over x and time: {"ky" [cycles
+    m-1], "S_a", "S_b", "Co", "Co_se", "coherence2"}, one-sided densities as
+    ``analysis.streamers.spanwise_spectrum`` (``sum(Co) / Ly``: the covariance). Co_se: from
+    ``n_blocks`` contiguous time blocks (NaN with fewer than 4 planes)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     if a.shape != b.shape or a.ndim != 3:
@@ -77,12 +60,8 @@ FIELDS = ("C_p", "C_p_above")
 
 def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS, lag_s: float = 0.0,
                     field: str = "C_p") -> dict:
-    """C_p against u at every sampled height of a saltation archive (module doc). Returns
-    {"samples", "wavelength_m", "kS_c", "heights": [{"z", "kS_u", "kCo", "kCo_se",
-    "coherence2", "peak_kS_u_m", "peak_kCo_m"}]}, the premultiplied curves each over its own
-    maximum (kCo and its error over kCo's), modes 1 to ny/2 (the mean left out); "lag_s" the
-    lag used, u leading C_p. ``field``: ``C_p`` or ``C_p_above`` (the grains above the first
-    grid cell)."""
+    """``field`` (C_p or C_p_above) against u at every sampled height of a saltation archive: the
+    premultiplied curves each over its own maximum, modes 1 to ny/2, per height."""
     if field not in FIELDS:
         raise ValueError(f"field {field!r}: one of {', '.join(FIELDS)}")
     from ..ncio import open_dataset
@@ -123,7 +102,8 @@ def probe_coherence(samples: Path, n_blocks: int = N_BLOCKS, lag_s: float = 0.0,
                         "peak_kS_u_m": float(lam[np.argmax(kSu)]),
                         "peak_kCo_m": float(lam[np.argmax(kCo)])})
     ds.close()
-    return {"samples": str(samples), "field": field, "lag_s": float(lag_s), "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(),
+    return {"samples": str(samples), "field": field, "lag_s": float(lag_s),
+            "wavelength_m": lam.tolist(), "kS_c": kS_c.tolist(),
             "peak_kS_c_m": float(lam[np.argmax(kS_c)]), "heights": heights}
 
 
@@ -131,8 +111,7 @@ def format_coherence(res: dict, n: int = 12) -> str:
     lam = res["wavelength_m"][:n]
     row = lambda name, v: f"{name:18s}" + " ".join(f"{x:5.2f}" for x in v[:n])
     out = [f"{res.get('field', 'C_p')} against u(z) {res['lag_s']:g} s earlier, {res['samples']}; "
-           "premultiplied curves "
-           "over their maxima",
+           "premultiplied curves over their maxima",
            row("wavelength [m]", lam),
            row("k S_c", res["kS_c"]) + f"   top at {res['peak_kS_c_m']:.2f} m"]
     for h in res["heights"]:
@@ -145,7 +124,6 @@ def format_coherence(res: dict, n: int = 12) -> str:
 
 
 def register_coherence(probe_app) -> None:
-    """Add ``saltstudy probe coherence`` to the ``probe`` sub-app."""
     import typer
 
     @probe_app.command("coherence")
@@ -159,13 +137,11 @@ def register_coherence(probe_app) -> None:
                   as_json: bool = typer.Option(False, "--json", help="one JSON object")) -> None:
         """Spanwise co-spectrum and coherence of C_p and u at each sampled height of one run."""
         samples = path / "samples.nc" if path.is_dir() else path
-        if not samples.is_file():
-            typer.echo(f"error: {samples}: no such file", err=True)
-            raise typer.Exit(2)
-        if blocks < 2:
-            typer.echo(f"error: --blocks: {blocks} < 2 (the standard error needs two)", err=True)
-            raise typer.Exit(2)
         try:
+            if not samples.is_file():
+                raise ValueError(f"{samples}: no such file")
+            if blocks < 2:
+                raise ValueError(f"--blocks: {blocks} < 2 (the standard error needs two)")
             res = probe_coherence(samples, blocks, lag, field)
         except (OSError, ValueError) as exc:
             typer.echo(f"error: {exc}", err=True)

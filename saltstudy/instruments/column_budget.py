@@ -1,27 +1,14 @@
-"""Where the stress at 2 m comes from: the x-momentum budget of the column above the reference
-height in one saltation archive.
+"""Where the stress at 2 m comes from: the x-momentum budget of the column above z_ref in one
+saltation archive (``saltstudy probe column-budget RUN_DIR_OR_SAMPLES_NC [--json]``).
 
-    saltstudy probe column-budget RUN_DIR_OR_SAMPLES_NC [...] [--json]
-
-With the top drive the horizontal-mean x-momentum above z_ref (P = integral of <u> from z_ref to
-the lid, per unit area) obeys
+With the top drive the mean x-momentum above z_ref per unit area, P, obeys
 
     dP/dt = M - tau(z_ref),        M = sum_k f_k (u_drive - <u>_k) dz_k,
 
-M the momentum the Rayleigh layer feeds in per unit area and time (solver/flow/forcing.py; no
-stress crosses the free-slip lid, and the column relaxation is off after its first seconds). Over
-a sampling window [t0, t1] the mean of each term follows from the archive:
-
-- tau(z_ref): the mean of u*^2 of the drive's own record ``u_star_ref`` (Table 2's stress u*s
-  squared, analysis/series.py);
-- M: u_drive of the record and the profiles ``u_mean`` at the volumes, averaged over them;
-- the storage -dP/dt: (P(t0) - P(t1)) / (t1 - t0) from the first and last profiles (exact for the
-  window's mean, whatever happened between).
-
-Each is given over u*s^2 of the case, so that the stress's excess splits into the drive's part
-(M - u*s^2) and the column's (-dP/dt, a column still losing the momentum of the particle-free
-flow reads high at 2 m); the residual tau - M + dP/dt measures how well the sampled profiles close
-the budget. The stress is also given in 5-s blocks from activation (the transient's shape).
+M the momentum the Rayleigh layer feeds in (solver/flow/forcing.py). Over the sampling window:
+tau from ``u_star_ref``, M from ``u_drive`` and ``u_mean``, -dP/dt from the first and last
+profiles; each over u*s^2, so the stress's excess splits into the drive's part (M - u*s^2) and the
+column's (-dP/dt). The stress is also given in 5-s blocks from activation.
 """
 from __future__ import annotations
 
@@ -37,20 +24,16 @@ BLOCK_S = 5.0
 
 
 def column_momentum(u_mean: np.ndarray, z_w: np.ndarray, z_ref: float) -> np.ndarray:
-    """P = integral of the horizontal-mean u from z_ref to the top face, per unit area
-    [m^2 s^-1], for profiles ``u_mean`` (..., nz) on cells bounded by the faces ``z_w`` (nz+1,):
-    the cell cut by z_ref counts with its part above it."""
+    """P = integral of the mean u from z_ref to the top face [m^2 s^-1] for profiles ``u_mean``
+    (..., nz) on cells bounded by ``z_w`` (nz+1,)."""
     from ..analysis.balance import layer_weights
     z_w = np.asarray(z_w, dtype=np.float64)
     return np.asarray(u_mean, dtype=np.float64) @ layer_weights(z_w, z_ref, z_w[-1])
 
 
 def column_budget(samples: Path, block_s: float = BLOCK_S) -> dict:
-    """The budget of the column above z_ref over the archive's sampling window (module doc).
-    Returns {"label", "u_star_s", "z_ref", "window": [t0, t1], "u_star_2m", "tau_2m",
-    "M_drive", "storage", "residual" (all stresses over u*s^2), "halves": [u* of each half],
-    "blocks": [{"t0", "t1", "u_star_2m"}]}. Raises ValueError for an archive without these
-    records or one not driven from the top."""
+    """The budget of the column above z_ref over the sampling window (module doc), stresses over
+    u*s^2; ValueError for an archive without these records or not driven from the top."""
     from ..ncio import open_dataset
     from ..solver.flow.damping import rayleigh_profile
 
@@ -117,8 +100,7 @@ def format_column_budget(rows: list[dict]) -> str:
         lines.append(f"{r['label'][:10]:<10} {r['u_star_s']:6.3f} {r['u_star_2m']:7.3f} {ex:+6.1f} "
                      f"{r['tau_2m']:6.2f} {r['M_drive']:8.2f} {r['storage']:8.2f} "
                      f"{r['residual']:7.2f}  {r['halves'][0]:.3f} / {r['halves'][1]:.3f}")
-    lines.append("")
-    lines.append("u* at 2 m in 5-s blocks from activation, over u*s:")
+    lines += ["", "u* at 2 m in 5-s blocks from activation, over u*s:"]
     for r in rows:
         lines.append(f"{r['label'][:10]:<10} " + " ".join(
             f"{b['u_star_2m'] / r['u_star_s']:.2f}" for b in r["blocks"]))
@@ -126,7 +108,6 @@ def format_column_budget(rows: list[dict]) -> str:
 
 
 def register_column_budget(probe_app) -> None:
-    """Add ``saltstudy probe column-budget`` to the ``probe`` sub-app."""
     import typer
 
     @probe_app.command("column-budget")
@@ -137,10 +118,9 @@ def register_column_budget(probe_app) -> None:
         rows = []
         for path in paths:
             samples = path / "samples.nc" if path.is_dir() else path
-            if not samples.is_file():
-                typer.echo(f"error: {samples}: no such file", err=True)
-                raise typer.Exit(2)
             try:
+                if not samples.is_file():
+                    raise ValueError(f"{samples}: no such file")
                 rows.append(column_budget(samples))
             except (OSError, ValueError) as exc:
                 typer.echo(f"error: {exc}", err=True)

@@ -1,19 +1,10 @@
 """Where inside the compiled grain kernels the time goes: ``saltstudy bench profile``.
 
-``--phases`` (bench_particles) says which kernel a step's time is in; a kernel is one compiled
-function with its helpers inlined, so that is as far as timers reach. This samples the machine
-code itself. The grain bench (``bench_particles._component``: the frozen flow, ``--n``
-parcels) runs under ``perf record -e cpu-clock`` in a child process with an empty numba cache
-directory, so that its kernels are compiled there and their machine code is at hand. After the
-timed steps the child writes each compiled function's address and code bytes; the parent reads
-the samples' instruction addresses (``perf script -F ip``), gives each to the function it falls
-in, and disassembles the hottest functions (``objdump``) with each instruction's sample count.
-
-Written to ``--out``: ``summary.json`` (per function: name, kernel, share of all samples and of
-the grain kernels' samples, share per 512-byte window of its code) and ``<kernel>.asm.txt``
-per hot function (count, offset, instruction). The parallel kernels' bodies are the ``__gufunc__`` functions (numba's parfor
-closures) into which LLVM inlined the chunk kernels. Needs ``perf`` (Linux) and ``objdump``;
-one thread (``NUMBA_NUM_THREADS=1``) unless ``--threads`` says otherwise.
+The grain bench runs under ``perf record -e cpu-clock`` in a child with an empty numba cache; the
+child writes each compiled function's address and code, the parent assigns the samples
+(``perf script -F ip``) to functions and disassembles the hottest (``objdump``). Written to
+``--out``: ``summary.json`` and ``<kernel>.asm.txt`` per hot function. Needs ``perf`` and
+``objdump``; one thread unless ``--threads``.
 """
 from __future__ import annotations
 
@@ -41,9 +32,8 @@ _WINDOW = 512
 
 
 def record_child(n: int, steps: int, fidelity: str, out: str) -> dict:
-    """The child's side (run under perf): the grain bench of ``n`` parcels for ``steps`` steps,
-    then every compiled function of the grain modules: ``out/functions.json`` {address: [kernel,
-    symbol]} and ``out/code/<address>.bin``."""
+    """The child's side (under perf): the grain bench, then every compiled grain function's
+    address (``out/functions.json``) and code (``out/code/<address>.bin``)."""
     from . import bench_particles as bp
     s, st = bp._component(bp._PACKAGE, n, 0.005, 2, fidelity)
     for _ in range(steps):
@@ -71,9 +61,8 @@ def record_child(n: int, steps: int, fidelity: str, out: str) -> dict:
 
 
 def attribute(ips, funcs: dict[int, tuple[str, str]]) -> tuple[dict, int]:
-    """Samples per function: {address: Counter(offset -> samples)} for the instruction addresses
-    ``ips`` falling within _CODE_BYTES of a function's start (the nearest start below), and the
-    number of all samples."""
+    """{function start: Counter(offset -> samples)} of the addresses ``ips`` within _CODE_BYTES of
+    the nearest start below, and the number of all samples."""
     starts = sorted(funcs)
     per = collections.defaultdict(collections.Counter)
     total = 0
@@ -99,8 +88,7 @@ def _disassemble(path: Path) -> dict[int, str]:
 
 def profile_kernels(n: int = 1_000_000, steps: int = 100, fidelity: str = "reduced",
                     out: str | Path = "kernel-profile", threads: int = 1, top: int = 4) -> dict:
-    """Record the grain bench under perf (module doc) and write the summary and listings to
-    ``out``. Returns the summary."""
+    """Record the grain bench under perf; write and return the summary (module doc)."""
     for tool in ("perf", "objdump"):
         if shutil.which(tool) is None:
             raise RuntimeError(f"{tool} is not on PATH: the kernel profile needs it")
@@ -113,14 +101,9 @@ def profile_kernels(n: int = 1_000_000, steps: int = 100, fidelity: str = "reduc
                      prefix=["perf", "record", "-q", "-e", "cpu-clock", "-F", "4000", "-o",
                              str(data), "--"],
                      env={"NUMBA_CACHE_DIR": cache, "NUMBA_NUM_THREADS": str(threads)})
-    ips = []
     script = subprocess.run(["perf", "script", "-F", "ip", "-i", str(data)], capture_output=True,
                             text=True, check=True)
-    for line in script.stdout.split():
-        try:
-            ips.append(int(line, 16))
-        except ValueError:
-            continue
+    ips = [int(w, 16) for w in script.stdout.split() if re.fullmatch(r"[0-9a-fA-F]+", w)]
     funcs = {int(k): tuple(v) for k, v in json.loads((out / "functions.json").read_text()).items()}
     per, total = attribute(ips, funcs)
     in_kernels = sum(sum(c.values()) for c in per.values())
@@ -155,7 +138,6 @@ def profile_kernels(n: int = 1_000_000, steps: int = 100, fidelity: str = "reduc
 
 
 def register_bench_profile(bench_app) -> None:
-    """``saltstudy bench profile``."""
     import typer
 
     @bench_app.command("profile")

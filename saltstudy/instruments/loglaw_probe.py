@@ -1,33 +1,16 @@
-"""Windowed log-law probe of the particle-free surface layer: the instrument behind the tables on
-the shear dip in reports/investigations/loglaw/README.md (``saltstudy probe loglaw``).
+"""Windowed log-law probe of the particle-free surface layer (``saltstudy probe loglaw``; the tables
+of reports/investigations/loglaw/README.md).
 
-Runs one case without grains from its initial state and, at the end of every ``window`` seconds,
-reports the means over that window (one profile per second):
+Runs one case without grains and, at the end of every ``window`` seconds, reports window means of:
+the log-law fit over 0.3 m to 2 m and to Lz/3 (u*_0 over its expected value, z0 [m]); phi = kappa z
+/ u*(z) dU/dz at fixed heights and on every level below Lz/2; the paper's reading (section 3.1
+[33]: u* from the total stress at 2 m, z0 at that u*); u* from the total stress over the expected
+u*(z); the share of u'w' at ~0.8 m in kx = 0 motions; the spanwise spectrum of u near 0.1 m and
+its peak wavelength; with the dynamic closure, C_s(z) and beta(z).
 
-- the log-law fit over 0.3 m to 2 m and over 0.3 m to Lz/3, as u*_0 / expected u*_0
-  (``solver.diagnostics.flow.fit_log_law``; the pressure-gradient drive is fitted with its linear-stress
-  shape), and the fitted z0 [m];
-- phi = kappa z / u*(z) dU/dz at fixed heights, u*(z) the drive's expected friction velocity;
-- the paper's own reading (its section 3.1 [33]): u* from the total stress at 2 m (for the
-  pressure-gradient drive brought to the surface value u*_0), over the expected u*_0, and z0
-  regressed over 0.3 m to 2 m with that u* fixed (``physics.laws.z0_at_fixed_u_star``);
-- u* from the total (resolved + SGS) stress at the same heights over the expected u*(z);
-- the share of the resolved u'w' at ~0.8 m carried by motions uniform in x (kx = 0), from the
-  streamwise cospectrum;
-- the spanwise spectrum of u on the level nearest 0.1 m (averaged over x and the window) and the
-  peak wavelength of its premultiplied form k E(k) (and of E itself), against the horizontal
-  spacing: the near-bed streaks whose spacing the grain streamers follow;
-- phi(z) on every level below Lz/2 (``phi_profile``), for plots;
-- with the dynamic closure, its C_s(z) and beta(z) (window means; beta 0 where undefined).
-
-``--drive`` sets ``forcing.drive`` over any given in ``--overrides``. ``--roll-damping RATE``
-[s^-1] is a diagnostic, not a model: after every step it relaxes the x-mean of v (less its plane mean) and of
-w towards zero at that rate, which removes the x-uniform roll circulation while leaving the
-field divergence-free (the x-mean of a solenoidal field is solenoidal in (y, z)). Comparing a run
-with and without it measures how much of the stress those box-locked modes carry.
-
-One window of a realization scatters by about +-0.05 in the fit ratio; compare variants over at
-least two windows.
+``--roll-damping RATE`` [s^-1] is a diagnostic: after every step it relaxes the x-means of v and w
+towards zero (still divergence-free), removing the box-locked rolls. One window scatters by about
++-0.05 in the fit ratio; compare variants over at least two windows.
 """
 from __future__ import annotations
 
@@ -55,8 +38,7 @@ PAPER_Z_REF = 2.0
 
 def streamwise_cospectrum_uw(state, k: int) -> np.ndarray:
     """One-sided streamwise cospectrum of the resolved u'w' on the w face k, averaged over y
-    (nx//2 + 1,) [m^2 s^-2]: its sum is the resolved stress <u'w'> on that face (Parseval);
-    entry 0 is the part carried by motions uniform in x."""
+    (nx//2 + 1,) [m^2 s^-2]: its sum is <u'w'> there; entry 0 the part uniform in x."""
     uf = 0.5 * (state.u[:, :, k - 1] + state.u[:, :, k])
     uc = 0.5 * (uf + np.roll(uf, -1, axis=0))        # x face -> cell centre, where w lives
     up = uc - uc.mean()
@@ -68,9 +50,8 @@ def streamwise_cospectrum_uw(state, k: int) -> np.ndarray:
 
 
 def spanwise_spectrum_u(state, k: int) -> np.ndarray:
-    """One-sided spanwise power spectrum of u' on level k, averaged over x (ny//2 + 1,) [m^2 s^-2]
-    per wavenumber index: its sum is the plane variance of u (Parseval); entry 0 holds the part
-    uniform in y (the variance of the spanwise means along x)."""
+    """One-sided spanwise power spectrum of u' on level k, averaged over x (ny//2 + 1,) [m^2 s^-2]:
+    its sum is the plane variance of u; entry 0 the part uniform in y."""
     up = state.u[:, :, k] - state.u[:, :, k].mean()
     ny = up.shape[1]
     p = (np.abs(np.fft.rfft(up, axis=1)) ** 2).mean(axis=0) / ny ** 2
@@ -79,10 +60,9 @@ def spanwise_spectrum_u(state, k: int) -> np.ndarray:
 
 
 def spectral_peak_wavelength(power: np.ndarray, length: float, premultiplied: bool = False) -> float:
-    """Wavelength [m] of the largest entry of a one-sided spectrum over a periodic ``length`` [m]
-    (wavenumber index m >= 1): length / m of the peak. ``premultiplied``: of m P(m), the energy per
-    logarithmic band, whose peak is the usual streak spacing (a red spectrum's raw maximum is at
-    the box scale whatever the streaks do)."""
+    """Wavelength [m] of the peak (index m >= 1) of a one-sided spectrum over ``length`` [m];
+    ``premultiplied``: of m P(m), whose peak is the streak spacing (a red spectrum's raw maximum
+    is at the box scale)."""
     p = np.asarray(power, dtype=np.float64)[1:]
     if premultiplied:
         p = p * np.arange(1, p.size + 1)
@@ -110,8 +90,7 @@ def _merge_json(text: str | None, option: str) -> dict:
 
 def build_scene(case: int = 1, fidelity: str = "reduced", drive: str = "top",
                 grid_json: str | None = None, overrides_json: str | None = None):
-    """The probe's scene: the case with its drive and overrides, the fidelity with its grid
-    overrides; raises ConfigError (naming the field) or ValueError (naming the option)."""
+    """The probe's scene; raises ConfigError (naming the field) or ValueError (the option)."""
     from ..config import Fidelity, load_case, load_fidelity, resolve_scene, validate_model
 
     gov = _merge_json(grid_json, "--grid")
@@ -127,8 +106,7 @@ def build_scene(case: int = 1, fidelity: str = "reduced", drive: str = "top",
 
 def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
                  log=print, on_window=None) -> dict:
-    """Run ``scene`` without grains to ``t_end`` [s]; one summary per ``window`` [s] (module doc).
-    Returns {"grid", "drive", "z_ref", "target", "windows": [...]}."""
+    """Run ``scene`` without grains to ``t_end`` [s]; a summary per ``window`` [s] (module doc)."""
     from ..physics.laws import z0_at_fixed_u_star
     from ..solver.diagnostics.flow import fit_log_law, flow_profiles
     from ..solver.model import Model
@@ -146,8 +124,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
     u0 = math.sqrt(m.body_force * Lz) if pg else target
     kappa = m.stepper.kappa
 
-    def u_star_expected(zz):
-        """The drive's u*(z) [m s^-1]: u*_0 sqrt(1 - z/H) (pressure gradient) or u*s (top)."""
+    def u_star_expected(zz):   # u*_0 sqrt(1 - z/H) (pressure gradient) or u*s (top) [m s^-1]
         return u0 * (np.sqrt(np.clip(1 - zz / Lz, 0, 1)) if pg else np.ones_like(zz))
 
     hs = np.asarray(HEIGHTS)
@@ -242,7 +219,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
 
 
 def _writer(path: str):
-    """A callback writing the probe's result to ``path`` (temporary name, then renamed), or None."""
+    """A callback writing the probe's result to ``path`` atomically, or None."""
     if not path:
         return None
     from pathlib import Path
@@ -257,8 +234,6 @@ def _writer(path: str):
 
 
 def register_probe(app) -> None:
-    """Add the ``saltstudy probe`` group to the given typer app: ``loglaw``, the other probes
-    and the investigations' reports (report/cli_commands.py)."""
     import typer
 
     from ..config import ConfigError

@@ -1,12 +1,8 @@
-"""Another git revision of this checkout's package, importable beside it, for the benchmarks'
-``--against REV``: REV's ``saltstudy/``, ``cases/`` and ``workflows/`` are extracted (``git
-archive``) under ``~/.cache/saltstudy/compare/<sha>/`` with the package renamed
-``saltstudy_<sha12>``, and that folder is put on ``sys.path``.
-
-Each timed round of a comparison runs in a fresh process (``run_isolated``) that imports and
-builds one side only, and the sides alternate between rounds, so that the machine's drift falls
-on both. In one process the side built first ran up to 16 % faster, whichever it was
-(measured with two copies of the same sources: docs/BENCHMARKS.md).
+"""Another git revision of the package, importable beside it, for the benchmarks' ``--against
+REV``: extracted (``git archive``) under ``~/.cache/saltstudy/compare/<sha>/`` as
+``saltstudy_<sha12>``. Each round runs in a fresh process (``run_isolated``) building one side,
+the sides alternating: in one process the side built first ran up to 16 % faster
+(docs/BENCHMARKS.md).
 """
 from __future__ import annotations
 
@@ -19,7 +15,7 @@ import sys
 import tarfile
 from pathlib import Path
 
-__all__ = ["RevisionError", "revision_package", "revision_path", "run_isolated", "checkout_root"]
+__all__ = ["RevisionError", "revision_path", "run_isolated", "checkout_root"]
 
 
 class RevisionError(ValueError):
@@ -31,15 +27,8 @@ def checkout_root() -> Path:
     return Path(__file__).resolve().parents[2]
 
 
-def revision_package(rev: str) -> str:
-    """Import name of the ``saltstudy`` package of git revision ``rev`` of this checkout,
-    extracted (with its ``cases/`` and ``workflows/``) under ~/.cache/saltstudy/compare/<sha>/
-    and put on sys.path."""
-    return revision_path(rev)[0]
-
-
 def revision_path(rev: str) -> tuple[str, str]:
-    """(import name, folder to put on sys.path) of revision ``rev``'s package (revision_package)."""
+    """(import name, folder on sys.path) of revision ``rev``'s package, extracted (module doc)."""
     root = checkout_root()
     try:
         sha = subprocess.run(["git", "-C", str(root), "rev-parse", "--verify", rev + "^{commit}"],
@@ -69,8 +58,7 @@ def revision_path(rev: str) -> tuple[str, str]:
 
 _RESULT = "@@saltstudy-result@@"
 
-#: the child's program: sys.path first, then the function called with its keyword arguments,
-#: its JSON result after a marker line (the kernels may print while they compile)
+#: the child's program: its JSON result after a marker line (compiling kernels may print)
 _CHILD = (
     "import importlib, json, sys\n"
     "sys.path[:0] = json.loads(sys.argv[1])\n"
@@ -81,10 +69,9 @@ _CHILD = (
 
 def run_isolated(target: str, kwargs: dict, paths: list[str] = (), prefix: list[str] = (),
                  env: dict | None = None) -> object:
-    """``module:function`` called with ``kwargs`` in a fresh Python process (this interpreter,
-    this environment updated with ``env``, ``paths`` and this checkout first on sys.path; the
-    command after ``prefix``, e.g. a profiler's); returns its JSON-able result. A failure in the
-    child is raised here with its stderr's tail."""
+    """``module:function`` called with ``kwargs`` in a fresh Python process (``paths`` and this
+    checkout first on sys.path, the environment updated with ``env``, the command after ``prefix``,
+    e.g. a profiler's); returns its JSON result, or raises with the child's stderr tail."""
     argv = [*prefix, sys.executable, "-c", _CHILD,
             json.dumps([*map(str, paths), str(checkout_root())]), target, json.dumps(kwargs)]
     res = subprocess.run(argv, capture_output=True, text=True,

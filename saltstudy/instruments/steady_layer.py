@@ -1,39 +1,22 @@
-"""The splash law's own steady saltation layer, in one dimension and without the LES
+"""The splash law's own steady saltation layer, in 1-D and without the LES
 (``saltstudy probe steady-layer``).
 
-Test grains hop over a flat bed in a horizontally uniform wind u(z). Each impact is splashed by
-the paper's law (eqs. 6-9: rebound with P_reb, N_ej ejecta by stochastic rounding, their speeds
-and angles; physics.splash.splash_impacts, the draws the LES's bed events make), each rebound and
-ejectum is flown with the paper's drag (eqs. 3-4, Clift's f(Re_p), the exact relaxation over a
-step: physics.drag) to its next impact on the 0.5 mm layer, and the wind is the mixing-length profile of the stress
-the grains leave to the air (Owen 1964; the same closure as the 1-D models of Werner 1990 and Kok
-& Renno 2009, which the paper cites)::
+Test grains hop over a flat bed in a horizontally uniform wind u(z): each impact is splashed by the
+paper's law (eqs. 6-9, physics.splash.splash_impacts), each grain flown with its drag (eqs. 3-4,
+physics.drag) to its next impact on the 0.5 mm layer, and the wind is the mixing-length profile of
+the stress the grains leave to the air (Owen 1964; as in Werner 1990 and Kok & Renno 2009)::
 
-    du/dz = sqrt(tau_a(z) / rho) / (kappa z),    tau_a(z) = rho u*s^2 - tau_g(z),   u(z0) = 0,
+    du/dz = sqrt(tau_a(z) / rho) / (kappa z),    tau_a(z) = rho u*s^2 - tau_g(z),   u(z0) = 0.
 
-tau_g(z) being the streamwise momentum the grains take from the air above z per unit bed area and
-time. Where the grains would take more than rho u*s^2 the air stress is clipped at zero and momentum
-is no longer conserved: such a layer is reported as not converged (with the paper's splash law this
-happens from u*s ~ 0.65 m/s up, where the layer's growth stays above one with the bed's stress at
-zero; the LES keeps 2-5 % there, with turbulence the 1-D wind lacks). The unknown is the impact rate R [impacts m^-2 s^-1]: more grains slow the wind near the
-bed, slower impacts replace fewer grains, and the layer is steady where a generation of impacts
-replaces itself (growth factor lambda = launched grains per impact = 1). The iteration is the
-layer's own relaxation: each generation the population of N impacts is splashed and flown in the
-present wind, R is multiplied by lambda^BETA, the drag profile is recomputed and the wind relaxed
-towards its profile; the statistics are the means over the last generations, once R has settled.
+Where the grains would take more than rho u*s^2 the air stress is clipped at zero and the layer is
+reported as not converged (from u*s ~ 0.65 m/s up with the paper's law). The unknown is the impact
+rate R [m^-2 s^-1]; each generation R is multiplied by lambda^BETA (lambda: grains launched per
+impact) and the wind relaxed towards its profile, until lambda = 1.
 
-What it returns, per unit bed area in the steady layer: the fluid stress left on the bed
-tau_a(0) (``bed_fluid_fraction`` of rho u*s^2), the airborne mass M = R <m T_hop>, the flux
-G_tot = R <m L_hop>, the bed friction coefficient mu_b = tau_g(0) / (M g) and its impact form
-<m du> / <m dw> (streamwise over vertical momentum exchanged with the bed per impact, rebounds
-and ejecta included), the impact speed and angle, the replacement number against impact speed.
-The LES differs: its wind is turbulent and, below its second level, the log law of that level
-([12]); so read the probe's numbers as the splash law's equilibrium, against which the LES's
-numbers and each reading of the paper's text can be placed before a run.
-
-The case's splash reading carries over (config.Splash): ``impact_speed`` ("magnitude": v_imp of
-eqs. 6-9 is the impact speed |u_p|; "normal": eqs. 6 and 8 take |w_p|, eqs. 7 and 9 |u_p|).
-Rebounds and ejecta leave from the impact layer's top, z = 0.5 mm, as in the LES.
+Returned, per unit bed area: tau_a(0) over rho u*s^2, the airborne mass M = R <m T_hop>, the flux
+G_tot = R <m L_hop>, mu_b = tau_g(0) / (M g) and <m du> / <m dw>, the impact speed and angle, the
+replacement number against impact speed: the splash law's equilibrium, not the turbulent LES's.
+The case's ``splash.impact_speed`` reading carries over.
 """
 from __future__ import annotations
 
@@ -63,8 +46,7 @@ T_MAX = 5.0
 
 @dataclass(frozen=True)
 class LayerParams:
-    """Everything the steady layer depends on (SI): the wind, the one-mode soil, the air and
-    the splash constants and reading (config.Splash)."""
+    """Everything the steady layer depends on (SI): wind, one-mode soil, air, splash."""
     u_star: float = 0.54
     mu: float = 200e-6
     sigma: float = 1.2
@@ -91,8 +73,7 @@ class LayerParams:
 
     @classmethod
     def from_case(cls, case, u_star: float | None = None, **kw) -> "LayerParams":
-        """The steady layer of a config.Case (one-mode soil): its u*s (or ``u_star``), soil, air,
-        roughness and splash."""
+        """The steady layer of a config.Case with a one-mode soil (at ``u_star`` if given)."""
         if len(case.soil.modes) != 1:
             raise ValueError("soil.modes: the steady layer takes a one-mode soil")
         mode, air = case.soil.modes[0], case.air
@@ -106,11 +87,9 @@ class LayerParams:
         return self.splash.impact_layer
 
     def soil(self) -> Soil:
-        """The one-mode soil as config.Soil."""
         return Soil(modes=(SoilMode(mu=self.mu, sigma=self.sigma),), rho_p=self.rho_p)
 
     def as_dict(self) -> dict:
-        """The parameters as plain data (the splash as its fields)."""
         d = {f.name: getattr(self, f.name) for f in fields(self)}
         d["splash"] = self.splash.model_dump()
         return d
@@ -181,27 +160,15 @@ def _wind_at(z, lz0, idl, nz, un, u_star_top, kappa, z_top):
 @jit
 def fly_grains(u0, v0, w0, d, un, lz0, idl, u_star_top, z_top, kappa, rho, nu, rho_p, g, h_imp, dt,
                t_max, drag_bin, mass_time_bin, flux_bin, out):
-    """Fly each grain from the impact layer's top (velocity u0, v0, w0) until it meets the layer
-    again.
-
-    The drag (eqs. 3-4, physics.drag) is integrated exactly over each step dt with the drag rate
-    and the wind frozen at the step's start. A grain impacts where it crosses the layer's top
-    downwards (linear within the step). Per grain, ``out`` gets (flight time, impact u, v, w,
-    streamwise hop length, 1 if it landed); the bins (by the ln-z node interval of the grain's
-    height at the step's start) accumulate the streamwise drag impulse m du, the mass-time m dt
-    and the flux m u dt, all per grain of unit number."""
+    """Fly each grain from the impact layer's top until it crosses it downwards, the drag
+    integrated exactly over each step (physics.drag). ``out`` per grain: (flight time, impact u,
+    v, w, hop length, landed); the ln-z bins collect the drag impulse m du, m dt and m u dt."""
     nz = un.shape[0]
     for i in range(u0.shape[0]):
         di = d[i]
         m = math.pi / 6.0 * rho_p * di * di * di
         tp = particle_response_time(di, rho_p, rho, nu)
-        x = 0.0
-        z = h_imp
-        u = u0[i]
-        v = v0[i]
-        w = w0[i]
-        t = 0.0
-        landed = 0.0
+        x, z, u, v, w, t, landed = 0.0, h_imp, u0[i], v0[i], w0[i], 0.0, 0.0
         while t < t_max:
             uf = _wind_at(z, lz0, idl, nz, un, u_star_top, kappa, z_top)
             rel = math.sqrt((uf - u) ** 2 + v * v + w * w)
@@ -225,21 +192,14 @@ def fly_grains(u0, v0, w0, d, un, lz0, idl, u_star_top, z_top, kappa, rho, nu, r
                 out[i, 4] = x + f * (xn - x)
                 landed = 1.0
                 break
-            x = xn
-            z = zn
-            u = un_
-            v = vn
-            w = wn
+            x, z, u, v, w = xn, zn, un_, vn, wn
             t += dt
         out[i, 5] = landed
 
 
 def splash_generation(rng, p: LayerParams, ui, vi, wi, di):
-    """Splash the impacts (velocities ui, vi, wi < 0, diameters di) by eqs. 6-9 under the reading
-    (physics.splash.splash_impacts).
-
-    Returns (launch arrays u, v, w, d, parent index, per-impact streamwise and vertical momentum
-    given to the bed: m_imp u_imp - sum m_out u_out and m_imp |w_imp| + sum m_out w_out)."""
+    """Splash the impacts by eqs. 6-9: (launch u, v, w, d, parent index, per-impact streamwise
+    and vertical momentum given to the bed)."""
     n = ui.size
     soil = p.soil()
     launch, parent = splash_impacts(rng, ui, vi, wi, di, splash_constants(p.splash, soil, p.g),
@@ -254,12 +214,9 @@ def splash_generation(rng, p: LayerParams, ui, vi, wi, di):
 
 def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, average: int = 60,
                        progress=None, bed_fluid_fraction: float | None = None) -> SteadyLayer:
-    """Relax the layer to its steady state (module doc) and average over the last ``average``
-    generations.
-
-    With ``bed_fluid_fraction`` set, the impact rate is not free: it is held where the grains take
-    (1 - bed_fluid_fraction) rho u*^2 from the air, and ``growth`` says whether the splash law can
-    sustain that layer (> 1: the grains would multiply; < 1: they would die out)."""
+    """Relax the layer to its steady state and average over the last ``average`` generations.
+    With ``bed_fluid_fraction`` the impact rate is held where the grains take (1 - it) rho u*^2,
+    and ``growth`` says whether the splash law sustains that layer."""
     if bed_fluid_fraction is not None and not 0.0 <= bed_fluid_fraction < 1.0:
         raise ValueError(f"bed_fluid_fraction={bed_fluid_fraction!r}: must be in [0, 1)")
     rng = np.random.default_rng(seed)
@@ -272,9 +229,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     un = log_wind(zn, p.u_star, p.kappa, p.z0)
     # first impacts: grains falling at 1 m/s at 20 degrees
     n = p.n_impacts
-    ui = np.full(n, 0.94)
-    vi = np.zeros(n)
-    wi = np.full(n, -0.34)
+    ui, vi, wi = np.full(n, 0.94), np.zeros(n), np.full(n, -0.34)
     di = sample_diameters(p.soil(), rng, n)
     m_mean = np.pi / 6.0 * p.rho_p * p.mu ** 3
     R = 0.05 * rho_u2 / (m_mean * 1.0)   # a twentieth of Owen's rate: the layer grows from below
@@ -282,9 +237,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     for gen in range(generations):
         u, v, w, d, parent, px, pz = splash_generation(rng, p, ui, vi, wi, di)
         nl = u.size
-        drag_bin = np.zeros(nz - 1)
-        mt_bin = np.zeros(nz - 1)
-        fl_bin = np.zeros(nz - 1)
+        drag_bin, mt_bin, fl_bin = np.zeros(nz - 1), np.zeros(nz - 1), np.zeros(nz - 1)
         out = np.zeros((nl, 6))
         fly_grains(u, v, w, d, un, lz0, idl, p.u_star, p.z_top, p.kappa, p.rho, p.nu, p.rho_p, p.g,
                    p.h_imp, p.dt, T_MAX, drag_bin, mt_bin, fl_bin, out)
@@ -340,12 +293,9 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     v_imp = np.concatenate([k["v_imp"] for k in keep])
     offs = np.concatenate([k["offspring"] for k in keep])
     edges = np.arange(0.0, 4.01, 0.25)
-    rep = {}
     b = np.digitize(v_imp, edges) - 1
-    for j in range(edges.size - 1):
-        s = b == j
-        if s.sum() >= 50:
-            rep[f"{edges[j]:.2f}-{edges[j + 1]:.2f}"] = float(offs[s].mean())
+    rep = {f"{edges[j]:.2f}-{edges[j + 1]:.2f}": float(offs[b == j].mean())
+           for j in range(edges.size - 1) if (b == j).sum() >= 50}
     tau_bed = max(rho_u2 - tau_g0, 0.0)
     lam_se = float(lam_k.std(ddof=1) / math.sqrt(lam_k.size)) if lam_k.size > 1 else math.nan
     mT = float(np.mean([k["mT"] for k in keep]))

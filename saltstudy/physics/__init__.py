@@ -1,9 +1,7 @@
 """Pure physical laws: threshold, drag, splash, soil size distribution, semi-empirical laws.
 
-The laws the grain kernels call are numba functions here, once: the drag (``drag.py``: Clift's
-correction, the response time, the exact relaxation over a step), the splash draws (``splash.py``,
-eqs. 6-9) and the soil's diameter draw (``soil.py``, eq. 5); the kernels, the steady-layer probe
-and the tests call the same code. The rest is numpy.
+The laws the grain kernels call (drag, splash draws, diameter draw) are numba functions here, once,
+shared by the kernels, the steady-layer probe and the tests; the rest is numpy.
 """
 from .drag import (drag_correction, particle_response_time, particle_reynolds,
                    stokes_terminal_velocity, terminal_velocity)

@@ -1,20 +1,10 @@
 """Grain drag: Clift et al. (1978) correction, the Stokes response time and the exact relaxation
-of a grain's velocity under the drag over a step (paper eqs. 3-4).
+of a grain's velocity over a step (paper eqs. 3-4).
 
-The laws are numba functions (``saltstudy._jit.device``: small, inlined into the callers by LLVM)
-that the grain kernels (solver/grains), the steady-layer probe and the tests call alike; numpy
-callers take them element-wise through ``.py_func``.
-
-With eq. (4), the drag per unit mass of eq. (3) is f(Re_p) (u - u_p) / T_p with the Stokes response
-time T_p = rho_p d^2 / (18 rho nu). A grain falling in still air (the paper's eq. 3 has no buoyancy
-term, rho_p >> rho) therefore reaches the terminal velocity w_t that solves
-
-    f(Re_t) w_t = g T_p,   Re_t = w_t d / nu,
-
-which reduces to the Stokes value w_s = g T_p when Re_t -> 0.
-
-Over a step h with the drag rate k = f(Re_p) / T_p and the seen velocity u_s frozen, eq. 3 is
-integrated exactly (:func:`relaxation`, :func:`relaxed_position`)::
+numba device functions (``_jit.device``) shared by the grain kernels, the steady-layer probe and
+the tests; numpy callers use ``.py_func``. The drag per unit mass is f(Re_p) (u - u_p) / T_p with
+T_p = rho_p d^2 / (18 rho nu); the terminal velocity solves f(Re_t) w_t = g T_p. Over a step h with
+k = f(Re_p) / T_p and the seen velocity u_s frozen, eq. 3 is integrated exactly::
 
     u(h) = u_t + (u_p - u_t) E,   x(h) = x_p + u_t h + (u_p - u_t)(1 - E)/k,
     u_t = u_s - g / k e_z,        E = exp(-k h)
@@ -70,10 +60,9 @@ def particle_reynolds(rel_speed: float, d: float, nu: float) -> float:
 
 @device
 def relaxation(em, ik, us, vs, wt, up, vp, wp):
-    """The grain's velocity after a step h of eq. 3 with k (ik = 1/k [s]) and the target
-    velocity (us, vs, wt) frozen, em = expm1(-k h): (u, v, w) at the end [m s^-1] and
-    (1 - E) / k [s], the displacement factor of the transient (:func:`relaxed_position`). The
-    target is the seen wind with the settling velocity -g/k added to its vertical part."""
+    """Velocity after a step h of eq. 3 with ik = 1/k [s] and the target velocity (us, vs, wt:
+    the seen wind plus the settling -g/k) frozen, em = expm1(-k h): (u, v, w) [m s^-1] and
+    (1 - E) / k [s] (:func:`relaxed_position`)."""
     E = 1.0 + em
     ome_k = -em * ik
     un = us + (up - us) * E
@@ -84,16 +73,12 @@ def relaxation(em, ik, us, vs, wt, up, vp, wp):
 
 @device
 def relaxed_position(x0, target, v0, h, ome_k):
-    """A coordinate after a step h of the relaxation (:func:`relaxation`) from x0 at velocity
-    v0 towards the target velocity: x0 + target h + (v0 - target) (1 - E)/k [m]."""
+    """A coordinate after a step h of :func:`relaxation` [m] (module doc)."""
     return x0 + target * h + (v0 - target) * ome_k
 
 
 def stokes_terminal_velocity(d, rho_p, rho, nu, g):
-    """Stokes fall speed w_s = g T_p = g rho_p d^2 / (18 rho nu) [m s^-1] (no buoyancy, f = 1).
-
-    ``d`` [m] may be an array; densities [kg m^-3], ``nu`` [m^2 s^-1], ``g`` [m s^-2].
-    """
+    """Stokes fall speed w_s = g T_p [m s^-1] (no buoyancy, f = 1); ``d`` [m] may be an array."""
     w = g * particle_response_time.py_func(np.asarray(d, dtype=float), rho_p, rho, nu)
     return float(w) if w.ndim == 0 else w
 
@@ -108,14 +93,9 @@ def terminal_velocity_residual(w, d, rho_p, rho, nu, g):
 
 
 def terminal_velocity(d, rho_p, rho, nu, g, rtol: float = 1e-13, max_iter: int = 100):
-    """Terminal fall speed w_t [m s^-1] with the Clift et al. (1978) drag of eq. (4).
-
-    Solves F(w) = w (1 + 0.15 (w d/nu)^0.687) - g T_p = 0 by Newton's method started at the Stokes
-    speed w_s = g T_p. F is increasing and convex in w and F(w_s) >= 0, so the iterates decrease
-    monotonically to the root (no bracketing needed); the result is accurate to ``rtol`` relative.
-    ``d`` [m] may be an array (vectorised). Note f(Re) is fitted for Re < ~800 (d up to ~1.5 mm in
-    air); beyond that the result is an extrapolation of the law, not of physics.
-    """
+    """Terminal fall speed w_t [m s^-1] with the Clift et al. (1978) drag of eq. (4): Newton on
+    F(w) = f(w d/nu) w - g T_p from the Stokes speed (F convex increasing, F(w_s) >= 0: monotone,
+    no bracketing). f is fitted for Re < ~800 (d up to ~1.5 mm in air)."""
     d_arr = np.asarray(d, dtype=float)
     if np.any(d_arr <= 0):
         raise ValueError("grain diameter must be positive")

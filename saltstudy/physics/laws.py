@@ -1,21 +1,11 @@
-"""Semi-empirical saltation laws drawn in the paper's Fig. 3 (z0s) and Fig. 8 (G_tot), and the log law.
+"""Semi-empirical saltation laws of the paper's Fig. 3 (z0s) and Fig. 8 (G_tot), and the log law.
 
-Every law takes the saltation friction velocity ``u_star`` [m s^-1] (numpy-vectorised) and the
-threshold ``u_star_t`` [m s^-1] first, then keyword-only parameters; all take the same keywords
-within a family so a figure can draw them by iterating over :data:`Z0S_LAWS` / :data:`GTOT_LAWS`
-(``name -> Law(func, citation)``, a 2-tuple).
-
-* z0s laws: ``f(u_star, u_star_t, *, z0=1e-5, g=9.81) -> z0s [m]``
-* G_tot laws: ``f(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650, g=9.81, nu=1.5e-5) -> [kg m^-1 s^-1]``
-  (Bagnold and Lettau & Lettau also take the reference diameter ``D`` = 250e-6 m).
-
-Below threshold (u_star <= u_star_t) laws that carry a threshold factor return 0 (fluxes) or z0
-(roughness); Charnock and Bagnold have no threshold and are evaluated as printed.
-
-Dimensional consistency (checked by ``tests/test_physics_laws.py`` by rescaling the units of every
-input): all printed forms are consistent except Owen's terminal velocity, printed
-w_t = -1.66 sqrt(rho_p g d). With rho_p in kg m^-3 that has units sqrt(kg m^-3 m s^-2 m) =
-sqrt(kg m^-1 s^-2) = sqrt(Pa), not m s^-1. See :func:`owen_terminal_velocity` for the form used.
+Every law takes ``u_star`` and the threshold ``u_star_t`` [m s^-1] first, then keyword-only
+parameters shared within a family (:data:`Z0S_LAWS`, :data:`GTOT_LAWS`: ``name -> Law(func,
+citation)``): z0s laws ``(z0=1e-5, g=9.81) -> [m]``; G_tot laws ``(d=200e-6, rho=1.2,
+rho_p=2650, g=9.81, nu=1.5e-5) -> [kg m^-1 s^-1]`` (Bagnold, Lettau & Lettau: also ``D``).
+Below threshold they return 0 or z0; Charnock and Bagnold have no threshold. All printed forms
+are dimensionally consistent except Owen's terminal velocity (:func:`owen_terminal_velocity`).
 """
 from __future__ import annotations
 
@@ -25,16 +15,15 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from .drag import terminal_velocity
+from .soil import scalar_or_array
 
 __all__ = [
-    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law", "z0_at_fixed_u_star",
-    "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s",
-    "bagnold1937_flux", "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux",
-    "lettau1978_flux", "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS",
-    "creyssels2009_flux", "CREYSSELS2009_U_STAR", "CREYSSELS2009_Q", "CREYSSELS2009_DECAY_HEIGHT",
-    "CREYSSELS2009_GRAIN",
-    "RAUPACH_A", "D_REF",
-]
+    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law",
+    "z0_at_fixed_u_star", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s", "bagnold1937_flux",
+    "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux", "lettau1978_flux",
+    "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS", "creyssels2009_flux",
+    "CREYSSELS2009_U_STAR", "CREYSSELS2009_Q", "CREYSSELS2009_DECAY_HEIGHT", "CREYSSELS2009_GRAIN",
+    "RAUPACH_A", "D_REF"]
 
 #: Reference diameter D of Bagnold (1937) and Lettau & Lettau (1978) [m]
 D_REF = 250e-6
@@ -53,14 +42,10 @@ def _ratio(u_star, u_star_t):
     return u, u_star_t / u
 
 
-def _out(x):
-    return float(x) if np.ndim(x) == 0 else x
-
-
 def log_law_u(z, u_star, z0, kappa=0.40):
     """Mean wind of the neutral log law u(z) = (u*/kappa) ln(z / z0) [m s^-1]; z, z0 [m], u* [m s^-1]."""
     z = np.asarray(z, dtype=float)
-    return _out(u_star / kappa * np.log(z / z0))
+    return scalar_or_array(u_star / kappa * np.log(z / z0))
 
 
 # ---- Fig. 3: saltation roughness length z0s [m] ----
@@ -69,14 +54,9 @@ def log_law_u(z, u_star, z0, kappa=0.40):
 def log_law_shape(z, H: float | None = None) -> np.ndarray:
     """F(z) with U(z) = (u*_0/kappa) [F(z) - F(z0)] the local-equilibrium mean profile [-].
 
-    H = None: constant stress, F = ln z (the plain log law). H given (a pressure-gradient drive
-    under a free-slip lid at H): the stress falls linearly, u*(z) = u*_0 sqrt(1 - z/H), and
-    dU/dz = u*(z)/(kappa z) integrates to
-
-        F(z) = 2 s + ln((1 - s)/(1 + s)) = 2 s + ln(z/H) - 2 ln(1 + s),   s = sqrt(1 - z/H)
-
-    (the second form is the one evaluated: no cancellation for z << H). F -> ln z + const for
-    z << H, F(H) = 0. Valid for 0 < z <= H.
+    H = None: F = ln z. H given (pressure-gradient drive, free-slip lid at H, u*(z) = u*_0
+    sqrt(1 - z/H)): F(z) = 2 s + ln(z/H) - 2 ln(1 + s), s = sqrt(1 - z/H) (no cancellation for
+    z << H); F(H) = 0. Valid for 0 < z <= H.
     """
     z = np.asarray(z, dtype=np.float64)
     if H is None:
@@ -109,8 +89,7 @@ def invert_log_law_shape(c: float, H: float | None) -> float:
 
 
 def _fit_levels(z, U, z_min, z_max, H):
-    """(z, U) as float arrays and the mask of the finite levels with z_min <= z <= z_max, z > 0
-    (and z < H when H is given): the levels both log-law regressions use."""
+    """(z, U) as float arrays and the mask of the finite levels in [z_min, z_max], 0 < z (< H)."""
     z = np.asarray(z, dtype=np.float64)
     U = np.asarray(U, dtype=np.float64)
     sel = np.isfinite(U) & (z > 0)
@@ -125,14 +104,9 @@ def _fit_levels(z, U, z_min, z_max, H):
 
 def regress_log_law(z, U, z_min: float | None = None, z_max: float | None = None,
                     H: float | None = None):
-    """Least squares of U = a F(z) + b over the finite levels with z_min <= z <= z_max (and
-    0 < z < H when H is given), F = ``log_law_shape(z, H)``.
-
-    The one regression behind both log-law fits (``solver.diagnostics.flow.fit_log_law``, which
-    raises on too few levels, and ``analysis.profiles.log_law_fit``, which returns NaN): u*_0 =
-    kappa a [m s^-1], z0 = ``invert_log_law_shape(-b/a, H)`` [m]. Returns (a, b, F, U_used), the
-    last two the selected levels (a and b NaN with fewer than 2 of them).
-    """
+    """Least squares of U = a F(z) + b, F = ``log_law_shape(z, H)``, over the levels of
+    :func:`_fit_levels`: u*_0 = kappa a [m s^-1], z0 = ``invert_log_law_shape(-b/a, H)`` [m].
+    Returns (a, b, F, U_used); a and b NaN with fewer than 2 levels."""
     z, U, sel = _fit_levels(z, U, z_min, z_max, H)
     F = log_law_shape(z[sel], H)
     Us = U[sel]
@@ -145,11 +119,9 @@ def regress_log_law(z, U, z_min: float | None = None, z_max: float | None = None
 
 def z0_at_fixed_u_star(z, U, u_star0: float, kappa: float, z_min: float | None = None,
                        z_max: float | None = None, H: float | None = None) -> float:
-    """z0 [m] of the log law with u*_0 given: the least-squares z0 of U = (u*_0/kappa)
-    [F(z) - F(z0)] over the finite levels in [z_min, z_max] (F = ``log_law_shape``), i.e.
-    F(z0) = mean(F - kappa U / u*_0). The paper's roughness regression: u* read from the stress
-    at 2 m, z0 fitted with it (Dupont et al. 2013, section 3.1 [33]). NaN with no level or
-    u*_0 <= 0."""
+    """Least-squares z0 [m] of U = (u*_0/kappa) [F(z) - F(z0)] with u*_0 given: F(z0) = mean(F -
+    kappa U / u*_0). The paper's roughness regression (Dupont et al. 2013, section 3.1 [33]).
+    NaN with no level or u*_0 <= 0."""
     z, U, sel = _fit_levels(z, U, z_min, z_max, H)
     if not sel.any() or not (math.isfinite(u_star0) and u_star0 > 0):
         return math.nan
@@ -158,13 +130,10 @@ def z0_at_fixed_u_star(z, U, u_star0: float, kappa: float, z_min: float | None =
 
 
 def charnock_z0s(u_star, u_star_t=None, *, z0=1.0e-5, g=9.81, C_c=0.08):
-    """Charnock-type z0s = C_c u*s^2 / g [m] (Charnock 1955; Sherman & Farrell 2008).
-
-    C_c = 0.08 (Rasmussen et al. 1985), 0.24 (Farrell 1999), 0.02 (Owen 1964). Dimensions:
-    (m s^-1)^2 / (m s^-2) = m. No threshold; ``u_star_t`` and ``z0`` are ignored.
-    """
+    """Charnock-type z0s = C_c u*s^2 / g [m] (Charnock 1955; Sherman & Farrell 2008); C_c = 0.08
+    (Rasmussen et al. 1985), 0.24 (Farrell 1999), 0.02 (Owen 1964). No threshold."""
     u = np.asarray(u_star, dtype=float)
-    return _out(C_c * u * u / g)
+    return scalar_or_array(C_c * u * u / g)
 
 
 #: A = b_r alpha^2 exp(-eta / G_r) with b_r = 8, alpha = 0.63, eta = 0.577216 (Euler's constant),
@@ -173,100 +142,82 @@ RAUPACH_A = 8.0 * 0.63 ** 2 * math.exp(-0.577216 / 1.0)
 
 
 def raupach1991_z0s(u_star, u_star_t, *, z0=1.0e-5, g=9.81, A=RAUPACH_A):
-    """Raupach (1991) z0s = (A u*s^2 / (2 g))^(1 - r) z0^r [m], r = u*t / u*s (Shao 2008).
-
-    Dimensions: m^(1-r) m^r = m. Equals z0 at threshold; z0 below it.
-    """
+    """Raupach (1991) z0s = (A u*s^2 / (2 g))^(1 - r) z0^r [m], r = u*t / u*s (Shao 2008); z0
+    at and below threshold."""
     u, r = _ratio(u_star, u_star_t)
     r = np.minimum(r, 1.0)
-    return _out((A * u * u / (2.0 * g)) ** (1.0 - r) * z0 ** r)
+    return scalar_or_array((A * u * u / (2.0 * g)) ** (1.0 - r) * z0 ** r)
 
 
 def sherman1992_z0s(u_star, u_star_t, *, z0=1.0e-5, g=9.81, C_m=0.132):
     """Sherman (1992) modified Charnock z0s = C_m (u*s - u*t)^2 / g + z0 [m]; z0 below threshold."""
     u = np.asarray(u_star, dtype=float)
     excess = np.maximum(u - u_star_t, 0.0)
-    return _out(C_m * excess * excess / g + z0)
+    return scalar_or_array(C_m * excess * excess / g + z0)
 
 
 # ---- Fig. 8: total saltation flux G_tot [kg m^-1 s^-1] ----
 def bagnold1937_flux(u_star, u_star_t=None, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
                      D=D_REF, c=1.5):
-    """Bagnold (1937) G = c sqrt(d/D) rho u*^3 / g [kg m^-1 s^-1], c = 1.5, D = 250 um.
-
-    Dimensions: kg m^-3 (m s^-1)^3 / (m s^-2) = kg m^-1 s^-1; sqrt(d/D) is dimensionless (D is a
-    length and must be in the same unit as d). No threshold.
-    """
+    """Bagnold (1937) G = c sqrt(d/D) rho u*^3 / g [kg m^-1 s^-1], c = 1.5, D = 250 um [m]; no
+    threshold."""
     u = np.asarray(u_star, dtype=float)
-    return _out(c * np.sqrt(d / D) * rho * u ** 3 / g)
+    return scalar_or_array(c * np.sqrt(d / D) * rho * u ** 3 / g)
 
 
 def owen_terminal_velocity(d, rho_p, rho, g, nu=1.5e-5, form="consistent"):
-    """Terminal fall speed used in Owen's flux coefficient [m s^-1] (positive = downward speed).
+    """Terminal fall speed in Owen's flux coefficient [m s^-1] (downward positive). The paper's
+    w_t = -1.66 sqrt(rho_p g d) has units sqrt(Pa). ``form``:
 
-    The paper prints w_t = -1.66 sqrt(rho_p g d) (sign: z up). That is not a velocity
-    (units sqrt(Pa)). ``form``:
-
-    * ``"consistent"`` (default): |w_t| = 1.66 sqrt((rho_p / rho) g d), the density ratio
-      sigma_p = rho_p / rho in place of rho_p (Shao 2008 writes the ratio as sigma_p; we infer the
-      paper substituted rho_p for it -- inferred, not checked against the book). This is the
-      Newton-regime fall speed sqrt(4 (rho_p/rho) g d / (3 C_D)) with C_D = 4 / (3 * 1.66^2) = 0.48,
-      and differs from the printed expression evaluated in SI numbers only by sqrt(rho / 1 kg m^-3)
-      (1.095 for rho = 1.2), so it is the closest dimensionally valid reading of the curve drawn.
-      For d = 200 um it gives 3.46 m/s.
-    * ``"terminal"``: the fall speed of the paper's own drag law (eq. 4; :func:`terminal_velocity`),
-      1.48 m/s for d = 200 um (Re_t ~ 20, far from the Newton regime). This is what Owen (1964)
-      defines (c = 0.25 + w_f / (3 u*), w_f the grain's fall speed), physically the right number.
-    * ``"printed"``: 1.66 sqrt(rho_p g d) in SI numbers, as printed (3.79 for 200 um); dimensionally
-      inconsistent, kept only to show what the printed formula evaluates to.
+    * ``"consistent"`` (default): 1.66 sqrt((rho_p / rho) g d), the density ratio of Shao (2008)
+      in place of rho_p (inferred): the Newton-regime fall speed with C_D = 0.48, 1.095 times
+      below the printed value in SI numbers for rho = 1.2; 3.46 m/s for 200 um.
+    * ``"terminal"``: the fall speed of the paper's drag law (eq. 4), 1.48 m/s for 200 um: what
+      Owen (1964) defines, physically the right number.
+    * ``"printed"``: 1.66 sqrt(rho_p g d) in SI numbers (3.79 for 200 um), inconsistent.
     """
     d = np.asarray(d, dtype=float)
     if form == "consistent":
-        return _out(1.66 * np.sqrt(rho_p / rho * g * d))
+        return scalar_or_array(1.66 * np.sqrt(rho_p / rho * g * d))
     if form == "terminal":
-        return _out(terminal_velocity(d, rho_p, rho, nu, g))
+        return scalar_or_array(terminal_velocity(d, rho_p, rho, nu, g))
     if form == "printed":
-        return _out(1.66 * np.sqrt(rho_p * g * d))
+        return scalar_or_array(1.66 * np.sqrt(rho_p * g * d))
     raise ValueError(f"unknown form {form!r}: use 'consistent', 'terminal' or 'printed'")
 
 
 def owen1964_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
                   w_t_form="consistent"):
-    """Owen (1964) G = c rho u*^3 (1 - u*t^2/u*^2) / g [kg m^-1 s^-1], c = 0.25 + |w_t| / (3 u*).
-
-    (The paper writes c = 0.25 - w_t/(3 u*) with w_t < 0.) |w_t| from :func:`owen_terminal_velocity`
-    with ``form = w_t_form`` (default: the dimensionally consistent 1.66 sqrt((rho_p/rho) g d)).
-    Zero at and below threshold.
-    """
+    """Owen (1964) G = c rho u*^3 (1 - u*t^2/u*^2) / g [kg m^-1 s^-1], c = 0.25 + |w_t| / (3 u*),
+    |w_t| from :func:`owen_terminal_velocity` (``w_t_form``); zero at and below threshold."""
     u, r = _ratio(u_star, u_star_t)
     wt = owen_terminal_velocity(d, rho_p, rho, g, nu, form=w_t_form)
     c = 0.25 + wt / (3.0 * u)
-    return _out(np.where(r < 1.0, c * rho * u ** 3 * (1.0 - r * r) / g, 0.0))
+    return scalar_or_array(np.where(r < 1.0, c * rho * u ** 3 * (1.0 - r * r) / g, 0.0))
 
 
 def kawamura_white_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
                         c=2.61):
     """Kawamura (1951) / White (1979) G = c rho u*^3 (1 + r)(1 - r^2) / g, r = u*t/u*, c = 2.61."""
     u, r = _ratio(u_star, u_star_t)
-    return _out(np.where(r < 1.0, c * rho * u ** 3 * (1.0 + r) * (1.0 - r * r) / g, 0.0))
+    return scalar_or_array(np.where(r < 1.0, c * rho * u ** 3 * (1.0 + r) * (1.0 - r * r) / g, 0.0))
 
 
 def lettau1978_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
                     D=D_REF, c=4.2):
     """Lettau & Lettau (1978) G = c sqrt(d/D) rho u*^3 (1 - u*t/u*) / g, c = 4.2, D = 250 um."""
     u, r = _ratio(u_star, u_star_t)
-    return _out(np.where(r < 1.0, c * np.sqrt(d / D) * rho * u ** 3 * (1.0 - r) / g, 0.0))
+    flux = c * np.sqrt(d / D) * rho * u ** 3 * (1.0 - r) / g
+    return scalar_or_array(np.where(r < 1.0, flux, 0.0))
 
 
 def sorensen2004_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.81, nu=1.5e-5,
                       alpha=0.0, gamma=3.0, beta=3.9):
-    """Sorensen (2004) G = rho u*^3 (1 - r^2)(alpha + gamma r + beta r^2) / g, r = u*t/u*.
-
-    alpha = 0, gamma = 3.0, beta = 3.9 (as in Dupont et al. 2013, Fig. 8). Zero below threshold.
-    """
+    """Sorensen (2004) G = rho u*^3 (1 - r^2)(alpha + gamma r + beta r^2) / g, r = u*t/u*, with
+    Dupont et al. (2013, Fig. 8)'s constants; zero below threshold."""
     u, r = _ratio(u_star, u_star_t)
     shape = (1.0 - r * r) * (alpha + gamma * r + beta * r * r)
-    return _out(np.where(r < 1.0, rho * u ** 3 * shape / g, 0.0))
+    return scalar_or_array(np.where(r < 1.0, rho * u ** 3 * shape / g, 0.0))
 
 
 #: Creyssels et al. (2009, J. Fluid Mech. 625, 47), wind tunnel, grains of 242 um and
@@ -280,12 +231,11 @@ CREYSSELS2009_GRAIN = (242e-6, 2500.0)
 
 
 def creyssels2009_flux(u_star, *, rho=1.2, g=9.81, C=1.38, u_star_th=0.206):
-    """Creyssels et al. (2009) Q = C (rho/g)(u*^2 - u*th^2), C = 1.38, u*th = 0.206 m/s, for their
-    242 um, 2500 kg m^-3 grains [kg m^-1 s^-1]; zero below u*th. The fit of
-    :data:`CREYSSELS2009_Q`: within 7 % of the points from 0.41 to 0.69 m/s, 14 % low at 0.33 m/s,
-    half the measured flux at 0.24 m/s, near its threshold."""
+    """Creyssels et al. (2009) Q = C (rho/g)(u*^2 - u*th^2) [kg m^-1 s^-1], C = 1.38, u*th = 0.206
+    m/s; zero below u*th. Within 7 % of :data:`CREYSSELS2009_Q` from 0.41 to 0.69 m/s, half the
+    measured flux at 0.24 m/s."""
     u = np.asarray(u_star, dtype=float)
-    return _out(np.where(u > u_star_th, C * rho / g * (u * u - u_star_th ** 2), 0.0))
+    return scalar_or_array(np.where(u > u_star_th, C * rho / g * (u * u - u_star_th ** 2), 0.0))
 
 
 def _charnock(C_c):

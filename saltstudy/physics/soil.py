@@ -1,16 +1,11 @@
-"""Soil grain-size distribution: multimodal lognormal mass-size distribution (paper eq. 5).
-
-Marticorena & Bergametti (1995), as used by Dupont et al. (2013, eq. 5):
+"""Soil grain-size distribution: multimodal lognormal mass-size distribution (paper eq. 5;
+Marticorena & Bergametti 1995):
 
     dM/dln d = sum_j  m_j / (sqrt(2 pi) ln sigma_j)  exp( -(ln d - ln mu_j)^2 / (2 ln^2 sigma_j) )
 
-with m_j the mass fraction, mu_j the *mass* median diameter [m] and sigma_j the geometric standard
-deviation of mode j. The number distribution of a lognormal mass mode is lognormal with the same
-sigma and count median mu_j exp(-3 ln^2 sigma_j) (Hatch-Choate relations, since dN ~ dM / d^3).
-
-All diameters in m. ``soil`` arguments are :class:`saltstudy.config.Soil`. A grain's diameter is
-drawn by :func:`draw_diameter` (numba; the grain kernels' release and splash, the steady-layer
-probe and :func:`sample_diameters` call it).
+m_j the mass fraction, mu_j the mass median diameter [m], sigma_j the geometric standard deviation.
+A mode's number distribution is lognormal with count median mu_j exp(-3 ln^2 sigma_j)
+(Hatch-Choate). Diameters in m; :func:`draw_diameter` is the numba draw the kernels share.
 """
 from __future__ import annotations
 
@@ -40,7 +35,8 @@ def _modes(soil):
     return m, mu, s
 
 
-def _ret(a):
+def scalar_or_array(a):
+    """A float for a 0-d input, else the array: the laws' outputs follow their inputs' shape."""
     return float(a) if np.ndim(a) == 0 else a
 
 
@@ -49,22 +45,19 @@ def mass_density_dlnd(d, soil):
     x = np.log(np.asarray(d, dtype=float))[..., None]
     m, mu, s = _modes(soil)
     dens = m / (math.sqrt(2.0 * math.pi) * s) * np.exp(-((x - np.log(mu)) ** 2) / (2.0 * s * s))
-    return _ret(dens.sum(axis=-1))
+    return scalar_or_array(dens.sum(axis=-1))
 
 
 def number_density_dlnd(d, soil):
-    """dN/dln d [-], the normalised *number* pdf in ln d of the same soil (integrates to 1).
-
-    Mode j is lognormal with count median mu_j exp(-3 ln^2 sigma_j) and geometric std sigma_j; its number
-    weight is proportional to m_j / <d^3>_j with <d^3>_j = mu_j^3 exp(-4.5 ln^2 sigma_j) (count moment).
-    """
+    """dN/dln d [-], the normalised number pdf in ln d of the same soil: mode j weighted by
+    m_j / (mu_j^3 exp(-4.5 ln^2 sigma_j)), centred on its count median."""
     x = np.log(np.asarray(d, dtype=float))[..., None]
     m, mu, s = _modes(soil)
     w = m / (mu ** 3 * np.exp(-4.5 * s * s))
     w = w / w.sum()
     cmed = np.log(mu) - 3.0 * s * s
     dens = w / (math.sqrt(2.0 * math.pi) * s) * np.exp(-((x - cmed) ** 2) / (2.0 * s * s))
-    return _ret(dens.sum(axis=-1))
+    return scalar_or_array(dens.sum(axis=-1))
 
 
 def count_median(soil) -> float:
@@ -76,14 +69,11 @@ def count_median(soil) -> float:
 
 
 def mass_cdf(d, soil):
-    """Cumulative mass fraction of grains smaller than ``d`` [m]: sum_j m_j Phi(ln(d/mu_j)/ln sigma_j).
-
-    ``d = 0`` gives 0 and ``d = inf`` gives 1.
-    """
+    """Mass fraction of grains smaller than ``d`` [m]: sum_j m_j Phi(ln(d/mu_j)/ln sigma_j)."""
     with np.errstate(divide="ignore"):
         x = np.log(np.asarray(d, dtype=float))[..., None]
     m, mu, s = _modes(soil)
-    return _ret((m * norm_cdf((x - np.log(mu)) / s)).sum(axis=-1))
+    return scalar_or_array((m * norm_cdf((x - np.log(mu)) / s)).sum(axis=-1))
 
 
 def mass_median(soil, rtol: float = 1e-12) -> float:
@@ -103,18 +93,14 @@ def mass_median(soil, rtol: float = 1e-12) -> float:
 
 
 def mass_weighted_moment(soil, k: float) -> float:
-    """Mass-weighted moment E_M[d^k] = sum_j m_j mu_j^k exp(k^2 ln^2 sigma_j / 2) [m^k].
-
-    This is the expectation over diameters drawn by :func:`sample_diameters` (e.g. k = 3 gives the
-    mean ejecta volume / (pi/6)).
-    """
+    """E_M[d^k] = sum_j m_j mu_j^k exp(k^2 ln^2 sigma_j / 2) [m^k], over :func:`sample_diameters`'s
+    draws."""
     m, mu, s = _modes(soil)
     return float(np.sum(m * mu ** k * np.exp(0.5 * k * k * s * s)))
 
 
 def soil_arrays(soil) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(cumulative mass fractions, mu_j, ln sigma_j) of the soil modes, as :func:`draw_diameter`
-    takes them."""
+    """(cumulative mass fractions, mu_j, ln sigma_j), as :func:`draw_diameter` takes them."""
     m = np.array([mo.mass_fraction for mo in soil.modes], dtype=np.float64)
     cum = np.cumsum(m) / m.sum()
     cum[-1] = 1.0
@@ -125,11 +111,9 @@ def soil_arrays(soil) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 @jit
 def draw_diameter(rng, cum, mu, lnsig) -> float:
-    """A diameter [m] from the *mass* distribution of eq. (5), as the paper draws ejecta: mode j
-    picked with probability m_j (one uniform draw, none for one mode), then d = mu_j exp(ln sigma_j
-    Z), Z ~ N(0, 1). The median of the draws is therefore the mass median (not the count median,
-    mu_j exp(-3 ln^2 sigma_j), 10 % smaller for sigma = 1.2): the paper takes ejecta diameters
-    "randomly from the multimodal mass size distribution" (section 2.3, para. 24)."""
+    """A diameter [m] from the *mass* distribution of eq. (5), as the paper draws ejecta (section
+    2.3, para. 24): mode j with probability m_j (one uniform draw, none for one mode), then
+    d = mu_j exp(ln sigma_j Z), Z ~ N(0, 1)."""
     j = 0
     if cum.shape[0] > 1:
         r = rng.random()
@@ -162,11 +146,7 @@ def diameter_bins(soil, nbins: int) -> np.ndarray:
 
 
 def bin_mass_fractions(soil, edges) -> np.ndarray:
-    """Mass fraction [-] of the soil in each bin [edges[i], edges[i+1]) (exact, from the lognormal CDF).
-
-    The fractions sum to the mass inside [edges[0], edges[-1]] (1 - 6e-5 for the ±4 ln sigma edges of
-    :func:`diameter_bins`), not renormalised.
-    """
+    """Mass fraction [-] of the soil in each bin [edges[i], edges[i+1]) (exact, unnormalised)."""
     edges = np.asarray(edges, dtype=float)
     if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0):
         raise ValueError("edges must be a 1-D increasing array of at least 2 values")

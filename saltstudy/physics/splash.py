@@ -1,37 +1,23 @@
 """Splash laws at the bed, paper eqs. 6-9 (section 2.3).
 
-The laws are numba functions drawing from a :class:`numpy.random.Generator`, one per process: the
-grain kernels' bed events (solver/grains/splash_kernels.py), the steady-layer probe
-(instruments/steady_layer.py) and the tests call the same code. They take the splash constants as
-one float vector (:func:`splash_constants`, indices ``SP_*``). The analytic expectations at the
-end are what the tests and the energy check compare the draws with.
+numba functions drawing from a :class:`numpy.random.Generator`, called alike by the grain kernels
+(solver/grains/splash_kernels.py), the steady-layer probe and the tests; the splash constants come
+as one float vector (:func:`splash_constants`, indices ``SP_*``). Conventions the paper leaves open:
 
-Conventions (the paper leaves these open; chosen here and documented):
+* Rebound (eq. 6): Bernoulli with P_reb = p_max (1 - exp(-gamma_reb v_imp)).
+* Rebound speed (eq. 7): N(0.6 v_imp, 0.25 v_imp) with negative draws redrawn (P = 0.82 %), so
+  its mean is 0.60564 v_imp (:func:`truncated_normal_moments`).
+* Vertical launch angles (rebound N(30, 15), ejection N(60, 15) deg) are redrawn outside (0, 180)
+  deg (rebound mean 30.83 deg); horizontal angles N(0, 10) deg relative to the impactor's
+  direction, never truncated.
+* Ejecta number (eq. 8): N = a v_imp / sqrt(g <d_p>) rounded stochastically, floor(N) +
+  Bernoulli(N - floor(N)): mean exactly N, least variance.
+* Ejection speed (eq. 9): exponential with mean 0.08 v_imp (Rice et al. 1995); diameters from the
+  soil's mass distribution (eq. 5). Every impact ejects, rebound or not (Kok & Renno 2009).
+* ``splash.impact_speed = "normal"`` gives eqs. 6 and 8 |w| instead of |u_p| (:func:`law_speed`).
 
-* Rebound (eq. 6): a Bernoulli draw with P_reb = p_max (1 - exp(-gamma_reb v_imp)).
-* Rebound speed (eq. 7): v_reb ~ N(<r> v_imp, s_r v_imp) = N(0.6 v_imp, 0.25 v_imp) *truncated to
-  v_reb >= 0 by redrawing* the negative draws (a rebound must leave the bed). Redrawing samples
-  exactly the truncated normal, whose mean is <r> + s_r phi(a)/(1 - Phi(a)) times v_imp with
-  a = -<r>/s_r (= -2.4): 0.60564 v_imp, not 0.6 v_imp (see :func:`truncated_normal_moments`,
-  :func:`rebound_speed_ratio_moments`). The probability of a redraw is Phi(-2.4) = 0.82 %.
-* Vertical launch angles (rebound N(30, 15) deg, ejection N(60, 15) deg) are likewise redrawn when
-  outside (0, 180) deg: a launch must point upward (angles above 90 deg point upwind, allowed). This
-  moves the rebound mean angle to 30.83 deg (P(redraw) = Phi(-2) = 2.3 %) and the ejection mean by
-  < 0.002 deg. Horizontal angles are plain normal draws (N(0, 10) deg) relative to the impactor's
-  horizontal direction of motion, never truncated.
-* Ejecta number (eq. 8): the mean N = a v_imp / sqrt(g <d_p>) is a real number; the integer drawn is
-  floor(N) + Bernoulli(N - floor(N)) ("stochastic rounding"): its mean is exactly N and its variance
-  f (1 - f), f = N - floor(N), the smallest possible for an integer with mean N.
-* Ejection speed (eq. 9): exponential with mean 0.08 v_imp (Rice et al. 1995), untruncated;
-  diameters from the soil's mass distribution (eq. 5, :func:`saltstudy.physics.soil.draw_diameter`).
-* Every impact ejects N_ej grains, whether the impactor rebounds or deposits (as in Kok & Renno
-  2009, whose scheme the paper follows).
-* ``splash.impact_speed = "normal"`` gives eqs. 6 and 8 the normal impact speed |w| instead of
-  |u_p| (:func:`law_speed`); eqs. 7 and 9 keep |u_p|.
-
-Draws per impact, in this order (:func:`draw_impact`, then :func:`draw_ejectum` per ejectum): the
-rebound's Bernoulli draw; if it rebounds, its speed, vertical and horizontal angle; the number of
-ejecta; per ejectum its diameter, speed, vertical and horizontal angle.
+Draws per impact, in order: the rebound's Bernoulli; if it rebounds, its speed, vertical and
+horizontal angle; the number of ejecta; per ejectum its diameter, speed and two angles.
 """
 from __future__ import annotations
 
@@ -40,14 +26,14 @@ import math
 import numpy as np
 
 from .._jit import jit
-from .soil import draw_diameter
+from .soil import draw_diameter, scalar_or_array
 
 __all__ = [
     "rebound_probability", "ejection_number_mean", "rebound_speed", "launch_angle",
     "ejecta_number", "ejection_speed", "launch_velocity", "law_speed", "draw_rebound",
     "draw_ejecta_number", "draw_impact", "draw_ejectum", "ejecta_max", "splash_impacts",
-    "splash_constants",
-    "truncated_normal_moments", "rebound_speed_ratio_moments", "vertical_angle_moments",
+    "splash_constants", "truncated_normal_moments", "rebound_speed_ratio_moments",
+    "vertical_angle_moments",
     "mean_rebound_fraction", "mean_rebound_speed", "std_rebound_speed", "mean_ejecta_number",
     "mean_ejecta_speed", "mean_splash_energy_terms", "mean_splash_energy_ratio",
     "ANGLE_V_BOUNDS_DEG", "SP_PMAX", "SP_GAMMA", "SP_REB_M", "SP_REB_S", "SP_RAV_M", "SP_RAV_S",
@@ -66,8 +52,8 @@ SP_NORMAL = 18  # 1: eqs. 6 and 8 take the normal impact speed |w| (config.Splas
 
 
 def splash_constants(splash, soil, g: float) -> np.ndarray:
-    """The splash constants of a :class:`saltstudy.config.Splash` (angles to radians) with the
-    soil's <d_p> and rho_p (:class:`saltstudy.config.Soil`) and g [m s^-2], as the laws take them."""
+    """The vector the laws take: a config.Splash's constants (angles in radians), the soil's
+    <d_p> and rho_p, and g [m s^-2]."""
     r = math.radians
     return np.array([
         splash.p_reb_max, splash.gamma_reb, splash.reb_speed_mean, splash.reb_speed_std,
@@ -107,8 +93,7 @@ def rebound_speed(rng, v_imp, ratio_mean, ratio_std):
 
 @jit
 def launch_angle(rng, mean, std):
-    """A vertical launch angle [rad] ~ N(mean, std) redrawn until it lies in (0, pi): the grain
-    leaves the bed upwards."""
+    """A vertical launch angle [rad] ~ N(mean, std) redrawn until it lies in (0, pi)."""
     for _ in range(1000):
         a = rng.normal(mean, std)
         if 0.0 < a < math.pi:
@@ -118,8 +103,7 @@ def launch_angle(rng, mean, std):
 
 @jit
 def ejecta_number(rng, nbar) -> int:
-    """eq. 8's mean ``nbar`` as a whole number of ejecta by stochastic rounding (module doc):
-    floor(nbar), plus one with probability nbar - floor(nbar) (one uniform draw)."""
+    """eq. 8's mean ``nbar`` as a whole number by stochastic rounding (module doc)."""
     n0 = int(math.floor(nbar))
     if rng.random() < nbar - n0:
         n0 += 1
@@ -134,8 +118,7 @@ def ejection_speed(rng, v_imp, ratio_mean):
 
 @jit
 def launch_velocity(speed, av, phi):
-    """Velocity (u, v, w) [m s^-1] of a grain leaving the bed at speed, elevation av, heading phi
-    (radians)."""
+    """(u, v, w) [m s^-1] of a grain leaving at ``speed``, elevation av, heading phi [rad]."""
     c = speed * math.cos(av)
     return c * math.cos(phi), c * math.sin(phi), speed * math.sin(av)
 
@@ -148,9 +131,8 @@ def law_speed(v_imp, wp, sp):
 
 @jit
 def draw_rebound(rng, v_law, v_imp, sp):
-    """Rebound draw (eqs. 6-7): (rebounds, v_reb, alpha_v, alpha_h) with angles in radians;
-    ``v_law`` is the speed eq. 6 takes (:func:`law_speed`), ``v_imp`` the impact speed that
-    eq. 7 scales."""
+    """Rebound draw (eqs. 6-7): (rebounds, v_reb, alpha_v, alpha_h [rad]); eq. 6 takes ``v_law``
+    (:func:`law_speed`), eq. 7 scales ``v_imp``."""
     p = rebound_probability(v_law, sp[SP_PMAX], sp[SP_GAMMA])
     if rng.random() >= p:
         return False, 0.0, 0.0, 0.0
@@ -162,23 +144,20 @@ def draw_rebound(rng, v_law, v_imp, sp):
 
 @jit
 def draw_ejecta_number(rng, v_law, sp) -> int:
-    """N_ej of eq. 8 at the speed ``v_law`` (:func:`law_speed`) as a whole number
-    (:func:`ejecta_number`)."""
+    """N_ej of eq. 8 at the speed ``v_law`` as a whole number."""
     return ejecta_number(rng, ejection_number_mean(v_law, sp[SP_A], sp[SP_G], sp[SP_DMEAN]))
 
 
 @jit
 def draw_impact(rng, v_law, v_imp, sp):
-    """The outcome of an impact at speed v_imp (eqs. 6-8): (rebounds, v_reb, alpha_v, alpha_h,
-    number of ejecta) (:func:`draw_rebound`, :func:`draw_ejecta_number`)."""
+    """An impact's outcome (eqs. 6-8): (rebounds, v_reb, alpha_v, alpha_h, number of ejecta)."""
     reb, vr, av, ah = draw_rebound(rng, v_law, v_imp, sp)
     return reb, vr, av, ah, draw_ejecta_number(rng, v_law, sp)
 
 
 @jit
 def draw_ejectum(rng, v_imp, sp, cum, mu, lnsig):
-    """One grain ejected by an impact at speed v_imp: (d [m] from the soil (eq. 5; ``cum, mu,
-    lnsig`` from soil.soil_arrays), v_ej (eq. 9), alpha_v, alpha_h [rad])."""
+    """One ejectum: (d [m] (eq. 5, soil.soil_arrays), v_ej (eq. 9), alpha_v, alpha_h [rad])."""
     dq = draw_diameter(rng, cum, mu, lnsig)
     ve = ejection_speed(rng, v_imp, sp[SP_EJ_M])
     av = launch_angle(rng, sp[SP_EAV_M], sp[SP_EAV_S])
@@ -188,16 +167,14 @@ def draw_ejectum(rng, v_imp, sp, cum, mu, lnsig):
 
 @jit
 def ejecta_max(v_imp, sp) -> int:
-    """The most ejecta an impact at speed v_imp can draw: floor(nbar) + 1 (eq. 8 at the impact
-    speed, which bounds it at the normal speed too)."""
+    """The most ejecta an impact at speed v_imp can draw (bounds the normal-speed reading too)."""
     return int(math.floor(ejection_number_mean(v_imp, sp[SP_A], sp[SP_G], sp[SP_DMEAN]))) + 1
 
 
 @jit
 def splash_impacts(rng, ui, vi, wi, di, sp, cum, mu, lnsig):
-    """Splash a batch of impacts (velocities ui, vi, wi [m s^-1], wi <= 0, diameters di [m]) by
-    the laws above, impact after impact in the order of the module doc. Returns the launches, a
-    row (u, v, w, d) per rebound and ejectum, and their impacts' indices."""
+    """Splash a batch of impacts (ui, vi, wi [m s^-1], wi <= 0, di [m]) in the module doc's draw
+    order: the launches (u, v, w, d) per rebound and ejectum, and their impacts' indices."""
     n = ui.shape[0]
     room = n
     for i in range(n):
@@ -237,13 +214,8 @@ def _Phi(x: float) -> float:
 
 def truncated_normal_moments(mean: float, std: float, lower: float = -math.inf,
                              upper: float = math.inf) -> tuple[float, float]:
-    """(mean, standard deviation) of N(mean, std^2) restricted to (lower, upper).
-
-    With a = (lower - mean)/std, b = (upper - mean)/std, Z = Phi(b) - Phi(a) (Johnson, Kotz &
-    Balakrishnan 1994, ch. 10):
-    E = mean + std (phi(a) - phi(b)) / Z,
-    Var = std^2 [1 + (a phi(a) - b phi(b)) / Z - ((phi(a) - phi(b)) / Z)^2].
-    """
+    """(mean, standard deviation) of N(mean, std^2) restricted to (lower, upper) (Johnson, Kotz &
+    Balakrishnan 1994, ch. 10)."""
     if std == 0.0:
         if not lower < mean < upper:
             raise ValueError("degenerate normal outside the truncation interval")
@@ -272,50 +244,40 @@ def vertical_angle_moments(mean_deg: float, std_deg: float) -> tuple[float, floa
 
 
 # ---- Analytic expectations (numpy, vectorised over v_imp; the laws element-wise) ----
-def _r(x):
-    return float(x) if np.ndim(x) == 0 else x
-
-
 _rebound_probability = np.vectorize(rebound_probability, otypes=[float])
 _ejection_number_mean = np.vectorize(ejection_number_mean, otypes=[float])
 
 
 def mean_rebound_fraction(v_imp, splash):
     """Expected fraction of impacts that rebound, P_reb(v_imp) of eq. 6 [-]."""
-    return _r(_rebound_probability(v_imp, splash.p_reb_max, splash.gamma_reb))
+    return scalar_or_array(_rebound_probability(v_imp, splash.p_reb_max, splash.gamma_reb))
 
 
 def mean_rebound_speed(v_imp, splash):
     """E[v_reb] [m s^-1] = 0.60564 v_imp (truncated normal of eq. 7)."""
-    return _r(rebound_speed_ratio_moments(splash)[0] * np.asarray(v_imp, dtype=float))
+    return scalar_or_array(rebound_speed_ratio_moments(splash)[0] * np.asarray(v_imp, dtype=float))
 
 
 def std_rebound_speed(v_imp, splash):
     """Standard deviation of v_reb [m s^-1] = 0.24307 v_imp (truncated normal of eq. 7)."""
-    return _r(rebound_speed_ratio_moments(splash)[1] * np.asarray(v_imp, dtype=float))
+    return scalar_or_array(rebound_speed_ratio_moments(splash)[1] * np.asarray(v_imp, dtype=float))
 
 
 def mean_ejecta_number(v_imp, splash, g: float, d_mean: float):
     """E[N_ej] = a v_imp / sqrt(g <d_p>) [-] (eq. 8; exact for stochastic rounding)."""
-    return _r(_ejection_number_mean(v_imp, splash.a_ej, g, d_mean))
+    return scalar_or_array(_ejection_number_mean(v_imp, splash.a_ej, g, d_mean))
 
 
 def mean_ejecta_speed(v_imp, splash):
     """E[v_ej] = 0.08 v_imp [m s^-1] (eq. 9)."""
-    return _r(splash.ej_speed_mean * np.asarray(v_imp, dtype=float))
+    return scalar_or_array(splash.ej_speed_mean * np.asarray(v_imp, dtype=float))
 
 
 def mean_splash_energy_terms(v_imp, d_imp, soil, splash, g: float,
                              ejecta_require_rebound: bool = False):
-    """(rebound, ejecta) expected kinetic energies per impact, each divided by the impact KE [-].
-
-    rebound = P_reb(v) E[r^2],                 r = v_reb / v_imp (truncated normal, eq. 7)
-    ejecta  = N(v) (E_M[d^3] / d_imp^3) E[v_ej^2] / v^2 = N(v) (E_M[d^3] / d_imp^3) 2 c_ej^2,
-    with E_M[d^3] = sum_j m_j mu_j^3 exp(4.5 ln^2 sigma_j) (ejecta diameters drawn from the mass
-    distribution, as the paper does), E[v_ej^2] = 2 <v_ej>^2 for an exponential law, c_ej = 0.08 and
-    N(v) = a v / sqrt(g <d_p>). Grain density cancels. With ``ejecta_require_rebound`` the ejecta
-    term is multiplied by P_reb (ejection only when the impactor rebounds). ``v_imp`` [m s^-1] may be
-    an array; ``d_imp`` [m] the impacting grain's diameter.
+    """(rebound, ejecta) expected kinetic energies per impact over the impact's [-]:
+    rebound = P_reb(v) E[r^2], ejecta = N(v) (E_M[d^3] / d_imp^3) 2 c_ej^2 (mass-drawn diameters,
+    exponential speeds). ``ejecta_require_rebound``: ejecta only when the impactor rebounds.
     """
     from .soil import mass_weighted_moment
 
@@ -327,14 +289,12 @@ def mean_splash_energy_terms(v_imp, d_imp, soil, splash, g: float,
         n_ej = n_ej * p
     mass_ratio = mass_weighted_moment(soil, 3.0) / d_imp ** 3
     ejecta = n_ej * mass_ratio * 2.0 * splash.ej_speed_mean ** 2
-    return _r(rebound), _r(ejecta)
+    return scalar_or_array(rebound), scalar_or_array(ejecta)
 
 
 def mean_splash_energy_ratio(v_imp, d_imp, soil, splash, g: float,
                              ejecta_require_rebound: bool = False):
-    """E[(KE_rebound + KE_ejecta)] / KE_impact [-] for one impact (see :func:`mean_splash_energy_terms`).
-
-    The paper (section 2.3, para. 24) checks that this stays <= 1 on average.
-    """
+    """E[KE_rebound + KE_ejecta] / KE_impact [-], which the paper (section 2.3, para. 24) keeps
+    <= 1 on average."""
     reb, ej = mean_splash_energy_terms(v_imp, d_imp, soil, splash, g, ejecta_require_rebound)
-    return _r(np.asarray(reb) + np.asarray(ej))
+    return scalar_or_array(np.asarray(reb) + np.asarray(ej))

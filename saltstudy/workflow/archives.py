@@ -1,15 +1,9 @@
 """xarray Datasets for ``spinup.nc`` and ``samples.nc`` (schemas in docs/ARCHITECTURE.md).
 
-Every variable and coordinate carries ``units`` and ``long_name``; global attributes hold the
-resolved scene as JSON (``case_json``), the package version, fidelity, seed, wall time and the
-physical constants analysis needs. Writing goes through :func:`saltstudy.ncio.write_dataset`
-(lock, temporary name, rename, completion mark).
-
-``spinup.nc`` also carries the solver's whole restart checkpoint, so that the saltation task
-restarts from the file exactly as from the model in memory: ``u, v, w, e, p`` under their schema
-names and staggered dimensions, any other array entry as ``restart__<name>`` and scalar entries as
-``restart__<name>`` attributes; the attribute ``restart_manifest`` (JSON) records each entry's
-kind so :func:`restart_from_dataset` rebuilds the identical dict.
+Every variable carries ``units`` and ``long_name``; global attributes hold the scene as JSON and
+the constants analysis needs. ``spinup.nc`` also carries the solver's whole restart checkpoint
+(``u, v, w, e, p`` under their names, other entries as ``restart__<name>`` variables or
+attributes, kinds in ``restart_manifest``), so :func:`restart_from_dataset` rebuilds it exactly.
 """
 from __future__ import annotations
 
@@ -25,7 +19,8 @@ from ..config import Scene
 from ..solver.diagnostics.health import HEALTH_SERIES
 
 __all__ = ["META", "global_attrs", "plane_heights", "diameter_edges", "z_ref_eff", "coords_for",
-           "spinup_dataset", "restart_from_dataset", "samples_dataset", "check_metadata", "scalar_kind"]
+           "spinup_dataset", "restart_from_dataset", "start_restart", "samples_dataset",
+           "check_metadata", "scalar_kind"]
 
 # name -> (units, long_name). One table for both archives, so a name means one thing everywhere.
 META: dict[str, tuple[str, str]] = {
@@ -185,9 +180,10 @@ def _compressed(v: xr.Variable) -> xr.Variable:
     return v
 
 
-# ------------------------------------------------------------------------------------------
-# spinup.nc
-# ------------------------------------------------------------------------------------------
+# ---- spinup.nc ----
+#: ``flow_profiles`` name -> the spin-up archive's window-mean profile
+PROFILE_NAMES = {"u": "u_mean", "uw_res": "uw_res", "uw_sgs": "uw_sgs", "tke_res": "tke_res",
+                 "e_sgs": "e_sgs"}
 _STAGGERED = {"u": ("x_u", "y", "z"), "v": ("x", "y_v", "z"), "w": ("x", "y", "z_w"),
               "e": ("x", "y", "z"), "p": ("x", "y", "z")}
 
@@ -220,10 +216,8 @@ def spinup_dataset(scene: Scene, grid, checkpoint: dict[str, Any], profiles: dic
                    history: dict[str, np.ndarray], converged: bool, reason: str, u_drive: float,
                    t_end: float, wall_time_s: float, key: str,
                    profile_window: tuple[float, float, int]) -> xr.Dataset:
-    """The spin-up archive: restart checkpoint, window-mean profiles, history of u* and TKE.
-
-    ``profiles`` are ``flow_profiles`` averaged over ``profile_window = (t0, t1, n_samples)``.
-    """
+    """The spin-up archive: restart checkpoint, ``flow_profiles`` averaged over ``profile_window =
+    (t0, t1, n_samples)``, history of u* and TKE."""
     coords = coords_for(grid)
     data: dict[str, xr.Variable] = {}
     attrs: dict[str, Any] = {}
@@ -252,9 +246,7 @@ def spinup_dataset(scene: Scene, grid, checkpoint: dict[str, Any], profiles: dic
         if name not in data:
             raise ValueError(f"solver checkpoint lacks the field '{name}' required by spinup.nc "
                              f"(keys: {sorted(checkpoint)})")
-    prof_map = {"u": "u_mean", "uw_res": "uw_res", "uw_sgs": "uw_sgs", "tke_res": "tke_res",
-                "e_sgs": "e_sgs"}
-    for src, dst in prof_map.items():
+    for src, dst in PROFILE_NAMES.items():
         arr = np.asarray(profiles[src], dtype=np.float64)
         dim = "z_w" if arr.shape[0] == grid.nz + 1 else "z"
         data[dst] = _var((dim,), arr, dst)
@@ -288,6 +280,15 @@ def _history_vars(history: dict[str, np.ndarray]) -> dict[str, xr.Variable]:
     return out
 
 
+def start_restart(ds: xr.Dataset, scene: Scene) -> dict[str, Any]:
+    """The restart a saltation run of ``scene`` starts from: spinup.nc's, rescaled to the case's
+    u*s when the spin-up ran at another u* (solver.similarity)."""
+    from ..solver.similarity import rescale_restart
+
+    u_spin = float(ds.attrs.get("u_star_target", scene.case.forcing.u_star_s))
+    return rescale_restart(restart_from_dataset(ds), scene.case.forcing.u_star_s / u_spin)
+
+
 def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:
     """Rebuild the solver checkpoint dict stored in a spinup.nc (bit-for-bit)."""
     manifest = json.loads(ds.attrs["restart_manifest"])
@@ -303,9 +304,7 @@ def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:
     return out
 
 
-# ------------------------------------------------------------------------------------------
-# samples.nc
-# ------------------------------------------------------------------------------------------
+# ---- samples.nc ----
 _SERIES_NAMES = ("n_parcels", "n_impacts", "n_rebounds", "n_ejections", "n_depositions",
                  "G_tot_series", "u_star_ref", "u_drive", "dt", "max_cfl", "E_impact", "E_splash",
                  "bed_px", "bed_pz", *HEALTH_SERIES)
@@ -318,11 +317,8 @@ _FIELDS_3D = ("u", "v", "w", "e", "p")
 def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]],
                     z_plane: np.ndarray, d_edges: np.ndarray, t_activation: float,
                     wall_time_s: float, key: str, n_steps: int) -> xr.Dataset:
-    """The saltation archive from the recorder's stacked groups.
-
-    ``records[group] = (times, {name: stacked array})`` for groups ``series``, ``plane``,
-    ``sample`` (see driver.Recorder).
-    """
+    """The saltation archive from the recorder's stacked groups, ``records[group] = (times,
+    {name: stacked array})`` (driver.Recorder)."""
     coords = coords_for(grid)
     del coords["x_u"], coords["y_v"]  # samples are cell-centred
     t_s, series = records["series"]
@@ -336,10 +332,8 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
     data: dict[str, xr.Variable] = {"d_edges": _var(("d_edge",), d_edges, "d_edges")}
     for name in _SERIES_NAMES:
         data[name] = _var(("time_series",), series[name], name, np.float64)
-    data["C_p"] = _compressed(_var(("time_plane", "x", "y"), planes["C_p"], "C_p", np.float64))
-    data["G_col"] = _compressed(_var(("time_plane", "x", "y"), planes["G_col"], "G_col", np.float64))
-    data["C_p_above"] = _compressed(_var(("time_plane", "x", "y"), planes["C_p_above"], "C_p_above",
-                                         np.float64))
+    for name in ("C_p", "G_col", "C_p_above"):
+        data[name] = _compressed(_var(("time_plane", "x", "y"), planes[name], name, np.float64))
     data["u_plane"] = _compressed(_var(("time_plane", "x", "y", "z_plane"), planes["u_plane"],
                                        "u_plane", np.float64))
     for name in _FIELDS_3D:
@@ -360,14 +354,10 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
         coords["outcome"] = _var(("outcome",), np.arange(3), "outcome")
         coords["hop_time"] = _var(("hop_time",), bins["hop_time_edges"][:-1], "hop_time")
         coords["hop_length"] = _var(("hop_length",), bins["hop_length_edges"][:-1], "hop_length")
-        data["impact_hist"] = _var(("time", "v_imp", "impact_angle"), samples["impact_hist"],
-                                   "impact_hist", np.int64)
-        data["impact_outcomes"] = _var(("time", "v_imp", "outcome"), samples["impact_outcomes"],
-                                       "impact_outcomes", np.int64)
-        data["hop_time_hist"] = _var(("time", "hop_time"), samples["hop_time_hist"],
-                                     "hop_time_hist", np.int64)
-        data["hop_length_hist"] = _var(("time", "hop_length"), samples["hop_length_hist"],
-                                       "hop_length_hist", np.int64)
+        for name, dims in (("impact_hist", ("v_imp", "impact_angle")),
+                           ("impact_outcomes", ("v_imp", "outcome")),
+                           ("hop_time_hist", ("hop_time",)), ("hop_length_hist", ("hop_length",))):
+            data[name] = _var(("time", *dims), samples[name], name, np.int64)
     attrs = global_attrs(scene, wall_time_s, key)
     attrs.update({"t_activation": float(t_activation), "n_steps": int(n_steps),
                   "planes_cover": "whole run" if scene.fidelity.outputs.animation

@@ -1,8 +1,5 @@
-"""Workflow commands: ``run-all``, ``run``, ``status``, ``figures`` (registered on the typer app by cli.py).
-
-Exit codes: 0 success; 1 a task failed (the others ran; see ``saltstudy status``); 2 bad input
-(unknown study/case, invalid file) — then nothing in the cache is touched; 3 the out dir is in
-use by another saltstudy process (named; ``--wait`` waits for it instead: workflow/lock.py).
+"""Workflow commands ``run-all``, ``run``, ``status``, ``figures``. Exit codes: 0 success; 1 a
+task failed; 2 bad input (the cache untouched); 3 the out dir is held by another process.
 """
 from __future__ import annotations
 
@@ -32,8 +29,7 @@ def _fail(message: str, code: int = 2) -> None:
 
 
 def _hold(out_dir: Path, wait: bool):
-    """Hold the out dir for a command (``lock.hold_out_dir``); exit 3 naming the holder if it is
-    in use and ``wait`` is not given."""
+    """Hold the out dir for a command; exit 3 naming the holder if in use (without ``wait``)."""
     from .lock import Busy, hold_out_dir
     from .progress import emit
 
@@ -54,12 +50,10 @@ def register(app: typer.Typer) -> None:
     def run_all(
         study: str = typer.Option(DEFAULT_STUDY, "--study", help="study name (workflows/NAME.toml) or a study file"),
         out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
-        workers: int = typer.Option(1, "--workers", min=1,
-                                    help="tasks at once locally; each gets cores // N numba threads "
-                                         "(1 on a laptop: the shared spin-up runs alone, and 2 "
-                                         "threads run the flow 1.74x faster than 1)"),
-        scheduler: Optional[str] = typer.Option(None, "--scheduler",
-                                                help="dask.distributed scheduler address, e.g. tcp://host:8786"),
+        workers: int = typer.Option(1, "--workers", min=1, help="tasks at once locally, each with "
+                                    "cores // N numba threads (1 on a laptop)"),
+        scheduler: Optional[str] = typer.Option(None, "--scheduler", help="dask.distributed "
+                                                "scheduler address, e.g. tcp://host:8786"),
         quiet: bool = typer.Option(False, "--quiet", help="plain log lines instead of a live display"),
         report_dir: Optional[Path] = typer.Option(None, "--report-dir",
                                                   help="where the report goes (default: <project>/reports/<study>)"),
@@ -71,6 +65,7 @@ def register(app: typer.Typer) -> None:
         from . import keys as K
         from .graph import run_study
         from .paths import output_path
+        from ..ncio import is_complete
 
         out_dir = _out(out)
         # Validate everything before touching the cache: a bad study or case exits 2 here.
@@ -85,7 +80,7 @@ def register(app: typer.Typer) -> None:
             started = time.time()     # the run starts when the other has finished
         with held:
             todo = [(l, t) for l, rk in runs.items() for t in ("spinup", "saltation", "analysis")
-                    if not _complete(output_path(out_dir, t, getattr(rk, t)))]
+                    if not is_complete(output_path(out_dir, t, getattr(rk, t)))]
             if not todo:
                 typer.echo("all runs cached: no solver work to do")
             else:
@@ -146,20 +141,17 @@ def register(app: typer.Typer) -> None:
     @app.command("figures")
     def figures(
         study: str = typer.Option("reduced", "--study", help="study name (workflows/NAME.toml) or file"),
-        out: Optional[Path] = typer.Option(None, "--out", help="cache directory holding the archives "
-                                                              "(default: $SALTSTUDY_OUT or .saltstudy-cache)"),
+        out: Optional[Path] = typer.Option(None, "--out", help=_OUT_HELP),
         report_dir: Optional[Path] = typer.Option(None, "--report-dir",
                                                   help="where the report goes (default: reports/<study>)"),
         wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
     ) -> None:
         """Figures 1-13, Table 2 beside the paper, summary.json and index.html from the archives."""
-        from ..config import ConfigError
         from .lock import Busy
         try:
             index = figures_command(study, out, report_dir, wait=wait)
         except ConfigError as exc:
-            typer.echo(f"error: {exc}", err=True)
-            raise typer.Exit(2)
+            _fail(str(exc))
         except Busy as exc:
             _fail(f"{exc}; rerun with --wait to wait for it, or use another --out", EXIT_BUSY)
         typer.echo(f"report: {index}")
@@ -167,8 +159,8 @@ def register(app: typer.Typer) -> None:
 
 def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
                     wait: bool = False) -> Path:
-    """Resolve the study's analysis archives under ``out`` and build the report, holding the out
-    dir (``wait``: wait for another holder, else ``lock.Busy``). Returns index.html."""
+    """Build the study's report from its analysis archives under ``out``, holding the out dir
+    (``wait``, else ``lock.Busy``). Returns index.html."""
     from .._identity import __version__
     from ..config import load_study, study_file
     from ..report import build_report
@@ -179,7 +171,7 @@ def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
     from .report_meta import cache_meta
     from .tasks import build_report_staged
 
-    out_dir = Path(out) if out is not None else wpaths.default_out_dir()
+    out_dir = _out(out)
     st = load_study(study)
     study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
     if report_dir is None:
@@ -195,16 +187,10 @@ def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
                                    cache_meta(meta))
 
 
-def _complete(path: Path) -> bool:
-    from ..ncio import is_complete
-
-    return is_complete(path)
-
-
 def _print_summary(summary) -> None:
-    counts: dict[str, int] = {}
-    for o in summary.outcomes:
-        counts[o.status] = counts.get(o.status, 0) + 1
+    from collections import Counter
+
+    counts = Counter(o.status for o in summary.outcomes)
     typer.echo(f"study {summary.study}: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
                + f" in {summary.wall_s:.1f} s")
     expected = {id(o) for o in summary.expected_blowups}

@@ -1,23 +1,17 @@
 """A run's records and checkpoints on the one time loop (``solver.simulation.Simulation``), and
-the saltation run: activation, records on schedule, checkpoints.
+the saltation run.
 
-Records land exactly on their times: the simulation clips each step to the next record time
-(series every ``sampling.series_interval``, planes every ``sampling.plane_interval`` inside the
-sampling window — or over the whole run with ``outputs.animation`` — and 3-D samples at
-``sampling.start + i * sampling.interval``). Record times are computed as integer multiples,
-never accumulated, so they do not drift.
-
-Every ``fidelity.checkpoint_interval_wall`` seconds of wall time a run writes ``checkpoint.npz``
-(temporary name + ``os.replace``): the model's checkpoint and the simulation's (schedule positions,
-step count, the records so far). A rerun resumes from it; because the solver's restart is bit for
-bit, the final records equal those of an uninterrupted run.
+The simulation clips each step to the next record time; record times are integer multiples, never
+accumulated, so they do not drift. Every ``fidelity.checkpoint_interval_wall`` s of wall time a
+run writes ``checkpoint.npz`` atomically (model, simulation, records so far); the solver's restart
+is bit for bit, so a resumed run's records equal an uninterrupted one's.
 """
 from __future__ import annotations
 
 import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
@@ -40,7 +34,6 @@ class Interrupted(RuntimeError):
     """Raised by the test hook ``interrupt_after_steps`` (simulates a killed run)."""
 
 
-# ------------------------------------------------------------------------------------------
 class Recorder:
     """In-memory records, by group; each group is a list of times and a list per variable."""
 
@@ -85,7 +78,6 @@ class Recorder:
         return r
 
 
-# ------------------------------------------------------------------------------------------
 @dataclass
 class Schedule:
     """Record times (s since activation), merged into one sorted list of (time, groups)."""
@@ -126,16 +118,14 @@ class Schedule:
 
     @property
     def end(self) -> float:
-        """The run's last time [s since activation] (the duration, as the record times hold it)."""
+        """The run's last time [s since activation]."""
         return self.events[-1][0]
 
 
-# ------------------------------------------------------------------------------------------
 def save_checkpoint(path: Path, model_ckpt: dict[str, Any], sim_ckpt: dict[str, Any],
                     meta: dict[str, Any]) -> None:
-    """Write a model checkpoint, a simulation checkpoint (``Simulation.checkpoint``: its arrays,
-    those of the stateful callbacks, are stored as arrays, the rest as JSON) and ``meta`` to
-    ``path`` atomically."""
+    """Write a model and a simulation checkpoint (callback arrays as arrays, the rest as JSON) and
+    ``meta`` to ``path`` atomically."""
     arrays: dict[str, np.ndarray] = {}
     kinds: dict[str, str] = {}
     for k, v in model_ckpt.items():
@@ -184,9 +174,8 @@ def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any], dict[st
 def add_checkpoints(sim: Simulation, path: Path, interval: float,
                     meta: Callable[[], dict[str, Any]] | None = None,
                     interrupt_after_steps: int | None = None) -> None:
-    """Add to ``sim`` a checkpoint to ``path`` every ``interval`` s of wall time (``meta()``: what
-    else to store) and, as a test hook, a checkpoint and :class:`Interrupted` after
-    ``interrupt_after_steps`` steps of this run (a killed run)."""
+    """A checkpoint to ``path`` every ``interval`` s of wall time (with ``meta()``) and, as a test
+    hook, a checkpoint and :class:`Interrupted` after ``interrupt_after_steps`` steps of a run."""
     def write(s: Simulation) -> None:
         save_checkpoint(path, s.model.checkpoint(), s.checkpoint(), meta() if meta else {})
 
@@ -199,7 +188,6 @@ def add_checkpoints(sim: Simulation, path: Path, interval: float,
         sim.add_callback("interrupt", interrupt, IterationInterval(interrupt_after_steps))
 
 
-# ------------------------------------------------------------------------------------------
 @dataclass
 class SaltationResult:
     records: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]]
@@ -210,13 +198,11 @@ class SaltationResult:
     wall_time_s: float
     n_steps: int
     resumed_from: float | None = None  # t since activation of the checkpoint resumed from
-    extra: dict = field(default_factory=dict)
 
 
 class SaltationRecords:
-    """The saltation run's records, by group (a Simulation callback per group, each on the
-    merged record times of ``Schedule``, so that groups due at one time see one instant); the
-    values come from ``solver.diagnostics.records``. Its state is the Recorder's."""
+    """The saltation run's records, a Simulation callback per group on the merged record times of
+    ``Schedule`` (values from ``solver.diagnostics.records``)."""
 
     def __init__(self, scene: Scene, model, n_released: int):
         self.scene, self.model, self.n_released = scene, model, n_released
@@ -286,12 +272,8 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                   progress: Callable[[float, float], None] | None = None,
                   checkpoint_interval: float | None = None,
                   interrupt_after_steps: int | None = None) -> SaltationResult:
-    """Activate saltation on the spun-up flow ``restart`` and run it, recording on schedule.
-
-    Resumes from ``checkpoint_path`` if it holds a valid checkpoint. ``interrupt_after_steps``
-    is a test hook: raise :class:`Interrupted` after that many steps *of this call* (a checkpoint
-    is written just before, so the rerun resumes from there).
-    """
+    """Activate saltation on the spun-up flow ``restart`` and run it, recording on schedule;
+    resumes from a valid ``checkpoint_path`` (``interrupt_after_steps``: add_checkpoints)."""
     from ..solver.model import Model
 
     interval = (scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None

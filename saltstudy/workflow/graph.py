@@ -1,45 +1,16 @@
-"""The dask graph of a study and its execution.
+"""The dask graph of a study and its execution (docs/USAGE.md, "On a cluster").
 
-Per run: spin-up -> saltation -> analysis; one report task over all runs. Runs whose spin-up
-key is equal (same wind, grid, seed, ...) share one spin-up task: the graph is keyed by cache
-key, so dask runs it once.
+Per run: spin-up -> saltation -> analysis; one report task over all runs. The graph is keyed by
+cache key, so runs with an equal spin-up key share one spin-up task.
 
-Execution
----------
-* Locally (default): dask's threaded scheduler with ``workers`` threads (default 1). The solver's
-  numba kernels are ``parallel=True`` and use every core; with ``workers > 1`` each task's numba
-  threads are limited to cores // workers. On 2 cores one task at a time is the default: the
-  shared spin-up must finish before any saltation run starts, and one flow step on 2 threads is
-  1.74x faster than on 1 (``NUMBA_NUM_THREADS=1|2 saltstudy bench flow --no-big``: 57.7 vs
-  33.2 ms on 64x48x48), so two 1-thread tasks could gain at most ~15 % on the saltation runs.
-* ``scheduler=ADDRESS``: a ``dask.distributed`` Client connected to that scheduler; every worker
-  must run the same checkout (checked: tasks carry the client's ``SOURCE_KEY``) and see the same
-  out dir (shared file system). The kernels are first compiled into the numba cache once per
-  worker host (:func:`warm_workers`), as locally, so a distributed run writes the same archives
-  as the local one (tests/test_workflow_distributed.py).
+Locally, dask's threaded scheduler runs ``workers`` tasks at once (default 1: on 2 cores one flow
+step on 2 numba threads is 1.74x faster than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow
+--no-big``), each with cores // workers numba threads. With ``scheduler=ADDRESS`` a
+``dask.distributed`` Client runs them; workers must run the same checkout (tasks carry
+``SOURCE_KEY``), see the same out dir, and compile the kernels once per host (:func:`warm_workers`).
 
-A task that fails is recorded (``task.json``: state failed, error, traceback) and its dependents
-are skipped; the other runs go on, except after a full disk (``faults.DiskFull``), when a local run
-starts no further task. :func:`run_study` returns a summary whose ``exit_code`` is 1 if anything
-failed. It holds the out dir for the run (``lock.hold_out_dir``: another saltstudy process there
-is refused, or waited for) and first tidies what killed runs left in its tasks' directories.
-
-Cluster example (dask-jobqueue, SLURM): one task per job, each job with N cores for numba::
-
-    # on the login node, in the project's environment (pip install -e ".[cluster]")
-    from dask_jobqueue import SLURMCluster
-    cluster = SLURMCluster(cores=1, processes=1, job_cpu=8, memory="16GB", walltime="12:00:00",
-                           job_script_prologue=["export NUMBA_NUM_THREADS=8",
-                                                "export SALTSTUDY_OUT=/scratch/$USER/saltstudy"])
-    cluster.scale(jobs=10)            # ten cases at once
-    print(cluster.scheduler_address)  # e.g. tcp://10.0.0.5:8786
-
-    # then, in another shell on the login node (same SALTSTUDY_OUT, on the shared file system):
-    saltstudy run-all --study paper --scheduler tcp://10.0.0.5:8786
-
-``cores=1`` gives each worker one dask thread, so one task per job; ``job_cpu=8`` reserves eight
-CPUs that the task's numba kernels use. A job killed by the wall-time limit loses at most
-``checkpoint_interval_wall`` of saltation: the rerun resumes from ``checkpoint.npz``.
+A failed task is recorded (``task.json``) and its dependents skipped; the other runs go on, except
+after a full disk (``faults.DiskFull``), when a local run starts no further task.
 """
 from __future__ import annotations
 
@@ -90,9 +61,8 @@ def _limit_numba_threads(n: int | None) -> None:
 
 
 class _DiskFullStop:
-    """In a local run, the first full disk stops the tasks not yet started (each would compute for
-    nothing: its archive could not be written). A process-wide record, armed by
-    :func:`run_study` for its own run only (a cluster's workers never arm it)."""
+    """In a local run, the first full disk stops the tasks not yet started (their archives could
+    not be written); armed by :func:`run_study` for a local run only."""
     armed = False
     error: str | None = None
 
@@ -177,9 +147,8 @@ def _report(study: Study, analyses: list[tuple[str, Outcome]], out_dir: Path, re
 
 
 def run_case(rk: "K.RunKeys", out_dir: Path, wait: bool = False) -> list[Outcome]:
-    """One run's tasks in order, in this process (``saltstudy run``): its spin-up, the links of
-    its staggered start, its saltation and its analysis; [spin-up, saltation, analysis]. The out
-    dir is held as by :func:`run_study` (``wait``: wait for another holder, else Busy)."""
+    """One run's tasks in order, in this process (``saltstudy run``), the out dir held as by
+    :func:`run_study`; returns [spin-up, saltation, analysis]."""
     with hold_out_dir(out_dir, wait=wait, log=emit):
         _tidy(out_dir, [rk])
         scene = rk.scene
@@ -191,9 +160,7 @@ def run_case(rk: "K.RunKeys", out_dir: Path, wait: bool = False) -> list[Outcome
 
 
 def run_scene(scene: Scene, out_dir: Path, quiet: bool = False) -> tuple["K.RunKeys", list[Outcome]]:
-    """One scene's run in this process as ``saltstudy run`` makes it: the kernels warmed as for
-    ``run-all`` (:func:`warm_for`), the progress displayed, the cache used; its keys and
-    :func:`run_case`'s outcomes."""
+    """One scene's run as ``saltstudy run`` makes it (kernels warmed, progress displayed)."""
     rk = K.run_keys(scene.label, scene)
     refs = [TaskRef(f"{task} {rk.label}", task_dir(out_dir, task, getattr(rk, task)))
             for task in ("spinup", "saltation")]
@@ -202,7 +169,6 @@ def run_scene(scene: Scene, out_dir: Path, quiet: bool = False) -> tuple["K.RunK
         return rk, run_case(rk, Path(out_dir))
 
 
-# ------------------------------------------------------------------------------------------
 @dataclass
 class StudyPlan:
     study: Study
@@ -215,24 +181,19 @@ class StudyPlan:
 def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
                 numba_threads: int | None = None, root: Path | None = None,
                 run_started: float | None = None) -> StudyPlan:
-    """dask.delayed graph of ``study``; nothing runs until computed. Raises ConfigError.
-
-    ``run_started`` (epoch seconds) goes to the report, which writes the elapsed wall time from
-    it (summary.json ``total_wall_time_s``)."""
+    """dask.delayed graph of ``study``; raises ConfigError. ``run_started`` (epoch s) is the
+    origin of the report's ``total_wall_time_s``."""
     import dask
 
     out_dir = Path(out_dir)
     report_dir = Path(report_dir) if report_dir else default_report_dir(study.name)
     runs = K.study_keys(study, root)
-    spin_nodes: dict[str, Any] = {}
-    salt_nodes: dict[str, Any] = {}
-    an_nodes: dict[str, Any] = {}
+    spin_nodes, salt_nodes, an_nodes, finals = {}, {}, {}, {}   # dask.delayed by key or name
     refs: list[TaskRef] = []
+    analyses = []
     sharing: dict[str, list[str]] = {}
     for label, rk in runs.items():
         sharing.setdefault(rk.spinup, []).append(label)
-    analyses = []
-    finals: dict[str, Any] = {}
     for label, rk in runs.items():
         if rk.spinup not in spin_nodes:
             spin_nodes[rk.spinup] = dask.delayed(_spinup, pure=False)(
@@ -282,7 +243,6 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
     return StudyPlan(study, runs, finals, refs, report_dir)
 
 
-# ------------------------------------------------------------------------------------------
 @dataclass
 class StudySummary:
     study: str
@@ -350,9 +310,7 @@ def _pending_scenes(runs, out_dir: Path) -> list[Scene]:
 
 
 def warm_for(runs, out_dir: Path) -> None:
-    """Compile the kernels of the runs that still need solver work in a child process, so that
-    every task loads them from the cache (warmup.py: a rerun or a resumed run then repeats the
-    first run exactly)."""
+    """Compile the kernels of the runs that still need solver work (warmup.py)."""
     ensure_warm(_pending_scenes(runs, out_dir), log=emit)
 
 
@@ -365,9 +323,7 @@ def _warm_here(scenes: list[Scene]) -> str:
 
 
 def warm_workers(client, runs, out_dir: Path) -> None:
-    """:func:`warm_for` on the workers of a ``dask.distributed`` cluster, once per worker host
-    (the numba cache is per machine, or shared): without it a worker would compile in its own
-    process, and its archives would be another realization than a rerun's (warmup.py)."""
+    """:func:`warm_for` on a ``dask.distributed`` cluster, once per worker host (warmup.py)."""
     scenes = _pending_scenes(runs, out_dir)
     if not scenes:
         return
@@ -388,10 +344,9 @@ def warm_workers(client, runs, out_dir: Path) -> None:
 
 
 def _tidy(out_dir: Path, runs, study_name: str | None = None) -> None:
-    """What killed processes left in the task directories of ``runs`` that no live process holds
-    (locks, temporary files, the checkpoint beside a complete archive: a run computes its
-    incomplete tasks and tidies them then, but finds the complete ones in the cache), and in the
-    study's record folder. Called with the out dir held."""
+    """Remove what killed processes left in the task directories of ``runs`` and the study's
+    record folder (locks, temporary files, a checkpoint beside a complete archive). Called with
+    the out dir held."""
     for rk in runs:
         for task, key in (("spinup", rk.spinup), *(("spinup", k) for k in rk.links),
                           ("saltation", rk.saltation), ("analysis", rk.analysis)):
@@ -417,10 +372,9 @@ def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | No
               started: float | None = None, wait: bool = False) -> StudySummary:
     """Build and execute the study's graph; never raises for a failed task (see summary).
 
-    The out dir is held for the run (``lock.hold_out_dir``): if another process holds it,
-    :class:`saltstudy.workflow.lock.Busy` is raised, or with ``wait`` the run waits for it.
-    ``started``: when the run began (epoch seconds; default now), the origin of the report's
-    elapsed wall time (the time spent waiting for the out dir is not counted)."""
+    The out dir is held (``lock.hold_out_dir``): another holder raises ``lock.Busy``, or with
+    ``wait`` is waited for. ``started`` (epoch s, default now) is the origin of the report's wall
+    time; time spent waiting for the out dir is not counted."""
     started = time.time() if started is None else float(started)
     with hold_out_dir(out_dir, wait=wait, log=emit) as lock:
         if lock.waited_s > 1.0:

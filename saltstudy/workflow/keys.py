@@ -1,23 +1,11 @@
 """Cache keys: a task's output directory is named by the hash of everything that determines it.
 
-key = SHA-256 of the JSON (sorted keys) of
-  * the task's slice of the configuration,
-  * the keys of its inputs (so a changed spin-up re-keys everything downstream),
-  * the package version and the hash of the code that computes it: ``saltstudy.SOURCE_KEY``
-    (numerics: ``_jit.py``, ``physics/``, ``solver/``) for the solver tasks, plus the sources of
-    ``analysis/`` or ``report/`` for those tasks (re-running them is cheap, so an edit there
-    re-runs them and nothing upstream),
-  * :data:`ARCHIVE_FORMAT`, bumped by hand when the workflow changes what an archive holds.
-
-Python's ``hash()`` is never used (it changes with PYTHONHASHSEED), and pydantic models are dumped
-with ``mode="json"`` so the text is the same in every process.
-
-What is left out of the slices, on purpose: descriptions, names (the run's label, which a study's
-scene puts into the case's ``name``, and the fidelity's name: the same case at the same cost is
-the same run in any study, so a ladder rung and a scene of the same physics share one archive),
-and ``checkpoint_interval_wall`` (it changes when checkpoints are written, not the result: resume
-is bit-for-bit). Two scenes of one study that resolve to the same physics share one graph node
-(workflow/graph.py), so they never write the same directory twice.
+key = SHA-256 of the sorted-key JSON of the task's configuration slice, its inputs' keys, the
+package version and ``SOURCE_KEY`` (numerics: ``_jit.py``, ``physics/``, ``solver/``; plus
+``analysis/`` or ``report/`` sources for those tasks), and :data:`ARCHIVE_FORMAT` (bumped by hand
+when an archive's content changes). Never Python's ``hash()`` (PYTHONHASHSEED); pydantic dumps
+with ``mode="json"``. Left out on purpose: descriptions, names (the same physics at the same cost
+is one run in any study) and ``checkpoint_interval_wall`` (resume is bit for bit).
 """
 from __future__ import annotations
 
@@ -32,9 +20,8 @@ from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study, study_runs
 
 __all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "continuation_key",
-           "start_keys", "saltation_key",
-           "analysis_key", "report_key", "RunKeys", "run_keys", "study_keys", "saltation_slice",
-           "area_source_key"]
+           "start_keys", "saltation_key", "analysis_key", "report_key", "RunKeys", "run_keys",
+           "study_keys", "saltation_slice", "area_source_key"]
 
 #: bump when spinup.nc / samples.nc change layout, so old archives are not mistaken for new ones
 ARCHIVE_FORMAT = 2
@@ -69,15 +56,14 @@ def spinup_key(scene: Scene) -> str:
 
 
 def continuation_key(parent: str, duration: float) -> str:
-    """One link of a staggered start: the particle-free flow of archive ``parent`` continued for
-    ``duration`` seconds (``fidelity.spinup.stagger``)."""
+    """One link of a staggered start: archive ``parent`` continued for ``duration`` s."""
     return hash_json({"task": "continuation", "inputs": [parent], "duration": float(duration),
                       "code": _code()})
 
 
 def start_keys(scene: Scene) -> list[str]:
-    """The archives between the spin-up and this scene's start: the spin-up's key, then one
-    continuation per link (``Scene.start_links``); the last is the one the saltation starts from."""
+    """The spin-up's key, then one continuation per link (``Scene.start_links``): the saltation
+    starts from the last."""
     out = [spinup_key(scene)]
     for _ in range(scene.start_links):
         out.append(continuation_key(out[-1], scene.fidelity.spinup.stagger))
@@ -87,7 +73,6 @@ def start_keys(scene: Scene) -> list[str]:
 def saltation_slice(scene: Scene) -> dict[str, Any]:
     """The whole resolved scene minus what cannot change the samples (see module docstring)."""
     case = scene.case.model_dump(mode="json")
-    # names are labels: two studies that run the same case at the same cost share its archives
     for k in ("description", "name"):
         case.pop(k, None)
     fid = scene.fidelity.model_dump(mode="json")

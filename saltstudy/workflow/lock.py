@@ -1,19 +1,12 @@
 """Who may write where: one process holds an out dir, one process at a time computes a task.
 
-Two ``run-all`` on one out dir would compute the same tasks and replace each other's files; so
-``run-all``, ``run`` and ``figures`` first take ``<out>/saltstudy.lock``, and a second one
-refuses at once, naming the holder (pid, host, start time, command), or with ``--wait`` waits for
-it to finish and then finds its work in the cache. Each task also takes ``<task dir>/task.lock``
-while it computes: a process that reaches a task another computes (a worker of a run whose client
-was stopped; a worker the scheduler wrongly took for dead) waits for it, then returns its archive.
-
-The lock is the kernel's (``flock``) on the file, so it goes with its process however the process
-ends (SIGKILL, a crash, a lost node's lease): a killed run leaves its file naming a process that is
-gone, and the next run takes it over, saying so. The file holds the holder's record (JSON) and is
-removed on release. Where the file system does not share ``flock`` between hosts (an NFS mount
-without locking), the record decides: the holder touches the file every :data:`HEARTBEAT_S`
-seconds, and a record from another host is honoured until it has not been touched for
-:data:`STALE_AFTER` seconds (a process on this host's, while its pid lives).
+``run-all``, ``run`` and ``figures`` take ``<out>/saltstudy.lock``; a second one refuses, naming
+the holder, or with ``--wait`` waits and then finds the work in the cache. Each task takes
+``<task dir>/task.lock`` while it computes; another process reaching it waits, then returns its
+archive. The lock is ``flock`` on the file, so it goes with its process however it ends; the file
+holds the holder's record (JSON). Where ``flock`` is not shared between hosts (NFS without
+locking), the holder touches the file every :data:`HEARTBEAT_S` s and another host's record is
+honoured until untouched for :data:`STALE_AFTER` s (this host's, while its pid lives).
 """
 from __future__ import annotations
 
@@ -125,7 +118,7 @@ class DirLock:
 
     def _try_once(self) -> tuple[bool, dict[str, Any] | None]:
         """(acquired, the holder's record: {} if unreadable; None if the file was replaced
-        meanwhile, so that trying again at once is right)."""
+        meanwhile: try again at once)."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
@@ -230,8 +223,7 @@ class DirLock:
 
 
 class _Held:
-    """This process's hold on an out dir, counted: the command line takes it before it looks at
-    the cache, and the run it starts takes it again."""
+    """This process's counted hold on an out dir (the command line and the run it starts)."""
 
     def __init__(self, lock: DirLock):
         self.lock, self.count = lock, 0

@@ -1,20 +1,14 @@
 """Where the workflow keeps its outputs.
 
-The *out dir* (cache) is ``$SALTSTUDY_OUT`` if set, else ``<project root>/.saltstudy-cache``
-(the project root is ``$SALTSTUDY_HOME``, else the checkout; see :func:`saltstudy.config.project_root`).
-Every CLI command takes ``--out DIR`` to override it. Layout::
+The out dir (cache) is ``$SALTSTUDY_OUT``, else ``<project root>/.saltstudy-cache``; every CLI
+command takes ``--out DIR``. Layout (``<key>``: :mod:`saltstudy.workflow.keys`)::
 
-    <out>/spinup/<key>/spinup.nc        flow-only spin-up (restart state + profiles)
-    <out>/saltation/<key>/samples.nc    saltation run records
-    <out>/saltation/<key>/checkpoint.npz  last periodic checkpoint (deleted once samples.nc is written)
-    <out>/analysis/<key>/analysis.nc    statistics of one case
-    <out>/report/<key>/task.json        marker of a built report (the report itself: reports/<study>/)
-    <out>/<task>/<key>/task.json        what the task was (config slice, inputs, status, wall time)
-    <out>/<task>/<key>/progress.json    live progress (simulated time / target), read by the display
-    <out>/studies/<study>/runs.json     label -> keys of the last completed tasks of each run
-
-``<key>`` is the task's cache key (:mod:`saltstudy.workflow.keys`): a change of anything that
-determines a task's output gives a new directory, so nothing computed is ever overwritten.
+    <out>/spinup/<key>/spinup.nc          flow-only spin-up (restart state + profiles)
+    <out>/saltation/<key>/samples.nc      saltation run records (+ checkpoint.npz while running)
+    <out>/analysis/<key>/analysis.nc      statistics of one case
+    <out>/report/<key>/task.json          marker of a built report (the report: reports/<study>/)
+    <out>/<task>/<key>/task.json|progress.json   what the task was; live progress
+    <out>/studies/<study>/runs.json       label -> keys of the last completed tasks of each run
 """
 from __future__ import annotations
 
@@ -26,7 +20,8 @@ from ..config import Study, load_study, project_root
 from ..faults import write_atomic
 
 __all__ = ["default_out_dir", "task_dir", "output_path", "OUTPUT_NAMES", "study_dir", "runs_file",
-           "analysis_paths", "default_report_dir", "read_runs_file", "write_json_atomic"]
+           "analysis_paths", "default_report_dir", "read_runs_file", "write_json_atomic",
+           "read_task_json", "read_checkpoint_meta"]
 
 #: the archive each task writes into its directory
 OUTPUT_NAMES = {"spinup": "spinup.nc", "saltation": "samples.nc", "analysis": "analysis.nc",
@@ -65,11 +60,28 @@ def runs_file(out_dir: Path, study_name: str) -> Path:
 
 def read_runs_file(out_dir: Path, study_name: str) -> dict:
     """The study's record of last completed keys per label (empty if none or unreadable)."""
-    p = runs_file(out_dir, study_name)
     try:
-        return json.loads(p.read_text())
+        return json.loads(runs_file(out_dir, study_name).read_text())
     except (OSError, ValueError):
         return {}
+
+
+def read_task_json(directory: Path) -> dict | None:
+    try:
+        return json.loads((Path(directory) / "task.json").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def read_checkpoint_meta(directory: Path) -> dict | None:
+    """The meta of a task directory's ``checkpoint.npz``; None if absent or unreadable."""
+    import numpy as np
+
+    try:
+        with np.load(Path(directory) / "checkpoint.npz", allow_pickle=False) as z:
+            return json.loads(str(z["meta"]))
+    except Exception:
+        return None
 
 
 def write_json_atomic(path: Path, data: dict) -> None:
@@ -79,20 +91,14 @@ def write_json_atomic(path: Path, data: dict) -> None:
 
 
 def analysis_paths(study: Study | str | Path, out_dir: Path | None = None) -> dict[str, Path | None]:
-    """Label -> analysis.nc of each run of ``study`` for the *current* configuration and code.
-
-    ``None`` where that archive is missing or incomplete (not run yet, failed, or its inputs
-    changed since it was computed): the report never shows a result that does not match the
-    case files. Raises :class:`saltstudy.config.ConfigError` for a bad study or case.
-    """
+    """Label -> analysis.nc of each run of ``study`` for the *current* configuration and code, None
+    where missing or incomplete. Raises ConfigError for a bad study or case."""
     from . import keys as _keys
     from ..ncio import is_complete
 
     if not isinstance(study, Study):
         study = load_study(study)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir()
-    result: dict[str, Path | None] = {}
-    for run, k in _keys.study_keys(study).items():
-        p = output_path(out_dir, "analysis", k.analysis)
-        result[run] = p if is_complete(p) else None
-    return result
+    paths = {run: output_path(out_dir, "analysis", k.analysis)
+             for run, k in _keys.study_keys(study).items()}
+    return {run: p if is_complete(p) else None for run, p in paths.items()}

@@ -1,9 +1,5 @@
-"""Live progress: tasks write ``progress.json`` in their directory; the display polls the files.
-
-Files rather than a dask Queue/Variable because they work the same with threads, local processes
-and a distributed cluster on a shared file system (which the cache needs anyway), survive a
-worker's death, and need no connection back to the client. A task's callback writes at most once
-a second (atomically), so the cost is nil.
+"""Live progress: tasks write ``progress.json`` (at most once a second, atomically); the display
+polls the files, which work alike with threads, processes and a cluster, and survive a worker.
 """
 from __future__ import annotations
 
@@ -20,12 +16,12 @@ from typing import Any
 from .lock import pid_alive
 from .paths import write_json_atomic
 
-__all__ = ["ProgressFile", "read_progress", "is_stale", "writer_gone", "ProgressDisplay", "TaskRef", "format_duration", "emit"]
+__all__ = ["ProgressFile", "read_progress", "is_stale", "writer_gone", "ProgressDisplay", "TaskRef",
+           "format_duration", "emit"]
 
 PROGRESS_NAME = "progress.json"
-#: [s] a "running" file not updated for this long belongs to a process that died (a killed
-#: run-all leaves its files "running"); the slowest step measured, the paper's grid with 2.5 M
-#: parcels on one thread, takes 1.2 s (docs/BENCHMARKS.md), and a callback writes every second.
+#: [s] a "running" file not updated for this long belongs to a process that died (the slowest
+#: step measured takes 1.2 s, docs/BENCHMARKS.md; a callback writes every second)
 STALE_AFTER = 300.0
 
 _ACTIVE: "ProgressDisplay | None" = None
@@ -44,10 +40,7 @@ def emit(message: str) -> None:
 
 
 class ProgressFile:
-    """Callable handed to a task: ``cb(t_done, t_target)`` (simulated seconds).
-
-    Accepts what a solver might pass (a number, or an object with ``.t``) and ignores the rest.
-    """
+    """Callable handed to a task: ``cb(t_done, t_target)`` (simulated seconds)."""
 
     def __init__(self, task_dir: Path, task: str, label: str, phase: str, min_interval: float = 1.0):
         self.path = Path(task_dir) / PROGRESS_NAME
@@ -59,15 +52,11 @@ class ProgressFile:
         self.target = None
         self._writer = {"host": platform.node(), "pid": os.getpid()}   # as task.json names it
 
-    def __call__(self, t: Any = None, target: Any = None, *args: Any, **kw: Any) -> None:
-        if t is not None and not isinstance(t, (int, float)):
-            t = getattr(t, "t", None)
-        if t is None:
-            t = kw.get("t")
-        if target is not None and isinstance(target, (int, float)):
+    def __call__(self, t: float, target: float | None = None) -> None:
+        if target is not None:
             self.target = float(target)
         now = time.time()
-        if t is None or now - self._last < self.min_interval:
+        if now - self._last < self.min_interval:
             return
         self._last = now
         self.write(float(t), "running")
@@ -92,11 +81,8 @@ def read_progress(task_dir: Path) -> dict | None:
 
 
 def writer_gone(p: dict) -> bool:
-    """True if the record (progress.json or task.json: both carry ``host`` and ``pid``) was written
-    on this host by a process that no longer exists.
-
-    Only this host's processes can be asked; a record from a cluster worker (or one without a
-    pid) falls back on the STALE_AFTER clock."""
+    """True if the record (progress.json or task.json) was written on this host by a process that
+    has exited; another host's record falls back on the STALE_AFTER clock."""
     pid = p.get("pid")
     if not isinstance(pid, int) or p.get("host") != platform.node():
         return False
@@ -104,8 +90,7 @@ def writer_gone(p: dict) -> bool:
 
 
 def is_stale(p: dict, now: float | None = None) -> bool:
-    """True if a progress record's writer died: its process is gone from this host, or the record
-    has not moved for STALE_AFTER seconds."""
+    """True if a progress record's writer died (gone from this host, or silent STALE_AFTER s)."""
     if writer_gone(p):
         return True
     return (time.time() if now is None else now) - p.get("updated", 0.0) > STALE_AFTER
@@ -113,7 +98,7 @@ def is_stale(p: dict, now: float | None = None) -> bool:
 
 def eta(p: dict, now: float | None = None) -> float | None:
     """Seconds left for a running task at the rate since its process took it up (a resumed run
-    starts part-way, so the rate since t = 0 would promise too little); None if unknown."""
+    starts part-way); None if unknown."""
     t, target = p.get("t") or 0.0, p.get("target")
     now = time.time() if now is None else now
     done = t - (p.get("t_start") or 0.0)
@@ -140,12 +125,8 @@ class TaskRef:
 
 
 class ProgressDisplay:
-    """Background thread printing the state of every task of the graph.
-
-    On a terminal: one refreshed block of lines (simulated time / target, %, ETA). With
-    ``quiet`` or when not on a terminal: a plain log line per running task every ``log_every``
-    seconds, so logs of batch jobs stay readable.
-    """
+    """Background thread printing every running task's state: a refreshed block on a terminal,
+    else (or with ``quiet``) a log line per task every ``log_every`` seconds."""
 
     def __init__(self, tasks: list[TaskRef], quiet: bool = False, interval: float = 1.0,
                  log_every: float = 30.0, stream=None):

@@ -1,33 +1,17 @@
 """What the cache records about a study's runs, for its report (``report.build_report``'s
-``meta``): the workflow reads it and passes it on, so the report reads archives and its meta only.
-
-Given ``meta["out_dir"]`` and ``meta["keys"]`` (label -> {"spinup", "saltation", "analysis"} cache
-keys), :func:`cache_meta` adds, where absent:
-
-* ``failures``: label -> error of the first failed task of the run (its ``task.json``);
-* ``samples``: label -> ``samples.nc`` of the run, if present (stability report, animation);
-* ``checkpoints``: label -> the kept checkpoint of a stopped saltation run and its time;
-* ``source_key``: the solver-source key the archives were computed with (their ``task.json``), one
-  string when they agree, else the sorted distinct keys: a report redrawn later by ``figures``
-  names the code that made its numbers, not only the code that drew them (``commit``).
+``meta``). Given ``meta["out_dir"]`` and ``meta["keys"]``, :func:`cache_meta` adds, where absent:
+``failures`` (label -> first failed task's error), ``samples`` (label -> samples.nc),
+``checkpoints`` (a stopped saltation run's checkpoint and time) and ``source_key`` (of the
+archives' ``task.json``: one string, or the sorted distinct keys).
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
-from .paths import output_path, task_dir
+from .paths import output_path, read_checkpoint_meta, read_task_json, task_dir
 
 __all__ = ["cache_meta"]
-
-
-def _task_json(out_dir: Path, task: str, key: str) -> dict[str, Any]:
-    p = Path(task_dir(out_dir, task, key)) / "task.json"
-    try:
-        return json.loads(p.read_text())
-    except (OSError, ValueError):
-        return {}
 
 
 def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
@@ -48,7 +32,7 @@ def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
             key = k.get(task)
             if not key:
                 continue
-            tj = _task_json(out_dir, task, key)
+            tj = read_task_json(task_dir(out_dir, task, key)) or {}
             if task != "analysis" and tj.get("source_key"):
                 made_by.add(str(tj["source_key"]))
             if tj.get("state") == "failed" and label not in failures:
@@ -77,11 +61,8 @@ def _checkpoint(out_dir: Path, key: str) -> dict[str, Any] | None:
     p = Path(task_dir(out_dir, "saltation", key)) / "checkpoint.npz"
     if not p.is_file():
         return None
-    t = None
     try:
-        import numpy as np
-        with np.load(p, allow_pickle=False) as z:
-            t = float(json.loads(str(z["meta"])).get("t_since_activation"))
-    except Exception:
-        pass
+        t = float(read_checkpoint_meta(p.parent).get("t_since_activation"))
+    except Exception:   # unreadable, or no time recorded
+        t = None
     return {"path": str(p), "t_since_activation": t}

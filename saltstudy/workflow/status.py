@@ -1,17 +1,14 @@
 """``saltstudy status``: per run and task, is the output for the *current* config done?
 
-States: ``done`` (complete archive at the current key), ``stale`` (no output for the current
-configuration/code, but runs.json records an older complete one), ``failed`` (task.json at the
-current key says so, with the reason), ``partial`` (a spin-up or saltation checkpoint to resume from),
-``running`` (task.json says running and its progress file moved in the last few minutes),
-``stopped`` (task.json says running but nothing has moved for longer: the process died),
-``missing``.
+States: ``done``, ``stale`` (only an older key's output, per runs.json), ``failed``, ``partial``
+(a checkpoint to resume from), ``running`` (progress moved in the last minutes), ``stopped``
+(task.json says running, nothing moves), ``missing``.
 """
 from __future__ import annotations
 
-import json
 import platform
 import time
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,9 +18,8 @@ from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
 from .lock import LOCK_NAME, describe_holder, read_holder, record_alive
-from .paths import output_path, read_runs_file, task_dir
+from .paths import output_path, read_checkpoint_meta, read_runs_file, read_task_json, task_dir
 from .progress import eta, format_duration, is_stale, read_progress, writer_gone
-from .tasks import read_task_json
 
 __all__ = ["StatusRow", "study_status", "format_status", "out_dir_state"]
 
@@ -40,20 +36,15 @@ class StatusRow:
 
 
 def _checkpoint_time(d: Path) -> float | None:
-    try:
-        with np.load(d / "checkpoint.npz", allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-        if meta is None:
-            return None
-        # saltation: time since activation; spin-up: time since its start
+    meta = read_checkpoint_meta(d)
+    try:   # saltation: time since activation; spin-up: time since its start
         return float(meta.get("t_since_activation", meta.get("t_spinup", np.nan)))
     except Exception:
         return None
 
 
 def _running(d: Path, tj: dict) -> tuple[str, str]:
-    """A task whose task.json says running: alive if its progress file moved recently; a killed
-    process leaves both files saying running."""
+    """A task whose task.json says running: alive if its progress file moved recently."""
     started = tj.get("started")
     since = (time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(started))
              if isinstance(started, (int, float)) else "?")
@@ -155,10 +146,7 @@ def out_dir_state(out_dir: Path) -> str:
 def format_status(rows: list[StatusRow]) -> str:
     w = max([len(r.label) for r in rows] + [5])
     lines = [f"{'run':<{w}}  {'task':<9}  {'state':<7}  {'key':<20}  detail"]
-    for r in rows:
-        lines.append(f"{r.label:<{w}}  {r.task:<9}  {r.state:<7}  {r.key:<20}  {r.detail}")
-    counts: dict[str, int] = {}
-    for r in rows:
-        counts[r.state] = counts.get(r.state, 0) + 1
+    lines += [f"{r.label:<{w}}  {r.task:<9}  {r.state:<7}  {r.key:<20}  {r.detail}" for r in rows]
+    counts = Counter(r.state for r in rows)
     lines.append("; ".join(f"{v} {k}" for k, v in sorted(counts.items())))
     return "\n".join(lines)

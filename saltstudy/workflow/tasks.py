@@ -1,18 +1,12 @@
-"""The four task functions: spin-up, saltation, analysis, report.
+"""The task functions: spin-up, continuation, saltation, analysis, report.
 
-Each takes its configuration and its input paths, writes one output into its cache directory
-``<out>/<task>/<key>/`` and returns the output's path. Each first checks for a complete output
-(:func:`saltstudy.ncio.is_complete`: readable, marked complete, where it was written) and returns
-it untouched if present; an incomplete, truncated, corrupt or misplaced file is never trusted but
-recomputed. While it computes, a task holds its directory (``task.lock``: a second process on the
-same task waits, then finds the output) and records what it does in ``task.json`` beside its
-output (state, config slice, inputs, wall time, error).
-
-They know nothing of dask (graph.py wraps them), so ``saltstudy run CASE`` calls them directly.
+Each writes one output into ``<out>/<task>/<key>/`` and returns its path; a complete output
+(:func:`saltstudy.ncio.is_complete`) is returned untouched, anything else recomputed. While it
+computes, a task holds its directory (``task.lock``) and records itself in ``task.json``. They
+know nothing of dask (graph.py wraps them).
 """
 from __future__ import annotations
 
-import json
 import os
 import platform
 import shutil
@@ -29,9 +23,8 @@ from ..config import Scene, Study
 from ..faults import disk_full, point
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
-from ..solver.similarity import rescale_restart
-from .driver import Interrupted, add_checkpoints, load_checkpoint, run_saltation
-from .paths import output_path, task_dir, write_json_atomic
+from .driver import add_checkpoints, load_checkpoint, run_saltation
+from .paths import output_path, read_task_json, task_dir, write_json_atomic
 from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
 from .progress import ProgressFile, emit
 from .report_meta import cache_meta
@@ -59,13 +52,6 @@ def write_task_json(directory: Path, **fields: Any) -> None:
     write_json_atomic(Path(directory) / "task.json", d)
 
 
-def read_task_json(directory: Path) -> dict | None:
-    try:
-        return json.loads((Path(directory) / "task.json").read_text())
-    except (OSError, ValueError):
-        return None
-
-
 def read_attrs(path: Path) -> dict[str, Any]:
     """Global attributes of an archive without loading its variables."""
     import xarray as xr
@@ -76,13 +62,9 @@ def read_attrs(path: Path) -> dict[str, Any]:
 
 
 class _Running:
-    """Context: the task's directory claimed (``lock.claim_task``: a process that computes the same
-    task is waited for), its leftovers tidied, task.json saying running; on error it says failed
-    (with the reason) and re-raises.
-
-    ``output``: the task's archive, or a function telling whether the task is done. If another
-    process completed it while this one waited, ``done`` is True, nothing is recorded, and the
-    task returns its output."""
+    """Context: the task's directory claimed (``lock.claim_task``), its leftovers tidied, task.json
+    saying running, then done or failed. ``output``: the archive, or a function telling whether
+    the task is done; ``done`` is True if another process completed it while this one waited."""
 
     def __init__(self, directory: Path, task: str, output: Path | Callable[[], bool] | None = None,
                  **fields: Any):
@@ -130,9 +112,8 @@ class _Running:
 
 
 def tidy_task_dir(directory: Path, done: bool) -> None:
-    """Remove what a killed process left in a task's directory, whose lock the caller holds (so
-    no live process writes there): temporary files, and the checkpoint of a task whose archive
-    is complete (``done``: killed between the archive's rename and the checkpoint's removal)."""
+    """Remove a killed process's temporary files from a task's directory (the caller holds its
+    lock), and the checkpoint if the archive is ``done``."""
     for tmp in Path(directory).glob("*.tmp"):
         tmp.unlink(missing_ok=True)
     if done:
@@ -140,8 +121,7 @@ def tidy_task_dir(directory: Path, done: bool) -> None:
 
 
 def tidy_leftovers(directory: Path, output: Path | None) -> None:
-    """:func:`tidy_task_dir` for a task this run does not compute, if it left anything (a lock, a
-    temporary file, a checkpoint) and no process holds it."""
+    """:func:`tidy_task_dir` for a task this run does not compute, if no process holds it."""
     d = Path(directory)
     if not (d / TASK_LOCK_NAME).exists() and not (d / "checkpoint.npz").exists() \
             and not any(d.glob("*.tmp")):
@@ -157,12 +137,9 @@ def tidy_leftovers(directory: Path, output: Path | None) -> None:
         lock.release()
 
 
-# ------------------------------------------------------------------------------------------
 class ProfileSamples:
-    """Mean profiles (``flow_profiles``) sampled at the spin-up's records at least ``window``/20
-    apart, keeping the last ``window`` seconds: the spin-up archive's profiles are their mean over
-    the spin-up's last window, and when the steadiness test stops the run is not known ahead.
-    A Simulation callback with state."""
+    """Simulation callback: mean profiles sampled at least ``window``/20 s apart, the last
+    ``window`` s kept (the spin-up's end, hence its last window, is not known ahead)."""
 
     def __init__(self, model, window: float):
         self.model, self.window, self.every = model, window, window / 20.0
@@ -191,8 +168,8 @@ class ProfileSamples:
                              for i, t in enumerate(np.asarray(data["t"])))
 
     def window_mean(self, t_end: float) -> tuple[dict[str, np.ndarray], tuple[float, float, int]]:
-        """The profiles' mean over the window that ends at ``t_end`` (a sample at ``t_end`` is
-        taken if there is none), and (first time, last time, count) of the samples in it."""
+        """The profiles' mean over the window ending at ``t_end``, and (first time, last time,
+        count) of its samples."""
         from ..solver.diagnostics.flow import flow_profiles
 
         if not self.samples or self.samples[-1][0] < t_end - 1e-12:
@@ -208,11 +185,9 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
                 interrupt_after_steps: int | None = None) -> Path:
     """Flow-only spin-up of ``scene`` -> ``<out>/spinup/<key>/spinup.nc``.
 
-    Every ``fidelity.checkpoint_interval_wall`` seconds of wall time it writes ``checkpoint.npz``:
-    the model, the steadiness series and the profile samples of the last window. A rerun resumes
-    from it and ends as the uninterrupted spin-up would; the paper's grid needs 6-55 h of it
-    (docs/BENCHMARKS.md), longer than many batch queues allow. ``interrupt_after_steps`` is a
-    test hook: checkpoint and raise Interrupted after that many steps.
+    Checkpoints every ``fidelity.checkpoint_interval_wall`` s of wall time (the paper's grid needs
+    6-55 h, docs/BENCHMARKS.md); a rerun resumes and ends as the uninterrupted spin-up would.
+    ``interrupt_after_steps`` (test hook): checkpoint and raise Interrupted after that many steps.
     """
     key = keys.spinup_key(scene)
     path = output_path(out_dir, "spinup", key)
@@ -295,22 +270,14 @@ class _ContinuationRecord:
 
 def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
                       source_key: str | None = None) -> Path:
-    """One link of a staggered start: the particle-free flow of ``parent_path`` (a spin-up or an
-    earlier link) continued for ``fidelity.spinup.stagger`` seconds at the spin-up's u* ->
-    ``<out>/spinup/<key>/spinup.nc``, an archive a saltation run starts from as from the spin-up.
+    """One link of a staggered start: the particle-free flow of ``parent_path`` continued for
+    ``fidelity.spinup.stagger`` s -> ``<out>/spinup/<key>/spinup.nc``.
 
-    Why: cases that share one spin-up start from one instant of it and so sample one phase of the
-    box's slow swings of the stress at 2 m (about a minute long on the reduced grid: 5-s means of
-    u* at 2 m 0.43-0.72 m/s around 0.54 in its spin-up,
-    ``git show 546de10:reports/reduced/FINDINGS.md``); starting case
-    n (n - 1) links later spreads the cases over the swing. On ``reduced`` it did not remove the
-    ten cases' common excess of the stress u*s (+13 % from one instant, +11 % staggered): that is
-    the column above 2 m out of balance after the relaxation, in every start
-    (reports/reduced/FINDINGS.md). The archive keeps the parent's
-    window-mean profiles (the particle-free reference of the analysis) and extends its u* history
-    over the link (a record every second and at its end); its wall time is the link's own (a
-    study's task times then sum each task once). A link is short (seconds of flow), so it has no
-    checkpoint: an interrupted one reruns."""
+    Cases sharing one spin-up instant sample one phase of the box's minute-long swings of u* at
+    2 m (0.43-0.72 m/s on reduced, ``git show 546de10:reports/reduced/FINDINGS.md``); starting case
+    n (n - 1) links later spreads them over the swing. The archive keeps the parent's window-mean
+    profiles, extends its u* history, and carries the link's own wall time. A link is seconds of
+    flow, so it has no checkpoint."""
     path = output_path(out_dir, "spinup", key)
     if is_complete(path):
         return path
@@ -353,9 +320,8 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
             model.close()
         hist = {"t": np.concatenate([t_hist, rec.t]),
                 **{k: np.concatenate([history[k], rec.series[k]]) for k in rec.series}}
-        profiles = {src: np.asarray(parent[dst].values) for src, dst in
-                    (("u", "u_mean"), ("uw_res", "uw_res"), ("uw_sgs", "uw_sgs"),
-                     ("tke_res", "tke_res"), ("e_sgs", "e_sgs"))}
+        profiles = {src: np.asarray(parent[dst].values)
+                    for src, dst in archives.PROFILE_NAMES.items()}
         wall = time.perf_counter() - t0
         ds = archives.spinup_dataset(
             scene, grid, ckpt, profiles, hist, converged=bool(parent.attrs.get("converged", 0)),
@@ -372,12 +338,8 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
 def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: str | None = None,
                    interrupt_after_steps: int | None = None,
                    checkpoint_interval: float | None = None) -> Path:
-    """Activation + saltation run + sampling -> ``<out>/saltation/<key>/samples.nc``.
-
-    Resumes from ``checkpoint.npz`` in the same directory if an earlier run was interrupted; the
-    checkpoint is removed once samples.nc is complete. On a solver blow-up the last checkpoint is
-    kept and task.json names step, time, field and place.
-    """
+    """Activation + saltation run + sampling -> ``<out>/saltation/<key>/samples.nc``; resumes
+    from ``checkpoint.npz``, removed once samples.nc is complete."""
     key = keys.run_keys(scene.label, scene).saltation
     path = output_path(out_dir, "saltation", key)
     if is_complete(path):
@@ -392,10 +354,7 @@ def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: s
         if run.done:
             return path
         sp = open_dataset(spinup_path)
-        restart = archives.restart_from_dataset(sp)
-        # a spin-up shared by similarity ran at another u*: rescale it to this case's u*s
-        u_spin = float(sp.attrs.get("u_star_target", scene.case.forcing.u_star_s))
-        restart = rescale_restart(restart, scene.case.forcing.u_star_s / u_spin)
+        restart = archives.start_restart(sp, scene)
         prog = ProgressFile(d, "saltation", scene.label, "saltation")
         res = run_saltation(scene, restart, ckpt_path, progress=prog,
                             checkpoint_interval=checkpoint_interval,
@@ -471,10 +430,8 @@ def build_report_staged(build_report: Callable[..., Path], study_name: str,
                         runs: dict[str, Path | None], report_dir: Path,
                         meta: dict[str, Any]) -> Path:
     """``build_report`` into ``.<name>.<pid>.tmp`` beside ``report_dir``, then each file renamed
-    into ``report_dir``, ``index.html`` last: a report stopped midway leaves whole files of the old
-    report or of the new one (and the stage, which the next build of that report removes), never
-    a half-written figure. Files of ``report_dir`` that the build does not write (the hand-written
-    FINDINGS.md) stay. Returns ``report_dir/index.html``."""
+    into it, ``index.html`` last: a stopped build leaves whole files, never a half-written one.
+    Files the build does not write (FINDINGS.md) stay. Returns ``report_dir/index.html``."""
     report_dir = Path(report_dir)
     report_dir.parent.mkdir(parents=True, exist_ok=True)
     for old in report_dir.parent.glob(f".{report_dir.name}.*.tmp"):

@@ -1,21 +1,12 @@
 """Compile the numba kernels in a subprocess before a study's solver work.
 
-Why: kernels that numba compiles in the running process give results that differ at round-off
-(~1e-13 after a few seconds of flow) from the same kernels loaded from its on-disk cache, while
-every process that loads them from the cache is bit-identical to every other (docs/USAGE.md, "The
-cache, reruns and resumes"; tests/test_workflow_run.py repeats it). The turbulence amplifies a
-round-off difference into another realization.
-Without a warm-up the first run of a new source (which compiles) and any rerun or resumed run
-(which loads) are different realizations; with it, every solver task loads from the cache and a
-rerun, or a run resumed from its checkpoint, repeats the first run.
-
-How: for every distinct set of code paths among the scenes that still need solver work (same
-fidelity options and physics switches; sizes and durations do not change numba's type
-signatures), a child process runs one of them shrunk to the smoke grid for two seconds of flow
-and two of saltation (:func:`warm_scene`), in a temporary directory. A marker in the numba cache
-directory, keyed by that set and by the location and time stamps of the numerical sources (numba
-indexes its cache by source path and modification time: a checkout that only touches a file
-makes it compile again), makes the warm-up a no-op afterwards. Set ``SALTSTUDY_NO_WARMUP=1`` to skip it.
+Kernels compiled in the running process differ at round-off (~1e-13 after seconds of flow) from
+the same kernels loaded from numba's cache, and turbulence makes that another realization
+(docs/USAGE.md, "The cache, reruns and resumes"). With the warm-up every solver task loads from
+the cache, so a rerun or resumed run repeats the first run. For every distinct set of code paths
+among the pending scenes, a child runs one shrunk to the smoke grid (:func:`warm_scene`); a marker
+in the cache directory, keyed by that set and the sources' paths and time stamps (numba's cache
+index), makes it a no-op afterwards. ``SALTSTUDY_NO_WARMUP=1`` skips it.
 """
 from __future__ import annotations
 
@@ -58,8 +49,7 @@ def warm_scene(scene: Scene) -> Scene:
 
 
 def signature(scene: Scene) -> str:
-    """What selects code paths (hence numba specialisations): the fidelity's options and the
-    case's switches, not its sizes, durations or physical constants."""
+    """What selects code paths (numba specialisations): options, switches; not sizes, constants."""
     w = warm_scene(scene)
     c = scene.case
     sel = {"fidelity": w.fidelity.model_dump(mode="json", exclude={"name", "description"}),
@@ -88,11 +78,9 @@ def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
 
 
 def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -> bool:
-    """Warm the numba cache for ``scenes`` in a child process unless already done.
-
-    ``marker_dir``: where the done-markers live (default: ``$NUMBA_CACHE_DIR/warmup``). Returns
-    True if a child ran. A failing child is reported and ignored: the tasks then compile
-    in-process, as without a warm-up."""
+    """Warm the numba cache for ``scenes`` in a child process unless done (markers in
+    ``marker_dir``, default ``$NUMBA_CACHE_DIR/warmup``); True if a child ran. A failing child is
+    reported and ignored: the tasks then compile in-process."""
     if not scenes or os.environ.get("SALTSTUDY_NO_WARMUP"):
         return False
     reps: dict[str, Scene] = {}
@@ -107,7 +95,7 @@ def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -
     with tempfile.TemporaryDirectory(prefix="saltstudy-warmup-") as tmp:
         spec = Path(tmp) / "scenes.json"
         spec.write_text(json.dumps([warm_scene(s).model_dump(mode="json") for s in reps.values()]))
-        # without the fault hook: a test that stops its run at a write point means the run's
+        # without the fault hook: a test's write point means the run's
         env = {k: v for k, v in os.environ.items() if k != FAULT_ENV}
         proc = subprocess.run([sys.executable, "-m", "saltstudy.workflow.warmup", str(spec), tmp],
                               capture_output=True, text=True, env=env)
