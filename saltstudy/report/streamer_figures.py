@@ -15,9 +15,8 @@ from .panels import BY_MU1, BY_U_STAR_S, panel_runs
 from .plotting import (FigureResult, add_legend, add_notes, case_color, case_label, lacks,
                        new_figure, nothing_to_draw, plain_log)
 from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_table2
-from .streaks import premultiplied_over_variance
 
-__all__ = ["fig09", "fig10", "FIG9_CASES"]
+__all__ = ["fig09", "fig10", "FIG9_CASES", "premultiplied_over_variance"]
 
 
 # ---- Fig 9 ----
@@ -76,6 +75,30 @@ FIG9_CASES = (1, 4, 6)
 
 
 # ---- Fig 10 ----
+def premultiplied_over_variance(ky: np.ndarray, S: np.ndarray, Ly: float, dy: float
+                                ) -> tuple[np.ndarray, np.ndarray]:
+    """(wavelength [m], ky S(ky) / variance) of a one-sided spanwise density ``S`` [variance m]
+    on modes ``ky`` [cycles m-1], the mean mode left out: the area under the curve against
+    ln(wavelength) is 1. The Nyquist entry of an even grid holds the density of half a bin (so
+    that ``sum S dky`` is the variance) and is doubled to the point density; without the grid's
+    size (``Ly``, ``dy``) it is left out."""
+    ky = np.asarray(ky, dtype=np.float64)
+    s = np.array(S, dtype=np.float64)
+    if ky.size < 2:
+        return np.zeros(0), np.zeros(0)
+    variance = float(np.nansum(s)) * (ky[1] - ky[0])
+    if not (math.isfinite(Ly) and math.isfinite(dy) and dy > 0):
+        ky, s = ky[:-1], s[:-1]
+    elif round(Ly / dy) == 2 * (ky.size - 1):
+        s[-1] *= 2.0
+    ok = (ky > 0) & np.isfinite(s)
+    ky, s = ky[ok], s[ok]
+    pre = ky * s
+    if math.isfinite(variance) and variance > 0:
+        pre = pre / variance
+    return 1.0 / ky, pre
+
+
 def fig10(ctx: ReportContext) -> FigureResult:
     """The premultiplied spanwise spectra ky S(ky) against wavelength on a log axis, the form
     Table 2's delta_y is read from (docs/STREAMERS.md), over the variance: the area under each
