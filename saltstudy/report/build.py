@@ -1,14 +1,6 @@
-"""``build_report``: figures 1-13, Table 2 beside the paper, summary.json and index.html for a study.
-
-Writes into ``report_dir`` (normally ``reports/<study>/``)::
-
-    fig01.png fig01.pdf ... fig13.png fig13.pdf   the paper's figures from this study's archives
-    table2.md table2.html                          Table 2 + the text's numbers, computed vs paper
-    summary.json                                   every scalar in SI, wall times, machine
-    convergence.*                                  for a ladder (labels "caseNN@fidelity")
-    stability.*                                    for scenes / when failures are given
-    cp_animation.gif                               if a C_p plane stack exists
-    index.html                                     one self-contained page linking all of it
+"""``build_report``: figures 1-13 (png, pdf), Table 2 beside the paper (table2.md, .html),
+summary.json, the convergence, stability and flux-law sections a study calls for, the C_p
+animation and one self-contained index.html, from a study's analysis archives.
 """
 from __future__ import annotations
 
@@ -51,6 +43,11 @@ table.t2 td{white-space:nowrap;padding:.2em .35em}table.t2 .se{color:#555;font-s
 """
 
 
+#: the optional sections' anchors and names in the page's links
+_SECTIONS = {"findings": "Findings", "convergence": "Convergence", "stability": "Stability",
+             "fluxlaw": "Flux law"}
+
+
 def _is_ladder(ctx: ReportContext) -> bool:
     by_case: dict[int, int] = {}
     for label, r in ctx.runs.items():
@@ -65,15 +62,8 @@ def _has_scenes(ctx: ReportContext) -> bool:
 
 def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir: str | Path,
                  meta: dict[str, Any] | None = None) -> Path:
-    """Build the report of ``study_name`` from ``runs`` (label -> analysis.nc path or None).
-
-    ``meta`` (all optional): ``fidelity`` (str), ``study_config`` (dict or JSON string),
-    ``package_version``, ``case_numbers`` / ``fidelities`` / ``wall_times`` (dicts per label),
-    ``order`` (ladder labels coarse -> fine), ``failures`` (label -> error message),
-    ``samples`` (label -> samples.nc path), ``animation_label`` (which run to animate),
-    ``reports`` (a list among "convergence", "stability" forcing those sections).
-    Returns the path of ``index.html``.
-    """
+    """Build the report of ``study_name`` from ``runs`` (label -> analysis.nc path or None) into
+    ``report_dir``; ``meta``'s keys: docs/ARCHITECTURE.md (``build_report``). Returns index.html."""
     from .study_meta import enrich_meta
     meta = enrich_meta(study_name, meta)
     report_dir = Path(report_dir)
@@ -257,11 +247,8 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
              "<a href='#runs'>Runs and wall time</a> · <a href='#config'>Configuration</a> · "
              "<a href='summary.json'>summary.json</a> · <a href='table2.md'>table2.md</a>"
-             + (" · <a href='#findings'>Findings</a>" if any("id='findings'" in s for s in sections) else "")
-             + (" · <a href='#convergence'>Convergence</a>" if any("convergence" in s for s in sections) else "")
-             + (" · <a href='#stability'>Stability</a>" if any("stability" in s for s in sections) else "")
-             + (" · <a href='#fluxlaw'>Flux law</a>" if any("id='fluxlaw'" in s for s in sections) else "")
-             + "</p>",
+             + "".join(f" · <a href='#{k}'>{name}</a>" for k, name in _SECTIONS.items()
+                       if any(f"id='{k}'" in s for s in sections)) + "</p>",
              f"<h2 id='tables'>Table 2 — computed beside {PAPER_LABEL}</h2>",
              "<p>One row per run: computed value, the paper's value (grey) and the relative "
              "difference (computed − paper)/paper, red when larger than 25 %; the paper's value "

@@ -18,7 +18,7 @@ from .plotting import (MARKERS, OWN_COLORS, FigureResult, add_legend, add_notes,
                        empty_axes, fmt_um, is_200um, new_figure, paper_u_star_ratio, u_star_ratio)
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
 from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_Q,
-                        paper_parcels_per_m2, parcels_per_m2_at_Q, saltation_state)
+                        PAPER_PARCELS_PER_M2, parcels_per_m2_at_Q, saltation_state)
 
 __all__ = ["fig01", "fig03", "fig04", "fig08", "fig13"]
 
@@ -65,7 +65,7 @@ def fig01(ctx: ReportContext) -> FigureResult:
     for label, m in zip(drawn, means):
         res.data[f"mean_per_m2_{label}"] = np.array([m])
     ref = paper_results()
-    per_m2 = paper_parcels_per_m2()
+    per_m2 = PAPER_PARCELS_PER_M2
     if math.isfinite(per_m2):
         res.data["paper_per_m2"] = np.array([per_m2])
         ax.axhline(per_m2, color=PAPER_COLOR, lw=3, alpha=0.6,
