@@ -108,10 +108,6 @@ class SaltationState:
     n_parcels_mean: float = math.nan       # over the sampling window [1]
     n_parcels_end: float = math.nan        # last record of the run [1]
 
-    @property
-    def sustained(self) -> bool:
-        return self.status == SUSTAINED
-
     def to_json(self) -> dict:
         d = asdict(self)
         for k, v in d.items():

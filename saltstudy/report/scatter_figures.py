@@ -17,8 +17,8 @@ from .data import ReportContext, RunData
 from .plotting import (MARKERS, OWN_COLORS, FigureResult, add_legend, add_notes, case_color,
                        empty_axes, fmt_um, is_200um, new_figure, paper_u_star_ratio, u_star_ratio)
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
-from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_Q,
-                        PAPER_PARCELS_PER_M2, parcels_per_m2_at_Q, saltation_state)
+from .saltation import (NO_SALTATION, PAPER_PARCELS_PER_M2, PAPER_PARCELS_SOURCE,
+                        n_parcels_per_m2_at_Q, parcels_per_m2_at_Q, saltation_state)
 
 __all__ = ["fig01", "fig03", "fig04", "fig08", "fig13"]
 
