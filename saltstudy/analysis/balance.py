@@ -20,9 +20,6 @@ mu_b = tau_g(0) / (M g) (Bagnold 1956; Pähtz & Durán 2018, Phys. Rev. Fluids 3
 In a steady layer that leaks no momentum the two tau_g(0) agree, and so do the two mu_b within
 the air's share of the weight; the count of grains then follows the fluid stress left on the bed:
 M = (rho u*^2 - tau_air(0)) / (mu_b g).
-
-The statistics of one case: :func:`air_budget_statistics` (the air's side, from the 3-D samples)
-and :func:`impact_balance_statistics` (the impact record, and the two readings' ratios).
 """
 from __future__ import annotations
 

@@ -17,8 +17,6 @@ and relaxes to a statistical equilibrium.
 * ``u_star_s_stress_series``: u* of the window-mean stress at the reference height from the
   drive's high-rate record ``u_star_ref``, with its error from 10-s blocks
   (:func:`block_mean_stress_u_star`).
-
-:func:`series_statistics` gives these for one case, with the series themselves.
 """
 from __future__ import annotations
 

@@ -32,8 +32,6 @@ centres, d<u>/dz by centred differences on the stretched levels).
 T_p(z) = rho_p d^2/(18 rho nu) (section 4.2 [52]) with d the *mass-weighted mean diameter* of
 the grains at that level over the sampling window, from ``size_hist`` (grain counts per diameter
 bin): ``d = sum n d^4 / sum n d^3`` with d the bin centre. NaN at levels without grains.
-
-:func:`stokes_statistics` computes them for one case.
 """
 from __future__ import annotations
 

@@ -1,9 +1,6 @@
-"""Figs. 1, 3, 4, 8 and 13 of Dupont et al. (2013): each run drawn whole, as one line or mark.
-
-Fig. 1 follows the airborne parcel count of every run in time against the paper's ~2,000 per m2
-at each case's Q ([28], [31]); Figs. 3, 4, 8 and 13 set one number per run (z0s, z_m, G_tot,
-sigma_G/G_tot) against u*s/u*t, u*s read the paper's way from the total stress at z_ref, with
-the semi-empirical laws at 200 µm (Figs. 3 and 8) and the paper's own values as grey marks.
+"""Figs. 1, 3, 4, 8 and 13 of Dupont et al. (2013): each run drawn whole, as one line or mark:
+the parcel count in time (Fig. 1), and z0s, z_m, G_tot, sigma_G/G_tot against u*s/u*t with u*s
+the total stress at z_ref and the semi-empirical laws at 200 µm (Figs. 3 and 8).
 """
 from __future__ import annotations
 
