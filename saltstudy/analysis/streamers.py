@@ -345,10 +345,7 @@ def spectral_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None = Non
                            fallback_margin)
     if m < 0:
         return math.nan
-    denom = S[m - 1] - 2.0 * S[m] + S[m + 1]
-    shift = 0.5 * (S[m - 1] - S[m + 1]) / denom if denom < 0 else 0.0
-    shift = float(np.clip(shift, -0.5, 0.5))
-    return float(ky[m] + shift * (ky[1] - ky[0]))
+    return float(ky[m] + _parabolic(S[m - 1], S[m], S[m + 1]) * (ky[1] - ky[0]))
 
 
 def premultiplied_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None = None,
@@ -554,19 +551,13 @@ def speed_and_lifetime(st: SpaceTime, level: float = math.exp(-1.0)) -> tuple[fl
     lag, R, X = st.lag_t, st.peak, st.x_peak
     if lag.size < 2:
         return math.nan, math.nan
+    below = np.flatnonzero(R[1:] < level)
+    k = int(below[0]) + 1 if below.size else lag.size     # the first lag below the level
     lifetime = math.nan
-    for k in range(1, lag.size):
-        if R[k] < level:
-            s = (R[k - 1] - level) / (R[k - 1] - R[k])
-            lifetime = float(lag[k - 1] + s * (lag[k] - lag[k - 1]))
-            break
-    valid = np.zeros(lag.size, bool)
-    for k in range(1, lag.size):         # contiguous run of lags above the level
-        if R[k] < level:
-            break
-        valid[k] = True
-    if not valid.any():
+    if below.size:
+        s = (R[k - 1] - level) / (R[k - 1] - R[k])
+        lifetime = float(lag[k - 1] + s * (lag[k] - lag[k - 1]))
+    if k < 2:
         return math.nan, lifetime
-    tt, xx = lag[valid], X[valid]
-    speed = float(np.sum(tt * xx) / np.sum(tt * tt))
-    return speed, lifetime
+    tt, xx = lag[1:k], X[1:k]           # the contiguous run of lags above the level
+    return float(np.sum(tt * xx) / np.sum(tt * tt)), lifetime
