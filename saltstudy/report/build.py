@@ -201,11 +201,6 @@ def _fmt_s(v: Any) -> str:
     return f"{v:.1f} s"
 
 
-def _started(summary: dict[str, Any]) -> str:
-    a, b = summary.get("run_started"), summary.get("run_finished")
-    return f" ({html.escape(str(a))} to {html.escape(str(b))})" if a and b else ""
-
-
 def _resumed_note(summary: dict[str, Any]) -> str:
     """Say so when the wall time is one leg of a resumed study: its tasks' recorded times exceed
     what the machine's cores could have run in it, so most of them came from the cache."""
@@ -219,16 +214,14 @@ def _resumed_note(summary: dict[str, Any]) -> str:
             "(the sum of task times below is the study's cost)") if resumed else ""
 
 
-def _task_split(summary: dict[str, Any]) -> str:
-    tt = summary.get("task_times_s") or {}
-    return ", ".join(f"{k} {_fmt_s(v)}" for k, v in tt.items())
-
-
 def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
     e = html.escape
     meta = ctx.meta
     m = summary["machine"]
     n_ok = sum(1 for r in ctx.runs.values() if r.ok)
+    a, b = summary.get("run_started"), summary.get("run_finished")
+    started = f" ({e(str(a))} to {e(str(b))})" if a and b else ""
+    split = ", ".join(f"{k} {_fmt_s(v)}" for k, v in (summary.get("task_times_s") or {}).items())
     parts = [f"<h1>saltstudy report — study <code>{e(ctx.study)}</code></h1>",
              f"<p>A reproduction of Dupont, Bergametti, Marticorena &amp; Simoëns (2013), <i>Modeling "
              f"saltation intermittency</i>, J. Geophys. Res. Atmos. 118. Computed values are drawn in "
@@ -239,9 +232,9 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              f"<tr><th>fidelity</th><td>{e(str(summary['fidelity']))}</td></tr>",
              f"<tr><th>package version</th><td>{e(str(summary['package_version']))}</td></tr>",
              f"<tr><th>wall time, start to end</th><td>{_fmt_s(summary['total_wall_time_s'])}"
-             f"{_started(summary)}{_resumed_note(summary)}</td></tr>",
+             f"{started}{_resumed_note(summary)}</td></tr>",
              f"<tr><th>sum of task times</th><td>{_fmt_s(summary['task_time_sum_s'])} "
-             f"({_task_split(summary)}; a shared spin-up counted once)</td></tr>",
+             f"({split}; a shared spin-up counted once)</td></tr>",
              f"<tr><th>machine</th><td>{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})</td></tr>",
              "</table>",
              "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
