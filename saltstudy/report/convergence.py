@@ -595,12 +595,7 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
     payload = {**(provenance or {}), "primary_case": primary, "finest": res.finest, "reference": res.finest,
                "cheapest": res.cheapest,
-               "error_bar": "the larger of half_window_bar (half the difference of the statistic "
-                            "over the two halves of the sampling window) and seed_bar (the seeds' "
-                            "relative standard deviation in this case's seed replicates, scaled by "
-                            "sqrt(their sampled extent / this run's), extent = sampled duration x "
-                            "box area); within_noise: |value - reference| <= the two error bars "
-                            "added in quadrature",
+               "error_bar": NOISE_NOTE,
                "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
                                      "seed_replicates": r.seed_groups,
                                      "ladder_summary": [{k: (v if not isinstance(v, float) or math.isfinite(v)
