@@ -196,11 +196,9 @@ def total_flux(G: np.ndarray, dz: np.ndarray) -> float:
 
 
 def first_drop_height(z: np.ndarray, f: np.ndarray, threshold: float) -> float:
-    """Lowest height where ``f`` (on levels ``z``) falls below ``threshold``, interpolated.
-
-    Requires ``f(z[0]) >= threshold``; interpolation in ln f when both bracketing values are
-    positive (exact for an exponential profile), otherwise linear. NaN when undefined.
-    """
+    """Lowest height where ``f`` (on levels ``z``, ``f(z[0]) >= threshold``) falls below
+    ``threshold``: interpolated in ln f where both values are positive (exact for an exponential),
+    else linearly; NaN when undefined."""
     z = np.asarray(z, dtype=np.float64)
     f = np.asarray(f, dtype=np.float64)
     if not (math.isfinite(threshold) and threshold > 0) or f.size == 0 or not np.isfinite(f[0]):
@@ -229,11 +227,8 @@ def z_m_from_tau(z: np.ndarray, tau_p: np.ndarray, rho: float, u_star: float,
 
 
 def flux_height(z_w: np.ndarray, G: np.ndarray, fraction: float = FLUX_FRACTION) -> float:
-    """Height below which ``fraction`` of the vertically integrated flux lies.
-
-    G is the layer mean of layer k (between ``z_w[k]`` and ``z_w[k+1]``): the cumulative flux is
-    linear within a layer, so the height is found exactly. NaN when the total is not positive.
-    """
+    """Height below which ``fraction`` of the integrated flux lies, exact (G the layer means
+    between the faces ``z_w``: the cumulative flux is linear in a layer); NaN for a total <= 0."""
     z_w = np.asarray(z_w, dtype=np.float64)
     G = np.nan_to_num(np.asarray(G, dtype=np.float64))
     cum = np.concatenate([[0.0], np.cumsum(G * np.diff(z_w))])
@@ -250,11 +245,8 @@ def flux_height(z_w: np.ndarray, G: np.ndarray, fraction: float = FLUX_FRACTION)
 
 
 def decay_height(z: np.ndarray, G: np.ndarray, z_top: float, min_points: int = 3) -> float:
-    """e-folding height H of ``G ~ exp(-z/H)``: regression of ln G on z for ``z <= z_top``, G > 0.
-
-    The paper (section 3.2 [41]) notes <G> decreases exponentially with height; H summarises the
-    slope. NaN with fewer than ``min_points`` usable levels or a non-decaying fit.
-    """
+    """e-folding height H of ``G ~ exp(-z/H)`` (section 3.2 [41]): regression of ln G on z for
+    ``z <= z_top``, G > 0; NaN with fewer than ``min_points`` levels or a non-decaying fit."""
     z = np.asarray(z, dtype=np.float64)
     G = np.asarray(G, dtype=np.float64)
     if not math.isfinite(z_top):
@@ -274,11 +266,8 @@ def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
 
 
 def sigma_series(t: np.ndarray, G_tot: np.ndarray, t0: float, t1: float) -> tuple[float, float]:
-    """(mean, standard deviation) of the instantaneous total flux over ``t0 <= t <= t1``.
-
-    The paper's sigma_G (module docstring). Population standard deviation (ddof=0); NaN if fewer
-    than two finite values lie in the window.
-    """
+    """(mean, population standard deviation) of the total flux over ``t0 <= t <= t1``: the
+    paper's sigma_G (module docstring); NaN with fewer than two finite values."""
     G_tot = np.asarray(G_tot, dtype=np.float64)
     sel = window_mask(t, t0, t1) & np.isfinite(G_tot)
     if sel.sum() < 2:
