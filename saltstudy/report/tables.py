@@ -362,6 +362,15 @@ def results_markdown(ctx: ReportContext) -> str:
     return "\n".join(lines)
 
 
+def _no_result_html(row: dict, span: int, no_saltation: str, out: list[str]) -> bool:
+    """Close ``out``'s row with one cell saying why the run has no statistics, if it has none."""
+    if row["status"] != "ok":
+        out.append(f'<td class="missing" colspan="{span}">{html.escape(row["status"])}</td></tr>')
+    elif _no_saltation(row):
+        out.append(f'<td class="nosalt" colspan="{span}">{html.escape(no_saltation)}</td></tr>')
+    return row["status"] != "ok" or _no_saltation(row)
+
+
 def table2_html(ctx: ReportContext) -> str:
     """Table 2 as two HTML tables that fit a 1280 px page: the columns the paper gives per case
     (computed, paper, difference) and the computed-only columns. Headers wrap; numbers do not
@@ -382,12 +391,7 @@ def table2_html(ctx: ReportContext) -> str:
         own = "<span class='se'> (own case)</span>" \
             if row["paper_case"] is None and row["status"] == "ok" else ""
         out.append(f"<tr><td class='run'>{e(row['name'])}{own}</td>")
-        if row["status"] != "ok":
-            out.append(f'<td class="missing" colspan="{3 * len(cols)}">{e(row["status"])}</td></tr>')
-            continue
-        if _no_saltation(row):
-            out.append(f'<td class="nosalt" colspan="{3 * len(cols)}">{e(_no_saltation_text(row))}'
-                       "</td></tr>")
+        if _no_result_html(row, 3 * len(cols), _no_saltation_text(row), out):
             continue
         for var, _, _, _ in cols:
             c = row["cells"][var]
@@ -404,11 +408,7 @@ def table2_html(ctx: ReportContext) -> str:
         out.append("</tr></thead><tbody>")
         for row in rows:
             out.append(f"<tr><td class='run'>{e(row['name'])}</td>")
-            if row["status"] != "ok":
-                out.append(f'<td class="missing" colspan="{len(only)}">{e(row["status"])}</td></tr>')
-                continue
-            if _no_saltation(row):
-                out.append(f'<td class="nosalt" colspan="{len(only)}">{e(NO_SALTATION)}</td></tr>')
+            if _no_result_html(row, len(only), NO_SALTATION, out):
                 continue
             out.extend(f"<td>{e(_computed(row['cells'][var]))}</td>" for var, _, _, _ in only)
             out.append("</tr>")
