@@ -62,22 +62,27 @@ class ConvergenceResult:
     on_ladder: list[str] = field(default_factory=list)   # the declared rungs (not extra scenes)
 
 
+#: the text's statements a statistic is compared with: key -> (its name in the paper's results,
+#: whether it holds for a run of that case and mu1 [m])
+_STATED = {
+    # the paper's ~0.1 z_m holds for soils with mu1 >= 200 um (its Fig. 12)
+    "st": ("fig12_St_below_1_above_z_over_zm", lambda case, mu1: mu1 >= 200e-6 * (1 - 1e-9)),
+    "rcu": ("fig11_Rcu_upper_layer", lambda case, mu1: (case or 0) <= 6),
+    "tau_p6": ("fig6_taup_surface_fraction_case6", lambda case, mu1: case == 6),   # case 6 only
+}
+
+
 def _paper_error(stat: str, value: float, case: int | None, mu1: float = math.nan) -> float:
     key = CONV_STATS[stat][1]
     if key is None or not math.isfinite(value):
         return math.nan
-    if key == "st":         # the paper's ~0.1 z_m holds for soils with mu1 >= 200 um (its Fig. 12)
-        ref = float(paper_results().get("fig12_St_below_1_above_z_over_zm", math.nan))
-        return abs(value - ref) / ref if mu1 >= 200e-6 * (1 - 1e-9) and math.isfinite(ref) else math.nan
+    if key in _STATED:
+        name, applies = _STATED[key]
+        ref = float(paper_results().get(name, math.nan))
+        return abs(value - ref) / ref if applies(case, mu1) and math.isfinite(ref) else math.nan
     if key == "fig4":       # z_m on the paper's line for cases 1-6, at the paper's u*s
         ref = _paper_z_m(case)
         return abs(value - ref) / ref if math.isfinite(ref) else math.nan
-    if key == "rcu":
-        ref = float(paper_results().get("fig11_Rcu_upper_layer", math.nan))
-        return abs(value - ref) / ref if math.isfinite(ref) and (case or 0) <= 6 else math.nan
-    if key == "tau_p6":     # the paper states it for case 6 only
-        ref = float(paper_results().get("fig6_taup_surface_fraction_case6", math.nan))
-        return abs(value - ref) / ref if case == 6 and math.isfinite(ref) else math.nan
     if key == "range":
         lo, hi = paper_results().get("fig13_sigmaG_over_Gtot", [math.nan, math.nan])
         if lo <= value <= hi:
