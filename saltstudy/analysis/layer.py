@@ -186,12 +186,10 @@ def impact_record_statistics(fr: Frame, s: dict) -> tuple[dict[str, np.ndarray],
             return np.zeros(1)
         return np.append(lo, lo[-1] + (lo[1] - lo[0]))
 
-    ev, ea, et, el = (edges(k) for k in ("v_imp", "impact_angle", "hop_time", "hop_length"))
+    bins = {k: edges(k) for k in ("v_imp", "impact_angle", "hop_time", "hop_length")}
     imp = impact_statistics(s.get("impact_hist"), s.get("impact_outcomes"), s.get("hop_time_hist"),
-                            s.get("hop_length_hist"), ev, ea, et, el, fr.g)
+                            s.get("hop_length_hist"), *bins.values(), fr.g)
     V = Variables()
     for name, val in imp.items():
         V.put(name, IMPACT_DIMS.get(name, ()), val)
-    centres = {"v_imp": 0.5 * (ev[1:] + ev[:-1]), "impact_angle": 0.5 * (ea[1:] + ea[:-1]),
-               "hop_time": 0.5 * (et[1:] + et[:-1]), "hop_length": 0.5 * (el[1:] + el[:-1])}
-    return centres, V
+    return {k: 0.5 * (e[1:] + e[:-1]) for k, e in bins.items()}, V
