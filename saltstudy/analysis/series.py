@@ -158,11 +158,9 @@ def series_statistics(fr: Frame, s: dict, G_tot_sample: np.ndarray) -> Variables
     V.put("G_tot_sample", ("time_sample",), G_tot_sample)
     t_plane = fr.t_plane
     C_all = s.get("C_p")
-    if C_all is not None and C_all.ndim == 3 and C_all.shape[0] == t_plane.size:
-        V.put("C_p_mean", ("time_plane",), np.asarray(C_all, dtype=np.float64).mean(axis=(1, 2))
-              if C_all.size else np.full(t_plane.size, np.nan))
-    else:
-        V.put("C_p_mean", ("time_plane",), np.full(t_plane.size, np.nan))
+    ok = C_all is not None and C_all.ndim == 3 and C_all.shape[0] == t_plane.size and C_all.size
+    V.put("C_p_mean", ("time_plane",), np.asarray(C_all, dtype=np.float64).mean(axis=(1, 2))
+          if ok else np.full(t_plane.size, np.nan))
     return V
 
 

@@ -32,9 +32,7 @@ DEFAULT_BAND_EDGES = (0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
 
 def band_edges_for(z_top: float, edges=DEFAULT_BAND_EDGES) -> np.ndarray:
     """The default edges below ``z_top`` (the top edge clipped to it)."""
-    e = [x for x in edges if x < z_top]
-    if len(e) < 1:
-        e = [0.0]
+    e = [x for x in edges if x < z_top] or [0.0]
     if len(e) < len(edges):
         e.append(float(z_top))
     return np.asarray(e, dtype=np.float64)
