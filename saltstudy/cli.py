@@ -27,7 +27,7 @@ TOP_LEVEL: dict[str, tuple[str, str]] = {
     "validate": ("Check a case, fidelity or study file before running it.", USER_PANEL),
     "analyse": ("Compute one run's statistics (analysis.nc) from its archives.", USER_PANEL),
     "bench": ("Speed benchmarks of the solver.", INSTRUMENTS_PANEL),
-    "probe": ("Diagnostic runs of the model and the investigations' reports.", INSTRUMENTS_PANEL),
+    "probe": ("Diagnostic runs of the model.", INSTRUMENTS_PANEL),
 }
 
 

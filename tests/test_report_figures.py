@@ -246,3 +246,39 @@ def test_fig06_names_a_level_its_log_axis_cannot_draw(tmp_path):
     assert any("a gap in its line" in t.get_text() for t in ax.texts)
     lo, hi = ax.get_xlim()
     assert lo < x[k + 1] < hi and z[k + 1] / zm < ax.get_ylim()[1]
+
+
+def test_figure_labels_read_u_star_the_papers_way():
+    """A run's legend gives u*s from the stress at z_ref (Table 2's leading column), not the free
+    log fit; the fit only where the archive lacks the stress reading."""
+    from saltstudy.report.data import RunData
+    from saltstudy.report.plotting import case_label
+
+    ds = make_analysis_dataset(2, label="case02")
+    ds["u_star_s_stress"] = ((), 0.61, {"units": "m s-1", "long_name": "u* from the stress"})
+    ds["u_star_s"] = ((), 0.48, {"units": "m s-1", "long_name": "u* free fit"})
+    assert case_label(RunData("case02", 2, None, ds)).endswith("u*s = 0.61 m s⁻¹")
+    assert case_label(RunData("case02", 2, None, ds.drop_vars("u_star_s_stress"))).endswith(
+        "u*s = 0.48 m s⁻¹ (free log fit)")
+
+
+def test_premultiplied_spectrum_over_its_variance_has_unit_area_in_log_wavelength():
+    """On an even grid (Nyquist entry a half bin) and an odd one, the premultiplied density over
+    the variance integrates to 1 against ln(wavelength); without the grid's size the Nyquist
+    entry is left out."""
+    from saltstudy.report.streamer_figures import premultiplied_over_variance
+
+    rng = np.random.default_rng(3)
+    for ny in (64, 63):
+        dy = 0.1
+        ky = np.arange(ny // 2 + 1) / (ny * dy)
+        S = rng.uniform(0.5, 2.0, ky.size)
+        S[0] = 0.0
+        wl, pre = premultiplied_over_variance(ky, S, ny * dy, dy)
+        k = 1.0 / wl
+        weight = np.full(k.size, ky[1] - ky[0]) / k          # d ln(wavelength) = dky / ky
+        if ny % 2 == 0:
+            weight[-1] *= 0.5                                # the doubled Nyquist point, half a bin
+        assert np.sum(pre * weight) == pytest.approx(1.0, rel=1e-12)
+    wl, _ = premultiplied_over_variance(ky, S, math.nan, dy)
+    assert wl.size == ky.size - 2

@@ -1,12 +1,8 @@
 """Statistics of one case from its archives: ``samples.nc`` (+ ``spinup.nc``) -> ``analysis.nc``.
 
-Entry point: :func:`saltstudy.analysis.analyse.analyse_case` (also ``saltstudy analyse``).
-Each module defines its statistics in its docstring, with the paper's section and equation, and
-holds the functions that compute them for one case (each returns its variables of analysis.nc);
-``analyse`` calls them in the order their definitions need, ``schema`` is the contract of
-analysis.nc (``SPEC``).
-
-The package reads archives only (never the solver); it imports nothing heavy at import time.
+Entry point: :func:`saltstudy.analysis.analyse.analyse_case` (``saltstudy analyse``); each
+module defines its statistics in its docstring, with the paper's section and equation. Nothing
+heavy is imported at import time.
 """
 
 

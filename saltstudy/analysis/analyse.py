@@ -1,14 +1,9 @@
 """One case: ``samples.nc`` (+ ``spinup.nc``) -> ``analysis.nc`` (schema in docs/ARCHITECTURE.md).
 
-:func:`analyse_case` is what the workflow task and ``saltstudy analyse`` call. It reads only the
-archives (:mod:`~saltstudy.analysis.reading`, no solver), computes every statistic with the
-functions of this package's modules (whose docstrings define each one, with the paper's section
-and equation), and writes the result atomically through :mod:`saltstudy.ncio`; the variables,
-their units and meanings are :mod:`~saltstudy.analysis.schema`'s. Degenerate input (no grains,
-one sample, tiny grids, missing optional variables) gives NaN, never an exception.
-
-:func:`analyse_datasets` runs the statistics in this order, because the coupled definitions
-need it:
+:func:`analyse_case` (the workflow task, ``saltstudy analyse``) reads the archives only and
+writes atomically through :mod:`saltstudy.ncio`; degenerate input (no grains, one sample, tiny
+grids, missing optional variables) gives NaN, never an exception. :func:`analyse_datasets`
+runs the statistics in the order their coupled definitions need:
 
 1. the wind profiles and ``u*`` from the stress at ``z_ref_eff = min(forcing.z_ref,
    (Lz - damping)/2)`` (``u_star_s_stress``; carried to the bed for the pressure-gradient drive);
@@ -22,9 +17,6 @@ need it:
 6. the streamers, then R_cu, which removes the same parcel-count noise;
 7. the series; the layer's anatomy, the balance at the bed from the impact record (set beside
    the air's of step 3) and the impact record.
-
-C_p statistics carry the paper's parcel-count noise: the run's Poisson noise less the paper's is
-removed (streamers module).
 """
 from __future__ import annotations
 
@@ -102,9 +94,8 @@ _WHOLE_VARIABLES = ("d_edges",)
 def half_kind(name: str, v: Any, n_sample: int, n_plane: int, n_series: int) -> str:
     """How a half window takes variable ``name``: "sample" (its rows of the 3-D samples),
     "plane" (its planes), "series" or "whole" (kept whole). The lists above name the known
-    ones; any other is placed by the length of its first axis when that length is one time
-    axis's alone (a series record added to samples.nc and cut as if it were samples would make
-    every half-window statistic NaN), and taken as samples otherwise, as before."""
+    ones; any other goes by the length of its first axis when that is one time axis's alone (a
+    series cut as if it were samples would make every half-window statistic NaN), else samples."""
     if name in _WHOLE_VARIABLES:
         return "whole"
     if name in _SERIES_VARIABLES:

@@ -20,9 +20,6 @@ mu_b = tau_g(0) / (M g) (Bagnold 1956; Pähtz & Durán 2018, Phys. Rev. Fluids 3
 In a steady layer that leaks no momentum the two tau_g(0) agree, and so do the two mu_b within
 the air's share of the weight; the count of grains then follows the fluid stress left on the bed:
 M = (rho u*^2 - tau_air(0)) / (mu_b g).
-
-The statistics of one case: :func:`air_budget_statistics` (the air's side, from the 3-D samples)
-and :func:`impact_balance_statistics` (the impact record, and the two readings' ratios).
 """
 from __future__ import annotations
 
@@ -113,12 +110,9 @@ def column_momentum_rate(t: np.ndarray, u_mean: np.ndarray | None, z_w: np.ndarr
 def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarray | None,
                     mass_per_m2: np.ndarray | None, column_rate: float = 0.0) -> dict[str, float]:
     """From the air's budget (module doc): ``tau_g_bed_budget`` [Pa] = rho (tau_total + uw_bed -
-    column_rate) with the kinematic total stress tau_total = u*^2 at the reference height
-    [m^2 s^-2], the bed's u'w' per sample (negative for a drag) and the rate dP/dt at which the
-    air below the reference height gains momentum [m^2 s^-2] (``column_momentum_rate``; 0 for a
-    steady column, NaN taken as 0), ``bed_fluid_stress_fraction`` = -uw_bed / tau_total,
-    ``mu_b_budget`` = tau_g / (M g) with M the mean airborne mass [kg m^-2], and
-    ``mu_b_budget_se`` from the per-sample ratios."""
+    column_rate) (kinematic [m^2 s^-2]: u*^2 at the reference height, the bed's u'w' per sample,
+    dP/dt with NaN taken as 0), ``bed_fluid_stress_fraction`` = -uw_bed / tau_total,
+    ``mu_b_budget`` = tau_g / (M g) (M [kg m^-2]) and its error from the per-sample ratios."""
     out = {"tau_g_bed_budget": math.nan, "bed_fluid_stress_fraction": math.nan,
            "mu_b_budget": math.nan, "mu_b_budget_se": math.nan}
     if uw_bed is None or mass_per_m2 is None or not (tau_total_kin > 0):

@@ -1,7 +1,6 @@
 """``saltstudy analyse``: samples.nc (+ spinup.nc) -> analysis.nc for one case."""
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Optional
 
@@ -35,12 +34,10 @@ def register(app: typer.Typer) -> None:
         if samples is None:
             typer.echo("error: give a run directory or --samples PATH", err=True)
             raise typer.Exit(2)
-        if not samples.is_file():
-            typer.echo(f"error: {samples}: no such file", err=True)
-            raise typer.Exit(2)
-        if spinup is not None and not spinup.is_file():
-            typer.echo(f"error: {spinup}: no such file", err=True)
-            raise typer.Exit(2)
+        for path in (samples, spinup):
+            if path is not None and not path.is_file():
+                typer.echo(f"error: {path}: no such file", err=True)
+                raise typer.Exit(2)
         out = out or samples.with_name("analysis.nc")
         try:
             path = analyse_case(samples, spinup, out, wall_time_s=wall_time)
@@ -51,8 +48,8 @@ def register(app: typer.Typer) -> None:
         ds = open_dataset(path)
 
         def fmt(name: str) -> str:
-            v = float(ds[name]) if name in ds else math.nan
-            return f"{name} = {v:.4g} {ds[name].attrs.get('units', '')}" if name in ds else f"{name}: -"
+            return f"{name} = {float(ds[name]):.4g} {ds[name].attrs.get('units', '')}" \
+                if name in ds else f"{name}: -"
 
         typer.echo(f"wrote {path}")
         for name in ("u_star_s", "z0s", "z_m", "G_tot", "sigma_G_over_G_tot", "lambda_x", "lambda_y",

@@ -18,9 +18,6 @@ R_cu_lag(lag_t, z_plane) (beyond eq. 12; the paper's remark in [51])
     heights, from the 2-D planes (``C_p``, ``u_plane``, every ``plane_interval``). Means and
     variances are the time-space ones over all planes; for a lag tau = k dt the covariance is
     averaged over all pairs (t, t - tau) inside the record. Lag 0 is eq. 12 at the plane heights.
-
-:func:`r_cu_statistics` gives one case's R_cu and R_cu_upper; R_cu_lag is read with the
-streamers (:mod:`saltstudy.analysis.streamer_statistics`), from the same planes.
 """
 from __future__ import annotations
 

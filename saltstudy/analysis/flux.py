@@ -1,64 +1,47 @@
 """Grain momentum flux tau_p (eq. 10), saltation height z_m, mass flux G (eq. 11), G_tot, sigma_G.
 
-Inputs are the layer sums the workflow records at each 3-D sample time (``samples.nc``, all
-Q-weighted, summed over the grains whose centre lies in layer k, i.e. between ``z_w[k]`` and
-``z_w[k+1]``): ``pm = sum Q m_p``, ``pmu = sum Q m_p u_p``, ``pmw``, ``pmuw = sum Q m_p u_p w_p``.
+Inputs: the Q-weighted layer sums recorded at each 3-D sample (``samples.nc``, over the grains
+whose centre lies between ``z_w[k]`` and ``z_w[k+1]``): ``pm = sum Q m_p``, ``pmu = sum Q m_p
+u_p``, ``pmw``, ``pmuw = sum Q m_p u_p w_p``.
 
-tau_p (paper eq. 10, section 3.2 [37])
-    ``tau_p(z) = < Q/(Lx Ly dz) sum_p m_p u'_p w'_p >`` where the primes are deviations from the
-    time-space mean grain velocity at that level. Taking the mass-weighted mean over all grains of
-    the level in all samples, ``U = P_u/P_m``, ``W = P_w/P_m`` (``P_*`` = sum over the samples of
-    the layer sums), the sum of ``m (u-U)(w-W)`` over all samples expands exactly to
-    ``P_uw - P_u P_w / P_m``; dividing by ``N_samples Lx Ly dz`` gives the time mean.
-    **Sign**: grains rising from the bed are slow (u' < 0, w' > 0) and descending grains fast,
-    so ``sum m u'w' < 0``: the grains carry streamwise momentum downwards. As in the paper's
-    Fig. 6 we report the downward flux as positive: ``tau_p = -(P_uw - P_u P_w/P_m)/(N Lx Ly dz)``
-    [Pa = kg m-1 s-2], comparable with ``rho u*s^2``.
+tau_p (eq. 10, section 3.2 [37])
+    ``tau_p(z) = < Q/(Lx Ly dz) sum_p m_p u'_p w'_p >``, primes the deviations from the
+    mass-weighted mean grain velocity of the level over all samples (``U = P_u/P_m``, ``W =
+    P_w/P_m``, ``P_*`` the sums over the samples): the sum of ``m (u-U)(w-W)`` is exactly
+    ``P_uw - P_u P_w / P_m``, over ``N_samples Lx Ly dz`` for the time mean. **Sign**: rising
+    grains are slow (u' < 0, w' > 0), descending ones fast, so ``sum m u'w' < 0``; as in Fig. 6
+    the downward flux is positive: ``tau_p = -(P_uw - P_u P_w/P_m)/(N Lx Ly dz)`` [Pa].
 
 z_m (section 3.2 [37])
-    The height where tau_p, going up from the bed, first drops below 0.1 % of ``rho u*s^2``.
-    tau_p decays exponentially with height, so the crossing is interpolated linearly in
-    ``ln tau_p`` between the two levels that bracket it (linearly in tau_p if either value is not
-    positive). NaN if tau_p is below the threshold already at the lowest level (no resolved
-    saltation layer) or never drops below it.
+    Where tau_p, going up from the bed, first drops below 0.1 % of ``rho u*s^2``, interpolated
+    in ``ln tau_p`` (tau_p decays exponentially; linearly if either value is not positive). NaN
+    if tau_p is below the threshold at the lowest level or never drops below it.
 
 tau_p(0): the grain-borne share of the momentum flux at the bed (section 3.2 [40], Fig. 6)
     The paper: "At the surface, tau_p increases with u*s, to reach about 50% of the above flow
-    momentum flux in case 6", read from Fig. 6 (tau_p / (rho u*s^2), lowest point its 0-1 cm
-    cell; u*s the stress reading at 2 m, section 3.1 [33]). A layer mean depends on the layer's
-    thickness where the profile is steep, so the bed value is defined at z = 0: ``tau_p_bed``
-    (:func:`bed_value`) is ``A`` of the exponential ``A exp(-z/H)`` (after Owen 1964) whose
-    exact *layer means* fit eq. 10's values over the layers with their top at or below
-    ``BED_FIT_FRACTION`` z_m (about 1.5 e-folding heights, the same depth of air on any grid; at
-    least two layers). A profile steeper near the bed than the fit reads low, but by the same
-    amount on a 1 cm and a 2 cm first level (within ~3 % for two-exponential profiles with a
+    momentum flux in case 6" (Fig. 6: tau_p / (rho u*s^2), lowest point its 0-1 cm cell; u*s
+    the stress at 2 m, [33]). A layer mean depends on the layer's thickness where the profile
+    is steep, so ``tau_p_bed`` (:func:`bed_value`) is ``A`` of the exponential ``A exp(-z/H)``
+    (after Owen 1964) whose exact *layer means* fit eq. 10's values over the layers with their
+    top at or below ``BED_FIT_FRACTION`` z_m (about 1.5 e-folding heights, the same depth of air
+    on any grid; at least two layers). A profile steeper near the bed than the fit reads low,
+    but alike on a 1 cm and a 2 cm first level (within ~3 % for two-exponential profiles with a
     5-20 mm near-bed part, where the lowest layer means differ by 15-20 %).
-    ``tau_p_surface_fraction`` = ``tau_p_bed / (rho u*^2)``, u* the stress reading at the
-    reference height (extrapolated to the bed for the pressure-gradient drive).
-    ``tau_p_paper_cell_fraction``: the fit's mean over the paper's 0-1 cm cell
-    (:meth:`BedValue.layer_mean`; 0.87 of the bed value at H = 3.5 cm), beside Fig. 6's points.
-    A cross-check without a profile shape (:func:`budget_bed_fraction`): in a steady, uniform
-    layer the total stress is the same at every height and at the bed is carried by the air and
-    the grains, so ``tau_p(0) / tau_total = 1 - tau_air(0) / tau_total`` (as far as the run is
-    steady over the window).
+    ``tau_p_surface_fraction = tau_p_bed / (rho u*^2)``, u* the stress at the reference height
+    (carried to the bed for the pressure-gradient drive); ``tau_p_paper_cell_fraction``: the
+    fit's mean over the paper's 0-1 cm cell (0.87 of the bed value at H = 3.5 cm). Without a
+    profile shape (:func:`budget_bed_fraction`): in a steady, uniform layer the total stress is
+    the same at every height, so ``tau_p(0) / tau_total = 1 - tau_air(0) / tau_total``.
 
 G, G_tot (eq. 11, section 3.2 [41]-[42])
-    ``G(z) = <pmu>/(Lx Ly dz)`` [kg m-2 s-1], the horizontal and time mean of eq. 11;
-    ``G_tot = sum_k G_k dz_k = <sum pmu>/(Lx Ly)`` [kg m-1 s-1].
-    ``z_m_flux995``: the height below which 99.5 % of G_tot lies (the cumulative flux is
-    piecewise linear in z, inverted exactly).
+    ``G(z) = <pmu>/(Lx Ly dz)`` [kg m-2 s-1]; ``G_tot = sum_k G_k dz_k`` [kg m-1 s-1];
+    ``z_m_flux995``: the height below which 99.5 % of G_tot lies (exact: piecewise linear).
 
 sigma_G (section 4.3 [55])
-    The paper: "sigma_G = sqrt(<G_tot'^2>)" of "the instantaneous flux" (the prime is lost in the
-    typeset text; without it the expression is the RMS). The quantity is the domain-wide total
-    flux G_tot(t), its variability temporal (introduced beside Fig. 1's particle number), so
-    ``sigma_G`` is the standard deviation over the sampling window of ``G_tot_series``. The
-    spread of the local column flux about its time-space mean, the streamer contrast at the grid
-    scale, is ``sigma_G_local`` (:func:`sigma_local`).
-
-The statistics of one case built on these: :func:`grain_profiles` (tau_p, G and z_m),
-:func:`bed_share_statistics` (tau_p at the bed over rho u*^2, two ways) and
-:func:`mass_flux_statistics` (G_tot, its heights, sigma_G).
+    "sigma_G = sqrt(<G_tot'^2>)" of "the instantaneous flux" (the prime lost in the typeset
+    text): the standard deviation over the sampling window of the domain's total flux
+    ``G_tot_series``, a temporal variability (beside Fig. 1's particle number). The spread of
+    the local column flux, the streamer contrast at the grid scale, is ``sigma_G_local``.
 """
 from __future__ import annotations
 
@@ -72,7 +55,7 @@ from .reading import PLANE_CHUNK, Frame
 from .schema import Variables
 
 __all__ = ["tau_p_profile", "mass_flux_profile", "total_flux", "first_drop_height", "z_m_from_tau",
-           "flux_height", "sigma_series", "sigma_local", "window_mask", "Z_M_FRACTION",
+           "flux_height", "sigma_series", "window_mask", "Z_M_FRACTION",
            "FLUX_FRACTION", "decay_height", "pooled_mean_std", "bed_value", "BedValue",
            "BED_FIT_FRACTION", "budget_bed_fraction", "GrainProfiles", "grain_profiles",
            "bed_share_statistics", "mass_flux_statistics"]
@@ -213,11 +196,9 @@ def total_flux(G: np.ndarray, dz: np.ndarray) -> float:
 
 
 def first_drop_height(z: np.ndarray, f: np.ndarray, threshold: float) -> float:
-    """Lowest height where ``f`` (on levels ``z``) falls below ``threshold``, interpolated.
-
-    Requires ``f(z[0]) >= threshold``; interpolation in ln f when both bracketing values are
-    positive (exact for an exponential profile), otherwise linear. NaN when undefined.
-    """
+    """Lowest height where ``f`` (on levels ``z``, ``f(z[0]) >= threshold``) falls below
+    ``threshold``: interpolated in ln f where both values are positive (exact for an exponential),
+    else linearly; NaN when undefined."""
     z = np.asarray(z, dtype=np.float64)
     f = np.asarray(f, dtype=np.float64)
     if not (math.isfinite(threshold) and threshold > 0) or f.size == 0 or not np.isfinite(f[0]):
@@ -246,11 +227,8 @@ def z_m_from_tau(z: np.ndarray, tau_p: np.ndarray, rho: float, u_star: float,
 
 
 def flux_height(z_w: np.ndarray, G: np.ndarray, fraction: float = FLUX_FRACTION) -> float:
-    """Height below which ``fraction`` of the vertically integrated flux lies.
-
-    G is the layer mean of layer k (between ``z_w[k]`` and ``z_w[k+1]``): the cumulative flux is
-    linear within a layer, so the height is found exactly. NaN when the total is not positive.
-    """
+    """Height below which ``fraction`` of the integrated flux lies, exact (G the layer means
+    between the faces ``z_w``: the cumulative flux is linear in a layer); NaN for a total <= 0."""
     z_w = np.asarray(z_w, dtype=np.float64)
     G = np.nan_to_num(np.asarray(G, dtype=np.float64))
     cum = np.concatenate([[0.0], np.cumsum(G * np.diff(z_w))])
@@ -267,11 +245,8 @@ def flux_height(z_w: np.ndarray, G: np.ndarray, fraction: float = FLUX_FRACTION)
 
 
 def decay_height(z: np.ndarray, G: np.ndarray, z_top: float, min_points: int = 3) -> float:
-    """e-folding height H of ``G ~ exp(-z/H)``: regression of ln G on z for ``z <= z_top``, G > 0.
-
-    The paper (section 3.2 [41]) notes <G> decreases exponentially with height; H summarises the
-    slope. NaN with fewer than ``min_points`` usable levels or a non-decaying fit.
-    """
+    """e-folding height H of ``G ~ exp(-z/H)`` (section 3.2 [41]): regression of ln G on z for
+    ``z <= z_top``, G > 0; NaN with fewer than ``min_points`` levels or a non-decaying fit."""
     z = np.asarray(z, dtype=np.float64)
     G = np.asarray(G, dtype=np.float64)
     if not math.isfinite(z_top):
@@ -291,11 +266,8 @@ def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
 
 
 def sigma_series(t: np.ndarray, G_tot: np.ndarray, t0: float, t1: float) -> tuple[float, float]:
-    """(mean, standard deviation) of the instantaneous total flux over ``t0 <= t <= t1``.
-
-    The paper's sigma_G (module docstring). Population standard deviation (ddof=0); NaN if fewer
-    than two finite values lie in the window.
-    """
+    """(mean, population standard deviation) of the total flux over ``t0 <= t <= t1``: the
+    paper's sigma_G (module docstring); NaN with fewer than two finite values."""
     G_tot = np.asarray(G_tot, dtype=np.float64)
     sel = window_mask(t, t0, t1) & np.isfinite(G_tot)
     if sel.sum() < 2:
@@ -303,18 +275,10 @@ def sigma_series(t: np.ndarray, G_tot: np.ndarray, t0: float, t1: float) -> tupl
     return float(G_tot[sel].mean()), float(G_tot[sel].std())
 
 
-def sigma_local(G_col: np.ndarray) -> float:
-    """Standard deviation of the local column flux G_col(t, x, y) about its time-space mean."""
-    G_col = np.asarray(G_col, dtype=np.float64)
-    if G_col.size < 2 or not np.any(np.isfinite(G_col)):
-        return math.nan
-    return float(np.nanstd(G_col))
-
-
 def pooled_mean_std(chunks) -> tuple[float, float]:
     """(mean, standard deviation) of all finite values of an iterable of arrays, combined chunk
-    by chunk (Chan et al.'s pairwise update), so a large record need not be in memory at once.
-    ``sigma_local`` of the G_col planes; NaN for fewer than two values."""
+    by chunk (Chan et al.'s pairwise update), so a large record need not be in memory at once:
+    ``sigma_G_local`` of the G_col planes; NaN for fewer than two values."""
     n, mean, m2 = 0, 0.0, 0.0
     for c in chunks:
         a = np.asarray(c, dtype=np.float64)

@@ -1,22 +1,15 @@
 """The saltation layer's anatomy: where the airborne grains are and how they hit the bed.
 
-By height band (``BAND_NAMES``: the first grid cell, up to 5 cm, above), from the layer sums of
-the 3-D samples (``pn``, ``pm``, ``pmu``, ``pmuf``: Q-weighted grain count, mass, streamwise
-momentum and the mass-weighted fluid velocity at the grains), mean over the samples:
+By height band (``BAND_NAMES``), mean over the 3-D samples of the layer sums ``pn``, ``pm``,
+``pmu``, ``pmuf``: ``band_parcels_per_m2_at_Q`` (grains aloft per m^2 over the case's Q: the
+paper's count, ~2,000 in each case, [28], [31]), ``band_mass_per_m2``, ``band_flux`` (the band's
+share of G_tot), ``band_speed = sum m u_p / sum m`` and ``band_wind_seen = sum m u_f / sum m``.
 
-* ``band_parcels_per_m2_at_Q``: grains aloft per m^2 of bed over the case's Q, i.e. parcels per
-  m^2 at the case's own parcel weight (the paper's count, its [28] and [31]: ~2,000 in each case);
-* ``band_mass_per_m2`` [kg m^-2], ``band_flux`` [kg m^-1 s^-1] (the band's share of G_tot),
-  ``band_speed`` = sum m u_p / sum m [m s^-1], ``band_wind_seen`` = sum m u_f / sum m [m s^-1].
-
-From the impact record (the cumulative counts of samples.nc, differenced over the sampling
-window; solver/grains/splash_kernels.py): the distribution of impact speeds and angles, the replacement
-number (rebounds + ejecta per impact) against impact speed and its mean over all impacts (1 in a
-steady layer), and the hops a splash launched: their flight time, streamwise length and the
-height g t^2 / 8 a ballistic hop of that flight time reaches (an estimate: drag shortens the rise
-more than the fall, so it is an upper bound for a grain launched into still air).
-
-:func:`anatomy_statistics` and :func:`impact_record_statistics` give these for one case.
+From the impact record (samples.nc's cumulative counts differenced over the sampling window;
+solver/grains/splash_kernels.py): impact speeds and angles, the replacement number (rebounds +
+ejecta per impact; 1 in a steady layer), and the hops a splash launched: flight time, length and
+the height g t^2 / 8 of a ballistic hop of that flight time (an upper bound: drag shortens the
+rise more than the fall).
 """
 from __future__ import annotations
 
@@ -193,12 +186,10 @@ def impact_record_statistics(fr: Frame, s: dict) -> tuple[dict[str, np.ndarray],
             return np.zeros(1)
         return np.append(lo, lo[-1] + (lo[1] - lo[0]))
 
-    ev, ea, et, el = (edges(k) for k in ("v_imp", "impact_angle", "hop_time", "hop_length"))
+    bins = {k: edges(k) for k in ("v_imp", "impact_angle", "hop_time", "hop_length")}
     imp = impact_statistics(s.get("impact_hist"), s.get("impact_outcomes"), s.get("hop_time_hist"),
-                            s.get("hop_length_hist"), ev, ea, et, el, fr.g)
+                            s.get("hop_length_hist"), *bins.values(), fr.g)
     V = Variables()
     for name, val in imp.items():
         V.put(name, IMPACT_DIMS.get(name, ()), val)
-    centres = {"v_imp": 0.5 * (ev[1:] + ev[:-1]), "impact_angle": 0.5 * (ea[1:] + ea[:-1]),
-               "hop_time": 0.5 * (et[1:] + et[:-1]), "hop_length": 0.5 * (el[1:] + el[:-1])}
-    return centres, V
+    return {k: 0.5 * (e[1:] + e[:-1]) for k, e in bins.items()}, V

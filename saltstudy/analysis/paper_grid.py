@@ -10,20 +10,16 @@ from __future__ import annotations
 import tomllib
 from importlib import resources
 
-__all__ = ["PAPER_CELL_AREA", "PAPER_FIRST_LAYER", "PAPER_PARCELS_PER_M2"]
+__all__ = ["PAPER", "PAPER_CELL_AREA", "PAPER_FIRST_LAYER", "PAPER_PARCELS_PER_M2"]
 
-
-def _paper() -> dict:
-    text = resources.files("saltstudy").joinpath("data/dupont2013.toml").read_text(encoding="utf-8")
-    return tomllib.loads(text)
-
-
-_PAPER = _paper()
-_SETUP = _PAPER["setup"]
+#: the package's copy of the paper's numbers
+PAPER = tomllib.loads(resources.files("saltstudy").joinpath("data/dupont2013.toml")
+                      .read_text(encoding="utf-8"))
+_SETUP = PAPER["setup"]
 #: bed area of one column of the paper's grid [m2]
 PAPER_CELL_AREA = float(_SETUP["dx_m"]) * float(_SETUP["dy_m"])
 #: thickness of the paper's first grid level [m]
 PAPER_FIRST_LAYER = float(_SETUP["dz_surface_m"])
 #: the paper's airborne parcels per m2 of bed at equilibrium [m-2], each of its case's Q grains
-PAPER_PARCELS_PER_M2 = (float(_PAPER["results"]["fig1_equilibrium_particles_case2"])
+PAPER_PARCELS_PER_M2 = (float(PAPER["results"]["fig1_equilibrium_particles_case2"])
                         / (float(_SETUP["domain_m"][0]) * float(_SETUP["domain_m"][1])))

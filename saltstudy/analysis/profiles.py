@@ -1,15 +1,11 @@
 """Mean wind profiles, the log-law fit (u*s, z0s) and the stress friction velocity.
 
-Paper section 3.1 [33]-[34]: without grains the flow is a constant-stress layer with a log
-profile; with grains a log profile and constant stress hold above the saltation layer, with the
-saltation friction velocity ``u*s`` and roughness length ``z0s``. The paper reads u* from the
-stress, ``u*^2 = |<u'w'>|`` at z = 2 m, and z0 from a regression of ``<u> = (u*/kappa) ln(z/z0)``.
-
-The momentum flux ``uw_res + uw_sgs`` is stored on the faces ``z_w``; the fit is least squares
-of ``<u>`` on ``ln z`` (``u* = kappa a``, ``z0 = exp(-b/a)`` for slope a and intercept b) over
-``[max(0.3 m, z_m), top]`` (:func:`fit_range`). For the pressure-gradient drive, whose total
-stress falls linearly to the lid, the stress u* is carried down to the bed
-(``u*_0^2 = u*(z_ref)^2 / (1 - z_ref/H)``).
+Section 3.1 [33]-[34]: with grains a log profile and constant stress hold above the saltation
+layer, with ``u*s`` and ``z0s``; the paper reads u* from the stress, ``u*^2 = |<u'w'>|`` at 2 m
+(the flux on the faces ``z_w``), and z0 from a regression of ``<u> = (u*/kappa) ln(z/z0)`` over
+``[max(0.3 m, z_m), top]`` (:func:`fit_range`). Under the pressure-gradient drive, whose stress
+falls linearly to the lid, the stress u* is carried to the bed: ``u*_0^2 = u*(z_ref)^2 / (1 -
+z_ref/H)``.
 """
 from __future__ import annotations
 
@@ -52,15 +48,10 @@ def faces_to_centres(a_w: np.ndarray) -> np.ndarray:
 
 def fit_range(z_m: float, Lz: float, damping_depth: float,
               z_floor: float = FIT_Z_FLOOR, drive: str = "top") -> tuple[float, float]:
-    """Height range [z_min, z_max] of the log-law fit.
-
-    ``z_min = max(z_floor, z_m)``: above the saltation layer, where grains no longer extract
-    momentum (z_m NaN, e.g. the particle-free spin-up: ``z_floor``, 0.3 m by default).
-    ``z_max``: top drive, ``(Lz - damping_depth) / 2``, the lower half of the undamped column
-    (above it the top lid and the Rayleigh layer bend the profile; also where the forcing holds
-    u*); pressure-gradient drive (no damping layer), ``Lz / 3``: the lower third, where the
-    local-equilibrium profile of the linear stress holds (outer-layer effects grow above).
-    """
+    """Height range [z_min, z_max] of the log-law fit: ``z_min = max(z_floor, z_m)``, above the
+    grains' layer; ``z_max = (Lz - damping_depth) / 2`` for the top drive (above it the lid and
+    the Rayleigh layer bend the profile), ``Lz / 3`` for the pressure gradient (outer-layer
+    effects grow above the local-equilibrium profile of the linear stress)."""
     z_lo = float(z_floor)
     if z_m is not None and math.isfinite(z_m):
         z_lo = max(z_lo, float(z_m))
@@ -73,13 +64,9 @@ def fit_range(z_m: float, Lz: float, damping_depth: float,
 
 def log_law_fit(z: np.ndarray, u: np.ndarray, z_min: float, z_max: float, kappa: float,
                 min_points: int = MIN_FIT_POINTS, H: float | None = None) -> LogFit:
-    """Regress ``u = (u*/kappa) ln(z/z0)`` on the levels with ``z_min <= z <= z_max``.
-
-    Returns ``u*`` = kappa * slope and ``z0 = exp(-intercept/slope)``; NaN when fewer than
-    ``min_points`` finite levels lie in the range or the slope is not positive. With ``H`` (the
-    domain height of a pressure-gradient drive) ln z is replaced by the shape F(z) of the
-    linear-stress profile (``physics.laws.log_law_shape``) and ``u*`` is the surface value u*_0.
-    """
+    """Regress ``u = (u*/kappa) ln(z/z0)`` on ``z_min <= z <= z_max``; NaN with fewer than
+    ``min_points`` levels or a slope not positive. With ``H`` (a pressure-gradient drive's
+    domain height) ln z is the linear-stress shape (``physics.laws.log_law_shape``), u* at the bed."""
     a, b, lz, uu = regress_log_law(z, u, z_min, z_max, H)
     n = int(uu.size)
     nan = LogFit(math.nan, math.nan, n, math.nan, float(z_min), float(z_max))

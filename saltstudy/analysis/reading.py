@@ -1,13 +1,8 @@
 """Reading a case's archives for the analysis: ``samples.nc`` and ``spinup.nc`` as arrays.
 
-The analysis reads the archives only, never the solver, so everything it knows about the run
-comes from here. The large variables (``LAZY_VARIABLES``: the 3-D wind, the column flux and the
-wind planes, several GB at the paper's fidelity) are read slice by slice (:class:`LazyVar`,
-:class:`Rows`); :class:`Frame` holds what every statistic shares. samples.nc stores C_p, not
-parcel counts: :func:`check_parcel_counts` checks the parcel weight the counting noise assumes.
-
-The sampling window runs from the first to the last 3-D sample (one sample: to the end of the
-run); the 2-D planes are read over the same window (t >= first 3-D sample).
+The large variables (``LAZY_VARIABLES``) are read slice by slice (:class:`LazyVar`,
+:class:`Rows`); :class:`Frame` holds what every statistic shares. The sampling window runs from
+the first to the last 3-D sample (one sample: to the end of the run), the planes with it.
 """
 from __future__ import annotations
 
@@ -248,13 +243,9 @@ class Frame:
 
 
 def frame_of(attrs: dict[str, Any], coords: dict[str, np.ndarray]) -> Frame:
-    """The :class:`Frame` of an archive's attributes and coordinates.
-
-    Missing attributes take the air's and the grains' usual values (rho 1.2, rho_p 2650, nu 1.5e-5,
-    g 9.81, kappa 0.40) and the grid's spacing from its coordinates; faces missing from the
-    archive are rebuilt from the centres. The reference height of the stress u* is
-    ``z_ref_eff = min(forcing.z_ref, (Lz - damping)/2)`` unless the archive records it.
-    """
+    """The :class:`Frame` of an archive's attributes and coordinates; missing attributes take
+    the usual values (rho 1.2, rho_p 2650, nu 1.5e-5, g 9.81, kappa 0.40), missing faces are
+    rebuilt from the centres, ``z_ref_eff = min(forcing.z_ref, (Lz - damping)/2)``."""
     info = case_info(attrs)
     z = np.asarray(coords["z"], dtype=np.float64)
     z_w = np.asarray(coords.get("z_w", np.zeros(0)), dtype=np.float64)

@@ -1,16 +1,8 @@
-"""The contract of ``analysis.nc``: every variable it holds, with its units and meaning.
-
-``SPEC`` maps each variable and coordinate of analysis.nc to ``(units, long_name)``; the
-long names are the definitions a reader of the archive gets (the statistics' own modules
-define them in full, with the paper's section and equation). ``REQUIRED_VARIABLES`` and
-``REQUIRED_COORDS`` are the part of it docs/ARCHITECTURE.md promises to the report;
-``SAMPLE_VARIABLES_USED`` the variables of samples.nc the analysis reads (the others are never
-loaded). ``HALF_STATISTICS`` are also written over each half of the sampling window
-(``<name>_halves``): their difference is the noise of one window.
-
-:class:`Variables` collects a statistic's outputs as ``name -> (dims, values, extra attributes)``
-and :func:`to_dataset` turns them into the Dataset with each variable's units and long name from
-``SPEC``, so that a variable missing from ``SPEC`` cannot be written.
+"""The contract of ``analysis.nc``: ``SPEC``, each variable's and coordinate's ``(units,
+long_name)``; ``REQUIRED_VARIABLES``/``REQUIRED_COORDS``, what docs/ARCHITECTURE.md promises the
+report; ``SAMPLE_VARIABLES_USED``, the samples.nc variables read; ``HALF_STATISTICS``, also
+written over each half of the sampling window. :func:`to_dataset` takes every variable's units
+and long name from ``SPEC``, so a variable missing from it cannot be written.
 """
 from __future__ import annotations
 

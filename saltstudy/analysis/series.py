@@ -17,8 +17,6 @@ and relaxes to a statistical equilibrium.
 * ``u_star_s_stress_series``: u* of the window-mean stress at the reference height from the
   drive's high-rate record ``u_star_ref``, with its error from 10-s blocks
   (:func:`block_mean_stress_u_star`).
-
-:func:`series_statistics` gives these for one case, with the series themselves.
 """
 from __future__ import annotations
 
@@ -160,11 +158,9 @@ def series_statistics(fr: Frame, s: dict, G_tot_sample: np.ndarray) -> Variables
     V.put("G_tot_sample", ("time_sample",), G_tot_sample)
     t_plane = fr.t_plane
     C_all = s.get("C_p")
-    if C_all is not None and C_all.ndim == 3 and C_all.shape[0] == t_plane.size:
-        V.put("C_p_mean", ("time_plane",), np.asarray(C_all, dtype=np.float64).mean(axis=(1, 2))
-              if C_all.size else np.full(t_plane.size, np.nan))
-    else:
-        V.put("C_p_mean", ("time_plane",), np.full(t_plane.size, np.nan))
+    ok = C_all is not None and C_all.ndim == 3 and C_all.shape[0] == t_plane.size and C_all.size
+    V.put("C_p_mean", ("time_plane",), np.asarray(C_all, dtype=np.float64).mean(axis=(1, 2))
+          if ok else np.full(t_plane.size, np.nan))
     return V
 
 

@@ -5,14 +5,9 @@ height band collects the layers whose centre lies in ``[edge_i, edge_{i+1})``; i
 is the *mass* fraction per bin, ``n d^3 / sum(n d^3)`` with d the bin centre (the constant
 ``rho_p pi/6`` cancels), summed over the sampling window. NaN for a band without grains.
 
-The bed distribution ``psd_bed`` is the soil's lognormal mass-size distribution (eq. 5)
-integrated over each bin, renormalised over the bins so that both sum to one over the same
-bins (``saltstudy.physics.soil.bin_mass_fractions``).
-
-:func:`size_statistics` gives one case's distributions (and the height-summed size histogram
-the Stokes numbers read, :mod:`saltstudy.analysis.stokes`); :func:`threshold_statistics` the
-soil's threshold friction velocity u*t (Shao and Lu 2000) at its mass-mean diameter, the scale
-of the figures' and Table 2's u*s/u*t.
+The bed's ``psd_bed`` is the soil's lognormal mass-size distribution (eq. 5) over each bin,
+renormalised over the same bins. :func:`threshold_statistics`: the soil's threshold u*t (Shao and
+Lu 2000) at its mass-mean diameter, the scale of the figures' and Table 2's u*s/u*t.
 """
 from __future__ import annotations
 
@@ -37,9 +32,7 @@ DEFAULT_BAND_EDGES = (0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0)
 
 def band_edges_for(z_top: float, edges=DEFAULT_BAND_EDGES) -> np.ndarray:
     """The default edges below ``z_top`` (the top edge clipped to it)."""
-    e = [x for x in edges if x < z_top]
-    if len(e) < 1:
-        e = [0.0]
+    e = [x for x in edges if x < z_top] or [0.0]
     if len(e) < len(edges):
         e.append(float(z_top))
     return np.asarray(e, dtype=np.float64)

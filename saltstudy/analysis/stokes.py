@@ -32,8 +32,6 @@ centres, d<u>/dz by centred differences on the stretched levels).
 T_p(z) = rho_p d^2/(18 rho nu) (section 4.2 [52]) with d the *mass-weighted mean diameter* of
 the grains at that level over the sampling window, from ``size_hist`` (grain counts per diameter
 bin): ``d = sum n d^4 / sum n d^3`` with d the bin centre. NaN at levels without grains.
-
-:func:`stokes_statistics` computes them for one case.
 """
 from __future__ import annotations
 
@@ -114,13 +112,9 @@ def stokes_number(T_p: np.ndarray, T_eps: np.ndarray) -> np.ndarray:
 
 def stokes_statistics(fr: Frame, s: dict, hist_z: np.ndarray, u_mean: np.ndarray,
                       tke_res: np.ndarray, uw_sgs_c: np.ndarray) -> Variables:
-    """T_p, eps_tot (eq. 13), T_eps and St = T_p / T_eps by level (section 4.2 [52], Fig. 12).
-
-    ``hist_z``: grain counts per layer and diameter bin summed over the samples
-    (:func:`saltstudy.analysis.sizes.size_statistics`); ``u_mean``, ``tke_res``, ``uw_sgs_c``: the
-    window-mean wind, resolved TKE and SGS momentum flux at the centres
-    (:func:`saltstudy.analysis.profiles.wind_profiles`).
-    """
+    """T_p, eps_tot (eq. 13), T_eps and St = T_p / T_eps by level (section 4.2 [52], Fig. 12);
+    ``hist_z`` from ``sizes.size_statistics``, the window-mean profiles from
+    ``profiles.wind_profiles``."""
     nz, d_bin = fr.nz, fr.d_bin
     d_mass = mass_mean_diameter(hist_z, d_bin) if d_bin.size else np.full(nz, np.nan)
     T_p = response_time(d_mass, fr.rho_p, fr.rho, fr.nu)

@@ -1,14 +1,8 @@
-"""The streamers of one case (paper section 4.1, Table 2, Figs. 9-10): the readings of
-:mod:`saltstudy.analysis.streamers` applied to the case's planes over the sampling window.
-
-lambda_x, lambda_y, S_c and delta_y of C_p (and of the grains above the first cell), S_u and
-delta_y_u of the wind at 0.1 m, the streamers' speed and lifetime, and R_cu_lag (C_p against
-the past wind at the plane heights: beyond eq. 12, the paper's remark in [51]).
-
-:class:`ParcelNoise` holds the parcel-count noise these readings remove: the run's parcels weigh
-``w`` grains on columns of dx dy, the paper's weigh the case's Q on its 0.1 m columns, and the
-statistics keep the paper's noise (the streamers module's docstring says why). R_cu
-(:mod:`saltstudy.analysis.correlation`) removes the same.
+"""The streamers of one case (section 4.1, Table 2, Figs. 9-10): :mod:`~.streamers`' readings
+of the case's planes over the sampling window: lambda_x, lambda_y, S_c and delta_y of C_p (and of
+the grains above the first cell), S_u and delta_y_u of the wind at 0.1 m, the streamers' speed
+and lifetime, and R_cu_lag (C_p against the past wind: beyond eq. 12, the paper's remark in
+[51]). :class:`ParcelNoise`: the parcel-count noise removed down to the paper's (streamers.py).
 """
 from __future__ import annotations
 
@@ -82,6 +76,14 @@ def _put_spacing(V: Variables, field: str, spacing: streamers.SpanwiseSpacing) -
           definition="saltstudy.analysis.streamers.correlation_minimum")
 
 
+def _lambdas(fr: Frame, planes: np.ndarray, noise: np.ndarray | None
+             ) -> tuple[np.ndarray, float, float]:
+    """(autocorrelation, lambda_x, lambda_y) of the planes with the per-plane ``noise`` removed."""
+    ac = streamers.autocorrelation_2d(planes, noise=noise)
+    return (ac, streamers.core_length(ac[:, fr.ny // 2], fr.dx),
+            streamers.core_length(ac[fr.nx // 2, :], fr.dy))
+
+
 @dataclass(frozen=True, eq=False)
 class ConcentrationReadings:
     #: spanwise wavenumbers of S_c (and S_u) [cycles m-1]
@@ -95,7 +97,7 @@ def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
                            ) -> ConcentrationReadings:
     """lambda_x, lambda_y, S_c and delta_y of the window's C_p planes ``C_w`` (section 4.1 [46],
     [49]), with the noise readings beside them (module docstring)."""
-    nx, ny, dx, dy = fr.nx, fr.ny, fr.dx, fr.dy
+    nx, ny, dy = fr.nx, fr.ny, fr.dy
     n_planes = int(C_w.shape[0]) if C_w is not None else 0
     area = noise.cell_area
     removed = np.zeros(n_planes)
@@ -115,24 +117,16 @@ def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
         if has.any() and np.all(poisson > 0):
             small_ratio = float(np.mean(streamers.small_scale_power(dev_c[has]) / poisson))
         del dev_c
-        ac = streamers.autocorrelation_2d(C_w, noise=removed)
-        lam_x = streamers.core_length(ac[:, ny // 2], dx)
-        lam_y = streamers.core_length(ac[nx // 2, :], dy)
+        ac, lam_x, lam_y = _lambdas(fr, C_w, removed)
         # S_c carries the paper's parcel noise; each reading's error is the run's own
         ky, S_c, S_c_se, spacing_c = streamers.spanwise_spacing(C_w, dy, noise=removed)
-        ac_raw = streamers.autocorrelation_2d(C_w)
-        lam_x_raw = streamers.core_length(ac_raw[:, ny // 2], dx)
-        lam_y_raw = streamers.core_length(ac_raw[nx // 2, :], dy)
-        ac_free = streamers.autocorrelation_2d(C_w, noise=noise_run)
-        lam_x_free = streamers.core_length(ac_free[:, ny // 2], dx)
-        lam_y_free = streamers.core_length(ac_free[nx // 2, :], dy)
+        _, lam_x_raw, lam_y_raw = _lambdas(fr, C_w, None)
+        _, lam_x_free, lam_y_free = _lambdas(fr, C_w, noise_run)
         # the paper's field held its own count of parcels (2,000 per m2 at Q, [28]), not the
         # run's: with that relative noise the reading sees a field as noisy as the paper's
         at_count = noise_run - streamers.count_noise_variance(
             C_w, paper_grid.PAPER_PARCELS_PER_M2, streamers.PAPER_CELL_AREA)
-        ac_count = streamers.autocorrelation_2d(C_w, noise=at_count)
-        lam_x_count = streamers.core_length(ac_count[:, ny // 2], dx)
-        lam_y_count = streamers.core_length(ac_count[nx // 2, :], dy)
+        _, lam_x_count, lam_y_count = _lambdas(fr, C_w, at_count)
         snap_c = np.asarray(C_w[-1], dtype=np.float64)
     else:
         ac = np.full((nx, ny), np.nan)
@@ -207,11 +201,8 @@ def above_first_cell_readings(fr: Frame, s: dict, noise: ParcelNoise) -> Variabl
     lam_xa = lam_ya = dya = math.nan
     if Ca_w is not None and Ca_w.shape[0] and nx >= 2 and ny >= 2 and np.any(Ca_w > 0):
         rem_a = noise.to_paper(Ca_w)
-        ac_a = streamers.autocorrelation_2d(Ca_w, noise=rem_a)
-        lam_xa = streamers.core_length(ac_a[:, ny // 2], fr.dx)
-        lam_ya = streamers.core_length(ac_a[nx // 2, :], fr.dy)
+        _, lam_xa, lam_ya = _lambdas(fr, Ca_w, rem_a)
         dya = streamers.spanwise_spacing(Ca_w, fr.dy, noise=rem_a)[3].chosen
-        del ac_a
     V = Variables()
     for name, val in (("lambda_x_above_first_cell", lam_xa), ("lambda_y_above_first_cell", lam_ya),
                       ("delta_y_above_first_cell", dya)):

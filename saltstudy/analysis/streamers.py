@@ -1,65 +1,48 @@
 """Aeolian streamers from the C_p planes: lambda_x, lambda_y, delta_y, lifetime and speed.
 
 ``C_p(x, y)`` is the vertically integrated, Q-weighted grain count per unit bed area [m-2]
-(paper section 4.1, Fig. 9a), recorded every ``plane_interval`` seconds. The fields are periodic,
-so every correlation and spectrum is an FFT on the full domain (no window, no padding), of each
-plane's deviation from its own spatial mean (the pattern, not the drift of the domain mean).
+(section 4.1, Fig. 9a), one plane every ``plane_interval`` s. The fields are periodic: every
+correlation and spectrum is an FFT on the full domain of each plane's deviation from its mean.
 
-Parcel-count (sampling) noise (beyond the paper)
+Parcel-count noise (beyond the paper)
     A column of area ``A = dx dy`` holds ``N = C_p A / w`` parcels of ``w`` grains (samples.nc
-    attribute ``Q``: the case's Q times the fidelity's ``q_multiplier``). Given the pattern, N is
-    Poisson, so the noise is white with variance ``s^2 = mean(C_p) w / A`` in C_p units
-    (:func:`poisson_noise_variance`): it adds ``s^2`` to every non-zero 2-D Fourier mode and a
-    floor ``s^2 dy`` per two-sided mode to the spanwise spectrum. It is not estimated from the
-    high-wavenumber band: streamers 2.5-6 cells wide put real power there.
-
-    The paper's estimate carried the noise of its own parcels (the case's Q on 0.1 m columns,
-    about 20 parcels per column in case 2): ``s_paper^2 = mean(C_p) Q / A_paper``. **The reported
-    statistics (lambda_x, lambda_y, S_c, R_cu) carry the paper's noise level**: ``s^2 - s_paper^2``
-    is removed from each plane (added when negative), so that parcel weight and column size are
-    pure cost knobs for Table 2's noisy numbers. Kept beside them: ``*_noise_free`` (all of
-    ``s^2`` removed), ``*_raw`` (nothing removed) and ``*_paper_count``
-    (:func:`count_noise_variance`: the relative noise of the paper's 2,000 parcels per m2, [28],
-    for a run whose airborne count is not the paper's).
-
-    Parcels ejected together travel together for a while, which raises the count variance at
-    the clusters' scale by a factor F that the counts cannot tell from a 2-4 cell pattern; F = 1
-    is removed, so with F > 1 the reported values lie between the raw and the paper-level ones.
-    ``C_p_small_scale_over_poisson`` (:func:`small_scale_power` over ``s^2``: wavelengths under
-    4 cells in both directions) bounds F from above: 1.5-1.7 in the reduced study, 1.9-2.5 on
-    the smoke study's tiny grid.
+    ``Q``: the case's Q times ``q_multiplier``), Poisson given the pattern: white noise of
+    variance ``s^2 = mean(C_p) w / A`` (:func:`poisson_noise_variance`), ``s^2`` in every non-zero
+    2-D mode and a floor ``s^2 dy`` per two-sided mode of the spanwise spectrum. It is not
+    estimated from the high-wavenumber band: streamers 2.5-6 cells wide put real power there.
+    The paper's estimate carried its own parcels' noise (the case's Q on 0.1 m columns, ~20
+    parcels per column in case 2), ``s_paper^2 = mean(C_p) Q / A_paper``. **lambda_x, lambda_y,
+    S_c and R_cu carry the paper's noise level**: ``s^2 - s_paper^2`` is removed from each plane,
+    so parcel weight and column size are pure cost knobs. Beside them: ``*_noise_free`` (all of
+    ``s^2`` removed), ``*_raw`` (none) and ``*_paper_count`` (:func:`count_noise_variance`: the
+    noise of the paper's 2,000 parcels per m2, [28]). Parcels ejected together travel together,
+    raising the count variance at the clusters' scale by a factor F that the counts cannot tell
+    from a 2-4 cell pattern; F = 1 is removed. ``C_p_small_scale_over_poisson``
+    (:func:`small_scale_power` over ``s^2``, wavelengths under 4 cells both ways) bounds F from
+    above: 1.5-1.7 in the reduced study, 1.9-2.5 on the smoke study's tiny grid.
 
 lambda_x, lambda_y (section 4.1 [46], Table 2)
-    The extent of the core, where the time-averaged spatial autocorrelation exceeds 0.4
-    (:func:`autocorrelation_2d`, :func:`core_length`): twice the first lag at which it drops
-    below 0.4 (linear interpolation), NaN if it stays above up to half the domain. The
-    autocovariance is averaged over the planes with variance, after the noise, and normalised
-    by its zero lag (the ratio of averages: a plane's noise-corrected variance is a small
-    difference at ~1 parcel per column).
+    Twice the first lag at which the time-averaged spatial autocorrelation drops below 0.4
+    (:func:`autocorrelation_2d`, :func:`core_length`; linear interpolation; NaN if it stays
+    above to half the domain). The autocovariance is averaged over the planes after the noise
+    and normalised by its zero lag (a plane's corrected variance is a small difference at ~1
+    parcel per column).
 
 delta_y (section 4.1 [46], [49], Fig. 10; which reading and why: docs/STREAMERS.md)
-    The spanwise spectrum (the 2-D spectrum averaged over kx, by Parseval the 1-D spectrum
-    averaged over x rows), a one-sided density in ky [cycles m-1] with the spectra of
-    ``N_BLOCKS`` contiguous time blocks for its sampling error (:func:`spanwise_spectrum_blocks`),
-    read three ways by :func:`spanwise_spacing`: the premultiplied peak (Table 2's, on the
-    spectrum with the paper's noise), the density peak (on the raw spectrum) and twice the
-    first minimum of the spanwise autocorrelation.
-
-    A spectral peak (:func:`_prominent_maximum`) is an interior local maximum, modes
-    ``2 <= m < M`` (not the domain mode nor the last), standing ``PEAK_N_SE`` standard errors
-    above its base, the higher of the two valley floors that separate it from a higher point or
-    an end (topographic prominence). A periodogram average scatters in proportion to its mean,
-    so the relative block variance is pooled over ``PEAK_POOL_MODES`` modes on either side and
-    scaled by the peak and the base. The errors are those of the raw spectrum (removing a known
-    floor shifts a spectrum, not its scatter). With fewer than ``MIN_BLOCKS`` blocks a peak must
+    The spanwise spectrum (the 2-D one averaged over kx), a one-sided density in ky [cycles m-1],
+    with ``N_BLOCKS`` contiguous time blocks for its error (:func:`spanwise_spectrum_blocks`),
+    read three ways by :func:`spanwise_spacing`. A spectral peak (:func:`_prominent_maximum`) is
+    an interior local maximum (modes ``2 <= m < M``) standing ``PEAK_N_SE`` standard errors above
+    its base, the higher of its two valley floors (topographic prominence); the relative block
+    variance is pooled over ``PEAK_POOL_MODES`` modes either side (a periodogram scatters in
+    proportion to its mean), errors of the raw spectrum. Under ``MIN_BLOCKS`` blocks a peak must
     stand ``PEAK_FALLBACK_MARGIN`` above its base. The highest accepted peak wins, refined by a
-    parabola through its neighbours. Measured on Poisson parcel counts:
+    parabola. Measured on Poisson parcel counts:
 
-    * density reading, PEAK_N_SE = 4.5 (for the selection of a maximum among ~20-70 modes): a
-      false peak in 1 record of 400 (64 x 48 columns, 20 or 300 planes, 1.25 or 20 parcels per
-      column); a lattice of streaks 2.5-6 cells apart (64 x 60, intensity s.d. 11 % of the
-      mean, 1.25 parcels per column, 100 planes) found at its spacing in 34 of 40 (4.0 standard
-      errors: 10 false peaks in 400; 5.0: 25 of 40 found);
+    * density reading, PEAK_N_SE = 4.5: a false peak in 1 record of 400 (64 x 48 columns, 20 or
+      300 planes, 1.25 or 20 parcels per column); a lattice of streaks 2.5-6 cells apart (64 x
+      60, intensity s.d. 11 % of the mean, 1.25 parcels per column, 100 planes) found in 34 of
+      40 (4.0 standard errors: 10 false peaks in 400; 5.0: 25 of 40 found);
     * false peaks on pure noise: premultiplied none of 1200 (64 x 48; 20, 100, 300 planes) and
       none of 400 (64 x 150); density 8 of 1200 and 6 of 400. A faint lattice (3-6 cells, s.d.
       5 %, 64 x 60, 100 planes, 1.25 parcels per column) is found in 72 of 80 by the density
@@ -68,13 +51,12 @@ delta_y (section 4.1 [46], [49], Fig. 10; which reading and why: docs/STREAMERS.
       and 1 of 400 (one lag's own 7 degrees of freedom would let 3 and 4 pass); the faint
       lattice in 1 of 80: the least sensitive reading.
 
-Streamer lifetime and propagation speed (beyond the paper; compare Baas and Sherman 2005,
-quoted in section 4.1 [46]: lifetime 0.5-1 s, speed 3.6 m s-1)
-    :func:`space_time_correlation`: the peak ``R*(tau)`` of the correlation of ``C_p'(t)`` with
-    ``C_p'(t + tau)`` over spatial lags and its position ``(X*, Y*)`` (parabolic refinement,
-    unwrapped). ``streamer_speed``: the least-squares slope through the origin of X* against tau
-    over the lags with ``R* >= 1/e``; ``streamer_lifetime``: the lag at which R* first drops
-    below 1/e (interpolated), NaN if it does not within the lag range.
+Streamer lifetime and speed (beyond the paper; Baas and Sherman 2005, quoted in [46]: 0.5-1 s,
+3.6 m s-1)
+    :func:`space_time_correlation`: the peak ``R*(tau)`` over spatial lags of the correlation of
+    ``C_p'(t)`` with ``C_p'(t + tau)`` and its position ``(X*, Y*)``. ``streamer_speed``: the
+    slope through the origin of X* against tau over the lags with ``R* >= 1/e``;
+    ``streamer_lifetime``: the lag where R* first drops below 1/e (interpolated).
 """
 from __future__ import annotations
 
@@ -363,10 +345,7 @@ def spectral_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None = Non
                            fallback_margin)
     if m < 0:
         return math.nan
-    denom = S[m - 1] - 2.0 * S[m] + S[m + 1]
-    shift = 0.5 * (S[m - 1] - S[m + 1]) / denom if denom < 0 else 0.0
-    shift = float(np.clip(shift, -0.5, 0.5))
-    return float(ky[m] + shift * (ky[1] - ky[0]))
+    return float(ky[m] + _parabolic(S[m - 1], S[m], S[m + 1]) * (ky[1] - ky[0]))
 
 
 def premultiplied_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None = None,
@@ -572,19 +551,13 @@ def speed_and_lifetime(st: SpaceTime, level: float = math.exp(-1.0)) -> tuple[fl
     lag, R, X = st.lag_t, st.peak, st.x_peak
     if lag.size < 2:
         return math.nan, math.nan
+    below = np.flatnonzero(R[1:] < level)
+    k = int(below[0]) + 1 if below.size else lag.size     # the first lag below the level
     lifetime = math.nan
-    for k in range(1, lag.size):
-        if R[k] < level:
-            s = (R[k - 1] - level) / (R[k - 1] - R[k])
-            lifetime = float(lag[k - 1] + s * (lag[k] - lag[k - 1]))
-            break
-    valid = np.zeros(lag.size, bool)
-    for k in range(1, lag.size):         # contiguous run of lags above the level
-        if R[k] < level:
-            break
-        valid[k] = True
-    if not valid.any():
+    if below.size:
+        s = (R[k - 1] - level) / (R[k - 1] - R[k])
+        lifetime = float(lag[k - 1] + s * (lag[k] - lag[k - 1]))
+    if k < 2:
         return math.nan, lifetime
-    tt, xx = lag[valid], X[valid]
-    speed = float(np.sum(tt * xx) / np.sum(tt * tt))
-    return speed, lifetime
+    tt, xx = lag[1:k], X[1:k]           # the contiguous run of lags above the level
+    return float(np.sum(tt * xx) / np.sum(tt * tt)), lifetime

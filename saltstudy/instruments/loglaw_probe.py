@@ -234,13 +234,13 @@ def _writer(path: str):
 
 
 def register_probe(app) -> None:
+    """Add the ``saltstudy probe`` group to the given typer app: ``loglaw`` and the other probes."""
     import typer
 
     from ..config import ConfigError
 
     probe_app = typer.Typer(no_args_is_help=True, help="Diagnostic runs of the model (the flow "
-                            "alone, the grains' layer, a run's archives) and the reports of "
-                            "the investigations that use them.")
+                            "alone, the grains' layer, a run's archives).")
 
     @probe_app.command("loglaw")
     def loglaw(case: int = typer.Option(1, "--case", help="case number (its u*s and z0)"),
@@ -272,6 +272,4 @@ def register_probe(app) -> None:
     register_steady_layer(probe_app)
     from .column_budget import register_column_budget
     register_column_budget(probe_app)
-    from ..report.cli_commands import register as register_reports
-    register_reports(probe_app)
     app.add_typer(probe_app, name="probe")

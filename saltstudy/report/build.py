@@ -1,14 +1,6 @@
-"""``build_report``: figures 1-13, Table 2 beside the paper, summary.json and index.html for a study.
-
-Writes into ``report_dir`` (normally ``reports/<study>/``)::
-
-    fig01.png fig01.pdf ... fig13.png fig13.pdf   the paper's figures from this study's archives
-    table2.md table2.html                          Table 2 + the text's numbers, computed vs paper
-    summary.json                                   every scalar in SI, wall times, machine
-    convergence.*                                  for a ladder (labels "caseNN@fidelity")
-    stability.*                                    for scenes / when failures are given
-    cp_animation.gif                               if a C_p plane stack exists
-    index.html                                     one self-contained page linking all of it
+"""``build_report``: figures 1-13 (png, pdf), Table 2 beside the paper (table2.md, .html),
+summary.json, the convergence, stability and flux-law sections a study calls for, the C_p
+animation and one self-contained index.html, from a study's analysis archives.
 """
 from __future__ import annotations
 
@@ -51,6 +43,11 @@ table.t2 td{white-space:nowrap;padding:.2em .35em}table.t2 .se{color:#555;font-s
 """
 
 
+#: the optional sections' anchors and names in the page's links
+_SECTIONS = {"findings": "Findings", "convergence": "Convergence", "stability": "Stability",
+             "fluxlaw": "Flux law"}
+
+
 def _is_ladder(ctx: ReportContext) -> bool:
     by_case: dict[int, int] = {}
     for label, r in ctx.runs.items():
@@ -65,15 +62,8 @@ def _has_scenes(ctx: ReportContext) -> bool:
 
 def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir: str | Path,
                  meta: dict[str, Any] | None = None) -> Path:
-    """Build the report of ``study_name`` from ``runs`` (label -> analysis.nc path or None).
-
-    ``meta`` (all optional): ``fidelity`` (str), ``study_config`` (dict or JSON string),
-    ``package_version``, ``case_numbers`` / ``fidelities`` / ``wall_times`` (dicts per label),
-    ``order`` (ladder labels coarse -> fine), ``failures`` (label -> error message),
-    ``samples`` (label -> samples.nc path), ``animation_label`` (which run to animate),
-    ``reports`` (a list among "convergence", "stability" forcing those sections).
-    Returns the path of ``index.html``.
-    """
+    """Build the report of ``study_name`` from ``runs`` (label -> analysis.nc path or None) into
+    ``report_dir``; ``meta``'s keys: docs/ARCHITECTURE.md (``build_report``). Returns index.html."""
     from .study_meta import enrich_meta
     meta = enrich_meta(study_name, meta)
     report_dir = Path(report_dir)
@@ -211,11 +201,6 @@ def _fmt_s(v: Any) -> str:
     return f"{v:.1f} s"
 
 
-def _started(summary: dict[str, Any]) -> str:
-    a, b = summary.get("run_started"), summary.get("run_finished")
-    return f" ({html.escape(str(a))} to {html.escape(str(b))})" if a and b else ""
-
-
 def _resumed_note(summary: dict[str, Any]) -> str:
     """Say so when the wall time is one leg of a resumed study: its tasks' recorded times exceed
     what the machine's cores could have run in it, so most of them came from the cache."""
@@ -229,16 +214,14 @@ def _resumed_note(summary: dict[str, Any]) -> str:
             "(the sum of task times below is the study's cost)") if resumed else ""
 
 
-def _task_split(summary: dict[str, Any]) -> str:
-    tt = summary.get("task_times_s") or {}
-    return ", ".join(f"{k} {_fmt_s(v)}" for k, v in tt.items())
-
-
 def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
     e = html.escape
     meta = ctx.meta
     m = summary["machine"]
     n_ok = sum(1 for r in ctx.runs.values() if r.ok)
+    a, b = summary.get("run_started"), summary.get("run_finished")
+    started = f" ({e(str(a))} to {e(str(b))})" if a and b else ""
+    split = ", ".join(f"{k} {_fmt_s(v)}" for k, v in (summary.get("task_times_s") or {}).items())
     parts = [f"<h1>saltstudy report — study <code>{e(ctx.study)}</code></h1>",
              f"<p>A reproduction of Dupont, Bergametti, Marticorena &amp; Simoëns (2013), <i>Modeling "
              f"saltation intermittency</i>, J. Geophys. Res. Atmos. 118. Computed values are drawn in "
@@ -249,19 +232,16 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              f"<tr><th>fidelity</th><td>{e(str(summary['fidelity']))}</td></tr>",
              f"<tr><th>package version</th><td>{e(str(summary['package_version']))}</td></tr>",
              f"<tr><th>wall time, start to end</th><td>{_fmt_s(summary['total_wall_time_s'])}"
-             f"{_started(summary)}{_resumed_note(summary)}</td></tr>",
+             f"{started}{_resumed_note(summary)}</td></tr>",
              f"<tr><th>sum of task times</th><td>{_fmt_s(summary['task_time_sum_s'])} "
-             f"({_task_split(summary)}; a shared spin-up counted once)</td></tr>",
+             f"({split}; a shared spin-up counted once)</td></tr>",
              f"<tr><th>machine</th><td>{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})</td></tr>",
              "</table>",
              "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
              "<a href='#runs'>Runs and wall time</a> · <a href='#config'>Configuration</a> · "
              "<a href='summary.json'>summary.json</a> · <a href='table2.md'>table2.md</a>"
-             + (" · <a href='#findings'>Findings</a>" if any("id='findings'" in s for s in sections) else "")
-             + (" · <a href='#convergence'>Convergence</a>" if any("convergence" in s for s in sections) else "")
-             + (" · <a href='#stability'>Stability</a>" if any("stability" in s for s in sections) else "")
-             + (" · <a href='#fluxlaw'>Flux law</a>" if any("id='fluxlaw'" in s for s in sections) else "")
-             + "</p>",
+             + "".join(f" · <a href='#{k}'>{name}</a>" for k, name in _SECTIONS.items()
+                       if any(f"id='{k}'" in s for s in sections)) + "</p>",
              f"<h2 id='tables'>Table 2 — computed beside {PAPER_LABEL}</h2>",
              "<p>One row per run: computed value, the paper's value (grey) and the relative "
              "difference (computed − paper)/paper, red when larger than 25 %; the paper's value "

@@ -1,25 +1,14 @@
 """Error against run time for a convergence ladder (one case at a ladder of fidelities).
 
-For each statistic (``CONV_STATS``) and each rung:
-* its value ± an error bar, the larger of two estimates of one run's noise (``NOISE_NOTE``:
-  the two half windows, and the seeds' scatter where the study repeats a run with only the seed
-  changed, :func:`seed_noise`); and whether the difference from the reference lies inside the
-  two runs' bars added in quadrature (then it is not a result);
-* the relative difference from the *reference* rung: the study's ``reference`` fidelity when it
-  names one (a sensitivity study: one-knob variants of a base fidelity), else the finest rung (the
-  declared order's last, else the largest wall time);
-* the relative error against the paper where it gives a value (:func:`_paper_error`; for the
-  10-20 % range of sigma_G/G_tot the distance to the nearer bound, 0 inside),
-plotted against the wall-clock time of the rung (spin-up + saltation; rungs on one grid share a
-spin-up, so a study pays it once); and a table naming the cheapest rung within 10 % and 25 % of
-the reference, per statistic, among the rungs whose own error bar is no wider than that
-threshold (:func:`_resolves`). ``N_air`` (mean parcel count x Q: the real grains in the air)
-compares across parcel weights.
-
-A study may run its ladder for several cases: each case is compared with its own run at the
-reference fidelity. ``convergence.png`` draws the case with the most rungs (the *primary* case,
-which heads ``convergence.json``); each other case gets ``convergence_caseNN.png`` and its own
-section; ``convergence_summary.png`` puts every case's ladder in one figure (:func:`ladder_summary`).
+Per statistic (``CONV_STATS``) and rung: its value ± the larger of two noise estimates
+(``NOISE_NOTE``); the relative difference from the reference rung (the study's ``reference``
+fidelity, else the finest: the declared order's last, else the largest wall time) and, where the
+paper gives a value, from the paper (:func:`_paper_error`); both against the rung's wall time
+(spin-up + saltation). The table names the cheapest rung within 10 % and 25 % of the reference
+among the rungs whose own bar is no wider than the threshold (:func:`_resolves`). ``N_air``
+(mean parcel count x Q) compares across parcel weights. Each case is compared with its own run
+at the reference fidelity; ``convergence.png`` draws the case with the most rungs, each other
+case ``convergence_caseNN.png``, ``convergence_summary.png`` every ladder at once.
 """
 from __future__ import annotations
 
@@ -73,22 +62,27 @@ class ConvergenceResult:
     on_ladder: list[str] = field(default_factory=list)   # the declared rungs (not extra scenes)
 
 
+#: the text's statements a statistic is compared with: key -> (its name in the paper's results,
+#: whether it holds for a run of that case and mu1 [m])
+_STATED = {
+    # the paper's ~0.1 z_m holds for soils with mu1 >= 200 um (its Fig. 12)
+    "st": ("fig12_St_below_1_above_z_over_zm", lambda case, mu1: mu1 >= 200e-6 * (1 - 1e-9)),
+    "rcu": ("fig11_Rcu_upper_layer", lambda case, mu1: (case or 0) <= 6),
+    "tau_p6": ("fig6_taup_surface_fraction_case6", lambda case, mu1: case == 6),   # case 6 only
+}
+
+
 def _paper_error(stat: str, value: float, case: int | None, mu1: float = math.nan) -> float:
     key = CONV_STATS[stat][1]
     if key is None or not math.isfinite(value):
         return math.nan
-    if key == "st":         # the paper's ~0.1 z_m holds for soils with mu1 >= 200 um (its Fig. 12)
-        ref = float(paper_results().get("fig12_St_below_1_above_z_over_zm", math.nan))
-        return abs(value - ref) / ref if mu1 >= 200e-6 * (1 - 1e-9) and math.isfinite(ref) else math.nan
+    if key in _STATED:
+        name, applies = _STATED[key]
+        ref = float(paper_results().get(name, math.nan))
+        return abs(value - ref) / ref if applies(case, mu1) and math.isfinite(ref) else math.nan
     if key == "fig4":       # z_m on the paper's line for cases 1-6, at the paper's u*s
         ref = _paper_z_m(case)
         return abs(value - ref) / ref if math.isfinite(ref) else math.nan
-    if key == "rcu":
-        ref = float(paper_results().get("fig11_Rcu_upper_layer", math.nan))
-        return abs(value - ref) / ref if math.isfinite(ref) and (case or 0) <= 6 else math.nan
-    if key == "tau_p6":     # the paper states it for case 6 only
-        ref = float(paper_results().get("fig6_taup_surface_fraction_case6", math.nan))
-        return abs(value - ref) / ref if case == 6 and math.isfinite(ref) else math.nan
     if key == "range":
         lo, hi = paper_results().get("fig13_sigmaG_over_Gtot", [math.nan, math.nan])
         if lo <= value <= hi:
@@ -153,14 +147,11 @@ def _seed(r: RunData) -> object:
 def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[str]]]:
     """The seeds' scatter per statistic, as a relative variance per unit sampled extent.
 
-    Runs sharing every setting but the seed are realizations of one run; their sample standard
-    deviation s (n - 1 in the denominator: |a - b| / sqrt(2) for two) over the magnitude of their
-    mean, squared and multiplied by the sampled extent E (:func:`sampled_extent`), is pooled over
-    the groups (mean). A run of extent E' then has the bar |value| sqrt(pooled / E'): the variance
-    of a space-time average falls as 1/E once the window and box hold many correlation lengths
-    and times. That is an assumption beyond the run that was repeated (exact only for it): it
-    fails for boxes a few streamers wide (smoke, quick), and it keeps the repeated run's parcel
-    noise, so it overstates the bar of a run with lighter parcels (a lower Q multiplier).
+    Runs sharing every setting but the seed are realizations of one run; their sample variance
+    over their squared mean, times the sampled extent E (:func:`sampled_extent`), is pooled over
+    the groups. A run of extent E' then has the bar |value| sqrt(pooled / E'): the variance of a
+    space-time average falls as 1/E once the window and box hold many correlation lengths. That
+    fails for boxes a few streamers wide (smoke, quick) and keeps the repeated run's parcel noise.
     Returns ({stat: pooled relative variance x extent}, [labels of each group])."""
     groups: dict[str, dict[str, RunData]] = {}
     for r in runs.values():
@@ -468,35 +459,39 @@ def _knobs(row: dict[str, Any]) -> str:
 
 
 _KNOBS_HEAD = "Δx / first level / grains per parcel"
+_RUNG_HEADS = ("rung", "fidelity", _KNOBS_HEAD, "status", "wall time [s]", "of which spin-up [s]")
+_CHEAPEST_NOTE = ("among rungs whose own error bar is no wider than the threshold: a noisier run "
+                  "agrees by chance")
+
+
+def _rung_cells(res: ConvergenceResult) -> list[list[str]]:
+    """A row of text cells per rung: its settings, then value ± bar (vs reference / paper)."""
+    return [[row["label"], str(row["fidelity"] or "—"), _knobs(row), row["status"],
+             fmt(row["wall_time_s"]), fmt(row["spinup_wall_time_s"])]
+            + [f"{_pm(row['values'][s], row['error_bar'][s])} ({_p(row['err_finest'][s])}"
+               f"{'*' if row['within_noise'][s] else ''} / {_p(row['err_paper'][s])})"
+               for s in CONV_STATS] for row in res.rungs]
+
+
+def _cheapest_cells(res: ConvergenceResult) -> list[tuple[str, str, str]]:
+    return [(CONV_STATS[s][0], res.cheapest[s]["10%"] or "none", res.cheapest[s]["25%"] or "none")
+            for s in CONV_STATS]
 
 
 def _tables_md(res: ConvergenceResult) -> str:
-    lines = [f"| rung | fidelity | {_KNOBS_HEAD} | status | wall time [s] | of which spin-up [s] | " +
-             " | ".join(f"{CONV_STATS[s][0]} (vs reference / paper)" for s in CONV_STATS) + " |",
-             "|" + "---|" * (6 + len(CONV_STATS))]
-    for row in res.rungs:
-        cells = [row["label"], str(row["fidelity"] or "—"), _knobs(row), row["status"],
-                 fmt(row["wall_time_s"]), fmt(row["spinup_wall_time_s"])]
-        for s in CONV_STATS:
-            ef, ep = row["err_finest"][s], row["err_paper"][s]
-            cells.append(f"{_pm(row['values'][s], row['error_bar'][s])} ({_p(ef)}"
-                         f"{'*' if row['within_noise'][s] else ''} / {_p(ep)})")
-        lines.append("| " + " | ".join(cells) + " |")
-    lines += ["", "Cheapest rung within 10 % / 25 % of the reference (among rungs whose own error bar "
-              "is no wider than the threshold: a noisier run agrees by chance):", "",
+    heads = list(_RUNG_HEADS) + [f"{CONV_STATS[s][0]} (vs reference / paper)" for s in CONV_STATS]
+    lines = ["| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
+    lines += ["| " + " | ".join(cells) + " |" for cells in _rung_cells(res)]
+    lines += ["", f"Cheapest rung within 10 % / 25 % of the reference ({_CHEAPEST_NOTE}):", "",
               "| statistic | within 10 % | within 25 % |", "|---|---|---|"]
-    for s in CONV_STATS:
-        c = res.cheapest[s]
-        lines.append(f"| {CONV_STATS[s][0]} | {c['10%'] or 'none'} | {c['25%'] or 'none'} |")
+    lines += ["| " + " | ".join(c) + " |" for c in _cheapest_cells(res)]
     return "\n".join(lines)
 
 
 def _resolves(row: dict[str, Any], s: str, threshold: float) -> bool:
-    """Whether a rung's own noise is small enough to show agreement to ``threshold``.
-
-    A run whose error bar is wider than the threshold (relative to its value) lands within it by
-    chance as often as not; a run with no bar (one too short for two half windows, no seed
-    replicate) cannot show it either. Such a rung is never named the cheapest within a threshold."""
+    """Whether a rung's own noise is small enough to show agreement to ``threshold``: a run whose
+    bar is wider than the threshold (relative to its value) lands within it by chance, and a run
+    with no bar cannot show it; such a rung is never named the cheapest."""
     v, eb = row["values"][s], row["error_bar"][s]
     if not (math.isfinite(v) and math.isfinite(eb)) or v == 0:
         return False
@@ -511,32 +506,20 @@ def _p(v: float) -> str:
     return f"{v:.1%}" if math.isfinite(v) else "n/a"
 
 
+def _html_rows(rows, cell: str = "td") -> str:
+    return "".join("<tr>" + "".join(f"<{cell}>{html.escape(c)}</{cell}>" for c in r) + "</tr>"
+                   for r in rows)
+
+
 def _tables_html(res: ConvergenceResult) -> str:
-    e = html.escape
-    out = [f"<table><thead><tr><th>rung</th><th>fidelity</th><th>{e(_KNOBS_HEAD)}</th><th>status</th>"
-           "<th>wall time [s]</th><th>of which spin-up [s]</th>"]
-    out += [f"<th>{e(CONV_STATS[s][0])}<br><small>value (vs reference / paper)</small></th>"
-            for s in CONV_STATS]
-    out.append("</tr></thead><tbody>")
-    for row in res.rungs:
-        out.append(f"<tr><td>{e(row['label'])}</td><td>{e(str(row['fidelity'] or '—'))}</td>"
-                   f"<td>{e(_knobs(row))}</td><td>{e(row['status'])}</td><td>{fmt(row['wall_time_s'])}</td>"
-                   f"<td>{fmt(row['spinup_wall_time_s'])}</td>")
-        for s in CONV_STATS:
-            out.append(f"<td>{_pm(row['values'][s], row['error_bar'][s])} ({_p(row['err_finest'][s])}"
-                       f"{'*' if row['within_noise'][s] else ''} / {_p(row['err_paper'][s])})</td>")
-        out.append("</tr>")
-    out.append("</tbody></table><h4>Cheapest rung within 10 % / 25 % of the reference</h4>"
-               "<p>Among the rungs whose own error bar is no wider than the threshold: a noisier run "
-               "agrees by chance.</p>"
-               "<table><thead><tr><th>statistic</th><th>within 10 %</th><th>within 25 %</th></tr>"
-               "</thead><tbody>")
-    for s in CONV_STATS:
-        c = res.cheapest[s]
-        out.append(f"<tr><td>{e(CONV_STATS[s][0])}</td><td>{e(c['10%'] or 'none')}</td>"
-                   f"<td>{e(c['25%'] or 'none')}</td></tr>")
-    out.append("</tbody></table>")
-    return "".join(out)
+    heads = "".join(f"<th>{html.escape(h)}</th>" for h in _RUNG_HEADS) + "".join(
+        f"<th>{html.escape(CONV_STATS[s][0])}<br><small>value (vs reference / paper)</small></th>"
+        for s in CONV_STATS)
+    return (f"<table><thead><tr>{heads}</tr></thead><tbody>{_html_rows(_rung_cells(res))}"
+            "</tbody></table><h4>Cheapest rung within 10 % / 25 % of the reference</h4>"
+            f"<p>{_CHEAPEST_NOTE[0].upper() + _CHEAPEST_NOTE[1:]}.</p><table><thead>"
+            + _html_rows([("statistic", "within 10 %", "within 25 %")], "th")
+            + f"</thead><tbody>{_html_rows(_cheapest_cells(res))}</tbody></table>")
 
 
 def _payload_rows(res: ConvergenceResult) -> list[dict[str, Any]]:
@@ -574,44 +557,30 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
                              order: list[str] | None = None,
                              reference: str | None = None,
                              provenance: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Write ``convergence.png/.pdf``, ``convergence.md`` and ``convergence.json`` in ``report_dir``
-    (and ``convergence_caseNN.png/.pdf`` for each case after the primary one, and, for a ladder,
-    ``convergence_summary.png/.pdf``: every case's median error against wall time).
-
-    ``runs``: label -> analysis path (or None), or already loaded :class:`RunData`. ``fidelities`` and
-    ``wall_times`` per label override the archives' attributes; ``order`` (coarse -> fine) declares
-    the ladder, else the rung with the largest wall time is the finest; ``reference`` (a label)
-    names the rung the others are compared with (default: the finest), and for every other case
-    its run at the same fidelity.
-    ``provenance`` (study, package version, commit, source key: the workflow passes them) heads
-    ``convergence.json``.
-    Returns {"result": the primary case's ConvergenceResult, "results": {case: result},
-    "html": str (tables, and each further case's figure), "summary_html": str (the summary
-    figure, or ""), "files": [...]}.
-    """
+    """Write ``convergence.{png,pdf,md,json}`` in ``report_dir`` (with ``convergence_caseNN`` per
+    further case and, for a ladder, ``convergence_summary``). ``runs``: label -> analysis path or
+    :class:`RunData`; ``fidelities``/``wall_times`` override the archives'; ``order``: the ladder,
+    coarse -> fine; ``reference``: the label compared against (default: the finest);
+    ``provenance`` heads ``convergence.json``. Returns {"result" (the primary case's), "results",
+    "html", "summary_html", "files"}."""
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
     loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
     results = convergence_by_case(loaded, order, reference)
     primary = next(iter(results))
     res = results[primary]
-    files = []
-    for case, r in results.items():
-        fig = _figure(r, case)
-        stem = _stem(case, primary)
-        for ext in ("png", "pdf"):
-            p = report_dir / f"{stem}.{ext}"
-            fig.savefig(p, dpi=130)
-            files.append(p)
+    figures = {_stem(case, primary): _figure(r, case) for case, r in results.items()}
     if not any(r.named_reference for r in results.values()):
-        fig = _summary_figure(results)
+        figures["convergence_summary"] = _summary_figure(results)
+    files = []
+    for stem, fig in figures.items():
         for ext in ("png", "pdf"):
-            fig.savefig(report_dir / f"convergence_summary.{ext}", dpi=130)
-            files.append(report_dir / f"convergence_summary.{ext}")
+            files.append(report_dir / f"{stem}.{ext}")
+            fig.savefig(files[-1], dpi=130)
     md = ["# Error against run time", "", NOISE_NOTE, ""]
     page = []
     summary_html = ""
-    if (report_dir / "convergence_summary.png") in files:
+    if "convergence_summary" in figures:
         md += ["![the ladder at a glance](convergence_summary.png)", ""]
         summary_html = ("<figure><a href='convergence_summary.pdf'><img src='convergence_summary.png' "
                         "alt='the ladder at a glance: median error against wall time'></a>"
@@ -631,12 +600,7 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
     payload = {**(provenance or {}), "primary_case": primary, "finest": res.finest, "reference": res.finest,
                "cheapest": res.cheapest,
-               "error_bar": "the larger of half_window_bar (half the difference of the statistic "
-                            "over the two halves of the sampling window) and seed_bar (the seeds' "
-                            "relative standard deviation in this case's seed replicates, scaled by "
-                            "sqrt(their sampled extent / this run's), extent = sampled duration x "
-                            "box area); within_noise: |value - reference| <= the two error bars "
-                            "added in quadrature",
+               "error_bar": NOISE_NOTE,
                "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
                                      "seed_replicates": r.seed_groups,
                                      "ladder_summary": [{k: (v if not isinstance(v, float) or math.isfinite(v)

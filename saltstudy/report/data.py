@@ -1,8 +1,5 @@
-"""Loading analysis archives for the report: one :class:`RunData` per run label.
-
-The report reads ``analysis.nc`` only (docs/ARCHITECTURE.md). A run whose archive is missing or
-unreadable becomes a :class:`RunData` with ``ds = None`` and a ``status`` saying why; figures draw it
-as missing, tables say so; nothing is invented.
+"""Loading analysis archives for the report: one :class:`RunData` per run label; a missing or
+unreadable archive gives ``ds = None`` and a ``status`` saying why (drawn and tabled as missing).
 """
 from __future__ import annotations
 
@@ -18,21 +15,8 @@ import xarray as xr
 
 from ..ncio import open_dataset
 
-__all__ = ["RunData", "ReportContext", "load_runs", "SCALAR_UNITS", "to_si", "case_number_of",
+__all__ = ["RunData", "ReportContext", "load_runs", "to_si", "case_number_of",
            "is_plain_case_label", "paper_case_of"]
-
-#: units of the scalars of analysis.nc (used when the archive does not carry a ``units`` attribute)
-SCALAR_UNITS: dict[str, str] = {
-    "u_star_s": "m s-1", "u_star_s_se": "m s-1", "z0s": "m", "u_star_0": "m s-1", "z0_0": "m", "z_m": "m",
-    "z_m_flux995": "m", "G_tot": "kg m-1 s-1", "sigma_G": "kg m-1 s-1", "sigma_G_over_G_tot": "1",
-    "lambda_x": "m", "lambda_y": "m", "delta_y": "m", "delta_y_u": "m", "u_star_t": "m s-1",
-    "delta_y_premultiplied": "m", "delta_y_density": "m", "delta_y_correlation": "m",
-    "delta_y_u_premultiplied": "m", "delta_y_u_density": "m", "delta_y_u_correlation": "m",
-    "tau_p_surface_fraction": "1", "R_cu_upper": "1", "n_parcels_mean": "1", "n_parcels_peak": "1",
-    "overshoot_ratio": "1", "t_equilibrium": "s", "streamer_lifetime": "s", "streamer_speed": "m s-1",
-    "E_splash_over_E_impact": "1", "fit_z_min": "m", "fit_z_max": "m", "wall_time_s": "s",
-    "airborne_mass_per_m2": "kg m-2", "n_parcels_per_m2_at_Q": "m-2",
-}
 
 # non-SI units an archive might carry -> (factor to SI, SI unit)
 _TO_SI = {"um": (1e-6, "m"), "µm": (1e-6, "m"), "micron": (1e-6, "m"), "mm": (1e-3, "m"),
@@ -85,10 +69,9 @@ def _same(a: Any, b: Any) -> bool:
 
 
 def paper_case_of(case: dict) -> Any:
-    """The paper's case (Table 2) that ``case`` (a case as archived, ``config.Case`` JSON) is,
-    unchanged: the number of the row whose u*s, µ1 and Q it has, with every other setting the
-    paper's (the package's defaults); name, description and seed aside. None if it is no paper
-    case; ``_UNREADABLE`` if the package cannot read it as a case."""
+    """The paper's case (Table 2) that ``case`` (``config.Case`` JSON as archived) is, unchanged:
+    its row's u*s, µ1 and Q, every other setting the package's default (name, description and
+    seed aside). None if it is no paper case; ``_UNREADABLE`` if ``config.Case`` cannot read it."""
     from ..config import Case
     from .reference import paper_table2
     try:
@@ -137,10 +120,8 @@ class RunData:
 
     @property
     def paper_case(self) -> int | None:
-        """The number of the paper's case this run is, unchanged (:func:`paper_case_of` of its
-        archived case); None for a case of one's own. An archived case that ``config.Case``
-        cannot read (fields it does not know) counts as a paper case when its label is one
-        (``caseNN``, ``caseNN@rung``)."""
+        """The paper's case this run is, unchanged (:func:`paper_case_of`); None for a case of
+        one's own; the label's case number when ``config.Case`` cannot read the archived case."""
         case = self.scene.get("case") if isinstance(self.scene, dict) else None
         if isinstance(case, dict) and case:
             n = paper_case_of(case)
@@ -208,12 +189,8 @@ class RunData:
         return float(self.scene.get("fidelity", {}).get("grid", {}).get("damping_depth", 0.0))
 
     def z_ref(self) -> tuple[float, str]:
-        """Height where u_ref is read for Fig 2 and why.
-
-        The paper reads u_ref at 2 m. A smaller domain may not have 2 m below its damping layer:
-        we use z_ref = min(2 m, forcing.z_ref, (Lz - damping_depth)/2), the same effective height
-        at which the solver holds u* (docs/ARCHITECTURE.md, "Forcing").
-        """
+        """(height, why) where Fig. 2 reads u_ref: the paper's 2 m, or min(forcing.z_ref,
+        (Lz - damping_depth)/2) where the solver holds u* (docs/ARCHITECTURE.md, "Forcing")."""
         grid = self.scene.get("fidelity", {}).get("grid", {})
         lz = float(grid.get("Lz", self.attr("Lz", math.nan)))
         damp = self.damping_depth()
@@ -234,13 +211,9 @@ class ReportContext:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def by_case(self, n: int) -> RunData | None:
-        """The run that stands for case ``n`` in the paper's figures.
-
-        A plain ``caseNN`` label wins; otherwise (a convergence ladder) the rung with the largest
-        wall time among the archives present (the finest), else the last listed; in a study of
-        scenes (labels of the user's choosing) the first scene of the case with an archive, so
-        that the per-case figures show the scene in the case's place.
-        """
+        """The run that stands for case ``n`` in the paper's figures: a plain ``caseNN`` label,
+        else the ladder's rung with the largest wall time among the archives present (else the
+        last listed), else the case's first scene with an archive."""
         plain = [r for r in self.runs.values() if r.case == n and r.plain_case]
         if plain:
             return plain[0]
@@ -255,9 +228,8 @@ class ReportContext:
         return rungs[-1]
 
     def missing_note(self, n: int) -> str | None:
-        """The reason the study's run of case ``n`` has no data, to print on a figure; None if
-        it has data or the study holds no run of case ``n`` (the figures draw the runs a study
-        has, so a case it does not hold is nothing to note)."""
+        """Why the study's run of case ``n`` has no data, for a figure; None if it has data or
+        the study holds no run of case ``n``."""
         r = self.by_case(n)
         return f"case {n}: {r.status}" if r is not None and not r.ok else None
 

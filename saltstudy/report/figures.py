@@ -1,17 +1,9 @@
-"""Figures 1-13 of Dupont et al. (2013), drawn from analysis archives.
-
-Each ``figNN(ctx)`` returns a :class:`FigureResult`: the matplotlib ``Figure`` (made without pyplot,
-so it is safe in worker threads and needs no display), the arrays it plotted (``data``), and the
-notes it printed (missing cases, undefined quantities). The paper's own numbers appear only as grey
-reference marks labelled "Dupont et al. 2013". This module holds the figures' register
-(``FIGURES``, ``CAPTIONS``) and draws them; the figures themselves are grouped by what they show:
-``scatter_figures`` (Figs. 1, 3, 4, 8, 13: each run whole), ``profile_figures`` (Figs. 2, 5, 6,
-7, 11, 12: the layer along the height), ``streamer_figures`` (Figs. 9, 10), with the conventions
-they share in ``plotting``.
-
-Axes, normalisations and case groupings follow the paper's captions (``CAPTIONS``); a case the
-study lacks gives its place to the study's nearest run along the figure's parameter, or is left
-out (report/panels.py).
+"""The register of Figures 1-13 of Dupont et al. (2013) (``FIGURES``, ``CAPTIONS``), drawn from
+analysis archives. Each ``figNN(ctx)`` returns a :class:`FigureResult`: the figure (no pyplot:
+safe in worker threads), the arrays it plotted (``data``) and its notes. The figures live in
+``scatter_figures`` (Figs. 1, 3, 4, 8, 13), ``profile_figures`` (2, 5, 6, 7, 11, 12) and
+``streamer_figures`` (9, 10); a case the study lacks gives its place to its nearest run
+(report/panels.py).
 """
 from __future__ import annotations
 

@@ -66,11 +66,11 @@ def build_fluxlaw_report(runs: dict, report_dir: Path, law: str) -> dict[str, An
          "rows": rows}, indent=1, default=float), encoding="utf-8")
     head = ("| run | u* (stress at z_ref) [m/s] | G_tot [g/m/s] | law at that u* [g/m/s] | "
             f"G_tot / law (within ±{TOLERANCE:.0%}) | G e-folding height [cm] (measured {100 * h_data:g}) |")
+    cells = [[r["label"], fmt(r["u_star_stress"]), fmt(1e3 * r["G_tot"]), fmt(1e3 * r["law"]),
+              fmt(r["ratio"]), fmt(100 * r["G_decay_height"])] for r in rows]
     lines = [f"G_tot against {cite}.", "", head, "|---|---|---|---|---|---|"]
-    for r in rows:
-        lines.append(f"| {r['label']} | {fmt(r['u_star_stress'])} | {fmt(1e3 * r['G_tot'])} | "
-                     f"{fmt(1e3 * r['law'])} | {fmt(r['ratio'])} {'yes' if r['within'] else 'NO'} | "
-                     f"{fmt(100 * r['G_decay_height'])} |")
+    lines += ["| " + " | ".join(c[:4] + [f"{c[4]} {'yes' if r['within'] else 'NO'}"] + c[5:]) + " |"
+              for r, c in zip(rows, cells)]
     (report_dir / "fluxlaw.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
     fig = Figure(figsize=(5.5, 4.0))
@@ -93,11 +93,9 @@ def build_fluxlaw_report(runs: dict, report_dir: Path, law: str) -> dict[str, An
 
     e = html.escape
     body = ["<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in head.strip("|").split("|")) + "</tr>"]
-    for r in rows:
-        cls = "" if r["within"] else " class='bad'"
-        body.append(f"<tr><td>{e(r['label'])}</td><td>{fmt(r['u_star_stress'])}</td>"
-                    f"<td>{fmt(1e3 * r['G_tot'])}</td><td>{fmt(1e3 * r['law'])}</td>"
-                    f"<td{cls}>{fmt(r['ratio'])}</td><td>{fmt(100 * r['G_decay_height'])}</td></tr>")
+    for r, c in zip(rows, cells):
+        cls = ["" if i != 4 or r["within"] else " class='bad'" for i in range(len(c))]
+        body.append("<tr>" + "".join(f"<td{k}>{e(x)}</td>" for k, x in zip(cls, c)) + "</tr>")
     body.append("</table>")
     out = (f"<p>G_tot of each run against {e(cite)}, at the u* of the run's own stress at the "
            "reference height.</p><figure><a href='fluxlaw.pdf'><img src='fluxlaw.png' "

@@ -1,33 +1,23 @@
 """Which run fills each place of a per-case figure: the paper's case, or the study's nearest one.
 
-The paper's per-case figures show fixed cases (figures.CAPTIONS): Figs. 6, 7, 10, 11 and 12 a
-panel of cases 1–6 (u*s varies, µ1 = 200 µm) and one of cases 2, 7–10 (µ1 varies); Figs. 2, 5
-and 9 look for their cases by u*s at the case's µ1. :func:`panel_runs` gives each place the
-study's own run of that case when it has usable data, else the nearest run along the figure's
-parameter, drawn under its own label with the case it stands in for (:meth:`PanelRun.stand_in`),
-else nothing (the figure draws no empty frame).
+Figs. 6, 7, 10, 11 and 12 hold a panel of cases 1–6 (u*s varies, µ1 = 200 µm) and one of cases
+2, 7–10 (µ1 varies); Figs. 2, 5 and 9 look for their cases by u*s at the case's µ1.
+:func:`panel_runs` gives each place the study's own run of that case when it has usable data,
+else the nearest run along the figure's parameter, labelled with the case it stands in for
+(:meth:`PanelRun.stand_in`), else nothing (no empty frame).
 
-**Which runs may stand in.** One run per case number (the one ``by_case`` picks) and every run
-without a case number (a scene of the user's own), each at most once per figure: a run that
-already draws its own case, or stands in for another, is not drawn twice. A run stands in only
-along the figure's own series: it must hold the parameter the figure keeps fixed within
-:data:`HELD_TOLERANCE` of the paper's case (µ1 for a u*s series, u*s for a µ1 series), so that a
-90 µm run never appears in the picture of the wind's effect at 200 µm, whose differences it would
-confound with those of u*s.
+**Who may stand in.** One run per case number (``by_case``'s) and every run without one, each at
+most once per figure, and only if it holds the parameter the figure keeps fixed within
+:data:`HELD_TOLERANCE` of the paper's case: a 90 µm run in the picture of the wind's effect at
+200 µm would confound µ1 with u*s.
 
-**Nearest.** The distance is ``|ln(x_run / x_paper)|`` of the varied parameter: the case's
-*target* u*s from its configuration (what the drive holds at the reference height, the value
-that names the case in the paper's Table 2) and the µ1 of its soil. The target, not the run's
-computed u*s: the computed value carries the run's sampling noise and departs from the target by
-the fidelity's bias, so it would let the choice of the picture drift between reruns of the same
-study and let noise decide between runs at the same target (cases 2, 9 and 10 all hold 0.54). The
-logarithm treats ratios alike (90 µm to 100 µm is as near as 360 µm to 400 µm).
-
-**Ties and order.** Pairs (paper case, run) are assigned greedily from the nearest pair up, so a
-run goes to the paper case it is nearest to. The sort key is: the distance along the varied
-parameter, then along the held one, then the paper case's place in the figure, then the run's
-case number (a run without one after those with one), then its label; the choice is therefore
-deterministic, whatever the order of the study's runs.
+**Nearest.** ``|ln(x_run / x_paper)|`` of the varied parameter (ratios alike: 90 to 100 µm is as
+near as 360 to 400 µm), with the case's *target* u*s from its configuration (the value naming
+the case in Table 2), not the computed one: that carries the run's sampling noise and the
+fidelity's bias, and would let noise pick between runs at one target (cases 2, 9, 10 all 0.54).
+Pairs (paper case, run) are assigned greedily from the nearest up, sorted by the distance along
+the varied parameter, then the held one, the place in the figure, the run's case number (none
+last) and its label: deterministic whatever the order of the study's runs.
 """
 from __future__ import annotations
 
@@ -38,8 +28,8 @@ from typing import Callable, Iterable, Sequence
 from .data import ReportContext, RunData
 from .reference import paper_table2
 
-__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "case_parameters",
-           "paper_parameters", "nearest_runs", "panel_runs"]
+__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "paper_parameters",
+           "nearest_runs", "panel_runs"]
 
 #: the figure varies u*s (Fig. 9 rows, panels (a) of Figs. 6, 7, 10–12)
 BY_U_STAR_S = "u*s"
@@ -86,11 +76,6 @@ def paper_parameters(n: int) -> tuple[float, float]:
     return float(row.get("u_star_s", math.nan)), float(row.get("mu1_um", math.nan)) * 1e-6
 
 
-def case_parameters(run: RunData) -> tuple[float, float]:
-    """(target u*s [m s-1], µ1 [m]) of a run's case as configured."""
-    return run.u_star_s_target, run.mu1
-
-
 def _log_distance(a: float, b: float) -> float:
     if not (math.isfinite(a) and math.isfinite(b) and a > 0 and b > 0):
         return math.nan
@@ -110,7 +95,7 @@ def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
     for place, n in enumerate(slots):
         paper = paper_parameters(n)
         for j, r in enumerate(cands):
-            mine = case_parameters(r)
+            mine = (r.u_star_s_target, r.mu1)
             d_held = _log_distance(mine[held], paper[held])
             d_vary = _log_distance(mine[vary], paper[vary])
             if not (math.isfinite(d_vary) and math.isfinite(d_held)):

@@ -1,12 +1,7 @@
-"""What the figures share: the result type, the cases' colours and labels, and axis helpers.
-
-The figures of the paper (``figures.py`` and the modules it draws from) and the variants'
-streamer figure (``streaks.py``) draw with the same conventions: a paper case keeps its colour
-in every figure (cases 1-6 along the wind, 2 and 7-10 along the grain size), a run is labelled
-by its case and its u*s read the paper's way (the total stress at z_ref, Table 2's leading
-column) or its grain size, log axes carry plain numbers, and a figure that cannot draw a run
-says why on the figure. Figures are made without pyplot (:func:`new_figure`), so that they
-can be drawn in worker threads without a display.
+"""What the figures share: a paper case keeps its colour in every figure, a run is labelled by
+its case and its u*s read the paper's way (the total stress at z_ref) or its grain size, log axes
+carry plain numbers, a figure says on itself why it cannot draw a run; figures are made without
+pyplot (:func:`new_figure`), so worker threads can draw them without a display.
 """
 from __future__ import annotations
 

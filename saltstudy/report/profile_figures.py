@@ -1,10 +1,5 @@
-"""Figs. 2, 5, 6, 7, 11 and 12 of Dupont et al. (2013): the saltation layer along the height.
-
-Fig. 2: the mean wind and momentum flux with and without grains (section 3.1); Fig. 5: the
-size distribution in the air by height band against the bed's (section 3.2 [39]); Figs. 6, 7, 11
-and 12: tau_p / (rho u*s^2), <G>/<G_tot>, R_cu and St against z/z_m (eqs. 10-13), panel (a) the
-paper's cases 1-6 (various u*s), panel (b) cases 2, 7-10 (various µ1), each place filled by the
-study's run of the case or its nearest run (``panels.py``).
+"""Figs. 2, 5, 6, 7, 11 and 12 of Dupont et al. (2013): the saltation layer along the height
+(section 3.1, section 3.2 [39], eqs. 10-13).
 """
 from __future__ import annotations
 
@@ -36,11 +31,9 @@ FIG2_PROFILES = ("u_mean", "uw_flux", "u_mean_spinup", "uw_flux_spinup")
 
 
 def fig02(ctx: ReportContext) -> FigureResult:
-    """(a) ⟨u⟩/u_ref and (b) ⟨u'w'⟩ against height, with and without saltation, of the paper's
-    case 2, or of the study's nearest run by u*s at µ1 = 200 µm (``panels.py``), labelled as
-    standing in for it: the paper's case 2 is its 200 µm case at u*s = 0.54 m s⁻¹, and a run of
-    another grain size would change the saltation layer the figure shows. A study with no such
-    run has no Fig. 2 frames, only a sentence saying so."""
+    """(a) ⟨u⟩/u_ref and (b) ⟨u'w'⟩ against height, with and without saltation, of case 2 or
+    the study's nearest run by u*s at µ1 = 200 µm (``panels.py``): another grain size would
+    change the saltation layer the figure shows."""
     def usable(r: RunData) -> str | None:
         return None if any(profile(r, n) is not None for n in FIG2_PROFILES) else \
             "no wind or stress profile"
@@ -126,15 +119,9 @@ FIG5_PANELS = (("a", 90, 7), ("b", 200, 2), ("c", 400, 10))
 
 def fig05(ctx: ReportContext) -> FigureResult:
     """Grain-size distribution in the air, by height band, against the bed's: a panel per grain
-    size of the paper (µ1 = 90, 200, 400 µm: its cases 7, 2, 10).
-
-    Each panel is a soil, so a run fills it only if its µ1 is within ``panels.HELD_TOLERANCE``
-    (10 %) of the panel's grain size: the paper's case if the study has it, else, among the runs
-    of that grain size, the one nearest the paper's case in target u*s (``panels.py``, held µ1,
-    varied u*s), labelled as standing in for it. u*s decides within a panel because, once the
-    soil is the same, the wind is what changes how high and how unevenly the sizes are lifted;
-    a run of another grain size (case 8's 100 µm for 90 µm, case 9's 300 µm for 400 µm) would
-    show a different soil under the panel's title. A panel no run fills is left out."""
+    size of the paper (µ1 = 90, 200, 400 µm: its cases 7, 2, 10). A panel is a soil: only a run
+    within ``panels.HELD_TOLERANCE`` of its µ1 fills it (the paper's case, else the nearest in
+    target u*s, which changes how high and how unevenly the sizes are lifted); else left out."""
     def usable(r: RunData) -> str | None:
         return None if r.has("psd_air", "psd_bed", "d_bin") else "no size distribution"
 
@@ -209,10 +196,8 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
               norm: Callable[[RunData, np.ndarray], np.ndarray], xlog: bool,
               decorate: Callable | None = None, ylim=(0.0, 1.5), xlog_span: float = 1e-4,
               needs: Callable[[RunData], str | None] | None = None) -> FigureResult:
-    """Panel (a): the paper's cases 1–6 (various u*s), panel (b): cases 2, 7–10 (various µ1),
-    each place filled by the study's run of the case or its nearest run (``panels.py``); a
-    panel the study cannot fill at all is left out. ``needs(run)``: the reason a run's profile
-    cannot be normalised (None if it can)."""
+    """Panel (a): cases 1–6 (various u*s), (b): cases 2, 7–10 (various µ1), filled by
+    ``panels.py``; ``needs(run)``: why a run's profile cannot be normalised (None if it can)."""
     def usable(r: RunData) -> str | None:
         if profile(r, var) is None:
             return f"no {var}"
@@ -278,11 +263,8 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
 
 
 def fig06(ctx: ReportContext) -> FigureResult:
-    """τp over ρ u*s² with u*s read the paper's way, from the total stress at z_ref (the u*s of
-    the labels and of Figs. 3, 4, 8, 13's abscissa), the free log fit only for a run whose
-    archive lacks the stress reading (its label and a note say so). z_m, from the analysis, is
-    where τp falls below 0.1 % of ρ u*s² with the same stress u*s: each profile crosses the
-    dotted 0.1 % line at z/z_m = 1."""
+    """τp over ρ u*s², u*s the total stress at z_ref (the free log fit, noted, where an archive
+    lacks it): each profile crosses the dotted 0.1 % line at z/z_m = 1, z_m's definition."""
     free_fit: list[str] = []
 
     def norm(r, v):

@@ -1,16 +1,12 @@
-"""The paper's numbers (Dupont et al. 2013), used only to be placed *beside* computed values.
-
-Everything here is read from the package's copy ``saltstudy/data/dupont2013.toml``. Nothing in the
-report uses these numbers as an output: they appear as grey reference markers, bands and table
-columns labelled "Dupont et al. 2013".
+"""The paper's numbers (Dupont et al. 2013, the package's ``data/dupont2013.toml``), placed only
+*beside* computed values: grey markers, bands and table columns labelled "Dupont et al. 2013".
 """
 from __future__ import annotations
 
-import functools
 import math
-import tomllib
-from importlib import resources
 from typing import Any
+
+from ..analysis.paper_grid import PAPER
 
 __all__ = ["paper", "paper_table2", "paper_results", "PAPER_LABEL", "PAPER_COLOR",
            "CASES_WIND", "CASES_SOIL", "TABLE2_COLUMNS"]
@@ -40,11 +36,9 @@ TABLE2_COLUMNS = (
 )
 
 
-@functools.lru_cache(maxsize=1)
 def paper() -> dict[str, Any]:
     """The whole reference file as a dict."""
-    text = resources.files("saltstudy").joinpath("data/dupont2013.toml").read_text(encoding="utf-8")
-    return tomllib.loads(text)
+    return PAPER
 
 
 def paper_table2() -> dict[int, dict[str, float]]:

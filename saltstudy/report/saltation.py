@@ -1,26 +1,17 @@
 """Whether a run holds saltation, and its airborne grains in the paper's terms.
 
-**No sustained saltation.** A run's statistics describe saltation only if grains stay aloft.
-The model has no aerodynamic entrainment (as the paper): after the release at activation, grains
-stay in the air only by rebounding and splashing others out of the bed. A run is marked
-``no sustained saltation`` when either
+**No sustained saltation.** The model has no aerodynamic entrainment (as the paper): after the
+release at activation, grains stay aloft only by rebounding and splashing others out. A run is
+``no sustained saltation`` when the case's u*s is below the fluid threshold u*t of Shao & Lu
+(2000) (``u_star_t``), or when fewer parcels are aloft on average over the sampling window
+(``n_parcels_mean``) than were released: the splash does not replace the grains that land (in
+sustained saltation the count grows far past the release: ≈ 60 times in the paper's case 2,
+6 × 10⁵ against 10⁴ parcels, [31]). The report then shows these numbers, not its statistics.
 
-* the case's friction velocity u*s (the wind the drive holds at the reference height) is below
-  the fluid threshold u*t of Shao & Lu (2000) (analysis scalar ``u_star_t``): the wind cannot
-  carry saltation on this bed; or
-* fewer parcels are aloft on average over the sampling window (``n_parcels_mean``) than were
-  released at activation: the splash does not replace the grains that land, so the saltation
-  dies out. In sustained saltation the count grows far past the release (the paper's case 2
-  holds ≈ 60 times its release at equilibrium: 6 × 10⁵ against 10⁴ parcels, [31]).
-
-Its statistics (G_tot, z_m, ...) are then of a few decaying hops, not of saltation, and the report
-shows the numbers above instead of them.
-
-**Airborne parcels at the case's Q.** A run at a fidelity with ``q_multiplier`` M carries parcels
-of Q M grains; its count in the paper's parcels (of Q grains) is M times larger. Per m² of bed:
-``n_parcels_per_m2_at_Q = n_parcels_mean × M / (Lx Ly)`` [m⁻²]. The paper holds ≈ 6 × 10⁵
-parcels on its 20 m × 15 m bed in case 2 ([31], Fig. 1) and chose Q so that all cases hold a
-similar number ([28]): ≈ 2,000 per m², a reference drawn beside the computed values only.
+**Airborne parcels at the case's Q.** A fidelity with ``q_multiplier`` M carries parcels of Q M
+grains: ``n_parcels_per_m2_at_Q = n_parcels_mean × M / (Lx Ly)`` [m⁻²], beside the paper's
+≈ 2,000 per m² (6 × 10⁵ parcels on its 20 m × 15 m bed in case 2, [31], Fig. 1; every case's Q
+chosen for a similar number, [28]).
 """
 from __future__ import annotations
 
@@ -35,7 +26,7 @@ from .data import RunData
 
 __all__ = ["SUSTAINED", "NO_SALTATION", "UNDEFINED", "SaltationState", "saltation_state",
            "q_multiplier", "bed_area", "parcels_per_m2_at_Q", "n_parcels_per_m2_at_Q",
-           "n_parcels_released", "paper_parcels_per_m2", "PAPER_PARCELS_SOURCE", "STATE_UNITS"]
+           "n_parcels_released", "PAPER_PARCELS_PER_M2", "PAPER_PARCELS_SOURCE", "STATE_UNITS"]
 
 SUSTAINED = "sustained"
 NO_SALTATION = "no sustained saltation"
@@ -47,12 +38,6 @@ PAPER_PARCELS_SOURCE = "Dupont et al. 2013 [28], [31]"
 #: units of the numbers of a :class:`SaltationState`
 STATE_UNITS = {"u_star_s": "m s-1", "u_star_t": "m s-1", "n_parcels_released": "1",
                "n_parcels_mean": "1", "n_parcels_end": "1"}
-
-
-def paper_parcels_per_m2() -> float:
-    """The paper's resolved parcels per m² of bed at equilibrium [m⁻²]: ≈ 6 × 10⁵ in case 2 on
-    its 20 m × 15 m bed ([31]), a similar number in every case at its own Q ([28])."""
-    return PAPER_PARCELS_PER_M2
 
 
 def _case(run: RunData) -> dict:
@@ -112,11 +97,6 @@ def n_parcels_released(run: RunData) -> float:
     return float(max(1, round(n))) if math.isfinite(n) else math.nan
 
 
-def _case_u_star_s(run: RunData) -> float:
-    """The case's u*s [m s⁻¹]: what the drive holds at the reference height."""
-    return run.u_star_s_target
-
-
 @dataclass
 class SaltationState:
     """Whether a run holds saltation (module docstring) and the numbers that say so."""
@@ -127,10 +107,6 @@ class SaltationState:
     n_parcels_released: float = math.nan   # [1]
     n_parcels_mean: float = math.nan       # over the sampling window [1]
     n_parcels_end: float = math.nan        # last record of the run [1]
-
-    @property
-    def sustained(self) -> bool:
-        return self.status == SUSTAINED
 
     def to_json(self) -> dict:
         d = asdict(self)
@@ -156,7 +132,7 @@ def saltation_state(run: RunData) -> SaltationState:
     """The run's :class:`SaltationState` (criterion: module docstring)."""
     if not run.ok:
         return SaltationState(UNDEFINED, run.status)
-    us, ut = _case_u_star_s(run), run.scalar("u_star_t")
+    us, ut = run.u_star_s_target, run.scalar("u_star_t")
     released, mean = n_parcels_released(run), run.scalar("n_parcels_mean")
     end = math.nan
     series = run.var("n_parcels")

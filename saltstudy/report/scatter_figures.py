@@ -1,9 +1,6 @@
-"""Figs. 1, 3, 4, 8 and 13 of Dupont et al. (2013): each run drawn whole, as one line or mark.
-
-Fig. 1 follows the airborne parcel count of every run in time against the paper's ~2,000 per m2
-at each case's Q ([28], [31]); Figs. 3, 4, 8 and 13 set one number per run (z0s, z_m, G_tot,
-sigma_G/G_tot) against u*s/u*t, u*s read the paper's way from the total stress at z_ref, with
-the semi-empirical laws at 200 µm (Figs. 3 and 8) and the paper's own values as grey marks.
+"""Figs. 1, 3, 4, 8 and 13 of Dupont et al. (2013): each run drawn whole, as one line or mark:
+the parcel count in time (Fig. 1), and z0s, z_m, G_tot, sigma_G/G_tot against u*s/u*t with u*s
+the total stress at z_ref and the semi-empirical laws at 200 µm (Figs. 3 and 8).
 """
 from __future__ import annotations
 
@@ -17,8 +14,8 @@ from .data import ReportContext, RunData
 from .plotting import (MARKERS, OWN_COLORS, FigureResult, add_legend, add_notes, case_color,
                        empty_axes, fmt_um, is_200um, new_figure, paper_u_star_ratio, u_star_ratio)
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
-from .saltation import (NO_SALTATION, PAPER_PARCELS_SOURCE, n_parcels_per_m2_at_Q,
-                        paper_parcels_per_m2, parcels_per_m2_at_Q, saltation_state)
+from .saltation import (NO_SALTATION, PAPER_PARCELS_PER_M2, PAPER_PARCELS_SOURCE,
+                        n_parcels_per_m2_at_Q, parcels_per_m2_at_Q, saltation_state)
 
 __all__ = ["fig01", "fig03", "fig04", "fig08", "fig13"]
 
@@ -65,7 +62,7 @@ def fig01(ctx: ReportContext) -> FigureResult:
     for label, m in zip(drawn, means):
         res.data[f"mean_per_m2_{label}"] = np.array([m])
     ref = paper_results()
-    per_m2 = paper_parcels_per_m2()
+    per_m2 = PAPER_PARCELS_PER_M2
     if math.isfinite(per_m2):
         res.data["paper_per_m2"] = np.array([per_m2])
         ax.axhline(per_m2, color=PAPER_COLOR, lw=3, alpha=0.6,

@@ -1,12 +1,9 @@
 """Stability report for a study of extreme scenes: did each run complete, and how close to the edge.
 
-Per scene: completed / blew up as the scene expects / failed (with the solver's diagnostic: step,
-time, field, place, and the checkpoint kept), whether every field stayed finite, the constraint
-that limits the step (solver/diagnostics/health.py), the largest grain-to-air mass loading and the step over
-the coupled relaxation time, the balance errors (parcel bookkeeping; the column's total stress
-against its mean below the u* height), max CFL, ranges of the velocity fields, E_splash/E_impact
-and wall time. Values come from what exists: the analysis archive and the run's ``samples.nc``.
-Anything not found is written "n/a"; nothing is estimated.
+Per scene (``STABILITY_COLUMNS``): completed / blew up as expected / failed (with the solver's
+diagnostic and the checkpoint kept), finiteness, the step's limiting constraint
+(solver/diagnostics/health.py), mass loading and stiffness, balance errors, CFL, velocity ranges,
+E_splash/E_impact, wall time; from the analysis archive and ``samples.nc``, "n/a" if not found.
 
 Column stress residual. In a steady, horizontally homogeneous layer driven from above with no
 pressure gradient, the total stress tau(z) = -rho <u'w'> (resolved + SGS) + tau_p (grains) is the
@@ -306,10 +303,10 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
         fig_html = ("<figure><a href='stability.pdf'><img src='stability.png' alt='allowed steps and "
                     "mass loading per scene'></a></figure>")
     heads = ["scene"] + [h for _, h in STABILITY_COLUMNS]
+    cells = [[row["label"]] + [_cell(row, k) for k, _ in STABILITY_COLUMNS] for row in rows]
     md = ["# Stability of extreme scenes", "",
           "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
-    for row in rows:
-        md.append("| " + " | ".join([row["label"]] + [_cell(row, k) for k, _ in STABILITY_COLUMNS]) + " |")
+    md += ["| " + " | ".join(c) + " |" for c in cells]
     errs = [r for r in rows if r.get("error")]
     if errs:
         md += ["", "## Failures", ""] + [f"* **{r['label']}** ({r['status']}): `{r['error']}`"
@@ -328,11 +325,10 @@ def build_stability_report(runs: dict[str, str | Path | None] | dict[str, RunDat
                                                encoding="utf-8")
     e = html.escape
     h = ["<table><thead><tr>" + "".join(f"<th>{e(x)}</th>" for x in heads) + "</tr></thead><tbody>"]
-    for row in rows:
-        cls = "" if row["status"] in ("completed", "blew up as expected") else "bad"
-        h.append(f"<tr><td>{e(row['label'])}</td>" + "".join(
-            f"<td class='{cls if k == 'status' else ''}'>{e(_cell(row, k))}</td>" for k, _ in STABILITY_COLUMNS)
-            + "</tr>")
+    for row, c in zip(rows, cells):
+        bad = row["status"] not in ("completed", "blew up as expected")
+        h.append("<tr>" + "".join(f"<td class='{'bad' if bad and i == 1 else ''}'>{e(x)}</td>"
+                                  for i, x in enumerate(c)) + "</tr>")
     h.append("</tbody></table>")
     if errs:
         h.append("<ul>" + "".join(f"<li><b>{e(r['label'])}</b> ({e(r['status'])}): "

@@ -1,8 +1,6 @@
-"""Figs. 9 and 10 of Dupont et al. (2013): the streamers and the wind's streaks (section 4.1).
-
-Fig. 9: snapshots of C_p and of u at 0.1 m for the paper's cases 1, 4 and 6; Fig. 10: the
-premultiplied spanwise spectra of C_p and of u at 0.1 m over their variance, the form Table 2's
-delta_y is read from (docs/STREAMERS.md), with the paper's delta_y marked.
+"""Figs. 9 and 10 of Dupont et al. (2013): the streamers and the wind's streaks (section 4.1):
+snapshots of C_p and u at 0.1 m, and their premultiplied spanwise spectra, the form Table 2's
+delta_y is read from (docs/STREAMERS.md).
 """
 from __future__ import annotations
 
@@ -15,16 +13,14 @@ from .panels import BY_MU1, BY_U_STAR_S, panel_runs
 from .plotting import (FigureResult, add_legend, add_notes, case_color, case_label, lacks,
                        new_figure, nothing_to_draw, plain_log)
 from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_table2
-from .streaks import premultiplied_over_variance
 
-__all__ = ["fig09", "fig10", "FIG9_CASES"]
+__all__ = ["fig09", "fig10", "FIG9_CASES", "premultiplied_over_variance"]
 
 
 # ---- Fig 9 ----
 def fig09(ctx: ReportContext) -> FigureResult:
-    """A row per paper case 1, 4, 6 (top to bottom): the study's run of the case, or its nearest
-    run by u*s at µ1 = 200 µm (``panels.py``), titled with the case it stands in for; a row the
-    study cannot fill is left out."""
+    """A row per paper case 1, 4, 6: the study's run of the case or its nearest by u*s at
+    µ1 = 200 µm (``panels.py``); a row the study cannot fill is left out."""
     panel = panel_runs(ctx, FIG9_CASES, BY_U_STAR_S, lacks("C_p_snapshot", "u_snapshot"))
     rows = panel.runs
     ref = rows[0].run if rows else None     # the aspect of the first drawn run
@@ -76,12 +72,33 @@ FIG9_CASES = (1, 4, 6)
 
 
 # ---- Fig 10 ----
+def premultiplied_over_variance(ky: np.ndarray, S: np.ndarray, Ly: float, dy: float
+                                ) -> tuple[np.ndarray, np.ndarray]:
+    """(wavelength [m], ky S(ky) / variance) of a one-sided spanwise density ``S`` [variance m]
+    on modes ``ky`` [cycles m-1], the mean mode left out: the area under the curve against
+    ln(wavelength) is 1. The Nyquist entry of an even grid holds the density of half a bin (so
+    that ``sum S dky`` is the variance) and is doubled to the point density; without the grid's
+    size (``Ly``, ``dy``) it is left out."""
+    ky = np.asarray(ky, dtype=np.float64)
+    s = np.array(S, dtype=np.float64)
+    if ky.size < 2:
+        return np.zeros(0), np.zeros(0)
+    variance = float(np.nansum(s)) * (ky[1] - ky[0])
+    if not (math.isfinite(Ly) and math.isfinite(dy) and dy > 0):
+        ky, s = ky[:-1], s[:-1]
+    elif round(Ly / dy) == 2 * (ky.size - 1):
+        s[-1] *= 2.0
+    ok = (ky > 0) & np.isfinite(s)
+    ky, s = ky[ok], s[ok]
+    pre = ky * s
+    if math.isfinite(variance) and variance > 0:
+        pre = pre / variance
+    return 1.0 / ky, pre
+
+
 def fig10(ctx: ReportContext) -> FigureResult:
-    """The premultiplied spanwise spectra ky S(ky) against wavelength on a log axis, the form
-    Table 2's delta_y is read from (docs/STREAMERS.md), over the variance: the area under each
-    curve against ln(wavelength) is 1. Top row: the paper's cases 1–6 (various u*s), bottom row:
-    cases 2, 7–10 (various µ1), each filled by the study's run of the case or its nearest run
-    (``panels.py``); a row the study cannot fill at all is left out."""
+    """ky S(ky) over the variance against log wavelength (area 1 against ln wavelength): top
+    row cases 1–6, bottom row cases 2, 7–10, filled by ``panels.py``."""
     table = paper_table2()
     groups = [(panel_runs(ctx, cases, by, lacks("S_c", "S_u")), cases, soil, rtitle)
               for cases, by, soil, rtitle in ((CASES_WIND, BY_U_STAR_S, False, "cases 1–6"),

@@ -1,27 +1,11 @@
 """``summary.json``: every scalar of every run's analysis.nc in SI units, plus machine and costs.
 
-Layout::
-
-    {"study": ..., "fidelity": ..., "package_version": ...,
-     "total_wall_time_s": ...,   # elapsed, start to end of the run-all that built the report
-     "task_time_sum_s": ...,     # sum of the task times (a shared spin-up counted once)
-     "task_times_s": {"spinup": ..., "saltation": ..., "analysis": ...},
-     "run_started": "2026-11-25T08:00:00+00:00", "run_finished": ...,   # ISO 8601, UTC
-     "tasks_from_cache": 0, "tasks_total": 21,   # the study's distinct tasks found done / all
-     "machine": {"cores": ..., "processor": ..., "platform": ..., "python": ...},
-     "units": {"u_star_s": "m s-1", ...},                 # unit of each scalar name
-     "cases": {"2": {"label": "case02", "status": "ok", "fidelity": ..., "wall_time_s": ...,
-                     "archive": ".../analysis.nc", "u_star_s": 0.55, ...,
-                     "n_parcels_per_m2_at_Q": 1.4e4,      # m-2, report/saltation.py
-                     "airborne_mass_per_m2": 0.02,        # kg m-2, from analysis.nc
-                     "saltation": {"status": "sustained", "reason": "...", "u_star_s": 0.54,
-                                   "u_star_t": 0.262, "n_parcels_released": 6,
-                                   "n_parcels_mean": 2648, "n_parcels_end": 2575,
-                                   "units": {"u_star_s": "m s-1", ...}}}, ...}}
-
-A plain case is keyed by its number as a string; any other run (ladder rung, scene) by its label.
-NaN (undefined) is written as null; JSON has no NaN. What the wall times count and the
-``saltation`` entry: docs/ARCHITECTURE.md (``summary.json``).
+Top level: study, fidelity, package_version, total_wall_time_s (start to end of the run-all
+that built the report), task_time_sum_s and task_times_s (a shared spin-up counted once),
+run_started/run_finished (ISO 8601, UTC), tasks_from_cache/tasks_total, machine, units (of each
+scalar name) and cases: a plain case keyed by its number as a string, any other run by its
+label, each with its scalars, ``n_parcels_per_m2_at_Q`` and ``saltation``
+(report/saltation.py). NaN is written as null. Details: docs/ARCHITECTURE.md (``summary.json``).
 """
 from __future__ import annotations
 
@@ -34,7 +18,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .data import SCALAR_UNITS, ReportContext, RunData, to_si
+from ..analysis.schema import SPEC
+from .data import ReportContext, RunData, to_si
 from .saltation import n_parcels_per_m2_at_Q, saltation_state
 
 __all__ = ["machine_info", "run_scalars", "build_summary", "write_summary", "run_key",
@@ -74,9 +59,10 @@ def run_scalars(run: RunData) -> tuple[dict[str, float | None], dict[str, str]]:
     for name, var in run.ds.data_vars.items():
         if var.ndim != 0 or var.dtype.kind not in "fiub":
             continue
-        v, u = to_si(float(var.values), var.attrs.get("units", SCALAR_UNITS.get(name)))
+        spec_units = SPEC.get(str(name), ("1", ""))[0]
+        v, u = to_si(float(var.values), var.attrs.get("units", spec_units))
         vals[str(name)] = _clean(v)
-        units[str(name)] = u if u else SCALAR_UNITS.get(name, "1")
+        units[str(name)] = u or spec_units
     return vals, units
 
 

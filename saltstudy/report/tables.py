@@ -1,10 +1,8 @@
 """Table 2 beside the paper, and the scalar results the paper's text states, computed vs paper.
 
-Table 2 has a row per run of the study. A row holds the computed value (from analysis.nc) and,
-where the run is one of the paper's cases unchanged, the paper's value (from the package's copy of
-the paper's numbers, reference only) and the relative difference (computed - paper) / paper.
-Missing archives are rows saying so; values the paper does not give are "—"; a run without
-sustained saltation (report/saltation.py) is a row giving the numbers that show it.
+A row per run: the computed value and, where the run is one of the paper's cases unchanged, the
+paper's value and (computed - paper) / paper; a missing archive or a run without sustained
+saltation (report/saltation.py) is a row saying so; values the paper does not give are "—".
 """
 from __future__ import annotations
 
@@ -112,7 +110,7 @@ def _departures_text(ctx: ReportContext) -> str:
 
 
 def _start_text(ctx: ReportContext) -> str:
-    """Whether the runs' u*s errors are one draw: cases sharing a spin-up start at its end, or
+    """Whether the runs' u*s errors are one draw (cases starting at a shared spin-up's end) or
     staggered along it (``fidelity.spinup.stagger``)."""
     staggers = {float(((r.scene or {}).get("fidelity") or {}).get("spinup", {}).get("stagger") or 0.0)
                 for r in ctx.runs.values()}
@@ -141,10 +139,8 @@ def _row_order(ctx: ReportContext) -> list[RunData]:
 
 
 def table2_rows(ctx: ReportContext) -> list[dict]:
-    """One row per run of the study, named by its label (a plain case: "case N"). The paper's
-    values stand beside a run only where it is one of the paper's cases unchanged
-    (``RunData.paper_case``); a run of one's own gets none. ``saltation`` says whether the run
-    holds saltation (report/saltation.py); a run without is no result."""
+    """One row per run, named by its label (a plain case: "case N"), the paper's values beside
+    a run that is one of its cases unchanged (``RunData.paper_case``)."""
     table = paper_table2()
     rows = []
     for r in _row_order(ctx):
@@ -201,25 +197,22 @@ def scalar_results(ctx: ReportContext) -> list[dict]:
     ref = paper_results()
     rows: list[dict] = []
 
-    def add(name, computed, paper, unit, how, compare="value"):
-        if isinstance(paper, (list, tuple)):
-            pstr = f"{fmt(paper[0])}–{fmt(paper[1])}"
-        else:
-            pstr = fmt(paper)
-        if isinstance(computed, (list, tuple)):
-            cstr = f"{fmt(computed[0])}–{fmt(computed[1])}" if all(math.isfinite(c) for c in computed) else "—"
-            if isinstance(paper, (list, tuple)):
-                rel = (rel_diff(computed[0], paper[0]), rel_diff(computed[1], paper[1]))
-                rstr = f"{_pct(rel[0])} / {_pct(rel[1])}"
-            else:
-                rstr = "—"
+    def add(name, computed, paper, unit, how):
+        ranged = isinstance(paper, (list, tuple))
+        pstr = f"{fmt(paper[0])}–{fmt(paper[1])}" if ranged else fmt(paper)
+        if isinstance(computed, (list, tuple)):   # a computed range beside the paper's
+            lo, hi = computed
+            cstr = f"{fmt(lo)}–{fmt(hi)}" if math.isfinite(lo) and math.isfinite(hi) else "—"
+            rstr = (f"{_pct(rel_diff(lo, paper[0]))} / {_pct(rel_diff(hi, paper[1]))}"
+                    if ranged else "—")
         else:
             cstr = fmt(computed)
-            if isinstance(paper, (list, tuple)):
-                inside = math.isfinite(computed) and paper[0] <= computed <= paper[1]
-                rstr = ("inside range" if inside else "outside range") if math.isfinite(computed) else "—"
-            else:
+            if not ranged:
                 rstr = _pct(rel_diff(computed, paper))
+            elif math.isfinite(computed):
+                rstr = "inside range" if paper[0] <= computed <= paper[1] else "outside range"
+            else:
+                rstr = "—"
         rows.append({"quantity": name, "computed": cstr, "paper": pstr, "difference": rstr,
                      "unit": unit, "how": how,
                      "computed_value": computed, "paper_value": paper})
@@ -319,14 +312,11 @@ def table2_markdown(ctx: ReportContext) -> str:
     return "\n".join(lines) + "\n"
 
 
-def table2_dataset(ctx: ReportContext) -> "xr.Dataset":
-    """Table 2 as the report shows it, as an xarray Dataset along ``run`` (the rows of
-    :func:`table2_rows`, in their order): per column its computed value (SI), and where the
-    paper gives the column ``<name>_paper`` (NaN beside a run that is not one of the paper's
-    cases unchanged) and ``<name>_rel_diff`` ((computed - paper) / paper), and ``<name>_se``
-    where the analysis gives a standard error. A run without an archive, or without sustained
-    saltation, has NaN statistics, as in the report: ``status``, ``saltation`` and
-    ``saltation_reason`` say which and why."""
+def table2_dataset(ctx: ReportContext):
+    """Table 2 as an xarray Dataset along ``run`` (:func:`table2_rows`' order): per column the
+    computed value (SI), ``<name>_paper``, ``<name>_rel_diff`` and ``<name>_se`` where they
+    exist; NaN statistics for a run without an archive or saltation (``status``, ``saltation``,
+    ``saltation_reason`` say why)."""
     import xarray as xr
 
     rows = table2_rows(ctx)
@@ -372,6 +362,15 @@ def results_markdown(ctx: ReportContext) -> str:
     return "\n".join(lines)
 
 
+def _no_result_html(row: dict, span: int, no_saltation: str, out: list[str]) -> bool:
+    """Close ``out``'s row with one cell saying why the run has no statistics, if it has none."""
+    if row["status"] != "ok":
+        out.append(f'<td class="missing" colspan="{span}">{html.escape(row["status"])}</td></tr>')
+    elif _no_saltation(row):
+        out.append(f'<td class="nosalt" colspan="{span}">{html.escape(no_saltation)}</td></tr>')
+    return row["status"] != "ok" or _no_saltation(row)
+
+
 def table2_html(ctx: ReportContext) -> str:
     """Table 2 as two HTML tables that fit a 1280 px page: the columns the paper gives per case
     (computed, paper, difference) and the computed-only columns. Headers wrap; numbers do not
@@ -392,12 +391,7 @@ def table2_html(ctx: ReportContext) -> str:
         own = "<span class='se'> (own case)</span>" \
             if row["paper_case"] is None and row["status"] == "ok" else ""
         out.append(f"<tr><td class='run'>{e(row['name'])}{own}</td>")
-        if row["status"] != "ok":
-            out.append(f'<td class="missing" colspan="{3 * len(cols)}">{e(row["status"])}</td></tr>')
-            continue
-        if _no_saltation(row):
-            out.append(f'<td class="nosalt" colspan="{3 * len(cols)}">{e(_no_saltation_text(row))}'
-                       "</td></tr>")
+        if _no_result_html(row, 3 * len(cols), _no_saltation_text(row), out):
             continue
         for var, _, _, _ in cols:
             c = row["cells"][var]
@@ -414,11 +408,7 @@ def table2_html(ctx: ReportContext) -> str:
         out.append("</tr></thead><tbody>")
         for row in rows:
             out.append(f"<tr><td class='run'>{e(row['name'])}</td>")
-            if row["status"] != "ok":
-                out.append(f'<td class="missing" colspan="{len(only)}">{e(row["status"])}</td></tr>')
-                continue
-            if _no_saltation(row):
-                out.append(f'<td class="nosalt" colspan="{len(only)}">{e(NO_SALTATION)}</td></tr>')
+            if _no_result_html(row, len(only), NO_SALTATION, out):
                 continue
             out.extend(f"<td>{e(_computed(row['cells'][var]))}</td>" for var, _, _, _ in only)
             out.append("</tr>")
