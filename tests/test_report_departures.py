@@ -8,15 +8,23 @@ def _scene(overrides: dict | None = None, fidelity: str = "paper") -> dict:
     return resolve_scene(case, load_fidelity(fidelity)).model_dump(mode="json")
 
 
-def test_a_paper_case_at_the_paper_fidelity_departs_in_its_viscosity_and_parcel_weight():
-    """The stock case at the paper fidelity: one eddy viscosity (the default) and the paper's rule
-    for the parcel count (~2,000 airborne per m2), which at the model's load is another weight
-    than the paper's Q; nothing else."""
+def test_a_paper_case_at_the_paper_fidelity_departs_in_its_viscosity_filter_and_parcel_weight():
+    """The stock case at the paper fidelity: one eddy viscosity and Scotti's filter length (the
+    defaults) and the paper's rule for the parcel count (~2,000 airborne per m2), which at the
+    model's load is another weight than the paper's Q; nothing else."""
     lines = model_departures(_scene())
-    assert len(lines) == 2
-    assert "closure.viscosity" in lines[0] and "2000 airborne parcels per m2" in lines[1]
-    fine = model_departures(_scene({"closure": {"viscosity": "anisotropic"}}, fidelity="fine"))
-    assert not any("parcels" in line or "viscosity" in line for line in fine)
+    assert len(lines) == 3
+    assert "closure.viscosity" in lines[0] and "closure.delta" in lines[1]
+    assert "2000 airborne parcels per m2" in lines[2]
+    fine = model_departures(_scene({"closure": {"viscosity": "anisotropic", "delta": "geometric"}},
+                                   fidelity="fine"))
+    assert not any("parcels" in line or "viscosity" in line or "delta" in line for line in fine)
+
+
+def test_scottis_filter_length_is_named_and_the_geometric_mean_is_not():
+    scotti = " ".join(model_departures(_scene({"closure": {"delta": "scotti"}}, "fine")))
+    geometric = " ".join(model_departures(_scene({"closure": {"delta": "geometric"}}, "fine")))
+    assert "closure.delta" in scotti and "closure.delta" not in geometric
 
 
 def test_one_eddy_viscosity_is_named_against_eq_a1s_pair():

@@ -63,6 +63,11 @@ def model_departures(scene: dict) -> list[str]:
     elif clo.get("viscosity", "isotropic") != "anisotropic":
         out.append("one SGS eddy viscosity for every stress (closure.viscosity; the paper's eq. A1: "
                    "a horizontal and a vertical one)")
+    if clo.get("delta", "scotti") == "scotti":
+        # the paper's text takes the SGS length "from the grid spacing"; its ARPS uses
+        # (dx dy dz)^(1/3) without a correction for flat cells
+        out.append("the SGS filter length times Scotti et al.'s (1993) flat-cell factor "
+                   "(closure.delta; the paper's ARPS: (dx dy dz)^(1/3))")
     spl = case.get("splash", {}) or {}
     if spl.get("impact_speed", "magnitude") != "magnitude":
         out.append("eqs. 6 and 8 of the normal impact speed |w| (splash.impact_speed; the paper: "
