@@ -1,29 +1,17 @@
 """``Simulation``: the one time loop. A model, a stop time and schedules of callbacks.
 
-Every run of the package goes through :meth:`Simulation.run`: the particle-free spin-up (its
-record and steadiness test, ``spinup.py``), the continuation of a staggered start, the saltation
-run with its records and checkpoints (``workflow/driver.py``) and the probes. What differs between
-them is only which callbacks they add and on which schedule.
+Every run goes through :meth:`Simulation.run` (the spin-up, a staggered start's continuation, the
+saltation run with its records and checkpoints, the probes); they differ only in their callbacks.
+One pass: the callbacks whose time has come (``t >= next_time - TIME_EPS``) fire in the order they
+were added (one may ``stop`` the run); at the stop time the loop ends; one step of the model,
+clipped so that the next scheduled time is met exactly (``model.next_dt(limit=...)``); the
+per-step callbacks (``IterationInterval``, ``WallTimeInterval``).
 
-One pass of the loop:
-
-1. the callbacks whose time has come (``t >= next_time - TIME_EPS``) fire, in the order they were
-   added; a callback may stop the simulation (``sim.stop(reason)``);
-2. at the stop time the loop ends;
-3. one step of the model, clipped so that the next scheduled time (or the stop time) is met
-   exactly: ``dt = model.next_dt(limit=(origin + t_next) - model.t)`` (``next_dt`` proposes two
-   equal steps rather than a step and a sliver);
-4. the per-step callbacks (``IterationInterval``, ``WallTimeInterval``): progress, checkpoints.
-
-Times of the schedules and the stop time are relative to ``origin`` (a model time: 0 for a run
-from rest, the activation time for a saltation run), so a schedule reads like the fidelity that
-set it. The limit of step 3 is formed from the absolute target, so two runs with the same origin
-and schedule take the same steps to the last bit.
-
-The simulation's own state (the schedules' positions, the step count, each stateful callback's
-``checkpoint()``) is pure data (:meth:`Simulation.checkpoint`); restored beside the model's
-checkpoint, a run resumes and ends as the uninterrupted one would. No I/O happens here: writing a
-checkpoint file is a callback the workflow adds.
+Times are relative to ``origin`` (0 from rest, the activation time for a saltation run); the
+step's limit is formed from the absolute target, so two runs with the same origin and schedule
+take the same steps to the last bit. The loop's own state (schedules, step count, stateful
+callbacks) is pure data (:meth:`checkpoint`): restored beside the model's, a run ends as the
+uninterrupted one would. No I/O happens here.
 """
 from __future__ import annotations
 
@@ -39,15 +27,9 @@ __all__ = ["Simulation", "Callback", "TimeInterval", "SpecifiedTimes", "Iteratio
 TIME_EPS = 1e-9
 
 
-# ------------------------------------------------------------------------------------------
-# Schedules
-# ------------------------------------------------------------------------------------------
 class TimeInterval:
-    """Fires at model times ``start, start + interval, ...`` (relative to the simulation's origin).
-
-    ``from_last``: the next firing is ``interval`` after the time of the last one (a record series
-    whose spacing matters and whose phase does not; the spin-up's steadiness series). Otherwise
-    the times are exact multiples, ``start + k interval``, which do not drift."""
+    """Fires at model times ``start + k interval`` since the origin (no drift), or, ``from_last``,
+    ``interval`` after the last firing (the spin-up's steadiness series)."""
 
     def __init__(self, interval: float, start: float = 0.0, from_last: bool = False):
         if not (interval > 0 and math.isfinite(interval)):
@@ -113,7 +95,7 @@ class IterationInterval:
 
 class WallTimeInterval:
     """Fires after a step once ``seconds`` of wall time have passed since the last firing (or the
-    start of ``run``): periodic checkpoints whose cost is bounded whatever the step."""
+    start of ``run``): checkpoints of bounded cost."""
 
     def __init__(self, seconds: float):
         if not seconds >= 0:
@@ -143,12 +125,9 @@ class Callback:
         return not hasattr(self.schedule, "due_after_step")
 
 
-# ------------------------------------------------------------------------------------------
 class Simulation:
-    """Runs ``model`` from its present time to ``origin + stop_time`` (module docstring).
-
-    ``dt_fixed``: every step of this simulation is that long (clipped to the schedule), whatever
-    the model proposes: the stability study's deliberately too large step."""
+    """Runs ``model`` from its present time to ``origin + stop_time`` (module doc); ``dt_fixed``:
+    every step that long, clipped to the schedule (the stability study's too large step)."""
 
     def __init__(self, model, stop_time: float = math.inf, origin: float | None = None,
                  dt_fixed: float | None = None):
@@ -166,8 +145,7 @@ class Simulation:
         #: the last step's StepInfo (None before the first step of this call of ``run``)
         self.last_step = None
         self.stop_reason: str | None = None
-        #: the time a firing callback was scheduled for (since the origin; within TIME_EPS of
-        #: ``t``): records carry it, so that their times are the schedule's exact values
+        #: the time a firing callback was scheduled for (since the origin): records carry it
         self.event_time: float = math.nan
 
     @property
@@ -227,8 +205,8 @@ class Simulation:
 
     # ---- restart ---------------------------------------------------------------------------
     def checkpoint(self) -> dict[str, Any]:
-        """The simulation's own state as pure data (JSON-able scalars and lists, and the arrays a
-        stateful callback returns under its name); the model's is ``model.checkpoint()``."""
+        """The loop's own state as pure data (JSON-able, and the arrays a stateful callback
+        returns under its name); the model's is ``model.checkpoint()``."""
         out: dict[str, Any] = {"n_steps": self.n_steps, "origin": self.origin, "schedules": {},
                                "callbacks": {}}
         for name, c in self.callbacks.items():

@@ -1,8 +1,7 @@
 """Grain records for samples.nc (ARCHITECTURE.md): planes, layer profiles, size histograms, counters.
 
-Functions take a ``Model`` (anything with ``.state`` and ``.components``; the grain component is the
-one named "saltation") and return dicts of numpy arrays. Q-weighted, SI. Layers are the grid's
-cells in z (``grid.z_f``); a parcel belongs to the layer holding it.
+Functions take a ``Model`` and return dicts of numpy arrays, Q-weighted, SI. A parcel belongs to
+the grid cell (layer) holding it.
 """
 from __future__ import annotations
 
@@ -15,10 +14,7 @@ __all__ = ["grain_component", "grain_planes", "grain_profiles", "grain_size_hist
 
 
 def grain_component(model) -> Saltation | None:
-    for c in model.components:
-        if c.name == "saltation":
-            return c
-    return None
+    return next((c for c in model.components if c.name == "saltation"), None)
 
 
 def _layers(s: Saltation) -> np.ndarray:
@@ -92,9 +88,9 @@ def grain_counters(model) -> dict:
     g = model.state.grid
     s = grain_component(model)
     if s is None:
-        return {"n_parcels": 0, "n_impacts": 0, "n_rebounds": 0, "n_ejections": 0,
-                "n_depositions": 0, "G_tot": 0.0, "E_impact": 0.0, "E_splash": 0.0,
-                "bed_px": 0.0, "bed_pz": 0.0,
+        return {**dict.fromkeys(("n_parcels", "n_impacts", "n_rebounds", "n_ejections",
+                                 "n_depositions"), 0),
+                **dict.fromkeys(("G_tot", "E_impact", "E_splash", "bed_px", "bed_pz"), 0.0),
                 "momentum_to_air": np.zeros(3)}
     c = s.counters()
     c["G_tot"] = float(np.sum(s.Q * s.mass * s.u) / (g.Lx * g.Ly)) if s.n else 0.0
@@ -112,14 +108,10 @@ def impact_bins() -> dict:
 
 
 def impact_record(model) -> dict:
-    """Cumulative impact counts since activation (Saltation.impact_record): ``impact_hist``
-    (speed bin, angle bin), ``impact_outcomes`` (speed bin, [impacts, rebounds, ejecta]),
-    ``hop_time_hist``, ``hop_length_hist``; zeros without grains. Parcel counts (not Q-weighted)."""
+    """Cumulative impact counts since activation (Saltation.impact_record; parcel counts, not
+    Q-weighted); zeros without grains."""
     from ..grains import splash_kernels as sk
     s = grain_component(model)
     if s is None:
-        return {"impact_hist": np.zeros((sk.N_SPEED_BINS, sk.N_ANGLE_BINS), dtype=np.int64),
-                "impact_outcomes": np.zeros((sk.N_SPEED_BINS, 3), dtype=np.int64),
-                "hop_time_hist": np.zeros(sk.N_HOP_BINS, dtype=np.int64),
-                "hop_length_hist": np.zeros(sk.N_HOP_BINS, dtype=np.int64)}
+        return {k: a[0] for k, a in zip(sk.IMPACT_RECORD, sk.impact_log_arrays(1))}
     return s.impact_record()

@@ -1,13 +1,7 @@
-"""What a saltation run records, by group: the values of one record time (no I/O; the workflow
-stacks them into samples.nc, docs/ARCHITECTURE.md "samples.nc").
-
-* ``series`` (every ``sampling.series_interval``): the grains' counters and G_tot, u* at the
-  reference height, the drive, the last step and its Courant number, the step's limits, the
-  coupling's stiffness and the parcel balance (``health``);
-* ``planes`` (every ``sampling.plane_interval`` in the window): C_p, C_p above the first cell,
-  G_col and u on the plane heights;
-* ``sample`` (the 3-D samples): cell-centred u, v, w and e (float32), C_p, the flow's and the
-  grains' mean profiles, the size histogram by layer and the impact record.
+"""What a saltation run records at one time, by group (no I/O; the workflow stacks them into
+samples.nc, docs/ARCHITECTURE.md): ``series`` (counters, u*, the drive, the step and its limits,
+``health``), ``planes`` (C_p, G_col, u on the plane heights) and ``sample`` (the 3-D fields in
+float32, the mean profiles, the size histogram, the impact record).
 """
 from __future__ import annotations
 

@@ -1,18 +1,11 @@
-"""Short-vector read-modify-writes and loads for the deposits and trilinear reads of the parcel
-kernels.
+"""Short-vector read-modify-writes and loads for the parcel kernels' deposits and trilinear reads.
 
-A trilinear deposit adds to the two levels k and k + 1 of each of its four columns, and k is the
-fastest index of the deposit buffers, so each column's pair is contiguous; the implicit estimate
-interleaves its (A, B) sums, so there the column's four values are contiguous. Numba compiles
-scalar code only (LLVM's SLP vectorizer, which would merge such neighbours, is off in numba
-because of a miscompilation it caused, numba#8705, and switching it on is global). These
-intrinsics emit the vector operation directly, for these call sites only: one load, one fused
-multiply-add and one store of 2 or 4 doubles instead of 2 or 4 of each. Each element gets the
-same fused multiply-add as the scalar code, so the results are bit-for-bit the same. A trilinear
-read likewise loads a column's two levels at once (``load2``).
-
-The caller guarantees that the elements lie inside the array (no bounds check, as the kernels'
-other indexing): ``i >= 0`` and ``i + 2`` (``i + 4``) ``<= size``.
+A trilinear deposit adds to levels k and k + 1 of four columns, contiguous in the deposit
+buffers (four values where the implicit estimate interleaves its (A, B) sums). Numba keeps LLVM's
+SLP vectorizer off (a miscompilation, numba#8705; switching it on is global), so these intrinsics
+emit one vector load, fused multiply-add and store of 2 or 4 doubles; each element gets the
+scalar code's fused multiply-add, bit for bit. ``load2`` reads a column's two levels at once. No
+bounds check: the caller keeps the elements inside the array.
 """
 from __future__ import annotations
 
