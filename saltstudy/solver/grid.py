@@ -12,13 +12,10 @@ import numpy as np
 
 from ..config import GridSpec
 
-__all__ = ["Grid", "stretched_levels"]
-
 
 def stretched_levels(Lz: float, nz: int, dz_bottom: float, dz_top: float | None = None) -> np.ndarray:
-    """Face heights z_f (nz + 1,) [m], z_f(k) = a k + b k^2 + c k^3 with z_f(1) = dz_bottom,
-    z_f(nz) = Lz and, given ``dz_top``, the top thickness (the paper: 1 cm at the bed, 0.23 m at
-    the top of 12 m over 100 levels; else b = 0). ValueError when no monotonic grid fits."""
+    """Face heights z_f (nz + 1,) [m], cubic in k: z_f(1) = dz_bottom, z_f(nz) = Lz and, given
+    ``dz_top``, the top thickness (the paper: 1 cm, 0.23 m at 12 m over 100 levels)."""
     n = float(nz)
     if dz_top is None:
         # a + c = dz_b ; a n + c n^3 = Lz
@@ -26,11 +23,7 @@ def stretched_levels(Lz: float, nz: int, dz_bottom: float, dz_top: float | None 
         a, c = np.linalg.solve(A, [dz_bottom, Lz])
         b = 0.0
     else:
-        A = np.array([
-            [1.0, 1.0, 1.0],
-            [n, n**2, n**3],
-            [1.0, 2 * n - 1, 3 * n**2 - 3 * n + 1],
-        ])
+        A = np.array([[1.0, 1.0, 1.0], [n, n**2, n**3], [1.0, 2 * n - 1, 3 * n**2 - 3 * n + 1]])
         a, b, c = np.linalg.solve(A, [dz_bottom, Lz, dz_top])
     k = np.arange(nz + 1, dtype=np.float64)
     z_f = a * k + b * k**2 + c * k**3
@@ -67,10 +60,6 @@ class Grid:
     def from_spec(cls, spec: GridSpec) -> "Grid":
         z_f = stretched_levels(spec.Lz, spec.nz, spec.dz_bottom, spec.dz_top)
         return cls(spec.nx, spec.ny, spec.nz, spec.Lx, spec.Ly, z_f)
-
-    @classmethod
-    def uniform(cls, nx: int, ny: int, nz: int, Lx: float, Ly: float, Lz: float) -> "Grid":
-        return cls(nx, ny, nz, Lx, Ly, np.linspace(0.0, Lz, nz + 1))
 
     def __post_init__(self) -> None:
         z_f = np.ascontiguousarray(self.z_f, dtype=np.float64)

@@ -17,11 +17,9 @@ from .diagnostics.checks import check_courant, health, locate_nonfinite
 from .flow.forcing import DriveController, level_means, pressure_gradient_force, z_ref_effective
 from .grid import Grid
 from .spinup import SpinupResult, initial_flow, run_spinup
-from .state import FlowState, SolverBlowUp
+from .state import FlowState
 from .closures.closure import make_closure
 from .flow.stepper import Boundaries, FlowNumerics, Stepper
-
-__all__ = ["Model", "StepInfo", "SolverBlowUp", "CHECKPOINT_FORMAT"]
 
 CHECKPOINT_FORMAT = "saltstudy-flow-1"
 _FIELDS = ("u", "v", "w", "e", "p")
@@ -29,8 +27,7 @@ _FIELDS = ("u", "v", "w", "e", "p")
 
 @dataclass(frozen=True)
 class StepInfo:
-    """What one step did: step number and time after it, dt [s], Courant number, drive and u*,
-    its wall time [s] and the part spent in the components."""
+    """What one step did (times [s]; wall_components: the components' share of wall_time)."""
     step: int
     t: float
     dt: float
@@ -82,9 +79,8 @@ class Model:
     @classmethod
     def from_scene(cls, scene, saltation: bool = False, restart: dict | None = None,
                    workers: int | None = None) -> "Model":
-        """The model of ``scene`` from a perturbed initial flow seeded from ``case.seed``, or from
-        ``restart`` (a ``checkpoint()``) bit for bit; with ``saltation`` (and the case's) the grain
-        component, not yet activated."""
+        """The model of ``scene`` from a perturbed flow seeded from ``case.seed`` or from
+        ``restart`` (bit for bit); with ``saltation`` the grain component, not yet activated."""
         case, fid = scene.case, scene.fidelity
         grid = Grid.from_spec(fid.grid)
         pg = case.forcing.drive == "pressure_gradient"
@@ -132,8 +128,7 @@ class Model:
 
     # ---- stepping ----------------------------------------------------------------------------
     def rates(self) -> tuple[float, float]:
-        """(Courant rate, diffusion rate) [s^-1] of the current state (cached per step); raises
-        SolverBlowUp if a field holds a non-finite value."""
+        """(Courant rate, diffusion rate) [s^-1], cached per step; SolverBlowUp if not finite."""
         if self._rate_cache is not None and self._rate_cache[0] == self.state.step:
             return self._rate_cache[1]
         st, clo = self.stepper, self.stepper.closure
@@ -146,8 +141,7 @@ class Model:
         return c, d
 
     def next_dt(self, limit: float = math.inf) -> float:
-        """The next step [s]: min(CFL, diffusion, dt_max, components' limits, limit), or dt_fixed;
-        two equal steps of limit/2 rather than a step and a sliver."""
+        """The next step [s]: the least limit, two equal steps rather than a step and a sliver."""
         if not limit > 0:
             raise ValueError(f"next_dt: limit must be positive (got {limit!r})")
         ts = self.scene.fidelity.time
@@ -213,8 +207,7 @@ class Model:
         return out
 
     def spinup(self, progress=None) -> SpinupResult:
-        """Flow-only spin-up until steady or t_max (spinup.py); ``progress(t, t_max)`` after every
-        step. A resumable spin-up with checkpoints: ``spinup.spinup_simulation``."""
+        """Flow-only spin-up until steady or t_max (spinup.py); ``progress(t, t_max)``."""
         return run_spinup(self, progress=progress)
 
     # ---- saltation ---------------------------------------------------------------------------
@@ -246,8 +239,7 @@ class Model:
         return out
 
     def _checkpointed_parts(self) -> list:
-        """(name, part) of the parts with their own ``checkpoint()`` and ``restore()`` (keys
-        ``name/...``)."""
+        """(name, part) of the parts with their own checkpoint (keys ``name/...``)."""
         parts = self.components + ([self.relaxation] if self.relaxation is not None else [])
         return ([("controller", self.controller), ("closure", self.stepper.closure)]
                 + [(c.name, c) for c in parts])

@@ -14,8 +14,6 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["rescale_restart", "VELOCITY_ENTRIES", "SQUARED_ENTRIES", "INVARIANT_PREFIXES"]
-
 # Restart entries that scale like a velocity [m s^-1] and like a velocity squared
 # ([m^2 s^-2]: SGS TKE, kinematic pressure, kinematic stresses held by the drive controller).
 VELOCITY_ENTRIES = ("u", "v", "w", "u_drive")
@@ -27,9 +25,8 @@ INVARIANT_PREFIXES = ("controller/", "closure/")
 
 
 def rescale_restart(ck: dict[str, Any], a: float) -> dict[str, Any]:
-    """A copy of the particle-free restart ``ck`` with velocities times ``a`` and their squares
-    times ``a**2`` (the clock left alone). ValueError for a non-positive or non-finite ``a`` or a
-    checkpoint with grain state (not self-similar)."""
+    """The particle-free restart ``ck`` with velocities times ``a``, their squares times a**2;
+    ValueError for a non-positive ``a`` or a checkpoint with grain state (not self-similar)."""
     if not (math.isfinite(a) and a > 0):
         raise ValueError(f"rescale_restart: the scale factor must be positive and finite (got {a!r})")
     bad = sorted(k for k in ck if "/" in k and not k.startswith(INVARIANT_PREFIXES))

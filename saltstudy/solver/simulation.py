@@ -20,9 +20,6 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
-__all__ = ["Simulation", "Callback", "TimeInterval", "SpecifiedTimes", "IterationInterval",
-           "WallTimeInterval", "TIME_EPS"]
-
 #: two times closer than this are the same time [s]; far below any time step
 TIME_EPS = 1e-9
 
@@ -94,8 +91,7 @@ class IterationInterval:
 
 
 class WallTimeInterval:
-    """Fires after a step once ``seconds`` of wall time have passed since the last firing (or the
-    start of ``run``): checkpoints of bounded cost."""
+    """Fires after a step once ``seconds`` of wall time have passed since the last firing."""
 
     def __init__(self, seconds: float):
         if not seconds >= 0:
@@ -126,8 +122,7 @@ class Callback:
 
 
 class Simulation:
-    """Runs ``model`` from its present time to ``origin + stop_time`` (module doc); ``dt_fixed``:
-    every step that long, clipped to the schedule (the stability study's too large step)."""
+    """Runs ``model`` to ``origin + stop_time``; ``dt_fixed``: every step that long (clipped)."""
 
     def __init__(self, model, stop_time: float = math.inf, origin: float | None = None,
                  dt_fixed: float | None = None):
@@ -205,8 +200,7 @@ class Simulation:
 
     # ---- restart ---------------------------------------------------------------------------
     def checkpoint(self) -> dict[str, Any]:
-        """The loop's own state as pure data (JSON-able, and the arrays a stateful callback
-        returns under its name); the model's is ``model.checkpoint()``."""
+        """The loop's own state as pure data; the model's is ``model.checkpoint()``."""
         out: dict[str, Any] = {"n_steps": self.n_steps, "origin": self.origin, "schedules": {},
                                "callbacks": {}}
         for name, c in self.callbacks.items():

@@ -18,9 +18,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["SpinupResult", "initial_flow", "smooth_noise", "window_steadiness", "run_spinup",
-           "spinup_simulation", "SteadinessRecord", "record_interval", "HISTORY_KEYS"]
-
 
 @dataclass
 class SpinupResult:
@@ -44,8 +41,7 @@ def smooth_noise(rng: np.random.Generator, shape: tuple[int, int, int], passes: 
 def initial_flow(state, u_star: float, z0: float, kappa: float, z_top: float,
                  rng: np.random.Generator, pressure, amplitude: float = 1.0,
                  streak_spacing: float = 0.7, u_profile: np.ndarray | None = None) -> None:
-    """Fill ``state`` with the perturbed log profile (module doc); ``u_profile`` (nz,): a mean
-    profile in place of the log law (the pressure-gradient drive's)."""
+    """Fill ``state`` with the perturbed log profile, or ``u_profile`` (nz,) (module doc)."""
     g = state.grid
     zc, zf = g.z_c, g.z_f
     nx, ny, nz = g.shape
@@ -99,8 +95,7 @@ def record_interval(spinup) -> float:
 
 
 class SteadinessRecord:
-    """The spin-up's record and steadiness test (module doc), which stops the simulation once
-    steady; checkpointed with the simulation."""
+    """The spin-up's record and steadiness test (module doc); stops the simulation once steady."""
 
     def __init__(self, model):
         self.model = model
@@ -147,9 +142,7 @@ class SteadinessRecord:
 
 
 def spinup_simulation(model, record_every: float | None = None):
-    """(Simulation, SteadinessRecord): the particle-free spin-up of ``model`` to
-    ``fidelity.spinup.t_max`` later, recording every ``record_every`` s (default
-    ``record_interval``); a caller adds its own callbacks before ``run()``."""
+    """(Simulation, SteadinessRecord) of the spin-up to t_max; callers add their own callbacks."""
     from .simulation import Simulation, TimeInterval
 
     sp = model.scene.fidelity.spinup

@@ -7,8 +7,6 @@ import numpy as np
 
 from .grid import Grid
 
-__all__ = ["FlowState", "SolverBlowUp"]
-
 
 class SolverBlowUp(RuntimeError):
     """A non-finite or runaway value stopped the run. The message names step, time, field, place."""
@@ -22,10 +20,8 @@ class SolverBlowUp(RuntimeError):
 
 @dataclass
 class FlowState:
-    """Prognostic flow fields on the staggered grid (grid.py) and the clock: u, v, w [m s^-1]
-    on the faces, the SGS TKE e and the kinematic pressure p [m^2 s^-2] at the centres (float64,
-    or float32 in a single-precision flow); u_drive [m s^-1] the wind the top layer relaxes to;
-    tke_sink None or the grains' per-cell rates [s^-1] (eq. A1)."""
+    """Flow fields (grid.py; float64, or float32 in a single-precision flow) and clock: u, v, w [m
+    s^-1], e, p [m^2 s^-2], u_drive [m s^-1], tke_sink None or the grains' rates [s^-1]."""
 
     grid: Grid
     u: np.ndarray

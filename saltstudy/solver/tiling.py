@@ -15,8 +15,6 @@ import math
 
 import numpy as np
 
-__all__ = ["tile_restart", "project_restart"]
-
 #: entries of a particle-free restart that are grid fields: (name, staggered in z)
 _FIELDS = (("u", False), ("v", False), ("w", True), ("e", False), ("p", False))
 
@@ -34,9 +32,8 @@ def _column_interp(f: np.ndarray, z_src: np.ndarray, z_dst: np.ndarray) -> np.nd
 
 
 def tile_restart(ck: dict, src, dst, z_keep: float, u_star: float, kappa: float) -> dict:
-    """The particle-free restart ``ck`` on grid ``src`` carried onto grid ``dst`` (module doc);
-    ``u_star`` [m s^-1] the source's friction velocity. ValueError when the spacings differ, the
-    extent is not a whole multiple, z_keep lies outside both columns, or ``ck`` has grain state."""
+    """The particle-free restart ``ck`` carried from grid ``src`` onto ``dst`` (module doc), u_star
+    [m s^-1] the source's; ValueError when that is not possible."""
     for name, a, b in (("dx", src.dx, dst.dx), ("dy", src.dy, dst.dy)):
         if not math.isclose(a, b, rel_tol=1e-9):
             raise ValueError(f"tile_restart: {name} differs ({a:g} m in the source, {b:g} m in the "
@@ -80,8 +77,7 @@ def tile_restart(ck: dict, src, dst, z_keep: float, u_star: float, kappa: float)
 
 
 def project_restart(model) -> None:
-    """Make a tiled start divergence-free on its grid and put the drive on its feed-forward for
-    that flow (the source's u_drive belongs to the source's damping layer)."""
+    """A tiled start made divergence-free, its drive on the feed-forward of the new flow."""
     s = model.state
     model.stepper.pressure.project(s.u, s.v, s.w)
     s.u_drive = model.controller.feed_forward(model.damped_mean_u())

@@ -18,9 +18,6 @@ from numba import prange
 from ..._jit import pjit
 from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, length_scale, viscosity_lengths)
 
-__all__ = ["make_closure", "DeardorffClosure", "DynamicClosure", "NoClosure", "CLOSURES",
-           "log_shear_factor", "apply_sink"]
-
 #: the SGS models a case can name (config.Closure.model)
 CLOSURES = ("deardorff", "dynamic")
 
@@ -37,8 +34,7 @@ def apply_sink(e, rate, dt, e_min):
 
 
 def log_shear_factor(grid, z0: float) -> float:
-    """1 / (z_1 ln(z_1 / z0)) [m^-1]: the log-law shear at the first level per unit velocity there
-    (the strain on the bed face)."""
+    """1 / (z_1 ln(z_1 / z0)) [m^-1]: the log-law shear at the first level per unit velocity."""
     z1 = float(grid.z_c[0])
     return 1.0 / (z1 * math.log(z1 / z0))
 
@@ -99,8 +95,7 @@ class _EddyViscosityClosure(NoClosure):
 
 
 class DeardorffClosure(_EddyViscosityClosure):
-    """The paper's closure (its Appendix A): nu_t = c_m l sqrt(e), e prognostic (sgs.py); the grain
-    sink of eq. A1 applied once per step, implicitly."""
+    """The paper's closure: nu_t = c_m l sqrt(e), e prognostic, the grain sink implicit."""
 
     prognostic_e = True
 
@@ -113,8 +108,7 @@ class DeardorffClosure(_EddyViscosityClosure):
 
 
 class DynamicClosure(_EddyViscosityClosure):
-    """The scale-dependent dynamic Smagorinsky model (dynamic.py), its coefficient refreshed every
-    ``dynamic_interval`` steps."""
+    """The scale-dependent dynamic Smagorinsky model (dynamic.py)."""
 
     def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, dtype=np.float64):
         super().__init__(grid, spec, kappa, nu_mol, rlog, dtype)
@@ -151,9 +145,7 @@ class DynamicClosure(_EddyViscosityClosure):
 
 def make_closure(grid, spec=None, *, kappa: float = 0.4, z0: float = 1e-5, nu_mol: float = 1.5e-5,
                  wall: bool = True, enabled: bool = True, dtype=np.float64):
-    """The closure of a case's ``closure`` section (config.Closure; None: the defaults). ``wall``:
-    a log-law bed (its strain the log-law shear); ``enabled`` False: ``NoClosure``; ``dtype``:
-    the flow's floating type."""
+    """The closure of a case's ``closure`` section (None: the defaults; ``enabled`` False: none)."""
     if spec is None:
         from ...config import Closure
         spec = Closure()

@@ -44,11 +44,7 @@ import numpy as np
 from numba import prange
 
 from ..._jit import device, pjit
-from .sgs import C0_LAGRANGIAN, C_M, E_MIN, length_scale
-
-__all__ = ["DynamicSmagorinsky", "strain_at_centre", "germano_sums", "coefficient_profile",
-           "smagorinsky_viscosity", "filter_plane_2", "filter_plane_4", "CS_MAX", "BETA_MIN",
-           "TEST_ALPHA_SQ"]
+from .sgs import C0_LAGRANGIAN, C_M, E_MIN, length_scale, strain_edges
 
 
 #: upper bound of C_s (about twice the Smagorinsky-Lilly value 0.17)
@@ -64,38 +60,11 @@ _NQ = 21
 @device
 def strain_at_centre(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
     """(S11, S22, S33, S12, S13, S23) at the centre of cell (i, j, k) [s^-1], each off-diagonal
-    term the mean of its four edges; bed and lid as sgs.strain_sq_at."""
-    s11 = (u[ip, j, k] - u[i, j, k]) * rdx
-    s22 = (v[i, jp, k] - v[i, j, k]) * rdy
-    s33 = (w[i, j, k + 1] - w[i, j, k]) * rdzc[k]
-    e00 = (u[i, j, k] - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx
-    e10 = (u[ip, j, k] - u[ip, jm, k]) * rdy + (v[ip, j, k] - v[i, j, k]) * rdx
-    e01 = (u[i, jp, k] - u[i, j, k]) * rdy + (v[i, jp, k] - v[im, jp, k]) * rdx
-    e11 = (u[ip, jp, k] - u[ip, j, k]) * rdy + (v[ip, jp, k] - v[i, jp, k]) * rdx
-    if bot:
-        rdz = rdzf[k]
-        a0 = (u[i, j, k] - u[i, j, k - 1]) * rdz + (w[i, j, k] - w[im, j, k]) * rdx
-        a1 = (u[ip, j, k] - u[ip, j, k - 1]) * rdz + (w[ip, j, k] - w[i, j, k]) * rdx
-        b0 = (v[i, j, k] - v[i, j, k - 1]) * rdz + (w[i, j, k] - w[i, jm, k]) * rdy
-        b1 = (v[i, jp, k] - v[i, jp, k - 1]) * rdz + (w[i, jp, k] - w[i, j, k]) * rdy
-    else:
-        a0 = u[i, j, k] * rlog
-        a1 = u[ip, j, k] * rlog
-        b0 = v[i, j, k] * rlog
-        b1 = v[i, jp, k] * rlog
-    c0 = 0.0
-    c1 = 0.0
-    d0 = 0.0
-    d1 = 0.0
-    if top:
-        kt = k + 1
-        rdz = rdzf[kt]
-        c0 = (u[i, j, kt] - u[i, j, k]) * rdz + (w[i, j, kt] - w[im, j, kt]) * rdx
-        c1 = (u[ip, j, kt] - u[ip, j, k]) * rdz + (w[ip, j, kt] - w[i, j, kt]) * rdx
-        d0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy
-        d1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy
-    return (s11, s22, s33, 0.125 * (e00 + e10 + e01 + e11), 0.125 * (a0 + a1 + c0 + c1),
-            0.125 * (b0 + b1 + d0 + d1))
+    term the mean of its four edges (sgs.strain_edges; the upper edges summed in float64)."""
+    s11, s22, s33, e00, e10, e01, e11, a0, a1, b0, b1, c0, c1, d0, d1 = strain_edges(
+        u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog)
+    return (s11, s22, s33, 0.125 * (e00 + e10 + e01 + e11),
+            0.125 * (a0 + a1 + float(c0) + float(c1)), 0.125 * (b0 + b1 + float(d0) + float(d1)))
 
 
 @device
@@ -182,9 +151,8 @@ def _contract(f, a2, i, j):
 
 @pjit
 def germano_sums(u, v, w, rdx, rdy, rdzc, rdzf, rlog, a2_2, a2_4, out):
-    """Per level, into out (nz, 4): plane means of L_ij M_ij and M_ij M_ij for the 2 dx test
-    filter (columns 0, 1) and the 4 dx one (2, 3), M without Delta^2 (their ratio is
-    (C_s Delta)^2 [m^2]); parallel over the levels."""
+    """Per level, plane means of L_ij M_ij and M_ij M_ij for the 2 dx (out[:, :2]) and 4 dx
+    test filters, M without Delta^2 (the ratio is (C_s Delta)^2 [m^2]); parallel over levels."""
     nx, ny, nz = u.shape
     inv = 1.0 / (nx * ny)
     for kk in prange(nz):
@@ -253,8 +221,7 @@ def germano_sums(u, v, w, rdx, rdy, rdzc, rdzf, rlog, a2_2, a2_4, out):
 
 def coefficient_profile(sums: np.ndarray, delta: np.ndarray, cs_max: float = CS_MAX,
                         beta_min: float = BETA_MIN) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """((C_s Delta)^2 [m^2], beta, C_s) per level from ``germano_sums`` and the filter width
-    ``delta`` [m]; zero (and beta NaN) where the 2 Delta coefficient is not positive."""
+    """((C_s Delta)^2 [m^2], beta, C_s) per level (0 and NaN where C^2(2 Delta) <= 0)."""
     sums = np.asarray(sums, dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
         c2 = np.where(sums[:, 1] > 0, sums[:, 0] / sums[:, 1], 0.0)
@@ -268,8 +235,7 @@ def coefficient_profile(sums: np.ndarray, delta: np.ndarray, cs_max: float = CS_
 @pjit
 def smagorinsky_viscosity(u, v, w, cs2d2, ckl, sink, with_sink, nu_mol, rdx, rdy, rdzc, rdzf, rlog,
                           e_min, nu, e):
-    """nu = (C_s Delta)^2 |S| g + nu_mol and e = max(((nu - nu_mol) / (C_K l))^2, e_min) in place,
-    g = 1 / (sqrt(1 + rho^2) + rho) with the sink rate ``sink`` [s^-1] (module doc), else 1."""
+    """nu = (C_s Delta)^2 |S| g + nu_mol and the diagnosed e in place (module doc)."""
     nx, ny, nz = u.shape
     for ii in prange(nx):
         i = np.int64(ii)
@@ -301,9 +267,8 @@ def smagorinsky_viscosity(u, v, w, cs2d2, ckl, sink, with_sink, nu_mol, rdx, rdy
 
 
 class DynamicSmagorinsky:
-    """(C_s Delta)^2 per level, updated every ``interval`` steps, and the per-level ``ceps_l``
-    (c_eps / l [m^-1]) and ``tlc`` (4 l / (3 C0 c_eps) [m s^-1]), updated in place so that the
-    stepper and the grain component read the current values through their references."""
+    """(C_s Delta)^2 per level, updated every ``interval`` steps, and ``ceps_l`` [m^-1], ``tlc``
+    [m s^-1] updated in place (the stepper and the grains hold references to them)."""
 
     def __init__(self, grid, kappa: float, rlog: float, delta: str = "scotti", interval: int = 5):
         if interval < 1:

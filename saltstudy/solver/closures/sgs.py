@@ -44,12 +44,6 @@ from ..._jit import device, like, pjit
 #: sink (eq. A1); not given in the paper
 C0_LAGRANGIAN = 2.1
 
-__all__ = ["C_M", "C_L", "BLEND_N", "E_MIN", "wall_blend", "length_scale", "viscosity_lengths",
-           "VISCOSITY_KINDS", "c_eps_profile", "delta_profile", "scotti_factor", "DELTA_KINDS",
-           "diff_u_at", "diff_v_at", "diff_w_at", "tke_tendency_at", "diff_u_split_at",
-           "diff_v_split_at", "diff_w_split_at", "tke_split_at", "vertical_coupling",
-           "strain_sq_at", "compute_nu", "sgs_stress_uw_profile"]
-
 C_M = 0.1            #: Deardorff (1980) / Moeng (1984) eddy-viscosity constant
 C_EPS_0 = 0.19       #: c_eps = C_EPS_0 + C_EPS_1 l / Delta (Deardorff 1980; Moeng 1984)
 C_EPS_1 = 0.74
@@ -70,8 +64,7 @@ def scotti_factor(dx: float, dy: float, dz: np.ndarray) -> np.ndarray:
 
 
 def delta_profile(grid, delta: str = "scotti") -> np.ndarray:
-    """Filter width Delta(z) per level (nz,) [m]: (dx dy dz_c)^{1/3}, times the Scotti factor
-    unless ``delta == "geometric"``."""
+    """Filter width Delta(z) (nz,) [m]: (dx dy dz_c)^{1/3}, times the Scotti factor by default."""
     if delta not in DELTA_KINDS:
         raise ValueError(f"delta must be one of {DELTA_KINDS} (got {delta!r})")
     d = (grid.dx * grid.dy * grid.dz_c) ** (1.0 / 3.0)
@@ -79,8 +72,7 @@ def delta_profile(grid, delta: str = "scotti") -> np.ndarray:
 
 
 def wall_blend(length, grid, kappa: float = 0.4, c_l: float = C_L, n: float = BLEND_N) -> np.ndarray:
-    """[length^-n + (c_l kappa z)^-n]^(-1/n) at the cell centres (nz,) [m]: a grid length limited
-    by the distance to the bed (Mason & Thomson 1992 blending, module doc)."""
+    """[length^-n + (c_l kappa z)^-n]^(-1/n) at the cell centres (nz,) [m] (module doc)."""
     lw = c_l * kappa * grid.z_c
     return (np.asarray(length, dtype=np.float64) ** -n + lw ** -n) ** (-1.0 / n)
 
@@ -96,8 +88,7 @@ VISCOSITY_KINDS = ("isotropic", "anisotropic")
 
 def viscosity_lengths(grid, kappa: float = 0.4, viscosity: str = "isotropic",
                       delta: str = "scotti") -> tuple[np.ndarray, np.ndarray]:
-    """(l_h, l_v) per level (nz,) [m] of the horizontal and vertical eddy viscosities: both l
-    ("isotropic"), or sqrt(dx dy) and dz blended as l is ("anisotropic")."""
+    """(l_h, l_v) (nz,) [m] of the horizontal and vertical eddy viscosities (module doc)."""
     if viscosity not in VISCOSITY_KINDS:
         raise ValueError(f"viscosity must be one of {VISCOSITY_KINDS} (got {viscosity!r})")
     if viscosity == "isotropic":
@@ -110,9 +101,6 @@ def viscosity_lengths(grid, kappa: float = 0.4, viscosity: str = "isotropic",
 def c_eps_profile(grid, l: np.ndarray, delta: str = "scotti") -> np.ndarray:
     """c_eps = 0.19 + 0.74 l/Delta per level (Deardorff 1980)."""
     return C_EPS_0 + C_EPS_1 * l / delta_profile(grid, delta)
-
-
-
 
 
 @pjit
@@ -200,8 +188,7 @@ def diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rd
 
 @device
 def vertical_coupling(f, i, j, k, a, c, top, bot):
-    """c (f_k+1 - f_k) - a (f_k - f_k-1) on the column (i, j) [units of f s^-1]: the vertical part
-    of a split diffusion (``*_split_at``)."""
+    """c (f_k+1 - f_k) - a (f_k - f_k-1) on column (i, j): a split diffusion's vertical part."""
     zero = like(f, 0.0)
     fc = f[i, j, k]
     r = zero
@@ -213,25 +200,8 @@ def vertical_coupling(f, i, j, k, a, c, top, bot):
 
 
 @device
-def diff_u_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
-    """d T_1j / dx_j at the u point [m s^-2] (diff_u_split_at)."""
-    x, a, c = diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
-                              dzc, dzf)
-    return x + vertical_coupling(u, i, j, k, a, c, top, bot)
-
-
-@device
-def diff_v_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
-    """d T_2j / dx_j at the v point [m s^-2]; bed flux T_23 = -tauy."""
-    x, a, c = diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy,
-                              dzc, dzf)
-    return x + vertical_coupling(v, i, j, k, a, c, top, bot)
-
-
-@device
 def diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
-    """d T_3j / dx_j at the interior w point split as ``diff_u_split_at``: explicit T_13, T_23,
-    and a, c of T_33 = 2 nu_v dw/dz; all vertical fluxes, with the vertical viscosity nu rv."""
+    """d T_3j / dx_j at the interior w point, split as diff_u_split_at (all with nu rv)."""
     quarter = like(w, 0.25)
     one = like(w, 1.0)
     two = like(w, 2.0)
@@ -253,34 +223,20 @@ def diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf
 
 
 @device
-def diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf):
-    """d T_3j / dx_j at the interior w point (1 <= k <= nz-1) [m s^-2]."""
-    x, a, c = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
-    return x + vertical_coupling(w, i, j, k, a, c, True, True)
-
-
-@device
-def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
-    """2 S_ij S_ij at the cell centre [s^-2] as (2 S_11^2 + 2 S_22^2 + 4 S_12^2, 2 S_33^2 +
-    4 S_13^2 + 4 S_23^2), the parts against the horizontal and the vertical viscosity; the
-    off-diagonal squares averaged over the four surrounding edges. On the bed face (bot False)
-    the vertical shear is the log law's at the first level, u_1 rlog, rlog = 1/(z_1 ln(z_1/z0));
-    under the lid (top False) zero. i, j signed (no modulo here: it made the stage 4x slower)."""
+def strain_edges(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
+    """The strain's terms around the centre of cell (i, j, k) [s^-1]: S_11, S_22, S_33; 2 S_12 on
+    the four vertical edges; 2 S_13 and 2 S_23 on the edges of the face below (a0, a1, b0, b1)
+    and above (c0, c1, d0, d1). On the bed face (bot False) the vertical shear is the log law's
+    at the first level, u_1 rlog, rlog = 1/(z_1 ln(z_1/z0)); under the lid (top False) zero.
+    i, j signed (no modulo here: it made the TKE stage 4x slower)."""
     zero = like(u, 0.0)
-    quarter = like(u, 0.25)
-    two = like(u, 2.0)
     s11 = (u[ip, j, k] - u[i, j, k]) * rdx
     s22 = (v[i, jp, k] - v[i, j, k]) * rdy
     s33 = (w[i, j, k + 1] - w[i, j, k]) * rdzc[k]
-    acc = two * (s11 * s11 + s22 * s22)
-    # 2 S_12 on the four vertical edges (x_f[i|ip], y_f[j|jp])
     e00 = (u[i, j, k] - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx
     e10 = (u[ip, j, k] - u[ip, jm, k]) * rdy + (v[ip, j, k] - v[i, j, k]) * rdx
     e01 = (u[i, jp, k] - u[i, j, k]) * rdy + (v[i, jp, k] - v[im, jp, k]) * rdx
     e11 = (u[ip, jp, k] - u[ip, j, k]) * rdy + (v[ip, jp, k] - v[i, jp, k]) * rdx
-    acc += quarter * (e00 * e00 + e10 * e10 + e01 * e01 + e11 * e11)
-    # 2 S_13 on the edges (x_f, z_f) and 2 S_23 on (y_f, z_f), faces k (below) and k+1 (above)
-    q = zero
     if bot:
         rdz = rdzf[k]
         a0 = (u[i, j, k] - u[i, j, k - 1]) * rdz + (w[i, j, k] - w[im, j, k]) * rdx
@@ -292,24 +248,43 @@ def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdz
         a1 = u[ip, j, k] * rlog
         b0 = v[i, j, k] * rlog
         b1 = v[i, jp, k] * rlog
-    q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
+    c0 = zero
+    c1 = zero
+    d0 = zero
+    d1 = zero
     if top:
         kt = k + 1
         rdz = rdzf[kt]
-        a0 = (u[i, j, kt] - u[i, j, k]) * rdz + (w[i, j, kt] - w[im, j, kt]) * rdx
-        a1 = (u[ip, j, kt] - u[ip, j, k]) * rdz + (w[ip, j, kt] - w[i, j, kt]) * rdx
-        b0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy
-        b1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy
-        q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
+        c0 = (u[i, j, kt] - u[i, j, k]) * rdz + (w[i, j, kt] - w[im, j, kt]) * rdx
+        c1 = (u[ip, j, kt] - u[ip, j, k]) * rdz + (w[ip, j, kt] - w[i, j, kt]) * rdx
+        d0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy
+        d1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy
+    return s11, s22, s33, e00, e10, e01, e11, a0, a1, b0, b1, c0, c1, d0, d1
+
+
+@device
+def strain_sq_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
+    """2 S_ij S_ij at the cell centre [s^-2] as (2 S_11^2 + 2 S_22^2 + 4 S_12^2, the rest), the
+    parts against the horizontal and the vertical viscosity (strain_edges)."""
+    zero = like(u, 0.0)
+    quarter = like(u, 0.25)
+    two = like(u, 2.0)
+    s11, s22, s33, e00, e10, e01, e11, a0, a1, b0, b1, c0, c1, d0, d1 = strain_edges(
+        u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog)
+    acc = two * (s11 * s11 + s22 * s22)
+    acc += quarter * (e00 * e00 + e10 * e10 + e01 * e01 + e11 * e11)
+    q = zero
+    q += a0 * a0 + a1 * a1 + b0 * b0 + b1 * b1
+    if top:
+        q += c0 * c0 + c1 * c1 + d0 * d0 + d1 * d1
     return acc, two * s33 * s33 + quarter * q
 
 
 @device
 def tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
                  rlog, ceps_over_l_k):
-    """de/dt at the centre without advection (eq. A1) as (P + horizontal transport [m^2 s^-3],
-    a, c, r [s^-1]), de/dt = that + c (e_k+1 - e_k) - a (e_k - e_k-1) - r e_k, r = c_eps e^{1/2}
-    / l. Transport 2 nu_t grad e, horizontal with nu, vertical with nu rv (two-point means)."""
+    """de/dt without advection (eq. A1) as (P + horizontal transport [m^2 s^-3], a, c, r [s^-1]):
+    de/dt = that + c (e_k+1 - e_k) - a (e_k - e_k-1) - r e_k, r = c_eps e^{1/2} / l."""
     zero = like(e, 0.0)
     ec = e[i, j, k]
     nuc = nu[i, j, k]
@@ -328,18 +303,6 @@ def tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy
         a = (nu[i, j, k - 1] * rv[k - 1] + nvc) * rdzf[k] * rdzc[k]
     ep = ec if ec > zero else zero
     return prod + (fe - fw) * rdx + (fn - fs) * rdy, a, c, ceps_over_l_k * math.sqrt(ep)
-
-
-@device
-def tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                    rlog, ceps_over_l_k):
-    """de/dt at the centre without advection: P + transport - eps [m^2 s^-3] (all explicit)."""
-    zero = like(e, 0.0)
-    x, a, c, r = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
-                              rdzf, rlog, ceps_over_l_k)
-    ec = e[i, j, k]
-    ep = ec if ec > zero else zero
-    return x + vertical_coupling(e, i, j, k, a, c, top, bot) - r * ep
 
 
 @pjit

@@ -12,9 +12,6 @@ from numba import prange
 from ..._jit import pjit
 from ..state import SolverBlowUp
 
-__all__ = ["first_nonfinite", "check_state", "check_courant", "health", "locate_nonfinite",
-           "CFL_RUNAWAY"]
-
 #: Courant number beyond which RK3 with centred advection is unstable (sqrt 3, Wicker &
 #: Skamarock 2002): the run is stopped before it fills with NaN.
 CFL_RUNAWAY = math.sqrt(3.0)
@@ -45,8 +42,7 @@ def first_nonfinite(a: np.ndarray) -> tuple[int, ...] | None:
 
 @pjit
 def _health(u, v, w, e, rdx, rdy, dzc, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
-    """One pass: (max Courant rate [s^-1], max diffusion rate [s^-1], number of non-finite values
-    of u, v, w, e). A NaN never wins a '>' comparison, so it is counted separately."""
+    """(max Courant rate, max diffusion rate [s^-1], count of non-finite u, v, w, e)."""
     nx, ny, nz = u.shape
     part = np.zeros(nx)
     dpart = np.zeros(nx)
@@ -87,9 +83,8 @@ def _health(u, v, w, e, rdx, rdy, dzc, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
 
 
 def health(grid, state, cml, cml_v, nu_mol, vertical: bool = True) -> tuple[float, float, int]:
-    """(Courant rate, diffusion rate [s^-1], count of non-finite values) in one pass; cml, cml_v:
-    c_m times the horizontal and vertical viscosity lengths; ``vertical`` False: the horizontal
-    diffusion rate only (implicit vertical diffusion)."""
+    """(Courant rate, diffusion rate [s^-1], non-finite count) in one pass; ``vertical`` False:
+    the horizontal diffusion rate only (implicit vertical diffusion)."""
     rdz2 = 1.0 / grid.dz_c**2 if vertical else np.zeros(grid.nz)
     c, d, n = _health(state.u, state.v, state.w, state.e, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c,
                       cml, cml_v, nu_mol, 1.0 / grid.dx**2, 1.0 / grid.dy**2, rdz2)
@@ -103,13 +98,6 @@ def locate_nonfinite(state) -> None:
         idx = first_nonfinite(a)
         if idx is not None:
             raise SolverBlowUp(state.step, state.t, name, idx, float(a[idx]))
-
-
-def check_state(state, courant_rate: float, dt: float) -> float:
-    """Raise SolverBlowUp on a non-finite u, v, w, e or a Courant number beyond CFL_RUNAWAY;
-    return the Courant number courant_rate dt."""
-    locate_nonfinite(state)
-    return check_courant(state, courant_rate, dt)
 
 
 def check_courant(state, courant_rate: float, dt: float) -> float:

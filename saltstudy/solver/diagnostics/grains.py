@@ -9,9 +9,6 @@ import numpy as np
 
 from ..grains.particles import Saltation
 
-__all__ = ["grain_component", "grain_planes", "grain_profiles", "grain_size_hist", "grain_counters",
-           "impact_record", "impact_bins"]
-
 
 def grain_component(model) -> Saltation | None:
     return next((c for c in model.components if c.name == "saltation"), None)
@@ -23,9 +20,7 @@ def _layers(s: Saltation) -> np.ndarray:
 
 
 def grain_planes(model) -> dict:
-    """C_p (x, y) [grains m^-2] and G_col (x, y) [kg m^-1 s^-1]: column sums / (dx dy);
-    C_p_above (x, y): C_p of the grains above the first grid cell (z >= z_f[1]), without the slow
-    population of the first cell."""
+    """C_p [grains m^-2], C_p_above (z >= z_f[1]) and G_col [kg m^-1 s^-1] on (x, y)."""
     g = model.state.grid
     s = grain_component(model)
     cp = np.zeros((g.nx, g.ny))
@@ -98,8 +93,7 @@ def grain_counters(model) -> dict:
 
 
 def impact_bins() -> dict:
-    """Bin edges of the impact record (splash_kernels): impact speed [m s^-1], impact angle to the
-    bed [deg], hop flight time [s], hop streamwise length [m]; each last bin open above."""
+    """Bin edges of the impact record: speed [m s^-1], angle [deg], hop time [s], length [m]."""
     from ..grains import splash_kernels as sk
     return {"v_imp_edges": np.arange(sk.N_SPEED_BINS + 1) * sk.IMPACT_SPEED_BIN,
             "angle_edges": np.arange(sk.N_ANGLE_BINS + 1) * sk.IMPACT_ANGLE_BIN,
@@ -108,8 +102,7 @@ def impact_bins() -> dict:
 
 
 def impact_record(model) -> dict:
-    """Cumulative impact counts since activation (Saltation.impact_record; parcel counts, not
-    Q-weighted); zeros without grains."""
+    """Cumulative impact counts since activation (parcels); zeros without grains."""
     from ..grains import splash_kernels as sk
     s = grain_component(model)
     if s is None:

@@ -19,8 +19,6 @@ import numpy as np
 
 from .grains import grain_component
 
-__all__ = ["step_limits", "coupling_stiffness", "parcel_balance", "HEALTH_SERIES"]
-
 #: series the driver adds per record time: name -> (units, long_name)
 HEALTH_SERIES: dict[str, tuple[str, str]] = {
     "dt_courant": ("s", "step allowed by the advective Courant limit (cfl / Courant rate)"),

@@ -11,8 +11,6 @@ from . import flow as dflow
 from . import grains as dgrains
 from . import health
 
-__all__ = ["series", "planes", "sample"]
-
 
 def series(model, z_ref: float, n_released: int, last_dt: float, last_cfl: float) -> dict:
     """One record of the time series; ``n_released``: parcels released at activation."""
@@ -37,8 +35,7 @@ def planes(model, z_plane: np.ndarray) -> dict:
 
 
 def sample(model, d_edges: np.ndarray, full: bool = False) -> dict:
-    """One 3-D sample; ``d_edges``: the size histogram's diameter edges [m]; ``full``: the
-    pressure too."""
+    """One 3-D sample; ``d_edges``: the size histogram's edges [m]; ``full``: with p."""
     uc, vc, wc = dflow.cell_centred_velocity(model)
     fp = dflow.flow_profiles(model)
     rec = {"u": uc.astype(np.float32), "v": vc.astype(np.float32), "w": wc.astype(np.float32),

@@ -36,11 +36,6 @@ from numba import prange
 from ..._jit import device, like, pjit
 
 
-
-__all__ = ["adv_u_at", "adv_v_at", "adv_w_at", "adv_scalar_at", "adv_u4_at", "adv_v4_at",
-           "adv_w4_at", "adv_scalar4_at", "wrap_down", "wrap_up", "ADVECTION_ORDERS",
-           "advection_tendencies", "scalar_advection"]
-
 #: the horizontal orders of the advection (config.TimeStepping.advection_order)
 ADVECTION_ORDERS = (2, 4)
 
@@ -116,8 +111,7 @@ def adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
 
 @device
 def adv_scalar_at(s, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
-    """-div(u s) for a cell-centred scalar (the SGS TKE e) [units of s per s]; conserves
-    sum(V s^2) when the flow is divergence-free."""
+    """-div(u s) for a cell-centred scalar (the SGS TKE e) [units of s per s]."""
     half = like(s, 0.5)
     zero = like(s, 0.0)
     sc = s[i, j, k]
@@ -156,8 +150,7 @@ def _outer(im, ip, n):
 
 @device
 def _mid4(a, b, c, d):
-    """Fourth-order interpolation to the midpoint of b and c (a, d: the outer neighbours):
-    9/8 (b + c)/2 - 1/8 (a + d)/2."""
+    """Fourth-order midpoint of b and c: 9/8 (b + c)/2 - 1/8 (a + d)/2."""
     half = like(a, 0.5)
     eighth = like(a, 0.125)
     c1 = like(a, C1)
@@ -166,8 +159,7 @@ def _mid4(a, b, c, d):
 
 @device
 def _div4(fm3, fm1, fp1, fp3, qm3, qm1, qc, qp1, qp3):
-    """9/8 delta_1(F q^1) - 1/8 delta_3(F q^3) times h (divide by h): F the advecting velocity at
-    -3h/2, -h/2, +h/2, +3h/2 from the point, q the advected quantity at -3h, -h, 0, +h, +3h."""
+    """(9/8 delta_1(F q^1) - 1/8 delta_3(F q^3)) h: F at +-h/2, +-3h/2, q at 0, +-h, +-3h."""
     half = like(fm3, 0.5)
     c1 = like(fm3, C1)
     c3 = like(fm3, C3)
@@ -177,9 +169,8 @@ def _div4(fm3, fm1, fp1, fp3, qm3, qm1, qc, qp1, qp3):
 
 @device
 def adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
-    """-div(u u) at the u point [m s^-2], fourth order in x and y (module doc). Arguments as
-    adv_u_at; the further neighbours are found here (the stage kernels' per-point calls are at
-    numba's 30-argument limit for inlining)."""
+    """-div(u u) at the u point [m s^-2], fourth order in x and y; finds the further neighbours
+    itself (the stage kernels' calls are at numba's 30-argument limit for inlining)."""
     half = like(u, 0.5)
     zero = like(u, 0.0)
     im2, im3, ip2, ip3 = _outer(im, ip, u.shape[0])
@@ -212,8 +203,7 @@ def adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
 
 @device
 def adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
-    """-div(u v) at the v point (i, j, k) [m s^-2], fourth order in x and y (adv_u4_at with x and
-    y exchanged)."""
+    """-div(u v) at the v point [m s^-2], fourth order in x and y (as adv_u4_at)."""
     half = like(v, 0.5)
     zero = like(v, 0.0)
     im2, im3, ip2, ip3 = _outer(im, ip, v.shape[0])
@@ -246,8 +236,7 @@ def adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
 
 @device
 def adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
-    """-div(u w) at the interior w point [m s^-2], fourth order in x and y, the advecting u, v the
-    thickness-weighted z means of adv_w_at (hzm, hzp as there)."""
+    """-div(u w) at the interior w point [m s^-2], fourth order in x and y."""
     half = like(w, 0.5)
     im2, im3, ip2, ip3 = _outer(im, ip, w.shape[0])
     jm2, jm3, jp2, jp3 = _outer(jm, jp, w.shape[1])
@@ -349,8 +338,7 @@ def _check_order(order: int) -> int:
 
 
 def advection_tendencies(grid, u, v, w, order: int = 2):
-    """(A_u, A_v, A_w) = -div(u u_i) on the u, v, w points [m s^-2] (A_w zero at the end faces);
-    ``order``: 2, or 4 in x and y (module doc)."""
+    """(A_u, A_v, A_w) = -div(u u_i) on the u, v, w points [m s^-2] (tests)."""
     au = np.empty_like(u)
     av = np.empty_like(v)
     aw = np.empty_like(w)

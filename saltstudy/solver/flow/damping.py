@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["rayleigh_profile", "damping_profiles"]
-
 
 def rayleigh_profile(z: np.ndarray, Lz: float, depth: float, timescale: float) -> np.ndarray:
     """f(z) [s^-1] (see module docstring); zero everywhere for depth = 0."""

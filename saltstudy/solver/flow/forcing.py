@@ -28,22 +28,17 @@ from numba import prange
 
 from ..._jit import jit_with, pjit
 
-__all__ = ["DriveController", "z_ref_effective", "total_stress_at_face", "pressure_gradient_force",
-           "PG_HOLD_HEIGHT", "level_means"]
-
 #: height [m] where the pressure-gradient drive holds the stress at u*s^2 (0: the bed)
 PG_HOLD_HEIGHT = 0.0
 
 
 def z_ref_effective(z_ref: float, Lz: float, damping_depth: float) -> float:
-    """min(z_ref, (Lz - D)/2) [m]: where u* is read (and, top drive, held); D = 0 without a
-    damping layer (pressure-gradient drive)."""
+    """min(z_ref, (Lz - D)/2) [m]: where u* is read (and, top drive, held)."""
     return min(z_ref, 0.5 * (Lz - damping_depth))
 
 
 def pressure_gradient_force(u_star: float, Lz: float, z_hold: float = PG_HOLD_HEIGHT) -> float:
-    """G = u*^2 / (Lz - z_hold) [m s^-2]: the body force whose steady stress G (Lz - z) is u*^2 at
-    z_hold [m] (0 <= z_hold < Lz)."""
+    """G = u*^2 / (Lz - z_hold) [m s^-2]: the stress G (Lz - z) is u*^2 at z_hold."""
     if not 0.0 <= z_hold < Lz:
         raise ValueError(f"pressure_gradient_force: hold height {z_hold:g} m must lie in [0, Lz={Lz:g} m)")
     return u_star ** 2 / (Lz - z_hold)
@@ -51,9 +46,8 @@ def pressure_gradient_force(u_star: float, Lz: float, z_hold: float = PG_HOLD_HE
 
 @pjit
 def total_stress_at_face(u, w, e, k, cml, nu_mol, dzf, rdx, taux):
-    """(resolved, SGS) horizontal means of the u-w stress on face k [m^2 s^-2]: <w_x u_z> -
-    <w><u> with the advection's face means (the mean momentum budget closes) and -<nu (du/dz +
-    dw/dx)>; at k = 0 the bed stress."""
+    """(resolved, SGS) horizontal means of the u-w stress on face k [m^2 s^-2], the resolved with
+    the advection's face means (the mean budget closes); at k = 0 the bed stress."""
     nx, ny, nz = u.shape
     res = np.zeros(nx)
     sgs = np.zeros(nx)
@@ -90,9 +84,8 @@ def total_stress_at_face(u, w, e, k, cml, nu_mol, dzf, rdx, taux):
 
 @jit_with(parallel=True, fastmath=False)
 def level_means(a, k0, out):
-    """out[k] = the horizontal mean of a[:, :, k] for k0 <= k < nz, in float64, summed over (i, j)
-    in array order as numpy's ``a.mean(axis=(0, 1))`` (bit for bit: no fastmath); the threads
-    take contiguous groups of levels."""
+    """out[k] = the float64 horizontal mean of a[:, :, k], k0 <= k < nz, bit for bit numpy's
+    ``a.mean(axis=(0, 1))`` (summed in array order, no fastmath)."""
     nx, ny, nz = a.shape
     n = nz - k0
     groups = min(n, 8)
@@ -106,9 +99,6 @@ def level_means(a, k0, out):
                     acc[k - ka] += a[i, j, k]
         for k in range(ka, kb):
             out[k] = acc[k - ka] / (nx * ny)
-
-
-
 
 
 class DriveController:

@@ -22,8 +22,6 @@ import math
 
 import numpy as np
 
-__all__ = ["ColumnRelaxation"]
-
 
 class ColumnRelaxation:
     """Uniform body force that speeds the column towards tau_bed = u*s^2 (see module docstring)."""
@@ -55,8 +53,7 @@ class ColumnRelaxation:
 
     def update(self, u: np.ndarray, taux: np.ndarray, p_to_air: float, dt: float,
                t_since_activation: float) -> float:
-        """While active, filter the bed stress over the step and apply B dt to u; returns B dt
-        [m s^-1] (0 when inactive), by which a top drive shifts its ``u_drive``."""
+        """While active, apply B dt to u and return it [m s^-1] (a top drive adds it to u_drive)."""
         if not self.active(t_since_activation):
             self.force = 0.0
             return 0.0

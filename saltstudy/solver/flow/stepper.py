@@ -24,11 +24,10 @@ from .advection import (ADVECTION_ORDERS, adv_scalar4_at, adv_scalar_at, adv_u4_
 from ..closures.closure import NoClosure
 from .damping import damping_profiles
 from .pressure import PressureSolver
-from ..closures.sgs import E_MIN, diff_u_at, diff_v_at, diff_w_at, tke_tendency_at
+from ..closures.sgs import (E_MIN, diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at,
+                            vertical_coupling)
 from .vertical_diffusion import VERTICAL_DIFFUSION, momentum_stage_implicit, tke_stage_implicit
 from .wall import drag_coefficient, surface_stress_into
-
-__all__ = ["Stepper", "FlowNumerics", "Boundaries", "RK3_COEFFS", "PRECISIONS"]
 
 RK3_COEFFS = (1.0 / 3.0, 0.5, 1.0)
 
@@ -77,9 +76,8 @@ class FlowNumerics:
 
 @dataclass(frozen=True)
 class Boundaries:
-    """The bed (log-law stress with roughness z0 [m]; ``wall`` False: free slip), the Rayleigh
-    layer under the lid (depth [m], time scale [s]; on u too with ``damp_u``, the top drive) and
-    the body force G [m s^-2] of the pressure-gradient drive (forcing.py)."""
+    """The bed (log-law, roughness z0 [m]; ``wall`` False: free slip), the Rayleigh layer (on u
+    too with ``damp_u``, the top drive) and the body force G [m s^-2] (forcing.py)."""
     z0: float = 1.0e-5
     kappa: float = 0.4
     wall: bool = True
@@ -103,9 +101,13 @@ def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, 
     elif adv == 2:
         tu += adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
         tv += adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
-    if with_diff:
-        tu += diff_u_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
-        tv += diff_v_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
+    if with_diff:  # the split diffusion of sgs.py, all explicit
+        x, a, c = diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx,
+                                  rdy, dzc, dzf)
+        tu += x + vertical_coupling(u, i, j, k, a, c, top, bot)
+        x, a, c = diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx,
+                                  rdy, dzc, dzf)
+        tv += x + vertical_coupling(v, i, j, k, a, c, top, bot)
     uo[i, j, k] = ub[i, j, k] + cdt * tu
     vo[i, j, k] = vb[i, j, k] + cdt * tv
 
@@ -141,7 +143,8 @@ def _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, i
         elif adv == 2:
             tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         if with_diff:
-            tw += diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
+            x, a, c = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
+            tw += x + vertical_coupling(w, i, j, k, a, c, True, True)
         wo[i, j, k] = wb[i, j, k] + cdt * tw
 
 
@@ -176,12 +179,15 @@ def _uvw_slab(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, im, ip, cd
 @device
 def _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, rdzc,
              rdzf, rlog, ceps_lk, e_min, order):
+    zero = like(e, 0.0)
     if order == 4:
         te = adv_scalar4_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     else:
         te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
-    te += tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                          rlog, ceps_lk)
+    x, a, c, r = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
+                              rdzf, rlog, ceps_lk)
+    ec = e[i, j, k]
+    te += x + vertical_coupling(e, i, j, k, a, c, top, bot) - r * (ec if ec > zero else zero)
     val = eb[i, j, k] + cdt * te
     eo[i, j, k] = val if val > e_min else e_min
 
@@ -220,8 +226,7 @@ def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps
 
 
 class Stepper:
-    """RK3 flow stepper: ``Stepper(grid, closure, boundaries, numerics)`` (closure.make_closure,
-    ``Boundaries``, ``FlowNumerics``); work arrays preallocated."""
+    """RK3 flow stepper: ``Stepper(grid, closure, boundaries, numerics)``."""
 
     def __init__(self, grid, closure=None, boundaries: Boundaries = Boundaries(),
                  numerics: FlowNumerics = FlowNumerics(), workers: int | None = None):
@@ -274,9 +279,8 @@ class Stepper:
         self.closure.viscosity(u, v, w, e, self.nu)
 
     def stage(self, inp, base, out, cdt: float, u_drive: float, p, store_p: bool = False) -> None:
-        """out = base + cdt F(inp), then projected (inp/base/out: objects or dicts with u, v, w,
-        e). ``p`` [m^2 s^-2]: the last step's pressure, whose gradient the implicit stages carry
-        (vertical_diffusion.py); with ``store_p`` the stage's pressure is written into it."""
+        """out = base + cdt F(inp), projected; ``p`` [m^2 s^-2] the last step's pressure, whose
+        gradient the implicit stages carry; ``store_p``: the stage's pressure written into it."""
         g, clo, K, f = self.grid, self.closure, self._k, self._f
         gu, gv, gw, ge = (_get(inp, n) for n in "uvwe")
         bu, bv, bw, be = (_get(base, n) for n in "uvwe")
@@ -306,8 +310,7 @@ class Stepper:
         self.pressure.project(ou, ov, ow, p if store_p else None, cdt, increment=self.implicit)
 
     def step(self, state, dt: float) -> None:
-        """Advance (u, v, w, e) of ``state`` by dt in place (clock untouched); state.p becomes
-        the step's pressure."""
+        """Advance (u, v, w, e) by dt in place (clock untouched); p becomes the step's."""
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
         self.closure.begin_step(state, dt)

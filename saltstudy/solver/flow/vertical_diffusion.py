@@ -37,18 +37,13 @@ from .advection import (C1, C3, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_
                         adv_v_at, adv_w4_at, adv_w_at, wrap_down)
 from ..closures.sgs import diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at, vertical_coupling
 
-__all__ = ["momentum_stage_implicit", "tke_stage_implicit", "solve_tridiagonal",
-           "VERTICAL_DIFFUSION"]
-
 #: the vertical diffusion schemes a fidelity can name (config.TimeStepping.vertical_diffusion)
 VERTICAL_DIFFUSION = ("explicit", "implicit")
 
 
-
 @device
 def solve_tridiagonal(lo, di, up, r, cp, k0, k1):
-    """Solve lo[k] x[k-1] + di[k] x[k] + up[k] x[k+1] = r[k], k0 <= k < k1, in place of r (Thomas;
-    stable: the matrices are diagonally dominant). cp: scratch."""
+    """lo x[k-1] + di x[k] + up x[k+1] = r[k], k0 <= k < k1, solved in place of r (Thomas)."""
     b = di[k0]
     cp[k0] = up[k0] / b
     r[k0] = r[k0] / b
@@ -63,9 +58,8 @@ def solve_tridiagonal(lo, di, up, r, cp, k0, k1):
 @device
 def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, top, bot, cdt, theta,
              rdx, rdy, dzc, dzf, fck, fcuk, srck, horder, S):
-    """Row k of the u and v systems of column (i, j) into S (right-hand side, sub-, main,
-    super-diagonal: S[0:4] u, S[4:8] v); p: the reference pressure. horder: the horizontal order
-    of the advection and of the carried gradient (the projection's); negative: no advection."""
+    """Row k of the u (S[0:4]) and v (S[4:8]) systems of column (i, j); horder: the advection's and
+    the carried gradient's order (the projection's), negative without advection."""
     one = like(u, 1.0)
     c1_ = like(u, C1)
     c3_ = like(u, C3)
@@ -146,9 +140,8 @@ def _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, c
 @pjit
 def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, p, cdt, theta, rdx,
                             rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, with_adv, order):
-    """uo = ub + cdt (E(u) - G p + (1 - theta) D ub + theta D uo) for u, v and the interior w,
-    a tridiagonal solve per column (module doc); p the reference pressure [m^2 s^-2]; other
-    arguments as stepper._momentum_stage."""
+    """uo = ub + cdt (E(u) - G p + (1 - theta) D ub + theta D uo) for u, v and interior w, per
+    column (module doc); p [m^2 s^-2]; other arguments as stepper._momentum_stage."""
     nx, ny, nz = u.shape
     horder = order if with_adv else -order
     for i in prange(nx):
@@ -179,8 +172,7 @@ def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo,
 @device
 def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, theta, rdx, rdy, rdzc,
             rdzf, rlog, ceps_lk, order, S):
-    """Row k of the e system of column (i, j) into S[0:4]: advection, production and horizontal
-    transport explicit, the vertical transport theta-weighted, the dissipation implicit."""
+    """Row k of the e system of column (i, j) into S[0:4] (module doc)."""
     one = like(e, 1.0)
     if order == 4:
         te = adv_scalar4_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
@@ -215,8 +207,7 @@ def _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, r
 @pjit
 def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, rdzf, rlog, ceps_l,
                        e_min, order):
-    """eo = max(eb + cdt (advection + P + transport_h + (1 - theta) D eb + theta D eo - r eo),
-    e_min), r = c_eps e^{1/2} / l of the input e, a tridiagonal solve per column."""
+    """eo = max(eb + cdt (the e equation, vertical part theta-weighted), e_min) (module doc)."""
     nx, ny, nz = e.shape
     for ii in prange(nx):
         i = np.int64(ii)  # signed: strain_sq_at indexes with i directly

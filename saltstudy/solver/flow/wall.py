@@ -15,8 +15,6 @@ from numba import prange
 
 from ..._jit import pjit
 
-__all__ = ["drag_coefficient", "surface_stress", "surface_stress_into"]
-
 
 def drag_coefficient(z1: float, z0: float, kappa: float) -> float:
     """C_d = [kappa / ln(z1/z0)]^2 [-] for the first level z1 [m] and roughness z0 [m]."""

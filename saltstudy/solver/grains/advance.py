@@ -20,8 +20,7 @@ from .deposit import _reaction_to_air, _tke_to_air, _to_air
 
 @ijit
 def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx, ny, nz):
-    """The sub-steps after the first, one parcel at a time. Returns the parcel's state, whether
-    it hit the bed and its time left."""
+    """The sub-steps after the first: (state, hit, time left)."""
     itp = 1.0 / tp
     dnu = P.d[p] / S.nu
     nsub = 1
@@ -41,8 +40,7 @@ def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx,
 
 @ijit
 def _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
-    """Stage 5 of lane l (parcel p): the sub-step's deposits, further sub-steps, the state stored.
-    Returns (hit, time left, u, v)."""
+    """Stage 5 of lane l: deposits, further sub-steps, store; (hit, time left, u, v)."""
     st = _lane_stencil(lf, li, l)
     k = lf[_K + l]
     h = lf[_H + l]

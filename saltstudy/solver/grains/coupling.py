@@ -76,8 +76,7 @@ def face_inverse_masses(grid, rho: float) -> tuple[np.ndarray, np.ndarray]:
 
 def lagrangian_time_coefficients(grid, kappa: float, c0: float = C0_LAGRANGIAN,
                                  delta: str = "scotti") -> np.ndarray:
-    """Per level: ``4 l / (3 C0 c_eps)`` [m s^-1], ``T_L = coef[k] / sqrt(e)``, with the SGS
-    model's own l and c_eps (the dissipation its TKE equation uses)."""
+    """4 l / (3 C0 c_eps) per level [m s^-1], T_L = coef[k] / sqrt(e) (the SGS model's l, c_eps)."""
     from ..closures.sgs import c_eps_profile, length_scale
     ell = length_scale(grid, kappa, delta=delta)
     c_eps = c_eps_profile(grid, ell, delta)
@@ -98,8 +97,7 @@ def parcel_weight(Q, rho_p, d):
 
 @ijit
 def estimate_weights(em, k0, T, qm, wp, g):
-    """(c_p, vertical u~_p) of a parcel of weight qm = Q m_p, drag rate k0, step T, vertical
-    velocity wp, given em = expm1(-k0 T) (module doc); the horizontal u~_p are its velocity."""
+    """(c_p, vertical u~_p) of a parcel, em = expm1(-k0 T) (module doc; horizontal u~_p = u_p)."""
     ome = -em
     return qm * ome, wp + g / k0 - g * T / ome
 
@@ -221,8 +219,7 @@ def chunk_assign(n, x, u, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cst
 
 @jit
 def chunk_ranges(bounds, margin, nx, per_slab, ranges):
-    """ranges[c] = (start slab, slabs L, pool offset) of chunk c: its slabs widened by margin[c]
-    on both sides (all nx if that wraps; L = 0 if empty). Returns the pool size needed."""
+    """ranges[c] = (first slab, L, pool offset): chunk c's slabs widened by margin[c]."""
     nc = ranges.shape[0]
     off = 0
     for c in range(nc):
@@ -249,9 +246,8 @@ def chunk_ranges(bounds, margin, nx, per_slab, ranges):
 
 @jit_borrow
 def air_maxima(u, w, umax):
-    """max |w| over the field (returned) and umax[k] = max |u| of level k (Saltation._levels).
-    Serial: a parallel region's wake-up cost 5.5 ms against 0.15 ms of work at 1e5 parcels on a
-    shared machine (`saltstudy bench particles --phases`)."""
+    """max |w| (returned) and umax[k] = max |u| of level k. Serial: a parallel region's wake-up
+    cost 5.5 ms for 0.15 ms of work (1e5 parcels, shared machine, `bench particles --phases`)."""
     nx = u.shape[0]
     ny = u.shape[1]
     nz = u.shape[2]
@@ -322,8 +318,7 @@ def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, G, nx, ny, nz):
 
 @ijit
 def _estimate_lane(lf, li, l, g, Q, rho_p, exact):
-    """Stage 2 of implicit lane l (vectorized; exact: a lane it left): c_p and the vertical u~_p;
-    _EOK 0 where expm1's Taylor polynomial does not hold (the exact pass redoes the lane)."""
+    """Stage 2 of implicit lane l: c_p, vertical u~_p; _EOK 0 if Taylor's expm1 does not hold."""
     k = lf[_EK + l]
     T = lf[_ET + l]
     x = -k * T
@@ -413,9 +408,8 @@ def _covers(ranges, c, i, nx):
 @pjit
 def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, Uc, Vc, Wc, dmax,
                          acc):
-    """delta_f = (sum_c B - U_f sum_c A) / (M_f + sum_c A) on the lowest nk levels of each face
-    field (module doc), the seen fields Uc = U + delta etc., dmax[i] = max |delta| of slab i. Per
-    column the chunks' (A, B) are summed in chunk order into acc (nx, 6, >= nk), then solved."""
+    """delta_f = (sum_c B - U_f sum_c A) / (M_f + sum_c A) on the lowest nk levels (module doc),
+    Uc = U + delta etc., dmax[i] = max |delta| of slab i; chunks summed in chunk order."""
     nc = ranges.shape[0]
     nx = du.shape[0]
     ny = du.shape[1]
@@ -466,8 +460,7 @@ def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, U
 @ijit
 def _momentum_to_air(pool, ranges, i, j, nx, ny, nk, a, du, dv, dw, inv_mc, inv_mw, m_c, m_w,
                      uf, vf, wf):
-    """Column (i, j) of apply_exchange: U += delta + (sum_c P[c]) / M on the lowest nk levels.
-    Returns the momentum given to the air (x, y, z) and the w impulse its bed face takes."""
+    """Column (i, j) of apply_exchange: (momentum to the air (x, y, z), bed-face w impulse)."""
     nc = ranges.shape[0]
     for r in range(3):
         for k in range(nk):

@@ -27,8 +27,7 @@ def _expm1_shift(k, h, kq, emq):
 
 @ijit
 def _re687_shift(rel, irelq, rpq):
-    """(rel dnu)^0.687 from rpq = (relq dnu)^0.687, irelq = 1 / relq, a binomial series in
-    rel / relq - 1 (exact for |.| <= _NEAR)."""
+    """(rel dnu)^0.687 from rpq = (relq dnu)^0.687 by a binomial series (irelq = 1 / relq)."""
     e = rel * irelq - 1.0
     return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
         _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
@@ -80,9 +79,8 @@ def _re687_near(rel, dnu, irelq, rpq, exact):
 
 @ijit
 def _slip_at(k, em, ih, Du, Dv, Dw, g):
-    """The slip F(k) is evaluated at, E (step-mean slip) + (1 - E) (end slip) over h with k
-    frozen (particles.py), from the start slip (Du, Dv, Dw): beta (u_s - u_p) + (1 - beta) g/k
-    e_z. Returns it, its size and the factors dF/dk needs; em = expm1(-k h), ih = 1 / h."""
+    """The slip F(k) is evaluated at, E (mean slip) + (1 - E) (end slip) over h with k frozen
+    (particles.py); returns it, its size and dF/dk's factors; em = expm1(-k h), ih = 1 / h."""
     ik = 1.0 / k
     E = 1.0 + em
     phi = -em * ik * ih
@@ -98,9 +96,8 @@ def _slip_at(k, em, ih, Du, Dv, Dw, g):
 @ijit
 def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, itp, newton,
                    S):
-    """F(k) = f(Re_p) / T_p (rp = Re_p^0.687) and the next k: safeguarded Newton if ``newton``,
-    else a fixed-point update. Returns it, whether |F(k) - k| was within the tolerance (S.tol k,
-    S.tol_fp k plain; the update applied all the same) and 1 / |slip|."""
+    """F(k) = f(Re_p) / T_p and the next k (safeguarded Newton, or a fixed-point update): (k,
+    |F(k) - k| within S.tol k (S.tol_fp k), 1 / |slip|)."""
     irel = 1.0 / rel if rel > 0.0 else 0.0
     F = clift_factor(rp) * itp
     G = F - k
@@ -122,9 +119,8 @@ def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, 
 
 @ijit
 def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S, first, exact):
-    """One update of k towards k = F(k), em = expm1(-k h). Returns the next k, whether k was
-    within the tolerance, 1 / |slip| and Re_p^0.687 (kept for the next update), and whether
-    Re_p^0.687 is exact."""
+    """One update of k towards k = F(k), em = expm1(-k h): (next k, within the tolerance,
+    1 / |slip|, Re_p^0.687 for the next update, whether that is exact)."""
     ax, ay, az, rel, ik, E, phi, beta, gk = _slip_at(k, em, ih, Du, Dv, Dw, S.g)
     rp, ok = _re687_lane(rel, dnu, irelq, rpq, first, exact)
     kn, done, irel = _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw,
@@ -134,9 +130,8 @@ def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S,
 
 @ijit
 def _expm1_lane(k, h, kq, emq, first, e0, exact):
-    """(expm1(-k h), whether exact) for an update (``first``: the first): the implicit estimate's
-    (``e0``: same k and h) first, else _expm1_near; vectorized, only the usual path (the
-    estimate's, then the series), a lane off it left to the exact pass."""
+    """(expm1(-k h), whether exact) for an update: the estimate's first (``e0``: same k, h), then
+    _expm1_near; vectorized, the usual path only, a lane off it left to the exact pass."""
     if exact:
         if first and e0:
             return emq, True
@@ -148,8 +143,7 @@ def _expm1_lane(k, h, kq, emq, first, e0, exact):
 
 @ijit
 def _re687_lane(rel, dnu, irelq, rpq, first, exact):
-    """((rel dnu)^0.687, whether exact) for an update: _re687_near; vectorized, the tables first
-    and the series after, a lane off that path left to the exact pass."""
+    """((rel dnu)^0.687, whether exact) for an update (as _expm1_lane)."""
     if exact:
         return _re687_near(rel, dnu, irelq, rpq, True)
     if first:
@@ -159,9 +153,8 @@ def _re687_lane(rel, dnu, irelq, rpq, first, exact):
 
 @ijit
 def _lane_drag_update(lf, li, l, it, S, first, exact):
-    """Update ``it`` of lane l's drag rate if it iterates, as selects (vectorized; exact: a lane
-    it left); a lane needing the exact pass keeps its values and is marked _FIX. Returns 1 if it
-    iterates on (those marked included)."""
+    """Update ``it`` of lane l's drag rate, as selects; a lane needing the exact pass keeps its
+    values, marked _FIX. Returns 1 if it iterates on."""
     going = li[_ITER + l] != 0
     k = lf[_K + l]
     h = lf[_H + l]
@@ -187,8 +180,7 @@ def _lane_drag_update(lf, li, l, it, S, first, exact):
 
 @ijit
 def _drag_lanes(lf, li, nb, S):
-    """The drag rates of lanes 0..nb-1 iterated in lockstep (independent dependency chains
-    overlap, on vector units) until each is within the tolerance."""
+    """The drag rates of lanes 0..nb-1 iterated in lockstep (on vector units)."""
     for it in range(DRAG_MAXIT):
         left = 0
         if it == 0:
@@ -206,8 +198,7 @@ def _drag_lanes(lf, li, nb, S):
 
 @ijit
 def _drag_rate(k, h, Du, Dv, Dw, itp, dnu, S):
-    """A drag rate iterated to its fixed point from k, one parcel alone; returns it with the last
-    evaluation's k and expm1(-k h)."""
+    """A drag rate at its fixed point, one parcel alone, with the last evaluation's k and expm1."""
     ih = 1.0 / h
     kq = -1.0
     emq = 0.0

@@ -34,10 +34,6 @@ from ..numerics.simd import fma2, fma4, load2
 #: arrays as structs on the stack cost ~25 ns each, most of the parcel step)
 ijit = device
 
-__all__ = ["GridGeometry", "Geometry", "Stencil", "LOG_LEVEL", "GEO_LOG_TOP", "GEO_RDX", "GEO_RDY",
-           "GEO_RZ0", "GEO_RLUT", "wrap_periodic", "locate", "interp_fluid", "level_of", "slab_of",
-           "wrap_index", "pool_add_tri", "pool_add_tri2"]
-
 #: Where a point sits (``locate``): index and fraction of the x-faces (u) and x-centres (v, w), the
 #: same in y, the lower centre level ``kc`` and fraction ``fzc`` (u, v), the lower face ``kf`` and
 #: ``fzf`` (w), the log-law region (``islog``: ``lfac`` the log-law factor, ``kc`` = LOG_LEVEL,
@@ -56,9 +52,8 @@ Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut rdz_f rdz_c")
 
 
 class GridGeometry:
-    """The arrays and scalars the parcel kernels need. ``geo``: [dx, dy, Lx, Ly, z0, lut_dz, Lz,
-    1 / ln(z_c[1] / z0), z_f[1], 1 / dx, 1 / dy, 1 / z0, 1 / lut_dz]; ``lut[m]``: the face k with
-    ``z_f[k] <= m lut_dz`` (a fast start for the vertical search)."""
+    """The parcel kernels' grid: ``geo`` = [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[1] / z0),
+    z_f[1], 1 / dx, 1 / dy, 1 / z0, 1 / lut_dz], ``lut[m]`` the face under m lut_dz."""
 
     def __init__(self, grid: Grid, z0: float):
         self.nx, self.ny, self.nz = grid.shape
@@ -124,8 +119,7 @@ def level_of(z: float, z_f: np.ndarray, lut: np.ndarray, lut_dz: float, nz: int)
 
 @ijit
 def _cell_level(z, G, nz):
-    """level_of with 1 / lut_dz; the step down puts back a z whose product rounded up onto a
-    table point a division would not reach."""
+    """level_of with 1 / lut_dz (stepping back a z whose product rounded up)."""
     if z <= 0.0:
         return 0
     m = int(z * G.geo[GEO_RLUT])
@@ -225,8 +219,7 @@ def _bil(f, i0, fx, j0, fy, k, nx, ny):
 
 @ijit
 def interp_fluid(u, v, w, st, nx, ny):
-    """Resolved fluid velocity at a located point (Stencil ``st``; trilinear, log law in the log
-    region)."""
+    """Resolved air velocity at a located point (trilinear; the log law in the log region)."""
     if st.islog:
         uf = st.lfac * _bil(u, st.ixf, st.fxf, st.jyc, st.fyc, LOG_LEVEL, nx, ny)
         vf = st.lfac * _bil(v, st.ixc, st.fxc, st.jyf, st.fyf, LOG_LEVEL, nx, ny)
@@ -253,8 +246,7 @@ def slab_of(i, s, nx):
 
 @ijit
 def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
-    """pool[base + slab-local trilinear stencil] += w_ijk val (levels >= nk fold onto nk - 1: a
-    safety net, momentum stays conserved); a column's two levels in one simd.fma2."""
+    """pool[base + slab-local trilinear stencil] += w val (levels >= nk fold onto nk - 1)."""
     i1, j1, gx, gy = _upper_corner(i0, fx, j0, fy, nx, ny)
     gz = 1.0 - fz
     r0 = base + slab_of(i0, s, nx) * ny * nk

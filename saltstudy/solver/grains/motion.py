@@ -83,8 +83,7 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
 
 @ijit
 def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
-    """(Stencil, the resolved wind) at (xp, yp, zp) (interp.py); two-way, of the air after the
-    implicit exchange, U = u + delta (no change beyond the buffer levels S.nkb)."""
+    """(Stencil, wind) at the parcel; two-way the air after the implicit exchange, U = u + delta."""
     st = locate(xp, yp, zp, G, nx, ny, nz)
     if st.islog:  # the log law of the (new) air at the level read, where the drag goes
         if S.twoway and LOG_LEVEL < S.nkb:
@@ -108,8 +107,7 @@ def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
 
 @ijit
 def _substep_length(T, t, wp, dzk, nsub):
-    """The rest of the step T - t, cut so that the parcel moves at most one cell height dzk at
-    |wp| (not below T / MAX_SUBSTEPS); the last allowed sub-step takes the rest."""
+    """The rest of the step, cut to one cell height dzk at |wp| (>= T / MAX_SUBSTEPS)."""
     h = T - t
     if nsub < MAX_SUBSTEPS - 1:
         awp = abs(wp) + 1e-30
@@ -171,9 +169,8 @@ def _lane_stencil(lf, li, l):
 
 @ijit
 def _lane_start(lf, li, l, S, exact):
-    """Stage 2 of lane l (vectorized; exact: a lane it left): the parcel's constants, the sub-step,
-    the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate), the slip, a first
-    drag rate if it has none, and the drag iteration's start."""
+    """Stage 2 of lane l (vectorized; exact: a lane it left): constants, sub-step, modelled
+    impulse (two-way), slip, a first drag rate if none, the drag iteration's start."""
     active = li[_ACTIVE + l] != 0
     dp = lf[_D + l]
     T = lf[_T + l]
@@ -255,10 +252,8 @@ def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
 
 @ijit
 def _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, S, exact):
-    """A sub-step of h with drag rate k (kq, emq: the iteration's last evaluation): relaxation,
-    the bed crossing (exact only), the move. Returns (x, y, z, u, v, w), the sub-step as taken,
-    whether it ended in the impact layer and whether the numbers are exact (a hit's are not
-    without ``exact``: no cut)."""
+    """A sub-step of h at drag rate k: relaxation, bed crossing (exact only), move. Returns (x, y,
+    z, u, v, w), h as taken, whether it ended at the bed and whether the numbers are exact."""
     ik = 1.0 / k
     em, ok = _expm1_near(k, h, kq, emq, exact)
     wt = ws - S.g * ik

@@ -52,9 +52,6 @@ from .splash_kernels import (
     EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, IMPACT_RECORD, N_EN, NO_LAUNCH,
     ImpactLog, ejecta_reserve, impact_log_arrays, splash_runs)
 
-__all__ = ["Saltation", "StepKernels", "KERNELS", "PARALLEL", "Threads", "RNG_SPAWN_KEY",
-           "SORT_INTERVAL", "N_SPLASH_RUNS"]
-
 #: the grains' main random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct
 #: from any stream the flow derives from the same seed
 RNG_SPAWN_KEY = 0x5A17
@@ -127,8 +124,7 @@ assert EST_LANES == _LANES and EST_ROWS_F <= _LANE_ROWS_F and EST_ROWS_I <= _LAN
 
 
 class Saltation:
-    """The grain component (ARCHITECTURE.md, "Solver API"): ``Saltation(grid, scene)``; ``n``
-    live parcels, the views ``x, y, z, u, v, w, d`` (length n), ``kernels`` (settable)."""
+    """The grain component (docs/ARCHITECTURE.md, "Solver API"): ``Saltation(grid, scene)``."""
 
     name = "saltation"
     #: courant number of parcels on the horizontal grid (max_dt)
@@ -194,8 +190,7 @@ class Saltation:
 
     @property
     def kernels(self) -> StepKernels:
-        """The kernels the step calls (:data:`StepKernels`); setting it gives each parallel one
-        a new ``Threads``."""
+        """The kernels the step calls; setting it gives each parallel one a ``Threads``."""
         return self._kernels
 
     @kernels.setter
@@ -257,11 +252,9 @@ class Saltation:
         sl = slice(self.n, self.n + m)
         self._x[sl] = np.mod(x, self.grid.Lx)
         self._y[sl] = np.mod(np.broadcast_to(y, (m,)), self.grid.Ly)
-        self._z[sl] = np.broadcast_to(z, (m,))
-        self._u[sl] = np.broadcast_to(u, (m,))
-        self._v[sl] = np.broadcast_to(v, (m,))
-        self._w[sl] = np.broadcast_to(w, (m,))
-        self._d[sl] = np.broadcast_to(self.mu[0] if d is None else d, (m,))
+        d = self.mu[0] if d is None else d
+        for f, val in (("z", z), ("u", u), ("v", v), ("w", w), ("d", d)):
+            getattr(self, "_" + f)[sl] = np.broadcast_to(val, (m,))
         self._kd[sl] = 0.0
         self._flag[sl] = 0
         self._trem[sl] = 0.0
@@ -270,8 +263,7 @@ class Saltation:
 
     # ---- component protocol ------------------------------------------------------------------
     def activate(self, state: FlowState) -> None:
-        """Release ``scene.n_initial`` parcels at rest, uniform in [impact layer, release_depth)
-        (none inside the impact layer, where it would splash at zero speed)."""
+        """Release ``scene.n_initial`` parcels at rest in [impact layer, release_depth)."""
         m = self.n_initial
         self._grow(self.n + m)
         self._tl[self.n:self.n + m] = NO_LAUNCH
@@ -285,15 +277,13 @@ class Saltation:
             state.tke_sink = np.zeros(self.grid.shape)
 
     def max_dt(self, state: FlowState) -> float:
-        """dt <= min(dx, dy) / max horizontal |u_p|: parcels cross at most one cell per step
-        (vertical motion is sub-stepped)."""
+        """min(dx, dy) / max horizontal |u_p|: a parcel crosses one cell per step at most."""
         if self.n == 0 or self._vmax <= 0.0:
             return math.inf
         return self.parcel_courant * min(self.grid.dx, self.grid.dy) / self._vmax
 
     def _levels(self, state: FlowState, dt: float) -> int:
-        """Levels the deposit buffers must cover this step (up to where any parcel can get),
-        from chunk_assign's parcel maxima and the air's max |w| (air_maxima)."""
+        """Levels the deposit buffers cover this step: up to where any parcel can get."""
         vh, ztop, vtot = self._pmax
         self._vmax = float(vh)
         wmax = self._run.air_maxima(state.u, state.w, self._umax) if state.w.size else 0.0
@@ -438,11 +428,8 @@ class Saltation:
         self.last_step = step
 
     def _splash(self, n: int, n_ev: int) -> int:
-        """Bed events of the n_ev parcels flagged as hits, in N_SPLASH_RUNS runs of consecutive
-        impacts with their own random streams, in parallel (splash_kernels.splash_runs). Each
-        run appends its ejecta in a stretch reserved after n (ejecta_reserve); the stretches are
-        then closed up in run order. Fills cnt and en and the dead list self._dead; returns the
-        number of dead parcels."""
+        """Bed events of the n_ev hits in N_SPLASH_RUNS parallel runs, each appending its ejecta
+        in a stretch reserved after n, closed up in run order; returns the number of dead."""
         K = self._run
         K.collect_events(n, self._flag, self._ev)
         ev = self._ev[:n_ev].copy()  # _grow replaces self._ev
@@ -482,9 +469,8 @@ class Saltation:
         return int(dead.size)
 
     def _sort(self) -> None:
-        """Reorder the parcels by cell (locality for the kernels): each field is gathered into a
-        spare array, which takes its place (the old one becomes the next spare); the work arrays
-        are kept across sorts."""
+        """Reorder the parcels by cell (locality), each field gathered into a spare array that takes
+        its place (work arrays kept across sorts)."""
         g = self.geom
         n = self.n
         if getattr(self, "_sort_key", None) is None or self._sort_key.shape[0] < n:
@@ -505,16 +491,14 @@ class Saltation:
 
     # ---- diagnostics support -----------------------------------------------------------------
     def counters(self) -> dict:
-        """Cumulative counters since activation (parcel events), energies [J], momentum [kg m/s]:
-        ``bed_px``, ``bed_pz`` the streamwise and vertical momentum the grains gave the bed."""
+        """Cumulative counters since activation, energies [J], bed momentum [kg m s^-1]."""
         out = {"n_parcels": int(self.n), **{k: int(v) for k, v in self._cum.items()}}
         out.update({k: getattr(self, k) for k in ("E_impact", "E_splash", "bed_px", "bed_pz")})
         out["momentum_to_air"] = self.momentum_to_air.copy()
         return out
 
     def impact_record(self) -> dict:
-        """The cumulative impact record since activation, summed over the runs (counts;
-        splash_kernels.IMPACT_RECORD)."""
+        """The impact record since activation, summed over the runs (parcel counts)."""
         return {k: a.sum(axis=0) for k, a in zip(IMPACT_RECORD, self.impact_counts)}
 
     def fluid_at_parcels(self, state: FlowState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

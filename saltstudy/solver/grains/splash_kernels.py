@@ -26,11 +26,6 @@ from ..._jit import jit_borrow, pjit
 from ...physics.splash import (SP_IMPACT_LAYER, SP_RHO_P, draw_ejectum, draw_impact, ejecta_max,
                                launch_velocity, law_speed)
 
-__all__ = ["bed_events", "ejecta_reserve", "splash_runs", "ImpactLog", "EN_IMPACT", "EN_SPLASH",
-           "EN_PX_IN", "EN_PX_OUT", "EN_PZ_IN", "EN_PZ_OUT", "N_EN", "impact_log_arrays",
-           "IMPACT_SPEED_BIN", "N_SPEED_BINS", "IMPACT_ANGLE_BIN", "N_ANGLE_BINS", "HOP_TIME_BIN",
-           "HOP_LENGTH_BIN", "N_HOP_BINS", "NO_LAUNCH", "IMPACT_RECORD"]
-
 #: impact speed bins [m s^-1]: [i, i+1) x IMPACT_SPEED_BIN, the last bin open above
 IMPACT_SPEED_BIN = 0.1
 N_SPEED_BINS = 80
@@ -70,8 +65,7 @@ N_EN = 6
 
 @jit_borrow
 def ejecta_reserve(ev, n_ev, u, v, w, sp, lo, res):
-    """Split the impacts ev[:n_ev] into runs ev[lo[r]:lo[r+1]], lo[r] = r n_ev // runs, and give
-    each the most ejecta its impacts can draw (res[r], physics.splash.ejecta_max)."""
+    """Split the impacts into runs ev[lo[r]:lo[r+1]], each with room for its most ejecta."""
     nr = res.shape[0]
     for r in range(nr + 1):
         lo[r] = (r * n_ev) // nr
@@ -193,9 +187,8 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
 @pjit
 def splash_runs(rngs, ev, lo, base, x, y, z, u, v, w, d, kd, flag, trem, dead, sp, cum, mu, lnsig,
                 Q, cnt, en, out, L):
-    """bed_events for each run r of impacts ev[lo[r]:lo[r+1]] in parallel, with its Generator
-    rngs[r], its ejecta in [base[r], base[r+1]), its dead list from dead[lo[r]], its counts in
-    cnt[r], en[r], slab r of L; out[r] = (impacts done, end of its ejecta, dead count)."""
+    """bed_events of each run r, ev[lo[r]:lo[r+1]], in parallel: its Generator, its ejecta in
+    [base[r], base[r+1]), dead from dead[lo[r]]; out[r] = (impacts done, ejecta end, dead)."""
     for r in prange(lo.shape[0] - 1):
         a = lo[r]
         b = lo[r + 1]

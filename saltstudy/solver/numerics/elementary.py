@@ -27,9 +27,6 @@ from numba.extending import intrinsic
 
 from ..._jit import device as ijit  # (interp.ijit; interp imports this module)
 
-__all__ = ["pow_0687", "pow_0687_table", "expm1_small", "expm1_taylor", "log_small",
-           "binomial_coefficients", "CLIFT_EXPONENT", "EXPM1_TAYLOR_MAX"]
-
 #: the exponent of the Clift et al. (1978) correction f(Re) = 1 + 0.15 Re^0.687 (paper eq. 4)
 CLIFT_EXPONENT = 0.687
 #: |x| up to which expm1_small uses its Taylor polynomial
@@ -60,8 +57,7 @@ def _float(typingctx, b):
 
 
 def _tables(a: float):
-    """2^(a e) for e in [_E_MIN, _E_MAX]; per mantissa bin j: c_j^a and 1 / c_j, c_j = 1 + (j +
-    1/2) / 2^_BIN_BITS; correctly rounded (40-digit decimals)."""
+    """2^(a e) per exponent, (c_j^a, 1 / c_j) per mantissa bin j; correctly rounded."""
     getcontext().prec = 40
     da = Decimal(a)
     ln2 = Decimal(2).ln()
@@ -109,8 +105,7 @@ _HALF_BIN = 1 << (_SHIFT - 1)
 
 @ijit
 def pow_0687_table(x):
-    """(x^0.687 from the tables, whether x is in their range): no branch, no call (indices
-    clamped: an x out of range is flagged), for loops LLVM vectorizes."""
+    """(x^0.687 from the tables, whether x is in their range): branch-free, for vector loops."""
     b = _bits(x)
     eb = (b >> 52) - 1023  # x < 0 has the sign bit: a negative b, out of range
     ok = _E_MIN <= eb <= _E_MAX and b > 0
@@ -160,8 +155,7 @@ _T2, _T3, _T4, _T5, _T6, _T7, _T8, _T9, _T10, _T11, _T12, _T13, _T14 = _T[2:]
 
 @ijit
 def expm1_taylor(x):
-    """The Taylor polynomial of expm1_small (|x| <= EXPM1_TAYLOR_MAX), no branch: for loops LLVM
-    vectorizes."""
+    """The Taylor polynomial of expm1_small, branch-free (for loops LLVM vectorizes)."""
     return x * (1.0 + x * (_T2 + x * (_T3 + x * (_T4 + x * (_T5 + x * (_T6 + x * (
         _T7 + x * (_T8 + x * (_T9 + x * (_T10 + x * (_T11 + x * (_T12 + x * (
             _T13 + x * _T14)))))))))))))

@@ -13,8 +13,6 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-__all__ = ["fma2", "fma4", "load2"]
-
 
 def _vector_fma(context, builder, ary_ty, ary, i, mul, add_scalars):
     """pool[i:i + n] = fma(mul, add, pool[i:i + n]) for n = len(mul) (vectors built from scalars)."""
@@ -73,9 +71,8 @@ def fma4(typingctx, ary, i, w0, w1, va, vb):
 
 @intrinsic
 def load2(typingctx, ary, i, j, k):
-    """(ary[i, j, k], ary[i, j, k + 1]) of a C-contiguous 3-D float64 or float32 array (a
-    single-precision flow's fields), one 2-wide load. Indices must be in range (non-negative,
-    k + 1 < shape[2]): no wraparound, no check."""
+    """(ary[i, j, k], ary[i, j, k + 1]) of a C-contiguous 3-D float64 or float32 array in one
+    2-wide load; indices in range (k + 1 < shape[2]), no check."""
     if not (isinstance(ary, types.Array) and ary.ndim == 3
             and ary.dtype in (types.float64, types.float32)
             and ary.layout == "C" and all(isinstance(t, types.Integer) for t in (i, j, k))):
