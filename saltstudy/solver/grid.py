@@ -61,13 +61,16 @@ class Grid:
         z_f = stretched_levels(spec.Lz, spec.nz, spec.dz_bottom, spec.dz_top)
         return cls(spec.nx, spec.ny, spec.nz, spec.Lx, spec.Ly, z_f)
 
+    @classmethod
+    def uniform(cls, nx: int, ny: int, nz: int, Lx: float, Ly: float, Lz: float) -> "Grid":
+        return cls(nx, ny, nz, Lx, Ly, np.linspace(0.0, Lz, nz + 1))
+
     def __post_init__(self) -> None:
         z_f = np.ascontiguousarray(self.z_f, dtype=np.float64)
         object.__setattr__(self, "z_f", z_f)
         if z_f.shape != (self.nz + 1,) or z_f[0] != 0.0 or np.any(np.diff(z_f) <= 0):
             raise ValueError("z_f must hold nz + 1 increasing heights starting at 0")
 
-    # ---- horizontal ----------------------------------------------------------------------
     @property
     def dx(self) -> float:
         return self.Lx / self.nx
@@ -92,7 +95,6 @@ class Grid:
     def y_c(self) -> np.ndarray:
         return (np.arange(self.ny) + 0.5) * self.dy
 
-    # ---- vertical ------------------------------------------------------------------------
     @property
     def Lz(self) -> float:
         return float(self.z_f[-1])

@@ -1,11 +1,8 @@
 """Reynolds-number similarity of the particle-free neutral surface layer over a rough bed
-(docs/ARCHITECTURE.md, "Shared spin-up by similarity").
-
-Without grains, buoyancy or a resolved viscous layer the LES has no velocity scale of its own: if
-(u, e, p)(x, t) solves it at u*1, (a u, a^2 e, a^2 p)(x, a t) solves it at u*2 = a u*1. One flow
-spun up at ``fidelity.spinup.u_star_ref`` is rescaled to each case's u*s at activation. The
-molecular viscosity, the drive's and the Rayleigh layer's fixed time constants and a binding
-dt_max break the symmetry slightly; it decays in the first seconds of saltation.
+(docs/ARCHITECTURE.md, "Shared spin-up by similarity"): with no velocity scale of its own, the
+LES solved by (u, e, p)(x, t) at u*1 is solved by (a u, a^2 e, a^2 p)(x, a t) at a u*1, so one
+flow spun up at ``fidelity.spinup.u_star_ref`` serves every case's u*s. The molecular viscosity,
+the fixed time constants and a binding dt_max break it slightly, decaying in seconds.
 """
 from __future__ import annotations
 

@@ -1,17 +1,12 @@
 """``Simulation``: the one time loop. A model, a stop time and schedules of callbacks.
 
-Every run goes through :meth:`Simulation.run` (the spin-up, a staggered start's continuation, the
-saltation run with its records and checkpoints, the probes); they differ only in their callbacks.
-One pass: the callbacks whose time has come (``t >= next_time - TIME_EPS``) fire in the order they
-were added (one may ``stop`` the run); at the stop time the loop ends; one step of the model,
-clipped so that the next scheduled time is met exactly (``model.next_dt(limit=...)``); the
-per-step callbacks (``IterationInterval``, ``WallTimeInterval``).
-
-Times are relative to ``origin`` (0 from rest, the activation time for a saltation run); the
-step's limit is formed from the absolute target, so two runs with the same origin and schedule
-take the same steps to the last bit. The loop's own state (schedules, step count, stateful
-callbacks) is pure data (:meth:`checkpoint`): restored beside the model's, a run ends as the
-uninterrupted one would. No I/O happens here.
+Every run goes through :meth:`Simulation.run` (spin-up, continuation, saltation run, probes); they
+differ only in their callbacks. One pass: the callbacks whose time has come fire in the order they
+were added (one may ``stop`` the run); one step of the model, clipped so that the next scheduled
+time is met exactly; the per-step callbacks. Times are relative to ``origin`` (the activation
+time for a saltation run) and the step's limit is formed from the absolute target, so two runs
+with the same origin and schedule take the same steps to the last bit. The loop's own state is
+pure data (:meth:`checkpoint`): restored beside the model's, a run ends as the uninterrupted one.
 """
 from __future__ import annotations
 

@@ -1,16 +1,14 @@
 """Initial state of the flow and the flow-only spin-up with its steadiness test.
 
-Initial state (``initial_flow``): the log law u = (u*/kappa) ln(z/z0) up to the top of the free
-region (constant above), e = u*^2 (1 - z/z_top), plus perturbations that trip turbulence quickly:
-Gaussian noise (from the case's seed) smoothed over a few cells, r.m.s. ``amplitude`` u* tapered
-to zero at z_top, and streamwise streaks (spanwise wavelength ~ the paper's 0.7 m streamer
-spacing), made divergence-free by the projection; the sheared profile does the rest within a few
-turnover times (H/u* ~ 10 s).
+``initial_flow``: the log law up to the top of the free region (constant above), e = u*^2 (1 -
+z/z_top), and perturbations that trip turbulence quickly: Gaussian noise (the case's seed)
+smoothed over a few cells, r.m.s. ``amplitude`` u* tapered to zero at z_top, and streamwise
+streaks (the paper's 0.7 m streamer spacing), made divergence-free; the sheared profile does the
+rest within a few turnover times (H/u* ~ 10 s).
 
-Steadiness (``SteadinessRecord``, a callback of ``simulation.Simulation``): every record interval
-the stress-based u* at z_ref_eff and the volume-mean resolved TKE over the free region are
-recorded; after t_min the spin-up is steady when both means over the last window W and the one
-before differ by less than spinup.tolerance (relative), else it stops at t_max unconverged.
+``SteadinessRecord``: u* at z_ref_eff and the volume-mean resolved TKE of the free region,
+recorded at intervals; after t_min the spin-up is steady when both means over the last window
+and the one before differ by less than spinup.tolerance (relative), else it stops at t_max.
 """
 from __future__ import annotations
 

@@ -1,13 +1,10 @@
 """A particle-free flow carried onto a larger grid of the same horizontal spacing: a start for a
 grid whose own spin-up cannot be afforded (the paper's 200 x 150 x 100 points need 300-1800 s of
-flow, 10-60 h on 2 cores: docs/BENCHMARKS.md).
-
-Tiled m x n times, the periodic source is again a solution on the larger domain (with no structure
-longer than the source box until one develops). Each column is interpolated linearly in z up to
-``z_keep`` [m] (at most the top of the source's undamped region); above it the target gets the
-fluctuations at z_keep, the mean wind continued by the log law of the source's u*, and w tapered
-linearly to zero at the lid. The pressure is zero; ``project_restart`` makes the velocity
-divergence-free before the first step (``Model`` does not project a restart).
+flow, 10-60 h on 2 cores: docs/BENCHMARKS.md). The tiled periodic source is again a solution (no
+structure longer than the source box until one develops). Columns are interpolated linearly in
+z up to ``z_keep``; above, the fluctuations at z_keep, the mean wind continued by the source's
+log law and w tapered to zero at the lid. The pressure is zero: ``project_restart`` before the
+first step.
 """
 from __future__ import annotations
 

@@ -1,12 +1,10 @@
 """The SGS closure as one object, built by ``make_closure`` from a case's ``closure`` section:
-``DeardorffClosure`` (the paper's prognostic TKE, sgs.py), ``DynamicClosure`` (dynamic.py: nu
-from each stage's strain, e diagnosed at the end of the step) or ``NoClosure`` (no SGS stress).
-
-What the stepper reads: ``nu_mol``, the per-level ``l`` (dissipation length), ``cml``, ``cml_v``
-(c_m times the horizontal and vertical viscosity lengths: nu_h = cml sqrt(e) + nu_mol), ``rv``
-(vertical over horizontal viscosity), ``ceps_l`` (c_eps / l), ``rlog`` (1/(z_1 ln(z_1/z0))
-[m^-1], the log-law shear per unit first-level velocity); the hooks ``begin_step``,
-``viscosity``, ``end_step``.
+``DeardorffClosure`` (the paper's prognostic TKE, sgs.py), ``DynamicClosure`` (dynamic.py) or
+``NoClosure``. The stepper reads ``nu_mol``, per level ``l``, ``cml``, ``cml_v`` (c_m times the
+horizontal and vertical viscosity lengths: nu_h = cml sqrt(e) + nu_mol), ``rv`` (vertical over
+horizontal viscosity), ``ceps_l`` (c_eps / l), and ``rlog`` (1/(z_1 ln(z_1/z0)) [m^-1], the
+log-law shear per unit first-level velocity); and calls ``begin_step``, ``viscosity``,
+``end_step``.
 """
 from __future__ import annotations
 

@@ -1,10 +1,8 @@
 """Plane-averaged, scale-dependent dynamic Smagorinsky closure, with the SGS TKE of the paper's eq. A1
 diagnosed in local equilibrium (grain sink included).
 
-Why: with the paper's Deardorff model (a fixed c_m and a grid length) phi = kappa z/u* dU/dz dips
-to ~0.7 at z/Delta ~ 3-10 (`saltstudy probe loglaw`, reports/loglaw/); a fixed coefficient cannot
-follow the SGS/resolved split as the eddies shrink towards the wall, the dynamic procedure
-measures it.
+Why: with the paper's Deardorff model phi = kappa z/u* dU/dz dips to ~0.7 at z/Delta ~ 3-10
+(`saltstudy probe loglaw`); a fixed coefficient cannot follow the SGS share as eddies shrink.
 
 Model (Smagorinsky 1963; Germano et al. 1991; Lilly 1992): tau_ij - delta_ij tau_kk/3 = -2 nu_t
 S_ij, nu_t = (C_s Delta)^2 |S|, |S| = sqrt(2 S_ij S_ij), (C_s Delta)^2 a function of height
@@ -30,11 +28,9 @@ length l (sgs.length_scale), with c_eps such that without grains it is the Smago
     c_eps / l = (C_K l)^3 / (C_s Delta)^4,        C_K l sqrt(e) |S|^2 = (c_eps/l) e^(3/2) + r e,
 
 a quadratic in sqrt(e): nu_t = (C_s Delta)^2 |S| / (sqrt(1 + rho^2) + rho), rho = r (C_s
-Delta)^2 / (2 (C_K l)^2 |S|), so the grains lower the viscosity where they load the air, and
-every reader of e (the sink's T_L, the diagnostics, the diffusion limit) sees a field consistent
-with it. (A prognostic dynamic TKE model would need the test-level SGS energy, Ghosal et al. 1995,
-for an equation dominated by the same local balance in the grain layer.) The coefficient is held
-between updates and checkpointed, so a resumed run repeats an uninterrupted one bit for bit.
+Delta)^2 / (2 (C_K l)^2 |S|): the grains lower the viscosity where they load the air, and every
+reader of e sees a field consistent with it. (A prognostic dynamic TKE model would need the
+test-level SGS energy, Ghosal et al. 1995.) The coefficient is checkpointed.
 """
 from __future__ import annotations
 
@@ -174,49 +170,35 @@ def germano_sums(u, v, w, rdx, rdy, rdzc, rdzf, rlog, a2_2, a2_4, out):
                 s11, s22, s33, s12, s13, s23 = strain_at_centre(u, v, w, i, j, k, im, ip, jm, jp,
                                                                 top, bot, rdx, rdy, rdzc, rdzf, rlog)
                 sn = _strain_norm(s11, s22, s33, s12, s13, s23)
-                q[0, i, j] = uc
-                q[1, i, j] = vc
-                q[2, i, j] = wc
-                q[3, i, j] = uc * uc
-                q[4, i, j] = uc * vc
-                q[5, i, j] = uc * wc
-                q[6, i, j] = vc * vc
-                q[7, i, j] = vc * wc
-                q[8, i, j] = wc * wc
-                q[9, i, j] = s11
-                q[10, i, j] = s22
-                q[11, i, j] = s33
-                q[12, i, j] = s12
-                q[13, i, j] = s13
-                q[14, i, j] = s23
-                q[15, i, j] = sn * s11
-                q[16, i, j] = sn * s22
-                q[17, i, j] = sn * s33
-                q[18, i, j] = sn * s12
-                q[19, i, j] = sn * s13
-                q[20, i, j] = sn * s23
-        for n in range(_NQ):
-            filter_plane_2(q[n], f[n], tmp)
-        lm = 0.0
-        mm = 0.0
-        for i in range(nx):
-            for j in range(ny):
-                a, b = _contract(f, a2_2, i, j)
-                lm += a
-                mm += b
-        out[k, 0] = lm * inv
-        out[k, 1] = mm * inv
-        for n in range(_NQ):
-            filter_plane_4(q[n], f[n], tmp)
-        lm = 0.0
-        mm = 0.0
-        for i in range(nx):
-            for j in range(ny):
-                a, b = _contract(f, a2_4, i, j)
-                lm += a
-                mm += b
-        out[k, 2] = lm * inv
-        out[k, 3] = mm * inv
+                # q: u_i, u_i u_j (i <= j), S_ij, |S| S_ij; one element type for a single-precision
+                # flow (whose S_11, S_22, S_33 are float32)
+                vel = (uc, vc, wc)
+                sij = (float(s11), float(s22), float(s33), s12, s13, s23)
+                m = 3
+                for p in range(3):
+                    q[p, i, j] = vel[p]
+                    for r in range(p, 3):
+                        q[m, i, j] = vel[p] * vel[r]
+                        m += 1
+                for n in range(6):
+                    q[9 + n, i, j] = sij[n]
+                    q[15 + n, i, j] = sn * sij[n]
+        for c in range(2):  # the 2 dx test filter, then the 4 dx one
+            for n in range(_NQ):
+                if c == 0:
+                    filter_plane_2(q[n], f[n], tmp)
+                else:
+                    filter_plane_4(q[n], f[n], tmp)
+            a2 = a2_2 if c == 0 else a2_4
+            lm = 0.0
+            mm = 0.0
+            for i in range(nx):
+                for j in range(ny):
+                    a, b = _contract(f, a2, i, j)
+                    lm += a
+                    mm += b
+            out[k, 2 * c] = lm * inv
+            out[k, 2 * c + 1] = mm * inv
 
 
 def coefficient_profile(sums: np.ndarray, delta: np.ndarray, cs_max: float = CS_MAX,

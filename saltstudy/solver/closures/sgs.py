@@ -8,28 +8,19 @@
                         - eps,  eps = c_eps e^{3/2} / l   dissipation, c_eps = 0.19 + 0.74 l / Delta
                         - (grain sink: tke_sink e, implicit once per step)
 
-(neutral scenes: no buoyancy term). Delta = (dx dy dz)^{1/3}, by default times the anisotropy
-factor of Scotti, Meneveau & Lilly (1993, Phys. Fluids A 5, 2306) for flat cells,
-f = cosh(sqrt(4/27 [(ln a1)^2 - ln a1 ln a2 + (ln a2)^2])), a1, a2 the two smaller spacings over
-the largest (``case.closure.delta``; docs/ARCHITECTURE.md, "SGS filter width").
+(neutral: no buoyancy term). Delta = (dx dy dz)^{1/3}, by default times the anisotropy factor of
+Scotti, Meneveau & Lilly (1993, Phys. Fluids A 5, 2306), f = cosh(sqrt(4/27 [(ln a1)^2 - ln a1
+ln a2 + (ln a2)^2])), a1, a2 the two smaller spacings over the largest (docs/ARCHITECTURE.md).
 
-Near the bed, where Delta >> z, l = Delta would leave the SGS model too weak and overshoot the log
-law, so l is limited by the distance to the bed (Mason & Thomson 1992 blending),
+Near the bed, where Delta >> z, l = Delta leaves the SGS model too weak (the log law overshoots),
+so l = [Delta^-n + (c_l kappa z)^-n]^(-1/n) (Mason & Thomson 1992 blending), c_l such that a
+purely-SGS log layer is an equilibrium: P = eps gives nu_t = c_m^{3/2} c_eps^{-1/2} l^2 S, and
+nu_t S = u*^2 with S = u*/(kappa z) gives l = (c_eps / c_m^3)^{1/4} kappa z = 3.7 kappa z.
 
-    l = [Delta^-n + (c_l kappa z)^-n]^(-1/n),
-
-with c_l such that a purely-SGS log layer is an equilibrium of the closure: P = eps gives
-nu_t = c_m^{3/2} c_eps^{-1/2} l^2 S, and nu_t S = u*^2 with S = u*/(kappa z) gives
-l = kappa z (c_eps / c_m^3)^{1/4} = 3.7 kappa z for c_eps -> 0.19.
-
-``case.closure.viscosity``: "isotropic" (the default), one nu_t for every stress; "anisotropic",
-eq. A1's pair, nu_h = c_m l_h sqrt(e) for tau_11, tau_12, tau_22 and the horizontal transport,
-nu_v = c_m l_v sqrt(e) for the vertical ones, l_h = sqrt(dx dy), l_v = dz, each blended as l.
-The kernels take the horizontal nu and the per-level ratio rv = l_v / l_h (ones when isotropic).
-
-The ``*_at`` functions are per-point kernels inlined into the stage kernels (stepper.py).
-T_ij = -tau_ij = 2 nu_t S_ij is the diffusive momentum flux, du_i/dt += dT_ij/dx_j; at the bed
-T_i3 = -tau_s,i (wall.py).
+``case.closure.viscosity`` "anisotropic": eq. A1's pair, nu_h = c_m l_h sqrt(e) for tau_11,
+tau_12, tau_22 and the horizontal transport, nu_v = c_m l_v sqrt(e) for the vertical ones, l_h =
+sqrt(dx dy), l_v = dz, each blended as l; the kernels take nu_h and rv = l_v / l_h per level.
+T_ij = -tau_ij = 2 nu_t S_ij is the diffusive momentum flux; at the bed T_i3 = -tau_s,i (wall.py).
 """
 from __future__ import annotations
 
@@ -119,10 +110,8 @@ def compute_nu(e, cml, nu_mol, nu):
 
 @device
 def diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf):
-    """d T_1j / dx_j at the u point [m s^-2] split as (explicit part, a, c [s^-1]), the whole
-    being explicit + c (u_k+1 - u_k) - a (u_k - u_k-1): explicit T_11, T_12, the dw/dx part of
-    T_13 and the bed flux -taux; a, c the du/dz part of T_13 below and above (zero at the bed and
-    under the lid). ``nu``: the horizontal viscosity, ``rv[k]``: vertical over horizontal."""
+    """d T_1j / dx_j at the u point [m s^-2] as (explicit, a, c [s^-1]): explicit + c (u_k+1 - u_k)
+    - a (u_k - u_k-1); explicit: T_11, T_12, T_13's dw/dx part and the bed flux -taux."""
     zero = like(u, 0.0)
     quarter = like(u, 0.25)
     one = like(u, 1.0)
@@ -224,11 +213,9 @@ def diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf
 
 @device
 def strain_edges(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
-    """The strain's terms around the centre of cell (i, j, k) [s^-1]: S_11, S_22, S_33; 2 S_12 on
-    the four vertical edges; 2 S_13 and 2 S_23 on the edges of the face below (a0, a1, b0, b1)
-    and above (c0, c1, d0, d1). On the bed face (bot False) the vertical shear is the log law's
-    at the first level, u_1 rlog, rlog = 1/(z_1 ln(z_1/z0)); under the lid (top False) zero.
-    i, j signed (no modulo here: it made the TKE stage 4x slower)."""
+    """The strain's terms around cell (i, j, k) [s^-1]: S_11, S_22, S_33, 2 S_12 on the vertical
+    edges, 2 S_13, 2 S_23 on the edges below (a, b) and above (c, d). The bed face's shear is
+    the log law's, u_1 rlog (bot False), the lid's 0; i, j signed (a modulo made it 4x slower)."""
     zero = like(u, 0.0)
     s11 = (u[ip, j, k] - u[i, j, k]) * rdx
     s22 = (v[i, jp, k] - v[i, j, k]) * rdy

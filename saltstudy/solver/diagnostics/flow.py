@@ -21,16 +21,9 @@ __all__ = ["flow_profiles", "flow_planes", "cell_centred_velocity", "u_star_at",
 
 def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None = None,
                 z_max: float | None = None, z_eval=()) -> dict:
-    """Least-squares fit of U = (u*_0/kappa) [F(z) - F(z0)] over z_min <= z <= z_max.
-
-    H = None: the plain log law (u* constant with height, u*_0 = u*). H = the domain height of a
-    pressure-gradient drive (free-slip lid): the local-equilibrium profile with
-    u*(z) = u*_0 sqrt(1 - z/H) (``log_law_shape``). The model is linear in (u*_0/kappa,
-    -u*_0/kappa F(z0)), so the fit is an ordinary linear regression on F(z).
-
-    Returns ``u_star0`` (surface friction velocity, m s^-1), ``z0`` [m], ``u_star_at`` (array: u* at
-    each of ``z_eval`` [m]), ``z_eval``, ``rms`` (residual, m s^-1) and ``n`` (points used).
-    """
+    """Least-squares fit of U = (u*_0/kappa) [F(z) - F(z0)] over z_min <= z <= z_max, F the plain
+    log law (H None) or, H the depth of a pressure-gradient drive, ``log_law_shape``. Returns
+    ``u_star0`` [m s^-1], ``z0`` [m], ``u_star_at`` (at ``z_eval`` [m]), ``rms`` [m s^-1], ``n``."""
     a, b, F, Us = regress_log_law(z, U, z_min, z_max, H)
     if Us.size < 2:
         raise ValueError(f"fit_log_law: fewer than 2 levels in [{z_min}, {z_max}] m")

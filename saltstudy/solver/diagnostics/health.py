@@ -1,14 +1,11 @@
-"""How close a run is to the edge, recorded with the series: what sets the step, how stiff the
-grain-air coupling is, whether the parcel bookkeeping closes.
+"""How close a run is to the edge, recorded with the series: what sets the step (each candidate of
+``Model.next_dt``), how stiff the grain-air coupling is, whether the parcel bookkeeping closes.
 
-The step is the least of the candidates of ``Model.next_dt``; recording each lets a report name
-the limiting one (``analysis.series.limiting_step``). A grain of drag rate ``k_p = f(Re_p) / T_p``
-(eqs. 3-4) in a cell of grain-to-air mass ratio ``phi`` relaxes with that air at the rate
-``k_p (1 + phi)``, so ``tau_c_min = 1 / (k_max (1 + phi_max))`` bounds the coupled relaxation
-time from below: an explicit exchange would need ``dt < ~tau_c_min``, the point-implicit one
-(grains/coupling.py) stays bounded beyond it. ``Re_p`` uses the resolved air at the parcel.
-Parcels aloft = released + ejected - deposited, exactly: a residual means parcels were lost or
-created outside the splash.
+A grain of drag rate k_p (eqs. 3-4) in a cell of grain-to-air mass ratio phi relaxes with that
+air at k_p (1 + phi), so ``tau_c_min = 1 / (k_max (1 + phi_max))`` bounds the coupled relaxation
+time from below: an explicit exchange would need dt < ~tau_c_min, the point-implicit one
+(grains/coupling.py) stays bounded beyond it. Re_p uses the resolved air at the parcel. Parcels
+aloft = released + ejected - deposited, exactly; a residual means parcels leaked.
 """
 from __future__ import annotations
 

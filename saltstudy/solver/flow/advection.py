@@ -1,32 +1,28 @@
 """Energy-conserving centred advection on the staggered grid stretched in z: second order, or
 fourth order in x and y.
 
-Flux form on each staggered control volume (Harlow & Welch 1965; Morinishi et al. 1998, J. Comput.
-Phys. 143, 90; Verstappen & Veldman 2003 for non-uniform grids): the advecting volume flux through
-a face is the mean of the two neighbouring mass-conserving fluxes and the advected quantity the
-arithmetic mean of the two neighbours (even on the stretched z grid). The operator is then
-skew-symmetric, ``sum_cv V_cv phi_cv A(phi)_cv = 0`` when the discrete divergence is 0, so
-advection conserves the kinetic energy to round-off and adds no numerical dissipation. Control
-volumes: u, v cells of dx dy dz_c[k]; w at the interior face k of dx dy dz_f[k], its side fluxes
-the thickness-weighted sums of the two u (v) half faces.
+Flux form on each control volume (Harlow & Welch 1965; Morinishi et al. 1998, J. Comput. Phys.
+143, 90; Verstappen & Veldman 2003 for non-uniform grids): the advecting volume flux through a
+face is the mean of the two neighbouring mass-conserving fluxes, the advected quantity the
+arithmetic mean of its two neighbours (even in z). The operator is then skew-symmetric, so with
+a zero discrete divergence advection conserves the kinetic energy to round-off and adds no
+numerical dissipation. A w volume (interior face k, dx dy dz_f[k]) takes the thickness-weighted
+sums of the two u (v) half faces as its side fluxes.
 
-Fourth order in x and y (``*4_at``, ``advection_order = 4``): Morinishi et al.'s fully
-conservative scheme (the paper's ARPS advects momentum at fourth order in the horizontal). In
-x_j = x or y, with delta_n the difference over n h and f^{n x_j} the two-point mean at +-n h/2,
+Fourth order in x and y (``*4_at``): Morinishi et al.'s fully conservative scheme (the paper's
+ARPS advects momentum at fourth order in the horizontal). In x_j = x or y, delta_n the difference
+over n h, f^{n x_j} the two-point mean at +-n h/2:
 
     -A_i = 9/8 delta_1(F_j u_i^{1 x_j}) - 1/8 delta_3(F_j u_i^{3 x_j}) + delta_z(F_z u_i^z) / dz,
-    F_j = 9/8 u_j^{1 x_i} - 1/8 u_j^{3 x_i}   (x_i horizontal; for w the z mean of second order),
+    F_j = 9/8 u_j^{1 x_i} - 1/8 u_j^{3 x_i}   (x_i horizontal; for w the z mean of second order).
 
-reaching three points either side; z stays second order. It conserves kinetic energy to round-off
-when the fourth-order divergence D4 vanishes, which the fourth-order projection enforces
-(pressure.py, ``order=4``), and momentum always; with the second-order projection the energy rate
-is 2.5e-4 of sum|V u_i A_i| in a random solenoidal field (tests/test_solver_advection4.py). The
-SGS TKE follows (``adv_scalar4_at``): with D4 = 0 it conserves sum(V e^2) and keeps a uniform e
-uniform, which the second-order scalar flux of a D4-free flow does not.
+It conserves kinetic energy when the fourth-order divergence vanishes, as the fourth-order
+projection makes it (pressure.py); with the second-order one the energy rate is 2.5e-4 of
+sum|V u_i A_i| in a random solenoidal field (tests/test_solver_advection4.py). Its scalar form
+(the SGS TKE) then conserves sum(V e^2) and keeps a uniform e uniform.
 
-The ``*_at`` functions are per-point kernels inlined into the stage kernels of stepper.py;
-``advection_tendencies`` evaluates them over the grid (tests). Units: m s^-2 (momentum), m^2 s^-3
-(SGS TKE).
+The ``*_at`` functions are per-point kernels inlined into the stage kernels (stepper.py); units
+m s^-2 (momentum), m^2 s^-3 (SGS TKE).
 """
 from __future__ import annotations
 
@@ -90,10 +86,7 @@ def adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
 
 @device
 def adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
-    """-div(u w) at the interior w point (i, j, k), 1 <= k <= nz-1 [m s^-2].
-
-    hzm = dz_c[k-1] / (2 dz_f[k]), hzp = dz_c[k] / (2 dz_f[k]): weights of the two half faces.
-    """
+    """-div(u w) at the interior w point [m s^-2]; hzm, hzp = dz_c[k-1], dz_c[k] over 2 dz_f[k]."""
     half = like(w, 0.5)
     wc = w[i, j, k]
     ue = hzm * u[ip, j, k - 1] + hzp * u[ip, j, k]

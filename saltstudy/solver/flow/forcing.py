@@ -1,23 +1,21 @@
 """Drive of the flow (``forcing.drive``; docs/ARCHITECTURE.md, "Forcing").
 
 Pressure gradient: a uniform streamwise body force G = -(1/rho) dP/dx [m s^-2] under a free-slip
-lid, nothing relaxing u. The steady horizontal-mean balance d tau/dz = -G, tau(H) = 0 makes the
-total (resolved + SGS + grain) kinematic stress tau(z) = G (H - z) whatever the turbulence or the
-grains do. G = u*s^2 / (H - z_hold) holds it at u*s^2 at the bed (``PG_HOLD_HEIGHT`` = 0): the
-bed's total stress is rho u*s^2 at every fidelity, and within a few per cent of it at the top of
-the saltation layer (z_m/H ~ 0.05). The local-equilibrium shear is u*(z)/(kappa z) with
+lid. The steady mean balance d tau/dz = -G, tau(H) = 0 makes the total (resolved + SGS + grain)
+stress tau(z) = G (H - z) whatever the turbulence or the grains do; G = u*s^2 / (H - z_hold) holds
+it at u*s^2 at the bed (``PG_HOLD_HEIGHT`` = 0) at every fidelity, and within a few per cent of it
+at the top of the saltation layer (z_m/H ~ 0.05). The equilibrium shear is u*(z)/(kappa z),
 u*(z) = u*_0 sqrt(1 - z/H) (diagnostics.flow.fit_log_law with H).
 
-Top (the paper's): the Rayleigh layer pulls u towards ``state.u_drive`` and feeds the x-momentum
-M = sum_k f_k (u_drive - <u>_k) dz_c[k] [m^2 s^-2] (f_k the damping rate), which in a steady state
-is the total stress at every height below the layer. The controller relaxes u_drive, with the
-time scale ``forcing.controller_timescale`` T_c, to the feed-forward value giving M = u*s^2:
+Top (the paper's): the Rayleigh layer pulls u towards ``state.u_drive``, feeding the x-momentum
+M = sum_k f_k (u_drive - <u>_k) dz_c[k] [m^2 s^-2], in a steady state the total stress at every
+height below the layer. The controller relaxes u_drive over ``forcing.controller_timescale`` T_c
+to the value giving M = u*s^2, from the log law's (u*s/kappa) ln(z_top/z0) + u*s^2/F:
 
-    u_ff = (u*s^2 + sum_k f_k <u>_k dz_c[k]) / F,     F = sum_k f_k dz_c[k],
+    u_ff = (u*s^2 + sum_k f_k <u>_k dz_c[k]) / F,     F = sum_k f_k dz_c[k].
 
-starting from the log law, (u*s/kappa) ln(z_top/z0) + u*s^2/F, z_top the top of the free region.
-The stress at z_ref_eff = min(z_ref, (Lz - D)/2), above the saltation layer (the air's only), is
-measured every step and filtered over T_c for the record.
+The stress at z_ref_eff = min(z_ref, (Lz - D)/2), the air's, is measured every step and filtered
+over T_c for the record.
 """
 from __future__ import annotations
 
@@ -154,7 +152,6 @@ class DriveController:
         self.tau_ref_filtered = tau_ref if math.isnan(f) else f + a * (tau_ref - f)
         state.u_drive += a * (self.feed_forward(u_mean) - state.u_drive)
 
-    # ---- checkpoint ------------------------------------------------------------------------
     def checkpoint(self) -> dict:
         return {"tau_ref_filtered": float(self.tau_ref_filtered), "tau_ref_last": float(self.tau_ref_last)}
 

@@ -1,20 +1,17 @@
 """Column relaxation after saltation activation: a cost knob that shortens the transient, not
 physics (docs/ARCHITECTURE.md, "Column relaxation").
 
-Saltation starts on a column carrying a smooth bed's (z0) momentum; the grains remove the excess
-only through the bed, as fast as the turbulence carries the deficit up (quick grid, case 2: the
-grains still drew 0.4-0.5 m^2 s^-2 against u*s^2 = 0.29 after 50 s). While active, a horizontally
-uniform body force
+The grains remove the smooth-bed column's excess momentum only through the bed, as fast as the
+turbulence carries the deficit up (quick grid, case 2: 0.4-0.5 m^2 s^-2 drawn against u*s^2 =
+0.29 after 50 s). While active, a uniform body force on u,
 
-    B(t) = -K (tau_bed_f(t) - u*s^2) / Lz            [m s^-2]
+    B(t) = -K (tau_bed_f(t) - u*s^2) / Lz            [m s^-2],
 
-acts on u, tau_bed_f the bed's total kinematic x-stress (air surface stress plus the momentum the
-air gives the grains, per unit area) filtered over T_f: Lz d<U>/dt = (1 + K)(u*s^2 - tau_bed),
-the same fixed point reached (1 + K) times faster, with no divergence and no structure. It stops
-``until`` seconds after activation, before sampling. With the top drive ``state.u_drive`` gets the
-same increment: otherwise the Rayleigh layer and its controller push the column back up after the
-switch-off (quick grid, case 2, K = 10, until 12 s: the grain stress climbed back to 0.4-0.5
-m^2 s^-2 without the shift, and stayed at 0.25-0.31 with it).
+tau_bed_f the bed's total kinematic x-stress filtered over T_f, gives Lz d<U>/dt = (1 + K)(u*s^2
+- tau_bed): the same fixed point, (1 + K) times faster. It stops ``until`` s after activation,
+before sampling. With the top drive ``state.u_drive`` gets the same increment, else the Rayleigh
+layer pushes the column back after the switch-off (quick grid, case 2, K = 10: the grain stress
+climbed back to 0.4-0.5 m^2 s^-2 without the shift, stayed at 0.25-0.31 with it).
 """
 from __future__ import annotations
 

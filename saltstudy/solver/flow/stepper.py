@@ -3,13 +3,11 @@ stage.
 
     phi(1) = phi(n) + dt/3 F(phi(n)),  phi(2) = phi(n) + dt/2 F(phi(1)),  phi(n+1) = phi(n) + dt F(phi(2))
 
-for phi = (u, v, w, e). Per stage: bed stress and the closure's eddy viscosity of the stage input,
-one fused kernel for advection, SGS diffusion, Rayleigh damping and drive of u, v, w, one for the
-SGS TKE (when the closure carries e), the projection (pressure.py). The closure's ``end_step``
-then applies the grain sink of e (eq. A1) implicitly or diagnoses e (closure.py). The vertical SGS
-diffusion is explicit or implicit (``FlowNumerics.vertical_diffusion``, vertical_diffusion.py).
-The base fields stay in the state arrays (stage 3 writes them after reading them), so two extra
-sets of (u, v, w, e) suffice and a step allocates no field.
+for phi = (u, v, w, e). Per stage: the bed stress and the closure's viscosity of the stage
+input, one fused kernel for advection, SGS diffusion, damping and drive of u, v, w, one for the
+SGS TKE, the projection (pressure.py); then the closure's ``end_step`` (the grain sink of e, or
+the diagnosed e). The vertical diffusion is explicit or implicit (vertical_diffusion.py). The
+base fields stay in the state (stage 3 writes them after reading them): two extra sets suffice.
 """
 from __future__ import annotations
 
@@ -37,13 +35,9 @@ PRECISIONS = {"double": np.float64, "single": np.float32}
 
 @dataclass(frozen=True)
 class FlowNumerics:
-    """How the flow is integrated (cost and accuracy, not physics): the fidelity's ``time``.
-
-    ``implicit_weight``: theta of the implicit vertical diffusion (1/2 Crank-Nicolson, 1 backward
-    Euler, in each stage); ``advection``: off only in tests; ``advection_order``: 2, or 4 in x
-    and y with the projection of the same order (advection.py); ``precision``: "single" puts the
-    prognostic fields, the viscosity and the stencils in float32 (the pressure solve and the
-    grains' exchange stay float64, docs/BENCHMARKS.md)."""
+    """How the flow is integrated (the fidelity's ``time``): the vertical diffusion and its theta
+    (1/2 Crank-Nicolson, 1 backward Euler); the advection (off in tests) and its order, 2 or 4
+    (the projection's too); "single" precision: u, v, w, e, p, nu and the stencils in float32."""
     vertical_diffusion: str = "implicit"
     implicit_weight: float = 0.5
     advection: bool = True
@@ -151,10 +145,8 @@ def _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, i
 @pjit
 def _momentum_stage(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, rdy, dzc, dzf,
                     fc, fcu, ff, u_drive, gx, with_adv, with_diff, order):
-    """uo = ub + cdt (advection + SGS diffusion + damping + drive)(u) for u, v, w (interior w).
-    Damping rates fcu (u, towards u_drive), fc (v) at the centres, ff (w) at the faces; gx the
-    body force [m s^-2]; order: the advection's, 2 or 4. The first and last levels are peeled
-    with literal top/bot flags, so that the interior k loop is branch-free."""
+    """uo = ub + cdt (advection + SGS diffusion + damping + drive) for u, v, w (interior w), the
+    first and last levels peeled (literal top/bot: a branch-free interior loop)."""
     nx = u.shape[0]
     adv = order if with_adv else 0
     for i in prange(nx):
@@ -264,7 +256,6 @@ class Stepper:
             ("ceps_l", clo.ceps_l))}
         self._f = dt_.type
 
-    # ---- pieces ----------------------------------------------------------------------------
     def bed_stress_into(self, u, v, taux, tauy) -> None:
         """taux, tauy (nx, ny): the kinematic bed stress [m^2 s^-2] (wall.py); 0 if free slip."""
         if self.wall:

@@ -1,31 +1,26 @@
 """Vertically implicit SGS diffusion: the RK3 stage with the vertical diffusion of u, v, w and e
 (and the SGS dissipation) solved per column, everything else explicit.
 
-Why. The first levels are 1 cm thick against dx = 0.1-0.16 m, so the explicit diffusion limit of
-the lowest levels sets 88-100 % of the steps of every scene (reports/stability) at about a third
-of the Courant step; implicit (as ARPS offers for thin vertical spacings, Xue et al. 2000,
-Meteorol. Atmos. Phys. 75, 161) the step is left to the Courant number, the horizontal diffusion
-and the grains.
+Why: with 1 cm first levels against dx = 0.1-0.16 m the explicit diffusion limit sets 88-100 % of
+the steps of every scene (reports/stability) at a third of the Courant step; implicit (as in ARPS
+for thin vertical spacings, Xue et al. 2000, Meteorol. Atmos. Phys. 75, 161) it sets none.
 
 Each Wicker-Skamarock stage restarts from phi(n):
 
     phi(k) = phi(n) + c_k dt [ E(phi(k-1)) + (1 - theta) D phi(n) + theta D phi(k) ],
 
-E the explicit tendencies of the stage input (advection, horizontal and cross SGS fluxes, bed
-stress, damping, drive), D the vertical diffusion with the input's eddy viscosity. theta = 1/2
-(the default) keeps the scheme second order; its amplification of a stiff diffusion mode tends
-to -1 (it rings, slowly damped: -0.6 at c_k dt |lambda| = 8), theta = 1 damps it at once, at
-first order. The stage carries the gradient of the last step's pressure and the projection finds
-its increment: without it the vertical diffusion (not divergence-free: T_33 carries 2 nu, and nu
-varies) acts on a part the projection removes afterwards, and the step is first order (measured:
-tests/test_solver_vertical_diffusion.py).
+E the explicit tendencies of the stage input, D the vertical diffusion with its eddy viscosity.
+theta = 1/2 (the default) keeps second order, but a stiff mode's amplification tends to -1 (-0.6
+at c_k dt |lambda| = 8: it rings); theta = 1 damps it at once, at first order. The stage carries
+the last step's pressure gradient and the projection finds its increment: otherwise the vertical
+diffusion (not divergence-free: T_33 carries 2 nu, and nu varies) acts on a part the projection
+removes afterwards, and the step is first order (tests/test_solver_vertical_diffusion.py).
 
-The dissipation is linearised about the stage input and fully implicit, eps(k) = (c_eps
-e_in^{1/2} / l) e(k): e stays >= 0 for any rate (near the bed ~10^2 s^-1) and the equilibrium
-P = eps is exact. The bed stress stays explicit (a few s^-1), so the column integral of u changes
-by exactly dt times the bed stress plus the explicit tendencies; the lid is free slip; w is
-solved on the interior faces. A column's right-hand side is built in scratch and written after
-its solve: in the last stage the output is the base state, whose neighbours Crank-Nicolson reads.
+The dissipation, linearised about the stage input, is fully implicit, eps(k) = (c_eps e_in^{1/2}
+/ l) e(k): e >= 0 for any rate (~10^2 s^-1 near the bed), P = eps exact. The bed stress stays
+explicit (a few s^-1); the lid is free slip; w is solved on the interior faces. A column's rows
+are built in scratch and written after its solve: in the last stage the output is the base
+state, whose neighbours Crank-Nicolson reads.
 """
 from __future__ import annotations
 

@@ -89,16 +89,9 @@ def _track_speed(vm, u, v):
 
 @jit_borrow
 def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
-    """Integrate the parcels of chunk c over dt plus their time credit. Hits get flag 1 and their
-    time left in trem; W.nhit[c] counts them, W.vmax[c] is the largest horizontal speed.
-
-    Deposits in the chunk's pool range (comps u, v, w, and ``ct`` the TKE sink, each (L, ny, nk);
-    zeroed here first) minus the drag impulse plus, two-way, the modelled impulse c_p (u_s -
-    u~_p) of the implicit estimate on the first sub-step (the same weights: one deposit).
-
-    In blocks of ``_LANES`` parcels, the first sub-step in passes over the block (layout.py):
-    _load_lane, _lane_start, _drag_lanes, _lane_move (vectorized, with exact redos), then
-    _finish_lane (deposits, further sub-steps, the parcel stored)."""
+    """Integrate chunk c's parcels over dt plus their credit; hits get flag 1 and their time left
+    in trem (W.nhit[c]), W.vmax[c] the largest horizontal speed. Deposits (zeroed first) minus
+    the drag impulse plus, two-way, the modelled impulse; in blocks of _LANES (layout.py)."""
     nx = F.u.shape[0]
     ny = F.u.shape[1]
     nz = G.z_c.shape[0]

@@ -1,41 +1,38 @@
 """Two-way momentum exchange between parcels and air (paper eq. 2) and the SGS TKE sink (eq. A1).
 
-Momentum. The air at a velocity face of mass ``M = rho dx dy dz`` (dz = ``dz_c[k]`` for u, v,
-``dz_f[k]`` for w) receives minus each parcel's drag impulse ``-Q m_p (Delta u_p - g Delta t)``,
-spread with the trilinear weights (summing to one) that interpolated the air at the parcel: total
-momentum is conserved to round-off. By design the share of a vertical impulse on the bed face (w,
-k = 0) goes into the ground, and a parcel in the log region (interp.py) deposits on level 1, the
-level it reads.
+Momentum. The air at a velocity face (mass ``M = rho dx dy dz``, dz = ``dz_c[k]`` for u, v,
+``dz_f[k]`` for w) receives minus each parcel's drag impulse ``-Q m_p (Delta u_p - g Delta t)``
+with the trilinear weights (summing to one) that interpolated the air at the parcel: momentum is
+conserved to round-off. The share of a vertical impulse on the bed face goes into the ground; a
+parcel in the log region (interp.py) deposits on level 1, the level it reads.
 
-Point-implicit exchange. A parcel with drag rate ``k_p`` (eqs. 3-4) relaxing towards the wind
-``u_s`` it sees changes its momentum over ``dt`` by ``c_p (u_s - u~_p)``, ``c_p = Q m_p (1 - E_p)``,
-``E_p = exp(-k_p dt)``, ``u~_p = u_p - g/k_p + g dt/(1 - E_p)``. With the wind of the start of the
-step a cell whose grain mass exceeds its air mass would overshoot, so each face is advanced
-backward-Euler in the drag, the parcels frozen (in the log region, with ``l_p = ln(z_p/z0) /
-ln(z_c[1]/z0)``; ``l_p = 1`` elsewhere)::
+Point-implicit exchange. Relaxing at drag rate ``k_p`` (eqs. 3-4) towards the wind ``u_s`` it
+sees, a parcel gains ``c_p (u_s - u~_p)`` over ``dt``, ``c_p = Q m_p (1 - E_p)``, ``E_p =
+exp(-k_p dt)``, ``u~_p = u_p - g/k_p + g dt/(1 - E_p)``. With the wind of the start of the step a
+cell whose grain mass exceeds its air mass would overshoot, so each face is advanced
+backward-Euler in the drag, the parcels frozen (``l_p = ln(z_p/z0) / ln(z_c[1]/z0)`` in the log
+region, 1 elsewhere)::
 
     U_f' = (M_f U_f + sum_p w_pf c_p u~_p) / (M_f + sum_p w_pf c_p l_p)      (a convex combination)
 
-and every parcel sees ``u_s,p = l_p sum_f w_pf U_f'``: no value leaves the range of the old ones
-whatever the loading and ``k_p dt`` (tested at grain mass 100x the air mass). The air gets exactly
-``U_f' - U_f``, minus the modelled impulses; the difference between the parcels' actual impulses
-(drag iteration, sub-steps, bed crossings) and the modelled ones is deposited with the weights too.
-(Depositing the actual impulses, with the estimate used only for the seen wind, blows up in the
-loading test for modes the interpolation smooths.)
+and each parcel sees ``u_s,p = l_p sum_f w_pf U_f'``: no value leaves the old range whatever the
+loading (tested at grain mass 100x the air mass). The air gets ``U_f' - U_f``, plus the actual
+minus the modelled impulses (drag iteration, sub-steps, bed crossings) with the same weights.
+(Depositing the actual impulses, the estimate serving only the seen wind, blows up in the loading
+test for modes the interpolation smooths.)
 
-Buffers. Each of ``N_CHUNKS`` chunks of consecutive x-slabs (about n / N_CHUNKS parcels,
-``chunk_assign``) deposits into its own range of one pool that lives across steps: its slabs
-widened by the stencil and by how far its parcels can move (``chunk_ranges``). The chunks' buffers
-are summed in chunk order, so the result does not depend on the thread count.
+Buffers. Each of ``N_CHUNKS`` chunks of consecutive x-slabs deposits into its own range of one
+pool kept across steps (its slabs widened by the stencil and by how far its parcels can move);
+the ranges are summed in chunk order: the result does not depend on the thread count.
 
 TKE sink (eq. A1). Per cell, the rate [s^-1] multiplying e::
 
     s = (Q / V_cell) sum_p (m_p / rho) 2 f(Re_p) / (T_p + T_L),   T_L = 4 e / (3 C0 eps)
 
-with ``eps = c_eps e^{3/2} / l`` (Deardorff 1980), the SGS model's own l and c_eps (sgs.py), and
-``C0 = 2.1``, a value widely used for the Lagrangian structure-function constant (the paper does
-not state its C0). Where ``e <= 0`` the sink vanishes. A parcel feeds the cell holding it (log
-region: the level-1 cell it read), weighted by the fraction of the step it spent there.
+with ``eps = c_eps e^{3/2} / l`` (Deardorff 1980; sgs.py's l and c_eps) and ``C0 = 2.1``, a value
+widely used for the Lagrangian structure-function constant (the paper does not state its C0); 0
+where ``e <= 0``. A parcel feeds the cell holding it (log region: the level-1 cell it read) for
+the fraction of the step it spent there.
 """
 from __future__ import annotations
 
@@ -117,14 +114,10 @@ _ASSIGN_BLOCKS = 32
 @pjit
 def chunk_assign(n, x, u, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
                  stats, v, w, z, pmax):
-    """Split the live parcels (flag 0) into chunks of consecutive x-slabs with about equal
-    counts: chunk c owns slabs [bounds[c], bounds[c+1]), its parcels idx[cstart[c]:cstart[c+1]]
-    in increasing index order. stats[c] = (max |u_p|, max trem) of its parcels; hist and
-    slab_stats (nx, 2) end as the slab -> chunk map and the slabs' maxima; pmax = the live
-    parcels' max of max(|u_p|, |v_p|), of z_p and of |u_p| (Saltation._levels).
-
-    Two passes, each parallel over _ASSIGN_BLOCKS blocks of indices: slabs, counts and maxima per
-    block, then the indices filed from each block's own offsets (the serial order)."""
+    """Split the live parcels into chunks of consecutive x-slabs with about equal counts: chunk c
+    owns slabs [bounds[c], bounds[c+1]), its parcels idx[cstart[c]:cstart[c+1]] in index order;
+    stats[c] = (max |u_p|, max trem); pmax: the max horizontal speed, height and speed. Two
+    parallel passes over _ASSIGN_BLOCKS blocks, the second filing from each block's offsets."""
     nc = cstart.shape[0] - 1
     nb = _ASSIGN_BLOCKS
     hb = np.zeros((nb, nx), dtype=np.int64)
@@ -388,10 +381,8 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, 
 
 @pjit
 def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i):
-    """Per chunk c, accumulate on the faces A += w c_p (log region, u and v: w c_p l_p) and
-    B += w c_p u~_p, interleaved in its pool range: comps u, v, w, each (L, ny, nk, 2). prm:
-    [rho, nu, g, rho_p, Q]. A parcel without a drag rate (kd = 0: released, rebounded, ejected)
-    gets one from its slip, stored as kd = -k0; the advance recomputes the estimate from k0, T."""
+    """Per chunk, A += w c_p (l_p in the log region) and B += w c_p u~_p on the faces, interleaved
+    (L, ny, nk, 2) per comp; a parcel without a drag rate gets one, stored as kd = -k0."""
     for c in prange(ranges.shape[0]):
         _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i)
 
@@ -520,13 +511,9 @@ def _tke_rates(pool, ranges, i, j, nx, ny, comp, nk_c, nz, a, inv_vol, out):
 @pjit
 def apply_exchange(pool, ranges, nk, two, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot,
                    tke, comp, nz_tke, inv_vol, tke_out, acc, part):
-    """The air's side of the step, one pass over the columns (one parallel region fewer).
-
-    Two-way (``two``): U += delta + (sum_c P[c]) / M (m_c, m_w the face masses, 0 where inv_mw
-    is), P (comps 0-2 of the pool ranges) the modelled minus the actual drag impulses; tot (3,)
-    gets the momentum given to the air [kg m s^-1]; returns the w impulse of the bed face.
-    TKE sink (``tke``): tke_out[:, :, :nk] = sum_c T[c] / V_cell [s^-1], T comp ``comp``; zero
-    up to nz_tke (the levels above are zero already). acc, part (nx, 4): per-slab scratch."""
+    """The air's side of the step in one pass (one parallel region fewer). Two-way: U += delta +
+    (sum_c P[c]) / M, P the modelled minus the actual impulses; tot gets the momentum to the
+    air [kg m s^-1]. TKE: tke_out[:, :, :nk] = sum_c T[c] / V_cell [s^-1], zero up to nz_tke."""
     nx = uf.shape[0]
     ny = uf.shape[1]
     for i in prange(nx):

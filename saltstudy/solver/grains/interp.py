@@ -1,22 +1,18 @@
 """Grid <-> parcel transfer on the staggered grid: trilinear weights, log-law extrapolation near the bed.
 
 The same weights interpolate the air at a parcel (paper section 2.1, "first order trilinear
-interpolation") and deposit its drag reaction (eq. 2), so the exchange conserves momentum to
-round-off (coupling.py). Layout: grid.py; periodic in x and y by modular indices.
-
+interpolation") and deposit its drag reaction (eq. 2): momentum is conserved to round-off.
 The log-law region is the whole first cell, ``z < z_f[1]`` (the paper's [12]: "In the lower grid
 cell, the horizontal wind velocity components at the particle position were extrapolated from the
 resolved fluid components of the second grid cell using a logarithmic profile")::
 
     u(z) = u(z_c[1]) ln(z / z0) / ln(z_c[1] / z0)           (z clipped to >= 1.0001 z0)
 
-bilinear in x, y at level ``LOG_LEVEL`` = 1, where the parcel's drag reaction and TKE sink go too.
-From ``z_f[1]`` up, trilinear. The seen wind jumps at ``z_f[1]``: in an exact log profile
-(z0 = 10 um) the linear value is below the log law by 1.9 % (reduced grid) to 2.9 % (smoke grid;
-the paper's 2.4 %). w is interpolated between the z-faces everywhere, to w = 0 at the bed; the
-share of a vertical reaction on face 0 goes into the bed.
-
-Everything here is scalar numba code inlined into the parcel kernels.
+bilinear at level ``LOG_LEVEL`` = 1, where the parcel's reaction and TKE sink go too; above,
+trilinear. The seen wind jumps at ``z_f[1]``: in an exact log profile (z0 = 10 um) the linear
+value is below the log law by 1.9 % (reduced grid) to 2.9 % (smoke grid; the paper's 2.4 %). w is
+linear between the z-faces, to 0 at the bed, which takes the share of a reaction on face 0.
+Scalar numba code, inlined into the parcel kernels.
 """
 from __future__ import annotations
 

@@ -21,14 +21,10 @@ from .deposit import _reaction, _tke_level, _tke_rate
 
 @jit
 def _crossing_time(z0, wt, a, k, h, zc, zh):
-    """First t in [0, h] with z(t) = zc, given z(0) = z0 >= zc > z(h) = zh: unique, since z'' =
-    -a k exp(-k t) keeps one sign (a parcel starting upwards crosses after its apex).
-
-    Safeguarded Newton (bisection when a step leaves the bracket) from the root of z's Taylor
-    quadratic at 0 or at the apex (or of the chord), stopped once the step is below 1e-14 h or
-    the next one's error |z''| step^2 / (2 |z'|) would be below a tenth of that, or at an exact
-    zero (kept as a bracket end it sent bisection away from the root): 2.5 evaluations per
-    crossing on the bench's crossings."""
+    """First t in [0, h] with z(t) = zc, z(0) = z0 >= zc > z(h) = zh, unique (z'' keeps one sign).
+    Safeguarded Newton from the root of z's Taylor quadratic at 0 or the apex (or the chord),
+    stopped below 1e-14 h, at an exact zero or once the next error |z''| step^2 / (2 |z'|) is
+    below a tenth of that: 2.5 evaluations per crossing on the bench's."""
     lo = 0.0
     hi = h
     wp = wt + a

@@ -1,32 +1,26 @@
 """The saltation component: Lagrangian parcels of sand grains (paper sections 2.1-2.4).
 
-Each parcel stands for ``Q = scene.Q`` real grains of one diameter, in a struct of arrays
-(``x, y, z, u, v, w, d``, the drag-rate warm start ``kd``, a status ``flag``, the time credit
-``trem``) that grows by doubling; the first ``n`` entries are alive. Periodic in x and y.
-
-Equation of motion (eqs. 3-4)::
+Each parcel stands for ``Q = scene.Q`` real grains of one diameter, in a struct of arrays that
+grows by doubling (the first ``n`` alive): position, velocity, ``d``, the drag-rate warm start
+``kd``, a ``flag`` and the time credit ``trem``. Periodic in x and y. Equation of motion (eqs. 3-4)::
 
     du_p/dt = k_p (u_s - u_p) + g,    k_p = f(Re_p) / T_p,   T_p = rho_p d^2 / (18 rho nu),
     f(Re_p) = 1 + 0.15 Re_p^0.687 (Clift et al. 1978),        g = (0, 0, -g)
 
-integrated exactly over a (sub)step h with k_p and u_s frozen (physics.drag.relaxation), so a
-grain with T_p << h is stable. k_p is evaluated at the slip ``E (mean slip over the step) +
-(1 - E) (end slip)``, E = exp(-k_p h): second order for k_p h << 1, and no overshoot of the
-terminal velocity for k_p h >> 1; the fixed point is found by safeguarded Newton (drag.py),
-warm-started from the last step, to ``DRAG_TOL`` (k accurate to about DRAG_TOL^2).
+integrated exactly over a (sub)step h with k_p and u_s frozen (physics.drag.relaxation): a grain
+with T_p << h is stable. k_p is evaluated at the slip ``E (mean slip) + (1 - E) (end slip)``,
+E = exp(-k_p h): second order for k_p h << 1, no overshoot of the terminal velocity for
+k_p h >> 1; found by safeguarded Newton (drag.py) from the last step's, to ``DRAG_TOL``.
 
-A parcel moves at most one local cell height per sub-step, at most ``MAX_SUBSTEPS`` per step. One
-crossing the impact layer (0.5 mm) stops there (motion.py) and splashes (splash_kernels.py); the
-rebound and ejecta start there with the rest of the step as a time credit, integrated in the next
-step inside its implicit exchange (integrating them at once would exchange their momentum
-explicitly, unstable for small grains at high loading). One placed inside the layer splashes at
-once; one reaching the lid is reflected.
+A sub-step moves a parcel one local cell height at most (``MAX_SUBSTEPS`` per step). A parcel
+crossing the impact layer (0.5 mm) stops there and splashes (splash_kernels.py); rebound and
+ejecta leave with the rest of the step as a credit, integrated in the next step inside its
+implicit exchange (at once, their exchange would be explicit: unstable for small grains at high
+loading). One placed inside the layer splashes at once; one reaching the lid is reflected.
 
-Work split: parcels in a fixed number of chunks (coupling.py), impacts in a fixed number of runs
-with their own random streams, the release on the main stream, so results do not depend on the
-thread count. Each parallel region runs on all the threads or on one, whichever ran faster
-recently (``Threads``). The kernels a step calls are one record (``StepKernels``) that a benchmark
-may replace.
+Parcels go in a fixed number of chunks (coupling.py), impacts in a fixed number of runs with their
+own random streams: results do not depend on the thread count. The kernels a step calls are one
+record (``StepKernels``) that a benchmark may replace.
 """
 import json
 import math
@@ -79,11 +73,9 @@ PARALLEL = ("chunk_assign", "implicit_coefficients", "implicit_corrections", "ad
 
 
 class Threads:
-    """A parallel kernel of the step run on the numba threads or on one, whichever took less
-    time per unit of work recently (the results are the same). On a shared machine a parallel
-    region can wait milliseconds for its workers, more than the work at 10^5 parcels
-    (docs/BENCHMARKS.md). Every ``EXPLORE``-th call tries the other count; a kernel's first call
-    (compilation or cache load) is not timed."""
+    """A parallel kernel run on the numba threads or on one, whichever took less time per unit of
+    work recently (same results): a parallel region can wait milliseconds for its workers on a
+    shared machine (docs/BENCHMARKS.md). Every EXPLORE-th call tries the other; first untimed."""
 
     EXPLORE = 32
 
@@ -162,8 +154,6 @@ class Saltation:
                              grid.Lz, 1.0, float(self.two_way), float(self.tke_sink)])
         ss = np.random.SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,))
         self.rng = np.random.Generator(np.random.PCG64(ss))
-        # one stream per run of impacts (splash_kernels.ejecta_reserve): the bed events of a step
-        # go in parallel and still do not depend on the thread count
         self.splash_rngs = tuple(np.random.Generator(np.random.PCG64(np.random.SeedSequence(
             case.seed, spawn_key=(RNG_SPAWN_KEY, SPLASH_STREAM, r)))) for r in range(N_SPLASH_RUNS))
         cap = max(1024, capacity or 2 * self.n_initial)
@@ -179,8 +169,7 @@ class Saltation:
         self.bed_px = 0.0
         self.bed_pz = 0.0
         self.momentum_to_air = np.zeros(3)
-        #: cumulative impact record since activation, one slab per run of impacts
-        #: (splash_kernels.ImpactLog: hist, outc, hop_t, hop_l); see impact_record()
+        #: cumulative impact record (splash_kernels.ImpactLog), one slab per run of impacts
         self.impact_counts = impact_log_arrays(N_SPLASH_RUNS)
         self._log_prm = np.array([0.0, grid.Lx, grid.Ly])
         self.last_step: dict = {}
@@ -209,8 +198,7 @@ class Saltation:
         self._flag = np.zeros(cap, dtype=np.int8)
         self._dead = np.zeros(cap, dtype=np.int64)
         self._ev = np.zeros(cap, dtype=np.int64)
-        # parcel indices by chunk, unsigned: the kernels index the parcel arrays with them
-        # without numba's negative-index wraparound
+        # parcel indices by chunk, unsigned: no negative-index wraparound in the kernels
         self._idx = np.zeros(cap, dtype=np.uint32)
         self._cid = np.zeros(cap, dtype=np.int64)
 

@@ -1,18 +1,16 @@
 """Splash at the bed (paper section 2.3, eqs. 5-9) as numba kernels drawing from numpy Generators.
 
-The laws are physics.splash's and physics.soil's; here they are applied to the parcels that met
-the bed in a step, with the books kept. Every draw happens in a serial loop in a fixed order: the
-impacts of a step are split into a fixed number of runs of consecutive impacts
-(``ejecta_reserve``), each splashed by ``bed_events`` with its own Generator and its own stretch
-of the parcel arrays, in parallel (``splash_runs``), so a run is reproducible bit for bit (the
-Generators' states are checkpointed) whatever the thread count. Every impact ejects N_ej grains on
-average, whether the impactor rebounds or deposits (physics/splash.py). The rebound and the ejecta
-start at the impact point on the impact layer's top.
+physics.splash's and physics.soil's laws applied to the parcels that met the bed in a step, with
+the books kept. Every draw happens in a serial loop in a fixed order: the impacts are split into
+a fixed number of runs (``ejecta_reserve``), each splashed by ``bed_events`` with its own
+Generator and stretch of the parcel arrays, in parallel (``splash_runs``): bit for bit the same
+whatever the thread count. Every impact ejects N_ej grains on average, whether the impactor
+rebounds or deposits; rebound and ejecta start at the impact point on the impact layer.
 
-The impact record (``ImpactLog``, counts; bins: the ``*_BIN`` constants): every impact by speed
-and angle to the bed (``impact_hist``), with the rebounds and ejecta it gave (``impact_outcomes``),
-and, for a grain launched by a rebound or an ejection, the hop that ended there: its flight time
-and streamwise length (``hop_time_hist``, ``hop_length_hist``).
+The impact record (``ImpactLog``, counts): each impact by speed and angle (``impact_hist``) with
+the rebounds and ejecta it gave (``impact_outcomes``), and for a grain launched by a splash the
+hop that ended there, its flight time and streamwise length (``hop_time_hist``,
+``hop_length_hist``).
 """
 from __future__ import annotations
 
@@ -106,14 +104,10 @@ def _record_impact(L, r, p, up, vp, wp, v_imp, x, y, tr):
 @jit_borrow
 def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, trem, dead, n_dead,
                sp, cum, mu, lnsig, Q, cnt, en, L, r):
-    """Splash the parcels ``ev[cursor:n_ev]`` (on the impact layer, ``trem`` of the step left).
-
-    Rebounds are updated in place, ejecta appended from ``n`` (below ``n_end``), both with the
-    impactor's ``trem`` and its time and place as their launch; deposited parcels get flag -1
-    and go to ``dead``. ``cnt`` (impacts, rebounds, ejections, depositions) and ``en``
-    (``EN_*``) are incremented, the impact recorded in slab ``r`` of ``L``. Without room for an
-    impact's largest ejecta count it returns early (no draw lost or repeated). Returns
-    (cursor, n, n_dead)."""
+    """Splash the parcels ``ev[cursor:n_ev]`` (on the impact layer, ``trem`` of the step left):
+    rebounds in place, ejecta from ``n``, both launched at the impact's time and place; the
+    deposited get flag -1 and go to ``dead``; ``cnt``, ``en`` and slab ``r`` of ``L`` count. Out
+    of room for the most ejecta of an impact it returns early. Returns (cursor, n, n_dead)."""
     cap = n_end
     h_imp = sp[SP_IMPACT_LAYER]
     for i in range(cursor, n_ev):

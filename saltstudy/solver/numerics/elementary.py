@@ -1,17 +1,15 @@
 """Inlined elementary functions for the parcel kernels: Re^0.687, expm1 and log without libm calls.
 
-Every parcel-step needs a Re_p^0.687 (Clift's correction, eq. 4) and an expm1(-k T); as libm calls
-they were 14 % of the grain step (``perf record -e cpu-clock`` on the bench, 10^6 parcels), plus
-the spills (a call clobbers every vector register). Here:
+As libm calls, a parcel-step's Re_p^0.687 (eq. 4) and expm1(-k T) were 14 % of the grain step
+(``perf record -e cpu-clock``, bench, 10^6 parcels), plus the spills (a call clobbers every
+vector register). Here, with x = 2^e m and c_j the centre of m's 1/256-wide bin:
 
-* ``pow_0687``: x = 2^e m, ``x^0.687 = 2^(0.687 e) c_j^0.687 (1 + t)^0.687``, c_j the centre of
-  m's 1/256-wide bin, t = m / c_j - 1; two tables and a five-term binomial series (truncation
-  < 1e-18 relative); within 3 ulp of ``x ** 0.687`` (tested); out-of-table x go to ``x ** 0.687``.
+* ``pow_0687``: 2^(0.687 e) c_j^0.687 (1 + t)^0.687, t = m / c_j - 1: two tables and a five-term
+  binomial series; within 3 ulp of ``x ** 0.687`` (tested), which takes the x beyond the tables.
 * ``expm1_small``: Taylor to degree 14 for |x| <= 0.35 (truncation < 2e-17 relative), libm beyond
   (the drag update's k T is 0.01-0.2; the 20 um soils go to libm).
-* ``log_small`` (x >= 1, the log law of the first cell): ``e ln 2 + ln(c_j) + log1p(t)`` (ln 2 in
-  two parts, e ln 2 exact to 2^-64), log1p a seven-term series, below 1 + 2^-8 the nine-term
-  series of log1p(x - 1); within 2 ulp (tested); x < 1 goes to ``math.log``.
+* ``log_small`` (x >= 1: the first cell's log law): e ln 2 + ln(c_j) + log1p(t) (ln 2 in two
+  parts), seven- or, below 1 + 2^-8, nine-term series; within 2 ulp (tested).
 
 The tables are module-level arrays, frozen into the kernels as constants.
 """

@@ -1,11 +1,9 @@
 """Short-vector read-modify-writes and loads for the parcel kernels' deposits and trilinear reads.
 
-A trilinear deposit adds to levels k and k + 1 of four columns, contiguous in the deposit
-buffers (four values where the implicit estimate interleaves its (A, B) sums). Numba keeps LLVM's
-SLP vectorizer off (a miscompilation, numba#8705; switching it on is global), so these intrinsics
-emit one vector load, fused multiply-add and store of 2 or 4 doubles; each element gets the
-scalar code's fused multiply-add, bit for bit. ``load2`` reads a column's two levels at once. No
-bounds check: the caller keeps the elements inside the array.
+A trilinear deposit adds to levels k and k + 1 of four columns, contiguous in the buffers (four
+values with the implicit estimate's interleaved (A, B) sums). Numba keeps LLVM's SLP vectorizer
+off (a miscompilation, numba#8705), so these intrinsics emit one vector load, fused multiply-add
+and store of 2 or 4 doubles, each element bit for bit the scalar code's. No bounds check.
 """
 from __future__ import annotations
 
