@@ -135,7 +135,7 @@ class Simulation:
         #: the last step's StepInfo (None before the first step of this call of ``run``)
         self.last_step = None
         self.stop_reason: str | None = None
-        #: the time a firing callback was scheduled for (since the origin): records carry it
+        #: the scheduled time of the firing callback (since the origin): records carry it
         self.event_time: float = math.nan
 
     @property
