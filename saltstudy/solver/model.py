@@ -79,8 +79,7 @@ class Model:
     @classmethod
     def from_scene(cls, scene, saltation: bool = False, restart: dict | None = None,
                    workers: int | None = None) -> "Model":
-        """The model of ``scene`` from a perturbed flow seeded from ``case.seed`` or from
-        ``restart`` (bit for bit); with ``saltation`` the grain component, not yet activated."""
+        """The model of ``scene`` (from ``restart`` if given); with ``saltation`` the grains."""
         case, fid = scene.case, scene.fidelity
         grid = Grid.from_spec(fid.grid)
         pg = case.forcing.drive == "pressure_gradient"

@@ -106,8 +106,7 @@ class WallTimeInterval:
 
 @dataclass
 class Callback:
-    """``func(sim)`` on ``schedule``. ``func`` may carry state of its own: an object with
-    ``checkpoint() -> dict`` and ``restore(dict)`` is saved and restored with the simulation."""
+    """``func(sim)`` on ``schedule``; a ``func`` with ``checkpoint``/``restore`` is checkpointed."""
     func: Callable[["Simulation"], None]
     schedule: Any
 

@@ -95,7 +95,7 @@ def _y5(tmp, i, j1, j2, j, j4, j5):
 
 @device
 def filter_plane_4(src, dst, tmp):
-    """dst = the (1, 4, 2, 4, 1)/12 filter of src in x, then in y (width 4; as filter_plane_2)."""
+    """dst = the (1, 4, 2, 4, 1)/12 filter of src in x, then y (as filter_plane_2)."""
     nx, ny = src.shape
     for i in range(nx):
         i1 = (i - 2) % nx

@@ -83,8 +83,7 @@ def _health(u, v, w, e, rdx, rdy, dzc, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
 
 
 def health(grid, state, cml, cml_v, nu_mol, vertical: bool = True) -> tuple[float, float, int]:
-    """(Courant rate, diffusion rate [s^-1], non-finite count) in one pass; ``vertical`` False:
-    the horizontal diffusion rate only (implicit vertical diffusion)."""
+    """(Courant rate, diffusion rate [s^-1], non-finite count); ``vertical`` False: horizontal."""
     rdz2 = 1.0 / grid.dz_c**2 if vertical else np.zeros(grid.nz)
     c, d, n = _health(state.u, state.v, state.w, state.e, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c,
                       cml, cml_v, nu_mol, 1.0 / grid.dx**2, 1.0 / grid.dy**2, rdz2)

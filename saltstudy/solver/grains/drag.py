@@ -153,8 +153,7 @@ def _re687_lane(rel, dnu, irelq, rpq, first, exact):
 
 @ijit
 def _lane_drag_update(lf, li, l, it, S, first, exact):
-    """Update ``it`` of lane l's drag rate, as selects; a lane needing the exact pass keeps its
-    values, marked _FIX. Returns 1 if it iterates on."""
+    """Update ``it`` of lane l's drag rate (as selects); 1 if it iterates on (_FIX: exact pass)."""
     going = li[_ITER + l] != 0
     k = lf[_K + l]
     h = lf[_H + l]

@@ -165,8 +165,7 @@ def _lane_stencil(lf, li, l):
 
 @ijit
 def _lane_start(lf, li, l, S, exact):
-    """Stage 2 of lane l (vectorized; exact: a lane it left): constants, sub-step, modelled
-    impulse (two-way), slip, a first drag rate if none, the drag iteration's start."""
+    """Stage 2 of lane l: constants, sub-step, modelled impulse, slip, drag iteration's start."""
     active = li[_ACTIVE + l] != 0
     dp = lf[_D + l]
     T = lf[_T + l]

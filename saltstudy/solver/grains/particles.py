@@ -416,8 +416,7 @@ class Saltation:
         self.last_step = step
 
     def _splash(self, n: int, n_ev: int) -> int:
-        """Bed events of the n_ev hits in N_SPLASH_RUNS parallel runs, each appending its ejecta
-        in a stretch reserved after n, closed up in run order; returns the number of dead."""
+        """The bed events of the n_ev hits in parallel runs; returns the number of dead."""
         K = self._run
         K.collect_events(n, self._flag, self._ev)
         ev = self._ev[:n_ev].copy()  # _grow replaces self._ev
@@ -457,8 +456,7 @@ class Saltation:
         return int(dead.size)
 
     def _sort(self) -> None:
-        """Reorder the parcels by cell (locality), each field gathered into a spare array that takes
-        its place (work arrays kept across sorts)."""
+        """Reorder the parcels by cell (locality), each field gathered into a spare array."""
         g = self.geom
         n = self.n
         if getattr(self, "_sort_key", None) is None or self._sort_key.shape[0] < n:
