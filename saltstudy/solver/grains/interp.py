@@ -262,9 +262,14 @@ def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
         fma2(pool, a11 + k0, gz, fz, v11)
     else:  # both levels fold onto nk - 1
         k = nk - 1
-        for a, v in ((a00, v00), (a01, v01), (a10, v10), (a11, v11)):
-            pool[a + k] += v * gz
-            pool[a + k] += v * fz
+        pool[a00 + k] += v00 * gz
+        pool[a00 + k] += v00 * fz
+        pool[a01 + k] += v01 * gz
+        pool[a01 + k] += v01 * fz
+        pool[a10 + k] += v10 * gz
+        pool[a10 + k] += v10 * fz
+        pool[a11 + k] += v11 * gz
+        pool[a11 + k] += v11 * fz
 
 
 @ijit
