@@ -1,18 +1,7 @@
-"""The staggered (Arakawa-C) grid: uniform in x and y, stretched in z, periodic in x and y.
-
-Layout (no ghost cells; periodic neighbours by modular index):
-
-========  ====================  ==========================  =====================
-field     shape                 position of ``[i, j, k]``    notes
-========  ====================  ==========================  =====================
-u         (nx, ny, nz)          (x_f[i], y_c[j], z_c[k])     x-face of cell i
-v         (nx, ny, nz)          (x_c[i], y_f[j], z_c[k])     y-face of cell j
-w         (nx, ny, nz + 1)      (x_c[i], y_c[j], z_f[k])     w[..., 0] = w[..., nz] = 0
-p, e      (nx, ny, nz)          (x_c[i], y_c[j], z_c[k])     cell centres
-========  ====================  ==========================  =====================
-
-``x_f[i] = i dx``, ``x_c[i] = (i + 1/2) dx`` (same in y); ``z_f[0] = 0`` (the bed),
-``z_f[nz] = Lz``; ``z_c[k] = (z_f[k] + z_f[k + 1]) / 2``. All arrays are float64, C-contiguous.
+"""The staggered (Arakawa-C) grid: uniform in x and y, stretched in z, periodic in x and y, no
+ghost cells (layout: docs/ARCHITECTURE.md, "Grid layout"). u[i, j, k] at (x_f[i], y_c[j],
+z_c[k]), v at (x_c, y_f, z_c), w (nx, ny, nz + 1) at (x_c, y_c, z_f) with w = 0 on faces 0 and
+nz, p and e at the centres; z_f[0] = 0 (the bed), z_f[nz] = Lz.
 """
 from __future__ import annotations
 
@@ -23,16 +12,10 @@ import numpy as np
 
 from ..config import GridSpec
 
-__all__ = ["Grid", "stretched_levels"]
-
 
 def stretched_levels(Lz: float, nz: int, dz_bottom: float, dz_top: float | None = None) -> np.ndarray:
-    """Face heights z_f (nz + 1 values, m) cubic in the level index k.
-
-    z_f(k) = a k + b k^2 + c k^3 with z_f(1) = dz_bottom and z_f(nz) = Lz; with ``dz_top`` also
-    the top thickness is matched (the paper: 1 cm at the bed, 0.23 m at the top of 12 m over 100
-    levels), otherwise b = 0. Raises ValueError when no monotonic grid fits.
-    """
+    """Face heights z_f (nz + 1,) [m], cubic in k: z_f(1) = dz_bottom, z_f(nz) = Lz and, given
+    ``dz_top``, the top thickness (the paper: 1 cm, 0.23 m at 12 m over 100 levels)."""
     n = float(nz)
     if dz_top is None:
         # a + c = dz_b ; a n + c n^3 = Lz
@@ -40,11 +23,7 @@ def stretched_levels(Lz: float, nz: int, dz_bottom: float, dz_top: float | None 
         a, c = np.linalg.solve(A, [dz_bottom, Lz])
         b = 0.0
     else:
-        A = np.array([
-            [1.0, 1.0, 1.0],
-            [n, n**2, n**3],
-            [1.0, 2 * n - 1, 3 * n**2 - 3 * n + 1],
-        ])
+        A = np.array([[1.0, 1.0, 1.0], [n, n**2, n**3], [1.0, 2 * n - 1, 3 * n**2 - 3 * n + 1]])
         a, b, c = np.linalg.solve(A, [dz_bottom, Lz, dz_top])
     k = np.arange(nz + 1, dtype=np.float64)
     z_f = a * k + b * k**2 + c * k**3
@@ -57,8 +36,7 @@ def stretched_levels(Lz: float, nz: int, dz_bottom: float, dz_top: float | None 
 
 
 class _cached_array(cached_property):
-    """A per-grid cached, read-only derived array: computed once (the stepper asks for the same
-    metric arrays several times per stage) and protected, since every caller shares it."""
+    """A per-grid cached derived array, read-only since every caller shares it."""
 
     def __get__(self, instance, owner=None):
         a = super().__get__(instance, owner)
@@ -69,7 +47,7 @@ class _cached_array(cached_property):
 
 @dataclass(frozen=True, eq=False)
 class Grid:
-    """Geometry of the staggered grid (see module docstring for the layout)."""
+    """Geometry of the staggered grid (module doc)."""
 
     nx: int
     ny: int
@@ -93,7 +71,6 @@ class Grid:
         if z_f.shape != (self.nz + 1,) or z_f[0] != 0.0 or np.any(np.diff(z_f) <= 0):
             raise ValueError("z_f must hold nz + 1 increasing heights starting at 0")
 
-    # ---- horizontal ----------------------------------------------------------------------
     @property
     def dx(self) -> float:
         return self.Lx / self.nx
@@ -118,7 +95,6 @@ class Grid:
     def y_c(self) -> np.ndarray:
         return (np.arange(self.ny) + 0.5) * self.dy
 
-    # ---- vertical ------------------------------------------------------------------------
     @property
     def Lz(self) -> float:
         return float(self.z_f[-1])
@@ -166,6 +142,3 @@ class Grid:
     def n_cells(self) -> int:
         return self.nx * self.ny * self.nz
 
-    def level_below(self, z: float) -> int:
-        """Index k of the cell centre at or just below height z (clamped to [0, nz - 1])."""
-        return int(np.clip(np.searchsorted(self.z_c, z, side="right") - 1, 0, self.nz - 1))

@@ -1,19 +1,8 @@
-"""``Model``: one flow state flowing through one stepper, with components built from the scene.
-
-See docs/ARCHITECTURE.md ("Solver API") for the contract. One step (``Model.step``):
-
-1. each component's ``dynamics(state, dt)`` with the flow at t^n (Lie splitting; momentum a component
-   adds to u, v, w is made divergence-free by the RK3 stage projections; ``state.tke_sink`` it fills
-   is applied implicitly at the end of the flow step),
-2. the RK3 flow step (flow/stepper.py: boundary -> advection -> diffusion -> damping -> drive -> pressure
-   per stage),
-3. the checks (finiteness of u, v, w, e; Courant number), raising ``SolverBlowUp``,
-4. top drive only: the drive controller (forcing.py) updates ``state.u_drive`` from the stress at
-   z_ref_eff. With ``forcing.drive = "pressure_gradient"`` the flow is driven by the uniform body
-   force G = u*s^2 / (Lz - z_hold) (forcing.py) and there is no damping layer and no controller
-   (``state.u_drive`` stays 0; the Rayleigh layer of the fidelity is not used).
-
-A scene without saltation never imports the grain component.
+"""``Model``: one flow state through one stepper, with components built from the scene (contract:
+docs/ARCHITECTURE.md, "Solver API"). One step: the components' ``dynamics`` with the flow at t^n
+(Lie splitting), the RK3 flow step (flow/stepper.py), the checks (diagnostics/checks.py), then,
+with the top drive, the controller's update of ``state.u_drive`` (flow/forcing.py). A scene
+without saltation never imports the grain component.
 """
 from __future__ import annotations
 
@@ -28,11 +17,9 @@ from .diagnostics.checks import check_courant, health, locate_nonfinite
 from .flow.forcing import DriveController, level_means, pressure_gradient_force, z_ref_effective
 from .grid import Grid
 from .spinup import SpinupResult, initial_flow, run_spinup
-from .state import FlowState, SolverBlowUp
+from .state import FlowState
 from .closures.closure import make_closure
 from .flow.stepper import Boundaries, FlowNumerics, Stepper
-
-__all__ = ["Model", "StepInfo", "SolverBlowUp", "CHECKPOINT_FORMAT"]
 
 CHECKPOINT_FORMAT = "saltstudy-flow-1"
 _FIELDS = ("u", "v", "w", "e", "p")
@@ -40,8 +27,7 @@ _FIELDS = ("u", "v", "w", "e", "p")
 
 @dataclass(frozen=True)
 class StepInfo:
-    """What one step did: step number and time after it, dt [s], Courant number, drive and u*,
-    its wall time [s] and the part of it spent in the components (the grains)."""
+    """What one step did (times [s]; wall_components: the components' share of wall_time)."""
     step: int
     t: float
     dt: float
@@ -53,8 +39,7 @@ class StepInfo:
 
 
 def build_stepper(scene, grid: Grid, workers: int | None = None) -> Stepper:
-    """The flow stepper of a scene: the case's closure (closure.make_closure), its bed, lid and
-    drive, and the fidelity's numerics."""
+    """The flow stepper of a scene: its closure, bed, lid and drive, the fidelity's numerics."""
     case, fid = scene.case, scene.fidelity
     pg = case.forcing.drive == "pressure_gradient"
     numerics = FlowNumerics.from_time(fid.time)
@@ -94,9 +79,7 @@ class Model:
     @classmethod
     def from_scene(cls, scene, saltation: bool = False, restart: dict | None = None,
                    workers: int | None = None) -> "Model":
-        """Build the model of ``scene``: perturbed initial flow seeded from ``case.seed``, or the
-        state of ``restart`` (a ``checkpoint()`` dict) restored bit for bit. With ``saltation`` and
-        ``case.physics.saltation`` the grain component is constructed (not yet activated)."""
+        """The model of ``scene`` (from ``restart`` if given); with ``saltation`` the grains."""
         case, fid = scene.case, scene.fidelity
         grid = Grid.from_spec(fid.grid)
         pg = case.forcing.drive == "pressure_gradient"
@@ -144,8 +127,7 @@ class Model:
 
     # ---- stepping ----------------------------------------------------------------------------
     def rates(self) -> tuple[float, float]:
-        """(Courant rate, diffusion rate) [s^-1] of the current state (cached per step); raises
-        SolverBlowUp if a field holds a non-finite value."""
+        """(Courant rate, diffusion rate) [s^-1], cached per step; SolverBlowUp if not finite."""
         if self._rate_cache is not None and self._rate_cache[0] == self.state.step:
             return self._rate_cache[1]
         st, clo = self.stepper, self.stepper.closure
@@ -158,11 +140,7 @@ class Model:
         return c, d
 
     def next_dt(self, limit: float = math.inf) -> float:
-        """The next step [s]: min(CFL, diffusion, dt_max, components' limits, limit), or dt_fixed.
-
-        When ``limit`` lies between dt and 2 dt, two equal steps of limit/2 are proposed rather than
-        a full step followed by a sliver.
-        """
+        """The next step [s]: the least limit, two equal steps rather than a step and a sliver."""
         if not limit > 0:
             raise ValueError(f"next_dt: limit must be positive (got {limit!r})")
         ts = self.scene.fidelity.time
@@ -228,8 +206,7 @@ class Model:
         return out
 
     def spinup(self, progress=None) -> SpinupResult:
-        """Flow-only spin-up until steady or t_max (spinup.py); ``progress(t, t_max)`` after every
-        step. A resumable spin-up with checkpoints: ``spinup.spinup_simulation``."""
+        """Flow-only spin-up until steady or t_max (spinup.py); ``progress(t, t_max)``."""
         return run_spinup(self, progress=progress)
 
     # ---- saltation ---------------------------------------------------------------------------
@@ -256,18 +233,15 @@ class Model:
         out["rng_state"] = json.dumps(self.rng.bit_generator.state)
         if s.tke_sink is not None:
             out["tke_sink"] = np.array(s.tke_sink, copy=True)
-        for k, v in self.controller.checkpoint().items():
-            out[f"controller/{k}"] = v
-        for k, v in self.stepper.closure.checkpoint().items():
-            out[f"closure/{k}"] = v
-        for c in self._checkpointed_parts():
-            for k, v in c.checkpoint().items():
-                out[f"{c.name}/{k}"] = v
+        for name, part in self._checkpointed_parts():
+            out.update({f"{name}/{k}": v for k, v in part.checkpoint().items()})
         return out
 
     def _checkpointed_parts(self) -> list:
-        """Parts with their own ``name``, ``checkpoint()`` and ``restore()`` (keys ``name/...``)."""
-        return self.components + ([self.relaxation] if self.relaxation is not None else [])
+        """(name, part) of the parts with their own checkpoint (keys ``name/...``)."""
+        parts = self.components + ([self.relaxation] if self.relaxation is not None else [])
+        return ([("controller", self.controller), ("closure", self.stepper.closure)]
+                + [(c.name, c) for c in parts])
 
     def _restore(self, ck: dict) -> None:
         fmt = ck.get("format", CHECKPOINT_FORMAT)
@@ -290,17 +264,11 @@ class Model:
             self.rng.bit_generator.state = json.loads(str(ck["rng_state"]))
         if "tke_sink" in ck:
             s.tke_sink = np.array(ck["tke_sink"], dtype=np.float64)
-        ctl = {k.split("/", 1)[1]: v for k, v in ck.items() if k.startswith("controller/")}
-        if ctl:
-            self.controller.restore(ctl)
-        clo = {k.split("/", 1)[1]: v for k, v in ck.items() if k.startswith("closure/")}
-        if clo:
-            self.stepper.closure.restore(clo)
-        for c in self._checkpointed_parts():
-            pre = f"{c.name}/"
+        for name, part in self._checkpointed_parts():
+            pre = f"{name}/"
             data = {k[len(pre):]: v for k, v in ck.items() if k.startswith(pre)}
             if data:
-                c.restore(data)
+                part.restore(data)
 
     def close(self) -> None:
         self.stepper.close()

@@ -1,29 +1,12 @@
 """``Simulation``: the one time loop. A model, a stop time and schedules of callbacks.
 
-Every run of the package goes through :meth:`Simulation.run`: the particle-free spin-up (its
-record and steadiness test, ``spinup.py``), the continuation of a staggered start, the saltation
-run with its records and checkpoints (``workflow/driver.py``) and the probes. What differs between
-them is only which callbacks they add and on which schedule.
-
-One pass of the loop:
-
-1. the callbacks whose time has come (``t >= next_time - TIME_EPS``) fire, in the order they were
-   added; a callback may stop the simulation (``sim.stop(reason)``);
-2. at the stop time the loop ends;
-3. one step of the model, clipped so that the next scheduled time (or the stop time) is met
-   exactly: ``dt = model.next_dt(limit=(origin + t_next) - model.t)`` (``next_dt`` proposes two
-   equal steps rather than a step and a sliver);
-4. the per-step callbacks (``IterationInterval``, ``WallTimeInterval``): progress, checkpoints.
-
-Times of the schedules and the stop time are relative to ``origin`` (a model time: 0 for a run
-from rest, the activation time for a saltation run), so a schedule reads like the fidelity that
-set it. The limit of step 3 is formed from the absolute target, so two runs with the same origin
-and schedule take the same steps to the last bit.
-
-The simulation's own state (the schedules' positions, the step count, each stateful callback's
-``checkpoint()``) is pure data (:meth:`Simulation.checkpoint`); restored beside the model's
-checkpoint, a run resumes and ends as the uninterrupted one would. No I/O happens here: writing a
-checkpoint file is a callback the workflow adds.
+Every run goes through :meth:`Simulation.run` (spin-up, continuation, saltation run, probes); they
+differ only in their callbacks. One pass: the callbacks whose time has come fire in the order they
+were added (one may ``stop`` the run); one step of the model, clipped so that the next scheduled
+time is met exactly; the per-step callbacks. Times are relative to ``origin`` (the activation
+time for a saltation run) and the step's limit is formed from the absolute target, so two runs
+with the same origin and schedule take the same steps to the last bit. The loop's own state is
+pure data (:meth:`checkpoint`): restored beside the model's, a run ends as the uninterrupted one.
 """
 from __future__ import annotations
 
@@ -32,22 +15,13 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
-__all__ = ["Simulation", "Callback", "TimeInterval", "SpecifiedTimes", "IterationInterval",
-           "WallTimeInterval", "TIME_EPS"]
-
 #: two times closer than this are the same time [s]; far below any time step
 TIME_EPS = 1e-9
 
 
-# ------------------------------------------------------------------------------------------
-# Schedules
-# ------------------------------------------------------------------------------------------
 class TimeInterval:
-    """Fires at model times ``start, start + interval, ...`` (relative to the simulation's origin).
-
-    ``from_last``: the next firing is ``interval`` after the time of the last one (a record series
-    whose spacing matters and whose phase does not; the spin-up's steadiness series). Otherwise
-    the times are exact multiples, ``start + k interval``, which do not drift."""
+    """Fires at model times ``start + k interval`` since the origin (no drift), or, ``from_last``,
+    ``interval`` after the last firing (the spin-up's steadiness series)."""
 
     def __init__(self, interval: float, start: float = 0.0, from_last: bool = False):
         if not (interval > 0 and math.isfinite(interval)):
@@ -112,8 +86,7 @@ class IterationInterval:
 
 
 class WallTimeInterval:
-    """Fires after a step once ``seconds`` of wall time have passed since the last firing (or the
-    start of ``run``): periodic checkpoints whose cost is bounded whatever the step."""
+    """Fires after a step once ``seconds`` of wall time have passed since the last firing."""
 
     def __init__(self, seconds: float):
         if not seconds >= 0:
@@ -133,8 +106,7 @@ class WallTimeInterval:
 
 @dataclass
 class Callback:
-    """``func(sim)`` on ``schedule``. ``func`` may carry state of its own: an object with
-    ``checkpoint() -> dict`` and ``restore(dict)`` is saved and restored with the simulation."""
+    """``func(sim)`` on ``schedule``; a ``func`` with ``checkpoint``/``restore`` is checkpointed."""
     func: Callable[["Simulation"], None]
     schedule: Any
 
@@ -143,12 +115,8 @@ class Callback:
         return not hasattr(self.schedule, "due_after_step")
 
 
-# ------------------------------------------------------------------------------------------
 class Simulation:
-    """Runs ``model`` from its present time to ``origin + stop_time`` (module docstring).
-
-    ``dt_fixed``: every step of this simulation is that long (clipped to the schedule), whatever
-    the model proposes: the stability study's deliberately too large step."""
+    """Runs ``model`` to ``origin + stop_time``; ``dt_fixed``: every step that long (clipped)."""
 
     def __init__(self, model, stop_time: float = math.inf, origin: float | None = None,
                  dt_fixed: float | None = None):
@@ -166,8 +134,7 @@ class Simulation:
         #: the last step's StepInfo (None before the first step of this call of ``run``)
         self.last_step = None
         self.stop_reason: str | None = None
-        #: the time a firing callback was scheduled for (since the origin; within TIME_EPS of
-        #: ``t``): records carry it, so that their times are the schedule's exact values
+        #: the scheduled time of the firing callback (since the origin): records carry it
         self.event_time: float = math.nan
 
     @property
@@ -227,8 +194,7 @@ class Simulation:
 
     # ---- restart ---------------------------------------------------------------------------
     def checkpoint(self) -> dict[str, Any]:
-        """The simulation's own state as pure data (JSON-able scalars and lists, and the arrays a
-        stateful callback returns under its name); the model's is ``model.checkpoint()``."""
+        """The loop's own state as pure data; the model's is ``model.checkpoint()``."""
         out: dict[str, Any] = {"n_steps": self.n_steps, "origin": self.origin, "schedules": {},
                                "callbacks": {}}
         for name, c in self.callbacks.items():

@@ -1,40 +1,26 @@
 """Initial state of the flow and the flow-only spin-up with its steadiness test.
 
-Initial state (``initial_flow``): the log law u = (u*/kappa) ln(z/z0) up to the top of the free
-region (constant above), SGS TKE e = u*^2 (1 - z/z_top) below it, plus random perturbations that
-trip turbulence quickly: Gaussian noise (numpy Generator seeded from the case's seed) smoothed
-horizontally over a few cells (so that it is not dissipated at the grid scale at once), with an
-r.m.s. of ``amplitude`` u* (u, v, w) tapered to zero at the top of the free region, and elongated
-streamwise streaks (spanwise wavelength ~ the paper's 0.7 m streamer spacing scale, capped to the
-domain), then made divergence-free by the projection. Shear instability of the strongly sheared log
-profile does the rest within a few eddy turnover times (H/u* ~ 10 s).
+``initial_flow``: the log law up to the top of the free region (constant above), e = u*^2 (1 -
+z/z_top), and perturbations that trip turbulence quickly: Gaussian noise (the case's seed)
+smoothed over a few cells, r.m.s. ``amplitude`` u* tapered to zero at z_top, and streamwise
+streaks (the paper's 0.7 m streamer spacing), made divergence-free; the sheared profile does the
+rest within a few turnover times (H/u* ~ 10 s).
 
-Steadiness (``SteadinessRecord``, run by ``spinup_simulation`` on the package's one time loop,
-``simulation.Simulation``): every ``record_interval`` s the stress-based u* at z_ref_eff and the
-volume-mean resolved TKE (1/2 <u_i' u_i'>, deviations from the horizontal means, volume-weighted over
-the free region below the damping layer) are recorded. After t >= t_min, with W = spinup.window, the
-spin-up is steady when both quantities' means over the last window [t-W, t) and the one before
-[t-2W, t-W) differ by less than spinup.tolerance (relative): |m2 - m1| / |m2| < tol. Otherwise it stops
-at t_max with converged = False. Times are model times measured from the start of the spin-up.
+``SteadinessRecord``: u* at z_ref_eff and the volume-mean resolved TKE of the free region,
+recorded at intervals; after t_min the spin-up is steady when both means over the last window
+and the one before differ by less than spinup.tolerance (relative), else it stops at t_max.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["SpinupResult", "initial_flow", "smooth_noise", "window_steadiness", "run_spinup",
-           "spinup_simulation", "SteadinessRecord", "record_interval", "HISTORY_KEYS"]
-
 
 @dataclass
 class SpinupResult:
-    """Outcome of a spin-up: converged, end time [s], why it stopped, history arrays.
-
-    history: ``t`` [s], ``u_star`` [m s^-1] (at z_ref_eff), ``tke`` [m^2 s^-2] (volume-mean resolved
-    TKE), ``u_drive`` [m s^-1].
-    """
+    """Outcome of a spin-up: converged, end time [s], why it stopped, history ``t`` [s],
+    ``u_star`` [m s^-1], ``tke`` [m^2 s^-2], ``u_drive`` [m s^-1]."""
     converged: bool
     t: float
     reason: str
@@ -53,9 +39,7 @@ def smooth_noise(rng: np.random.Generator, shape: tuple[int, int, int], passes: 
 def initial_flow(state, u_star: float, z0: float, kappa: float, z_top: float,
                  rng: np.random.Generator, pressure, amplitude: float = 1.0,
                  streak_spacing: float = 0.7, u_profile: np.ndarray | None = None) -> None:
-    """Fill ``state`` with the perturbed log profile described in the module docstring
-    (``u_profile`` (nz,): a mean profile to use instead of the log law, e.g. the local-equilibrium
-    profile of the pressure-gradient drive)."""
+    """Fill ``state`` with the perturbed log profile, or ``u_profile`` (nz,) (module doc)."""
     g = state.grid
     zc, zf = g.z_c, g.z_f
     nx, ny, nz = g.shape
@@ -109,10 +93,7 @@ def record_interval(spinup) -> float:
 
 
 class SteadinessRecord:
-    """The spin-up's record (u* at z_ref_eff, volume-mean resolved TKE, the drive) and, at each
-    record, its steadiness test (module docstring), which stops the simulation once steady.
-    A Simulation callback with state (``checkpoint``/``restore``), so a resumed spin-up ends as the
-    uninterrupted one would."""
+    """The spin-up's record and steadiness test (module doc); stops the simulation once steady."""
 
     def __init__(self, model):
         self.model = model
@@ -159,10 +140,7 @@ class SteadinessRecord:
 
 
 def spinup_simulation(model, record_every: float | None = None):
-    """(Simulation, SteadinessRecord): the particle-free spin-up of ``model`` from its present
-    time to ``fidelity.spinup.t_max`` later, recording every ``record_every`` s (default
-    ``record_interval``) and stopping once steady. A caller adds its own callbacks (progress,
-    checkpoints, profile samples) before ``run()``."""
+    """(Simulation, SteadinessRecord) of the spin-up to t_max; callers add their own callbacks."""
     from .simulation import Simulation, TimeInterval
 
     sp = model.scene.fidelity.spinup
@@ -174,8 +152,7 @@ def spinup_simulation(model, record_every: float | None = None):
 
 
 def run_spinup(model, progress=None, record_every: float | None = None) -> SpinupResult:
-    """Step ``model`` (flow only) until steady or t_max (module docstring); ``progress(t, t_max)``
-    after every step."""
+    """Step ``model`` until steady or t_max; ``progress(t, t_max)`` after every step."""
     from .simulation import IterationInterval
 
     sim, rec = spinup_simulation(model, record_every)

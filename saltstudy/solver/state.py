@@ -1,13 +1,11 @@
 """The model state: the flow fields and clock that flow through the stepper."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from .grid import Grid
-
-__all__ = ["FlowState", "SolverBlowUp"]
 
 
 class SolverBlowUp(RuntimeError):
@@ -22,12 +20,8 @@ class SolverBlowUp(RuntimeError):
 
 @dataclass
 class FlowState:
-    """Prognostic flow fields on the staggered grid (see grid.py) and the clock.
-
-    u, v [m s^-1] at x-/y-faces; w [m s^-1] at z-faces; e [m^2 s^-2] SGS TKE and p [m^2 s^-2]
-    kinematic pressure at centres (all float64, or all float32 in a single-precision flow); u_drive [m s^-1] the base-state wind the top layer relaxes to;
-    tke_sink: None, or per-cell rates [s^-1] filled by the grain component (eq. A1).
-    """
+    """Flow fields (grid.py; float64, or float32 in a single-precision flow) and clock: u, v, w [m
+    s^-1], e, p [m^2 s^-2], u_drive [m s^-1], tke_sink None or the grains' rates [s^-1]."""
 
     grid: Grid
     u: np.ndarray
@@ -39,7 +33,6 @@ class FlowState:
     step: int = 0
     u_drive: float = 0.0
     tke_sink: np.ndarray | None = None
-    extra: dict = field(default_factory=dict)
 
     @classmethod
     def zeros(cls, grid: Grid, dtype=np.float64) -> "FlowState":

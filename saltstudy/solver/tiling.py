@@ -1,29 +1,16 @@
 """A particle-free flow carried onto a larger grid of the same horizontal spacing: a start for a
-grid whose own spin-up cannot be afforded (the paper's 200 x 150 x 100 points need 300-1800 s
-of flow, 10-60 h on 2 cores: docs/BENCHMARKS.md).
-
-Horizontally the source is periodic, so tiling it m x n times is again a periodic solution of the
-same equations on an m Lx x n Ly domain (its largest eddies keep the source's period: the tiled
-flow has no structure longer than the source box until it develops one).
-
-Vertically each column is interpolated linearly in z onto the target's levels up to ``z_keep``
-[m], the top of the source's undamped region or lower. Above it the source has no free flow: the
-target gets the source's fluctuations at z_keep, the mean wind continued by the log law of the
-source's u* (u(z) = u(z_keep) + (u*/kappa) ln(z / z_keep)), and w tapered linearly to zero at the
-lid. The pressure is left at zero and the velocity must be projected once on the target grid
-(``Model`` does not project a restart: ``project_restart``) before the first step.
-
-What differs from a start of the target's own spin-up, stated with every use: eddies no longer
-than the source box, a top layer whose turbulence is a copy of z_keep's, and a first level whose
-grid spacing differs slightly when the two stretchings differ (they share the 1 cm first level).
+grid whose own spin-up cannot be afforded (the paper's 200 x 150 x 100 points need 300-1800 s of
+flow, 10-60 h on 2 cores: docs/BENCHMARKS.md). The tiled periodic source is again a solution (no
+structure longer than the source box until one develops). Columns are interpolated linearly in
+z up to ``z_keep``; above, the fluctuations at z_keep, the mean wind continued by the source's
+log law and w tapered to zero at the lid. The pressure is zero: ``project_restart`` before the
+first step.
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
-
-__all__ = ["tile_restart", "project_restart"]
 
 #: entries of a particle-free restart that are grid fields: (name, staggered in z)
 _FIELDS = (("u", False), ("v", False), ("w", True), ("e", False), ("p", False))
@@ -42,13 +29,8 @@ def _column_interp(f: np.ndarray, z_src: np.ndarray, z_dst: np.ndarray) -> np.nd
 
 
 def tile_restart(ck: dict, src, dst, z_keep: float, u_star: float, kappa: float) -> dict:
-    """A copy of the particle-free restart ``ck`` on grid ``src`` carried onto grid ``dst``
-    (module doc). ``z_keep`` [m]: the highest level taken from the source (at most the top of its
-    undamped region); ``u_star`` [m s^-1]: the source flow's friction velocity, for the log law
-    above z_keep.
-
-    Raises ValueError when the spacings differ, the target's extent is not a whole multiple of the
-    source's, z_keep lies outside both columns, or the checkpoint carries grain state."""
+    """The particle-free restart ``ck`` carried from grid ``src`` onto ``dst`` (module doc), u_star
+    [m s^-1] the source's; ValueError when that is not possible."""
     for name, a, b in (("dx", src.dx, dst.dx), ("dy", src.dy, dst.dy)):
         if not math.isclose(a, b, rel_tol=1e-9):
             raise ValueError(f"tile_restart: {name} differs ({a:g} m in the source, {b:g} m in the "
@@ -92,8 +74,7 @@ def tile_restart(ck: dict, src, dst, z_keep: float, u_star: float, kappa: float)
 
 
 def project_restart(model) -> None:
-    """Make a tiled start divergence-free on its grid and put the drive on its feed-forward for
-    that flow (the source's u_drive belongs to the source's damping layer)."""
+    """A tiled start made divergence-free, its drive on the feed-forward of the new flow."""
     s = model.state
     model.stepper.pressure.project(s.u, s.v, s.w)
     s.u_drive = model.controller.feed_forward(model.damped_mean_u())

@@ -1,17 +1,10 @@
-"""The SGS closure as one object (MicroHH's diffusion group): the eddy viscosity of each RK3 stage
-and the SGS TKE it carries, built by ``make_closure`` from a case's ``closure`` section.
-
-* ``DeardorffClosure``: the paper's 1.5-order prognostic TKE (sgs.py); the stepper integrates e.
-* ``DynamicClosure``: the plane-averaged scale-dependent dynamic Smagorinsky model
-  (dynamic_sgs.py): nu from each stage's strain, e diagnosed at the end of the step (its grain sink
-  inside its local equilibrium).
-* ``NoClosure``: no SGS stress (inviscid tests, advection checks); it costs nothing.
-
-What the stepper reads: ``nu_mol``, the per-level arrays ``l`` (dissipation length), ``cml`` and
-``cml_v`` (c_m times the horizontal and vertical viscosity lengths: nu_h = cml sqrt(e) + nu_mol),
-``rv`` (vertical over horizontal viscosity), ``ceps_l`` (c_eps / l) and ``rlog`` (the log-law
-shear at the first level per unit first-level velocity, 1/(z_1 ln(z_1/z0)) [m^-1]); and the hooks
-``begin_step``, ``viscosity``, ``end_step``.
+"""The SGS closure as one object, built by ``make_closure`` from a case's ``closure`` section:
+``DeardorffClosure`` (the paper's prognostic TKE, sgs.py), ``DynamicClosure`` (dynamic.py) or
+``NoClosure``. The stepper reads ``nu_mol``, per level ``l``, ``cml``, ``cml_v`` (c_m times the
+horizontal and vertical viscosity lengths: nu_h = cml sqrt(e) + nu_mol), ``rv`` (vertical over
+horizontal viscosity), ``ceps_l`` (c_eps / l), and ``rlog`` (1/(z_1 ln(z_1/z0)) [m^-1], the
+log-law shear per unit first-level velocity); and calls ``begin_step``, ``viscosity``,
+``end_step``.
 """
 from __future__ import annotations
 
@@ -22,9 +15,6 @@ from numba import prange
 
 from ..._jit import pjit
 from .sgs import (C_M, E_MIN, c_eps_profile, compute_nu, length_scale, viscosity_lengths)
-
-__all__ = ["make_closure", "DeardorffClosure", "DynamicClosure", "NoClosure", "CLOSURES",
-           "log_shear_factor", "apply_sink"]
 
 #: the SGS models a case can name (config.Closure.model)
 CLOSURES = ("deardorff", "dynamic")
@@ -42,8 +32,7 @@ def apply_sink(e, rate, dt, e_min):
 
 
 def log_shear_factor(grid, z0: float) -> float:
-    """1 / (z_1 ln(z_1 / z0)) [m^-1]: the log-law shear at the first level z_1 per unit velocity
-    there (the strain on the bed face, where the resolved difference does not exist)."""
+    """1 / (z_1 ln(z_1 / z0)) [m^-1]: the log-law shear at the first level per unit velocity."""
     z1 = float(grid.z_c[0])
     return 1.0 / (z1 * math.log(z1 / z0))
 
@@ -96,17 +85,15 @@ class _EddyViscosityClosure(NoClosure):
         l_h, l_v = viscosity_lengths(grid, kappa, spec.viscosity, spec.delta)
         self.cml = np.ascontiguousarray(C_M * l_h)
         self.cml_v = np.ascontiguousarray(C_M * l_v)
-        # the vertical viscosity is nu rv: the kernels carry one field (nu_mol rides along, a
-        # relative 1e-5 - 1e-3 of nu_t)
+        # the vertical viscosity is nu rv (nu_mol rides along: 1e-5 - 1e-3 of nu_t)
         self.rv = np.ascontiguousarray(l_v / l_h)
         self.ceps_l = np.ascontiguousarray(c_eps_profile(grid, self.l, spec.delta) / self.l)
-        # c_m l in the fields' type for the viscosity kernel (the same array in double)
+        # c_m l in the fields' type for the viscosity kernel
         self._cml_t = np.asarray(self.cml, self.dtype)
 
 
 class DeardorffClosure(_EddyViscosityClosure):
-    """The paper's closure (its Appendix A): nu_t = c_m l sqrt(e), e prognostic (sgs.py); the grain
-    sink of eq. A1 is applied once per step, e <- e / (1 + rate dt), stable for any rate."""
+    """The paper's closure: nu_t = c_m l sqrt(e), e prognostic, the grain sink implicit."""
 
     prognostic_e = True
 
@@ -119,13 +106,9 @@ class DeardorffClosure(_EddyViscosityClosure):
 
 
 class DynamicClosure(_EddyViscosityClosure):
-    """The scale-dependent dynamic Smagorinsky model (dynamic_sgs.py): its coefficient refreshed
-    every ``dynamic_interval`` steps, nu from each stage's strain, e diagnosed from the new state
-    at the end of the step (with the grain sink inside its equilibrium)."""
+    """The scale-dependent dynamic Smagorinsky model (dynamic.py)."""
 
     def __init__(self, grid, spec, kappa: float, nu_mol: float, rlog: float, dtype=np.float64):
-        if spec.viscosity != "isotropic":
-            raise ValueError("the dynamic closure has one eddy viscosity: viscosity must be 'isotropic'")
         super().__init__(grid, spec, kappa, nu_mol, rlog, dtype)
         from .dynamic import DynamicSmagorinsky
         self.dynamic = DynamicSmagorinsky(grid, self.kappa, self.rlog, spec.delta,
@@ -160,17 +143,12 @@ class DynamicClosure(_EddyViscosityClosure):
 
 def make_closure(grid, spec=None, *, kappa: float = 0.4, z0: float = 1e-5, nu_mol: float = 1.5e-5,
                  wall: bool = True, enabled: bool = True, dtype=np.float64):
-    """The closure object of a case's ``closure`` section (config.Closure; None: the defaults).
-
-    ``wall``: the bed carries the log-law stress (the strain on the bed face is the log-law shear);
-    ``enabled`` = False gives ``NoClosure``; ``dtype``: the floating type of the flow's fields."""
+    """The closure of a case's ``closure`` section (None: the defaults; ``enabled`` False: none)."""
     if spec is None:
         from ...config import Closure
         spec = Closure()
     rlog = log_shear_factor(grid, z0) if wall else 0.0
     if not enabled:
         return NoClosure(grid, nu_mol, rlog)
-    if spec.model not in CLOSURES:
-        raise ValueError(f"closure must be one of {CLOSURES} (got {spec.model!r})")
     cls = DynamicClosure if spec.model == "dynamic" else DeardorffClosure
     return cls(grid, spec, kappa, nu_mol, rlog, dtype)

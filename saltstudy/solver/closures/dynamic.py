@@ -1,60 +1,36 @@
 """Plane-averaged, scale-dependent dynamic Smagorinsky closure, with the SGS TKE of the paper's eq. A1
 diagnosed in local equilibrium (grain sink included).
 
-Why a dynamic closure. With the paper's Deardorff model (sgs.py: a fixed c_m = 0.1 and a length set by
-the grid) the particle-free surface layer is not logarithmic: phi = kappa z/u* dU/dz dips to ~0.7 at
-z/Delta ~ 3-10, deeper with a wider filter and shallower with a narrower one (`saltstudy probe loglaw`,
-reports/loglaw/). A fixed coefficient cannot follow the change of the SGS/resolved split as the
-eddies shrink towards the wall; the dynamic procedure measures it from the resolved field.
+Why: with the paper's Deardorff model phi = kappa z/u* dU/dz dips to ~0.7 at z/Delta ~ 3-10
+(`saltstudy probe loglaw`); a fixed coefficient cannot follow the SGS share as eddies shrink.
 
-Model (Smagorinsky 1963; Germano et al. 1991; Lilly 1992):
-
-    tau_ij - delta_ij tau_kk/3 = -2 nu_t S_ij,    nu_t = (C_s Delta)^2 |S|,   |S| = sqrt(2 S_ij S_ij)
-
-with (C_s Delta)^2 a function of height only, computed from the resolved field every
-``interval`` steps by the Germano identity on horizontal planes (Porte-Agel, Meneveau & Parlange
-2000, J. Fluid Mech. 415, 261):
+Model (Smagorinsky 1963; Germano et al. 1991; Lilly 1992): tau_ij - delta_ij tau_kk/3 = -2 nu_t
+S_ij, nu_t = (C_s Delta)^2 |S|, |S| = sqrt(2 S_ij S_ij), (C_s Delta)^2 a function of height
+computed every ``interval`` steps by the Germano identity on horizontal planes (Porte-Agel,
+Meneveau & Parlange 2000, J. Fluid Mech. 415, 261):
 
     L_ij = <u_i u_j>^ - u^_i u^_j,      M_ij = 2 [ (|S| S_ij)^ - a^2 |S^| S^_ij ],
-    (C_s Delta)^2 (at the test scale) = <L_ij M_ij> / <M_ij M_ij>    (<> a horizontal-plane mean)
+    (C_s Delta)^2 (at the test scale) = <L_ij M_ij> / <M_ij M_ij>    (<> a plane mean)
 
-^ a test filter in x and y only. Two test filters, of width 2 dx and 4 dx (composite Simpson
-weights (1, 4, 1)/6 and (1, 4, 2, 4, 1)/12 in each direction: their second moments are those of box
-filters of 2 and 4 cells), give the coefficient at 2 Delta and at 4 Delta; with the scale dependence
-C^2(2 Delta) = beta C^2(Delta), C^2(4 Delta) = beta C^2(2 Delta) (Bou-Zeid, Meneveau & Parlange 2005,
-Phys. Fluids 17, 025105):
+^ a test filter in x and y: Simpson weights (1, 4, 1)/6 and (1, 4, 2, 4, 1)/12 (the second
+moments of box filters of 2 and 4 cells) give the coefficient at 2 Delta and 4 Delta; with the
+scale dependence of Bou-Zeid, Meneveau & Parlange (2005, Phys. Fluids 17, 025105),
+beta = C^2(4 Delta) / C^2(2 Delta) (>= BETA_MIN) and (C_s Delta)^2 = C^2(2 Delta) / beta. Delta =
+(dx dy dz)^(1/3), and a filter of alpha dx in x and y widens it by alpha^(2/3), so a^2 =
+alpha^(4/3) (an a-priori test on a k^-5/3 field, tests/test_dynamic_sgs.py, gives C_s ~ 0.17 and
+beta ~ 1; with a^2 = alpha^2 C_s came out ~25 % low). Negative plane means are clipped to zero
+(no backscatter), C_s is bounded by CS_MAX.
 
-    beta = C^2(4 Delta) / C^2(2 Delta) (>= BETA_MIN),    (C_s Delta)^2 = C^2(2 Delta) / beta.
+The SGS TKE e is the local-equilibrium solution of A1 (production = dissipation + grain sink
+r e, r = ``state.tke_sink``) for nu_t = C_K l sqrt(e), the paper's C_K = 0.1 and the Deardorff
+length l (sgs.length_scale), with c_eps such that without grains it is the Smagorinsky model:
 
-Near the wall, where the test filters reach into the production range, beta < 1 and the plain
-(scale-invariant) procedure under-estimates the coefficient; far from it beta ~ 1 and both agree.
-Delta is the geometric mean (dx dy dz)^(1/3); a filter of a dx in x and y only widens it to
-a^(2/3) Delta, so a^2 = alpha^(4/3) for alpha = 2 and 4. (An a-priori test on a short Navier-Stokes
-evolution of a k^-5/3 field, tests/test_dynamic_sgs.py, gives the Smagorinsky-Lilly value C_s ~ 0.17
-and beta ~ 1 with this convention; with a^2 = alpha^2 the coefficient came out ~25 % low.) Negative
-plane means are clipped to zero (no backscatter) and C_s is bounded by CS_MAX.
+    c_eps / l = (C_K l)^3 / (C_s Delta)^4,        C_K l sqrt(e) |S|^2 = (c_eps/l) e^(3/2) + r e,
 
-The SGS TKE e. The paper's eq. A1 carries e, and the grains take SGS TKE through its sink
--r e (r = sum over the cell's parcels of (m_p/rho V) 2 f(Re_p) / (T_p + T_L), ``state.tke_sink``).
-Here e is not prognostic: it is the local-equilibrium solution of A1 (production = dissipation +
-grain sink) for the same eddy viscosity written as the paper writes it, nu_t = C_K l sqrt(e), with
-the paper's C_K = 0.1 and l the Deardorff length of sgs.length_scale, and eps = c_eps e^(3/2)/l with
-c_eps chosen so that without grains the equilibrium is the dynamic Smagorinsky model above:
-
-    c_eps / l = (C_K l)^3 / (C_s Delta)^4,        C_K l sqrt(e) |S|^2 = (c_eps/l) e^(3/2) + r e.
-
-The second equation is a quadratic in sqrt(e); without grains nu_t = (C_s Delta)^2 |S| exactly, and
-with them nu_t = (C_s Delta)^2 |S| / (sqrt(1 + rho^2) + rho), rho = r (C_s Delta)^2 / (2 (C_K l)^2 |S|):
-the grains lower the SGS viscosity where they load the air, as A1's sink does in the paper's model.
-So every consumer of e (the Lagrangian time T_L = 4 e / (3 C0 eps) of the sink, the SGS grain
-velocity, the diagnostics, the diffusion limit through nu = C_K l sqrt(e)) sees a field consistent
-with the viscosity that acts. Why not a prognostic dynamic TKE model: the dynamic procedure then
-needs the test-level SGS energy as well (Ghosal et al. 1995) and an equation that, in the grain
-layer, is dominated by the same local balance; the equilibrium form keeps one fewer field and the
-RK3 stage loses its TKE kernel.
-
-The coefficient is held between updates (``interval`` steps; ``closure.dynamic_interval``) and is
-part of the checkpoint, so a resumed run repeats an uninterrupted one bit for bit.
+a quadratic in sqrt(e): nu_t = (C_s Delta)^2 |S| / (sqrt(1 + rho^2) + rho), rho = r (C_s
+Delta)^2 / (2 (C_K l)^2 |S|): the grains lower the viscosity where they load the air, and every
+reader of e sees a field consistent with it. (A prognostic dynamic TKE model would need the
+test-level SGS energy, Ghosal et al. 1995.) The coefficient is checkpointed.
 """
 from __future__ import annotations
 
@@ -64,11 +40,7 @@ import numpy as np
 from numba import prange
 
 from ..._jit import device, pjit
-from .sgs import C_M, E_MIN, length_scale
-
-__all__ = ["DynamicSmagorinsky", "strain_at_centre", "germano_sums", "coefficient_profile",
-           "smagorinsky_viscosity", "filter_plane_2", "filter_plane_4", "CS_MAX", "BETA_MIN",
-           "TEST_ALPHA_SQ"]
+from .sgs import C0_LAGRANGIAN, C_M, E_MIN, length_scale, strain_edges
 
 
 #: upper bound of C_s (about twice the Smagorinsky-Lilly value 0.17)
@@ -83,43 +55,12 @@ _NQ = 21
 
 @device
 def strain_at_centre(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog):
-    """(S11, S22, S33, S12, S13, S23) at the centre of cell (i, j, k) [s^-1].
-
-    Diagonal terms from the cell's faces; each off-diagonal term the mean of its four surrounding
-    edges. On the bed face (bot = False) du/dz and dv/dz are the log-law gradient at the first
-    level (rlog = 1/(z_1 ln(z_1/z0))) and w = 0; on the lid (top = False, free slip) they vanish.
-    """
-    s11 = (u[ip, j, k] - u[i, j, k]) * rdx
-    s22 = (v[i, jp, k] - v[i, j, k]) * rdy
-    s33 = (w[i, j, k + 1] - w[i, j, k]) * rdzc[k]
-    e00 = (u[i, j, k] - u[i, jm, k]) * rdy + (v[i, j, k] - v[im, j, k]) * rdx
-    e10 = (u[ip, j, k] - u[ip, jm, k]) * rdy + (v[ip, j, k] - v[i, j, k]) * rdx
-    e01 = (u[i, jp, k] - u[i, j, k]) * rdy + (v[i, jp, k] - v[im, jp, k]) * rdx
-    e11 = (u[ip, jp, k] - u[ip, j, k]) * rdy + (v[ip, jp, k] - v[i, jp, k]) * rdx
-    if bot:
-        rdz = rdzf[k]
-        a0 = (u[i, j, k] - u[i, j, k - 1]) * rdz + (w[i, j, k] - w[im, j, k]) * rdx
-        a1 = (u[ip, j, k] - u[ip, j, k - 1]) * rdz + (w[ip, j, k] - w[i, j, k]) * rdx
-        b0 = (v[i, j, k] - v[i, j, k - 1]) * rdz + (w[i, j, k] - w[i, jm, k]) * rdy
-        b1 = (v[i, jp, k] - v[i, jp, k - 1]) * rdz + (w[i, jp, k] - w[i, j, k]) * rdy
-    else:
-        a0 = u[i, j, k] * rlog
-        a1 = u[ip, j, k] * rlog
-        b0 = v[i, j, k] * rlog
-        b1 = v[i, jp, k] * rlog
-    c0 = 0.0
-    c1 = 0.0
-    d0 = 0.0
-    d1 = 0.0
-    if top:
-        kt = k + 1
-        rdz = rdzf[kt]
-        c0 = (u[i, j, kt] - u[i, j, k]) * rdz + (w[i, j, kt] - w[im, j, kt]) * rdx
-        c1 = (u[ip, j, kt] - u[ip, j, k]) * rdz + (w[ip, j, kt] - w[i, j, kt]) * rdx
-        d0 = (v[i, j, kt] - v[i, j, k]) * rdz + (w[i, j, kt] - w[i, jm, kt]) * rdy
-        d1 = (v[i, jp, kt] - v[i, jp, k]) * rdz + (w[i, jp, kt] - w[i, j, kt]) * rdy
-    return (s11, s22, s33, 0.125 * (e00 + e10 + e01 + e11), 0.125 * (a0 + a1 + c0 + c1),
-            0.125 * (b0 + b1 + d0 + d1))
+    """(S11, S22, S33, S12, S13, S23) at the centre of cell (i, j, k) [s^-1], each off-diagonal
+    term the mean of its four edges (sgs.strain_edges; the upper edges summed in float64)."""
+    s11, s22, s33, e00, e10, e01, e11, a0, a1, b0, b1, c0, c1, d0, d1 = strain_edges(
+        u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf, rlog)
+    return (s11, s22, s33, 0.125 * (e00 + e10 + e01 + e11),
+            0.125 * (a0 + a1 + float(c0) + float(c1)), 0.125 * (b0 + b1 + float(d0) + float(d1)))
 
 
 @device
@@ -131,10 +72,8 @@ def _strain_norm(s11, s22, s33, s12, s13, s23):
 
 @device
 def filter_plane_2(src, dst, tmp):
-    """dst = the (1, 4, 1)/6 filter of the periodic plane src in x, then in y (width 2 cells).
-
-    The y pass runs over the contiguous axis with its two end points peeled off, so that the
-    interior loop has no index wrapping and vectorises (the wrapped loop cost twice as much)."""
+    """dst = the (1, 4, 1)/6 filter of the periodic plane src in x, then in y (width 2 cells);
+    the y pass peels its end points so that the interior loop vectorises (twice as fast)."""
     nx, ny = src.shape
     for i in range(nx):
         im = i - 1 if i > 0 else nx - 1
@@ -156,8 +95,7 @@ def _y5(tmp, i, j1, j2, j, j4, j5):
 
 @device
 def filter_plane_4(src, dst, tmp):
-    """dst = the (1, 4, 2, 4, 1)/12 filter of the periodic plane src in x, then in y (width 4
-    cells); the y pass peels its two end points on each side (see filter_plane_2)."""
+    """dst = the (1, 4, 2, 4, 1)/12 filter of src in x, then y (as filter_plane_2)."""
     nx, ny = src.shape
     for i in range(nx):
         i1 = (i - 2) % nx
@@ -209,10 +147,8 @@ def _contract(f, a2, i, j):
 
 @pjit
 def germano_sums(u, v, w, rdx, rdy, rdzc, rdzf, rlog, a2_2, a2_4, out):
-    """Per level k, into out (nz, 4): plane means of L_ij M_ij and M_ij M_ij for the 2 dx test
-    filter (columns 0, 1) and the 4 dx one (2, 3); M without the Delta^2 factor, so that their ratio
-    is (C_s Delta)^2 [m^2] (module doc). Levels are independent (the filters act in x and y only):
-    parallel over k, one set of plane buffers per level."""
+    """Per level, plane means of L_ij M_ij and M_ij M_ij for the 2 dx (out[:, :2]) and 4 dx
+    test filters, M without Delta^2 (the ratio is (C_s Delta)^2 [m^2]); parallel over levels."""
     nx, ny, nz = u.shape
     inv = 1.0 / (nx * ny)
     for kk in prange(nz):
@@ -234,56 +170,40 @@ def germano_sums(u, v, w, rdx, rdy, rdzc, rdzf, rlog, a2_2, a2_4, out):
                 s11, s22, s33, s12, s13, s23 = strain_at_centre(u, v, w, i, j, k, im, ip, jm, jp,
                                                                 top, bot, rdx, rdy, rdzc, rdzf, rlog)
                 sn = _strain_norm(s11, s22, s33, s12, s13, s23)
-                q[0, i, j] = uc
-                q[1, i, j] = vc
-                q[2, i, j] = wc
-                q[3, i, j] = uc * uc
-                q[4, i, j] = uc * vc
-                q[5, i, j] = uc * wc
-                q[6, i, j] = vc * vc
-                q[7, i, j] = vc * wc
-                q[8, i, j] = wc * wc
-                q[9, i, j] = s11
-                q[10, i, j] = s22
-                q[11, i, j] = s33
-                q[12, i, j] = s12
-                q[13, i, j] = s13
-                q[14, i, j] = s23
-                q[15, i, j] = sn * s11
-                q[16, i, j] = sn * s22
-                q[17, i, j] = sn * s33
-                q[18, i, j] = sn * s12
-                q[19, i, j] = sn * s13
-                q[20, i, j] = sn * s23
-        for n in range(_NQ):
-            filter_plane_2(q[n], f[n], tmp)
-        lm = 0.0
-        mm = 0.0
-        for i in range(nx):
-            for j in range(ny):
-                a, b = _contract(f, a2_2, i, j)
-                lm += a
-                mm += b
-        out[k, 0] = lm * inv
-        out[k, 1] = mm * inv
-        for n in range(_NQ):
-            filter_plane_4(q[n], f[n], tmp)
-        lm = 0.0
-        mm = 0.0
-        for i in range(nx):
-            for j in range(ny):
-                a, b = _contract(f, a2_4, i, j)
-                lm += a
-                mm += b
-        out[k, 2] = lm * inv
-        out[k, 3] = mm * inv
+                # q: u_i, u_i u_j (i <= j), S_ij, |S| S_ij; one element type for a single-precision
+                # flow (whose S_11, S_22, S_33 are float32)
+                vel = (uc, vc, wc)
+                sij = (float(s11), float(s22), float(s33), s12, s13, s23)
+                m = 3
+                for p in range(3):
+                    q[p, i, j] = vel[p]
+                    for r in range(p, 3):
+                        q[m, i, j] = vel[p] * vel[r]
+                        m += 1
+                for n in range(6):
+                    q[9 + n, i, j] = sij[n]
+                    q[15 + n, i, j] = sn * sij[n]
+        for c in range(2):  # the 2 dx test filter, then the 4 dx one
+            for n in range(_NQ):
+                if c == 0:
+                    filter_plane_2(q[n], f[n], tmp)
+                else:
+                    filter_plane_4(q[n], f[n], tmp)
+            a2 = a2_2 if c == 0 else a2_4
+            lm = 0.0
+            mm = 0.0
+            for i in range(nx):
+                for j in range(ny):
+                    a, b = _contract(f, a2, i, j)
+                    lm += a
+                    mm += b
+            out[k, 2 * c] = lm * inv
+            out[k, 2 * c + 1] = mm * inv
 
 
 def coefficient_profile(sums: np.ndarray, delta: np.ndarray, cs_max: float = CS_MAX,
                         beta_min: float = BETA_MIN) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """((C_s Delta)^2 [m^2], beta [-], C_s [-]) per level from the plane sums of ``germano_sums``
-    and the filter width ``delta`` [m] (module doc). A level whose 2 Delta coefficient is not
-    positive gets zero (no backscatter) and beta NaN."""
+    """((C_s Delta)^2 [m^2], beta, C_s) per level (0 and NaN where C^2(2 Delta) <= 0)."""
     sums = np.asarray(sums, dtype=np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
         c2 = np.where(sums[:, 1] > 0, sums[:, 0] / sums[:, 1], 0.0)
@@ -297,9 +217,7 @@ def coefficient_profile(sums: np.ndarray, delta: np.ndarray, cs_max: float = CS_
 @pjit
 def smagorinsky_viscosity(u, v, w, cs2d2, ckl, sink, with_sink, nu_mol, rdx, rdy, rdzc, rdzf, rlog,
                           e_min, nu, e):
-    """nu = (C_s Delta)^2 |S| g + nu_mol and e = ((nu - nu_mol) / (C_K l))^2 in place, with g = 1
-    without grains and 1 / (sqrt(1 + rho^2) + rho) with the eq. A1 sink rate ``sink`` [s^-1]
-    (module doc); ckl = C_K l per level [m]. e is floored at e_min."""
+    """nu = (C_s Delta)^2 |S| g + nu_mol and the diagnosed e in place (module doc)."""
     nx, ny, nz = u.shape
     for ii in prange(nx):
         i = np.int64(ii)
@@ -331,13 +249,10 @@ def smagorinsky_viscosity(u, v, w, cs2d2, ckl, sink, with_sink, nu_mol, rdx, rdy
 
 
 class DynamicSmagorinsky:
-    """The closure's state: (C_s Delta)^2 per level, updated every ``interval`` steps, and the
-    per-level arrays that keep e, eps and T_L consistent with it (module doc). The arrays ``ceps_l``
-    (c_eps / l [m^-1]) and ``tlc`` (4 l / (3 C0 c_eps) [m s^-1]) are updated in place, so that the
-    stepper's diagnostics and the grain component read the current values through their references."""
+    """(C_s Delta)^2 per level, updated every ``interval`` steps, and ``ceps_l`` [m^-1], ``tlc``
+    [m s^-1] updated in place (the stepper and the grains hold references to them)."""
 
-    def __init__(self, grid, kappa: float, rlog: float, delta: str = "scotti", interval: int = 5,
-                 c0_lagrangian: float | None = None):
+    def __init__(self, grid, kappa: float, rlog: float, delta: str = "scotti", interval: int = 5):
         if interval < 1:
             raise ValueError(f"dynamic interval must be >= 1 step (got {interval})")
         if min(grid.nx, grid.ny) < 5:
@@ -357,9 +272,7 @@ class DynamicSmagorinsky:
         self.sums = np.zeros((nz, 4))
         self.ceps_l = np.zeros(nz)
         self.tlc = np.zeros(nz)
-        if c0_lagrangian is None:
-            from .sgs import C0_LAGRANGIAN as c0_lagrangian   # the grain sink's own C0
-        self.c0 = float(c0_lagrangian)
+        self.c0 = C0_LAGRANGIAN   # the grain sink's own C0
         self.ready = False
         self.n_updates = 0
 

@@ -1,8 +1,6 @@
-"""Per-step health checks: finiteness of u, v, w, e and the advective Courant number.
-
-The kernels use the package's fastmath flags, which keep NaN/Inf semantics (see _jit.py), so
-``math.isfinite`` really tests. A failure raises ``SolverBlowUp`` naming the step, the time, the field
-and the (i, j, k) index of the first offending value.
+"""Per-step health checks: finiteness of u, v, w, e and the advective Courant number. The kernels'
+fastmath flags keep NaN/Inf semantics (_jit.py), so ``math.isfinite`` really tests. A failure
+raises ``SolverBlowUp`` naming the step, the time, the field and the first offending (i, j, k).
 """
 from __future__ import annotations
 
@@ -13,9 +11,6 @@ from numba import prange
 
 from ..._jit import pjit
 from ..state import SolverBlowUp
-
-__all__ = ["first_nonfinite", "max_courant", "check_state", "check_courant", "health",
-           "locate_nonfinite", "CFL_RUNAWAY"]
 
 #: Courant number beyond which RK3 with centred advection is unstable (sqrt 3, Wicker &
 #: Skamarock 2002): the run is stopped before it fills with NaN.
@@ -46,29 +41,8 @@ def first_nonfinite(a: np.ndarray) -> tuple[int, ...] | None:
 
 
 @pjit
-def _courant(u, v, w, rdx, rdy, dzc):
-    """max over cells of (|u|/dx + |v|/dy + |w|/dz) (face values averaged to the centre) [s^-1]."""
-    nx, ny, nz = u.shape
-    part = np.zeros(nx)
-    for i in prange(nx):
-        ip = (i + 1) % nx
-        m = 0.0
-        for j in range(ny):
-            jp = (j + 1) % ny
-            for k in range(nz):
-                c = (0.5 * abs(u[i, j, k] + u[ip, j, k]) * rdx + 0.5 * abs(v[i, j, k] + v[i, jp, k]) * rdy
-                     + 0.5 * abs(w[i, j, k] + w[i, j, k + 1]) / dzc[k])
-                c = max(c, abs(u[i, j, k]) * rdx, abs(v[i, j, k]) * rdy, abs(w[i, j, k]) / dzc[k])
-                if c > m:
-                    m = c
-        part[i] = m
-    return part.max()
-
-
-@pjit
 def _health(u, v, w, e, rdx, rdy, dzc, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
-    """One pass: (max Courant rate [s^-1], max diffusion rate [s^-1], number of non-finite values
-    of u, v, w, e). A NaN never wins a '>' comparison, so it is counted separately."""
+    """(max Courant rate, max diffusion rate [s^-1], count of non-finite u, v, w, e)."""
     nx, ny, nz = u.shape
     part = np.zeros(nx)
     dpart = np.zeros(nx)
@@ -109,10 +83,7 @@ def _health(u, v, w, e, rdx, rdy, dzc, cml, cml_v, nu_mol, rdx2, rdy2, rdz2):
 
 
 def health(grid, state, cml, cml_v, nu_mol, vertical: bool = True) -> tuple[float, float, int]:
-    """(Courant rate, diffusion rate [s^-1], count of non-finite values) in one pass; cml, cml_v:
-    c_m times the horizontal and vertical viscosity lengths per level (sgs.viscosity_lengths).
-    ``vertical`` False: the diffusion rate of the horizontal directions only (the vertical
-    diffusion is implicit, vertical_diffusion.py)."""
+    """(Courant rate, diffusion rate [s^-1], non-finite count); ``vertical`` False: horizontal."""
     rdz2 = 1.0 / grid.dz_c**2 if vertical else np.zeros(grid.nz)
     c, d, n = _health(state.u, state.v, state.w, state.e, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c,
                       cml, cml_v, nu_mol, 1.0 / grid.dx**2, 1.0 / grid.dy**2, rdz2)
@@ -126,20 +97,6 @@ def locate_nonfinite(state) -> None:
         idx = first_nonfinite(a)
         if idx is not None:
             raise SolverBlowUp(state.step, state.t, name, idx, float(a[idx]))
-
-
-def max_courant(grid, u, v, w) -> float:
-    """The advective rate max(|u|/dx + |v|/dy + |w|/dz) [s^-1]; times dt gives the Courant number."""
-    return float(_courant(u, v, w, 1.0 / grid.dx, 1.0 / grid.dy, grid.dz_c))
-
-
-def check_state(state, courant_rate: float, dt: float) -> float:
-    """Raise SolverBlowUp on a non-finite u, v, w, e or a Courant number beyond CFL_RUNAWAY.
-
-    Returns the Courant number courant_rate dt.
-    """
-    locate_nonfinite(state)
-    return check_courant(state, courant_rate, dt)
 
 
 def check_courant(state, courant_rate: float, dt: float) -> float:

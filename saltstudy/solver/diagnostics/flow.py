@@ -14,22 +14,16 @@ from ..._jit import pjit
 from ...physics.laws import invert_log_law_shape, log_law_profile, log_law_shape, regress_log_law
 from ..closures.sgs import sgs_stress_uw_profile, strain_sq_at
 
+#: the physics' log laws are re-exported: the model and the probes read them here
 __all__ = ["flow_profiles", "flow_planes", "cell_centred_velocity", "u_star_at", "stress_profile",
            "resolved_tke_volume_mean", "log_law_shape", "log_law_profile", "fit_log_law"]
 
 
 def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None = None,
                 z_max: float | None = None, z_eval=()) -> dict:
-    """Least-squares fit of U = (u*_0/kappa) [F(z) - F(z0)] over z_min <= z <= z_max.
-
-    H = None: the plain log law (u* constant with height, u*_0 = u*). H = the domain height of a
-    pressure-gradient drive (free-slip lid): the local-equilibrium profile with
-    u*(z) = u*_0 sqrt(1 - z/H) (``log_law_shape``). The model is linear in (u*_0/kappa,
-    -u*_0/kappa F(z0)), so the fit is an ordinary linear regression on F(z).
-
-    Returns ``u_star0`` (surface friction velocity, m s^-1), ``z0`` [m], ``u_star_at`` (array: u* at
-    each of ``z_eval`` [m]), ``z_eval``, ``rms`` (residual, m s^-1) and ``n`` (points used).
-    """
+    """Least-squares fit of U = (u*_0/kappa) [F(z) - F(z0)] over z_min <= z <= z_max, F the plain
+    log law (H None) or, H the depth of a pressure-gradient drive, ``log_law_shape``. Returns
+    ``u_star0`` [m s^-1], ``z0`` [m], ``u_star_at`` (at ``z_eval`` [m]), ``rms`` [m s^-1], ``n``."""
     a, b, F, Us = regress_log_law(z, U, z_min, z_max, H)
     if Us.size < 2:
         raise ValueError(f"fit_log_law: fewer than 2 levels in [{z_min}, {z_max}] m")
@@ -43,8 +37,7 @@ def fit_log_law(z, U, kappa: float, H: float | None = None, z_min: float | None 
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
-    """A field in float64 (itself when it is: a single-precision flow's profiles and planes are
-    still computed, and summed, in double)."""
+    """A field in float64 (a single-precision flow's records are computed in double)."""
     return np.asarray(a, dtype=np.float64)
 
 
@@ -87,8 +80,7 @@ def stress_profile(model) -> tuple[np.ndarray, np.ndarray]:
 
 
 def u_star_at(model, z: float) -> float:
-    """sqrt|resolved + SGS u-w stress| at height z [m s^-1] (the air's: read above the saltation
-    layer, where the grains carry none)."""
+    """sqrt|resolved + SGS u-w stress| at height z [m s^-1] (the air's alone)."""
     res, sgs = stress_profile(model)
     tot = float(np.interp(z, model.state.grid.z_f, res + sgs))
     return math.sqrt(abs(tot))
@@ -116,8 +108,7 @@ def _sgs_profiles(e, u, v, w, nu, rv, rdx, rdy, rdzc, rdzf, rlog, ceps_l):
 
 
 def flow_profiles(model) -> dict:
-    """Horizontal-mean profiles: z, z_w, u, v (centres), uw_res, uw_sgs (faces), tke_res, e_sgs,
-    eps_sgs, sgs_transfer (centres). Units: m s^-1, m^2 s^-2, m^2 s^-3."""
+    """Horizontal-mean profiles of the flow and its SGS terms (docs/ARCHITECTURE.md) [SI]."""
     s, clo, g = model.state, model.stepper.closure, model.state.grid
     uc, vc, wc = cell_centred_velocity(model)
     um = uc.mean(axis=(0, 1))
@@ -136,8 +127,7 @@ def flow_profiles(model) -> dict:
 
 
 def flow_planes(model, heights) -> dict:
-    """u_plane (nx, ny, len(heights)) [m s^-1]: u at the cell centres interpolated linearly in z;
-    below the first level z_1 the local log law u(z) = u(z_1) ln(z/z0)/ln(z_1/z0)."""
+    """u_plane (nx, ny, len(heights)) [m s^-1], linear in z, the log law below z_c[0]."""
     s, g = model.state, model.state.grid
     heights = np.atleast_1d(np.asarray(heights, dtype=np.float64))
     u = _f64(s.u)

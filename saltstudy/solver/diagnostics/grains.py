@@ -1,8 +1,7 @@
 """Grain records for samples.nc (ARCHITECTURE.md): planes, layer profiles, size histograms, counters.
 
-Functions take a ``Model`` (anything with ``.state`` and ``.components``; the grain component is the
-one named "saltation") and return dicts of numpy arrays. Q-weighted, SI. Layers are the grid's
-cells in z (``grid.z_f``); a parcel belongs to the layer holding it.
+Functions take a ``Model`` and return dicts of numpy arrays, Q-weighted, SI. A parcel belongs to
+the grid cell (layer) holding it.
 """
 from __future__ import annotations
 
@@ -10,15 +9,9 @@ import numpy as np
 
 from ..grains.particles import Saltation
 
-__all__ = ["grain_component", "grain_planes", "grain_profiles", "grain_size_hist", "grain_counters",
-           "impact_record", "impact_bins"]
-
 
 def grain_component(model) -> Saltation | None:
-    for c in model.components:
-        if c.name == "saltation":
-            return c
-    return None
+    return next((c for c in model.components if c.name == "saltation"), None)
 
 
 def _layers(s: Saltation) -> np.ndarray:
@@ -27,9 +20,7 @@ def _layers(s: Saltation) -> np.ndarray:
 
 
 def grain_planes(model) -> dict:
-    """C_p (x, y) [grains m^-2] and G_col (x, y) [kg m^-1 s^-1]: column sums / (dx dy);
-    C_p_above (x, y): C_p of the grains above the first grid cell (z >= z_f[1]), without the slow
-    population of the first cell."""
+    """C_p [grains m^-2], C_p_above (z >= z_f[1]) and G_col [kg m^-1 s^-1] on (x, y)."""
     g = model.state.grid
     s = grain_component(model)
     cp = np.zeros((g.nx, g.ny))
@@ -92,9 +83,9 @@ def grain_counters(model) -> dict:
     g = model.state.grid
     s = grain_component(model)
     if s is None:
-        return {"n_parcels": 0, "n_impacts": 0, "n_rebounds": 0, "n_ejections": 0,
-                "n_depositions": 0, "G_tot": 0.0, "E_impact": 0.0, "E_splash": 0.0,
-                "bed_px": 0.0, "bed_pz": 0.0,
+        return {**dict.fromkeys(("n_parcels", "n_impacts", "n_rebounds", "n_ejections",
+                                 "n_depositions"), 0),
+                **dict.fromkeys(("G_tot", "E_impact", "E_splash", "bed_px", "bed_pz"), 0.0),
                 "momentum_to_air": np.zeros(3)}
     c = s.counters()
     c["G_tot"] = float(np.sum(s.Q * s.mass * s.u) / (g.Lx * g.Ly)) if s.n else 0.0
@@ -102,8 +93,7 @@ def grain_counters(model) -> dict:
 
 
 def impact_bins() -> dict:
-    """Bin edges of the impact record (splash_kernels): impact speed [m s^-1], impact angle to the
-    bed [deg], hop flight time [s], hop streamwise length [m]; each last bin open above."""
+    """Bin edges of the impact record: speed [m s^-1], angle [deg], hop time [s], length [m]."""
     from ..grains import splash_kernels as sk
     return {"v_imp_edges": np.arange(sk.N_SPEED_BINS + 1) * sk.IMPACT_SPEED_BIN,
             "angle_edges": np.arange(sk.N_ANGLE_BINS + 1) * sk.IMPACT_ANGLE_BIN,
@@ -112,14 +102,9 @@ def impact_bins() -> dict:
 
 
 def impact_record(model) -> dict:
-    """Cumulative impact counts since activation (Saltation.impact_record): ``impact_hist``
-    (speed bin, angle bin), ``impact_outcomes`` (speed bin, [impacts, rebounds, ejecta]),
-    ``hop_time_hist``, ``hop_length_hist``; zeros without grains. Parcel counts (not Q-weighted)."""
+    """Cumulative impact counts since activation (parcels); zeros without grains."""
     from ..grains import splash_kernels as sk
     s = grain_component(model)
     if s is None:
-        return {"impact_hist": np.zeros((sk.N_SPEED_BINS, sk.N_ANGLE_BINS), dtype=np.int64),
-                "impact_outcomes": np.zeros((sk.N_SPEED_BINS, 3), dtype=np.int64),
-                "hop_time_hist": np.zeros(sk.N_HOP_BINS, dtype=np.int64),
-                "hop_length_hist": np.zeros(sk.N_HOP_BINS, dtype=np.int64)}
+        return {k: a[0] for k, a in zip(sk.IMPACT_RECORD, sk.impact_log_arrays(1))}
     return s.impact_record()

@@ -1,23 +1,11 @@
-"""How close a run is to the edge, recorded with the series: what sets the step, how stiff the
-grain-air coupling is, whether the parcel bookkeeping closes.
+"""How close a run is to the edge, recorded with the series: what sets the step (each candidate of
+``Model.next_dt``), how stiff the grain-air coupling is, whether the parcel bookkeeping closes.
 
-The solver's step is ``min(cfl / Courant rate, diffusion_number / diffusion rate, dt_max, the grain
-component's limit)`` (``Model.next_dt``). A saltation run records each candidate with its series
-(``records.series``), so a report can name the constraint that limits the step instead of
-guessing it from the value (``analysis.series.limiting_step``).
-
-Coupling stiffness. A grain of drag rate ``k_p = f(Re_p) / T_p`` (paper eqs. 3-4) in a cell whose
-grain mass is ``phi`` times the air mass relaxes together with that air at the rate
-``k_p (1 + phi)`` (the two-body problem of one species). The fastest such rate in the domain is
-bounded above by ``k_max (1 + phi_max)``, the fastest grain with the largest loading, so
-``tau_c_min = 1 / (k_max (1 + phi_max))`` is a lower bound on the coupled relaxation time.
-An explicit exchange would need ``dt < ~tau_c_min``; the point-implicit one (solver/grains/coupling.py)
-is built to stay bounded beyond that, and ``dt / tau_c_min`` says how far a scene pushes it.
-``Re_p`` uses the resolved air velocity at the parcel (the SGS part is not in it).
-
-Parcel bookkeeping: parcels aloft = released + ejected - deposited, exactly (counts,
-not masses: an ejected parcel carries its own diameter). A non-zero residual means parcels were
-lost or created outside the splash and deposition events.
+A grain of drag rate k_p (eqs. 3-4) in a cell of grain-to-air mass ratio phi relaxes with that
+air at k_p (1 + phi), so ``tau_c_min = 1 / (k_max (1 + phi_max))`` bounds the coupled relaxation
+time from below: an explicit exchange would need dt < ~tau_c_min, the point-implicit one
+(grains/coupling.py) stays bounded beyond it. Re_p uses the resolved air at the parcel. Parcels
+aloft = released + ejected - deposited, exactly; a residual means parcels leaked.
 """
 from __future__ import annotations
 
@@ -26,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["step_limits", "coupling_stiffness", "parcel_balance", "HEALTH_SERIES"]
+from .grains import grain_component
 
 #: series the driver adds per record time: name -> (units, long_name)
 HEALTH_SERIES: dict[str, tuple[str, str]] = {
@@ -54,7 +42,7 @@ def step_limits(model) -> dict[str, float]:
 
 def coupling_stiffness(model) -> dict[str, float]:
     """``loading_max`` and ``tau_c_min`` (module docstring) of the current parcels; NaN if none."""
-    s = next((c for c in model.components if hasattr(c, "fluid_at_parcels")), None)
+    s = grain_component(model)
     if s is None or s.n == 0:
         return {"loading_max": math.nan, "tau_c_min": math.nan}
     g = model.state.grid

@@ -1,13 +1,7 @@
-"""What a saltation run records, by group: the values of one record time (no I/O; the workflow
-stacks them into samples.nc, docs/ARCHITECTURE.md "samples.nc").
-
-* ``series`` (every ``sampling.series_interval``): the grains' counters and G_tot, u* at the
-  reference height, the drive, the last step and its Courant number, the step's limits, the
-  coupling's stiffness and the parcel balance (``health``);
-* ``planes`` (every ``sampling.plane_interval`` in the window): C_p, C_p above the first cell,
-  G_col and u on the plane heights;
-* ``sample`` (the 3-D samples): cell-centred u, v, w and e (float32), C_p, the flow's and the
-  grains' mean profiles, the size histogram by layer and the impact record.
+"""What a saltation run records at one time, by group (no I/O; the workflow stacks them into
+samples.nc, docs/ARCHITECTURE.md): ``series`` (counters, u*, the drive, the step and its limits,
+``health``), ``planes`` (C_p, G_col, u on the plane heights) and ``sample`` (the 3-D fields in
+float32, the mean profiles, the size histogram, the impact record).
 """
 from __future__ import annotations
 
@@ -16,8 +10,6 @@ import numpy as np
 from . import flow as dflow
 from . import grains as dgrains
 from . import health
-
-__all__ = ["series", "planes", "sample"]
 
 
 def series(model, z_ref: float, n_released: int, last_dt: float, last_cfl: float) -> dict:
@@ -43,8 +35,7 @@ def planes(model, z_plane: np.ndarray) -> dict:
 
 
 def sample(model, d_edges: np.ndarray, full: bool = False) -> dict:
-    """One 3-D sample; ``d_edges``: the size histogram's diameter edges [m]; ``full``: the
-    pressure too."""
+    """One 3-D sample; ``d_edges``: the size histogram's edges [m]; ``full``: with p."""
     uc, vc, wc = dflow.cell_centred_velocity(model)
     fp = dflow.flow_profiles(model)
     rec = {"u": uc.astype(np.float32), "v": vc.astype(np.float32), "w": wc.astype(np.float32),

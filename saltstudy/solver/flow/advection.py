@@ -1,60 +1,28 @@
 """Energy-conserving centred advection on the staggered grid stretched in z: second order, or
 fourth order in x and y.
 
-Flux form on each staggered control volume (Harlow & Welch 1965; Morinishi et al. 1998, J. Comput.
-Phys. 143, 90, for the energy argument; Verstappen & Veldman 2003 for non-uniform grids): the
-advecting *volume flux* through a face of the control volume is the average of the two neighbouring
-mass-conserving fluxes, and the advected quantity on that face is the *arithmetic* mean of the two
-neighbours (not the distance-weighted one, even on the stretched z grid). Then the discrete operator
-is skew-symmetric with respect to the control volumes,
+Flux form on each control volume (Harlow & Welch 1965; Morinishi et al. 1998, J. Comput. Phys.
+143, 90; Verstappen & Veldman 2003 for non-uniform grids): the advecting volume flux through a
+face is the mean of the two neighbouring mass-conserving fluxes, the advected quantity the
+arithmetic mean of its two neighbours (even in z). The operator is then skew-symmetric, so with
+a zero discrete divergence advection conserves the kinetic energy to round-off and adds no
+numerical dissipation. A w volume (interior face k, dx dy dz_f[k]) takes the thickness-weighted
+sums of the two u (v) half faces as its side fluxes.
 
-    sum_cv V_cv phi_cv A(phi)_cv = 0   whenever the discrete divergence (pressure.divergence) is 0,
+Fourth order in x and y (``*4_at``): Morinishi et al.'s fully conservative scheme (the paper's
+ARPS advects momentum at fourth order in the horizontal). In x_j = x or y, delta_n the difference
+over n h, f^{n x_j} the two-point mean at +-n h/2:
 
-so the discrete kinetic energy sum(V_u u^2 + V_v v^2 + V_w w^2)/2 is conserved by advection exactly
-(to round-off), and the scheme adds no numerical dissipation: all dissipation comes from the SGS model.
+    -A_i = 9/8 delta_1(F_j u_i^{1 x_j}) - 1/8 delta_3(F_j u_i^{3 x_j}) + delta_z(F_z u_i^z) / dz,
+    F_j = 9/8 u_j^{1 x_i} - 1/8 u_j^{3 x_i}   (x_i horizontal; for w the z mean of second order).
 
-Control volumes: u at (x_f[i], y_c[j], z_c[k]) has volume dx dy dz_c[k]; v likewise; w at the interior
-face k (1..nz-1) has volume dx dy dz_f[k] with dz_f[k] = (dz_c[k-1] + dz_c[k]) / 2. The horizontal
-volume flux through the side of a w volume is the thickness-weighted sum of the two u (v) half faces,
-which is what makes the w-volume continuity the mean of the two cell divergences.
+It conserves kinetic energy when the fourth-order divergence vanishes, as the fourth-order
+projection makes it (pressure.py); with the second-order one the energy rate is 2.5e-4 of
+sum|V u_i A_i| in a random solenoidal field (tests/test_solver_advection4.py). Its scalar form
+(the SGS TKE) then conserves sum(V e^2) and keeps a uniform e uniform.
 
-Fourth order in x and y (``*4_at``; ``FlowNumerics.advection_order`` = 4): the fully conservative
-staggered scheme of Morinishi et al. (1998; their fourth-order divergence form), the paper's model
-(ARPS, Xue et al. 2000) advecting momentum at fourth order in the horizontal. In x_j = x or y, with
-delta_n f / delta_n x_j = (f(x_j + n h/2) - f(x_j - n h/2)) / (n h) and the interpolation
-f^{n x_j} = (f(x_j + n h/2) + f(x_j - n h/2)) / 2,
-
-    -A_i = 9/8 delta_1(F_j u_i^{1 x_j}) / delta_1 x_j - 1/8 delta_3(F_j u_i^{3 x_j}) / delta_3 x_j
-           + delta_z(F_z u_i^{z}) / dz                 (second order in z, as above),
-    F_j = 9/8 u_j^{1 x_i} - 1/8 u_j^{3 x_i}            (the advecting velocity, fourth-order
-                                                         interpolated in the advected component's
-                                                         direction x_i when x_i is horizontal),
-
-and for w (x_i = z) F_j is the thickness-weighted z mean of u_j of the second-order scheme. The wide
-differences reach three points either side (u[i-3] ... u[i+3]). The leading errors of the two
-products (h^2/8 and 9 h^2/8 times (F u_i'')') cancel between the 9/8 and 1/8 terms, so the x and y
-parts are fourth order; the z part stays second order on the stretched grid. The same summation by
-parts gives
-
-    sum_cv V u_i A_i = -sum_cv V (u_i^2 / 2) I_i(D4)   with D4 = 9/8 delta_1 u/delta_1 x
-                       - 1/8 delta_3 u/delta_3 x + (the same in y) + delta_z w / dz_c
-
-(I_i: the fourth-order interpolation in x or y for u, v; the thickness-weighted z mean for w), so
-the advection conserves kinetic energy to round-off when D4 = 0 at every cell centre, the
-divergence the fourth-order projection enforces (pressure.PressureSolver with ``order=4``), and
-momentum (the flux form) always. With the second-order projection (D2 = 0, D4 != 0) it does not:
-the energy rate is 2.5e-4 of sum|V u_i A_i| in a random solenoidal field, 7e-6 in the smoke flow
-after 40 steps (tests/test_solver_advection4.py). Not exact: the time scheme (RK3 with a
-projection per stage; in the inviscid test the loss over a fixed time falls 4.7-5.2x per halving
-of dt, at either order), and the second-order divergence D2, O(dx^2) but not zero after the
-fourth-order projection. The SGS TKE follows (``adv_scalar4_at``): u, v on the faces need no
-interpolation, the flux form conserves e, and with D4 = 0 it conserves sum(V e^2) and leaves a
-uniform e uniform (the second-order scalar flux of a D4-free flow would not: its tendency of a
-uniform e is -e D2 u, measured 0.18 |u|max/dx in a random solenoidal field).
-
-The ``*_at`` functions are per-point kernels (inlined into the fused stage kernel of stepper.py);
-``advection_tendencies`` evaluates them over the whole grid (tests, diagnostics). Units: m s^-2
-(momentum), m^2 s^-3 (SGS TKE e).
+The ``*_at`` functions are per-point kernels inlined into the stage kernels (stepper.py); units
+m s^-2 (momentum), m^2 s^-3 (SGS TKE).
 """
 from __future__ import annotations
 
@@ -63,12 +31,6 @@ from numba import prange
 
 from ..._jit import device, like, pjit
 
-#: per-point kernels (``device``): inlined by LLVM into the fused stage kernels (an out-of-line call
-#: with a dozen array arguments per grid point costs more than the stencil itself)
-
-__all__ = ["adv_u_at", "adv_v_at", "adv_w_at", "adv_scalar_at", "adv_u4_at", "adv_v4_at",
-           "adv_w4_at", "adv_scalar4_at", "wrap_down", "wrap_up", "ADVECTION_ORDERS",
-           "advection_tendencies", "scalar_advection"]
 
 #: the horizontal orders of the advection (config.TimeStepping.advection_order)
 ADVECTION_ORDERS = (2, 4)
@@ -81,12 +43,8 @@ C3 = 1.0 / 24.0
 
 @device
 def adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
-    """-div(u u) at the u point (i, j, k) [m s^-2].
-
-    top/bot: whether the cell has an interior face above/below (False at the lid/bed, where w = 0).
-    Callers pass literal flags for the peeled first and last levels so that the branches vanish
-    from the vectorised interior loop.
-    """
+    """-div(u u) at the u point (i, j, k) [m s^-2]. top/bot: whether the cell has an interior face
+    above/below (False at the lid/bed, where w = 0); literal in the peeled levels of the callers."""
     half = like(u, 0.5)
     zero = like(u, 0.0)
     uc = u[i, j, k]
@@ -128,10 +86,7 @@ def adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
 
 @device
 def adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
-    """-div(u w) at the interior w point (i, j, k), 1 <= k <= nz-1 [m s^-2].
-
-    hzm = dz_c[k-1] / (2 dz_f[k]), hzp = dz_c[k] / (2 dz_f[k]): weights of the two half faces.
-    """
+    """-div(u w) at the interior w point [m s^-2]; hzm, hzp = dz_c[k-1], dz_c[k] over 2 dz_f[k]."""
     half = like(w, 0.5)
     wc = w[i, j, k]
     ue = hzm * u[ip, j, k - 1] + hzp * u[ip, j, k]
@@ -149,11 +104,7 @@ def adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
 
 @device
 def adv_scalar_at(s, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
-    """-div(u s) for a cell-centred scalar (the SGS TKE e) [units of s per s].
-
-    Same arithmetic-mean face values: conservative, and the quadratic sum(V s^2) is conserved when
-    the flow is divergence-free.
-    """
+    """-div(u s) for a cell-centred scalar (the SGS TKE e) [units of s per s]."""
     half = like(s, 0.5)
     zero = like(s, 0.0)
     sc = s[i, j, k]
@@ -183,9 +134,16 @@ def wrap_up(ip, n):
 
 
 @device
+def _outer(im, ip, n):
+    """(im2, im3, ip2, ip3): the second and third neighbours of a point whose first are im, ip."""
+    im2 = wrap_down(im, n)
+    ip2 = wrap_up(ip, n)
+    return im2, wrap_down(im2, n), ip2, wrap_up(ip2, n)
+
+
+@device
 def _mid4(a, b, c, d):
-    """Fourth-order interpolation to the midpoint of b and c (a, d: the outer neighbours):
-    9/8 (b + c)/2 - 1/8 (a + d)/2."""
+    """Fourth-order midpoint of b and c: 9/8 (b + c)/2 - 1/8 (a + d)/2."""
     half = like(a, 0.5)
     eighth = like(a, 0.125)
     c1 = like(a, C1)
@@ -194,8 +152,7 @@ def _mid4(a, b, c, d):
 
 @device
 def _div4(fm3, fm1, fp1, fp3, qm3, qm1, qc, qp1, qp3):
-    """9/8 delta_1(F q^1) - 1/8 delta_3(F q^3) times h (divide by h): F the advecting velocity at
-    -3h/2, -h/2, +h/2, +3h/2 from the point, q the advected quantity at -3h, -h, 0, +h, +3h."""
+    """(9/8 delta_1(F q^1) - 1/8 delta_3(F q^3)) h: F at +-h/2, +-3h/2, q at 0, +-h, +-3h."""
     half = like(fm3, 0.5)
     c1 = like(fm3, C1)
     c3 = like(fm3, C3)
@@ -205,21 +162,12 @@ def _div4(fm3, fm1, fp1, fp3, qm3, qm1, qc, qp1, qp3):
 
 @device
 def adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
-    """-div(u u) at the u point (i, j, k) [m s^-2], fourth order in x and y (module doc): the
-    advecting u at the cell centres i-2 ... i+1 and v, w at x_f[i], fourth-order interpolated in x.
-    Arguments as adv_u_at; the second and third neighbours are found here (the stage kernels'
-    per-point calls are at numba's 30-argument limit for inlining)."""
+    """-div(u u) at the u point [m s^-2], fourth order in x and y; finds the further neighbours
+    itself (the stage kernels' calls are at numba's 30-argument limit for inlining)."""
     half = like(u, 0.5)
     zero = like(u, 0.0)
-    nx, ny = u.shape[0], u.shape[1]
-    im2 = wrap_down(im, nx)
-    im3 = wrap_down(im2, nx)
-    ip2 = wrap_up(ip, nx)
-    ip3 = wrap_up(ip2, nx)
-    jm2 = wrap_down(jm, ny)
-    jm3 = wrap_down(jm2, ny)
-    jp2 = wrap_up(jp, ny)
-    jp3 = wrap_up(jp2, ny)
+    im2, im3, ip2, ip3 = _outer(im, ip, u.shape[0])
+    jm2, jm3, jp2, jp3 = _outer(jm, jp, u.shape[1])
     uc = u[i, j, k]
     # x: u advects u; centres i-2, i-1, i, i+1 lie at -3/2, -1/2, +1/2, +3/2 dx
     um3 = u[im3, j, k]
@@ -248,19 +196,11 @@ def adv_u4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
 
 @device
 def adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
-    """-div(u v) at the v point (i, j, k) [m s^-2], fourth order in x and y (adv_u4_at with x and
-    y exchanged)."""
+    """-div(u v) at the v point [m s^-2], fourth order in x and y (as adv_u4_at)."""
     half = like(v, 0.5)
     zero = like(v, 0.0)
-    nx, ny = v.shape[0], v.shape[1]
-    im2 = wrap_down(im, nx)
-    im3 = wrap_down(im2, nx)
-    ip2 = wrap_up(ip, nx)
-    ip3 = wrap_up(ip2, nx)
-    jm2 = wrap_down(jm, ny)
-    jm3 = wrap_down(jm2, ny)
-    jp2 = wrap_up(jp, ny)
-    jp3 = wrap_up(jp2, ny)
+    im2, im3, ip2, ip3 = _outer(im, ip, v.shape[0])
+    jm2, jm3, jp2, jp3 = _outer(jm, jp, v.shape[1])
     vc = v[i, j, k]
     # x: u at the faces x_f[i-1], x_f[i], x_f[i+1], x_f[i+2] interpolated to y_f[j]
     ax = _div4(_mid4(u[im, jm2, k], u[im, jm, k], u[im, j, k], u[im, jp, k]),
@@ -289,19 +229,10 @@ def adv_v4_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
 
 @device
 def adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
-    """-div(u w) at the interior w point (i, j, k), 1 <= k <= nz-1 [m s^-2], fourth order in x and
-    y: the advecting u (v) on the faces x_f[i-1] ... x_f[i+2] (y_f[j-1] ... y_f[j+2]) as the
-    thickness-weighted z mean of adv_w_at (hzm, hzp as there), the z part as adv_w_at."""
+    """-div(u w) at the interior w point [m s^-2], fourth order in x and y."""
     half = like(w, 0.5)
-    nx, ny = w.shape[0], w.shape[1]
-    im2 = wrap_down(im, nx)
-    im3 = wrap_down(im2, nx)
-    ip2 = wrap_up(ip, nx)
-    ip3 = wrap_up(ip2, nx)
-    jm2 = wrap_down(jm, ny)
-    jm3 = wrap_down(jm2, ny)
-    jp2 = wrap_up(jp, ny)
-    jp3 = wrap_up(jp2, ny)
+    im2, im3, ip2, ip3 = _outer(im, ip, w.shape[0])
+    jm2, jm3, jp2, jp3 = _outer(jm, jp, w.shape[1])
     wc = w[i, j, k]
     ax = _div4(hzm * u[im, j, k - 1] + hzp * u[im, j, k],
                hzm * u[i, j, k - 1] + hzp * u[i, j, k],
@@ -320,17 +251,11 @@ def adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, rdzf_k):
 
 @device
 def adv_scalar4_at(s, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc_k):
-    """-div(u s) for a cell-centred scalar, fourth order in x and y: u on the faces x_f[i-1] ...
-    x_f[i+2] carries s^{1x} and s^{3x} (module doc); z as adv_scalar_at."""
+    """-div(u s) for a cell-centred scalar, fourth order in x and y; z as adv_scalar_at."""
     half = like(s, 0.5)
     zero = like(s, 0.0)
-    nx, ny = s.shape[0], s.shape[1]
-    im3 = wrap_down(wrap_down(im, nx), nx)
-    ip2 = wrap_up(ip, nx)
-    ip3 = wrap_up(ip2, nx)
-    jm3 = wrap_down(wrap_down(jm, ny), ny)
-    jp2 = wrap_up(jp, ny)
-    jp3 = wrap_up(jp2, ny)
+    _, im3, ip2, ip3 = _outer(im, ip, s.shape[0])
+    _, jm3, jp2, jp3 = _outer(jm, jp, s.shape[1])
     sc = s[i, j, k]
     ax = _div4(u[im, j, k], u[i, j, k], u[ip, j, k], u[ip2, j, k],
                s[im3, j, k], s[im, j, k], sc, s[ip, j, k], s[ip3, j, k])
@@ -406,8 +331,7 @@ def _check_order(order: int) -> int:
 
 
 def advection_tendencies(grid, u, v, w, order: int = 2):
-    """(A_u, A_v, A_w) = -div(u u_i) on the u, v, w points [m s^-2] (A_w zero at the end faces);
-    ``order``: 2, or 4 in x and y (module doc)."""
+    """(A_u, A_v, A_w) = -div(u u_i) on the u, v, w points [m s^-2] (tests)."""
     au = np.empty_like(u)
     av = np.empty_like(v)
     aw = np.empty_like(w)

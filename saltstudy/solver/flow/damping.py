@@ -1,24 +1,17 @@
 """Rayleigh damping layer below the free-slip lid (Klemp & Lilly 1978, J. Atmos. Sci. 35, 78).
 
-In the top ``damping_depth`` D of the domain, du_i/dt += -f(z) (u_i - u_i,ref) with
+In the top ``damping_depth`` D, du_i/dt += -f(z) (u_i - u_i,ref) with
 
     f(z) = (1/T) sin^2( (pi/2) (z - z_d) / D ),  z_d = Lz - D,  f = 0 below z_d,
 
-T = ``damping_timescale`` [s] the relaxation time at the lid. References: u -> state.u_drive (the
-base-state wind that drives the flow, set by forcing.py), v, w -> 0. The sin^2 ramp starts with zero
-slope so that the layer reflects little of the upward-travelling disturbances.
-
-Only the top drive (``forcing.drive = "top"``) uses the layer. With the pressure-gradient drive the
-model builds no damping layer at all (the fidelity's ``damping_depth`` is ignored): the flow is
-neutral, so there are no gravity waves to absorb, and the free-slip lid (w = 0, no stress) is the
-standard open-channel top; relaxing u there would add a drag that breaks tau = G (H - z), and
-damping v, w would suppress the resolved stress under the lid.
+T = ``damping_timescale`` [s]; u relaxes to state.u_drive (the top drive, forcing.py), v, w to
+0. The ramp starts with zero slope, so the layer reflects little. The pressure-gradient drive
+builds no layer: a neutral flow has no gravity waves to absorb, relaxing u would break
+tau = G (H - z), and damping v, w would suppress the resolved stress under the lid.
 """
 from __future__ import annotations
 
 import numpy as np
-
-__all__ = ["rayleigh_profile", "damping_profiles"]
 
 
 def rayleigh_profile(z: np.ndarray, Lz: float, depth: float, timescale: float) -> np.ndarray:

@@ -3,23 +3,11 @@ stage.
 
     phi(1) = phi(n) + dt/3 F(phi(n)),  phi(2) = phi(n) + dt/2 F(phi(1)),  phi(n+1) = phi(n) + dt F(phi(2))
 
-for phi = (u, v, w, e), each stage followed by the pressure projection of (u, v, w) (pressure.py).
-Per stage: boundary (bed stress, eddy viscosity of the stage input from the closure) -> one fused
-kernel for advection + SGS diffusion + Rayleigh damping + drive (u_drive through the damping layer,
-or a uniform body force G) of u, v, w -> one fused kernel for the SGS TKE equation (advection,
-production, transport, dissipation) when the closure carries e -> projection. The closure's
-``end_step`` then applies the particle sink of e (paper eq. A1, rates in ``state.tke_sink``
-[s^-1]) implicitly, e <- e / (1 + rate dt), unconditionally stable for any rate, or diagnoses e
-(dynamic closure, closure.py).
-
-The vertical SGS diffusion is explicit or implicit (``FlowNumerics.vertical_diffusion``, from the
-fidelity's ``time`` section): implicit, each stage solves one tridiagonal system per column for
-u, v, w and e (vertical_diffusion.py), and the vertical diffusion of the thin first levels sets
-no limit on the step (Model.next_dt).
-
-Memory: the base fields phi(n) stay in the state arrays (stage 3 writes them point by point after
-reading them, or column by column after solving), so two extra sets of (u, v, w, e) suffice; no
-field-sized array is allocated inside a step.
+for phi = (u, v, w, e). Per stage: the bed stress and the closure's viscosity of the stage
+input, one fused kernel for advection, SGS diffusion, damping and drive of u, v, w, one for the
+SGS TKE, the projection (pressure.py); then the closure's ``end_step`` (the grain sink of e, or
+the diagnosed e). The vertical diffusion is explicit or implicit (vertical_diffusion.py). The
+base fields stay in the state (stage 3 writes them after reading them): two extra sets suffice.
 """
 from __future__ import annotations
 
@@ -31,14 +19,13 @@ from numba import prange
 from ..._jit import device, jit, like, pjit
 from .advection import (ADVECTION_ORDERS, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_at,
                         adv_v4_at, adv_v_at, adv_w4_at, adv_w_at)
-from ..closures.closure import CLOSURES, NoClosure
+from ..closures.closure import NoClosure
 from .damping import damping_profiles
 from .pressure import PressureSolver
-from ..closures.sgs import E_MIN, diff_u_at, diff_v_at, diff_w_at, tke_tendency_at
+from ..closures.sgs import (E_MIN, diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at,
+                            vertical_coupling)
 from .vertical_diffusion import VERTICAL_DIFFUSION, momentum_stage_implicit, tke_stage_implicit
 from .wall import drag_coefficient, surface_stress_into
-
-__all__ = ["Stepper", "FlowNumerics", "Boundaries", "RK3_COEFFS", "CLOSURES", "PRECISIONS"]
 
 RK3_COEFFS = (1.0 / 3.0, 0.5, 1.0)
 
@@ -48,17 +35,9 @@ PRECISIONS = {"double": np.float64, "single": np.float32}
 
 @dataclass(frozen=True)
 class FlowNumerics:
-    """How the flow is integrated (cost and accuracy, not physics): the fidelity's choice.
-
-    ``vertical_diffusion``: "explicit" or "implicit" (vertical_diffusion.py); ``implicit_weight``
-    theta in [1/2, 1] of the implicit scheme (1/2: Crank-Nicolson in each stage, second order; 1:
-    backward Euler in each stage); ``advection``: off only in tests of the other terms;
-    ``advection_order``: 2, or 4 in x and y (Morinishi et al. 1998, advection.py) with the
-    projection's divergence and gradient of the same order in x and y (pressure.py), under which
-    the advection of momentum and of the SGS TKE conserves their quadratic invariants exactly;
-    ``precision``: "double", or "single" for the prognostic fields (u, v, w, e, p), the closure's
-    viscosity and the stencils' arithmetic in float32 (``PRECISIONS``; the pressure solve and the
-    grains' exchange stay float64, docs/BENCHMARKS.md says why)."""
+    """How the flow is integrated (the fidelity's ``time``): the vertical diffusion and its theta
+    (1/2 Crank-Nicolson, 1 backward Euler); the advection (off in tests) and its order, 2 or 4
+    (the projection's too); "single" precision: u, v, w, e, p, nu and the stencils in float32."""
     vertical_diffusion: str = "implicit"
     implicit_weight: float = 0.5
     advection: bool = True
@@ -91,11 +70,8 @@ class FlowNumerics:
 
 @dataclass(frozen=True)
 class Boundaries:
-    """The bed, the lid and the drive: log-law bed stress with roughness z0 [m] (``wall`` False:
-    a free-slip bed), a Rayleigh layer of ``damping_depth`` [m] with time scale
-    ``damping_timescale`` [s] at the lid acting on u too (``damp_u``, the top drive) or on v and w
-    only, and a uniform streamwise body force ``body_force`` G [m s^-2] (the pressure-gradient
-    drive, forcing.py)."""
+    """The bed (log-law, roughness z0 [m]; ``wall`` False: free slip), the Rayleigh layer (on u
+    too with ``damp_u``, the top drive) and the body force G [m s^-2] (forcing.py)."""
     z0: float = 1.0e-5
     kappa: float = 0.4
     wall: bool = True
@@ -108,8 +84,7 @@ class Boundaries:
 @device
 def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, jp, top, bot, cdt,
               rdx, rdy, dzc, dzf, fck, fcuk, srck, adv, with_diff):
-    # srck = gx + fcuk u_drive (drive and damping target folded into one argument); adv: the
-    # horizontal order of the advection, 2 or 4, 0 for none (one argument for both switches)
+    # srck = gx + fcuk u_drive; adv: the advection's horizontal order, 2 or 4, 0 for none
     one = like(u, 1.0)
     r = one / dzc[k]
     tu = srck - fcuk * u[i, j, k]
@@ -120,9 +95,13 @@ def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, 
     elif adv == 2:
         tu += adv_u_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
         tv += adv_v_at(u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, r)
-    if with_diff:
-        tu += diff_u_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
-        tv += diff_v_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, dzc, dzf)
+    if with_diff:  # the split diffusion of sgs.py, all explicit
+        x, a, c = diff_u_split_at(u, v, w, nu, rv, taux, i, j, k, im, ip, jm, jp, top, bot, rdx,
+                                  rdy, dzc, dzf)
+        tu += x + vertical_coupling(u, i, j, k, a, c, top, bot)
+        x, a, c = diff_v_split_at(u, v, w, nu, rv, tauy, i, j, k, im, ip, jm, jp, top, bot, rdx,
+                                  rdy, dzc, dzf)
+        tv += x + vertical_coupling(v, i, j, k, a, c, top, bot)
     uo[i, j, k] = ub[i, j, k] + cdt * tu
     vo[i, j, k] = vb[i, j, k] + cdt * tv
 
@@ -130,10 +109,9 @@ def _uv_point(u, v, w, nu, rv, taux, tauy, ub, vb, uo, vo, i, j, k, im, ip, jm, 
 @device
 def _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt, rdx, rdy, dzc,
                 dzf, fc, fcu, ff, u_drive, gx, adv, with_diff):
-    # one column of _momentum_stage; the kernel calls it with a literal adv = 4, so that each
-    # inner k loop is compiled for one order: with the order tested inside the k loops the
-    # second-order step cost 150 against 116 ns per cell-step (reduced grid, one thread,
-    # `saltstudy bench flow --no-big`), most of it in _tke_stage (6.3 -> 15.5 ns per cell and stage)
+    # one column of _momentum_stage, called with a literal adv = 4 so that each k loop is
+    # compiled for one order: tested inside the loops, the step cost 150 against 116 ns per
+    # cell-step (reduced grid, one thread, `saltstudy bench flow --no-big`)
     half = like(w, 0.5)
     one = like(w, 1.0)
     ny, nz = u.shape[1], u.shape[2]
@@ -152,31 +130,23 @@ def _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, i
     wo[i, j, nz] = 0.0
     for k in range(1, nz):
         tw = -ff[k] * w[i, j, k]
+        hzm = half * dzc[k - 1] / dzf[k]
+        hzp = half * dzc[k] / dzf[k]
         if adv == 4:
-            hzm = half * dzc[k - 1] / dzf[k]
-            hzp = half * dzc[k] / dzf[k]
             tw += adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         elif adv == 2:
-            hzm = half * dzc[k - 1] / dzf[k]
-            hzp = half * dzc[k] / dzf[k]
             tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         if with_diff:
-            tw += diff_w_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
+            x, a, c = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc, dzf)
+            tw += x + vertical_coupling(w, i, j, k, a, c, True, True)
         wo[i, j, k] = wb[i, j, k] + cdt * tw
 
 
 @pjit
 def _momentum_stage(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rdx, rdy, dzc, dzf,
                     fc, fcu, ff, u_drive, gx, with_adv, with_diff, order):
-    """uo = ub + cdt (advection + SGS diffusion + damping + drive)(u) for u, v, w (interior w only).
-
-    Damping rates: fcu for u (towards u_drive), fc for v (towards 0) at the centres, ff for w at the
-    faces; gx [m s^-2] a uniform streamwise body force (mean pressure gradient, -1/rho dP/dx);
-    order: the horizontal order of the advection, 2 or 4 (advection.py).
-
-    The first and last levels are peeled off with literal top/bot flags, so that the interior
-    k loop is branch-free.
-    """
+    """uo = ub + cdt (advection + SGS diffusion + damping + drive) for u, v, w (interior w), the
+    first and last levels peeled (literal top/bot: a branch-free interior loop)."""
     nx = u.shape[0]
     adv = order if with_adv else 0
     for i in prange(nx):
@@ -187,8 +157,8 @@ def _momentum_stage(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, cdt, rd
 @jit
 def _uvw_slab(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, im, ip, cdt, rdx, rdy, dzc,
               dzf, fc, fcu, ff, u_drive, gx, adv, with_diff):
-    # one x-slab, a serial function: the parallel region's body stays one call, which numba's
-    # parfor passes analyse quickly, and LLVM inlines the columns here with their literal order
+    # one x-slab, serial: the parallel region's body stays one call (quick for numba's parfor
+    # passes), and LLVM inlines the columns here with their literal order
     for j in range(u.shape[1]):
         if adv == 4:
             _uvw_column(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, j, im, ip, cdt,
@@ -201,12 +171,15 @@ def _uvw_slab(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, i, im, ip, cd
 @device
 def _e_point(e, u, v, w, nu, rv, eb, eo, i, j, k, im, ip, jm, jp, top, bot, cdt, rdx, rdy, rdzc,
              rdzf, rlog, ceps_lk, e_min, order):
+    zero = like(e, 0.0)
     if order == 4:
         te = adv_scalar4_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
     else:
         te = adv_scalar_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
-    te += tke_tendency_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc, rdzf,
-                          rlog, ceps_lk)
+    x, a, c, r = tke_split_at(e, u, v, w, nu, rv, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc,
+                              rdzf, rlog, ceps_lk)
+    ec = e[i, j, k]
+    te += x + vertical_coupling(e, i, j, k, a, c, top, bot) - r * (ec if ec > zero else zero)
     val = eb[i, j, k] + cdt * te
     eo[i, j, k] = val if val > e_min else e_min
 
@@ -227,8 +200,7 @@ def _e_column(e, u, v, w, nu, rv, eb, eo, i, j, im, ip, jm, jp, cdt, rdx, rdy, r
 
 @pjit
 def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps_l, e_min, order):
-    """eo = max(eb + cdt (advection + P + transport - eps), e_min) (levels peeled as above);
-    rdzc, rdzf: 1/dz_c, 1/dz_f; order: the horizontal order of the advection, 2 or 4."""
+    """eo = max(eb + cdt (advection + P + transport - eps), e_min), levels peeled as above."""
     nx, ny, nz = e.shape
     for ii in prange(nx):
         i = np.int64(ii)  # signed: strain_sq_at indexes with i directly
@@ -246,10 +218,7 @@ def _tke_stage(e, u, v, w, nu, rv, eb, eo, cdt, rdx, rdy, rdzc, rdzf, rlog, ceps
 
 
 class Stepper:
-    """RK3 flow stepper for one grid: ``Stepper(grid, closure, boundaries, numerics)``.
-
-    ``closure``: the SGS closure object (closure.make_closure); ``boundaries``: bed, lid and drive
-    (``Boundaries``); ``numerics``: ``FlowNumerics``. Work arrays are preallocated."""
+    """RK3 flow stepper: ``Stepper(grid, closure, boundaries, numerics)``."""
 
     def __init__(self, grid, closure=None, boundaries: Boundaries = Boundaries(),
                  numerics: FlowNumerics = FlowNumerics(), workers: int | None = None):
@@ -279,8 +248,7 @@ class Stepper:
         self.nu = np.zeros(shp, dt_)
         self.taux = np.zeros((nx, ny), dt_)
         self.tauy = np.zeros((nx, ny), dt_)
-        # the per-level arrays and constants the stage kernels read, in the fields' type (the
-        # same arrays when that is float64)
+        # the per-level arrays the stage kernels read, in the fields' type
         clo = self.closure
         self._k = {name: np.asarray(a, dt_) for name, a in (
             ("dz_c", grid.dz_c), ("dz_f", grid.dz_f), ("rdz_c", grid.rdz_c), ("rdz_f", grid.rdz_f),
@@ -288,10 +256,8 @@ class Stepper:
             ("ceps_l", clo.ceps_l))}
         self._f = dt_.type
 
-    # ---- pieces ----------------------------------------------------------------------------
     def bed_stress_into(self, u, v, taux, tauy) -> None:
-        """taux, tauy (nx, ny): the bulk drag law's kinematic bed stress [m^2 s^-2] from the first
-        level's wind; zero for a free-slip bed."""
+        """taux, tauy (nx, ny): the kinematic bed stress [m^2 s^-2] (wall.py); 0 if free slip."""
         if self.wall:
             surface_stress_into(u, v, self.cd, taux, tauy)
         else:
@@ -304,12 +270,8 @@ class Stepper:
         self.closure.viscosity(u, v, w, e, self.nu)
 
     def stage(self, inp, base, out, cdt: float, u_drive: float, p, store_p: bool = False) -> None:
-        """out = base + cdt F(inp), then projected (inp/base/out: objects or dicts with u, v, w, e).
-
-        ``p`` [m^2 s^-2]: the pressure of the last step. The implicit stages carry its gradient
-        (an incremental projection: the vertical diffusion then acts on a nearly solenoidal
-        tendency, and the splitting of projection and implicit diffusion stays second order;
-        vertical_diffusion.py); with ``store_p`` the stage's pressure is written into p."""
+        """out = base + cdt F(inp), projected; ``p`` [m^2 s^-2] the last step's pressure, whose
+        gradient the implicit stages carry; ``store_p``: the stage's pressure written into it."""
         g, clo, K, f = self.grid, self.closure, self._k, self._f
         gu, gv, gw, ge = (_get(inp, n) for n in "uvwe")
         bu, bv, bw, be = (_get(base, n) for n in "uvwe")
@@ -339,8 +301,7 @@ class Stepper:
         self.pressure.project(ou, ov, ow, p if store_p else None, cdt, increment=self.implicit)
 
     def step(self, state, dt: float) -> None:
-        """Advance (u, v, w, e) of ``state`` by dt in place (clock untouched); state.p becomes
-        the step's pressure."""
+        """Advance (u, v, w, e) by dt in place (clock untouched); p becomes the step's."""
         a, b = self.buf
         c1, c2, c3 = RK3_COEFFS
         self.closure.begin_step(state, dt)

@@ -1,47 +1,26 @@
 """Vertically implicit SGS diffusion: the RK3 stage with the vertical diffusion of u, v, w and e
 (and the SGS dissipation) solved per column, everything else explicit.
 
-Why. On the stretched grid the first centimetres are 1 cm thick while dx is 0.1-0.16 m, so the
-explicit limit dt < diffusion_number / (2 nu dz^-2) of the lowest levels sets 88-100 % of the steps
-of every scene (reports/stability) at about a third of the advective (Courant) step. Treating the
-vertical part implicitly (the option of the paper's model ARPS for thin vertical spacings, Xue et al.
-2000, Meteorol. Atmos. Phys. 75, 161) leaves the step to the Courant number, the horizontal
-diffusion and the grains.
+Why: with 1 cm first levels against dx = 0.1-0.16 m the explicit diffusion limit sets 88-100 % of
+the steps of every scene (reports/stability) at a third of the Courant step; implicit (as in ARPS
+for thin vertical spacings, Xue et al. 2000, Meteorol. Atmos. Phys. 75, 161) it sets none.
 
-Time discretisation. Each Wicker-Skamarock stage restarts from the base state phi(n),
+Each Wicker-Skamarock stage restarts from phi(n):
 
     phi(k) = phi(n) + c_k dt [ E(phi(k-1)) + (1 - theta) D phi(n) + theta D phi(k) ],
 
-with E the explicit tendencies (advection, horizontal and cross SGS fluxes, the bed stress,
-damping, drive) of the stage input and D the vertical diffusion operator with the stage input's
-eddy viscosity. theta = 1/2 (Crank-Nicolson in each stage, the default) keeps the scheme second
-order: for y' = (A + B) y the last stage gives y(n+1) = y(n) + dt (A + B) y(n) + dt^2/2 (A + B)^2 y(n)
-+ O(dt^3) whatever the first two stages do to O(dt^2). Its amplification for a pure diffusion
-mode, (1 - theta z)/(1 + theta z) (z = c_k dt |lambda|), stays inside the unit circle for any z, but
-tends to -1 for stiff modes (they ring, slowly damped: -0.6 at z = 8); theta = 1 (backward Euler
-in each stage) damps them at once, at first order in time. The stiff modes of this grid are the
-first levels' grid-scale ones; their z is of order 1-10 at the Courant step.
+E the explicit tendencies of the stage input, D the vertical diffusion with its eddy viscosity.
+theta = 1/2 (the default) keeps second order, but a stiff mode's amplification tends to -1 (-0.6
+at c_k dt |lambda| = 8: it rings); theta = 1 damps it at once, at first order. The stage carries
+the last step's pressure gradient and the projection finds its increment: otherwise the vertical
+diffusion (not divergence-free: T_33 carries 2 nu, and nu varies) acts on a part the projection
+removes afterwards, and the step is first order (tests/test_solver_vertical_diffusion.py).
 
-The pressure. The stage's tendency carries the gradient of the last step's pressure p, and the
-projection after the stage finds only its increment (p += phi / (c_k dt) in the last stage): the
-implicit diffusion then acts on a nearly solenoidal tendency. Without it, the vertical diffusion
-(not divergence-free by itself: T_33 carries 2 nu, and nu varies) acts on the part of the
-tendency that the projection removes afterwards, and one step is off by O(dt^2), a first-order
-scheme (measured: tests/test_solver_vertical_diffusion.py).
-
-The SGS dissipation eps = c_eps e^{3/2} / l is linearised about the stage input and taken fully
-implicit, eps(k) = (c_eps e_in^{1/2} / l) e(k): a sink of rate r with (1 + c_k dt r) on the
-diagonal keeps e >= 0 for any r dt (near the bed r reaches ~10^2 s^-1) and leaves the local
-equilibrium P = eps exact; its time error is first order (e relaxes on 1/r, ~10 ms there, shorter
-than any step the Courant number allows, so it is slaved to its equilibrium either way). The bed
-stress stays explicit (the bottom flux, from the stage input: its rate C_d |U_1| / dz_1 is a few
-s^-1); with it, the column integral of u changes by exactly dt times the bed stress plus the
-explicit tendencies (the implicit fluxes telescope). The lid is free slip (no flux). w is solved on
-the interior faces with w = 0 at the bed and the lid, and projected after the stage.
-
-Each column's right-hand side is built in scratch and written only after its solve, because in
-the last stage the output *is* the base state (stepper.py), and the Crank-Nicolson part reads the
-base state's vertical neighbours.
+The dissipation, linearised about the stage input, is fully implicit, eps(k) = (c_eps e_in^{1/2}
+/ l) e(k): e >= 0 for any rate (~10^2 s^-1 near the bed), P = eps exact. The bed stress stays
+explicit (a few s^-1); the lid is free slip; w is solved on the interior faces. A column's rows
+are built in scratch and written after its solve: in the last stage the output is the base
+state, whose neighbours Crank-Nicolson reads.
 """
 from __future__ import annotations
 
@@ -53,19 +32,13 @@ from .advection import (C1, C3, adv_scalar4_at, adv_scalar_at, adv_u4_at, adv_u_
                         adv_v_at, adv_w4_at, adv_w_at, wrap_down)
 from ..closures.sgs import diff_u_split_at, diff_v_split_at, diff_w_split_at, tke_split_at, vertical_coupling
 
-__all__ = ["momentum_stage_implicit", "tke_stage_implicit", "solve_tridiagonal",
-           "VERTICAL_DIFFUSION"]
-
 #: the vertical diffusion schemes a fidelity can name (config.TimeStepping.vertical_diffusion)
 VERTICAL_DIFFUSION = ("explicit", "implicit")
 
 
-
 @device
 def solve_tridiagonal(lo, di, up, r, cp, k0, k1):
-    """Solve lo[k] x[k-1] + di[k] x[k] + up[k] x[k+1] = r[k] for k0 <= k < k1 (lo[k0], up[k1-1]
-    unused) in place of r (Thomas algorithm; stable here, the matrices being diagonally
-    dominant: di = 1 + |lo| + |up| + a sink). cp: scratch."""
+    """lo x[k-1] + di x[k] + up x[k+1] = r[k], k0 <= k < k1, solved in place of r (Thomas)."""
     b = di[k0]
     cp[k0] = up[k0] / b
     r[k0] = r[k0] / b
@@ -80,11 +53,8 @@ def solve_tridiagonal(lo, di, up, r, cp, k0, k1):
 @device
 def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, top, bot, cdt, theta,
              rdx, rdy, dzc, dzf, fck, fcuk, srck, horder, S):
-    """Row k of the u and v systems of column (i, j) into the scratch S: right-hand side,
-    sub-, main and super-diagonal (S[0:4] for u, S[4:8] for v); p: the reference pressure.
-    horder: the horizontal order (2 or 4) of the advection and of the carried pressure gradient,
-    which must be the projection's (pressure.py); negative: the same order without advection
-    (one argument for both: fewer arguments to pass where a call is not inlined)."""
+    """Row k of the u (S[0:4]) and v (S[4:8]) systems of column (i, j); horder: the advection's and
+    the carried gradient's order (the projection's), negative without advection."""
     one = like(u, 1.0)
     c1_ = like(u, C1)
     c3_ = like(u, C3)
@@ -126,8 +96,7 @@ def _uv_rows(u, v, w, nu, rv, taux, tauy, ub, vb, p, i, j, k, im, ip, jm, jp, to
 @device
 def _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, cdt, theta, rdx, rdy,
                      dzc, dzf, fc, fcu, ff, u_drive, gx, horder, S):
-    # the rows of the u, v and w systems of column (i, j) into S; the kernel calls it with a
-    # literal horder = 4, so that each inner k loop is compiled for one order (as
+    # the rows of the u, v and w systems of column (i, j); called with a literal horder = 4 (as
     # stepper._uvw_column, where the measurement is)
     half = like(w, 0.5)
     one = like(w, 1.0)
@@ -148,13 +117,11 @@ def _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, c
     ex = one - theta
     for k in range(1, nz):
         tw = -ff[k] * w[i, j, k] - (p[i, j, k] - p[i, j, k - 1]) / dzf[k]
+        hzm = half * dzc[k - 1] / dzf[k]
+        hzp = half * dzc[k] / dzf[k]
         if horder == 4:
-            hzm = half * dzc[k - 1] / dzf[k]
-            hzp = half * dzc[k] / dzf[k]
             tw += adv_w4_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         elif horder == 2:
-            hzm = half * dzc[k - 1] / dzf[k]
-            hzp = half * dzc[k] / dzf[k]
             tw += adv_w_at(u, v, w, i, j, k, im, ip, jm, jp, rdx, rdy, hzm, hzp, one / dzf[k])
         xw, aw, cw = diff_w_split_at(u, v, w, nu, rv, i, j, k, im, ip, jm, jp, rdx, rdy, dzc,
                                      dzf)
@@ -168,12 +135,8 @@ def _uvw_column_rows(u, v, w, nu, rv, taux, tauy, ub, vb, wb, p, i, j, im, ip, c
 @pjit
 def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo, p, cdt, theta, rdx,
                             rdy, dzc, dzf, fc, fcu, ff, u_drive, gx, with_adv, order):
-    """uo = ub + cdt (E(u) - G p + (1 - theta) D ub + theta D uo) for u, v and the interior w
-    (module doc): E the explicit tendencies of the stage input (u, v, w) (advection, horizontal
-    and cross SGS fluxes, bed stress, damping with rates fc, fcu, ff towards 0 / u_drive, body
-    force gx), p the reference pressure [m^2 s^-2] (its increment is the projection's), D the
-    vertical SGS diffusion with the input's viscosity, a tridiagonal solve per column; order: the
-    horizontal order, 2 or 4, of the advection and of G (the projection's, pressure.py)."""
+    """uo = ub + cdt (E(u) - G p + (1 - theta) D ub + theta D uo) for u, v and interior w, per
+    column (module doc); p [m^2 s^-2]; other arguments as stepper._momentum_stage."""
     nx, ny, nz = u.shape
     horder = order if with_adv else -order
     for i in prange(nx):
@@ -204,10 +167,7 @@ def momentum_stage_implicit(u, v, w, nu, rv, taux, tauy, ub, vb, wb, uo, vo, wo,
 @device
 def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, theta, rdx, rdy, rdzc,
             rdzf, rlog, ceps_lk, order, S):
-    """Row k of the e system of column (i, j) into S[0:4] (right-hand side, sub-, main and
-    super-diagonal): advection (horizontal order 2 or 4), production and horizontal transport
-    explicit, the vertical transport theta-weighted, the dissipation implicit about the input's
-    e (module doc)."""
+    """Row k of the e system of column (i, j) into S[0:4] (module doc)."""
     one = like(e, 1.0)
     if order == 4:
         te = adv_scalar4_at(e, u, v, w, i, j, k, im, ip, jm, jp, top, bot, rdx, rdy, rdzc[k])
@@ -226,8 +186,7 @@ def _e_rows(e, u, v, w, nu, rv, eb, i, j, k, im, ip, jm, jp, top, bot, cdt, thet
 @device
 def _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, rdzc, rdzf, rlog,
                    ceps_l, order, S):
-    # the rows of the e system of column (i, j); called with a literal order = 4 (as
-    # _uvw_column_rows)
+    # the rows of the e system of column (i, j); called with a literal order = 4
     ny, nz = e.shape[1], e.shape[2]
     jm = j - 1 if j > 0 else ny - 1
     jp = j + 1 if j + 1 < ny else 0
@@ -243,9 +202,7 @@ def _e_column_rows(e, u, v, w, nu, rv, eb, i, j, im, ip, cdt, theta, rdx, rdy, r
 @pjit
 def tke_stage_implicit(e, u, v, w, nu, rv, eb, eo, cdt, theta, rdx, rdy, rdzc, rdzf, rlog, ceps_l,
                        e_min, order):
-    """eo = max(eb + cdt (advection + P + transport_h + (1 - theta) D eb + theta D eo - r eo),
-    e_min) with r = c_eps e^{1/2} / l of the input e, a tridiagonal solve per column (module
-    doc); rdzc, rdzf: 1/dz_c, 1/dz_f; order: the horizontal order of the advection, 2 or 4."""
+    """eo = max(eb + cdt (the e equation, vertical part theta-weighted), e_min) (module doc)."""
     nx, ny, nz = e.shape
     for ii in prange(nx):
         i = np.int64(ii)  # signed: strain_sq_at indexes with i directly

@@ -1,14 +1,10 @@
-"""Surface (bed) boundary condition: local log-law stress at the first u, v level.
-
-For a rough wall in the neutral surface layer, u(z) = (u*/kappa) ln(z/z0); applied locally and
-instantaneously at the first level z_1 = z_c[0] (Moeng 1984, J. Atmos. Sci. 41, 2052; Bou-Zeid et al.
-2005, Phys. Fluids 17, 025105), the kinematic surface stress is
+"""Bed boundary condition: local log-law stress at the first u, v level (Moeng 1984, J. Atmos. Sci.
+41, 2052; Bou-Zeid et al. 2005, Phys. Fluids 17, 025105):
 
     tau_s,x = -C_d |U_1| u_1,   tau_s,y = -C_d |U_1| v_1,   C_d = [kappa / ln(z_1/z0)]^2,
 
-with |U_1| the horizontal speed at the first level interpolated to the u (v) point (the other
-component is the four-point mean of its neighbours). tau_s are u'w' and v'w' at the bed [m^2 s^-2]:
-negative for a positive wind. Bed: w = 0 (no through-flow).
+|U_1| the horizontal speed at the first level z_1 = z_c[0] at the u (v) point (the other
+component the four-point mean). tau_s are u'w', v'w' at the bed [m^2 s^-2]; w = 0 there.
 """
 from __future__ import annotations
 
@@ -18,8 +14,6 @@ import numpy as np
 from numba import prange
 
 from ..._jit import pjit
-
-__all__ = ["drag_coefficient", "surface_stress", "surface_stress_into"]
 
 
 def drag_coefficient(z1: float, z0: float, kappa: float) -> float:

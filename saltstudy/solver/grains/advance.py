@@ -1,6 +1,6 @@
 """The advance of all grains over a step, chunk by chunk: blocks of lanes through the vectorized
-passes, the exact pass for the lanes that need it, the sub-steps of the few that need more, and
-the impacts flagged for the bed.
+passes, the exact pass for the lanes that need it, the further sub-steps of the few that need
+them, the impacts flagged for the bed.
 """
 from __future__ import annotations
 
@@ -20,9 +20,7 @@ from .deposit import _reaction_to_air, _tke_to_air, _to_air
 
 @ijit
 def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx, ny, nz):
-    """The sub-steps after the first, one parcel at a time (the few parcels that move more than a
-    cell height in the step). Returns the parcel's state, whether it hit the bed and its time
-    left."""
+    """The sub-steps after the first: (state, hit, time left)."""
     itp = 1.0 / tp
     dnu = P.d[p] / S.nu
     nsub = 1
@@ -42,8 +40,7 @@ def _rest_of_step(P, p, t, T, xp, yp, zp, up, vp, wp, k, tp, qm, F, G, O, S, nx,
 
 @ijit
 def _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
-    """Scalar stage 5 of lane l (parcel p): the sub-step's exchange with the air, the parcel's
-    further sub-steps if it needs them, its state stored back. Returns (hit, time left, u, v)."""
+    """Stage 5 of lane l: deposits, further sub-steps, store; (hit, time left, u, v)."""
     st = _lane_stencil(lf, li, l)
     k = lf[_K + l]
     h = lf[_H + l]
@@ -77,8 +74,7 @@ def _finish_lane(lf, li, l, P, p, F, G, O, S, nx, ny, nz):
 
 @ijit
 def _hit(P, p, trem, nh):
-    """Impact bookkeeping: parcel p reached the impact layer with trem of its step left; it is
-    flagged for the bed events (_splash); returns the chunk's hit count."""
+    """Flag parcel p for the bed events with trem of its step left; returns the hit count."""
     P.flag[p] = 1
     P.trem[p] = trem
     return nh + 1
@@ -93,30 +89,9 @@ def _track_speed(vm, u, v):
 
 @jit_borrow
 def _advance_chunk(c, dt, nk, ncomp, ct, prm, P, F, G, W):
-    """Integrate the parcels of chunk c (W.idx[W.cstart[c]:W.cstart[c+1]], coupling.chunk_assign)
-    over dt (plus their time credit), see the module doc. Hits (bed crossings) get flag 1 and
-    their time left in trem; W.nhit[c] counts them, W.vmax[c] is the chunk's largest horizontal
-    parcel speed.
-
-    Records: P :data:`coupling.Parcels`, F :data:`coupling.Flow`, G :data:`interp.Geometry`, W
-    :data:`Work`. Two-way, a parcel adds the modelled impulse c_p (u_s - u~_p) of the implicit
-    estimate (from its k0 and step as coupling.implicit_coefficients had them) on its first
-    sub-step.
-
-    Deposits in the chunk's pool range (``W.ranges[c]`` = first slab s, L slabs, offset off;
-    comps 0-2 = u, v, w faces, comp ``ct`` = TKE sink, each (L, ny, nk); ``ncomp`` comps;
-    zeroed here first) minus the drag impulse plus the modelled impulse (same weights as the
-    first sub-step's drag impulse: one deposit).
-
-    Serial, in blocks of ``_LANES`` parcels, the first sub-step of the block's parcels in passes
-    over the block (see the section comment above _wind_seen): _load_lane (locate, the wind
-    seen), _lane_start, _drag_lanes, _lane_move (vectorized, with their exact redos), then
-    _finish_lane (deposits, further sub-steps, the parcel stored). Each parcel's arithmetic is
-    that of one parcel at a time; only the order of the deposits into the pool differs
-    (round-off). The helpers are inlined here by LLVM (``_jit.device``); the prange over chunks
-    is in advance_all. Compiled without reference counting (``jit_borrow``): the lane scratch
-    comes from the caller.
-    """
+    """Integrate chunk c's parcels over dt plus their credit; hits get flag 1 and their time left
+    in trem (W.nhit[c]), W.vmax[c] the largest horizontal speed. Deposits (zeroed first) minus
+    the drag impulse plus, two-way, the modelled impulse; in blocks of _LANES (layout.py)."""
     nx = F.u.shape[0]
     ny = F.u.shape[1]
     nz = G.z_c.shape[0]

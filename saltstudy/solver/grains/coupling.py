@@ -1,61 +1,38 @@
 """Two-way momentum exchange between parcels and air (paper eq. 2) and the SGS TKE sink (eq. A1).
 
-Momentum. The air at a velocity face (u at x-faces, v at y-faces, w at z-faces) of mass
-``M = rho * dx * dy * dz`` (``dz = grid.dz_c[k]`` for u and v, ``grid.dz_f[k]`` for w) receives minus
-the drag impulse of every parcel, ``-Q m_p (Delta u_p - g Delta t)``, spread with the *same*
-trilinear weights (summing to one) that interpolated the fluid velocity at the parcel. The sum over
-faces of the air's momentum change is therefore exactly minus the sum of the parcels' drag
-impulses: the exchange conserves total momentum to round-off. Exceptions, by design: the share of a
-vertical impulse that falls on the bed face (w, k = 0) goes into the ground, and parcels in the
-log-law region (interp.py) deposit with the horizontal weights on one level: level 1, the level
-they read.
+Momentum. The air at a velocity face (mass ``M = rho dx dy dz``, dz = ``dz_c[k]`` for u, v,
+``dz_f[k]`` for w) receives minus each parcel's drag impulse ``-Q m_p (Delta u_p - g Delta t)``
+with the trilinear weights (summing to one) that interpolated the air at the parcel: momentum is
+conserved to round-off. The share of a vertical impulse on the bed face goes into the ground; a
+parcel in the log region (interp.py) deposits on level 1, the level it reads.
 
-Point-implicit exchange (stiff, mass-loaded cells). Over a step ``dt`` a parcel with drag rate
-``k_p = f(Re_p)/T_p`` (eqs. 3-4) relaxing exponentially towards the fluid velocity ``u_s`` it sees
-changes its momentum by ``c_p (u_s - u~_p)`` with ``c_p = Q m_p (1 - E_p)``, ``E_p = exp(-k_p dt)``
-and ``u~_p = u_p - g/k_p + g dt/(1 - E_p)`` (gravity folded in). If every parcel saw the air
-velocity of the *start* of the step, a cell whose grain mass exceeds the air mass would overshoot.
-Instead the air at each face is advanced backward-Euler in the drag, the parcels frozen::
+Point-implicit exchange. Relaxing at drag rate ``k_p`` (eqs. 3-4) towards the wind ``u_s`` it
+sees, a parcel gains ``c_p (u_s - u~_p)`` over ``dt``, ``c_p = Q m_p (1 - E_p)``, ``E_p =
+exp(-k_p dt)``, ``u~_p = u_p - g/k_p + g dt/(1 - E_p)``. With the wind of the start of the step a
+cell whose grain mass exceeds its air mass would overshoot, so each face is advanced
+backward-Euler in the drag, the parcels frozen (``l_p = ln(z_p/z0) / ln(z_c[1]/z0)`` in the log
+region, 1 elsewhere)::
 
-    U_f' = (M_f U_f + sum_p w_pf c_p u~_p) / (M_f + sum_p w_pf c_p)      (a convex combination)
+    U_f' = (M_f U_f + sum_p w_pf c_p u~_p) / (M_f + sum_p w_pf c_p l_p)      (a convex combination)
 
-and every parcel sees the interpolated *new* air velocity ``u_s,p = sum_f w_pf U_f'`` (its own new
-velocity is then a convex combination of u_s,p and u_p): no value leaves the range of the old
-ones, whatever the mass loading and ``k_p dt`` (tested with grain mass 100x the air mass). The air
-is given exactly ``U_f' - U_f``; summed over faces that is exactly minus the sum of the modelled
-parcel impulses ``c_p (u_s,p - u~_p)`` (sum_f w_pf = 1). The parcels' *actual* impulses differ
-slightly (drag-rate iteration, sub-steps, bed crossings); the difference (actual - modelled) is
-deposited with the trilinear weights as well, so total momentum is conserved to round-off. (Depositing
-the actual impulses with the weights, with the implicit estimate used only for the seen velocity,
-is *not* stable for modes the interpolation smooths: it blows up in the loading test.) In the log
-region a parcel sees ``l_p`` times the bilinear level-1 wind, ``l_p = ln(z_p/z0) / ln(z_c[1]/z0) <
-1``, and deposits on level 1 too: it sees ``u_s,p = l_p sum_f w_pf U_f'``, the log law of the new
-air, so its weights are ``l_p w_pf`` in A: ``U_f' = (M_f U_f + sum_p w_pf c_p u~_p) / (M_f + sum_p
-w_pf c_p l_p)``, a convex combination of U_f and the u~_p / l_p (the level-1 wind a parcel in
-equilibrium implies), and the air's change is again exactly minus the modelled impulses ``c_p (l_p
-sum_f w_pf U_f' - u~_p)``.
+and each parcel sees ``u_s,p = l_p sum_f w_pf U_f'``: no value leaves the old range whatever the
+loading (tested at grain mass 100x the air mass). The air gets ``U_f' - U_f``, plus the actual
+minus the modelled impulses (drag iteration, sub-steps, bed crossings) with the same weights.
+(Depositing the actual impulses, the estimate serving only the seen wind, blows up in the loading
+test for modes the interpolation smooths.)
 
-Buffers. Each of the ``N_CHUNKS`` parcel chunks deposits into its own buffers (no races; the
-chunks' buffers are summed in chunk order, so the result does not depend on the thread count).
-A chunk is a run of consecutive x-slabs holding about n / N_CHUNKS parcels (``chunk_assign``;
-its parcels are processed in increasing index order), so its buffers need only cover its own
-slabs widened by the stencil and by the largest distance one of its parcels can travel within the
-step (``chunk_ranges``); they are stored flat in one pool that lives across steps (no allocation,
-no page faults). Slabs outside a chunk's range hold zeros of that chunk and are skipped in the
-sums.
+Buffers. Each of ``N_CHUNKS`` chunks of consecutive x-slabs deposits into its own range of one
+pool kept across steps (its slabs widened by the stencil and by how far its parcels can move);
+the ranges are summed in chunk order: the result does not depend on the thread count.
 
 TKE sink (eq. A1). Per cell, the rate [s^-1] multiplying e::
 
     s = (Q / V_cell) sum_p (m_p / rho) 2 f(Re_p) / (T_p + T_L),   T_L = 4 e / (3 C0 eps)
 
-with ``eps = c_eps e^{3/2} / l`` (Deardorff 1980), hence ``T_L = 4 l / (3 C0 c_eps sqrt(e))``,
-with the SGS model's own wall-limited length ``l(z)`` and ``c_eps = 0.19 + 0.74 l / Delta``
-(:mod:`saltstudy.solver.closures.sgs`), the local e of the cell, and ``C0 = 2.1``, a value
-widely used for the Lagrangian structure-function constant in stochastic particle models; the
-paper does not state its C0. Where ``e <= 0``, ``T_L`` is infinite and the sink vanishes. Each
-parcel contributes to the cell that holds it (a parcel in the log region: the level-1 cell above
-it, the one it read, with that cell's e and T_L), weighted by the fraction of the step it spent
-there.
+with ``eps = c_eps e^{3/2} / l`` (Deardorff 1980; sgs.py's l and c_eps) and ``C0 = 2.1``, a value
+widely used for the Lagrangian structure-function constant (the paper does not state its C0); 0
+where ``e <= 0``. A parcel feeds the cell holding it (log region: the level-1 cell it read) for
+the fraction of the step it spent there.
 """
 from __future__ import annotations
 
@@ -71,25 +48,17 @@ from ..numerics.elementary import EXPM1_TAYLOR_MAX, expm1_small, expm1_taylor, p
 from ..closures.sgs import C0_LAGRANGIAN
 from .interp import ijit, interp_fluid, locate, pool_add_tri2, wrap_index
 
-__all__ = ["Parcels", "Flow", "C0_LAGRANGIAN", "face_inverse_masses",
-           "lagrangian_time_coefficients", "chunk_bounds", "chunk_assign", "chunk_ranges",
-           "parcel_weight", "estimate_weights", "implicit_estimate", "implicit_coefficients", "implicit_corrections",
-           "apply_exchange", "air_maxima", "N_CHUNKS"]
-
-#: The records the grain kernels take (named tuples of arrays: numba passes each as one argument,
-#: its fields are static members, so reading them costs what separate arguments would).
-#: The parcels' arrays (length: capacity; the first n live):
+#: The grain kernels' records (named tuples: numba passes each as one argument, its fields static
+#: members). The parcels' arrays (length: capacity; the first n live):
 Parcels = namedtuple("Parcels", "x y z u v w d kd flag trem")
-#: The air the parcels see, at the start of the step: u, v, w faces and the SGS TKE e (nx, ny, nz);
-#: tlc per level, T_L = tlc[k] / sqrt(e) (``lagrangian_time_coefficients``); two-way, the
-#: implicit change du, dv, dw on the lowest nk levels and U, V, W = u + du etc. there (placeholders
-#: of shape (1, 1, 1) one-way):
+#: The air at the start of the step: u, v, w, SGS TKE e; tlc per level, T_L = tlc[k] / sqrt(e);
+#: two-way, the implicit change du, dv, dw on the lowest nk levels and U = u + du etc. there
+#: (placeholders of shape (1, 1, 1) one-way):
 Flow = namedtuple("Flow", "u v w e tlc U V W du dv dw")
 
 
-#: Fixed number of parcel chunks (each with its own deposit buffers). Fixed, not the thread count,
-#: so that every reduction is summed in the same order whatever the number of numba threads: a run
-#: is bit-for-bit identical with 1 or 2 threads.
+#: parcel chunks, each with its own deposit buffers: fixed, not the thread count, so that every
+#: sum runs in the same order and a run is bit-for-bit the same with 1 or 2 threads
 N_CHUNKS = 4
 
 
@@ -104,10 +73,7 @@ def face_inverse_masses(grid, rho: float) -> tuple[np.ndarray, np.ndarray]:
 
 def lagrangian_time_coefficients(grid, kappa: float, c0: float = C0_LAGRANGIAN,
                                  delta: str = "scotti") -> np.ndarray:
-    """Per level k: ``4 l / (3 C0 c_eps)`` so that ``T_L = coef[k] / sqrt(e)`` (see module doc).
-
-    l and c_eps are the SGS model's own (``sgs.length_scale``, ``sgs.c_eps_profile``), so the
-    epsilon in T_L is the dissipation the TKE equation uses."""
+    """4 l / (3 C0 c_eps) per level [m s^-1], T_L = coef[k] / sqrt(e) (the SGS model's l, c_eps)."""
     from ..closures.sgs import c_eps_profile, length_scale
     ell = length_scale(grid, kappa, delta=delta)
     c_eps = c_eps_profile(grid, ell, delta)
@@ -115,14 +81,8 @@ def lagrangian_time_coefficients(grid, kappa: float, c0: float = C0_LAGRANGIAN,
 
 
 @ijit
-def chunk_bounds(n, c, nc):
-    return (c * n) // nc, ((c + 1) * n) // nc
-
-
-@ijit
 def drag_rate(rel, dnu, tp):
-    """k = f(Re_p) / T_p [s^-1] (eqs. 3-4), Re_p = |u - u_p| d / nu; dnu = d / nu [s m^-1].
-    physics.drag.clift_factor with the power inlined (elementary.pow_0687)."""
+    """k = f(Re_p) / T_p [s^-1] (eqs. 3-4), Re_p = |u - u_p| d / nu; dnu = d / nu [s m^-1]."""
     return clift_factor(pow_0687(rel * dnu)) / tp
 
 
@@ -134,18 +94,14 @@ def parcel_weight(Q, rho_p, d):
 
 @ijit
 def estimate_weights(em, k0, T, qm, wp, g):
-    """The implicit estimate of a parcel of weight qm = Q m_p, drag rate k0, step T and vertical
-    velocity wp (module doc), given em = expm1(-k0 T): (c_p = Q m_p (1 - E_p), the vertical
-    u~_p). The horizontal u~_p are the parcel's velocity."""
+    """(c_p, vertical u~_p) of a parcel, em = expm1(-k0 T) (module doc; horizontal u~_p = u_p)."""
     ome = -em
     return qm * ome, wp + g / k0 - g * T / ome
 
 
 @ijit
 def implicit_estimate(k0, T, qm, wp, g):
-    """(expm1(-k0 T), c_p, the vertical u~_p) of a parcel (estimate_weights). Called by
-    implicit_coefficients and again by the advance (particles.py) for the modelled impulse: the
-    same inputs, the same numbers, so nothing per parcel is stored between the two passes."""
+    """(expm1(-k0 T), c_p, the vertical u~_p) of a parcel (estimate_weights)."""
     em = expm1_small(-k0 * T)
     cp, wt = estimate_weights(em, k0, T, qm, wp, g)
     return em, cp, wt
@@ -158,19 +114,10 @@ _ASSIGN_BLOCKS = 32
 @pjit
 def chunk_assign(n, x, u, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cstart, idx,
                  stats, v, w, z, pmax):
-    """Split the live parcels (flag 0) into chunks of consecutive x-slabs holding about equal
-    numbers of parcels: chunk c owns slabs [bounds[c], bounds[c+1]); its parcels are
-    idx[cstart[c]:cstart[c+1]] in increasing index order (deterministic, thread-free).
-    stats[c] = (max |u_p|, max trem) over its parcels; hist[i] and slab_stats[i] (nx, 2) end up
-    as the slab -> chunk map and the slabs' maxima. pmax = (max over the live
-    parcels of max(|u_p|, |v_p|), of z_p and of |(u_p, v_p, w_p)|): the step's parcel-speed
-    limit and the levels the deposit buffers need (particles.Saltation._levels), here so that
-    the parcels are read once.
-
-    Two passes over the parcels, each parallel over _ASSIGN_BLOCKS blocks of consecutive
-    indices: the first keeps each parcel's slab in cid and counts and maxima per block and
-    slab; the second files the indices, each block from its own offsets (the blocks' counts per
-    chunk, summed in block order), so the order within a chunk is the serial one."""
+    """Split the live parcels into chunks of consecutive x-slabs with about equal counts: chunk c
+    owns slabs [bounds[c], bounds[c+1]), its parcels idx[cstart[c]:cstart[c+1]] in index order;
+    stats[c] = (max |u_p|, max trem); pmax: the max horizontal speed, height and speed. Two
+    parallel passes over _ASSIGN_BLOCKS blocks, the second filing from each block's offsets."""
     nc = cstart.shape[0] - 1
     nb = _ASSIGN_BLOCKS
     hb = np.zeros((nb, nx), dtype=np.int64)
@@ -265,9 +212,7 @@ def chunk_assign(n, x, u, flag, trem, dx, nx, hist, slab_stats, bounds, cid, cst
 
 @jit
 def chunk_ranges(bounds, margin, nx, per_slab, ranges):
-    """ranges[c] = (start slab, number of slabs L, pool offset) of chunk c: its slabs widened by
-    margin[c] on both sides (all nx if that wraps around; L = 0 for an empty chunk);
-    per_slab = pool entries per slab. Returns the pool size needed."""
+    """ranges[c] = (first slab, L, pool offset): chunk c's slabs widened by margin[c]."""
     nc = ranges.shape[0]
     off = 0
     for c in range(nc):
@@ -294,12 +239,8 @@ def chunk_ranges(bounds, margin, nx, per_slab, ranges):
 
 @jit_borrow
 def air_maxima(u, w, umax):
-    """max |w| over the whole field (returned) and umax[k] = max |u| over level k, for the levels
-    parcels can reach and how far they move (particles.Saltation._levels, dynamics): one pass
-    over both fields. Serial: the pass is light, and a parallel region costs a wake-up of the
-    worker threads, milliseconds on a machine shared with other jobs (`saltstudy bench particles
-    --phases` with another run beside it: 5.5 ms per step for this pass in a region of its own at
-    1e5 parcels, against 0.15 ms of work)."""
+    """max |w| (returned) and umax[k] = max |u| of level k. Serial: a parallel region's wake-up
+    cost 5.5 ms for 0.15 ms of work (1e5 parcels, shared machine, `bench particles --phases`)."""
     nx = u.shape[0]
     ny = u.shape[1]
     nz = u.shape[2]
@@ -321,11 +262,9 @@ def air_maxima(u, w, umax):
     return m
 
 
-#: parcels whose estimates _implicit_chunk computes together, in passes over the block: the
-#: scalar ones (locate, the deposits) around a loop without branches or calls that LLVM
-#: vectorizes (expm1 and the weights: a chain of ~20 dependent multiply-adds per parcel, which
-#: one parcel at a time leaves the core waiting on). The lanes live in the chunk's lane scratch
-#: of the advance (particles.Work), row r of lane l at r * EST_LANES + l.
+#: parcels whose estimates _implicit_chunk computes together: scalar passes (locate, deposits)
+#: around a branch-free loop LLVM vectorizes (expm1 and the weights, ~20 dependent multiply-adds);
+#: row r of lane l at r * EST_LANES + l of the advance's lane scratch (layout.Work)
 EST_LANES = 64
 (_EU, _EV, _EW, _ED, _EK, _ET, _ELF, _ECP, _EWT,
  _EFXF, _EFXC, _EFYF, _EFYC, _EFZC, _EFZF) = (r * EST_LANES for r in range(15))
@@ -337,8 +276,7 @@ EST_ROWS_I = 7
 
 @ijit
 def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, G, nx, ny, nz):
-    """Scalar stage 1 of implicit lane l (parcel p): its stencil, the parcel's values and a first
-    drag rate if it has none (stored as kd = -k0 for the advance)."""
+    """Stage 1 of implicit lane l (parcel p): stencil, values, a first drag rate if it has none."""
     st = locate(P.x[p], P.y[p], P.z[p], G, nx, ny, nz)
     dp = P.d[p]
     k = P.kd[p]
@@ -349,9 +287,7 @@ def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, G, nx, ny, nz):
         ur, vr, wr = interp_fluid(F.u, F.v, F.w, st, nx, ny)
         rel = math.sqrt((ur - up) ** 2 + (vr - vp) ** 2 + (wr - wp) ** 2)
         k = drag_rate(rel, dp / nu, particle_response_time(dp, rho_p, rho, nu))
-        # the advance takes k0 = -kd (and finds its own first drag rate, from the slip
-        # in the new air): a parcel without a drag rate carries its estimate's
-        P.kd[p] = -k
+        P.kd[p] = -k  # the advance takes k0 = -kd and finds its own first rate in the new air
     lf[_EU + l] = up
     lf[_EV + l] = vp
     lf[_EW + l] = wp
@@ -375,9 +311,7 @@ def _estimate_load(lf, li, l, p, P, F, dt, nu, rho, rho_p, G, nx, ny, nz):
 
 @ijit
 def _estimate_lane(lf, li, l, g, Q, rho_p, exact):
-    """Stage 2 of implicit lane l (vectorized; exact: a lane it left): c_p and the vertical u~_p
-    (implicit_estimate, the same formulas), _EOK 0 where expm1's Taylor polynomial does not
-    hold (then the exact pass redoes the lane)."""
+    """Stage 2 of implicit lane l: c_p, vertical u~_p; _EOK 0 if Taylor's expm1 does not hold."""
     k = lf[_EK + l]
     T = lf[_ET + l]
     x = -k * T
@@ -393,7 +327,7 @@ def _estimate_lane(lf, li, l, g, Q, rho_p, exact):
 
 @ijit
 def _estimate_deposit(lf, li, l, pool, off, csz, s, nx, ny, nk):
-    """Scalar stage 3 of implicit lane l: (A, B) of its three components on the faces."""
+    """Stage 3 of implicit lane l: (A, B) of its three components on the faces."""
     cp = lf[_ECP + l]
     ah = cp * lf[_ELF + l]
     ixf = li[_EXF + l]
@@ -415,9 +349,7 @@ def _estimate_deposit(lf, li, l, pool, off, csz, s, nx, ny, nk):
 
 @jit_borrow
 def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i):
-    """Chunk c of implicit_coefficients (serial; helpers inlined; no reference counting, see
-    ``_jit.jit_borrow``): blocks of EST_LANES parcels in three passes (_estimate_load,
-    _estimate_lane with its exact redo, _estimate_deposit)."""
+    """Chunk c of implicit_coefficients: blocks of EST_LANES parcels in three passes."""
     nx = F.u.shape[0]
     ny = F.u.shape[1]
     nz = F.u.shape[2]
@@ -449,19 +381,8 @@ def _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, 
 
 @pjit
 def implicit_coefficients(cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i):
-    """Per chunk c (parcels idx[cstart[c]:cstart[c+1]], chunk_assign), accumulate on the faces
-    A[c, comp] += w c_p (u, v of a parcel in the log region: w c_p l_p) and
-    B[c, comp] += w c_p u~_p, with c_p and u~_p from implicit_estimate.
-
-    Records: P :data:`Parcels`, F :data:`Flow` (its u, v, w: the air at the start of the step),
-    G :data:`interp.Geometry`. prm: [rho, nu, g, rho_p, Q].
-    A and B live interleaved in the chunk's pool range (``ranges``, see ``chunk_ranges``): comp
-    0 = u, 1 = v, 2 = w, each (L, ny, nk, 2) with (A, B) pairs. A parcel without a drag
-    rate (kd = 0: released, rebounded, ejected) gets one from its slip in this air, stored as
-    kd = -k0 for the advance (particles.py), which recomputes the estimate from k0 and T.
-    lane_f, lane_i: per chunk, at least EST_ROWS_F and EST_ROWS_I rows of EST_LANES (the
-    advance's lane scratch, particles.Work).
-    """
+    """Per chunk, A += w c_p (l_p in the log region) and B += w c_p u~_p on the faces, interleaved
+    (L, ny, nk, 2) per comp; a parcel without a drag rate gets one, stored as kd = -k0."""
     for c in prange(ranges.shape[0]):
         _implicit_chunk(c, cstart, idx, P, F, dt, prm, G, pool, ranges, nk, lane_f, lane_i)
 
@@ -478,13 +399,8 @@ def _covers(ranges, c, i, nx):
 @pjit
 def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, Uc, Vc, Wc, dmax,
                          acc):
-    """delta_f = (sum_c B - U_f sum_c A) / (M_f + sum_c A) on the lowest nk levels of each face
-    field: the backward-Euler air velocity change (a convex combination, see module doc).
-    Also the seen fields Uc = U + delta (etc.) and dmax[i] = max |delta| over slab i.
-
-    Per column, the chunks' (A, B) are first summed (in chunk order) into the slab's row of the
-    scratch acc (nx, 6, >= nk), then the column is solved: loops over the levels that LLVM
-    vectorizes (the contiguous levels of a chunk's column, the divisions of the solve)."""
+    """delta_f = (sum_c B - U_f sum_c A) / (M_f + sum_c A) on the lowest nk levels (module doc),
+    Uc = U + delta etc., dmax[i] = max |delta| of slab i; chunks summed in chunk order."""
     nc = ranges.shape[0]
     nx = du.shape[0]
     ny = du.shape[1]
@@ -509,8 +425,7 @@ def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, U
                     a[3, k] += pool[q + csz + 2 * k + 1]
                     a[4, k] += pool[q + 2 * csz + 2 * k]
                     a[5, k] += pool[q + 2 * csz + 2 * k + 1]
-            # the solve, per component in its own loop: each writes few arrays, so that LLVM's
-            # runtime alias checks stay within its limit and the loop vectorizes
+            # one loop per component: few arrays written each, so that LLVM vectorizes it
             for k in range(nk):
                 m = inv_mc[k]
                 x = (a[1, k] - a[0, k] * uf[i, j, k]) * m / (1.0 + a[0, k] * m)
@@ -536,9 +451,7 @@ def implicit_corrections(pool, ranges, inv_mc, inv_mw, uf, vf, wf, du, dv, dw, U
 @ijit
 def _momentum_to_air(pool, ranges, i, j, nx, ny, nk, a, du, dv, dw, inv_mc, inv_mw, m_c, m_w,
                      uf, vf, wf):
-    """Column (i, j) of apply_exchange's momentum update: U += delta + (sum_c P[c]) / M on the
-    lowest nk levels, the chunks' P summed in chunk order into a[0:3]. Returns the column's
-    momentum given to the air (x, y, z) and the w impulse its bed face takes."""
+    """Column (i, j) of apply_exchange: (momentum to the air (x, y, z), bed-face w impulse)."""
     nc = ranges.shape[0]
     for r in range(3):
         for k in range(nk):
@@ -578,8 +491,7 @@ def _momentum_to_air(pool, ranges, i, j, nx, ny, nk, a, du, dv, dw, inv_mc, inv_
 
 @ijit
 def _tke_rates(pool, ranges, i, j, nx, ny, comp, nk_c, nz, a, inv_vol, out):
-    """Column (i, j) of apply_exchange's TKE rates: out[i, j, :nk_c] = sum_c T[c] / V_cell (the
-    chunks' T summed in chunk order into a[0]), zero on levels nk_c..nz-1."""
+    """Column (i, j) of apply_exchange: out[i, j, :nk_c] = sum_c T[c] / V_cell, 0 up to nz."""
     nc = ranges.shape[0]
     for k in range(nk_c):
         a[0, k] = 0.0
@@ -599,24 +511,9 @@ def _tke_rates(pool, ranges, i, j, nx, ny, comp, nk_c, nz, a, inv_vol, out):
 @pjit
 def apply_exchange(pool, ranges, nk, two, du, dv, dw, inv_mc, inv_mw, m_c, m_w, uf, vf, wf, tot,
                    tke, comp, nz_tke, inv_vol, tke_out, acc, part):
-    """The air's side of the step, per column in one pass over the slabs.
-
-    Two-way (``two``): U += delta + (sum_c P[c]) / M on the nk levels of the step (module doc); m_c,
-    m_w are the face masses M (inverses of inv_mc, inv_mw; 0 where inv_mw is). P (comps 0, 1, 2
-    of the chunks' pool ranges, each (L, ny, nk)) holds, per face, the difference between the
-    modelled and the actual drag impulses of the parcels (zero if they coincide). tot (3,)
-    receives the momentum given to the air (kg m s^-1); the return value is the w impulse taken
-    by the bed face (0 one-way).
-
-    TKE sink (``tke``): tke_out[:, :, :nk] = sum_c T[c] / V_cell, rates of eq. A1 [s^-1], T[c]
-    comp ``comp`` of chunk c's pool range (L, ny, nk); zero on levels nk..nz_tke-1 (the caller
-    knows the levels from nz_tke up to be zero already).
-
-    Sums over chunks are taken in chunk order, per column into the slab's row of the scratch acc
-    (nx, >= 3, >= nk) (loops over the levels that LLVM vectorizes); part (nx, 4) holds the
-    slabs' momentum sums. One pass for both: one parallel region fewer per step (each costs a
-    wake-up of the worker threads, milliseconds on a machine shared with other jobs).
-    """
+    """The air's side of the step in one pass (one parallel region fewer). Two-way: U += delta +
+    (sum_c P[c]) / M, P the modelled minus the actual impulses; tot gets the momentum to the
+    air [kg m s^-1]. TKE: tke_out[:, :, :nk] = sum_c T[c] / V_cell [s^-1], zero up to nz_tke."""
     nx = uf.shape[0]
     ny = uf.shape[1]
     for i in prange(nx):

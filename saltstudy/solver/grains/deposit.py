@@ -11,15 +11,13 @@ from .interp import LOG_LEVEL, ijit, pool_add_tri, slab_of
 
 @ijit
 def _reaction(mu_, mv_, mw_, Qm, un, vn, wn, up, vp, wp, h, S):
-    """The air's impulse from a sub-step of h: minus the parcel's drag impulse, Q m_p (Delta u -
-    g h), plus (first sub-step) the modelled impulse (mu_, mv_, mw_)."""
+    """The air's impulse over h: -Q m_p (Delta u - g h) plus the modelled impulse."""
     return mu_ - Qm * (un - up), mv_ - Qm * (vn - vp), mw_ - Qm * (wn - wp + S.g * h)
 
 
 @ijit
 def _reaction_to_air(O, st, ru, rv, rw, S, nx, ny):
-    """Two-way: the air's impulse (ru, rv, rw) (_reaction) deposited with the weights of Stencil
-    st (the log region: the horizontal weights on level LOG_LEVEL, interp.py)."""
+    """Two-way: the air's impulse deposited with the weights of Stencil st."""
     if st.islog:
         kc = LOG_LEVEL
         fzc = 0.0
@@ -35,17 +33,13 @@ def _reaction_to_air(O, st, ru, rv, rw, S, nx, ny):
 
 @ijit
 def _tke_level(st):
-    """The level of the cell whose TKE sink a parcel feeds (coupling.py, eq. A1): the cell holding
-    it; in the log region, the level its drag goes to (LOG_LEVEL). Its column is (st.ixf, st.jyf),
-    the cell holding the parcel (floor(x / dx) is ixf)."""
+    """The level whose TKE sink a parcel feeds: its cell's, LOG_LEVEL in the log region."""
     return LOG_LEVEL if st.islog else st.kcell
 
 
 @ijit
 def _tke_rate(e, tlc_k, Qm, k, tp, h, S):
-    """The parcel's share of the TKE-sink rate of its cell (_tke_level; e its SGS TKE, tlc_k its
-    level's T_L coefficient), weighted by the fraction h / dt of the step; 0 where e <= 0
-    (T_L infinite)."""
+    """The parcel's share of its cell's TKE-sink rate over h / dt of the step (0 where e <= 0)."""
     tl = tlc_k / math.sqrt(e)
     r = Qm / S.rho * 2.0 * (k * tp) / (tp + tl) * (h / S.dt)
     return r if e > 0.0 else 0.0
@@ -61,8 +55,7 @@ def _tke_to_air(O, st, rate, S, nx, ny):
 
 @ijit
 def _to_air(O, F, st, mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, k, tp, h, S, nx, ny):
-    """A sub-step's exchange with the air (one parcel alone): the reaction (two-way) and the TKE
-    sink."""
+    """A sub-step's exchange with the air, one parcel alone: reaction and TKE sink."""
     if S.twoway:
         ru, rv, rw = _reaction(mu_, mv_, mw_, qm, un, vn, wn, up, vp, wp, h, S)
         _reaction_to_air(O, st, ru, rv, rw, S, nx, ny)

@@ -1,6 +1,6 @@
-"""Drag on a grain (eq. 3 with Clift's Re^0.687 correction, physics/drag.py): the drag rate's fixed
-point, its Newton update and the short series that update exp(-k h) and Re^0.687 from their last
-evaluation, scalar and per lane.
+"""The drag rate's fixed point (eq. 3 with Clift's correction, physics/drag.py), its Newton update,
+and the short series that update exp(-k h) and Re^0.687 from their last evaluation, scalar and
+per lane.
 """
 from __future__ import annotations
 
@@ -18,8 +18,7 @@ from .layout import (
 
 @ijit
 def _expm1_shift(k, h, kq, emq):
-    """expm1(-k h) from emq = expm1(-kq h) by the series in x = (kq - k) h (exact to round-off
-    for |x| <= _NEAR)."""
+    """expm1(-k h) from emq = expm1(-kq h), a series in (kq - k) h (exact for |.| <= _NEAR)."""
     x = (kq - k) * h
     t = x * (1.0 + x * (_X2 + x * (_X3 + x * (_X4 + x * (_X5 + x * (_X6 + x * (
         _X7 + x * (_X8 + x * _X9))))))))
@@ -28,8 +27,7 @@ def _expm1_shift(k, h, kq, emq):
 
 @ijit
 def _re687_shift(rel, irelq, rpq):
-    """(rel dnu)^0.687 from rpq = (relq dnu)^0.687 by the binomial series in e = rel / relq - 1
-    (exact to round-off for |e| <= _NEAR); irelq = 1 / relq."""
+    """(rel dnu)^0.687 from rpq = (relq dnu)^0.687 by a binomial series (irelq = 1 / relq)."""
     e = rel * irelq - 1.0
     return rpq * (1.0 + e * (_B1 + e * (_B2 + e * (_B3 + e * (_B4 + e * (_B5 + e * (
         _B6 + e * (_B7 + e * (_B8 + e * (_B9 + e * _B10))))))))))
@@ -37,8 +35,7 @@ def _re687_shift(rel, irelq, rpq):
 
 @ijit
 def _expm1_arg(x, exact):
-    """expm1(x) and whether it is exact to round-off: with ``exact``, elementary.expm1_small
-    (libm beyond the Taylor range); else the Taylor polynomial alone (no branch, no call)."""
+    """(expm1(x), whether exact): expm1_small with ``exact``, else the Taylor polynomial alone."""
     if exact:
         return expm1_small(x), True
     return expm1_taylor(x), abs(x) <= EXPM1_TAYLOR_MAX
@@ -46,8 +43,7 @@ def _expm1_arg(x, exact):
 
 @ijit
 def _expm1_near(k, h, kq, emq, exact):
-    """expm1(-k h), from emq = expm1(-kq h) if |(kq - k) h| <= _NEAR (kq <= 0: no previous), and
-    whether it is exact to round-off (_expm1_arg)."""
+    """(expm1(-k h), whether exact), by _expm1_shift if |(kq - k) h| <= _NEAR (kq <= 0: none)."""
     near = kq > 0.0 and abs((kq - k) * h) <= _NEAR
     if exact:
         if near:
@@ -61,8 +57,7 @@ def _expm1_near(k, h, kq, emq, exact):
 
 @ijit
 def _pow687(x, exact):
-    """x^0.687 and whether it is exact to round-off: with ``exact``, elementary.pow_0687 (libm
-    beyond its tables); else the table path alone (elementary.pow_0687_table)."""
+    """(x^0.687, whether exact): pow_0687 with ``exact``, else the table path alone."""
     if exact:
         return pow_0687(x), True
     return pow_0687_table(x)
@@ -70,8 +65,7 @@ def _pow687(x, exact):
 
 @ijit
 def _re687_near(rel, dnu, irelq, rpq, exact):
-    """(rel dnu)^0.687, from rpq = (relq dnu)^0.687 if |rel / relq - 1| <= _NEAR; irelq = 1 / relq
-    (irelq <= 0: none); and whether it is exact to round-off (_pow687)."""
+    """((rel dnu)^0.687, whether exact), by _re687_shift if |rel / relq - 1| <= _NEAR."""
     near = irelq > 0.0 and abs(rel * irelq - 1.0) <= _NEAR
     if exact:
         if near:
@@ -85,10 +79,8 @@ def _re687_near(rel, dnu, irelq, rpq, exact):
 
 @ijit
 def _slip_at(k, em, ih, Du, Dv, Dw, g):
-    """The slip at which F(k) is evaluated (module doc): E * (step-mean slip) + (1 - E) * (end
-    slip) of the relaxation over h with k frozen, em = expm1(-k h), ih = 1 / h, from the slip
-    (Du, Dv, Dw) at the start: beta(k) (u_s - u_p) + (1 - beta(k)) g/k e_z. Returns it (ax, ay,
-    az), its size and the factors dF/dk needs."""
+    """The slip F(k) is evaluated at, E (mean slip) + (1 - E) (end slip) over h with k frozen
+    (particles.py); returns it, its size and dF/dk's factors; em = expm1(-k h), ih = 1 / h."""
     ik = 1.0 / k
     E = 1.0 + em
     phi = -em * ik * ih
@@ -104,10 +96,8 @@ def _slip_at(k, em, ih, Du, Dv, Dw, g):
 @ijit
 def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, itp, newton,
                    S):
-    """F(k) = f(Re_p) / T_p from rp = Re_p^0.687 at the slip of _slip_at, and the next k:
-    safeguarded Newton (dF/dk analytic) if ``newton``, else a plain fixed-point update. Returns
-    the next k, whether |F(k) - k| was already within the tolerance (S.tol k for a Newton update,
-    S.tol_fp k for a plain one; the update is applied all the same) and 1 / |slip|."""
+    """F(k) = f(Re_p) / T_p and the next k (safeguarded Newton, or a fixed-point update): (k,
+    |F(k) - k| within S.tol k (S.tol_fp k), 1 / |slip|)."""
     irel = 1.0 / rel if rel > 0.0 else 0.0
     F = clift_factor(rp) * itp
     G = F - k
@@ -129,10 +119,8 @@ def _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw, 
 
 @ijit
 def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S, first, exact):
-    """One update of a drag rate k towards the fixed point k = F(k) (module doc), em =
-    expm1(-k h): _slip_at, Re_p^0.687 there (_re687_lane), _newton_update. Returns the next k,
-    whether k was within the tolerance, 1 / |slip| and Re_p^0.687 for the next evaluation, and
-    whether Re_p^0.687 is exact."""
+    """One update of k towards k = F(k), em = expm1(-k h): (next k, within the tolerance,
+    1 / |slip|, Re_p^0.687 for the next update, whether that is exact)."""
     ax, ay, az, rel, ik, E, phi, beta, gk = _slip_at(k, em, ih, Du, Dv, Dw, S.g)
     rp, ok = _re687_lane(rel, dnu, irelq, rpq, first, exact)
     kn, done, irel = _newton_update(k, rp, ax, ay, az, rel, ik, E, phi, beta, gk, h, Du, Dv, Dw,
@@ -142,11 +130,8 @@ def _drag_rate_update(k, em, h, ih, Du, Dv, Dw, itp, dnu, irelq, rpq, newton, S,
 
 @ijit
 def _expm1_lane(k, h, kq, emq, first, e0, exact):
-    """expm1(-k h) for an update of the drag iteration (``first``: its first), and whether it is
-    exact: the implicit estimate's (``e0``: the same k and h) on the first update, else
-    _expm1_near. Vectorized (not ``exact``), only the path a lane takes as a rule is computed,
-    the estimate's on the first update and the series from the last evaluation after it; a lane
-    off it is left to the exact pass."""
+    """(expm1(-k h), whether exact) for an update: the estimate's first (``e0``: same k, h), then
+    _expm1_near; vectorized, the usual path only, a lane off it left to the exact pass."""
     if exact:
         if first and e0:
             return emq, True
@@ -158,9 +143,7 @@ def _expm1_lane(k, h, kq, emq, first, e0, exact):
 
 @ijit
 def _re687_lane(rel, dnu, irelq, rpq, first, exact):
-    """(rel dnu)^0.687 for an update of the drag iteration, and whether it is exact: _re687_near;
-    vectorized (not ``exact``), the tables on the first update (no evaluation before it) and the
-    series from the last evaluation after it, a lane off that path left to the exact pass."""
+    """((rel dnu)^0.687, whether exact) for an update (as _expm1_lane)."""
     if exact:
         return _re687_near(rel, dnu, irelq, rpq, True)
     if first:
@@ -170,10 +153,7 @@ def _re687_lane(rel, dnu, irelq, rpq, first, exact):
 
 @ijit
 def _lane_drag_update(lf, li, l, it, S, first, exact):
-    """Update number ``it`` (``first``: it == 0) of lane l's drag rate if it still iterates
-    (_drag_rate_update), as selects (vectorized; exact: a lane it left): a lane not iterating, or
-    one whose update needs the exact pass, keeps its values (the latter is marked _FIX). Returns
-    1 if the lane iterates on (those marked included)."""
+    """Update ``it`` of lane l's drag rate (as selects); 1 if it iterates on (_FIX: exact pass)."""
     going = li[_ITER + l] != 0
     k = lf[_K + l]
     h = lf[_H + l]
@@ -199,9 +179,7 @@ def _lane_drag_update(lf, li, l, it, S, first, exact):
 
 @ijit
 def _drag_lanes(lf, li, nb, S):
-    """The drag rates of lanes 0..nb-1 with _ITER set, iterated in lockstep (the long dependency
-    chains of independent parcels overlap in the CPU; the updates run on vector units) until each
-    is within the tolerance."""
+    """The drag rates of lanes 0..nb-1 iterated in lockstep (on vector units)."""
     for it in range(DRAG_MAXIT):
         left = 0
         if it == 0:
@@ -219,8 +197,7 @@ def _drag_lanes(lf, li, nb, S):
 
 @ijit
 def _drag_rate(k, h, Du, Dv, Dw, itp, dnu, S):
-    """A drag rate iterated to its fixed point from k, one parcel alone (as _drag_lanes); returns
-    it with the last evaluation's k and expm1(-k h) (for _expm1_near)."""
+    """A drag rate at its fixed point, one parcel alone, with the last evaluation's k and expm1."""
     ih = 1.0 / h
     kq = -1.0
     emq = 0.0

@@ -1,36 +1,18 @@
 """Grid <-> parcel transfer on the staggered grid: trilinear weights, log-law extrapolation near the bed.
 
-The same weights serve interpolation (fluid velocity at a parcel, paper section 2.1: "first order
-trilinear interpolation") and deposition of the drag reaction (paper eq. 2), so the exchange
-conserves momentum to round-off (see :mod:`saltstudy.solver.grains.coupling`).
-
-Layout (``grid.py``): ``u[i, j, k]`` at ``(x_f[i], y_c[j], z_c[k])``, ``v[i, j, k]`` at
-``(x_c[i], y_f[j], z_c[k])``, ``w[i, j, k]`` at ``(x_c[i], y_c[j], z_f[k])`` with ``w[..., 0] = 0``
-(the bed). Periodic in x and y by modular indices.
-
-Near the bed: the log-law region, the paper's [12] ("In the lower grid cell, the horizontal wind
-velocity components at the particle position were extrapolated from the resolved fluid components
-of the second grid cell using a logarithmic profile"). The region is the whole first cell,
-``z < z_f[1]``; the horizontal fluid velocity there is extrapolated from the second level
-(``LOG_LEVEL``, k = 1) with the log law, bilinear in x, y at that level::
+The same weights interpolate the air at a parcel (paper section 2.1, "first order trilinear
+interpolation") and deposit its drag reaction (eq. 2): momentum is conserved to round-off.
+The log-law region is the whole first cell, ``z < z_f[1]`` (the paper's [12]: "In the lower grid
+cell, the horizontal wind velocity components at the particle position were extrapolated from the
+resolved fluid components of the second grid cell using a logarithmic profile")::
 
     u(z) = u(z_c[1]) ln(z / z0) / ln(z_c[1] / z0)           (z clipped to >= 1.0001 z0)
 
-and the drag reaction of a parcel in it goes back to level 1, the level the parcel read, with the
-same horizontal weights (momentum exact; the TKE sink likewise goes to the level-1 cell). From
-``z_f[1]`` up the usual trilinear interpolation, which between ``z_f[1]`` and ``z_c[1]`` is linear
-between levels 0 and 1. The seen wind is *not* continuous at ``z_f[1]``: the linear value there is
-``(1 - f) u_0 + f u_1`` with ``f = (z_f[1] - z_c[0]) / (z_c[1] - z_c[0])`` (0.39 on the smoke
-grid, 0.45 on the paper's, 0.50 on the reduced one), the log law's is
-``u_1 ln(z_f[1]/z0) / ln(z_c[1]/z0)``. In an exact log profile (z0 = 10 um) the linear value is
-below the log law by 1.9 % (reduced grid) to 2.9 % (smoke grid; paper's 2.4 %); in the LES add
-``(1 - f)`` times the departure of the level-0 wind from the log law extrapolated to ``z_c[0]``.
-
-Vertical velocity is interpolated between the z-faces in all, so it goes linearly to ``w = 0``
-at the bed (face 0); the part of a vertical reaction that falls on face 0 is taken by the bed (it
-does not enter the air).
-
-Everything here is scalar numba code (``saltstudy._jit.device``), inlined into the parcel kernels.
+bilinear at level ``LOG_LEVEL`` = 1, where the parcel's reaction and TKE sink go too; above,
+trilinear. The seen wind jumps at ``z_f[1]``: in an exact log profile (z0 = 10 um) the linear
+value is below the log law by 1.9 % (reduced grid) to 2.9 % (smoke grid; the paper's 2.4 %). w is
+linear between the z-faces, to 0 at the bed, which takes the share of a reaction on face 0.
+Scalar numba code, inlined into the parcel kernels.
 """
 from __future__ import annotations
 
@@ -44,46 +26,30 @@ from ..grid import Grid
 from ..numerics.elementary import log_small
 from ..numerics.simd import fma2, fma4, load2
 
-#: small helpers of the parcel kernels, inlined into the callers by LLVM (``saltstudy._jit.device``:
-#: at LLVM's default threshold they stayed out-of-line calls passing the arrays as structs on the
-#: stack, ~25 ns per call, most of the parcel step)
+#: the parcel kernels' helpers, inlined by LLVM (``_jit.device``: out-of-line calls passing the
+#: arrays as structs on the stack cost ~25 ns each, most of the parcel step)
 ijit = device
 
-__all__ = ["GridGeometry", "Geometry", "Stencil", "LOG_LEVEL", "GEO_LOG_TOP", "GEO_RDX", "GEO_RDY",
-           "GEO_RZ0", "GEO_RLUT", "wrap_periodic", "locate", "interp_fluid", "level_of", "slab_of",
-           "wrap_index", "pool_add_tri", "pool_add_tri2"]
-
-#: Where a point sits on the staggered grid (``locate``): the x index and fraction of the x-faces
-#: (u) and of the x-centres (v, w), the same in y, the lower centre level ``kc`` with fraction
-#: ``fzc`` (u, v), the lower face ``kf`` with fraction ``fzf`` (w), whether the point is in the
-#: log-law region (``islog``; then ``lfac`` is the log-law factor, ``kc`` = LOG_LEVEL the level it
-#: reads and its horizontal drag reaction goes to, and ``fzc`` = 0) and the level of the cell
-#: holding it (``kcell``).
-#: Indices ``ix + 1`` etc. are taken modulo n by the users. (A named tuple: numba passes it by
-#: value, its fields are static members.)
+#: Where a point sits (``locate``): index and fraction of the x-faces (u) and x-centres (v, w), the
+#: same in y, the lower centre level ``kc`` and fraction ``fzc`` (u, v), the lower face ``kf`` and
+#: ``fzf`` (w), the log-law region (``islog``: ``lfac`` the log-law factor, ``kc`` = LOG_LEVEL,
+#: ``fzc`` = 0) and the level of the cell holding it (``kcell``); ``ix + 1`` etc. wrap at the users
 Stencil = namedtuple("Stencil", "ixf fxf ixc fxc jyf fyf jyc fyc kc fzc kf fzf lfac islog kcell")
-#: the level whose wind the log law of the first cell extrapolates, and where the drag of a parcel
-#: there goes (module doc): the second
+#: the level the first cell's log law extrapolates, where a parcel there deposits (module doc)
 LOG_LEVEL = 1
 #: index in ``GridGeometry.geo`` of the log region's top, z_f[1]
 GEO_LOG_TOP = 8
 #: indices in ``GridGeometry.geo`` of 1 / dx, 1 / dy, 1 / z0 and 1 / lut_dz (locate multiplies:
-#: a division is a long dependency for the parcel's stencil, twice per parcel-step)
+#: a division is a long dependency for the parcel's stencil)
 GEO_RDX, GEO_RDY, GEO_RZ0, GEO_RLUT = 9, 10, 11, 12
-#: The grid as the parcel kernels take it (``GridGeometry.record``): ``rdz_f[k] = 1 / (z_f[k+1] -
-#: z_f[k])``, ``rdz_c[k] = 1 / (z_c[k+1] - z_c[k])``
+#: The grid as the parcel kernels take it (``GridGeometry.record``); ``rdz_f``, ``rdz_c``: 1 /
+#: the spacings of the faces and of the centres
 Geometry = namedtuple("Geometry", "geo z_f z_c dz_c lut rdz_f rdz_c")
 
 
 class GridGeometry:
-    """The arrays and scalars the parcel kernels need, in numba-friendly form.
-
-    ``geo`` float64 array: [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[1] / z0), z_f[1], 1 / dx,
-    1 / dy, 1 / z0, 1 / lut_dz] (the log region is ``z < z_f[1]``, module doc); ``z_f (nz+1)``,
-    ``z_c (nz)``,
-    ``lut`` int64: ``lut[m]`` is the face index k with ``z_f[k] <= m * lut_dz`` (a fast start for
-    the vertical search on the stretched grid); ``log_den = ln(z_c[1] / z0)``.
-    """
+    """The parcel kernels' grid: ``geo`` = [dx, dy, Lx, Ly, z0, lut_dz, Lz, 1 / ln(z_c[1] / z0),
+    z_f[1], 1 / dx, 1 / dy, 1 / z0, 1 / lut_dz], ``lut[m]`` the face under m lut_dz."""
 
     def __init__(self, grid: Grid, z0: float):
         self.nx, self.ny, self.nz = grid.shape
@@ -149,9 +115,7 @@ def level_of(z: float, z_f: np.ndarray, lut: np.ndarray, lut_dz: float, nz: int)
 
 @ijit
 def _cell_level(z, G, nz):
-    """level_of with 1 / lut_dz: the face index k (0..nz-1) with z_f[k] <= z < z_f[k+1] (clamped).
-    A product can round up onto a table point that a division would not reach; the step down
-    puts such a z back into its cell."""
+    """level_of with 1 / lut_dz (stepping back a z whose product rounded up)."""
     if z <= 0.0:
         return 0
     m = int(z * G.geo[GEO_RLUT])
@@ -167,8 +131,7 @@ def _cell_level(z, G, nz):
 
 @ijit
 def _faces_and_centres(s):
-    """(face index, fraction, centre index, fraction) of a coordinate s in cell widths: the face
-    stencil floor(s), s - floor(s), and the centre stencil (centres at i + 1/2) from it."""
+    """(face index, fraction, centre index, fraction) of a coordinate s in cell widths."""
     i = int(math.floor(s))
     f = s - i
     if f >= 0.5:
@@ -252,8 +215,7 @@ def _bil(f, i0, fx, j0, fy, k, nx, ny):
 
 @ijit
 def interp_fluid(u, v, w, st, nx, ny):
-    """Resolved fluid velocity at a located point (Stencil ``st``; trilinear, log law in the log
-    region)."""
+    """Resolved air velocity at a located point (trilinear; the log law in the log region)."""
     if st.islog:
         uf = st.lfac * _bil(u, st.ixf, st.fxf, st.jyc, st.fyc, LOG_LEVEL, nx, ny)
         vf = st.lfac * _bil(v, st.ixc, st.fxc, st.jyf, st.fyf, LOG_LEVEL, nx, ny)
@@ -264,11 +226,9 @@ def interp_fluid(u, v, w, st, nx, ny):
     return uf, vf, wf
 
 
-# ---- chunk-private deposit buffers limited to a range of x-slabs (coupling.py) ----------------
-# A chunk's buffer covers the L slabs s, s+1, ..., s+L-1 (mod nx) of one or more face fields,
-# stored flat in a pool at ``off``: index ``off + ((comp * L + (i - s) mod nx) * ny + j) * nk + k``
-# (times 2, plus 0 or 1, for the paired buffers). The caller guarantees that every slab written
-# lies in the range (coupling.chunk_ranges).
+# ---- chunk-private deposit buffers (coupling.py): slabs s ... s+L-1 (mod nx) of the face fields
+# flat in a pool from ``off``, index ``off + ((comp * L + (i - s) mod nx) * ny + j) * nk + k``
+# (times 2, plus 0 or 1, for the paired buffers); every slab written lies in the range
 
 
 @ijit
@@ -282,10 +242,7 @@ def slab_of(i, s, nx):
 
 @ijit
 def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
-    """pool[base + slab-local trilinear stencil] += w_ijk * val with trilinear weights (levels
-    >= nk fold onto nk - 1: a safety net, momentum stays conserved, only its position is
-    approximate). ``base = off + comp * L * ny * nk``. A column's two levels are contiguous: one
-    2-wide fused multiply-add each (simd.fma2)."""
+    """pool[base + slab-local trilinear stencil] += w val (levels >= nk fold onto nk - 1)."""
     i1, j1, gx, gy = _upper_corner(i0, fx, j0, fy, nx, ny)
     gz = 1.0 - fz
     r0 = base + slab_of(i0, s, nx) * ny * nk
@@ -317,8 +274,7 @@ def pool_add_tri(pool, base, s, nx, ny, nk, val, i0, fx, j0, fy, k0, fz):
 
 @ijit
 def pool_add_tri2(pool, base, s, nx, ny, nk, va, vb, i0, fx, j0, fy, k0, fz):
-    """As pool_add_tri for a pair of interleaved buffers (stride 2): (+ w va, + w vb). A column's
-    two levels are four contiguous values: one 4-wide fused multiply-add each (simd.fma4)."""
+    """As pool_add_tri for a pair of interleaved buffers: (+ w va, + w vb), simd.fma4."""
     i1, j1, gx, gy = _upper_corner(i0, fx, j0, fy, nx, ny)
     gz = 1.0 - fz
     r0 = base + 2 * slab_of(i0, s, nx) * ny * nk

@@ -1,6 +1,5 @@
-"""A grain's motion over one sub-step: the wind it sees, the relaxation of its
-velocity towards that wind under the drag rate, the move, gravity, and the crossing of the 0.5 mm
-impact layer.
+"""A grain's motion over one sub-step: the wind it sees, the relaxation of its velocity towards it
+under the drag rate, the move, gravity, and the crossing of the 0.5 mm impact layer.
 """
 from __future__ import annotations
 
@@ -22,19 +21,10 @@ from .deposit import _reaction, _tke_level, _tke_rate
 
 @jit
 def _crossing_time(z0, wt, a, k, h, zc, zh):
-    """First t in [0, h] with z(t) = zc, given z(0) = z0 >= zc > z(h) = zh.
-
-    z'' = -a k exp(-k t) keeps one sign: if the parcel starts upwards (w_p > 0, then a > 0 and z
-    is concave) the crossing lies after the apex, where z is decreasing; otherwise z decreases
-    from the start or is convex with z(h) < zc. Either way the root in the bracket is unique.
-
-    Safeguarded Newton (bisection when a step leaves the bracket), started at the root of z's
-    Taylor quadratic at 0 or at the apex (or of the chord), and stopped once the step is below
-    1e-14 h or the next step's error, |z''| step^2 / (2 |z'|), would be below a tenth of that:
-    2.5 evaluations per crossing on the bench's crossings (3.1 without the apex start). An exact
-    zero of F ends it too: kept as a bracket end, it sent Newton's next point onto that end, out
-    of the open bracket, and bisection then walked away from the root (10.8 evaluations on
-    average, up to 55, before these changes)."""
+    """First t in [0, h] with z(t) = zc, z(0) = z0 >= zc > z(h) = zh, unique (z'' keeps one sign).
+    Safeguarded Newton from the root of z's Taylor quadratic at 0 or the apex (or the chord),
+    stopped below 1e-14 h, at an exact zero or once the next error |z''| step^2 / (2 |z'|) is
+    below a tenth of that: 2.5 evaluations per crossing on the bench's."""
     lo = 0.0
     hi = h
     wp = wt + a
@@ -89,10 +79,7 @@ def _crossing_time(z0, wt, a, k, h, zc, zh):
 
 @ijit
 def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
-    """The wind a parcel at (xp, yp, zp) sees, and its Stencil (interp.locate): the resolved
-    velocity interpolated trilinearly, with the log law of level LOG_LEVEL in the log region
-    (interp.py); two-way, of the air after the implicit exchange, read from U = u + delta (the
-    parcel's drag goes where it reads; zero change beyond the buffer levels S.nkb)."""
+    """(Stencil, wind) at the parcel; two-way the air after the implicit exchange, U = u + delta."""
     st = locate(xp, yp, zp, G, nx, ny, nz)
     if st.islog:  # the log law of the (new) air at the level read, where the drag goes
         if S.twoway and LOG_LEVEL < S.nkb:
@@ -116,9 +103,7 @@ def _wind_seen(F, G, xp, yp, zp, S, nx, ny, nz):
 
 @ijit
 def _substep_length(T, t, wp, dzk, nsub):
-    """The rest of the step T - t, cut so that the parcel moves at most one cell height dzk at its
-    vertical speed |wp| (but not below T / MAX_SUBSTEPS); the last allowed sub-step takes the
-    rest."""
+    """The rest of the step, cut to one cell height dzk at |wp| (>= T / MAX_SUBSTEPS)."""
     h = T - t
     if nsub < MAX_SUBSTEPS - 1:
         awp = abs(wp) + 1e-30
@@ -131,8 +116,7 @@ def _substep_length(T, t, wp, dzk, nsub):
 
 @ijit
 def _load_lane(lf, li, l, P, p, T, F, G, S, nx, ny, nz):
-    """Scalar stage 1 of lane l (parcel p, step T): the parcel into the lane, its stencil and the
-    resolved wind it sees (_wind_seen)."""
+    """Stage 1 of lane l (parcel p, step T): the parcel, its stencil and the wind it sees."""
     xp = P.x[p]
     yp = P.y[p]
     zp = P.z[p]
@@ -181,10 +165,7 @@ def _lane_stencil(lf, li, l):
 
 @ijit
 def _lane_start(lf, li, l, S, exact):
-    """Stage 2 of lane l (vectorized; exact: a lane it left): the parcel's constants, the sub-step
-    (_substep_length), the modelled impulse (two-way: c_p (u_s - u~_p) of the implicit estimate with
-    its k0, T and weights, coupling.estimate_weights), the slip, a first drag rate if the parcel has
-    none (its kd is then -k0: coupling.implicit_coefficients), and the drag iteration's start."""
+    """Stage 2 of lane l: constants, sub-step, modelled impulse, slip, drag iteration's start."""
     active = li[_ACTIVE + l] != 0
     dp = lf[_D + l]
     T = lf[_T + l]
@@ -246,8 +227,7 @@ def _lane_start(lf, li, l, S, exact):
 
 @ijit
 def _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, h_imp):
-    """A sub-step that ends below the impact layer (zn < h_imp) is cut at the crossing
-    (_crossing_time): the cut sub-step and the parcel's velocities there."""
+    """The sub-step cut at the impact layer's crossing, and the parcel's velocities there."""
     h = _crossing_time(zp, wt, wp - wt, k, h, h_imp, zn)
     em = expm1_small(-k * h)
     un, vn, wn, ome_k = relaxation(em, ik, us, vs, wt, up, vp, wp)
@@ -256,8 +236,7 @@ def _bed_crossing(zp, zn, k, ik, h, us, vs, wt, up, vp, wp, h_imp):
 
 @ijit
 def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
-    """Horizontal position after h of the relaxation, wrapped into the periodic domain; a parcel
-    above the lid is reflected. Returns (x, y, z, w)."""
+    """(x, y, z, w) after h: the horizontal move wrapped, a parcel above the lid reflected."""
     xn = relaxed_position(xp, us, up, h, ome_k)
     yn = relaxed_position(yp, vs, vp, h, ome_k)
     if zn > S.Lz:  # reflect at the lid
@@ -268,11 +247,8 @@ def _move(xp, yp, zn, wn, us, vs, up, vp, h, ome_k, S):
 
 @ijit
 def _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, S, exact):
-    """A sub-step of h with drag rate k (kq, emq: the iteration's last evaluation): drag (exact
-    relaxation, physics.drag.relaxation), the height, the bed crossing (exact only: a sub-step
-    ending in the impact layer is cut there), the move. Returns the parcel's (x, y, z, u, v, w), the
-    sub-step as taken, whether it ended in the impact layer and whether the numbers are exact
-    (_expm1_near; without ``exact`` a hit's are not: no cut)."""
+    """A sub-step of h at drag rate k: relaxation, bed crossing (exact only), move. Returns (x, y,
+    z, u, v, w), h as taken, whether it ended at the bed and whether the numbers are exact."""
     ik = 1.0 / k
     em, ok = _expm1_near(k, h, kq, emq, exact)
     wt = ws - S.g * ik
@@ -288,8 +264,7 @@ def _relax_and_move(xp, yp, zp, up, vp, wp, us, vs, ws, k, kq, emq, h, S, exact)
 
 @ijit
 def _lane_move(lf, li, l, S, exact):
-    """Stage 4 of lane l (vectorized; exact: a lane it left, _FIX): _relax_and_move over its
-    sub-step; the end state into the lane, _HIT if it ended at the bed."""
+    """Stage 4 of lane l (vectorized; exact: a lane it left): _relax_and_move, _HIT at the bed."""
     active = li[_ACTIVE + l] != 0
     xn, yn, zn, un, vn, wn, h, hit, ok = _relax_and_move(
         lf[_X + l], lf[_Y + l], lf[_Z + l], lf[_U + l], lf[_V + l], lf[_W + l], lf[_US + l],

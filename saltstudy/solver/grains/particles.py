@@ -1,48 +1,26 @@
 """The saltation component: Lagrangian parcels of sand grains (paper sections 2.1-2.4).
 
-Each parcel stands for ``Q = scene.Q`` real grains of one diameter. Parcels live in a struct of
-arrays (``x, y, z, u, v, w, d`` plus the drag-rate warm start ``kd``, a status ``flag`` and the time
-left in the step ``trem``) that grows by doubling; only the first ``n`` entries are alive. Periodic
-in x and y (positions wrapped by ``x - Lx floor(x / Lx)``, right for any displacement).
-
-Equation of motion (eqs. 3-4)::
+Each parcel stands for ``Q = scene.Q`` real grains of one diameter, in a struct of arrays that
+grows by doubling (the first ``n`` alive): position, velocity, ``d``, the drag-rate warm start
+``kd``, a ``flag`` and the time credit ``trem``. Periodic in x and y. Equation of motion (eqs. 3-4)::
 
     du_p/dt = k_p (u_s - u_p) + g,    k_p = f(Re_p) / T_p,   T_p = rho_p d^2 / (18 rho nu),
     f(Re_p) = 1 + 0.15 Re_p^0.687 (Clift et al. 1978),        g = (0, 0, -g)
 
-integrated *exactly* over a (sub)step h with k_p and the seen fluid velocity u_s frozen
-(physics.drag.relaxation, relaxed_position)::
+integrated exactly over a (sub)step h with k_p and u_s frozen (physics.drag.relaxation): a grain
+with T_p << h is stable. k_p is evaluated at the slip ``E (mean slip) + (1 - E) (end slip)``,
+E = exp(-k_p h): second order for k_p h << 1, no overshoot of the terminal velocity for
+k_p h >> 1; found by safeguarded Newton (drag.py) from the last step's, to ``DRAG_TOL``.
 
-    u(h) = u_t + (u_p - u_t) E,   x(h) = x_p + u_t h + (u_p - u_t)(1 - E)/k_p,
-    u_t = u_s + g / k_p,          E = exp(-k_p h)
+A sub-step moves a parcel one local cell height at most (``MAX_SUBSTEPS`` per step). A parcel
+crossing the impact layer (0.5 mm) stops there and splashes (splash_kernels.py); rebound and
+ejecta leave with the rest of the step as a credit, integrated in the next step inside its
+implicit exchange (at once, their exchange would be explicit: unstable for small grains at high
+loading). One placed inside the layer splashes at once; one reaching the lid is reflected.
 
-so a grain with T_p << h is stable and lands on its terminal velocity. k_p is evaluated at the
-slip ``E * (mean slip over the step) + (1 - E) * (end-of-step slip)`` of the frozen-k solution:
-the step-mean slip (second order) for k_p h << 1, the end slip for k_p h >> 1, where a grain
-falling from rest then cannot overshoot its terminal velocity whatever h / T_p. The fixed point
-is found by safeguarded Newton (:mod:`drag`), warm-started from the previous step, to
-``DRAG_TOL``; the last Newton update is applied, so k is accurate to about DRAG_TOL^2.
-
-Sub-steps: a parcel moves at most one local cell height per sub-step (re-interpolating the
-wind), at most ``MAX_SUBSTEPS`` per step. A parcel that crosses the impact layer
-(``splash.impact_layer``, 0.5 mm) is stopped at the crossing (:mod:`motion`) and splashes
-(:mod:`splash_kernels`); the rebound and the ejecta start there with the rest of the step as a
-time credit, integrated over ``dt + credit`` in the next step inside that step's implicit
-exchange (integrating them at once would exchange their momentum explicitly, which is unstable
-for small grains at high loading). A parcel placed inside the impact layer (``add_parcels``)
-splashes at once; one reaching the lid is reflected. The wind at a parcel: :mod:`interp`; the
-two-way exchange and the TKE sink: :mod:`coupling`.
-
-Work split: the parcels go in a fixed number of chunks (``prange``, chunk-private deposit
-buffers: :mod:`coupling`), the impacts in a fixed number of runs each with its own random stream
-(:mod:`splash_kernels`), the release's draws in a serial kernel on the main stream, so results do
-not depend on the numba thread count. The per-parcel code is inlined (interp.py ``ijit``) into a
-per-chunk loop over blocks of parcels (:mod:`advance`; the lane rows: layout.py). Two-way, the
-estimate's impulse and the first sub-step's drag impulse share their weights and are deposited
-as one value; the advance recomputes the estimate's coefficients from the same inputs, so
-nothing per parcel is kept between the two passes. Each parallel region runs on all the threads
-or on one, whichever ran faster recently (``Threads``). The kernels a step calls come as one
-record (``StepKernels``; ``KERNELS`` by default) that a benchmark may replace.
+Parcels go in a fixed number of chunks (coupling.py), impacts in a fixed number of runs with their
+own random streams: results do not depend on the thread count. The kernels a step calls are one
+record (``StepKernels``) that a benchmark may replace.
 """
 import json
 import math
@@ -65,26 +43,23 @@ from .interp import GridGeometry
 from .layout import _DT, _LANE_ROWS_F, _LANE_ROWS_I, _LANES, DRAG_TOL, Work
 from .population import cell_order, collect_events, compact, fluid_at, gather, release
 from .splash_kernels import (
-    EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, N_EN, NO_LAUNCH, ImpactLog,
-    ejecta_reserve, impact_log_arrays, splash_runs)
-
-__all__ = ["Saltation", "StepKernels", "KERNELS", "PARALLEL", "Threads", "RNG_SPAWN_KEY",
-           "SORT_INTERVAL", "N_SPLASH_RUNS"]
+    EN_IMPACT, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT, EN_SPLASH, IMPACT_RECORD, N_EN, NO_LAUNCH,
+    ImpactLog, ejecta_reserve, impact_log_arrays, splash_runs)
 
 #: the grains' main random stream: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,)), distinct
-#: from any stream the flow derives from the same seed with another key
+#: from any stream the flow derives from the same seed
 RNG_SPAWN_KEY = 0x5A17
-#: the impacts of a step are splashed in this many runs, each with its own random stream
-#: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY, SPLASH_STREAM, run)); fixed, not the thread
-#: count, so that a run is bit-for-bit the same with any number of threads
+#: the impacts of a step go in this many runs (fixed: thread-count free), each with its stream
+#: SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY, SPLASH_STREAM, run))
 N_SPLASH_RUNS = 4
 SPLASH_STREAM = 1
 #: parcels are reordered by cell every this many steps (cache locality of gathers and scatters)
 SORT_INTERVAL = 10
+#: the impact record's arrays (splash_kernels.ImpactLog), by checkpoint name
+_LOG_NAMES = ("hist", "outc", "hop_t", "hop_l")
 
-#: The compiled kernels a step calls, by name (module doc): the parallel ones (``PARALLEL``)
-#: each through its own ``Threads``, the serial ones directly. Any callables with the same
-#: arguments will do (a benchmark wraps each in a timer).
+#: The kernels a step calls, by name: the parallel ones (``PARALLEL``) each through its own
+#: ``Threads``. Any callables with the same arguments will do (a benchmark wraps each in a timer).
 StepKernels = namedtuple("StepKernels", "chunk_assign implicit_coefficients implicit_corrections "
                          "advance_all ejecta_reserve splash_runs apply_exchange air_maxima "
                          "collect_events compact cell_order gather")
@@ -98,16 +73,9 @@ PARALLEL = ("chunk_assign", "implicit_coefficients", "implicit_corrections", "ad
 
 
 class Threads:
-    """A parallel kernel of the step run on a thread count chosen per call: the numba threads or
-    one, by their recent times per unit of work. The results do not depend on it (a fixed number
-    of chunks and runs, each with its own buffers, stream and stretch; every sum in a fixed
-    order; the same compiled code).
-
-    Which is faster depends on the machine's load, not on the model: on a machine shared with
-    other jobs a parallel region first waits milliseconds for its workers to get a core, more
-    than the kernel's work at 10^5 parcels (measured: docs/BENCHMARKS.md). Every ``EXPLORE``-th
-    call takes the other count, so that a change of load is noticed; a kernel's first call in
-    the process (its compilation or cache load) is not timed."""
+    """A parallel kernel run on the numba threads or on one, whichever took less time per unit of
+    work recently (same results): a parallel region can wait milliseconds for its workers on a
+    shared machine (docs/BENCHMARKS.md). Every EXPLORE-th call tries the other; first untimed."""
 
     EXPLORE = 32
 
@@ -148,15 +116,7 @@ assert EST_LANES == _LANES and EST_ROWS_F <= _LANE_ROWS_F and EST_ROWS_I <= _LAN
 
 
 class Saltation:
-    """The grain component (ARCHITECTURE.md): ``Saltation(grid, scene)``.
-
-    Public API: ``name``, ``activate(state)``, ``dynamics(state, dt)``, ``max_dt(state)``,
-    ``checkpoint()``, ``restore(data)``; ``n`` (live parcels) and the views ``x, y, z, u, v, w, d``
-    (length n), ``mass`` (per real grain, kg), ``Q``, ``counters()`` (cumulative), ``last_step``
-    (per-step counters), ``fluid_at_parcels(state)``, ``add_parcels(...)`` (tests, tools);
-    ``kernels``, the :data:`StepKernels` its steps call (``KERNELS``; settable, e.g. by a
-    benchmark).
-    """
+    """The grain component (docs/ARCHITECTURE.md, "Solver API"): ``Saltation(grid, scene)``."""
 
     name = "saltation"
     #: courant number of parcels on the horizontal grid (max_dt)
@@ -194,8 +154,6 @@ class Saltation:
                              grid.Lz, 1.0, float(self.two_way), float(self.tke_sink)])
         ss = np.random.SeedSequence(case.seed, spawn_key=(RNG_SPAWN_KEY,))
         self.rng = np.random.Generator(np.random.PCG64(ss))
-        # one stream per run of impacts (splash_kernels.ejecta_reserve): the bed events of a step
-        # go in parallel and still do not depend on the thread count
         self.splash_rngs = tuple(np.random.Generator(np.random.PCG64(np.random.SeedSequence(
             case.seed, spawn_key=(RNG_SPAWN_KEY, SPLASH_STREAM, r)))) for r in range(N_SPLASH_RUNS))
         cap = max(1024, capacity or 2 * self.n_initial)
@@ -211,9 +169,7 @@ class Saltation:
         self.bed_px = 0.0
         self.bed_pz = 0.0
         self.momentum_to_air = np.zeros(3)
-        self.momentum_to_bed = 0.0
-        #: cumulative impact record since activation, one slab per run of impacts
-        #: (splash_kernels.ImpactLog: hist, outc, hop_t, hop_l); see impact_record()
+        #: cumulative impact record (splash_kernels.ImpactLog), one slab per run of impacts
         self.impact_counts = impact_log_arrays(N_SPLASH_RUNS)
         self._log_prm = np.array([0.0, grid.Lx, grid.Ly])
         self.last_step: dict = {}
@@ -223,8 +179,7 @@ class Saltation:
 
     @property
     def kernels(self) -> StepKernels:
-        """The kernels the step calls (:data:`StepKernels`); setting it gives each parallel one
-        a new ``Threads``."""
+        """The kernels the step calls; setting it gives each parallel one a ``Threads``."""
         return self._kernels
 
     @kernels.setter
@@ -243,8 +198,7 @@ class Saltation:
         self._flag = np.zeros(cap, dtype=np.int8)
         self._dead = np.zeros(cap, dtype=np.int64)
         self._ev = np.zeros(cap, dtype=np.int64)
-        # parcel indices by chunk, unsigned: the kernels index the parcel arrays with them
-        # without numba's negative-index wraparound
+        # parcel indices by chunk, unsigned: no negative-index wraparound in the kernels
         self._idx = np.zeros(cap, dtype=np.uint32)
         self._cid = np.zeros(cap, dtype=np.int64)
 
@@ -286,11 +240,9 @@ class Saltation:
         sl = slice(self.n, self.n + m)
         self._x[sl] = np.mod(x, self.grid.Lx)
         self._y[sl] = np.mod(np.broadcast_to(y, (m,)), self.grid.Ly)
-        self._z[sl] = np.broadcast_to(z, (m,))
-        self._u[sl] = np.broadcast_to(u, (m,))
-        self._v[sl] = np.broadcast_to(v, (m,))
-        self._w[sl] = np.broadcast_to(w, (m,))
-        self._d[sl] = np.broadcast_to(self.mu[0] if d is None else d, (m,))
+        d = self.mu[0] if d is None else d
+        for f, val in (("z", z), ("u", u), ("v", v), ("w", w), ("d", d)):
+            getattr(self, "_" + f)[sl] = np.broadcast_to(val, (m,))
         self._kd[sl] = 0.0
         self._flag[sl] = 0
         self._trem[sl] = 0.0
@@ -299,11 +251,7 @@ class Saltation:
 
     # ---- component protocol ------------------------------------------------------------------
     def activate(self, state: FlowState) -> None:
-        """Release ``scene.n_initial`` parcels uniformly in the lowest ``release_depth`` at rest.
-
-        Heights are uniform in [impact layer, release_depth): none starts inside the impact layer
-        (where it would splash at zero speed before moving).
-        """
+        """Release ``scene.n_initial`` parcels at rest in [impact layer, release_depth)."""
         m = self.n_initial
         self._grow(self.n + m)
         self._tl[self.n:self.n + m] = NO_LAUNCH
@@ -317,16 +265,13 @@ class Saltation:
             state.tke_sink = np.zeros(self.grid.shape)
 
     def max_dt(self, state: FlowState) -> float:
-        """Parcels cross at most one horizontal cell per step (they sample the grid):
-        dt <= dx / max |u_p| (or dy / max |v_p|); vertical motion is sub-stepped instead."""
+        """min(dx, dy) / max horizontal |u_p|: a parcel crosses one cell per step at most."""
         if self.n == 0 or self._vmax <= 0.0:
             return math.inf
         return self.parcel_courant * min(self.grid.dx, self.grid.dy) / self._vmax
 
     def _levels(self, state: FlowState, dt: float) -> int:
-        """Levels the deposit buffers must cover this step: up to where any parcel can get. From
-        chunk_assign's parcel maxima (self._pmax: max horizontal speed, top, max speed) and the
-        air's max |w| (air_maxima, which also keeps max |u| per level in self._umax)."""
+        """Levels the deposit buffers cover this step: up to where any parcel can get."""
         vh, ztop, vtot = self._pmax
         self._vmax = float(vh)
         wmax = self._run.air_maxima(state.u, state.w, self._umax) if state.w.size else 0.0
@@ -351,8 +296,7 @@ class Saltation:
         self._lane_f = np.zeros((nc, _LANE_ROWS_F * _LANES))
         self._lane_i = np.zeros((nc, _LANE_ROWS_I * _LANES), dtype=np.int64)
         self._dmax = np.zeros(nx)
-        # per-slab scratch of the grid passes (coupling.implicit_corrections, apply_exchange): a
-        # column's sums over the chunks, and the slabs' momentum sums
+        # per-slab scratch of coupling.implicit_corrections and apply_exchange
         self._acc = np.zeros((nx, 6, nz))
         self._part = np.zeros((nx, 4))
         self._pmax = np.zeros(3)  # chunk_assign's parcel maxima (_levels)
@@ -384,7 +328,6 @@ class Saltation:
         if not hasattr(self, "_ranges"):
             self._work_init()
         K = self._run
-        step = {"n_impacts": 0, "n_rebounds": 0, "n_ejections": 0, "n_depositions": 0}
         if self.n > 0 and self._steps % SORT_INTERVAL == 0:
             self._sort()
         self._steps += 1
@@ -428,20 +371,14 @@ class Saltation:
         W = Work(self._cstart, self._idx, self._ranges, self._pool, self._vmaxc, self._nhit,
                  self._lane_f, self._lane_i)
         K.advance_all(n, dt, nk, ncomp, 3 if two else 0, self.prm, P, F, geo.record, W)
-        # bed events (self._splash). Rebounds and ejecta leave the bed at the impact point with the
-        # rest of the step as a time credit: they are integrated over dt + credit in the next step,
-        # inside its implicit exchange (integrating them now, outside it, would be an explicit
-        # exchange: unstable for small grains at high loading).
+        # bed events: rebounds and ejecta carry the rest of the step as a credit (module doc)
         n_ev = int(self._nhit.sum())
         self._log_prm[0] = state.t + dt  # the impacts' times are counted back from the step's end
         cnt = self._cnt
         en = self._en
         cnt[:] = 0
         en[:] = 0.0
-        n_dead = 0
-        rounds = 1 if n_ev else 0
-        if n_ev:
-            n_dead = self._splash(n, n_ev)
+        n_dead = self._splash(n, n_ev) if n_ev else 0
         if n_dead:
             dead = np.sort(self._dead[:n_dead])[::-1].copy()
             self.n = K.compact(dead, n_dead, self.n, self._x, self._y, self._z, self._u, self._v,
@@ -459,18 +396,16 @@ class Saltation:
             else:
                 top, tke_out = nk, self._e_zero
             tot = self._tot
-            bed = K.apply_exchange(nx * ny * nk, self._pool, self._ranges, nk, two, du, dv, dw,
-                                   self.inv_mc, self.inv_mw, self.m_c, self.m_w, state.u,
-                                   state.v, state.w, tot, tke, 3 if two else 0, max(nk, top),
-                                   self.inv_vol, tke_out, self._acc, self._part)
+            K.apply_exchange(nx * ny * nk, self._pool, self._ranges, nk, two, du, dv, dw,
+                             self.inv_mc, self.inv_mw, self.m_c, self.m_w, state.u, state.v,
+                             state.w, tot, tke, 3 if two else 0, max(nk, top), self.inv_vol,
+                             tke_out, self._acc, self._part)
             if two:
                 self.momentum_to_air += tot
-                self.momentum_to_bed += bed
             if tke:
                 self._tke_out, self._tke_top = state.tke_sink, nk
         self._vmax = max(self._vmax, float(self._vmaxc.max()) if self.n else 0.0)
-        step["n_impacts"], step["n_rebounds"], step["n_ejections"], step["n_depositions"] = (
-            int(c) for c in cnt)
+        step = dict(zip(self._cum, (int(c) for c in cnt)))  # impacts, rebounds, ejections, ...
         for key, val in step.items():
             self._cum[key] += val
         self.E_impact += float(en[EN_IMPACT])
@@ -478,15 +413,10 @@ class Saltation:
         self.bed_px += float(en[EN_PX_IN] - en[EN_PX_OUT])
         self.bed_pz += float(en[EN_PZ_IN] + en[EN_PZ_OUT])
         step["E_impact"], step["E_splash"] = float(en[EN_IMPACT]), float(en[EN_SPLASH])
-        step["splash_rounds"] = rounds
         self.last_step = step
 
     def _splash(self, n: int, n_ev: int) -> int:
-        """Bed events of the n_ev parcels flagged as hits, in N_SPLASH_RUNS runs of consecutive
-        impacts with their own random streams, in parallel (splash_kernels.splash_runs). Each
-        run appends its ejecta in a stretch reserved after n (ejecta_reserve); the stretches are
-        then closed up in run order. Fills cnt and en and the dead list self._dead; returns the
-        number of dead parcels."""
+        """The bed events of the n_ev hits in parallel runs; returns the number of dead."""
         K = self._run
         K.collect_events(n, self._flag, self._ev)
         ev = self._ev[:n_ev].copy()  # _grow replaces self._ev
@@ -526,13 +456,9 @@ class Saltation:
         return int(dead.size)
 
     def _sort(self) -> None:
-        """Reorder the parcels by cell (every SORT_INTERVAL steps): locality for the kernels.
-        Each field is gathered into a spare array of the same size, which then takes its place
-        (the field's old array becomes the next spare): one pass and one parallel region per
-        field, no copy back."""
+        """Reorder the parcels by cell (locality), each field gathered into a spare array."""
         g = self.geom
         n = self.n
-        # work arrays kept across sorts (no allocation and page faults every SORT_INTERVAL steps)
         if getattr(self, "_sort_key", None) is None or self._sort_key.shape[0] < n:
             self._sort_key = np.empty(self.capacity, dtype=np.int64)
             self._sort_perm = np.empty(self.capacity, dtype=np.int64)
@@ -551,24 +477,15 @@ class Saltation:
 
     # ---- diagnostics support -----------------------------------------------------------------
     def counters(self) -> dict:
-        """Cumulative counters since activation (parcel events), energies [J], momentum [kg m/s]:
-        ``bed_px``, ``bed_pz`` the streamwise and vertical momentum the grains gave the bed."""
-        out = {"n_parcels": int(self.n)}
-        out.update({k: int(v) for k, v in self._cum.items()})
-        out["E_impact"] = self.E_impact
-        out["E_splash"] = self.E_splash
-        out["bed_px"] = self.bed_px
-        out["bed_pz"] = self.bed_pz
+        """Cumulative counters since activation, energies [J], bed momentum [kg m s^-1]."""
+        out = {"n_parcels": int(self.n), **{k: int(v) for k, v in self._cum.items()}}
+        out.update({k: getattr(self, k) for k in ("E_impact", "E_splash", "bed_px", "bed_pz")})
         out["momentum_to_air"] = self.momentum_to_air.copy()
         return out
 
     def impact_record(self) -> dict:
-        """The cumulative impact record since activation (splash_kernels.ImpactLog), summed over
-        the runs: ``impact_hist`` (speed bin, angle bin), ``impact_outcomes`` (speed bin,
-        [impacts, rebounds, ejecta]), ``hop_time_hist``, ``hop_length_hist`` (counts)."""
-        hist, outc, hop_t, hop_l = self.impact_counts
-        return {"impact_hist": hist.sum(axis=0), "impact_outcomes": outc.sum(axis=0),
-                "hop_time_hist": hop_t.sum(axis=0), "hop_length_hist": hop_l.sum(axis=0)}
+        """The impact record since activation, summed over the runs (parcel counts)."""
+        return {k: a.sum(axis=0) for k, a in zip(IMPACT_RECORD, self.impact_counts)}
 
     def fluid_at_parcels(self, state: FlowState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Resolved fluid velocity (u_f, v_f, w_f) interpolated at every live parcel."""
@@ -583,61 +500,43 @@ class Saltation:
         return np.array([np.sum(m * self.u), np.sum(m * self.v), np.sum(m * self.w)])
 
     # ---- checkpoint ------------------------------------------------------------------------
+    #: scalars saved as grain_<key>: (key, attribute, type)
+    _SCALARS = (("E_impact", "E_impact", float), ("E_splash", "E_splash", float),
+                ("bed_px", "bed_px", float), ("bed_pz", "bed_pz", float),
+                ("vmax", "_vmax", float), ("steps", "_steps", int),
+                ("t_activation", "t_activation", float))
+
     def checkpoint(self) -> dict:
-        """Flat dict of arrays/scalars; the RNG state as a JSON string. Bit-for-bit resumable."""
+        """Flat dict of arrays and scalars, the RNG states as JSON: bit-for-bit resumable."""
         n = self.n
         data = {f"grain_{f}": getattr(self, "_" + f)[:n].copy() for f in self._FIELDS}
+        data.update({f"grain_{k}": int(v) for k, v in self._cum.items()})
+        data.update({f"grain_{key}": typ(getattr(self, attr)) for key, attr, typ in self._SCALARS})
+        data.update({f"grain_impact_{name}": a.copy()
+                     for name, a in zip(_LOG_NAMES, self.impact_counts)})
         data["grain_n"] = n
+        data["grain_activated"] = int(self.activated)
+        data["grain_momentum_to_air"] = self.momentum_to_air.copy()
         data["grain_rng_state"] = json.dumps(self.rng.bit_generator.state)
         data["grain_splash_rng_states"] = json.dumps([g.bit_generator.state
                                                       for g in self.splash_rngs])
-        data["grain_activated"] = int(self.activated)
-        data["grain_t_activation"] = float(self.t_activation)
-        for k, v in self._cum.items():
-            data[f"grain_{k}"] = int(v)
-        data["grain_E_impact"] = self.E_impact
-        data["grain_E_splash"] = self.E_splash
-        data["grain_bed_px"] = self.bed_px
-        data["grain_bed_pz"] = self.bed_pz
-        data["grain_momentum_to_air"] = self.momentum_to_air.copy()
-        data["grain_momentum_to_bed"] = self.momentum_to_bed
-        data["grain_vmax"] = self._vmax
-        data["grain_steps"] = int(self._steps)
-        for name, a in zip(("hist", "outc", "hop_t", "hop_l"), self.impact_counts):
-            data[f"grain_impact_{name}"] = a.copy()
         return data
 
     def restore(self, data: dict) -> None:
         n = int(data["grain_n"])
         self._alloc(max(1024, 2 * n, self.capacity))
         for f in self._FIELDS:
-            if f"grain_{f}" in data:
-                getattr(self, "_" + f)[:n] = np.asarray(data[f"grain_{f}"], dtype=np.float64)
-            elif f == "tl":   # a checkpoint without launch records: no hop ends known
-                self._tl[:n] = NO_LAUNCH
+            getattr(self, "_" + f)[:n] = np.asarray(data[f"grain_{f}"], dtype=np.float64)
         self._flag[:n] = 0
         self.n = n
-        st = data["grain_rng_state"]
-        self.rng.bit_generator.state = json.loads(st if isinstance(st, str) else str(st))
-        if "grain_splash_rng_states" in data:
-            st = data["grain_splash_rng_states"]
-            states = json.loads(st if isinstance(st, str) else str(st))
-            for g, state in zip(self.splash_rngs, states):
-                g.bit_generator.state = state
+        self.rng.bit_generator.state = json.loads(str(data["grain_rng_state"]))
+        for g, st in zip(self.splash_rngs, json.loads(str(data["grain_splash_rng_states"]))):
+            g.bit_generator.state = st
         self.activated = bool(int(data["grain_activated"]))
-        self.t_activation = float(data["grain_t_activation"])
         for k in self._cum:
-            self._cum[k] = int(data.get(f"grain_{k}", 0))
-        self.E_impact = float(data["grain_E_impact"])
-        self.E_splash = float(data["grain_E_splash"])
-        self.bed_px = float(data.get("grain_bed_px", 0.0))
-        self.bed_pz = float(data.get("grain_bed_pz", 0.0))
+            self._cum[k] = int(data[f"grain_{k}"])
+        for key, attr, typ in self._SCALARS:
+            setattr(self, attr, typ(data[f"grain_{key}"]))
         self.momentum_to_air = np.array(data["grain_momentum_to_air"], dtype=np.float64).reshape(3)
-        self.momentum_to_bed = float(data["grain_momentum_to_bed"])
-        self._vmax = float(data["grain_vmax"])
-        self._steps = int(data.get("grain_steps", 0))
-        for name, a in zip(("hist", "outc", "hop_t", "hop_l"), self.impact_counts):
-            if f"grain_impact_{name}" in data:
-                a[...] = np.asarray(data[f"grain_impact_{name}"], dtype=np.int64).reshape(a.shape)
-
-
+        for name, a in zip(_LOG_NAMES, self.impact_counts):
+            a[...] = np.asarray(data[f"grain_impact_{name}"], dtype=np.int64).reshape(a.shape)

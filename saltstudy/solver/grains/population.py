@@ -37,8 +37,7 @@ def compact(dead, n_dead, n, x, y, z, u, v, w, d, kd, flag, trem, tl, xl, yl):
 
 @jit_borrow
 def cell_order(n, x, y, z, geo, z_f, lut, nx, ny, nz, key, perm, count):
-    """Stable counting sort of parcels by cell (x-slab, then y, then level): perm[new] = old.
-    Serial and deterministic. Keeps the grid gathers/scatters of neighbouring parcels in cache."""
+    """Stable counting sort of the parcels by cell, perm[new] = old (locality)."""
     nkey = nx * ny * nz
     for c in range(nkey + 1):
         count[c] = 0

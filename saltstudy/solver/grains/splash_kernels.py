@@ -1,27 +1,16 @@
 """Splash at the bed (paper section 2.3, eqs. 5-9) as numba kernels drawing from numpy Generators.
 
-The laws (which outcome, which speeds and angles, how many ejecta and their diameters) are
-:mod:`saltstudy.physics.splash`'s and :mod:`saltstudy.physics.soil`'s; here they are applied to
-the parcels that met the bed in a step, with the books kept. All random draws of the grain
-component happen in serial loops, in a fixed order, so a run is reproducible bit for bit (the
-Generators' ``bit_generator.state`` is checkpointed) and independent of the number of threads.
-The impacts of a step are split into a fixed number of runs of consecutive impacts
-(``ejecta_reserve``), each splashed by ``bed_events`` with its own Generator and its own stretch
-of the parcel arrays, so the runs go in parallel (``splash_runs``) and the result does not depend
-on how many threads there are.
+physics.splash's and physics.soil's laws applied to the parcels that met the bed in a step, with
+the books kept. Every draw happens in a serial loop in a fixed order: the impacts are split into
+a fixed number of runs (``ejecta_reserve``), each splashed by ``bed_events`` with its own
+Generator and stretch of the parcel arrays, in parallel (``splash_runs``): bit for bit the same
+whatever the thread count. Every impact ejects N_ej grains on average, whether the impactor
+rebounds or deposits; rebound and ejecta start at the impact point on the impact layer.
 
-Every impact ejects N_ej grains on average, whether the impactor rebounds or deposits (the
-reading of section 2.3 and the order of the draws: physics/splash.py).
-
-The rebound and the ejecta start at the impact point, on the impact layer's top, where the
-parcel kernel located the crossing, and are integrated for the rest of the step by the caller.
-
-The impact record (``ImpactLog``): every impact is counted by its speed and its angle to the bed
-(``impact_hist``), with the rebounds and ejecta it gave (``impact_outcomes``: the replacement number
-against impact speed), and, when the grain was launched at a known time and place (by a rebound
-or an ejection; released grains are not), the hop that ended there: its flight time and its
-streamwise length (``hop_time_hist``, ``hop_length_hist``). Counts only; the bins are the
-``*_BIN`` constants below.
+The impact record (``ImpactLog``, counts): each impact by speed and angle (``impact_hist``) with
+the rebounds and ejecta it gave (``impact_outcomes``), and for a grain launched by a splash the
+hop that ended there, its flight time and streamwise length (``hop_time_hist``,
+``hop_length_hist``).
 """
 from __future__ import annotations
 
@@ -34,11 +23,6 @@ from numba import prange
 from ..._jit import jit_borrow, pjit
 from ...physics.splash import (SP_IMPACT_LAYER, SP_RHO_P, draw_ejectum, draw_impact, ejecta_max,
                                launch_velocity, law_speed)
-
-__all__ = ["bed_events", "ejecta_reserve", "splash_runs", "ImpactLog", "EN_IMPACT", "EN_SPLASH",
-           "EN_PX_IN", "EN_PX_OUT", "EN_PZ_IN", "EN_PZ_OUT", "N_EN", "impact_log_arrays",
-           "IMPACT_SPEED_BIN", "N_SPEED_BINS", "IMPACT_ANGLE_BIN", "N_ANGLE_BINS", "HOP_TIME_BIN",
-           "HOP_LENGTH_BIN", "N_HOP_BINS", "NO_LAUNCH"]
 
 #: impact speed bins [m s^-1]: [i, i+1) x IMPACT_SPEED_BIN, the last bin open above
 IMPACT_SPEED_BIN = 0.1
@@ -54,11 +38,12 @@ N_HOP_BINS = 300
 #: launch time of a grain not launched from the bed by a splash (released)
 NO_LAUNCH = -1.0e30
 
-#: what ``bed_events`` records of each impact (module doc): per-parcel launch time ``tl`` [s] and
-#: place ``xl``, ``yl`` [m]; counts ``hist`` (speed bin, angle bin), ``outc`` (speed bin,
-#: [impacts, rebounds, ejecta]), ``hop_t``, ``hop_l``; ``prm`` = [time at the end of the step,
-#: Lx, Ly]
+#: what ``bed_events`` records of each impact: per-parcel launch time ``tl`` [s] and place
+#: ``xl``, ``yl`` [m]; counts ``hist`` (speed bin, angle bin), ``outc`` (speed bin, [impacts,
+#: rebounds, ejecta]), ``hop_t``, ``hop_l``; ``prm`` = [time at the end of the step, Lx, Ly]
 ImpactLog = namedtuple("ImpactLog", "tl xl yl hist outc hop_t hop_l prm")
+#: the record's names in samples.nc, for (hist, outc, hop_t, hop_l)
+IMPACT_RECORD = ("impact_hist", "impact_outcomes", "hop_time_hist", "hop_length_hist")
 
 
 def impact_log_arrays(runs: int):
@@ -69,20 +54,16 @@ def impact_log_arrays(runs: int):
             np.zeros((runs, N_HOP_BINS), dtype=np.int64))
 
 
-#: what ``bed_events`` adds up per run in ``en`` (float64): kinetic energy of the impacting and of
-#: the rebounding and ejected real grains [J]; streamwise momentum [kg m s^-1] brought to the bed
-#: by the impacts and taken from it by the launches; vertical momentum likewise (|w| of the
-#: impacts, w of the launches). (in - out) / (area time) is the stress the grains carry to the
-#: bed and the bed's vertical impulse per unit area and time (the layer's momentum balance)
+#: what ``bed_events`` adds up per run in ``en``: kinetic energy of the impacting and of the
+#: launched real grains [J]; streamwise momentum [kg m s^-1] brought to the bed by the impacts
+#: and taken by the launches; vertical momentum likewise (|w| in, w out)
 EN_IMPACT, EN_SPLASH, EN_PX_IN, EN_PX_OUT, EN_PZ_IN, EN_PZ_OUT = range(6)
 N_EN = 6
 
 
 @jit_borrow
 def ejecta_reserve(ev, n_ev, u, v, w, sp, lo, res):
-    """Split the impacts ev[:n_ev] into ``res.shape[0]`` runs of consecutive entries (run r is
-    ev[lo[r]:lo[r+1]], lo[r] = r n_ev // runs) and give each the most ejecta its impacts can
-    draw: res[r] = sum over them of floor(nbar) + 1 (physics.splash.ejecta_max)."""
+    """Split the impacts into runs ev[lo[r]:lo[r+1]], each with room for its most ejecta."""
     nr = res.shape[0]
     for r in range(nr + 1):
         lo[r] = (r * n_ev) // nr
@@ -103,7 +84,7 @@ def _bin(value, width, n):
 
 @jit_borrow
 def _record_impact(L, r, p, up, vp, wp, v_imp, x, y, tr):
-    """Count an impact of run r in the log (module doc); the hop it ends if its launch is known."""
+    """Count an impact of run r in the log, and the hop it ends if its launch is known."""
     vh = math.sqrt(up * up + vp * vp)
     angle = math.degrees(math.atan2(-wp, vh)) if (vh > 0.0 or wp != 0.0) else 0.0
     iv = _bin(v_imp, IMPACT_SPEED_BIN, N_SPEED_BINS)
@@ -123,22 +104,10 @@ def _record_impact(L, r, p, up, vp, wp, v_imp, x, y, tr):
 @jit_borrow
 def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, trem, dead, n_dead,
                sp, cum, mu, lnsig, Q, cnt, en, L, r):
-    """Splash every parcel listed in ``ev[cursor:n_ev]`` (each sits on the impact layer with its
-    impact velocity and ``trem`` seconds of the step left).
-
-    Rebounding parcels are updated in place; ejecta are appended at index ``n`` (below
-    ``n_end``); both carry the impactor's ``trem`` (integrated by the caller in the next step).
-    Deposited parcels get ``flag = -1`` and are listed in ``dead``. ``cnt`` (int64: impacts,
-    rebounds, ejections, depositions) and ``en`` (float64: impact and splash kinetic energy of the
-    real grains, J) are incremented.
-
-    Capacity: before an impact is drawn, room for its largest possible ejecta count is checked;
-    if there is none (index ``n_end``) the kernel returns early, and the caller can make room and
-    call again with the returned cursor (no draw is lost or repeated). Returns
-    (cursor, n, n_dead). Each impact is recorded in the ImpactLog ``L`` (slab ``r``), and the
-    rebound and the ejecta get its time and place as their launch; ``en`` adds up the energies
-    and the momentum exchanged with the bed (``EN_*``).
-    """
+    """Splash the parcels ``ev[cursor:n_ev]`` (on the impact layer, ``trem`` of the step left):
+    rebounds in place, ejecta from ``n``, both launched at the impact's time and place; the
+    deposited get flag -1 and go to ``dead``; ``cnt``, ``en`` and slab ``r`` of ``L`` count. Out
+    of room for the most ejecta of an impact it returns early. Returns (cursor, n, n_dead)."""
     cap = n_end
     h_imp = sp[SP_IMPACT_LAYER]
     for i in range(cursor, n_ev):
@@ -212,10 +181,8 @@ def bed_events(rng, ev, n_ev, cursor, n, n_end, x, y, z, u, v, w, d, kd, flag, t
 @pjit
 def splash_runs(rngs, ev, lo, base, x, y, z, u, v, w, d, kd, flag, trem, dead, sp, cum, mu, lnsig,
                 Q, cnt, en, out, L):
-    """bed_events for each run r of impacts ev[lo[r]:lo[r+1]] (ejecta_reserve), in parallel, with
-    the run's own Generator rngs[r]: its ejecta go to [base[r], base[r+1]), its dead list to
-    dead[lo[r]:]; cnt[r], en[r] get its counts and energies and out[r] = (impacts done, end of
-    its ejecta, dead count); run r counts its impacts in slab r of the ImpactLog L."""
+    """bed_events of each run r, ev[lo[r]:lo[r+1]], in parallel: its Generator, its ejecta in
+    [base[r], base[r+1]), dead from dead[lo[r]]; out[r] = (impacts done, ejecta end, dead)."""
     for r in prange(lo.shape[0] - 1):
         a = lo[r]
         b = lo[r + 1]

@@ -1,28 +1,17 @@
 """Inlined elementary functions for the parcel kernels: Re^0.687, expm1 and log without libm calls.
 
-Every parcel-step needs one Re_p^0.687 (the Clift correction, paper eq. 4) and one expm1(-k T)
-(the exact drag update) at arguments unrelated to the ones before. As calls into libm (``pow``,
-``expm1``) they were 14 % of the grain step's time (``perf record -e cpu-clock`` on the bench,
-10^6 parcels), plus the spills: every call clobbers all vector registers, so the kernels' live
-values go to the stack and back around it. Here they are a few inlined multiply-adds:
+As libm calls, a parcel-step's Re_p^0.687 (eq. 4) and expm1(-k T) were 14 % of the grain step
+(``perf record -e cpu-clock``, bench, 10^6 parcels), plus the spills (a call clobbers every
+vector register). Here, with x = 2^e m and c_j the centre of m's 1/256-wide bin:
 
-* :func:`pow_0687` ``x^0.687`` for x > 0: with x = 2^e m (m in [1, 2), read from the bits),
-  ``x^0.687 = 2^(0.687 e) c_j^0.687 (1 + t)^0.687`` where c_j is the centre of the 1/256-wide bin
-  of m and t = m / c_j - 1 (|t| <= 1/513); the first two factors are tables, the third a binomial
-  series of five terms (truncation < 1e-18 relative). Within 3 ulp of ``x ** 0.687`` (a test
-  sweeps exponents, bin edges and the fallbacks); exponents beyond the table, zero, subnormals,
-  infinities and NaN go to ``x ** 0.687``.
-* :func:`expm1_small` ``expm1(x)``: Taylor to degree 14 for |x| <= 0.35 (truncation < 2e-17
-  relative, Horner in the product form that keeps relative accuracy as x -> 0), libm beyond.
-  In the cases the drag update's k T is 0.01-0.2; the finest soils (20 um) go to libm.
-* :func:`log_small` ``ln(x)`` for x >= 1, for the log law of every parcel in the first cell
-  (interp.locate): ``ln(x) = e ln 2 + ln(c_j) + log1p(t)`` with the bins of pow_0687 (ln(c_j) a
-  correctly rounded table, ln 2 in two parts so that e ln 2 is exact to 2^-64) and log1p(t) a
-  series of seven terms (truncation < 2^-66 relative); below 1 + 2^-8 the series of log1p(x - 1)
-  itself (nine terms), which keeps the relative accuracy as x -> 1. Within 2 ulp of the exact
-  value for x >= 1 (a test sweeps it); x < 1, infinities and NaN go to ``math.log``.
+* ``pow_0687``: 2^(0.687 e) c_j^0.687 (1 + t)^0.687, t = m / c_j - 1: two tables and a five-term
+  binomial series; within 3 ulp of ``x ** 0.687`` (tested), which takes the x beyond the tables.
+* ``expm1_small``: Taylor to degree 14 for |x| <= 0.35 (truncation < 2e-17 relative), libm beyond
+  (the drag update's k T is 0.01-0.2; the 20 um soils go to libm).
+* ``log_small`` (x >= 1: the first cell's log law): e ln 2 + ln(c_j) + log1p(t) (ln 2 in two
+  parts), seven- or, below 1 + 2^-8, nine-term series; within 2 ulp (tested).
 
-The tables are module-level arrays: numba freezes them into the compiled kernels as constants.
+The tables are module-level arrays, frozen into the kernels as constants.
 """
 from __future__ import annotations
 
@@ -35,9 +24,6 @@ from numba.core import types
 from numba.extending import intrinsic
 
 from ..._jit import device as ijit  # (interp.ijit; interp imports this module)
-
-__all__ = ["pow_0687", "pow_0687_table", "expm1_small", "expm1_taylor", "log_small",
-           "binomial_coefficients", "CLIFT_EXPONENT", "EXPM1_TAYLOR_MAX"]
 
 #: the exponent of the Clift et al. (1978) correction f(Re) = 1 + 0.15 Re^0.687 (paper eq. 4)
 CLIFT_EXPONENT = 0.687
@@ -69,8 +55,7 @@ def _float(typingctx, b):
 
 
 def _tables(a: float):
-    """2^(a e) for e in [_E_MIN, _E_MAX]; per mantissa bin j: c_j^a and 1 / c_j, c_j = 1 + (j +
-    1/2) / 2^_BIN_BITS. Correctly rounded (40-digit decimal arithmetic, a = the double 0.687)."""
+    """2^(a e) per exponent, (c_j^a, 1 / c_j) per mantissa bin j; correctly rounded."""
     getcontext().prec = 40
     da = Decimal(a)
     ln2 = Decimal(2).ln()
@@ -118,9 +103,7 @@ _HALF_BIN = 1 << (_SHIFT - 1)
 
 @ijit
 def pow_0687_table(x):
-    """(x^0.687 from the tables, whether x is in their range): the table path of pow_0687 without
-    its fallback, no branch and no call (the indices are clamped into the tables, so a value out
-    of range reads them harmlessly and is flagged), for loops LLVM vectorizes."""
+    """(x^0.687 from the tables, whether x is in their range): branch-free, for vector loops."""
     b = _bits(x)
     eb = (b >> 52) - 1023  # x < 0 has the sign bit: a negative b, out of range
     ok = _E_MIN <= eb <= _E_MAX and b > 0
@@ -170,8 +153,7 @@ _T2, _T3, _T4, _T5, _T6, _T7, _T8, _T9, _T10, _T11, _T12, _T13, _T14 = _T[2:]
 
 @ijit
 def expm1_taylor(x):
-    """The Taylor polynomial of expm1_small (|x| <= EXPM1_TAYLOR_MAX), no branch: for loops LLVM
-    vectorizes."""
+    """The Taylor polynomial of expm1_small, branch-free (for loops LLVM vectorizes)."""
     return x * (1.0 + x * (_T2 + x * (_T3 + x * (_T4 + x * (_T5 + x * (_T6 + x * (
         _T7 + x * (_T8 + x * (_T9 + x * (_T10 + x * (_T11 + x * (_T12 + x * (
             _T13 + x * _T14)))))))))))))

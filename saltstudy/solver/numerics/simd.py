@@ -1,26 +1,15 @@
-"""Short-vector read-modify-writes and loads for the deposits and trilinear reads of the parcel
-kernels.
+"""Short-vector read-modify-writes and loads for the parcel kernels' deposits and trilinear reads.
 
-A trilinear deposit adds to the two levels k and k + 1 of each of its four columns, and k is the
-fastest index of the deposit buffers, so each column's pair is contiguous; the implicit estimate
-interleaves its (A, B) sums, so there the column's four values are contiguous. Numba compiles
-scalar code only (LLVM's SLP vectorizer, which would merge such neighbours, is off in numba
-because of a miscompilation it caused, numba#8705, and switching it on is global). These
-intrinsics emit the vector operation directly, for these call sites only: one load, one fused
-multiply-add and one store of 2 or 4 doubles instead of 2 or 4 of each. Each element gets the
-same fused multiply-add as the scalar code, so the results are bit-for-bit the same. A trilinear
-read likewise loads a column's two levels at once (``load2``).
-
-The caller guarantees that the elements lie inside the array (no bounds check, as the kernels'
-other indexing): ``i >= 0`` and ``i + 2`` (``i + 4``) ``<= size``.
+A trilinear deposit adds to levels k and k + 1 of four columns, contiguous in the buffers (four
+values with the implicit estimate's interleaved (A, B) sums). Numba keeps LLVM's SLP vectorizer
+off (a miscompilation, numba#8705), so these intrinsics emit one vector load, fused multiply-add
+and store of 2 or 4 doubles, each element bit for bit the scalar code's. No bounds check.
 """
 from __future__ import annotations
 
 from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic
-
-__all__ = ["fma2", "fma4", "load2"]
 
 
 def _vector_fma(context, builder, ary_ty, ary, i, mul, add_scalars):
@@ -80,9 +69,8 @@ def fma4(typingctx, ary, i, w0, w1, va, vb):
 
 @intrinsic
 def load2(typingctx, ary, i, j, k):
-    """(ary[i, j, k], ary[i, j, k + 1]) of a C-contiguous 3-D float64 or float32 array (a
-    single-precision flow's fields), one 2-wide load. Indices must be in range (non-negative,
-    k + 1 < shape[2]): no wraparound, no check."""
+    """(ary[i, j, k], ary[i, j, k + 1]) of a C-contiguous 3-D float64 or float32 array in one
+    2-wide load; indices in range (k + 1 < shape[2]), no check."""
     if not (isinstance(ary, types.Array) and ary.ndim == 3
             and ary.dtype in (types.float64, types.float32)
             and ary.layout == "C" and all(isinstance(t, types.Integer) for t in (i, j, k))):
