@@ -294,7 +294,7 @@ def _record_runs(out_dir: Path, plan: StudyPlan, by_name: dict[str, Outcome]) ->
             if o is not None and o.ok:
                 entry[task] = o.key
         labels[label] = entry
-    # forget labels no longer in the study
+    # keep only the labels the study names
     data.update({"study": plan.study.name, "labels": {l: labels[l] for l in plan.runs},
                  "updated": time.time(), "package_version": __version__})
     rep = by_name.get("report")
