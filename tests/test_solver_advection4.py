@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from solver_helpers import make_stepper, random_velocity, smoke_scene, stretched_grid
-from saltstudy.solver.flow.advection import advection_tendencies, scalar_advection
+from solver_helpers import advection_tendencies, scalar_advection
 from saltstudy.solver.grid import Grid
 from saltstudy.solver.flow.pressure import PressureSolver, divergence, gradient, laplacian
 from saltstudy.solver.state import FlowState
