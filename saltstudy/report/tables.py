@@ -74,7 +74,11 @@ def model_departures(scene: dict) -> list[str]:
                    "(the paper's rule for its Q, [28]; the count at Q from data/airborne_counts.toml)")
     elif q != 1.0:
         out.append(f"parcels {q:g}x heavier than the paper's Q")
-    if ((fid.get("relaxation", {}) or {}).get("gain", 0.0) or 0.0) > 0:
+    rl = fid.get("relaxation", {}) or {}
+    if (rl.get("until", 0.0) or 0.0) > 0 and rl.get("target", "bed_stress") == "profile":
+        out.append("a column relaxation over the first seconds of saltation: the mean wind above "
+                   "the saltation layer nudged to the particle-free profile's shape")
+    elif (rl.get("until", 0.0) or 0.0) > 0 and (rl.get("gain", 0.0) or 0.0) > 0:
         out.append("a column relaxation force over the first seconds of saltation")
     grid = fid.get("grid", {}) or {}
     dz0 = grid.get("dz_bottom")

@@ -116,11 +116,9 @@ class Model:
                 # the grain sink's Lagrangian time T_L = tlc / sqrt(e) follows the coefficient
                 components[-1].tlc = stepper.closure.dynamic.tlc
         model = cls(scene, grid, stepper, state, controller, rng, components)
-        rl = fid.relaxation
-        if components and rl.gain > 0 and rl.until > 0:
-            from .flow.relaxation import ColumnRelaxation
-            model.relaxation = ColumnRelaxation(case.forcing.u_star_s, grid.Lz, rl.gain, rl.timescale,
-                                                rl.until, grid.Lx * grid.Ly, case.air.rho)
+        if components and fid.relaxation.on:
+            from .flow.relaxation import make_relaxation
+            model.relaxation = make_relaxation(scene, grid)
         if restart is None:
             if pg:
                 from .diagnostics.flow import log_law_profile
@@ -199,11 +197,7 @@ class Model:
         cfl = check_courant(s, rate, dt)
         tau = self._measure_stress()
         if self.relaxation is not None and self.t_activation is not None:
-            du = self.relaxation.update(s.u, self.stepper.taux,
-                                        float(self.components[0].momentum_to_air[0]), dt,
-                                        s.t - self.t_activation)
-            if self.drive == "top":
-                s.u_drive += du
+            self.relaxation.step(self, dt)
         if self.drive == "top":
             self.controller.update(s, dt, self.damped_mean_u(), tau)
         return StepInfo(step=s.step, t=s.t, dt=dt, max_cfl=cfl, u_drive=s.u_drive,
@@ -230,11 +224,15 @@ class Model:
         return run_spinup(self, progress=progress)
 
     # ---- saltation ---------------------------------------------------------------------------
-    def activate_saltation(self) -> None:
-        """Release the initial parcels (the component's ``activate``); sets ``t_activation``."""
+    def activate_saltation(self, reference_profile: np.ndarray | None = None) -> None:
+        """Release the initial parcels (the component's ``activate``); sets ``t_activation``.
+        ``reference_profile`` (nz,) [m s^-1]: the particle-free mean profile of u at this case's
+        u*s, which the relaxation's profile target follows (flow/relaxation.py)."""
         if not self.components:
             raise RuntimeError("activate_saltation: this model has no grain component "
                                "(saltation=False or case.physics.saltation = false)")
+        if self.relaxation is not None:
+            self.relaxation.start(self, reference_profile)
         for c in self.components:
             c.activate(self.state)
         self.t_activation = float(self.state.t)

@@ -287,8 +287,11 @@ class _SeriesCallback:
 def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                   progress: Callable[[float, float], None] | None = None,
                   checkpoint_interval: float | None = None,
-                  interrupt_after_steps: int | None = None) -> SaltationResult:
+                  interrupt_after_steps: int | None = None,
+                  reference_profile: np.ndarray | None = None) -> SaltationResult:
     """Activate saltation on the spun-up flow ``restart`` and run it, recording on schedule.
+    ``reference_profile``: the particle-free mean profile of u at the case's u*s (nz,) [m s^-1]
+    for the relaxation's profile target (``Model.activate_saltation``).
 
     Resumes from ``checkpoint_path`` if it holds a valid checkpoint. ``interrupt_after_steps``
     is a test hook: raise :class:`Interrupted` after that many steps *of this call* (a checkpoint
@@ -306,7 +309,7 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
         wall_before = float(meta["wall_time_s"])
     else:
         model = Model.from_scene(scene, saltation=True, restart=restart)
-        model.activate_saltation()
+        model.activate_saltation(reference_profile)
         sim_ckpt, wall_before = None, 0.0
     t_act = float(model.t_activation)
     # what activation released (the component rounds scene.n_initial)

@@ -330,7 +330,9 @@ def saltation_task(scene: Scene, spinup_path: Path, out_dir: Path, source_key: s
         prog = ProgressFile(d, "saltation", scene.label, "saltation")
         res = run_saltation(scene, restart, ckpt_path, progress=prog,
                             checkpoint_interval=checkpoint_interval,
-                            interrupt_after_steps=interrupt_after_steps)
+                            interrupt_after_steps=interrupt_after_steps,
+                            reference_profile=(scene.case.forcing.u_star_s / u_spin)
+                            * np.asarray(sp["u_mean"].values))
         ds = archives.samples_dataset(scene, res.grid, res.records, res.z_plane, res.d_edges,
                                       res.t_activation, res.wall_time_s, key, res.n_steps)
         ds.attrs["spinup_wall_time_s"] = float(sp.attrs.get("wall_time_s", np.nan))
