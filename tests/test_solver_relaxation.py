@@ -302,3 +302,20 @@ def test_model_profile_target_nudges_the_drive_to_the_feed_forward_of_the_target
         m.step(0.01)
         m2.step(0.01)
     assert np.array_equal(m.state.u, m2.state.u) and m.state.u_drive == m2.state.u_drive
+
+
+def test_the_profile_target_shares_the_spin_up_and_its_starts_with_the_other_relaxations():
+    """The relaxation acts after activation only: the shared spin-up and the staggered links a
+    reduced case starts from have the same keys (the same archives) with the profile target, the
+    bed-stress target or none; only the saltation run differs."""
+    from saltstudy.workflow import keys
+    from test_particles_helpers import scene
+    sc = scene(7, "reduced")
+    assert sc.fidelity.relaxation.target == "profile"
+    variants = [sc] + [type(sc)(label=sc.label, case=sc.case,
+                                fidelity=sc.fidelity.model_copy(update={"relaxation": rl}))
+                       for rl in (Relaxation(gain=20.0, until=10.0), Relaxation())]
+    starts = [keys.start_keys(v) for v in variants]
+    assert len(starts[0]) == 7 and starts[1] == starts[0] and starts[2] == starts[0]
+    salt = {keys.saltation_key(v, starts[0][-1]) for v in variants}
+    assert len(salt) == 3
