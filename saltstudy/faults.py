@@ -37,14 +37,10 @@ _ARMED: str | None = None
 
 def point(name: str) -> None:
     """A write point named ``name`` is reached (module doc); does nothing unless the hook is set."""
+    global _ARMED
     spec = os.environ.get(FAULT_ENV)
     if not spec:
         return
-    _reached(spec, name)
-
-
-def _reached(spec: str, name: str) -> None:
-    global _ARMED
     action, _, rest = spec.strip().partition(" ")
     if action == "trace":
         with _LOCK, open(rest.strip(), "a", encoding="utf-8") as fh:
@@ -80,7 +76,6 @@ def format_bytes(n: float) -> str:
         if abs(n) < 1000 or unit == "TB":
             return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
         n /= 1000.0
-    return f"{n} B"
 
 
 class DiskFull(OSError):

@@ -19,7 +19,7 @@ from contextlib import contextmanager, nullcontext
 
 import numpy as np
 
-from .revision import RevisionError, revision_path, run_isolated
+from .revision import RevisionError, alternate, medians, revision_path, run_isolated
 
 __all__ = ["bench_particles", "compare_particles", "register_bench", "timed_kernels"]
 
@@ -176,19 +176,12 @@ def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: 
     name, path = revision_path(against)
     sides = {"this": _PACKAGE, "against": name}
     runs = []
-    for n in n_list:
-        n = int(n)
-        per = {k: [] for k in sides}
-        for r in range(rounds):
-            for side in (("this", "against") if r % 2 == 0 else ("against", "this")):
-                per[side].append(run_isolated(
-                    f"{__name__}:side_median",
-                    {"pkg": sides[side], "n": n, "steps": steps, "dt": dt, "case": case,
-                     "fidelity": fidelity, "cpu_time": _clock is time.thread_time},
-                    [path]))
-        runs.append({"n_parcels": n, "this": float(np.median(per["this"])),
-                     "against": float(np.median(per["against"])),
-                     "this_rounds": per["this"], "against_rounds": per["against"]})
+    for n in map(int, n_list):
+        per = alternate(rounds, sides, lambda side: run_isolated(
+            f"{__name__}:side_median", {"pkg": sides[side], "n": n, "steps": steps, "dt": dt,
+                                       "case": case, "fidelity": fidelity,
+                                       "cpu_time": _clock is time.thread_time}, [path]))
+        runs.append({"n_parcels": n, **medians(per)})
     out = {"threads": int(numba.get_num_threads()), "against": against, "runs": runs}
 
     def text():

@@ -22,15 +22,13 @@ __all__ = ["bench_scene", "bench_schemes"]
 
 
 def _scene(case: int, fidelity: str, parcels: int | None):
-    from ..config import PAPER_AREA_M2, Scene, load_case, load_fidelity, resolve_scene
+    from ..config import PAPER_AREA_M2, load_case, load_fidelity, resolve_scene
     scene = resolve_scene(load_case(case), load_fidelity(fidelity))
     if parcels:
         g = scene.fidelity.grid
-        d = scene.model_dump()
         # n_initial is given per 300 m^2 at the paper's Q: invert Scene.n_initial
-        d["case"]["particles"]["n_initial"] = max(1, int(round(
-            parcels * PAPER_AREA_M2 / (g.Lx * g.Ly) * scene.fidelity.q_multiplier)))
-        scene = Scene.model_validate(d)
+        scene = scene.replace(case={"particles": {"n_initial": max(1, int(round(
+            parcels * PAPER_AREA_M2 / (g.Lx * g.Ly) * scene.fidelity.q_multiplier)))}})
     return scene
 
 
@@ -135,10 +133,7 @@ def bench_scene(case: int = 2, fidelity: str = "paper", steps: int = 20,
 
 
 def _with_scheme(scene, scheme: str):
-    from ..config import Scene
-    d = scene.model_dump()
-    d["fidelity"]["time"]["vertical_diffusion"] = scheme
-    return Scene.model_validate(d)
+    return scene.replace(fidelity={"time": {"vertical_diffusion": scheme}})
 
 
 def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False,
@@ -215,6 +210,7 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
     from ..workflow import archives
     from ..workflow.paths import default_out_dir
     from ..workflow.tasks import spinup_task
+    from .revision import alternate
     scene = _scene(case, fidelity, None)
     schemes = tuple(schemes) or (scene.fidelity.time.vertical_diffusion,)
     source = _scene(case, spinup_from, None) if spinup_from else scene
@@ -232,13 +228,9 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
         start = (f"{spinup_from}'s spin-up ({src.nx}x{src.ny}x{src.nz}) tiled "
                  f"{dst.nx // src.nx}x{dst.ny // src.ny}, interpolated in z below {z_keep:g} m, "
                  f"log law above (solver/tiling.py)")
-    per: dict[str, list[dict]] = {k: [] for k in schemes}
-    for r in range(rounds):
-        order = schemes if r % 2 == 0 else tuple(reversed(schemes))
-        for name in order:
-            per[name].append(_saltation_seconds(_with_scheme(scene, name), restart,
-                                                saltation_seconds, tiled=bool(spinup_from),
-                                                phases=phases))
+    per = alternate(rounds, schemes, lambda name: _saltation_seconds(
+        _with_scheme(scene, name), restart, saltation_seconds, tiled=bool(spinup_from),
+        phases=phases))
     out = {"case": case, "fidelity": fidelity, "saltation_seconds": saltation_seconds,
            "rounds": rounds, "threads": int(numba.get_num_threads()), "spinup": str(sp_path),
            "start": start, "schemes": {}}
@@ -307,10 +299,7 @@ def register_bench_scene(bench_app) -> None:
         """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N
         cores; or, with --saltation-seconds, the real cost of each vertical-diffusion scheme."""
         from ..solver.flow.vertical_diffusion import VERTICAL_DIFFUSION
-
-        def fail(msg: str) -> None:
-            typer.echo(f"error: {msg}", err=True)
-            raise typer.Exit(2)
+        from ..workflow.cli_commands import fail
 
         bad = [v for v in vertical_diffusion if v not in VERTICAL_DIFFUSION]
         if bad:

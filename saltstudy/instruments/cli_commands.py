@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import typer
 
+from ..workflow.cli_commands import fail
+
 __all__ = ["register"]
 
 
@@ -45,17 +47,14 @@ def register(app: typer.Typer) -> None:
                                  ("--advection-order", advection_order, tuple(ADVECTION_ORDERS))):
             bad_v = [x for x in vals or () if x not in known]
             if bad_v:
-                typer.echo(f"error: {opt}: unknown value {bad_v[0]!r} (known: "
-                           f"{', '.join(map(str, known))})", err=True)
-                raise typer.Exit(2)
+                fail(f"{opt}: unknown value {bad_v[0]!r} (known: {', '.join(map(str, known))})")
         if against:
             from .bench import compare_flow
             from .revision import RevisionError
             if (len(advection_order) > 1 or closure != ["deardorff"] or precision
                     or vertical_diffusion or fidelity):
-                typer.echo("error: --against: compares one configuration (Deardorff, one "
-                           "--advection-order, the fidelities' precision and scheme)", err=True)
-                raise typer.Exit(2)
+                fail("--against: compares one configuration (Deardorff, one --advection-order, "
+                     "the fidelities' precision and scheme)")
             try:
                 compare_flow(against, steps=steps, rounds=7 if rounds is None else rounds, big=big,
                              advection_order=advection_order[0], as_json=as_json)

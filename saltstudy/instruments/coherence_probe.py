@@ -126,6 +126,8 @@ def format_coherence(res: dict, n: int = 12) -> str:
 def register_coherence(probe_app) -> None:
     import typer
 
+    from ..workflow.cli_commands import fail
+
     @probe_app.command("coherence")
     def coherence(path: Path = typer.Argument(..., help="a saltation archive (samples.nc) or "
                                               "the directory holding it"),
@@ -144,6 +146,5 @@ def register_coherence(probe_app) -> None:
                 raise ValueError(f"--blocks: {blocks} < 2 (the standard error needs two)")
             res = probe_coherence(samples, blocks, lag, field)
         except (OSError, ValueError) as exc:
-            typer.echo(f"error: {exc}", err=True)
-            raise typer.Exit(2) from None
+            fail(str(exc))
         typer.echo(json.dumps(res) if as_json else format_coherence(res))

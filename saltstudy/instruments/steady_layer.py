@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections import deque
 from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
@@ -233,7 +234,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     di = sample_diameters(p.soil(), rng, n)
     m_mean = np.pi / 6.0 * p.rho_p * p.mu ** 3
     R = 0.05 * rho_u2 / (m_mean * 1.0)   # a twentieth of Owen's rate: the layer grows from below
-    keep = []
+    keep: deque[dict] = deque(maxlen=average)
     for gen in range(generations):
         u, v, w, d, parent, px, pz = splash_generation(rng, p, ui, vi, wi, di)
         nl = u.size
@@ -254,8 +255,6 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
                "angle": np.degrees(np.arctan2(-wi, np.hypot(ui, vi))),
                "offspring": np.bincount(parent, minlength=n)}
         keep.append(rec)
-        if len(keep) > average:
-            keep.pop(0)
         # the layer's response: the impact rate follows the growth, the wind the drag
         if bed_fluid_fraction is None:
             R *= min(max(lam, 0.5), 2.0) ** BETA
@@ -275,15 +274,15 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
         ui, vi, wi, di = out[pick, 1], out[pick, 2], out[pick, 3], d[pick]
         if progress is not None:
             progress(gen, lam, R)
+    def mean(name: str):
+        """The mean of a record over the averaged generations."""
+        return np.mean([k[name] for k in keep], axis=0)
+
     lam_k = np.array([k["lam"] for k in keep])
-    Rm = float(np.mean([k["R"] for k in keep]))
-    drag = np.mean([k["drag"] for k in keep], axis=0)
-    tau_g0 = Rm * float(drag.sum())
-    M = Rm * float(np.mean([k["mT"] for k in keep]))
-    G = Rm * float(np.mean([k["mL"] for k in keep]))
-    px = float(np.mean([k["px"] for k in keep]))
-    pz = float(np.mean([k["pz"] for k in keep]))
-    fl = Rm * np.mean([k["fl"] for k in keep], axis=0) / dz        # mass flux density [kg m-2 s-1]
+    Rm = float(mean("R"))
+    tau_g0 = Rm * float(mean("drag").sum())
+    M, G, px, pz = Rm * float(mean("mT")), Rm * float(mean("mL")), float(mean("px")), float(mean("pz"))
+    fl = Rm * mean("fl") / dz        # mass flux density [kg m-2 s-1]
     zc = np.sqrt(zn[1:] * zn[:-1])
     sel = (zc > 0.01) & (fl > 1e-6 * max(fl.max(), 1e-300))
     decay = math.nan
@@ -298,7 +297,6 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
            for j in range(edges.size - 1) if (b == j).sum() >= 50}
     tau_bed = max(rho_u2 - tau_g0, 0.0)
     lam_se = float(lam_k.std(ddof=1) / math.sqrt(lam_k.size)) if lam_k.size > 1 else math.nan
-    mT = float(np.mean([k["mT"] for k in keep]))
     return SteadyLayer(
         # a layer whose grains take more than rho u*^2 has a wind the clipped air stress cannot
         # give (momentum is not conserved there): not a steady state of the model
@@ -312,7 +310,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
         mu_b_impacts=px / pz if pz > 0 else math.nan,
         impact_speed_mean=float(v_imp.mean()),
         impact_angle_mean=float(np.concatenate([k["angle"] for k in keep]).mean()),
-        hop_time_mean=mT / float(np.mean([k["m"] for k in keep])),
+        hop_time_mean=float(mean("mT")) / float(mean("m")),
         grain_speed_mean=G / M if M > 0 else math.nan, decay_height=decay,
         replacement_by_speed=rep,
         wind={"z": zn[::8].tolist(), "u": un[::8].tolist()})
@@ -323,6 +321,7 @@ def register_steady_layer(probe_app) -> None:
     import typer
 
     from ..config import ConfigError, load_case
+    from ..workflow.cli_commands import fail
 
     @probe_app.command("steady-layer")
     def steady_layer_cmd(
@@ -349,8 +348,7 @@ def register_steady_layer(probe_app) -> None:
                 raise ValueError(f"--average {average}: between 1 and --generations "
                                  f"({generations})")
         except (ConfigError, ValueError) as e:
-            typer.echo(f"error: {e}", err=True)
-            raise typer.Exit(2) from None
+            fail(str(e))
         res = solve_steady_layer(p, seed=seed, generations=generations, average=average,
                                  bed_fluid_fraction=bed_fluid_fraction)
         d = res.as_dict()

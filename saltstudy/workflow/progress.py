@@ -3,7 +3,6 @@ polls the files, which work alike with threads, processes and a cluster, and sur
 """
 from __future__ import annotations
 
-import json
 import os
 import platform
 import sys
@@ -14,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .lock import pid_alive
-from .paths import write_json_atomic
+from .paths import read_json, write_json_atomic
 
 __all__ = ["ProgressFile", "read_progress", "is_stale", "writer_gone", "ProgressDisplay", "TaskRef",
            "format_duration", "emit"]
@@ -74,10 +73,7 @@ class ProgressFile:
 
 
 def read_progress(task_dir: Path) -> dict | None:
-    try:
-        return json.loads((Path(task_dir) / PROGRESS_NAME).read_text())
-    except (OSError, ValueError):
-        return None
+    return read_json(Path(task_dir) / PROGRESS_NAME)
 
 
 def writer_gone(p: dict) -> bool:

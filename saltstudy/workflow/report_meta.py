@@ -9,9 +9,21 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .paths import output_path, read_checkpoint_meta, read_task_json, task_dir
+from .._identity import __version__
+from ..config import study_file
+from .paths import checkpoint_time, output_path, read_task_json, task_dir
 
-__all__ = ["cache_meta"]
+__all__ = ["cache_meta", "study_meta"]
+
+
+def study_meta(study, name: str, out_dir: Path, runs: dict) -> dict[str, Any]:
+    """The report's meta of a study's runs (``keys.RunKeys`` by label) in the cache ``out_dir``:
+    the cache keys let the report find failure records and samples.nc (stability, animation)."""
+    sfile = study_file(study)
+    return {"study": name, "out_dir": str(out_dir), "package_version": __version__,
+            "study_file": str(sfile) if sfile is not None else None,
+            "keys": {label: {t: getattr(rk, t) for t in ("spinup", "saltation", "analysis")}
+                     for label, rk in runs.items()}}
 
 
 def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
@@ -58,11 +70,7 @@ def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
 
 def _checkpoint(out_dir: Path, key: str) -> dict[str, Any] | None:
     """{"path", "t_since_activation"} of a saltation run's kept checkpoint, or None."""
-    p = Path(task_dir(out_dir, "saltation", key)) / "checkpoint.npz"
-    if not p.is_file():
+    d = Path(task_dir(out_dir, "saltation", key))
+    if not (d / "checkpoint.npz").is_file():
         return None
-    try:
-        t = float(read_checkpoint_meta(p.parent).get("t_since_activation"))
-    except Exception:   # unreadable, or no time recorded
-        t = None
-    return {"path": str(p), "t_since_activation": t}
+    return {"path": str(d / "checkpoint.npz"), "t_since_activation": checkpoint_time(d)}

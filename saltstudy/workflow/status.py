@@ -12,13 +12,11 @@ from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
 from .lock import LOCK_NAME, describe_holder, read_holder, record_alive
-from .paths import output_path, read_checkpoint_meta, read_runs_file, read_task_json, task_dir
+from .paths import checkpoint_time, output_path, read_runs_file, read_task_json, task_dir
 from .progress import eta, format_duration, is_stale, read_progress, writer_gone
 
 __all__ = ["StatusRow", "study_status", "format_status", "out_dir_state"]
@@ -33,14 +31,6 @@ class StatusRow:
     state: str
     key: str
     detail: str = ""
-
-
-def _checkpoint_time(d: Path) -> float | None:
-    meta = read_checkpoint_meta(d)
-    try:   # saltation: time since activation; spin-up: time since its start
-        return float(meta.get("t_since_activation", meta.get("t_spinup", np.nan)))
-    except Exception:
-        return None
 
 
 def _running(d: Path, tj: dict) -> tuple[str, str]:
@@ -76,8 +66,8 @@ def _state(out_dir: Path, task: str, key: str, old_key: str | None) -> tuple[str
         return live   # a running task writes checkpoints as it goes
     if task in ("spinup", "saltation") and (d / "checkpoint.npz").is_file():
         # interrupted or failed, but a rerun resumes from the checkpoint
-        t = _checkpoint_time(d)
-        where = f" at t = {t:.3g} s" if t is not None and t == t else ""
+        t = checkpoint_time(d)
+        where = f" at t = {t:.3g} s" if t is not None else ""
         why = (f" (stopped by {tj['error']})" if tj.get("state") == "failed"
                else " (its process died)" if live is not None else "")
         return "partial", f"checkpoint to resume from{where}{why}"

@@ -23,7 +23,7 @@ from ..config import Scene, Study
 from ..faults import disk_full, point
 from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
 from . import archives, keys
-from .driver import add_checkpoints, load_checkpoint, run_saltation
+from .driver import add_checkpoints, resume, run_saltation
 from .paths import output_path, read_task_json, task_dir, write_json_atomic
 from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
 from .progress import ProgressFile, emit
@@ -145,12 +145,15 @@ class ProfileSamples:
         self.model, self.window, self.every = model, window, window / 20.0
         self.samples: deque[tuple[float, dict[str, np.ndarray]]] = deque()
 
-    def __call__(self, sim) -> None:
+    def _sample(self, t: float) -> None:
         from ..solver.diagnostics.flow import flow_profiles
 
+        self.samples.append((t, {k: np.array(v) for k, v in flow_profiles(self.model).items()}))
+
+    def __call__(self, sim) -> None:
         t = float(self.model.t)
         if not self.samples or t - self.samples[-1][0] >= self.every - 1e-12:
-            self.samples.append((t, {k: np.array(v) for k, v in flow_profiles(self.model).items()}))
+            self._sample(t)
             while self.samples and self.samples[0][0] < t - self.window - 1e-9:
                 self.samples.popleft()
 
@@ -170,11 +173,8 @@ class ProfileSamples:
     def window_mean(self, t_end: float) -> tuple[dict[str, np.ndarray], tuple[float, float, int]]:
         """The profiles' mean over the window ending at ``t_end``, and (first time, last time,
         count) of its samples."""
-        from ..solver.diagnostics.flow import flow_profiles
-
         if not self.samples or self.samples[-1][0] < t_end - 1e-12:
-            self.samples.append((t_end, {k: np.array(v) for k, v in
-                                         flow_profiles(self.model).items()}))
+            self._sample(t_end)
         use = [(t, p) for t, p in self.samples if t >= t_end - self.window - 1e-9]
         mean = {k: np.mean([p[k] for _, p in use], axis=0) for k in use[-1][1]}
         return mean, (min(t for t, _ in use), t_end, len(use))
@@ -194,7 +194,6 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
     if is_complete(path):
         return path
     check_source_key(source_key)
-    from ..solver.model import Model
     from ..solver.simulation import IterationInterval, TimeInterval
     from ..solver.spinup import record_interval, spinup_simulation
 
@@ -208,14 +207,7 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
             return path
         t0 = time.perf_counter()
         sp = scene.fidelity.spinup
-        loaded = load_checkpoint(ckpt_path)
-        if loaded is not None:
-            model_ckpt, sim_ckpt, meta = loaded
-            model = Model.from_scene(scene, saltation=False, restart=model_ckpt)
-            wall_before = float(meta["wall_time_s"])
-        else:
-            model = Model.from_scene(scene, saltation=False)
-            sim_ckpt, wall_before = None, 0.0
+        model, sim_ckpt, wall_before = resume(scene, ckpt_path, False)
         sim, steadiness = spinup_simulation(model)
         # the profiles are sampled at the records after the first (at t = 0 the flow is the
         # initial perturbed log law)
@@ -300,8 +292,6 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
         model = Model.from_scene(scene, saltation=False, restart=restart)
         prog = ProgressFile(d, "spinup", scene.label, "continuation")
         prog.target = duration
-        history = {k[:-5] if k.endswith("_hist") else k: np.asarray(parent[k].values)
-                   for k in ("u_star_hist", "tke_hist", "u_drive_hist")}
         t_hist = np.asarray(parent["time_hist"].values)
         t_start = float(model.t)
         rec = _ContinuationRecord(model, t_start - float(t_hist[-1]) if t_hist.size else t_start)
@@ -319,7 +309,7 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
         finally:
             model.close()
         hist = {"t": np.concatenate([t_hist, rec.t]),
-                **{k: np.concatenate([history[k], rec.series[k]]) for k in rec.series}}
+                **{k: np.concatenate([parent[f"{k}_hist"].values, v]) for k, v in rec.series.items()}}
         profiles = {src: np.asarray(parent[dst].values)
                     for src, dst in archives.PROFILE_NAMES.items()}
         wall = time.perf_counter() - t0
@@ -327,9 +317,8 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
             scene, grid, ckpt, profiles, hist, converged=bool(parent.attrs.get("converged", 0)),
             reason=f"{parent.attrs.get('spinup_reason', '')}; continued {duration:g} s",
             u_drive=u_drive, t_end=t_end, wall_time_s=wall, key=key,
-            profile_window=(float(parent.attrs["profile_window_start"]),
-                            float(parent.attrs["profile_window_end"]),
-                            int(parent.attrs["profile_window_samples"])))
+            profile_window=tuple(parent.attrs[f"profile_window_{k}"]
+                                 for k in ("start", "end", "samples")))
         write_dataset(ds, path)
         prog.write(duration, "done")
     return path
