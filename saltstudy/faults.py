@@ -3,16 +3,9 @@
 Every file the package writes goes through a few writers (``ncio.write_dataset``, the workflow's
 checkpoint and JSON writers, the report's staging), each calling :func:`point` named
 ``<file name>:<moment>`` at ``write`` (before the temporary file), ``tmp`` (complete, not yet
-renamed) and ``done`` (renamed), e.g. ``samples.nc:tmp``, ``report:done``.
-
-The test hook ``SALTSTUDY_FAULT`` (read at every call; docs/USAGE.md "Faults"):
-
-* ``kill GLOB K``: SIGKILL this process at the K-th call (1-based) of a point matching GLOB;
-* ``stop GLOB K``: SIGSTOP it there (a test reads ``saltstudy status`` of a live run);
-* ``enospc GLOB K``: raise ``OSError(ENOSPC)`` there, as a full disk does;
-* ``trace FILE``: append ``<unix time> <pid> <point>`` to FILE at every point.
-
-Child processes that compile kernels (``workflow/warmup.py``) are started without it.
+renamed) and ``done`` (renamed). The hook ``SALTSTUDY_FAULT`` (``kill|stop|enospc GLOB K`` at the
+K-th matching point, or ``trace FILE``) is read at every call: docs/USAGE.md, "Faults". Child
+processes that compile kernels (``workflow/warmup.py``) are started without it.
 """
 from __future__ import annotations
 

@@ -22,7 +22,7 @@ import numba
 __all__ = ["bench_flow", "bench_grid", "side_grid", "compare_flow", "GRIDS"]
 
 #: the package this module belongs to (``saltstudy``)
-_PACKAGE = (__package__ or __name__).split(".")[0]
+_PACKAGE = __name__.split(".")[0]
 
 #: (label, fidelity providing the grid): the laptop study's grid and the paper's
 GRIDS = (("reduced", "reduced"), ("paper", "paper"))
@@ -193,9 +193,3 @@ def compare_flow(against: str, steps: int = 10, rounds: int = 7, big: bool = Tru
                   f"at {against} ({g['this'] / g['against'] - 1:+.1%})")
     return out
 
-
-def main(steps: int = 10, big: bool = True, as_json: bool = False, closures=("deardorff",),
-         orders=(2,), precisions=(None,), schemes=(None,), fidelities=None, rounds: int = 1) -> None:
-    res = bench_flow(steps, big, tuple(closures), tuple(orders), tuple(precisions),
-                     tuple(schemes), fidelities, rounds)
-    print(json.dumps(res) if as_json else format_report(res))

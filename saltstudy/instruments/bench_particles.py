@@ -1,6 +1,5 @@
 """Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow
-(``saltstudy bench particles``, or ``python -m saltstudy.instruments.bench_particles [--json]
-[--phases] [--steps N] [--n N]``; docs/BENCHMARKS.md).
+(``saltstudy bench particles``; docs/BENCHMARKS.md).
 
 The flow is a frozen log-law wind (u*s of case 2) with 30% u* periodic perturbations; the parcels
 start in the lowest 0.3 m with random velocities, so they splash, sub-step and couple as in a run.
@@ -13,7 +12,6 @@ from __future__ import annotations
 import importlib
 import json
 import math
-import sys
 import time
 from contextlib import contextmanager, nullcontext
 
@@ -23,9 +21,8 @@ from .revision import RevisionError, alternate, medians, revision_path, run_isol
 
 __all__ = ["bench_particles", "compare_particles", "register_bench", "timed_kernels"]
 
-#: the package this module belongs to (``saltstudy``); from ``__package__``, which ``python -m``
-#: keeps (``__name__`` is then ``__main__``)
-_PACKAGE = (__package__ or __name__).split(".")[0]
+#: the package this module belongs to (``saltstudy``)
+_PACKAGE = __name__.split(".")[0]
 
 
 def _frozen_flow(st, u_star: float, z0: float) -> None:
@@ -232,9 +229,3 @@ def register_bench(bench_app) -> None:
             bench_particles(tuple(n), steps=steps, as_json=as_json, phases=phases,
                             fidelity=fidelity)
 
-
-if __name__ == "__main__":
-    args = sys.argv[1:]
-    ns = [float(args[i + 1]) for i, a in enumerate(args) if a == "--n"] or [1e5, 1e6]
-    st = int(args[args.index("--steps") + 1]) if "--steps" in args else 20
-    bench_particles(ns, steps=st, as_json="--json" in args, phases="--phases" in args)

@@ -70,8 +70,8 @@ def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32),
     f = scene.fidelity
 
     def run_s(r: dict) -> dict:
-        spin = [f.spinup.t_min * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"],
-                f.spinup.t_max * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"]]
+        spin = [t * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"]
+                for t in (f.spinup.t_min, f.spinup.t_max)]
         g = r.get("grains") or r["flow"]
         rate = 1.0 / saltation_dt if saltation_dt else g["steps_per_sim_s"]
         salt = f.saltation_duration * rate * g["s_per_step"]
@@ -82,15 +82,11 @@ def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32),
         key = "grains" if "grains" in by[1] else "flow"
         s2 = by[1][key]["s_per_step"] / by[2][key]["s_per_step"]
         serial = min(1.0, max(0.0, 2.0 / s2 - 1.0))
-        out["speedup_1_to_2"] = s2
-        out["serial_fraction"] = serial
         base = run_s(by[1])
-        est = {}
-        for n in cores:
-            sp = 1.0 / (serial + (1.0 - serial) / n)
-            est[n] = {"speedup": sp, "saltation_h": base["saltation_s"] / sp / 3600.0,
-                      "spinup_h": [x / sp / 3600.0 for x in base["spinup_s"]]}
-        out["amdahl"] = est
+        speedups = {n: 1.0 / (serial + (1.0 - serial) / n) for n in cores}
+        out.update(speedup_1_to_2=s2, serial_fraction=serial, amdahl={n: {
+            "speedup": sp, "saltation_h": base["saltation_s"] / sp / 3600.0,
+            "spinup_h": [x / sp / 3600.0 for x in base["spinup_s"]]} for n, sp in speedups.items()})
     return out
 
 

@@ -2,6 +2,8 @@
 loglaw``."""
 from __future__ import annotations
 
+import json
+
 import typer
 
 from ..workflow.cli_commands import fail
@@ -36,7 +38,7 @@ def register(app: typer.Typer) -> None:
                                         "process (--against: default 7; otherwise default 1, all in "
                                         "this process)")) -> None:
         """Median wall time per LES step on the reduced grid and the paper's, per cell-step, vs the FFT floor."""
-        from .bench import main
+        from .bench import bench_flow, format_report
         from ..solver.flow.advection import ADVECTION_ORDERS
         from ..solver.flow.stepper import PRECISIONS
         from ..solver.flow.vertical_diffusion import VERTICAL_DIFFUSION
@@ -61,9 +63,10 @@ def register(app: typer.Typer) -> None:
             except (RevisionError, ValueError) as e:
                 raise typer.BadParameter(str(e), param_hint="--against") from e
             return
-        main(steps=steps, big=big, as_json=as_json, closures=closure, orders=advection_order,
-             precisions=precision or (None,), schemes=vertical_diffusion or (None,),
-             fidelities=fidelity or None, rounds=1 if rounds is None else rounds)
+        res = bench_flow(steps, big, tuple(closure), tuple(advection_order),
+                         tuple(precision or (None,)), tuple(vertical_diffusion or (None,)),
+                         fidelity or None, 1 if rounds is None else rounds)
+        typer.echo(json.dumps(res) if as_json else format_report(res))
 
     from .bench_particles import register_bench
     register_bench(bench_app)

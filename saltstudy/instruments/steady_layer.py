@@ -23,7 +23,7 @@ from __future__ import annotations
 import json
 import math
 from collections import deque
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -90,11 +90,6 @@ class LayerParams:
     def soil(self) -> Soil:
         return Soil(modes=(SoilMode(mu=self.mu, sigma=self.sigma),), rho_p=self.rho_p)
 
-    def as_dict(self) -> dict:
-        d = {f.name: getattr(self, f.name) for f in fields(self)}
-        d["splash"] = self.splash.model_dump()
-        return d
-
 
 @dataclass
 class SteadyLayer:
@@ -120,9 +115,6 @@ class SteadyLayer:
     decay_height: float           # e-folding height of the mass flux profile above 1 cm [m]
     replacement_by_speed: dict = field(default_factory=dict)
     wind: dict = field(default_factory=dict)
-
-    def as_dict(self) -> dict:
-        return asdict(self)
 
 
 def _levels(p: LayerParams) -> np.ndarray:
@@ -300,7 +292,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     return SteadyLayer(
         # a layer whose grains take more than rho u*^2 has a wind the clipped air stress cannot
         # give (momentum is not conserved there): not a steady state of the model
-        params=p.as_dict(), converged=bool(tau_g0 <= 1.02 * rho_u2 and (
+        params={**asdict(p), "splash": p.splash.model_dump()}, converged=bool(tau_g0 <= 1.02 * rho_u2 and (
             abs(lam_k.mean() - 1.0) < 3 * lam_se + 0.01 if bed_fluid_fraction is None
             else abs(tau_bed / rho_u2 - bed_fluid_fraction) < 0.02)),
         generations=len(keep), growth=float(lam_k.mean()), growth_se=lam_se,
@@ -351,7 +343,7 @@ def register_steady_layer(probe_app) -> None:
             fail(str(e))
         res = solve_steady_layer(p, seed=seed, generations=generations, average=average,
                                  bed_fluid_fraction=bed_fluid_fraction)
-        d = res.as_dict()
+        d = asdict(res)
         if as_json:
             typer.echo(json.dumps(d))
             return

@@ -101,11 +101,9 @@ def mass_weighted_moment(soil, k: float) -> float:
 
 def soil_arrays(soil) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(cumulative mass fractions, mu_j, ln sigma_j), as :func:`draw_diameter` takes them."""
-    m = np.array([mo.mass_fraction for mo in soil.modes], dtype=np.float64)
+    m, mu, lns = _modes(soil)
     cum = np.cumsum(m) / m.sum()
     cum[-1] = 1.0
-    mu = np.array([mo.mu for mo in soil.modes], dtype=np.float64)
-    lns = np.log(np.array([mo.sigma for mo in soil.modes], dtype=np.float64))
     return cum, mu, lns
 
 

@@ -1,16 +1,11 @@
 """The dask graph of a study and its execution (docs/USAGE.md, "On a cluster").
 
-Per run: spin-up -> saltation -> analysis; one report task over all runs. The graph is keyed by
-cache key, so runs with an equal spin-up key share one spin-up task.
-
-Locally, dask's threaded scheduler runs ``workers`` tasks at once (default 1: on 2 cores one flow
-step on 2 numba threads is 1.74x faster than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow
---no-big``), each with cores // workers numba threads. With ``scheduler=ADDRESS`` a
-``dask.distributed`` Client runs them; workers must run the same checkout (tasks carry
-``SOURCE_KEY``), see the same out dir, and compile the kernels once per host (:func:`warm_workers`).
-
-A failed task is recorded (``task.json``) and its dependents skipped; the other runs go on, except
-after a full disk (``faults.DiskFull``), when a local run starts no further task.
+Per run: spin-up -> saltation -> analysis; one report task over all runs, keyed by cache key, so
+runs with an equal spin-up key share one spin-up task. Locally, dask's threaded scheduler runs
+``workers`` tasks at once (default 1: on 2 cores one flow step on 2 numba threads is 1.74x faster
+than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow --no-big``), each with cores // workers
+numba threads. A failed task is recorded (``task.json``) and its dependents skipped; the other
+runs go on, except after a full disk (``faults.DiskFull``), when a local run starts no further task.
 """
 from __future__ import annotations
 

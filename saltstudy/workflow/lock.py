@@ -1,12 +1,7 @@
-"""Who may write where: one process holds an out dir, one process at a time computes a task.
-
-``run-all``, ``run`` and ``figures`` take ``<out>/saltstudy.lock``; a second one refuses, naming
-the holder, or with ``--wait`` waits and then finds the work in the cache. Each task takes
-``<task dir>/task.lock`` while it computes; another process reaching it waits, then returns its
-archive. The lock is ``flock`` on the file, so it goes with its process however it ends; the file
-holds the holder's record (JSON). Where ``flock`` is not shared between hosts (NFS without
-locking), the holder touches the file every :data:`HEARTBEAT_S` s and another host's record is
-honoured until untouched for :data:`STALE_AFTER` s (this host's, while its pid lives).
+"""Who may write where: one process holds an out dir, one process at a time computes a task
+(docs/USAGE.md, "Faults"). The lock is ``flock`` on the file, which holds the holder's record
+(JSON); where ``flock`` is not shared between hosts, the holder touches the file every
+:data:`HEARTBEAT_S` s and another host's record counts until untouched for :data:`STALE_AFTER` s.
 """
 from __future__ import annotations
 

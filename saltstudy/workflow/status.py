@@ -105,16 +105,15 @@ def study_status(study: Study, out_dir: Path, root: Path | None = None) -> list[
         d = task_dir(out_dir, "report", rkey)
         tj = read_task_json(d) or {}
         if tj.get("state") == "done" and Path(tj.get("report_dir", "")).is_dir():
-            rows.append(StatusRow("(all)", "report", "done", rkey, tj["report_dir"]))
+            state, detail = "done", tj["report_dir"]
         elif tj.get("state") == "running":
             state, detail = _running(d, tj)
-            rows.append(StatusRow("(all)", "report", state, rkey, detail))
         elif tj.get("state") == "failed":
-            rows.append(StatusRow("(all)", "report", "failed", rkey, str(tj.get("error", ""))))
+            state, detail = "failed", str(tj.get("error", ""))
         else:
             old = read_runs_file(out_dir, study.name).get("report", {})
-            st = "stale" if old.get("key") else "missing"
-            rows.append(StatusRow("(all)", "report", st, rkey, old.get("dir", "")))
+            state, detail = ("stale" if old.get("key") else "missing"), old.get("dir", "")
+        rows.append(StatusRow("(all)", "report", state, rkey, detail))
     return rows
 
 

@@ -1,12 +1,8 @@
-"""Compile the numba kernels in a subprocess before a study's solver work.
-
-Kernels compiled in the running process differ at round-off (~1e-13 after seconds of flow) from
-the same kernels loaded from numba's cache, and turbulence makes that another realization
-(docs/USAGE.md, "The cache, reruns and resumes"). With the warm-up every solver task loads from
-the cache, so a rerun or resumed run repeats the first run. For every distinct set of code paths
-among the pending scenes, a child runs one shrunk to the smoke grid (:func:`warm_scene`); a marker
-in the cache directory, keyed by that set and the sources' paths and time stamps (numba's cache
-index), makes it a no-op afterwards. ``SALTSTUDY_NO_WARMUP=1`` skips it.
+"""Compile the numba kernels in a subprocess before a study's solver work, so that every task
+loads them from numba's cache and reruns and resumes repeat the first run (docs/USAGE.md, "The
+cache, reruns and resumes"): one child per distinct set of code paths among the pending scenes,
+each shrunk to the smoke grid (:func:`warm_scene`); a marker keyed by that set and the sources'
+paths and time stamps (numba's cache index) makes it a no-op afterwards.
 """
 from __future__ import annotations
 
