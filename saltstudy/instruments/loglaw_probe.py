@@ -150,7 +150,8 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         nonlocal acc, n, t_win
         p, dyn = flow_profiles(m), m.stepper.closure.dynamic
         new = {"u": p["u"], "uw_res": p["uw_res"], "uw_sgs": p["uw_sgs"],
-               "co": streamwise_cospectrum_uw(m.state, k_co), "sy": spanwise_spectrum_u(m.state, k_st),
+               "co": streamwise_cospectrum_uw(m.state, k_co),
+               "sy": spanwise_spectrum_u(m.state, k_st),
                **({"c_s": dyn.c_s, "beta": np.nan_to_num(dyn.beta)} if dyn is not None else {})}
         for key, v in new.items():
             acc[key] = acc.get(key, 0.0) + v

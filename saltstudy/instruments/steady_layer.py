@@ -273,7 +273,8 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     lam_k = np.array([k["lam"] for k in keep])
     Rm = float(mean("R"))
     tau_g0 = Rm * float(mean("drag").sum())
-    M, G, px, pz = Rm * float(mean("mT")), Rm * float(mean("mL")), float(mean("px")), float(mean("pz"))
+    M, G = Rm * float(mean("mT")), Rm * float(mean("mL"))
+    px, pz = float(mean("px")), float(mean("pz"))
     fl = Rm * mean("fl") / dz        # mass flux density [kg m-2 s-1]
     zc = np.sqrt(zn[1:] * zn[:-1])
     sel = (zc > 0.01) & (fl > 1e-6 * max(fl.max(), 1e-300))
@@ -292,7 +293,8 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     return SteadyLayer(
         # a layer whose grains take more than rho u*^2 has a wind the clipped air stress cannot
         # give (momentum is not conserved there): not a steady state of the model
-        params={**asdict(p), "splash": p.splash.model_dump()}, converged=bool(tau_g0 <= 1.02 * rho_u2 and (
+        params={**asdict(p), "splash": p.splash.model_dump()},
+        converged=bool(tau_g0 <= 1.02 * rho_u2 and (
             abs(lam_k.mean() - 1.0) < 3 * lam_se + 0.01 if bed_fluid_fraction is None
             else abs(tau_bed / rho_u2 - bed_fluid_fraction) < 0.02)),
         generations=len(keep), growth=float(lam_k.mean()), growth_se=lam_se,

@@ -148,39 +148,25 @@ def register(app: typer.Typer) -> None:
         wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
     ) -> None:
         """Figures 1-13, Table 2 beside the paper, summary.json and index.html from the archives."""
-        from .lock import Busy
+        from ..config import load_study
+        from ..report import build_report
+        from . import keys as wkeys
+        from . import paths as wpaths
+        from .report_meta import cache_meta, study_meta
+        from .tasks import build_report_staged
+
+        out_dir = _out(out)
+        study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
         try:
-            index = figures_command(study, out, report_dir, wait=wait)
+            st = load_study(study)
+            meta = study_meta(st, study_name, out_dir, wkeys.study_keys(st))
         except ConfigError as exc:
             fail(str(exc))
-        except Busy as exc:
-            fail(f"{exc}; rerun with --wait to wait for it, or use another --out", EXIT_BUSY)
+        with _hold(out_dir, wait):
+            runs = wpaths.analysis_paths(study, out_dir)
+            index = build_report_staged(build_report, study_name, runs, Path(
+                report_dir or wpaths.default_report_dir(study_name)), cache_meta(meta))
         typer.echo(f"report: {index}")
-
-
-def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
-                    wait: bool = False) -> Path:
-    """Build the study's report from its analysis archives under ``out``, holding the out dir
-    (``wait``, else ``lock.Busy``). Returns index.html."""
-    from ..config import load_study
-    from ..report import build_report
-    from . import keys as wkeys
-    from . import paths as wpaths
-    from .lock import hold_out_dir
-    from .progress import emit
-    from .report_meta import cache_meta, study_meta
-    from .tasks import build_report_staged
-
-    out_dir = _out(out)
-    st = load_study(study)
-    study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
-    if report_dir is None:
-        report_dir = wpaths.default_report_dir(study_name)
-    meta = study_meta(st, study_name, out_dir, wkeys.study_keys(st))
-    with hold_out_dir(out_dir, wait=wait, log=emit):
-        runs = wpaths.analysis_paths(study, out_dir)
-        return build_report_staged(build_report, study_name, runs, Path(report_dir),
-                                   cache_meta(meta))
 
 
 def _print_summary(summary) -> None:

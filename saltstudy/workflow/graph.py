@@ -187,7 +187,8 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
         if rk.saltation not in salt_nodes:
             salt_nodes[rk.saltation] = node(
                 "saltation", rk.saltation, [label], out_dir, numba_threads, saltation_task,
-                rk.scene, sp, out_dir, SOURCE_KEY, dask_key_name=f"saltation-{rk.saltation}-{label}")
+                rk.scene, sp, out_dir, SOURCE_KEY,
+                dask_key_name=f"saltation-{rk.saltation}-{label}")
             an_nodes[rk.analysis] = node(
                 "analysis", rk.analysis, [label], out_dir, None, analysis_task,
                 salt_nodes[rk.saltation], sp, out_dir, rk.analysis,
@@ -206,7 +207,8 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
     cached = sum(is_complete(output_path(out_dir, t, key)) for t, key in distinct)
     if study.report:
         meta = {**study_meta(study, study.name, out_dir, runs), "source_key": SOURCE_KEY,
-                "run_started": run_started, "tasks_from_cache": cached, "tasks_total": len(distinct)}
+                "run_started": run_started, "tasks_from_cache": cached,
+                "tasks_total": len(distinct)}
         finals["report"] = dask.delayed(_report, pure=False)(study, analyses, out_dir, report_dir,
                                                              meta, dask_key_name=f"report-{study.name}")
     return StudyPlan(study, runs, finals, refs, report_dir)
@@ -327,15 +329,6 @@ def _tidy(out_dir: Path, runs, study_name: str | None = None) -> None:
             tidy_leftovers(d, None)
 
 
-def _lost_worker(exc: BaseException) -> str:
-    """The error of a task whose worker died (killed, out of memory, its node lost)."""
-    text = f"{type(exc).__name__}: {exc}"
-    if type(exc).__name__ == "KilledWorker":
-        text += (" (the workers running it died: killed, out of memory or their node lost; rerun "
-                 "the command: a spin-up or saltation run resumes from its last checkpoint)")
-    return text
-
-
 def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | None = None,
               quiet: bool = False, report_dir: Path | None = None, root: Path | None = None,
               started: float | None = None, wait: bool = False) -> StudySummary:
@@ -382,9 +375,13 @@ def _run_study(study: Study, out_dir: Path, workers: int, scheduler: str | None,
                     try:
                         results[n] = f.result()
                     except Exception as exc:  # a worker died (killed, out of memory, ...)
-                        task = n.split(":")[0]
-                        results[n] = Outcome(task, "?", [n.split(":")[-1]], "failed",
-                                             error=_lost_worker(exc))
+                        error = f"{type(exc).__name__}: {exc}"
+                        if type(exc).__name__ == "KilledWorker":
+                            error += (" (the workers running it died: killed, out of memory or "
+                                      "their node lost; rerun the command: a spin-up or saltation "
+                                      "run resumes from its last checkpoint)")
+                        results[n] = Outcome(n.split(":")[0], "?", [n.split(":")[-1]], "failed",
+                                             error=error)
     try:
         _record_runs(out_dir, plan, results)
     except OSError as exc:   # a full disk: the archives are what counts, the record is a summary

@@ -21,7 +21,7 @@ import numpy as np
 from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study
 from ..faults import disk_full, point
-from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
+from ..ncio import is_complete, open_dataset, read_attrs, write_dataset
 from . import archives, keys
 from .driver import add_checkpoints, resume, run_saltation
 from .paths import output_path, read_task_json, task_dir, write_json_atomic
@@ -29,8 +29,8 @@ from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
 from .progress import ProgressFile, emit
 from .report_meta import cache_meta
 
-__all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "read_attrs",
-           "write_task_json", "read_task_json", "report_done", "check_source_key", "SourceMismatch"]
+__all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "write_task_json",
+           "read_task_json", "report_done", "check_source_key", "SourceMismatch"]
 
 
 class SourceMismatch(RuntimeError):
@@ -52,25 +52,14 @@ def write_task_json(directory: Path, **fields: Any) -> None:
     write_json_atomic(Path(directory) / "task.json", d)
 
 
-def read_attrs(path: Path) -> dict[str, Any]:
-    """Global attributes of an archive without loading its variables."""
-    import xarray as xr
-
-    with NC_LOCK:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
-            return dict(ds.attrs)
-
-
 class _Running:
     """Context: the task's directory claimed (``lock.claim_task``), its leftovers tidied, task.json
     saying running, then done or failed. ``output``: the archive, or a function telling whether
     the task is done; ``done`` is True if another process completed it while this one waited."""
 
-    def __init__(self, directory: Path, task: str, output: Path | Callable[[], bool] | None = None,
-                 **fields: Any):
+    def __init__(self, directory: Path, task: str, output: Path | Callable[[], bool], **fields: Any):
         self.directory, self.task, self.fields = directory, task, fields
-        self.finished = ((lambda: is_complete(output)) if isinstance(output, Path)
-                         else output if output is not None else (lambda: False))
+        self.finished = (lambda: is_complete(output)) if isinstance(output, Path) else output
         self.t0 = time.perf_counter()
         self.done = False
         self._lock = None
@@ -308,8 +297,8 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
             t_end = float(model.t)
         finally:
             model.close()
-        hist = {"t": np.concatenate([t_hist, rec.t]),
-                **{k: np.concatenate([parent[f"{k}_hist"].values, v]) for k, v in rec.series.items()}}
+        hist = {"t": np.concatenate([t_hist, rec.t]), **{
+            k: np.concatenate([parent[f"{k}_hist"].values, v]) for k, v in rec.series.items()}}
         profiles = {src: np.asarray(parent[dst].values)
                     for src, dst in archives.PROFILE_NAMES.items()}
         wall = time.perf_counter() - t0
