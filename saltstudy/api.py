@@ -28,8 +28,6 @@ from .workflow.graph import Outcome, StudySummary, run_scene
 from .workflow.graph import run_study as _run_study_graph
 from .workflow.paths import default_out_dir, output_path
 
-__all__ = ["Run", "Results", "run", "run_study", "open_results"]
-
 PathLike = str | os.PathLike
 
 

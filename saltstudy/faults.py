@@ -19,8 +19,6 @@ import time
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["FAULT_ENV", "point", "DiskFull", "disk_full", "format_bytes", "write_atomic"]
-
 FAULT_ENV = "SALTSTUDY_FAULT"
 
 _LOCK = threading.Lock()

@@ -19,9 +19,6 @@ import xarray as xr
 from ._identity import __version__
 from .faults import write_atomic
 
-__all__ = ["NC_LOCK", "CF_VERSION", "CF_COORDINATES", "CF_STANDARD_NAMES", "cf_attributes",
-           "open_dataset", "open_lazy", "write_dataset", "is_complete", "read_attrs"]
-
 NC_LOCK = threading.RLock()
 
 #: global attribute set last on every archive; a file without it is incomplete

@@ -15,9 +15,6 @@ from .files import (ConfigError, case_path, locate_fidelity, locate_study, own_f
                     read_toml)
 from .study import RunSpec, Scene, SceneSpec, Study
 
-__all__ = ["load_case", "load_fidelity", "load_study", "study_file", "study_fidelity_folder",
-           "resolve_scene", "study_runs", "validate_file", "airborne_counts", "parcel_weight"]
-
 
 def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
               root: Path | None = None) -> Case:

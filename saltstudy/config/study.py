@@ -11,8 +11,6 @@ from .base import PAPER_AREA_M2, Frozen
 from .case import Case
 from .fidelity import Fidelity
 
-__all__ = ["SceneSpec", "Study", "Scene", "RunSpec"]
-
 
 class SceneSpec(Frozen):
     """An extra run of a study: a case with overrides (e.g. an extreme scene)."""

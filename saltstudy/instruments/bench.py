@@ -19,8 +19,6 @@ import time
 
 import numba
 
-__all__ = ["bench_flow", "bench_grid", "side_grid", "compare_flow", "GRIDS"]
-
 #: the package this module belongs to (``saltstudy``)
 _PACKAGE = __name__.split(".")[0]
 

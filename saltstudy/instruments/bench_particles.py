@@ -19,8 +19,6 @@ import numpy as np
 
 from .revision import RevisionError, alternate, medians, revision_path, run_isolated
 
-__all__ = ["bench_particles", "compare_particles", "register_bench", "timed_kernels"]
-
 #: the package this module belongs to (``saltstudy``)
 _PACKAGE = __name__.split(".")[0]
 

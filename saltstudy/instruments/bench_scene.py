@@ -18,8 +18,6 @@ import time
 
 import numba
 
-__all__ = ["bench_scene", "bench_schemes"]
-
 
 def _scene(case: int, fidelity: str, parcels: int | None):
     from ..config import PAPER_AREA_M2, load_case, load_fidelity, resolve_scene

@@ -8,8 +8,6 @@ import typer
 
 from ..workflow.cli_commands import fail
 
-__all__ = ["register"]
-
 
 def register(app: typer.Typer) -> None:
     bench_app = typer.Typer(no_args_is_help=True, help="Solver benchmarks (wall time per step).")

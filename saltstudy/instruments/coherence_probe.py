@@ -16,8 +16,6 @@ import numpy as np
 
 from ..analysis.streamers import N_BLOCKS, deviation_planes
 
-__all__ = ["spanwise_cospectrum", "probe_coherence", "register_coherence"]
-
 
 def spanwise_cospectrum(a: np.ndarray, b: np.ndarray, dy: float, n_blocks: int = N_BLOCKS
                         ) -> dict[str, np.ndarray]:

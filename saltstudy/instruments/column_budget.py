@@ -18,8 +18,6 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["column_budget", "column_momentum", "register_column_budget"]
-
 BLOCK_S = 5.0
 
 

@@ -21,8 +21,6 @@ from pathlib import Path
 
 from .revision import run_isolated
 
-__all__ = ["profile_kernels", "record_child", "attribute", "register_bench_profile"]
-
 #: the grain modules whose dispatchers' machine code is kept
 _MODULES = ("advance", "coupling", "splash_kernels", "population", "particles")
 #: code bytes kept per function (the hot kernels are 10-45 kB)

@@ -21,10 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["HEIGHTS", "CO_HEIGHT", "STREAK_HEIGHT", "streamwise_cospectrum_uw",
-           "spanwise_spectrum_u", "spectral_peak_wavelength", "damp_x_uniform_circulation",
-           "probe_loglaw", "register_probe"]
-
 #: heights [m] of the phi and stress tables
 HEIGHTS = (0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0)
 #: height [m] of the streamwise u'w' cospectrum (the middle of the shear dip)

@@ -16,9 +16,6 @@ import sys
 import tarfile
 from pathlib import Path
 
-__all__ = ["RevisionError", "revision_path", "run_isolated", "checkout_root", "alternate",
-           "medians"]
-
 
 class RevisionError(ValueError):
     """--against names no revision of this checkout (or there is no git checkout)."""

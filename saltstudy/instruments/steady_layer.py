@@ -34,9 +34,6 @@ from ..physics.drag import (drag_correction, particle_response_time, particle_re
 from ..physics.soil import sample_diameters, soil_arrays
 from ..physics.splash import splash_constants, splash_impacts
 
-__all__ = ["LayerParams", "SteadyLayer", "solve_steady_layer", "fly_grains", "splash_generation",
-           "log_wind", "wind_from_stress", "register_steady_layer"]
-
 #: multiplier exponent of the impact rate per generation: R <- R lambda^BETA
 BETA = 0.5
 #: relaxation of the wind towards the profile of the present drag, per generation
@@ -115,11 +112,6 @@ class SteadyLayer:
     decay_height: float           # e-folding height of the mass flux profile above 1 cm [m]
     replacement_by_speed: dict = field(default_factory=dict)
     wind: dict = field(default_factory=dict)
-
-
-def _levels(p: LayerParams) -> np.ndarray:
-    """Log-spaced wind nodes from z0 to z_top (the bins between them collect the drag)."""
-    return np.exp(np.linspace(math.log(p.z0), math.log(p.z_top), p.n_levels))
 
 
 def log_wind(zn: np.ndarray, u_star: float, kappa: float, z0: float) -> np.ndarray:
@@ -213,7 +205,8 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     if bed_fluid_fraction is not None and not 0.0 <= bed_fluid_fraction < 1.0:
         raise ValueError(f"bed_fluid_fraction={bed_fluid_fraction!r}: must be in [0, 1)")
     rng = np.random.default_rng(seed)
-    zn = _levels(p)
+    # log-spaced wind nodes from z0 to z_top (the bins between them collect the drag)
+    zn = np.exp(np.linspace(math.log(p.z0), math.log(p.z_top), p.n_levels))
     nz = zn.size
     lz0 = math.log(zn[0])
     idl = 1.0 / (math.log(zn[1]) - lz0)

@@ -17,14 +17,6 @@ import numpy as np
 from .drag import terminal_velocity
 from .soil import scalar_or_array
 
-__all__ = [
-    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law",
-    "z0_at_fixed_u_star", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s", "bagnold1937_flux",
-    "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux", "lettau1978_flux",
-    "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS", "creyssels2009_flux",
-    "CREYSSELS2009_U_STAR", "CREYSSELS2009_Q", "CREYSSELS2009_DECAY_HEIGHT", "CREYSSELS2009_GRAIN",
-    "RAUPACH_A", "D_REF"]
-
 #: Reference diameter D of Bagnold (1937) and Lettau & Lettau (1978) [m]
 D_REF = 250e-6
 

@@ -15,10 +15,6 @@ import numpy as np
 
 from .._jit import jit
 
-__all__ = ["mass_density_dlnd", "number_density_dlnd", "sample_diameters", "mass_median",
-           "count_median", "mass_cdf", "diameter_bins", "bin_mass_fractions",
-           "mass_weighted_moment", "norm_cdf", "soil_arrays", "draw_diameter"]
-
 _erf = np.vectorize(math.erf, otypes=[float])
 
 

@@ -18,10 +18,6 @@ from .._identity import SOURCE_KEY, __version__
 from ..config import Scene
 from ..solver.diagnostics.health import HEALTH_SERIES
 
-__all__ = ["META", "global_attrs", "plane_heights", "diameter_edges", "z_ref_eff", "coords_for",
-           "spinup_dataset", "restart_from_dataset", "start_restart", "samples_dataset",
-           "check_metadata", "scalar_kind"]
-
 # name -> (units, long_name). One table for both archives, so a name means one thing everywhere.
 META: dict[str, tuple[str, str]] = {
     # coordinates

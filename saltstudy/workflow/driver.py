@@ -24,9 +24,6 @@ from ..solver.simulation import (TIME_EPS, IterationInterval, Simulation, Specif
                                  WallTimeInterval)
 from . import archives
 
-__all__ = ["Recorder", "Schedule", "SaltationResult", "run_saltation", "save_checkpoint",
-           "load_checkpoint", "Interrupted", "add_checkpoints"]
-
 GROUPS = ("series", "plane", "sample")
 
 

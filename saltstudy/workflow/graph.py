@@ -29,8 +29,6 @@ from .tasks import (analysis_task, continuation_task, report_done, report_task, 
                     spinup_task, tidy_leftovers)
 from .warmup import ensure_warm
 
-__all__ = ["Outcome", "StudySummary", "build_graph", "run_study", "run_case", "run_scene", "warm_for"]
-
 
 @dataclass
 class Outcome:

@@ -18,10 +18,6 @@ from typing import Any
 from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study, content_hash, study_runs
 
-__all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "continuation_key",
-           "start_keys", "saltation_key", "analysis_key", "report_key", "RunKeys", "run_keys",
-           "study_keys", "saltation_slice", "area_source_key"]
-
 #: bump when spinup.nc / samples.nc change layout, so old archives are not mistaken for new ones
 ARCHIVE_FORMAT = 2
 KEY_LENGTH = 20

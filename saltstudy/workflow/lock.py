@@ -19,9 +19,6 @@ from typing import Any, Callable
 
 from .paths import read_json
 
-__all__ = ["LOCK_NAME", "TASK_LOCK_NAME", "Busy", "DirLock", "hold_out_dir", "claim_task",
-           "read_holder", "describe_holder", "record_alive", "pid_alive", "HEARTBEAT_S"]
-
 LOCK_NAME = "saltstudy.lock"
 TASK_LOCK_NAME = "task.lock"
 #: [s] how often a holder touches its lock file (read by hosts that do not share flock)
@@ -218,10 +215,8 @@ _HELD_LOCK = threading.Lock()
 
 def _waiting(log: Callable[[str], None] | None, what: str):
     """The ``on_wait`` of :meth:`DirLock.acquire` that logs ``[wait] <what> <holder>; waiting``."""
-    def on_wait(holder: dict[str, Any] | None) -> None:
-        if log is not None:
-            log(f"[wait] {what} {describe_holder(holder or {})}; waiting for it")
-    return on_wait
+    return None if log is None else (
+        lambda holder: log(f"[wait] {what} {describe_holder(holder or {})}; waiting for it"))
 
 
 def hold_out_dir(out_dir: Path, wait: bool = False, log: Callable[[str], None] | None = None,

@@ -19,10 +19,6 @@ from pathlib import Path
 from ..config import Study, load_study, project_root
 from ..faults import write_atomic
 
-__all__ = ["default_out_dir", "task_dir", "output_path", "OUTPUT_NAMES", "study_dir", "runs_file",
-           "analysis_paths", "default_report_dir", "read_runs_file", "write_json_atomic",
-           "read_task_json", "checkpoint_time", "read_json"]
-
 #: the archive each task writes into its directory
 OUTPUT_NAMES = {"spinup": "spinup.nc", "saltation": "samples.nc", "analysis": "analysis.nc",
                 "report": "task.json"}
@@ -31,9 +27,7 @@ OUTPUT_NAMES = {"spinup": "spinup.nc", "saltation": "samples.nc", "analysis": "a
 def default_out_dir() -> Path:
     """The cache directory: ``$SALTSTUDY_OUT``, else ``<project root>/.saltstudy-cache``."""
     env = os.environ.get("SALTSTUDY_OUT")
-    if env:
-        return Path(env).expanduser()
-    return project_root() / ".saltstudy-cache"
+    return Path(env).expanduser() if env else project_root() / ".saltstudy-cache"
 
 
 def default_report_dir(study_name: str) -> Path:

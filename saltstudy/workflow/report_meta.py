@@ -13,8 +13,6 @@ from .._identity import __version__
 from ..config import study_file
 from .paths import checkpoint_time, output_path, read_task_json, task_dir
 
-__all__ = ["cache_meta", "study_meta"]
-
 
 def study_meta(study, name: str, out_dir: Path, runs: dict) -> dict[str, Any]:
     """The report's meta of a study's runs (``keys.RunKeys`` by label) in the cache ``out_dir``:

@@ -19,8 +19,6 @@ from .lock import LOCK_NAME, describe_holder, read_holder, record_alive
 from .paths import checkpoint_time, output_path, read_runs_file, read_task_json, task_dir
 from .progress import eta, format_duration, is_stale, read_progress, writer_gone
 
-__all__ = ["StatusRow", "study_status", "format_status", "out_dir_state"]
-
 TASKS = ("spinup", "saltation", "analysis")
 
 

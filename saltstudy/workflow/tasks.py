@@ -29,9 +29,6 @@ from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
 from .progress import ProgressFile, emit
 from .report_meta import cache_meta
 
-__all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "write_task_json",
-           "read_task_json", "report_done", "check_source_key", "SourceMismatch"]
-
 
 class SourceMismatch(RuntimeError):
     """A worker runs other numerical code than the client that computed the cache keys."""

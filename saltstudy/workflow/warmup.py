@@ -17,8 +17,6 @@ from pathlib import Path
 from ..config import Fidelity, Scene
 from ..faults import FAULT_ENV
 
-__all__ = ["warm_scene", "signature", "ensure_warm"]
-
 #: the smoke grid's horizontal size and level count (workflows/fidelities/smoke.toml)
 _GRID = {"Lx": 2.4, "Ly": 1.6, "nx": 16, "ny": 12, "nz": 16, "dz_top": None}
 _SALTATION_S = 2.0
@@ -73,7 +71,7 @@ def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
     return Path(marker_dir) / f"{h}.json"
 
 
-def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -> bool:
+def ensure_warm(scenes: list[Scene], log=lambda _: None, marker_dir: Path | None = None) -> bool:
     """Warm the numba cache for ``scenes`` in a child process unless done (markers in
     ``marker_dir``, default ``$NUMBA_CACHE_DIR/warmup``); True if a child ran. A failing child is
     reported and ignored: the tasks then compile in-process."""
@@ -85,9 +83,8 @@ def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -
     marker = _marker(list(reps), marker_dir)
     if marker is None or marker.exists():
         return False
-    if log is not None:
-        log(f"[warm-up] numba kernels for {len(reps)} code path(s), in a child process "
-            "(so that every run loads them from the cache: reruns and resumes repeat it)")
+    log(f"[warm-up] numba kernels for {len(reps)} code path(s), in a child process "
+        "(so that every run loads them from the cache: reruns and resumes repeat it)")
     with tempfile.TemporaryDirectory(prefix="saltstudy-warmup-") as tmp:
         spec = Path(tmp) / "scenes.json"
         spec.write_text(json.dumps([warm_scene(s).model_dump(mode="json") for s in reps.values()]))
@@ -96,9 +93,8 @@ def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -
         proc = subprocess.run([sys.executable, "-m", "saltstudy.workflow.warmup", str(spec), tmp],
                               capture_output=True, text=True, env=env)
     if proc.returncode != 0:
-        if log is not None:
-            tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
-            log("[warm-up] failed (the tasks compile in-process instead): " + " | ".join(tail))
+        tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
+        log("[warm-up] failed (the tasks compile in-process instead): " + " | ".join(tail))
         return True
     marker.parent.mkdir(parents=True, exist_ok=True)
     marker.write_text(json.dumps({"signatures": sorted(reps),
