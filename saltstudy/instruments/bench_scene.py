@@ -1,13 +1,10 @@
-"""What one scene costs per step, and what a whole run of it would cost: ``saltstudy bench scene``.
-
-Per numba thread count: median wall time per step of the flow alone and with ``parcels`` parcels,
-the mean step ``dt``, the parcels aloft, peak memory; extrapolated to the scene's spin-up and
-saltation durations, and to N cores by Amdahl's law from the 1 -> 2 thread speed-up (a best case).
-The flow is the initial perturbed log law, not a spun-up one (gusts shorten the step).
-
-With ``saltation_seconds`` S nothing is extrapolated: from the scene's cached spin-up each
-``--vertical-diffusion`` scheme runs the first S seconds of the real saltation run; with ``rounds``
-> 1 the schemes alternate and medians are reported (separate runs scatter by tens of per cent).
+"""What one scene costs per step, and what a whole run of it would cost: ``saltstudy bench scene``
+(docs/BENCHMARKS.md, "Whole runs at the paper's resolution"). Per numba thread count: median wall
+time per step of the flow alone and with parcels, extrapolated to the scene's spin-up and
+saltation and to N cores by Amdahl's law from the 1 -> 2 thread speed-up (a best case); the flow
+is the initial perturbed log law. With ``saltation_seconds`` S each ``--vertical-diffusion``
+scheme runs the first S s of the real saltation run from the cached spin-up instead, alternating
+over ``rounds`` (separate runs scatter by tens of per cent).
 """
 from __future__ import annotations
 

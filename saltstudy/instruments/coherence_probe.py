@@ -1,10 +1,7 @@
 """Which eddies the grains follow: the spanwise co-spectrum and coherence of C_p and u(z) in one
-saltation archive (``saltstudy probe coherence RUN_DIR_OR_SAMPLES_NC [--lag 0.4] [--json]``).
-
-Averaged over time and x: the premultiplied spanwise spectra k_y S_c and k_y S_u(z) (Fig. 10),
-the co-spectrum k_y Co (with a standard error from time blocks) and the coherence squared
-|<Ĉ û*>|² / (<|Ĉ|²> <|û|²>). ``--lag TAU`` pairs C_p(t) with u(t - TAU). The paper reads C_p
-and u at 0.1 m peaking at the same wavelengths ([49]) and R_cu ~ 0.3 from the large eddies ([51]).
+saltation archive (``saltstudy probe coherence``; docs/USAGE.md), averaged over time and x, with
+``--lag TAU`` pairing C_p(t) with u(t - TAU). The paper reads C_p and u at 0.1 m peaking at the
+same wavelengths ([49]) and R_cu ~ 0.3 from the large eddies ([51]).
 """
 from __future__ import annotations
 

@@ -1,14 +1,11 @@
 """Where the stress at 2 m comes from: the x-momentum budget of the column above z_ref in one
-saltation archive (``saltstudy probe column-budget RUN_DIR_OR_SAMPLES_NC [--json]``).
-
-With the top drive the mean x-momentum above z_ref per unit area, P, obeys
+saltation archive (``saltstudy probe column-budget``; docs/USAGE.md). With the top drive the mean
+x-momentum above z_ref per unit area, P, obeys
 
     dP/dt = M - tau(z_ref),        M = sum_k f_k (u_drive - <u>_k) dz_k,
 
-M the momentum the Rayleigh layer feeds in (solver/flow/forcing.py). Over the sampling window:
-tau from ``u_star_ref``, M from ``u_drive`` and ``u_mean``, -dP/dt from the first and last
-profiles; each over u*s^2, so the stress's excess splits into the drive's part (M - u*s^2) and the
-column's (-dP/dt). The stress is also given in 5-s blocks from activation.
+M the momentum the Rayleigh layer feeds in (solver/flow/forcing.py): tau from ``u_star_ref``, M
+from ``u_drive`` and ``u_mean``, -dP/dt from the first and last profiles of the sampling window.
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The splash law's own steady saltation layer, in 1-D and without the LES
-(``saltstudy probe steady-layer``).
+(``saltstudy probe steady-layer``; docs/USAGE.md).
 
 Test grains hop over a flat bed in a horizontally uniform wind u(z): each impact is splashed by the
 paper's law (eqs. 6-9, physics.splash.splash_impacts), each grain flown with its drag (eqs. 3-4,
@@ -9,14 +9,9 @@ the stress the grains leave to the air (Owen 1964; as in Werner 1990 and Kok & R
     du/dz = sqrt(tau_a(z) / rho) / (kappa z),    tau_a(z) = rho u*s^2 - tau_g(z),   u(z0) = 0.
 
 Where the grains would take more than rho u*s^2 the air stress is clipped at zero and the layer is
-reported as not converged (from u*s ~ 0.65 m/s up with the paper's law). The unknown is the impact
-rate R [m^-2 s^-1]; each generation R is multiplied by lambda^BETA (lambda: grains launched per
-impact) and the wind relaxed towards its profile, until lambda = 1.
-
-Returned, per unit bed area: tau_a(0) over rho u*s^2, the airborne mass M = R <m T_hop>, the flux
-G_tot = R <m L_hop>, mu_b = tau_g(0) / (M g) and <m du> / <m dw>, the impact speed and angle, the
-replacement number against impact speed: the splash law's equilibrium, not the turbulent LES's.
-The case's ``splash.impact_speed`` reading carries over.
+not converged (from u*s ~ 0.65 m/s up with the paper's law). The unknown is the impact rate R
+[m^-2 s^-1]; each generation R is multiplied by lambda^BETA (lambda: grains launched per impact)
+and the wind relaxed towards its profile, until lambda = 1.
 """
 from __future__ import annotations
 

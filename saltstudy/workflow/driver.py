@@ -97,10 +97,8 @@ class Schedule:
                 by_time.setdefault(key, set()).add(group)
 
         put(multiples(0.0, s.series_interval, dur), "series")
-        if f.outputs.animation:
-            put(multiples(0.0, s.plane_interval, dur), "plane")
-        else:
-            put(multiples(s.start, s.plane_interval, s.end), "plane")
+        first, last = (0.0, dur) if f.outputs.animation else (s.start, s.end)
+        put(multiples(first, s.plane_interval, last), "plane")
         put([s.start + i * s.interval for i in range(s.count)], "sample")
         by_time.setdefault(round(dur, 12), set())  # run to the end even if nothing is recorded
         events = sorted((t, frozenset(g)) for t, g in by_time.items() if t <= dur + TIME_EPS)
@@ -211,6 +209,9 @@ class SaltationRecords:
     its state is checkpointed with that callback."""
 
     def __init__(self, scene: Scene, model, n_released: int):
+        from ..solver.diagnostics import records
+
+        self.records = records
         self.scene, self.model, self.n_released = scene, model, n_released
         self.recorder = Recorder()
         self.z_plane = archives.plane_heights(scene)
@@ -222,26 +223,17 @@ class SaltationRecords:
         self.sim: Simulation | None = None
 
     def __call__(self, sim: Simulation) -> None:
-        from ..solver.diagnostics import records
-
         if sim.last_step is not None:
             self.last = (float(sim.last_step.dt), float(sim.last_step.max_cfl))
-        self.recorder.add("series", sim.event_time, records.series(self.model, self.z_ref, self.n_released,
-                                                          *self.last))
+        self.recorder.add("series", sim.event_time, self.records.series(
+            self.model, self.z_ref, self.n_released, *self.last))
 
     def plane(self, sim: Simulation) -> None:
-        from ..solver.diagnostics import records
-
-        self.recorder.add("plane", sim.event_time, records.planes(self.model, self.z_plane))
+        self.recorder.add("plane", sim.event_time, self.records.planes(self.model, self.z_plane))
 
     def sample(self, sim: Simulation) -> None:
-        from ..solver.diagnostics import records
-
-        rec = records.sample(self.model, self.d_edges, full=self.full)
-        missing = [k for k in archives.GRAIN_PROFILES if k not in rec]
-        if missing:
-            raise KeyError(f"grain_profiles() lacks {missing} required by samples.nc")
-        self.recorder.add("sample", sim.event_time, rec)
+        self.recorder.add("sample", sim.event_time,
+                          self.records.sample(self.model, self.d_edges, full=self.full))
 
     def checkpoint(self) -> dict[str, np.ndarray]:
         out = self.recorder.checkpoint()
@@ -275,8 +267,7 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                      dt_fixed=scene.fidelity.saltation_dt_fixed)
     recs = SaltationRecords(scene, model, n_released)
     recs.sim = sim
-    for group, call in (("series", recs), ("plane", recs.plane),
-                        ("sample", recs.sample)):
+    for group, call in (("series", recs), ("plane", recs.plane), ("sample", recs.sample)):
         sim.add_callback(group, call, SpecifiedTimes(schedule.times(group)))
     if progress is not None:
         sim.add_callback("progress", lambda s: progress(s.t, s.stop_time), IterationInterval(1))
