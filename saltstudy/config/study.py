@@ -110,13 +110,8 @@ class Scene(Frozen):
         """What determines the particle-free spin-up (cases sharing it share one spin-up)."""
         c, f = self.spinup_scene().case, self.fidelity
         return {
-            "air": c.air.model_dump(mode="json"),
-            "surface": c.surface.model_dump(mode="json"),
-            "closure": c.closure.model_dump(mode="json"),
-            "forcing": c.forcing.model_dump(mode="json"),
-            "seed": c.seed,
-            "grid": f.grid.model_dump(mode="json"),
-            "time": f.time.model_dump(mode="json"),
+            **{k: getattr(c, k).model_dump(mode="json") for k in ("air", "surface", "closure", "forcing")},
+            **{k: getattr(f, k).model_dump(mode="json") for k in ("grid", "time")}, "seed": c.seed,
             # where a case starts along the shared spin-up is the start's, not the spin-up's
             "spinup": f.spinup.model_dump(mode="json", exclude={"stagger"}),
         }

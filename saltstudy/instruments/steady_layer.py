@@ -193,7 +193,7 @@ def splash_generation(rng, p: LayerParams, ui, vi, wi, di):
 
 
 def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, average: int = 60,
-                       progress=None, bed_fluid_fraction: float | None = None) -> SteadyLayer:
+                       bed_fluid_fraction: float | None = None) -> SteadyLayer:
     """Relax the layer to its steady state and average over the last ``average`` generations.
     With ``bed_fluid_fraction`` the impact rate is held where the grains take (1 - it) rho u*^2,
     and ``growth`` says whether the splash law sustains that layer."""
@@ -215,11 +215,10 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     m_mean = np.pi / 6.0 * p.rho_p * p.mu ** 3
     R = 0.05 * rho_u2 / (m_mean * 1.0)   # a twentieth of Owen's rate: the layer grows from below
     keep: deque[dict] = deque(maxlen=average)
-    for gen in range(generations):
+    for _ in range(generations):
         u, v, w, d, parent, px, pz = splash_generation(rng, p, ui, vi, wi, di)
-        nl = u.size
         drag_bin, mt_bin, fl_bin = np.zeros(nz - 1), np.zeros(nz - 1), np.zeros(nz - 1)
-        out = np.zeros((nl, 6))
+        out = np.zeros((u.size, 6))
         fly_grains(u, v, w, d, un, lz0, idl, p.u_star, p.z_top, p.kappa, p.rho, p.nu, p.rho_p, p.g,
                    p.h_imp, p.dt, T_MAX, drag_bin, mt_bin, fl_bin, out)
         landed = out[:, 5] > 0
@@ -252,8 +251,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
             break
         pick = rng.choice(idx, n, replace=True)
         ui, vi, wi, di = out[pick, 1], out[pick, 2], out[pick, 3], d[pick]
-        if progress is not None:
-            progress(gen, lam, R)
+
     def mean(name: str):
         """The mean of a record over the averaged generations."""
         return np.mean([k[name] for k in keep], axis=0)

@@ -14,6 +14,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .._identity import numerical_sources
 from ..config import Fidelity, Scene
 from ..faults import FAULT_ENV
 
@@ -55,10 +56,7 @@ def signature(scene: Scene) -> str:
 
 def _source_stamps() -> list[tuple[str, int, int]]:
     """(path, mtime in ns, size) of the sources numba compiles: what its cache index checks."""
-    pkg = Path(__file__).resolve().parents[1]
-    files = [pkg / "_jit.py"] + sorted((pkg / "physics").rglob("*.py")) + \
-        sorted((pkg / "solver").rglob("*.py"))
-    return [(str(f), f.stat().st_mtime_ns, f.stat().st_size) for f in files]
+    return [(str(f), f.stat().st_mtime_ns, f.stat().st_size) for f in numerical_sources()]
 
 
 def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
