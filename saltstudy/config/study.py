@@ -110,7 +110,8 @@ class Scene(Frozen):
         """What determines the particle-free spin-up (cases sharing it share one spin-up)."""
         c, f = self.spinup_scene().case, self.fidelity
         return {
-            **{k: getattr(c, k).model_dump(mode="json") for k in ("air", "surface", "closure", "forcing")},
+            **{k: getattr(c, k).model_dump(mode="json")
+               for k in ("air", "surface", "closure", "forcing")},
             **{k: getattr(f, k).model_dump(mode="json") for k in ("grid", "time")}, "seed": c.seed,
             # where a case starts along the shared spin-up is the start's, not the spin-up's
             "spinup": f.spinup.model_dump(mode="json", exclude={"stagger"}),

@@ -33,7 +33,7 @@ from .warmup import ensure_warm
 @dataclass
 class Outcome:
     """What one task did: ``computed``, ``cached`` (complete output found), ``failed`` or
-    ``skipped`` (an input failed, or the report package is absent)."""
+    ``skipped`` (an input failed, or a full disk stopped a local run)."""
     task: str
     key: str
     labels: list[str]
@@ -74,8 +74,6 @@ def _call(task: str, key: str, labels: list[str], out_path: Path, fn, *args, **k
             _DiskFullStop.error = str(exc)
         return Outcome(task, key, labels, "failed", None, f"{type(exc).__name__}: {exc}", wall)
     wall = time.perf_counter() - t0
-    if path is None:
-        return Outcome(task, key, labels, "skipped", None, "report package not available", wall)
     emit(f"[done] {name} in {wall:.1f} s")
     return Outcome(task, key, labels, "computed", str(path), None, wall)
 
@@ -108,7 +106,7 @@ def _report(study: Study, analyses: list[tuple[str, Outcome]], out_dir: Path, re
     if report_done(out_dir, rkey, report_dir):
         return Outcome("report", rkey, [study.name], "cached", str(report_dir))
     return _call("report", rkey, [study.name], Path(report_dir), report_task, study, runs, out_dir,
-                 report_dir, rkey, meta, emit)
+                 report_dir, rkey, meta)
 
 
 def run_case(rk: "K.RunKeys", out_dir: Path, wait: bool = False) -> list[Outcome]:

@@ -194,7 +194,7 @@ class _Held:
     """This process's counted hold on an out dir (the command line and the run it starts)."""
 
     def __init__(self, lock: DirLock):
-        self.lock, self.count = lock, 0
+        self.lock, self.count = lock, 1
 
     def __enter__(self) -> DirLock:
         return self.lock
@@ -236,7 +236,6 @@ def hold_out_dir(out_dir: Path, wait: bool = False, log: Callable[[str], None] |
         log(f"[lock] taking over {lock.path}: it was held by {describe_holder(lock.taken_over)}, "
             "which is gone")
     held = _Held(lock)
-    held.count = 1
     with _HELD_LOCK:
         _HELD[str(path)] = held
     return held

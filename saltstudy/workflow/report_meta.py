@@ -36,8 +36,6 @@ def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
     samples = dict(meta.get("samples") or {})
     made_by: set[str] = set()
     for label, k in keys.items():
-        if not isinstance(k, dict):
-            continue
         for task in ("spinup", "saltation", "analysis"):
             key = k.get(task)
             if not key:
@@ -48,27 +46,16 @@ def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
             if tj.get("state") == "failed" and label not in failures:
                 failures[label] = f"{task}: {tj.get('error', 'failed')}"
         skey = k.get("saltation")
-        ck = _checkpoint(out_dir, skey) if skey else None
-        if ck is not None:
-            checkpoints[label] = ck
-        if skey and label not in samples:
-            p = Path(output_path(out_dir, "saltation", skey))
-            if p.is_file():
-                samples[label] = str(p)
-    if failures:
-        meta["failures"] = failures
-    if samples:
-        meta["samples"] = samples
-    if checkpoints:
-        meta["checkpoints"] = checkpoints
+        if skey:
+            d, samples_nc = task_dir(out_dir, "saltation", skey), output_path(out_dir, "saltation", skey)
+            if (d / "checkpoint.npz").is_file():   # a stopped run's, kept to resume from
+                checkpoints[label] = {"path": str(d / "checkpoint.npz"),
+                                      "t_since_activation": checkpoint_time(d)}
+            if label not in samples and samples_nc.is_file():
+                samples[label] = str(samples_nc)
+    meta.update({k: v for k, v in (("failures", failures), ("samples", samples),
+                                   ("checkpoints", checkpoints)) if v})
     if not meta.get("source_key") and made_by:
         meta["source_key"] = made_by.pop() if len(made_by) == 1 else sorted(made_by)
     return meta
 
-
-def _checkpoint(out_dir: Path, key: str) -> dict[str, Any] | None:
-    """{"path", "t_since_activation"} of a saltation run's kept checkpoint, or None."""
-    d = Path(task_dir(out_dir, "saltation", key))
-    if not (d / "checkpoint.npz").is_file():
-        return None
-    return {"path": str(d / "checkpoint.npz"), "t_since_activation": checkpoint_time(d)}

@@ -54,7 +54,8 @@ class _Running:
     saying running, then done or failed. ``output``: the archive, or a function telling whether
     the task is done; ``done`` is True if another process completed it while this one waited."""
 
-    def __init__(self, directory: Path, task: str, output: Path | Callable[[], bool], **fields: Any):
+    def __init__(self, directory: Path, task: str, output: Path | Callable[[], bool],
+                 **fields: Any):
         self.directory, self.task, self.fields = directory, task, fields
         self.finished = (lambda: is_complete(output)) if isinstance(output, Path) else output
         self.t0 = time.perf_counter()
@@ -376,18 +377,14 @@ def report_done(out_dir: Path, key: str, report_dir: Path) -> bool:
 
 
 def report_task(study: Study, runs: dict[str, Path | None], out_dir: Path, report_dir: Path,
-                key: str, meta: dict[str, Any] | None = None,
-                log: Callable[[str], None] = print) -> Path | None:
-    """``saltstudy.report.build_report`` over all runs -> ``report_dir``; None if the report
-    package is not installed in this checkout. Marker: ``<out>/report/<key>/task.json``."""
+                key: str, meta: dict[str, Any] | None = None) -> Path:
+    """``saltstudy.report.build_report`` over all runs -> ``report_dir``. Marker:
+    ``<out>/report/<key>/task.json``."""
+    from ..report import build_report
+
     d = task_dir(out_dir, "report", key)
     if report_done(out_dir, key, report_dir):
         return Path(report_dir)
-    try:
-        from ..report import build_report
-    except ImportError as exc:
-        log(f"report: skipped (saltstudy.report.build_report not available: {exc})")
-        return None
     with _Running(d, "report", lambda: report_done(out_dir, key, report_dir), key=key,
                   study=study.name, report_dir=str(report_dir),
                   inputs={k: (str(v) if v else None) for k, v in runs.items()}) as run:
