@@ -103,8 +103,7 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
     import numba
 
     runs = []
-    for n in n_list:
-        n = int(n)
+    for n in map(int, n_list):
         s, st = _component(_PACKAGE, n, dt, case, fidelity)
         times, acc, imp, parcel_steps, wall = [], {}, 0, 0, 0.0
         with timed_kernels(acc, s) if phases else nullcontext():
