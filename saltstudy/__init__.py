@@ -15,7 +15,7 @@ from ._identity import SOURCE_KEY, __version__
 _CONFIG_NAMES = ("Case", "Fidelity", "Study", "ConfigError", "load_case", "load_fidelity",
                  "load_study", "list_case_numbers")
 _API_NAMES = ("Run", "Results", "run", "run_study", "open_results")
-__all__ = [*_CONFIG_NAMES, *_API_NAMES, "__version__"]
+__all__ = [*_CONFIG_NAMES, *_API_NAMES, "__version__", "SOURCE_KEY"]
 
 
 def __getattr__(name: str):

@@ -10,17 +10,20 @@ from pathlib import Path
 __version__ = "0.1.0"
 
 
+def numerical_sources(here: Path | None = None) -> list[Path]:
+    """The sources a run executes: ``_jit.py``, ``physics/``, ``solver/``."""
+    here = here or Path(__file__).resolve().parent
+    return [here / "_jit.py", *sorted((here / "physics").rglob("*.py")),
+            *sorted((here / "solver").rglob("*.py"))]
+
+
 def source_key(here: Path | None = None) -> str:
-    """Hash of the numerical sources a run executes (``_jit.py``, ``physics/``, ``solver/``), which
-    keys the workflow's cache and numba's on-disk cache."""
+    """Hash of the numerical sources, which keys the workflow's cache and numba's on-disk cache."""
     here = here or Path(__file__).resolve().parent
     h = hashlib.sha256(__version__.encode())
-    for sub in ("_jit.py", "physics", "solver"):
-        p = here / sub
-        files = [p] if p.is_file() else sorted(p.rglob("*.py"))
-        for f in files:
-            h.update(f.relative_to(here).as_posix().encode())   # a moved file is another source
-            h.update(f.read_bytes())
+    for f in numerical_sources(here):
+        h.update(f.relative_to(here).as_posix().encode())   # a moved file is another source
+        h.update(f.read_bytes())
     if os.environ.get("SALTSTUDY_STRICT_IEEE", "") not in ("", "0"):   # _jit.STRICT_IEEE
         h.update(b"strict-ieee")
     return h.hexdigest()[:12]

@@ -1,13 +1,6 @@
-"""The study from Python: load and change a case, run it, read the results as xarray objects.
-
-Everything goes through the workflow of ``saltstudy run-all`` and ``run`` (same cache, resume and
-progress display); the names are importable from ``saltstudy`` (docs/USAGE.md, "From Python")::
-
-    case = saltstudy.load_case(2).replace(name="coarse", soil={"modes": [{"mu": 300e-6}]})
-    run = saltstudy.run(case, saltstudy.load_fidelity("quick"))   # cached
-    a = run.analysis()                                   # analysis.nc as an xarray Dataset
-    saltstudy.open_results("quick").table2()             # Table 2 beside the paper
-
+"""The study from Python: load and change a case, run it, read the results as xarray objects,
+through the workflow of ``saltstudy run-all`` and ``run`` (same cache, resume and progress
+display); the names are importable from ``saltstudy`` (examples: docs/USAGE.md, "From Python").
 Lengths in m, times in s, velocities in m s-1, as in the archives.
 """
 from __future__ import annotations
@@ -27,8 +20,6 @@ from .workflow import keys as K
 from .workflow.graph import Outcome, StudySummary, run_scene
 from .workflow.graph import run_study as _run_study_graph
 from .workflow.paths import default_out_dir, output_path
-
-__all__ = ["Run", "Results", "run", "run_study", "open_results"]
 
 PathLike = str | os.PathLike
 

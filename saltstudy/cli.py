@@ -12,7 +12,8 @@ import typer
 from typer.core import TyperGroup
 
 from ._identity import __version__
-from .config import (ConfigError, list_case_numbers, load_case, validate_file)
+from .config import ConfigError, list_case_numbers, load_case, validate_file
+from .workflow.cli_commands import fail
 
 USER_PANEL = "Run a study and read its results"
 INSTRUMENTS_PANEL = "Instruments: what measures the model"
@@ -44,12 +45,6 @@ app = typer.Typer(cls=_TopLevel, add_completion=False, no_args_is_help=True,
                   help="LES + Lagrangian saltation: reproduce Dupont et al. (2013).")
 cases_app = typer.Typer(no_args_is_help=True, help="The cases of the study (Table 2).")
 app.add_typer(cases_app, name="cases")
-
-
-def fail(message: str, code: int = 2) -> None:
-    """Print a clear error on stderr and exit (2: bad input)."""
-    typer.echo(f"error: {message}", err=True)
-    raise typer.Exit(code)
 
 
 @app.callback(invoke_without_command=True)

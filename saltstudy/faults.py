@@ -3,16 +3,9 @@
 Every file the package writes goes through a few writers (``ncio.write_dataset``, the workflow's
 checkpoint and JSON writers, the report's staging), each calling :func:`point` named
 ``<file name>:<moment>`` at ``write`` (before the temporary file), ``tmp`` (complete, not yet
-renamed) and ``done`` (renamed), e.g. ``samples.nc:tmp``, ``report:done``.
-
-The test hook ``SALTSTUDY_FAULT`` (read at every call; docs/USAGE.md "Faults"):
-
-* ``kill GLOB K``: SIGKILL this process at the K-th call (1-based) of a point matching GLOB;
-* ``stop GLOB K``: SIGSTOP it there (a test reads ``saltstudy status`` of a live run);
-* ``enospc GLOB K``: raise ``OSError(ENOSPC)`` there, as a full disk does;
-* ``trace FILE``: append ``<unix time> <pid> <point>`` to FILE at every point.
-
-Child processes that compile kernels (``workflow/warmup.py``) are started without it.
+renamed) and ``done`` (renamed). The hook ``SALTSTUDY_FAULT`` (``kill|stop|enospc GLOB K`` at the
+K-th matching point, or ``trace FILE``) is read at every call: docs/USAGE.md, "Faults". Child
+processes that compile kernels (``workflow/warmup.py``) are started without it.
 """
 from __future__ import annotations
 
@@ -26,8 +19,6 @@ import time
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["FAULT_ENV", "point", "DiskFull", "disk_full", "format_bytes", "write_atomic"]
-
 FAULT_ENV = "SALTSTUDY_FAULT"
 
 _LOCK = threading.Lock()
@@ -37,14 +28,10 @@ _ARMED: str | None = None
 
 def point(name: str) -> None:
     """A write point named ``name`` is reached (module doc); does nothing unless the hook is set."""
+    global _ARMED
     spec = os.environ.get(FAULT_ENV)
     if not spec:
         return
-    _reached(spec, name)
-
-
-def _reached(spec: str, name: str) -> None:
-    global _ARMED
     action, _, rest = spec.strip().partition(" ")
     if action == "trace":
         with _LOCK, open(rest.strip(), "a", encoding="utf-8") as fh:
@@ -80,7 +67,6 @@ def format_bytes(n: float) -> str:
         if abs(n) < 1000 or unit == "TB":
             return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
         n /= 1000.0
-    return f"{n} B"
 
 
 class DiskFull(OSError):

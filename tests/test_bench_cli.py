@@ -164,19 +164,6 @@ def test_bench_particles_against_an_unknown_revision_is_a_clear_error():
     assert "--against" in res.output and "no-such-rev" in res.output
 
 
-def test_bench_particles_runs_as_the_module_its_doc_names():
-    """``python -m saltstudy.instruments.bench_particles`` (the module doc's first form): the module is
-    then ``__main__``, and the package it benchmarks must still be saltstudy."""
-    import subprocess
-    import sys
-
-    res = subprocess.run([sys.executable, "-m", "saltstudy.instruments.bench_particles", "--n", "1000",
-                          "--steps", "2", "--json"], capture_output=True, text=True, timeout=600)
-    assert res.returncode == 0, res.stderr[-2000:]
-    (r,) = json.loads(res.stdout.strip().splitlines()[-1])["runs"]
-    assert r["n_parcels"] == 1000 and r["ns_per_parcel_step"] > 0
-
-
 def test_bench_scene_json_has_the_costs_and_an_extrapolation():
     out = _json(["bench", "scene", "--case", "2", "--fidelity", "smoke", "--steps", "3",
                  "--threads", "1", "--parcels", "3000", "--json"])

@@ -11,8 +11,6 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 
 from .files import ConfigError
 
-__all__ = ["Frozen", "content_hash", "deep_merge", "validate_model", "PAPER_AREA_M2"]
-
 # Horizontal area of the paper's domain (20 m x 15 m, section 2.4): the initial release of 10 000
 # parcels is per this area.
 PAPER_AREA_M2 = 20.0 * 15.0

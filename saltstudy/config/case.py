@@ -9,9 +9,6 @@ from pydantic import Field, model_validator
 
 from .base import Frozen
 
-__all__ = ["Air", "SoilMode", "Soil", "Splash", "Threshold", "Forcing", "Surface", "Closure",
-           "Physics", "Particles", "Case"]
-
 
 class Air(Frozen):
     """Air properties (neutral, dry). Paper: Boussinesq fluid, section 2.1."""

@@ -8,8 +8,6 @@ from pydantic import Field, model_validator
 
 from .base import Frozen
 
-__all__ = ["GridSpec", "TimeStepping", "SpinUp", "Sampling", "Relaxation", "Outputs", "Fidelity"]
-
 
 class GridSpec(Frozen):
     """Domain and grid. Uniform in x, y; stretched cubically in the level index in z."""

@@ -6,9 +6,6 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-__all__ = ["ConfigError", "project_root", "read_toml", "case_path", "list_case_numbers",
-           "locate_fidelity", "locate_study", "own_fidelity_folder"]
-
 
 class ConfigError(ValueError):
     """A configuration file could not be read or is invalid. ``str()`` names file, field and reason."""
@@ -16,13 +13,8 @@ class ConfigError(ValueError):
 
 def project_root() -> Path:
     """Directory holding ``cases/`` and ``workflows/``: $SALTSTUDY_HOME, else the checkout, else cwd."""
-    env = os.environ.get("SALTSTUDY_HOME")
-    if env:
-        return Path(env)
-    here = Path(__file__).resolve().parents[2]
-    if (here / "cases").is_dir():
-        return here
-    return Path.cwd()
+    env, here = os.environ.get("SALTSTUDY_HOME"), Path(__file__).resolve().parents[2]
+    return Path(env) if env else here if (here / "cases").is_dir() else Path.cwd()
 
 
 def read_toml(path: Path) -> dict[str, Any]:

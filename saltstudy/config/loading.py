@@ -15,9 +15,6 @@ from .files import (ConfigError, case_path, locate_fidelity, locate_study, own_f
                     read_toml)
 from .study import RunSpec, Scene, SceneSpec, Study
 
-__all__ = ["load_case", "load_fidelity", "load_study", "study_file", "study_fidelity_folder",
-           "resolve_scene", "study_runs", "validate_file", "airborne_counts", "parcel_weight"]
-
 
 def load_case(ref: int | str | Path, overrides: dict[str, Any] | None = None,
               root: Path | None = None) -> Case:
@@ -68,16 +65,13 @@ def _fidelity_data(ref: str | Path, root: Path | None, own: Path | None = None,
     return path, deep_merge(parent, data)
 
 
-def _load_fidelity(ref: str | Path, root: Path | None, own: Path | None) -> Fidelity:
+def load_fidelity(ref: str | Path, root: Path | None = None, own: Path | None = None) -> Fidelity:
+    """Load a fidelity by name (``own``: a study's folder, looked in first), ``STUDY/NAME`` or path
+    (files.locate_fidelity); a file may start ``based_on`` another and list only what differs
+    (docs/USAGE.md, "Fidelities")."""
     path, data = _fidelity_data(ref, root, own)
     data.setdefault("name", path.stem)
     return validate_model(Fidelity, data, str(path))
-
-
-def load_fidelity(ref: str | Path, root: Path | None = None) -> Fidelity:
-    """Load a fidelity by name, ``STUDY/NAME`` or path (files.locate_fidelity); a file may start
-    ``based_on`` another and list only what differs (docs/USAGE.md, "Fidelities")."""
-    return _load_fidelity(ref, root, None)
 
 
 def load_study(ref: str | Path, root: Path | None = None) -> Study:
@@ -193,7 +187,7 @@ def study_runs(study: Study, root: Path | None = None) -> list[RunSpec]:
     def fid(name: str, field: str) -> Fidelity:
         if name not in fid_cache:
             try:
-                fid_cache[name] = _load_fidelity(name, root, own)
+                fid_cache[name] = load_fidelity(name, root, own)
             except ConfigError as exc:
                 raise ConfigError(f"study '{study.name}': {field}: {exc}") from None
         return fid_cache[name]

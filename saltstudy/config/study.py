@@ -11,8 +11,6 @@ from .base import PAPER_AREA_M2, Frozen
 from .case import Case
 from .fidelity import Fidelity
 
-__all__ = ["SceneSpec", "Study", "Scene", "RunSpec"]
-
 
 class SceneSpec(Frozen):
     """An extra run of a study: a case with overrides (e.g. an extreme scene)."""
@@ -119,13 +117,9 @@ class Scene(Frozen):
         sp = self.spinup_scene()
         c, f = sp.case, sp.fidelity
         return {
-            "air": c.air.model_dump(mode="json"),
-            "surface": c.surface.model_dump(mode="json"),
-            "closure": c.closure.model_dump(mode="json"),
-            "forcing": c.forcing.model_dump(mode="json"),
-            "seed": c.seed,
-            "grid": f.grid.model_dump(mode="json"),
-            "time": f.time.model_dump(mode="json"),
+            **{k: getattr(c, k).model_dump(mode="json")
+               for k in ("air", "surface", "closure", "forcing")},
+            **{k: getattr(f, k).model_dump(mode="json") for k in ("grid", "time")}, "seed": c.seed,
             # where a case starts along the shared spin-up is the start's, not the spin-up's
             "spinup": f.spinup.model_dump(mode="json", exclude={"stagger", "tiled_from"}),
         }

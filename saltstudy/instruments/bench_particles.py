@@ -1,6 +1,5 @@
 """Benchmark of the grain component: ns per parcel-step on the reduced grid in a frozen flow
-(``saltstudy bench particles``, or ``python -m saltstudy.instruments.bench_particles [--json]
-[--phases] [--steps N] [--n N]``; docs/BENCHMARKS.md).
+(``saltstudy bench particles``; docs/BENCHMARKS.md).
 
 The flow is a frozen log-law wind (u*s of case 2) with 30% u* periodic perturbations; the parcels
 start in the lowest 0.3 m with random velocities, so they splash, sub-step and couple as in a run.
@@ -13,19 +12,15 @@ from __future__ import annotations
 import importlib
 import json
 import math
-import sys
 import time
 from contextlib import contextmanager, nullcontext
 
 import numpy as np
 
-from .revision import RevisionError, revision_path, run_isolated
+from .revision import RevisionError, alternate, medians, revision_path, run_isolated
 
-__all__ = ["bench_particles", "compare_particles", "register_bench", "timed_kernels"]
-
-#: the package this module belongs to (``saltstudy``); from ``__package__``, which ``python -m``
-#: keeps (``__name__`` is then ``__main__``)
-_PACKAGE = (__package__ or __name__).split(".")[0]
+#: the package this module belongs to (``saltstudy``)
+_PACKAGE = __name__.split(".")[0]
 
 
 def _frozen_flow(st, u_star: float, z0: float) -> None:
@@ -108,8 +103,7 @@ def bench_particles(n_list=(1e5, 1e6), steps: int = 20, as_json: bool = False, d
     import numba
 
     runs = []
-    for n in n_list:
-        n = int(n)
+    for n in map(int, n_list):
         s, st = _component(_PACKAGE, n, dt, case, fidelity)
         times, acc, imp, parcel_steps, wall = [], {}, 0, 0, 0.0
         with timed_kernels(acc, s) if phases else nullcontext():
@@ -176,19 +170,12 @@ def compare_particles(against: str, n_list=(1e5, 1e6), steps: int = 12, rounds: 
     name, path = revision_path(against)
     sides = {"this": _PACKAGE, "against": name}
     runs = []
-    for n in n_list:
-        n = int(n)
-        per = {k: [] for k in sides}
-        for r in range(rounds):
-            for side in (("this", "against") if r % 2 == 0 else ("against", "this")):
-                per[side].append(run_isolated(
-                    f"{__name__}:side_median",
-                    {"pkg": sides[side], "n": n, "steps": steps, "dt": dt, "case": case,
-                     "fidelity": fidelity, "cpu_time": _clock is time.thread_time},
-                    [path]))
-        runs.append({"n_parcels": n, "this": float(np.median(per["this"])),
-                     "against": float(np.median(per["against"])),
-                     "this_rounds": per["this"], "against_rounds": per["against"]})
+    for n in map(int, n_list):
+        per = alternate(rounds, sides, lambda side: run_isolated(
+            f"{__name__}:side_median", {"pkg": sides[side], "n": n, "steps": steps, "dt": dt,
+                                       "case": case, "fidelity": fidelity,
+                                       "cpu_time": _clock is time.thread_time}, [path]))
+        runs.append({"n_parcels": n, **medians(per)})
     out = {"threads": int(numba.get_num_threads()), "against": against, "runs": runs}
 
     def text():
@@ -239,9 +226,3 @@ def register_bench(bench_app) -> None:
             bench_particles(tuple(n), steps=steps, as_json=as_json, phases=phases,
                             fidelity=fidelity)
 
-
-if __name__ == "__main__":
-    args = sys.argv[1:]
-    ns = [float(args[i + 1]) for i, a in enumerate(args) if a == "--n"] or [1e5, 1e6]
-    st = int(args[args.index("--steps") + 1]) if "--steps" in args else 20
-    bench_particles(ns, steps=st, as_json="--json" in args, phases="--phases" in args)

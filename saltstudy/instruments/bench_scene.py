@@ -1,13 +1,10 @@
-"""What one scene costs per step, and what a whole run of it would cost: ``saltstudy bench scene``.
-
-Per numba thread count: median wall time per step of the flow alone and with ``parcels`` parcels,
-the mean step ``dt``, the parcels aloft, peak memory; extrapolated to the scene's spin-up and
-saltation durations, and to N cores by Amdahl's law from the 1 -> 2 thread speed-up (a best case).
-The flow is the initial perturbed log law, not a spun-up one (gusts shorten the step).
-
-With ``saltation_seconds`` S nothing is extrapolated: from the scene's cached spin-up each
-``--vertical-diffusion`` scheme runs the first S seconds of the real saltation run; with ``rounds``
-> 1 the schemes alternate and medians are reported (separate runs scatter by tens of per cent).
+"""What one scene costs per step, and what a whole run of it would cost: ``saltstudy bench scene``
+(docs/BENCHMARKS.md, "Whole runs at the paper's resolution"). Per numba thread count: median wall
+time per step of the flow alone and with parcels, extrapolated to the scene's spin-up and
+saltation and to N cores by Amdahl's law from the 1 -> 2 thread speed-up (a best case); the flow
+is the initial perturbed log law. With ``saltation_seconds`` S each ``--vertical-diffusion``
+scheme runs the first S s of the real saltation run from the cached spin-up instead, alternating
+over ``rounds`` (separate runs scatter by tens of per cent).
 """
 from __future__ import annotations
 
@@ -18,19 +15,15 @@ import time
 
 import numba
 
-__all__ = ["bench_scene", "bench_schemes"]
-
 
 def _scene(case: int, fidelity: str, parcels: int | None):
-    from ..config import PAPER_AREA_M2, Scene, load_case, load_fidelity, resolve_scene
+    from ..config import PAPER_AREA_M2, load_case, load_fidelity, resolve_scene
     scene = resolve_scene(load_case(case), load_fidelity(fidelity))
     if parcels:
         g = scene.fidelity.grid
-        d = scene.model_dump()
         # n_initial is given per 300 m^2 at the paper's Q: invert Scene.n_initial
-        d["case"]["particles"]["n_initial"] = max(1, int(round(
-            parcels * PAPER_AREA_M2 / (g.Lx * g.Ly) * scene.fidelity.q_multiplier)))
-        scene = Scene.model_validate(d)
+        scene = scene.replace(case={"particles": {"n_initial": max(1, int(round(
+            parcels * PAPER_AREA_M2 / (g.Lx * g.Ly) * scene.fidelity.q_multiplier)))}})
     return scene
 
 
@@ -72,8 +65,8 @@ def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32),
     f = scene.fidelity
 
     def run_s(r: dict) -> dict:
-        spin = [f.spinup.t_min * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"],
-                f.spinup.t_max * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"]]
+        spin = [t * r["flow"]["steps_per_sim_s"] * r["flow"]["s_per_step"]
+                for t in (f.spinup.t_min, f.spinup.t_max)]
         g = r.get("grains") or r["flow"]
         rate = 1.0 / saltation_dt if saltation_dt else g["steps_per_sim_s"]
         salt = f.saltation_duration * rate * g["s_per_step"]
@@ -84,15 +77,11 @@ def extrapolate(scene, rows: list[dict], cores: tuple[int, ...] = (2, 8, 32),
         key = "grains" if "grains" in by[1] else "flow"
         s2 = by[1][key]["s_per_step"] / by[2][key]["s_per_step"]
         serial = min(1.0, max(0.0, 2.0 / s2 - 1.0))
-        out["speedup_1_to_2"] = s2
-        out["serial_fraction"] = serial
         base = run_s(by[1])
-        est = {}
-        for n in cores:
-            sp = 1.0 / (serial + (1.0 - serial) / n)
-            est[n] = {"speedup": sp, "saltation_h": base["saltation_s"] / sp / 3600.0,
-                      "spinup_h": [x / sp / 3600.0 for x in base["spinup_s"]]}
-        out["amdahl"] = est
+        speedups = {n: 1.0 / (serial + (1.0 - serial) / n) for n in cores}
+        out.update(speedup_1_to_2=s2, serial_fraction=serial, amdahl={n: {
+            "speedup": sp, "saltation_h": base["saltation_s"] / sp / 3600.0,
+            "spinup_h": [x / sp / 3600.0 for x in base["spinup_s"]]} for n, sp in speedups.items()})
     return out
 
 
@@ -135,10 +124,7 @@ def bench_scene(case: int = 2, fidelity: str = "paper", steps: int = 20,
 
 
 def _with_scheme(scene, scheme: str):
-    from ..config import Scene
-    d = scene.model_dump()
-    d["fidelity"]["time"]["vertical_diffusion"] = scheme
-    return Scene.model_validate(d)
+    return scene.replace(fidelity={"time": {"vertical_diffusion": scheme}})
 
 
 def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False,
@@ -215,6 +201,7 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
     from ..workflow import archives
     from ..workflow.paths import default_out_dir
     from ..workflow.tasks import spinup_task
+    from .revision import alternate
     scene = _scene(case, fidelity, None)
     schemes = tuple(schemes) or (scene.fidelity.time.vertical_diffusion,)
     source = _scene(case, spinup_from, None) if spinup_from else scene
@@ -232,13 +219,9 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
         start = (f"{spinup_from}'s spin-up ({src.nx}x{src.ny}x{src.nz}) tiled "
                  f"{dst.nx // src.nx}x{dst.ny // src.ny}, interpolated in z below {z_keep:g} m, "
                  f"log law above (solver/tiling.py)")
-    per: dict[str, list[dict]] = {k: [] for k in schemes}
-    for r in range(rounds):
-        order = schemes if r % 2 == 0 else tuple(reversed(schemes))
-        for name in order:
-            per[name].append(_saltation_seconds(_with_scheme(scene, name), restart,
-                                                saltation_seconds, tiled=bool(spinup_from),
-                                                phases=phases))
+    per = alternate(rounds, schemes, lambda name: _saltation_seconds(
+        _with_scheme(scene, name), restart, saltation_seconds, tiled=bool(spinup_from),
+        phases=phases))
     out = {"case": case, "fidelity": fidelity, "saltation_seconds": saltation_seconds,
            "rounds": rounds, "threads": int(numba.get_num_threads()), "spinup": str(sp_path),
            "start": start, "schemes": {}}
@@ -307,10 +290,7 @@ def register_bench_scene(bench_app) -> None:
         """s per step of one scene (flow, flow + grains), extrapolated to its whole run and to N
         cores; or, with --saltation-seconds, the real cost of each vertical-diffusion scheme."""
         from ..solver.flow.vertical_diffusion import VERTICAL_DIFFUSION
-
-        def fail(msg: str) -> None:
-            typer.echo(f"error: {msg}", err=True)
-            raise typer.Exit(2)
+        from ..workflow.cli_commands import fail
 
         bad = [v for v in vertical_diffusion if v not in VERTICAL_DIFFUSION]
         if bad:

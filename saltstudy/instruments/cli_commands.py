@@ -2,9 +2,11 @@
 loglaw``."""
 from __future__ import annotations
 
+import json
+
 import typer
 
-__all__ = ["register"]
+from ..workflow.cli_commands import fail
 
 
 def register(app: typer.Typer) -> None:
@@ -34,7 +36,7 @@ def register(app: typer.Typer) -> None:
                                         "process (--against: default 7; otherwise default 1, all in "
                                         "this process)")) -> None:
         """Median wall time per LES step on the reduced grid and the paper's, per cell-step, vs the FFT floor."""
-        from .bench import main
+        from .bench import bench_flow, format_report
         from ..solver.flow.advection import ADVECTION_ORDERS
         from ..solver.flow.stepper import PRECISIONS
         from ..solver.flow.vertical_diffusion import VERTICAL_DIFFUSION
@@ -45,26 +47,24 @@ def register(app: typer.Typer) -> None:
                                  ("--advection-order", advection_order, tuple(ADVECTION_ORDERS))):
             bad_v = [x for x in vals or () if x not in known]
             if bad_v:
-                typer.echo(f"error: {opt}: unknown value {bad_v[0]!r} (known: "
-                           f"{', '.join(map(str, known))})", err=True)
-                raise typer.Exit(2)
+                fail(f"{opt}: unknown value {bad_v[0]!r} (known: {', '.join(map(str, known))})")
         if against:
             from .bench import compare_flow
             from .revision import RevisionError
             if (len(advection_order) > 1 or closure != ["deardorff"] or precision
                     or vertical_diffusion or fidelity):
-                typer.echo("error: --against: compares one configuration (Deardorff, one "
-                           "--advection-order, the fidelities' precision and scheme)", err=True)
-                raise typer.Exit(2)
+                fail("--against: compares one configuration (Deardorff, one --advection-order, "
+                     "the fidelities' precision and scheme)")
             try:
                 compare_flow(against, steps=steps, rounds=7 if rounds is None else rounds, big=big,
                              advection_order=advection_order[0], as_json=as_json)
             except (RevisionError, ValueError) as e:
                 raise typer.BadParameter(str(e), param_hint="--against") from e
             return
-        main(steps=steps, big=big, as_json=as_json, closures=closure, orders=advection_order,
-             precisions=precision or (None,), schemes=vertical_diffusion or (None,),
-             fidelities=fidelity or None, rounds=1 if rounds is None else rounds)
+        res = bench_flow(steps, big, tuple(closure), tuple(advection_order),
+                         tuple(precision or (None,)), tuple(vertical_diffusion or (None,)),
+                         fidelity or None, 1 if rounds is None else rounds)
+        typer.echo(json.dumps(res) if as_json else format_report(res))
 
     from .bench_particles import register_bench
     register_bench(bench_app)

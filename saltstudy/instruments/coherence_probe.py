@@ -1,10 +1,7 @@
 """Which eddies the grains follow: the spanwise co-spectrum and coherence of C_p and u(z) in one
-saltation archive (``saltstudy probe coherence RUN_DIR_OR_SAMPLES_NC [--lag 0.4] [--json]``).
-
-Averaged over time and x: the premultiplied spanwise spectra k_y S_c and k_y S_u(z) (Fig. 10),
-the co-spectrum k_y Co (with a standard error from time blocks) and the coherence squared
-|<Ĉ û*>|² / (<|Ĉ|²> <|û|²>). ``--lag TAU`` pairs C_p(t) with u(t - TAU). The paper reads C_p
-and u at 0.1 m peaking at the same wavelengths ([49]) and R_cu ~ 0.3 from the large eddies ([51]).
+saltation archive (``saltstudy probe coherence``; docs/USAGE.md), averaged over time and x, with
+``--lag TAU`` pairing C_p(t) with u(t - TAU). The paper reads C_p and u at 0.1 m peaking at the
+same wavelengths ([49]) and R_cu ~ 0.3 from the large eddies ([51]).
 """
 from __future__ import annotations
 
@@ -15,8 +12,6 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.streamers import N_BLOCKS, deviation_planes
-
-__all__ = ["spanwise_cospectrum", "probe_coherence", "register_coherence"]
 
 
 def spanwise_cospectrum(a: np.ndarray, b: np.ndarray, dy: float, n_blocks: int = N_BLOCKS
@@ -126,6 +121,8 @@ def format_coherence(res: dict, n: int = 12) -> str:
 def register_coherence(probe_app) -> None:
     import typer
 
+    from ..workflow.cli_commands import fail
+
     @probe_app.command("coherence")
     def coherence(path: Path = typer.Argument(..., help="a saltation archive (samples.nc) or "
                                               "the directory holding it"),
@@ -144,6 +141,5 @@ def register_coherence(probe_app) -> None:
                 raise ValueError(f"--blocks: {blocks} < 2 (the standard error needs two)")
             res = probe_coherence(samples, blocks, lag, field)
         except (OSError, ValueError) as exc:
-            typer.echo(f"error: {exc}", err=True)
-            raise typer.Exit(2) from None
+            fail(str(exc))
         typer.echo(json.dumps(res) if as_json else format_coherence(res))

@@ -1,14 +1,11 @@
 """Where the stress at 2 m comes from: the x-momentum budget of the column above z_ref in one
-saltation archive (``saltstudy probe column-budget RUN_DIR_OR_SAMPLES_NC [--json]``).
-
-With the top drive the mean x-momentum above z_ref per unit area, P, obeys
+saltation archive (``saltstudy probe column-budget``; docs/USAGE.md). With the top drive the mean
+x-momentum above z_ref per unit area, P, obeys
 
     dP/dt = M - tau(z_ref),        M = sum_k f_k (u_drive - <u>_k) dz_k,
 
-M the momentum the Rayleigh layer feeds in (solver/flow/forcing.py). Over the sampling window:
-tau from ``u_star_ref``, M from ``u_drive`` and ``u_mean``, -dP/dt from the first and last
-profiles; each over u*s^2, so the stress's excess splits into the drive's part (M - u*s^2) and the
-column's (-dP/dt). The stress is also given in 5-s blocks from activation.
+M the momentum the Rayleigh layer feeds in (solver/flow/forcing.py): tau from ``u_star_ref``, M
+from ``u_drive`` and ``u_mean``, -dP/dt from the first and last profiles of the sampling window.
 """
 from __future__ import annotations
 
@@ -17,8 +14,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-
-__all__ = ["column_budget", "column_momentum", "register_column_budget"]
 
 BLOCK_S = 5.0
 
@@ -51,36 +46,28 @@ def column_budget(samples: Path, block_s: float = BLOCK_S) -> dict:
         raise ValueError(f"{samples}: forcing.drive is {run['case']['forcing']['drive']!r}; the "
                          f"budget needs the top drive")
     grid = run["fidelity"]["grid"]
-    Lz = float(ds.attrs["Lz"])
-    z_ref = float(ds.attrs["z_ref_eff"])
-    us_t = float(ds.attrs["u_star_target"])
+    Lz, z_ref, us_t = (float(ds.attrs[a]) for a in ("Lz", "z_ref_eff", "u_star_target"))
     target = us_t * us_t
-    ts = ds["time_series"].values
-    us = ds["u_star_ref"].values
-    ud = ds["u_drive"].values
-    t = ds["time"].values
+    ts, us, ud, t, z_c, z_w, um = (ds[n].values for n in ("time_series", "u_star_ref", "u_drive",
+                                                          "time", "z", "z_w", "u_mean"))
     if t.size < 2:
         raise ValueError(f"{samples}: {t.size} volume(s): the storage needs two")
     t0, t1 = float(t[0]), float(t[-1])
-    z_c = ds["z"].values
-    z_w = ds["z_w"].values
     f = rayleigh_profile(z_c, Lz, float(grid["damping_depth"]), float(grid["damping_timescale"]))
-    um = ds["u_mean"].values
-    ud_v = np.interp(t, ts, ud)
-    M = (f * np.diff(z_w) * (ud_v[:, None] - um)).sum(axis=1)
+    M = (f * np.diff(z_w) * (np.interp(t, ts, ud)[:, None] - um)).sum(axis=1)
     P = column_momentum(um, z_w, z_ref)
-    win = (ts >= t0) & (ts <= t1)
-    tau = float(np.mean(us[win] ** 2))
+
+    def u_star(a: float, b: float, right: bool = True) -> float:
+        """The rms u* at z_ref over [a, b] (or [a, b))."""
+        return math.sqrt(float(np.mean(us[(ts >= a) & ((ts <= b) if right else (ts < b))] ** 2)))
+
+    tau = u_star(t0, t1) ** 2
     storage = (P[0] - P[-1]) / (t1 - t0)
     mid = 0.5 * (t0 + t1)
-    halves = [math.sqrt(float(np.mean(us[(ts >= a) & (ts <= b)] ** 2)))
-              for a, b in ((t0, mid), (mid, t1))]
-    blocks = []
-    for a in np.arange(0.0, ts.max() - 0.5 * block_s + 1e-9, block_s):
-        m = (ts >= a) & (ts < a + block_s)
-        if m.any():
-            blocks.append({"t0": float(a), "t1": float(a + block_s),
-                           "u_star_2m": math.sqrt(float(np.mean(us[m] ** 2)))})
+    halves = [u_star(t0, mid), u_star(mid, t1)]
+    blocks = [{"t0": float(a), "t1": float(a + block_s), "u_star_2m": u_star(a, a + block_s, False)}
+              for a in np.arange(0.0, ts.max() - 0.5 * block_s + 1e-9, block_s)
+              if ((ts >= a) & (ts < a + block_s)).any()]
     return {"samples": str(samples), "label": str(ds.attrs.get("label", "")), "u_star_s": us_t,
             "z_ref": z_ref, "window": [t0, t1], "u_star_2m": math.sqrt(tau),
             "tau_2m": tau / target, "M_drive": float(np.mean(M)) / target,
@@ -110,6 +97,8 @@ def format_column_budget(rows: list[dict]) -> str:
 def register_column_budget(probe_app) -> None:
     import typer
 
+    from ..workflow.cli_commands import fail
+
     @probe_app.command("column-budget")
     def column_budget_cmd(paths: list[Path] = typer.Argument(
             ..., help="saltation archives (samples.nc) or the directories holding them"),
@@ -123,6 +112,5 @@ def register_column_budget(probe_app) -> None:
                     raise ValueError(f"{samples}: no such file")
                 rows.append(column_budget(samples))
             except (OSError, ValueError) as exc:
-                typer.echo(f"error: {exc}", err=True)
-                raise typer.Exit(2) from None
+                fail(str(exc))
         typer.echo(json.dumps(rows) if as_json else format_column_budget(rows))

@@ -21,8 +21,6 @@ from pathlib import Path
 
 from .revision import run_isolated
 
-__all__ = ["profile_kernels", "record_child", "attribute", "register_bench_profile"]
-
 #: the grain modules whose dispatchers' machine code is kept
 _MODULES = ("advance", "coupling", "splash_kernels", "population", "particles")
 #: code bytes kept per function (the hot kernels are 10-45 kB)
@@ -65,13 +63,12 @@ def attribute(ips, funcs: dict[int, tuple[str, str]]) -> tuple[dict, int]:
     the nearest start below, and the number of all samples."""
     starts = sorted(funcs)
     per = collections.defaultdict(collections.Counter)
-    total = 0
+    ips = list(ips)
     for ip in ips:
-        total += 1
         i = bisect.bisect_right(starts, ip) - 1
         if i >= 0 and ip - starts[i] < _CODE_BYTES:
             per[starts[i]][ip - starts[i]] += 1
-    return per, total
+    return per, len(ips)
 
 
 def _disassemble(path: Path) -> dict[int, str]:
@@ -112,7 +109,7 @@ def profile_kernels(n: int = 1_000_000, steps: int = 100, fidelity: str = "reduc
         kernel, symbol = funcs[start]
         nsamp = sum(cnt.values())
         win = collections.Counter()
-        for off, c in cnt.items():
+        for off, c in cnt.items():      # samples per _WINDOW bytes of code
             win[off // _WINDOW * _WINDOW] += c
         rows.append({"kernel": kernel, "symbol": symbol[:120], "address": start,
                      "share": nsamp / max(total, 1), "share_of_kernels": nsamp / max(in_kernels, 1),
@@ -140,6 +137,8 @@ def profile_kernels(n: int = 1_000_000, steps: int = 100, fidelity: str = "reduc
 def register_bench_profile(bench_app) -> None:
     import typer
 
+    from ..workflow.cli_commands import fail
+
     @bench_app.command("profile")
     def profile(n: float = typer.Option(1e6, "--n", help="parcels"),
                 steps: int = typer.Option(100, "--steps", help="steps recorded"),
@@ -152,10 +151,9 @@ def register_bench_profile(bench_app) -> None:
         """Sample the grain kernels' machine code under perf: where inside each kernel the time
         goes (an annotated listing per hot kernel)."""
         from ..config import load_fidelity
-        if n < 1:
-            raise typer.BadParameter("at least one parcel", param_hint="--n")
-        if threads < 1:
-            raise typer.BadParameter("at least one thread", param_hint="--threads")
+        for hint, value, what in (("--n", n, "parcel"), ("--threads", threads, "thread")):
+            if value < 1:
+                raise typer.BadParameter(f"at least one {what}", param_hint=hint)
         try:
             load_fidelity(fidelity)
         except (FileNotFoundError, ValueError) as e:
@@ -163,8 +161,7 @@ def register_bench_profile(bench_app) -> None:
         try:
             s = profile_kernels(int(n), steps, fidelity, out, threads, top)
         except RuntimeError as e:
-            typer.echo(f"error: {e}", err=True)
-            raise typer.Exit(1) from e
+            fail(str(e), 1)
         typer.echo(f"{s['samples']} samples, {s['in_grain_kernels']:.0%} in the grain kernels' "
                    f"compiled code (the rest: compiling, Python, the set-up); of those:")
         for r in s["functions"][:top]:

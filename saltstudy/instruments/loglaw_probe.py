@@ -17,12 +17,9 @@ from __future__ import annotations
 import json
 import math
 import time
+from pathlib import Path
 
 import numpy as np
-
-__all__ = ["HEIGHTS", "CO_HEIGHT", "STREAK_HEIGHT", "streamwise_cospectrum_uw",
-           "spanwise_spectrum_u", "spectral_peak_wavelength", "damp_x_uniform_circulation",
-           "probe_loglaw", "register_probe"]
 
 #: heights [m] of the phi and stress tables
 HEIGHTS = (0.1, 0.2, 0.3, 0.45, 0.6, 0.8, 1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0)
@@ -147,18 +144,18 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
 
     def each_second(sim) -> None:
         nonlocal acc, n, t_win
-        p = flow_profiles(m)
-        for key in ("u", "uw_res", "uw_sgs"):
-            acc[key] = acc.get(key, 0.0) + p[key]
-        acc["co"] = acc.get("co", 0.0) + streamwise_cospectrum_uw(m.state, k_co)
-        acc["sy"] = acc.get("sy", 0.0) + spanwise_spectrum_u(m.state, k_st)
-        if m.stepper.closure.dynamic is not None:
-            acc["c_s"] = acc.get("c_s", 0.0) + m.stepper.closure.dynamic.c_s
-            acc["beta"] = acc.get("beta", 0.0) + np.nan_to_num(m.stepper.closure.dynamic.beta)
+        p, dyn = flow_profiles(m), m.stepper.closure.dynamic
+        new = {"u": p["u"], "uw_res": p["uw_res"], "uw_sgs": p["uw_sgs"],
+               "co": streamwise_cospectrum_uw(m.state, k_co),
+               "sy": spanwise_spectrum_u(m.state, k_st),
+               **({"c_s": dyn.c_s, "beta": np.nan_to_num(dyn.beta)} if dyn is not None else {})}
+        for key, v in new.items():
+            acc[key] = acc.get(key, 0.0) + v
         n += 1
         if m.t < t_win - 1e-9:
             return
-        z, zw, u = p["z"], p["z_w"], acc["u"] / n
+        mean = {k: v / n for k, v in acc.items()}
+        z, zw, u = p["z"], p["z_w"], mean["u"]
         H = Lz if pg else None
         fits = {f"{zmax:.2f}": fit_log_law(z, u, kappa, H, FIT_Z_MIN, zmax)
                 for zmax in (2.0, Lz / 3)}
@@ -168,8 +165,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         tau = np.abs(acc["uw_res"] + acc["uw_sgs"]) / n
         ust = np.full(hs.size, np.nan)
         ust[inside] = np.sqrt(np.interp(hs[inside], zw, tau)) / us_exp[inside]
-        co = acc["co"] / n
-        sy = acc["sy"] / n
+        co, sy = mean["co"], mean["sy"]
         lam = spectral_peak_wavelength(sy, g.Ly, premultiplied=True)
         lam_raw = spectral_peak_wavelength(sy, g.Ly)
         low = z < 0.5 * Lz
@@ -188,9 +184,9 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
                               "peak_wavelength": lam, "peak_over_dx": lam / g.dy,
                               "peak_wavelength_raw": lam_raw},
                "wall_s": time.perf_counter() - wall0}
-        if "c_s" in acc:
-            row["dynamic"] = {"z": z[low].tolist(), "c_s": (acc["c_s"] / n)[low].tolist(),
-                              "beta": (acc["beta"] / n)[low].tolist()}
+        if "c_s" in mean:
+            row["dynamic"] = {"z": z[low].tolist(), "c_s": mean["c_s"][low].tolist(),
+                              "beta": mean["beta"][low].tolist()}
         out["windows"].append(row)
         if on_window is not None:
             on_window(out)
@@ -199,8 +195,7 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
         log(f"t = {m.t - window:.0f}-{m.t:.0f} s  {fit_txt}  kx=0 share at {g.z_f[k_co]:.2f} m: "
             f"{row['kx0_share']:.2f}  wall {row['wall_s']:.0f} s")
         if "dynamic" in row:
-            cs_h = np.interp(hs, z, acc["c_s"] / n)
-            log("   C_s          " + " ".join(f"{v:5.3f}" for v in cs_h))
+            log("   C_s          " + " ".join(f"{v:5.3f}" for v in np.interp(hs, z, mean["c_s"])))
         log(f"   spanwise peak of u at {g.z_c[k_st]:.2f} m: {lam:.2f} m = {lam / g.dy:.1f} dy")
         log(f"   paper's reading: u* from the stress at {PAPER_Z_REF:g} m "
             f"{row['paper']['u_star_ratio']:.3f}, z0 with it {z0_paper:.2g} m")
@@ -220,17 +215,9 @@ def probe_loglaw(scene, t_end: float, window: float, roll_damping: float = 0.0,
 
 def _writer(path: str):
     """A callback writing the probe's result to ``path`` atomically, or None."""
-    if not path:
-        return None
-    from pathlib import Path
+    from ..workflow.paths import write_json_atomic
 
-    target = Path(path)
-
-    def write(res: dict) -> None:
-        tmp = target.with_name(target.name + ".part")
-        tmp.write_text(json.dumps(res))
-        tmp.replace(target)
-    return write
+    return (lambda res: write_json_atomic(Path(path), res)) if path else None
 
 
 def register_probe(app) -> None:
@@ -238,6 +225,7 @@ def register_probe(app) -> None:
     import typer
 
     from ..config import ConfigError
+    from ..workflow.cli_commands import fail
 
     probe_app = typer.Typer(no_args_is_help=True, help="Diagnostic runs of the model (the flow "
                             "alone, the grains' layer, a run's archives).")
@@ -261,8 +249,7 @@ def register_probe(app) -> None:
             res = probe_loglaw(scene, t_end, window, roll_damping, on_window=_writer(out),
                                log=(lambda s: typer.echo(s, err=True)) if as_json else typer.echo)
         except (ConfigError, ValueError) as exc:
-            typer.echo(f"error: {exc}", err=True)
-            raise typer.Exit(2) from None
+            fail(str(exc))
         if as_json:
             typer.echo(json.dumps(res))
 

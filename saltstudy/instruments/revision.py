@@ -10,12 +10,11 @@ import io
 import json
 import os
 import shutil
+import statistics
 import subprocess
 import sys
 import tarfile
 from pathlib import Path
-
-__all__ = ["RevisionError", "revision_path", "run_isolated", "checkout_root"]
 
 
 class RevisionError(ValueError):
@@ -80,3 +79,24 @@ def run_isolated(target: str, kwargs: dict, paths: list[str] = (), prefix: list[
         tail = "\n".join(res.stderr.strip().splitlines()[-15:])
         raise RuntimeError(f"{target} failed in its process (exit {res.returncode}):\n{tail}")
     return json.loads(res.stdout.rsplit(_RESULT, 1)[1])
+
+
+def alternate(rounds: int, sides, call) -> dict:
+    """{side: [call(side) per round]}: every side once a round, the order reversed every other
+    round."""
+    sides = list(sides)
+    per = {k: [] for k in sides}
+    for r in range(rounds):
+        for k in (sides if r % 2 == 0 else sides[::-1]):
+            per[k].append(call(k))
+    return per
+
+
+def medians(per: dict, key: str | None = None) -> dict:
+    """{side: median over the rounds, side_rounds: the rounds} of :func:`alternate`'s results
+    (``key``: of that entry of each)."""
+    out = {}
+    for side, results in per.items():
+        vals = [r[key] for r in results] if key else list(results)
+        out[side], out[f"{side}_rounds"] = statistics.median(vals), vals
+    return out

@@ -1,5 +1,5 @@
 """The splash law's own steady saltation layer, in 1-D and without the LES
-(``saltstudy probe steady-layer``).
+(``saltstudy probe steady-layer``; docs/USAGE.md).
 
 Test grains hop over a flat bed in a horizontally uniform wind u(z): each impact is splashed by the
 paper's law (eqs. 6-9, physics.splash.splash_impacts), each grain flown with its drag (eqs. 3-4,
@@ -9,20 +9,16 @@ the stress the grains leave to the air (Owen 1964; as in Werner 1990 and Kok & R
     du/dz = sqrt(tau_a(z) / rho) / (kappa z),    tau_a(z) = rho u*s^2 - tau_g(z),   u(z0) = 0.
 
 Where the grains would take more than rho u*s^2 the air stress is clipped at zero and the layer is
-reported as not converged (from u*s ~ 0.65 m/s up with the paper's law). The unknown is the impact
-rate R [m^-2 s^-1]; each generation R is multiplied by lambda^BETA (lambda: grains launched per
-impact) and the wind relaxed towards its profile, until lambda = 1.
-
-Returned, per unit bed area: tau_a(0) over rho u*s^2, the airborne mass M = R <m T_hop>, the flux
-G_tot = R <m L_hop>, mu_b = tau_g(0) / (M g) and <m du> / <m dw>, the impact speed and angle, the
-replacement number against impact speed: the splash law's equilibrium, not the turbulent LES's.
-The case's ``splash.impact_speed`` reading carries over.
+not converged (from u*s ~ 0.65 m/s up with the paper's law). The unknown is the impact rate R
+[m^-2 s^-1]; each generation R is multiplied by lambda^BETA (lambda: grains launched per impact)
+and the wind relaxed towards its profile, until lambda = 1.
 """
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field, fields
+from collections import deque
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -32,9 +28,6 @@ from ..physics.drag import (drag_correction, particle_response_time, particle_re
                             relaxation, relaxed_position)
 from ..physics.soil import sample_diameters, soil_arrays
 from ..physics.splash import splash_constants, splash_impacts
-
-__all__ = ["LayerParams", "SteadyLayer", "solve_steady_layer", "fly_grains", "splash_generation",
-           "log_wind", "wind_from_stress", "register_steady_layer"]
 
 #: multiplier exponent of the impact rate per generation: R <- R lambda^BETA
 BETA = 0.5
@@ -89,11 +82,6 @@ class LayerParams:
     def soil(self) -> Soil:
         return Soil(modes=(SoilMode(mu=self.mu, sigma=self.sigma),), rho_p=self.rho_p)
 
-    def as_dict(self) -> dict:
-        d = {f.name: getattr(self, f.name) for f in fields(self)}
-        d["splash"] = self.splash.model_dump()
-        return d
-
 
 @dataclass
 class SteadyLayer:
@@ -119,14 +107,6 @@ class SteadyLayer:
     decay_height: float           # e-folding height of the mass flux profile above 1 cm [m]
     replacement_by_speed: dict = field(default_factory=dict)
     wind: dict = field(default_factory=dict)
-
-    def as_dict(self) -> dict:
-        return asdict(self)
-
-
-def _levels(p: LayerParams) -> np.ndarray:
-    """Log-spaced wind nodes from z0 to z_top (the bins between them collect the drag)."""
-    return np.exp(np.linspace(math.log(p.z0), math.log(p.z_top), p.n_levels))
 
 
 def log_wind(zn: np.ndarray, u_star: float, kappa: float, z0: float) -> np.ndarray:
@@ -213,14 +193,15 @@ def splash_generation(rng, p: LayerParams, ui, vi, wi, di):
 
 
 def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, average: int = 60,
-                       progress=None, bed_fluid_fraction: float | None = None) -> SteadyLayer:
+                       bed_fluid_fraction: float | None = None) -> SteadyLayer:
     """Relax the layer to its steady state and average over the last ``average`` generations.
     With ``bed_fluid_fraction`` the impact rate is held where the grains take (1 - it) rho u*^2,
     and ``growth`` says whether the splash law sustains that layer."""
     if bed_fluid_fraction is not None and not 0.0 <= bed_fluid_fraction < 1.0:
         raise ValueError(f"bed_fluid_fraction={bed_fluid_fraction!r}: must be in [0, 1)")
     rng = np.random.default_rng(seed)
-    zn = _levels(p)
+    # log-spaced wind nodes from z0 to z_top (the bins between them collect the drag)
+    zn = np.exp(np.linspace(math.log(p.z0), math.log(p.z_top), p.n_levels))
     nz = zn.size
     lz0 = math.log(zn[0])
     idl = 1.0 / (math.log(zn[1]) - lz0)
@@ -233,12 +214,11 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
     di = sample_diameters(p.soil(), rng, n)
     m_mean = np.pi / 6.0 * p.rho_p * p.mu ** 3
     R = 0.05 * rho_u2 / (m_mean * 1.0)   # a twentieth of Owen's rate: the layer grows from below
-    keep = []
-    for gen in range(generations):
+    keep: deque[dict] = deque(maxlen=average)
+    for _ in range(generations):
         u, v, w, d, parent, px, pz = splash_generation(rng, p, ui, vi, wi, di)
-        nl = u.size
         drag_bin, mt_bin, fl_bin = np.zeros(nz - 1), np.zeros(nz - 1), np.zeros(nz - 1)
-        out = np.zeros((nl, 6))
+        out = np.zeros((u.size, 6))
         fly_grains(u, v, w, d, un, lz0, idl, p.u_star, p.z_top, p.kappa, p.rho, p.nu, p.rho_p, p.g,
                    p.h_imp, p.dt, T_MAX, drag_bin, mt_bin, fl_bin, out)
         landed = out[:, 5] > 0
@@ -254,8 +234,6 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
                "angle": np.degrees(np.arctan2(-wi, np.hypot(ui, vi))),
                "offspring": np.bincount(parent, minlength=n)}
         keep.append(rec)
-        if len(keep) > average:
-            keep.pop(0)
         # the layer's response: the impact rate follows the growth, the wind the drag
         if bed_fluid_fraction is None:
             R *= min(max(lam, 0.5), 2.0) ** BETA
@@ -273,17 +251,17 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
             break
         pick = rng.choice(idx, n, replace=True)
         ui, vi, wi, di = out[pick, 1], out[pick, 2], out[pick, 3], d[pick]
-        if progress is not None:
-            progress(gen, lam, R)
+
+    def mean(name: str):
+        """The mean of a record over the averaged generations."""
+        return np.mean([k[name] for k in keep], axis=0)
+
     lam_k = np.array([k["lam"] for k in keep])
-    Rm = float(np.mean([k["R"] for k in keep]))
-    drag = np.mean([k["drag"] for k in keep], axis=0)
-    tau_g0 = Rm * float(drag.sum())
-    M = Rm * float(np.mean([k["mT"] for k in keep]))
-    G = Rm * float(np.mean([k["mL"] for k in keep]))
-    px = float(np.mean([k["px"] for k in keep]))
-    pz = float(np.mean([k["pz"] for k in keep]))
-    fl = Rm * np.mean([k["fl"] for k in keep], axis=0) / dz        # mass flux density [kg m-2 s-1]
+    Rm = float(mean("R"))
+    tau_g0 = Rm * float(mean("drag").sum())
+    M, G = Rm * float(mean("mT")), Rm * float(mean("mL"))
+    px, pz = float(mean("px")), float(mean("pz"))
+    fl = Rm * mean("fl") / dz        # mass flux density [kg m-2 s-1]
     zc = np.sqrt(zn[1:] * zn[:-1])
     sel = (zc > 0.01) & (fl > 1e-6 * max(fl.max(), 1e-300))
     decay = math.nan
@@ -298,11 +276,11 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
            for j in range(edges.size - 1) if (b == j).sum() >= 50}
     tau_bed = max(rho_u2 - tau_g0, 0.0)
     lam_se = float(lam_k.std(ddof=1) / math.sqrt(lam_k.size)) if lam_k.size > 1 else math.nan
-    mT = float(np.mean([k["mT"] for k in keep]))
     return SteadyLayer(
         # a layer whose grains take more than rho u*^2 has a wind the clipped air stress cannot
         # give (momentum is not conserved there): not a steady state of the model
-        params=p.as_dict(), converged=bool(tau_g0 <= 1.02 * rho_u2 and (
+        params={**asdict(p), "splash": p.splash.model_dump()},
+        converged=bool(tau_g0 <= 1.02 * rho_u2 and (
             abs(lam_k.mean() - 1.0) < 3 * lam_se + 0.01 if bed_fluid_fraction is None
             else abs(tau_bed / rho_u2 - bed_fluid_fraction) < 0.02)),
         generations=len(keep), growth=float(lam_k.mean()), growth_se=lam_se,
@@ -312,7 +290,7 @@ def solve_steady_layer(p: LayerParams, seed: int = 1, generations: int = 160, av
         mu_b_impacts=px / pz if pz > 0 else math.nan,
         impact_speed_mean=float(v_imp.mean()),
         impact_angle_mean=float(np.concatenate([k["angle"] for k in keep]).mean()),
-        hop_time_mean=mT / float(np.mean([k["m"] for k in keep])),
+        hop_time_mean=float(mean("mT")) / float(mean("m")),
         grain_speed_mean=G / M if M > 0 else math.nan, decay_height=decay,
         replacement_by_speed=rep,
         wind={"z": zn[::8].tolist(), "u": un[::8].tolist()})
@@ -323,6 +301,7 @@ def register_steady_layer(probe_app) -> None:
     import typer
 
     from ..config import ConfigError, load_case
+    from ..workflow.cli_commands import fail
 
     @probe_app.command("steady-layer")
     def steady_layer_cmd(
@@ -349,11 +328,10 @@ def register_steady_layer(probe_app) -> None:
                 raise ValueError(f"--average {average}: between 1 and --generations "
                                  f"({generations})")
         except (ConfigError, ValueError) as e:
-            typer.echo(f"error: {e}", err=True)
-            raise typer.Exit(2) from None
+            fail(str(e))
         res = solve_steady_layer(p, seed=seed, generations=generations, average=average,
                                  bed_fluid_fraction=bed_fluid_fraction)
-        d = res.as_dict()
+        d = asdict(res)
         if as_json:
             typer.echo(json.dumps(d))
             return

@@ -19,10 +19,6 @@ import numpy as np
 
 from .._jit import device
 
-__all__ = ["clift_factor", "clift_slope", "drag_correction", "particle_response_time",
-           "particle_reynolds", "relaxation", "relaxed_position", "terminal_velocity",
-           "stokes_terminal_velocity", "terminal_velocity_residual", "CLIFT_EXPONENT"]
-
 #: the exponent of the Clift et al. (1978) correction f(Re_p) = 1 + 0.15 Re_p^0.687
 CLIFT_EXPONENT = 0.687
 

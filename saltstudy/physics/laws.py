@@ -17,14 +17,6 @@ import numpy as np
 from .drag import terminal_velocity
 from .soil import scalar_or_array
 
-__all__ = [
-    "log_law_u", "log_law_shape", "log_law_profile", "invert_log_law_shape", "regress_log_law",
-    "z0_at_fixed_u_star", "charnock_z0s", "raupach1991_z0s", "sherman1992_z0s", "bagnold1937_flux",
-    "owen1964_flux", "owen_terminal_velocity", "kawamura_white_flux", "lettau1978_flux",
-    "sorensen2004_flux", "Law", "Z0S_LAWS", "GTOT_LAWS", "creyssels2009_flux",
-    "CREYSSELS2009_U_STAR", "CREYSSELS2009_Q", "CREYSSELS2009_DECAY_HEIGHT", "CREYSSELS2009_GRAIN",
-    "RAUPACH_A", "D_REF"]
-
 #: Reference diameter D of Bagnold (1937) and Lettau & Lettau (1978) [m]
 D_REF = 250e-6
 
@@ -226,8 +218,6 @@ def sorensen2004_flux(u_star, u_star_t, *, d=200e-6, rho=1.2, rho_p=2650.0, g=9.
 CREYSSELS2009_U_STAR = (0.242, 0.327, 0.412, 0.493, 0.575, 0.690)
 CREYSSELS2009_Q = (5.2e-3, 12.7e-3, 20.8e-3, 31.6e-3, 48.3e-3, 78.6e-3)
 CREYSSELS2009_DECAY_HEIGHT = 0.01
-#: the grains of those measurements: diameter [m], density [kg m^-3]
-CREYSSELS2009_GRAIN = (242e-6, 2500.0)
 
 
 def creyssels2009_flux(u_star, *, rho=1.2, g=9.81, C=1.38, u_star_th=0.206):

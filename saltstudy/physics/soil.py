@@ -15,10 +15,6 @@ import numpy as np
 
 from .._jit import jit
 
-__all__ = ["mass_density_dlnd", "number_density_dlnd", "sample_diameters", "mass_median",
-           "count_median", "mass_cdf", "diameter_bins", "bin_mass_fractions",
-           "mass_weighted_moment", "norm_cdf", "soil_arrays", "draw_diameter"]
-
 _erf = np.vectorize(math.erf, otypes=[float])
 
 
@@ -101,11 +97,9 @@ def mass_weighted_moment(soil, k: float) -> float:
 
 def soil_arrays(soil) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(cumulative mass fractions, mu_j, ln sigma_j), as :func:`draw_diameter` takes them."""
-    m = np.array([mo.mass_fraction for mo in soil.modes], dtype=np.float64)
+    m, mu, lns = _modes(soil)
     cum = np.cumsum(m) / m.sum()
     cum[-1] = 1.0
-    mu = np.array([mo.mu for mo in soil.modes], dtype=np.float64)
-    lns = np.log(np.array([mo.sigma for mo in soil.modes], dtype=np.float64))
     return cum, mu, lns
 
 

@@ -28,19 +28,6 @@ import numpy as np
 from .._jit import jit
 from .soil import draw_diameter, scalar_or_array
 
-__all__ = [
-    "rebound_probability", "ejection_number_mean", "rebound_speed", "launch_angle",
-    "ejecta_number", "ejection_speed", "launch_velocity", "law_speed", "draw_rebound",
-    "draw_ejecta_number", "draw_impact", "draw_ejectum", "ejecta_max", "splash_impacts",
-    "splash_constants", "truncated_normal_moments", "rebound_speed_ratio_moments",
-    "vertical_angle_moments",
-    "mean_rebound_fraction", "mean_rebound_speed", "std_rebound_speed", "mean_ejecta_number",
-    "mean_ejecta_speed", "mean_splash_energy_terms", "mean_splash_energy_ratio",
-    "ANGLE_V_BOUNDS_DEG", "SP_PMAX", "SP_GAMMA", "SP_REB_M", "SP_REB_S", "SP_RAV_M", "SP_RAV_S",
-    "SP_RAH_M", "SP_RAH_S", "SP_A", "SP_EJ_M", "SP_EAV_M", "SP_EAV_S", "SP_EAH_M", "SP_EAH_S",
-    "SP_IMPACT_LAYER", "SP_G", "SP_DMEAN", "SP_RHO_P", "SP_NORMAL",
-]
-
 #: vertical launch angles outside this open interval [deg] are redrawn
 ANGLE_V_BOUNDS_DEG = (0.0, 180.0)
 

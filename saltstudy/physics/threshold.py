@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["threshold_friction_velocity", "threshold_for_soil", "SHAO_LU_A_N", "SHAO_LU_GAMMA"]
-
 #: Shao & Lu (2000) dimensionless coefficient A_N [-]
 SHAO_LU_A_N = 0.0123
 #: Shao & Lu (2000) cohesion parameter gamma [kg s^-2]

@@ -18,10 +18,6 @@ from .._identity import SOURCE_KEY, __version__
 from ..config import Scene
 from ..solver.diagnostics.health import HEALTH_SERIES
 
-__all__ = ["META", "global_attrs", "plane_heights", "diameter_edges", "z_ref_eff", "coords_for",
-           "spinup_dataset", "restart_from_dataset", "start_restart", "samples_dataset",
-           "check_metadata", "scalar_kind"]
-
 # name -> (units, long_name). One table for both archives, so a name means one thing everywhere.
 META: dict[str, tuple[str, str]] = {
     # coordinates
@@ -188,18 +184,15 @@ _STAGGERED = {"u": ("x_u", "y", "z"), "v": ("x", "y_v", "z"), "w": ("x", "y", "z
               "e": ("x", "y", "z"), "p": ("x", "y", "z")}
 
 
+#: a checkpoint's scalar kinds (bool before int: a bool is an int) and how each is read back
+_KINDS = ((bool, np.bool_), "bool"), ((int, np.integer), "int"), ((float, np.floating), "float"), \
+    (str, "str"), (type(None), "none")
+SCALAR_FROM = {"bool": lambda x: bool(int(x)), "int": int, "float": float, "str": str,
+               "none": lambda _: None}
+
+
 def scalar_kind(v: Any) -> str | None:
-    if isinstance(v, (bool, np.bool_)):
-        return "bool"
-    if isinstance(v, (int, np.integer)):
-        return "int"
-    if isinstance(v, (float, np.floating)):
-        return "float"
-    if isinstance(v, str):
-        return "str"
-    if v is None:
-        return "none"
-    return None
+    return next((kind for types, kind in _KINDS if isinstance(v, types)), None)
 
 
 def _nc_name(name: str, taken: set[str]) -> str:
@@ -242,10 +235,6 @@ def spinup_dataset(scene: Scene, grid, checkpoint: dict[str, Any], profiles: dic
             data[var] = xr.Variable(dims, arr, attrs={
                 "units": "1", "long_name": f"solver restart entry '{name}' (opaque to analysis)"})
             manifest[name] = {"kind": "array", "var": var, "dtype": np.asarray(val).dtype.str}
-    for name in ("u", "v", "w", "e", "p"):
-        if name not in data:
-            raise ValueError(f"solver checkpoint lacks the field '{name}' required by spinup.nc "
-                             f"(keys: {sorted(checkpoint)})")
     for src, dst in PROFILE_NAMES.items():
         arr = np.asarray(profiles[src], dtype=np.float64)
         dim = "z_w" if arr.shape[0] == grid.nz + 1 else "z"
@@ -262,22 +251,9 @@ def spinup_dataset(scene: Scene, grid, checkpoint: dict[str, Any], profiles: dic
 
 
 def _history_vars(history: dict[str, np.ndarray]) -> dict[str, xr.Variable]:
-    """Spin-up history -> ``<name>_hist (time_hist)``; the time entry is 't' or 'time'."""
-    tkey = next((k for k in ("t", "time", "time_hist") if k in history), None)
-    if tkey is None:
-        raise ValueError(f"spin-up history has no time entry ('t'); keys: {sorted(history)}")
-    t = np.asarray(history[tkey], dtype=np.float64)
-    out = {"time_hist": _var(("time_hist",), t, "time_hist")}
-    for k, v in history.items():
-        if k == tkey:
-            continue
-        arr = np.asarray(v, dtype=np.float64)
-        if arr.shape != t.shape:
-            continue  # not a time series (e.g. a summary value): not part of the schema
-        name = k if k.endswith("_hist") else f"{k}_hist"
-        units, long_name = META.get(name, ("1", f"spin-up history of {k}"))
-        out[name] = xr.Variable(("time_hist",), arr, attrs={"units": units, "long_name": long_name})
-    return out
+    """Spin-up history ({"t": times, name: series}) -> ``time_hist``, ``<name>_hist``."""
+    names = {k: "time_hist" if k == "t" else f"{k}_hist" for k in history}
+    return {names[k]: _var(("time_hist",), v, names[k], np.float64) for k, v in history.items()}
 
 
 def start_restart(ds: xr.Dataset, scene: Scene) -> dict[str, Any]:
@@ -308,8 +284,7 @@ def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:
             out[name] = np.ascontiguousarray(ds[m["var"]].values.astype(np.dtype(m["dtype"])))
         else:
             raw = ds.attrs[m["attr"]]
-            out[name] = {"bool": lambda x: bool(int(x)), "int": int, "float": float, "str": str,
-                         "none": lambda _: None}[kind](raw.item() if hasattr(raw, "item") else raw)
+            out[name] = SCALAR_FROM[kind](raw.item() if hasattr(raw, "item") else raw)
     return out
 
 
@@ -333,11 +308,9 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
     t_s, series = records["series"]
     t_p, planes = records["plane"]
     t_3, samples = records["sample"]
-    coords["time"] = _var(("time",), t_3, "time")
-    coords["time_plane"] = _var(("time_plane",), t_p, "time_plane")
-    coords["time_series"] = _var(("time_series",), t_s, "time_series")
-    coords["z_plane"] = _var(("z_plane",), z_plane, "z_plane")
-    coords["d_bin"] = _var(("d_bin",), np.sqrt(d_edges[1:] * d_edges[:-1]), "d_bin")
+    for name, values in (("time", t_3), ("time_plane", t_p), ("time_series", t_s),
+                         ("z_plane", z_plane), ("d_bin", np.sqrt(d_edges[1:] * d_edges[:-1]))):
+        coords[name] = _var((name,), values, name)
     data: dict[str, xr.Variable] = {"d_edges": _var(("d_edge",), d_edges, "d_edges")}
     for name in _SERIES_NAMES:
         data[name] = _var(("time_series",), series[name], name, np.float64)
@@ -358,11 +331,11 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
     if "impact_hist" in samples:
         from ..solver.diagnostics.grains import impact_bins
         bins = impact_bins()
-        coords["v_imp"] = _var(("v_imp",), bins["v_imp_edges"][:-1], "v_imp")
-        coords["impact_angle"] = _var(("impact_angle",), bins["angle_edges"][:-1], "impact_angle")
-        coords["outcome"] = _var(("outcome",), np.arange(3), "outcome")
-        coords["hop_time"] = _var(("hop_time",), bins["hop_time_edges"][:-1], "hop_time")
-        coords["hop_length"] = _var(("hop_length",), bins["hop_length_edges"][:-1], "hop_length")
+        for name, values in (("v_imp", bins["v_imp_edges"][:-1]),
+                             ("impact_angle", bins["angle_edges"][:-1]), ("outcome", np.arange(3)),
+                             ("hop_time", bins["hop_time_edges"][:-1]),
+                             ("hop_length", bins["hop_length_edges"][:-1])):
+            coords[name] = _var((name,), values, name)
         for name, dims in (("impact_hist", ("v_imp", "impact_angle")),
                            ("impact_outcomes", ("v_imp", "outcome")),
                            ("hop_time_hist", ("hop_time",)), ("hop_length_hist", ("hop_length",))):

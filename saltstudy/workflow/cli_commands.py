@@ -23,7 +23,8 @@ _WAIT_HELP = ("if another saltstudy process uses the out dir, wait for it to fin
 EXIT_BUSY = 3
 
 
-def _fail(message: str, code: int = 2) -> None:
+def fail(message: str, code: int = 2) -> None:
+    """Print a clear error on stderr and exit (2: bad input)."""
     typer.echo(f"error: {message}", err=True)
     raise typer.Exit(code)
 
@@ -36,7 +37,7 @@ def _hold(out_dir: Path, wait: bool):
     try:
         return hold_out_dir(out_dir, wait=wait, log=emit)
     except Busy as exc:
-        _fail(f"{exc}; rerun with --wait to wait for it, or use another --out", EXIT_BUSY)
+        fail(f"{exc}; rerun with --wait to wait for it, or use another --out", EXIT_BUSY)
 
 
 def _out(out: Optional[Path]) -> Path:
@@ -73,7 +74,7 @@ def register(app: typer.Typer) -> None:
             st = load_study(study)
             runs = K.study_keys(st)
         except ConfigError as exc:
-            _fail(str(exc))
+            fail(str(exc))
         typer.echo(f"study {st.name}: {len(runs)} runs, out dir {out_dir}")
         held = _hold(out_dir, wait)
         if held.lock.waited_s > 1.0:
@@ -110,7 +111,7 @@ def register(app: typer.Typer) -> None:
             c = load_case(case)
             scene = resolve_scene(c, load_fidelity(fidelity))
         except ConfigError as exc:
-            _fail(str(exc))
+            fail(str(exc))
         t0 = time.perf_counter()
         with _hold(out_dir, wait):
             _, outcomes = run_scene(scene, out_dir, quiet=quiet)
@@ -133,7 +134,7 @@ def register(app: typer.Typer) -> None:
             st = load_study(study)
             rows = study_status(st, out_dir)
         except ConfigError as exc:
-            _fail(str(exc))
+            fail(str(exc))
         typer.echo(f"study {st.name}, out dir {out_dir}")
         typer.echo(format_status(rows))
         typer.echo(out_dir_state(out_dir))
@@ -147,44 +148,25 @@ def register(app: typer.Typer) -> None:
         wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
     ) -> None:
         """Figures 1-13, Table 2 beside the paper, summary.json and index.html from the archives."""
-        from .lock import Busy
+        from ..config import load_study
+        from ..report import build_report
+        from . import keys as wkeys
+        from . import paths as wpaths
+        from .report_meta import cache_meta, study_meta
+        from .tasks import build_report_staged
+
+        out_dir = _out(out)
+        study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
         try:
-            index = figures_command(study, out, report_dir, wait=wait)
+            st = load_study(study)
+            meta = study_meta(st, study_name, out_dir, wkeys.study_keys(st))
         except ConfigError as exc:
-            _fail(str(exc))
-        except Busy as exc:
-            _fail(f"{exc}; rerun with --wait to wait for it, or use another --out", EXIT_BUSY)
+            fail(str(exc))
+        with _hold(out_dir, wait):
+            runs = wpaths.analysis_paths(study, out_dir)
+            index = build_report_staged(build_report, study_name, runs, Path(
+                report_dir or wpaths.default_report_dir(study_name)), cache_meta(meta))
         typer.echo(f"report: {index}")
-
-
-def figures_command(study: str, out: Optional[Path], report_dir: Optional[Path],
-                    wait: bool = False) -> Path:
-    """Build the study's report from its analysis archives under ``out``, holding the out dir
-    (``wait``, else ``lock.Busy``). Returns index.html."""
-    from .._identity import __version__
-    from ..config import load_study, study_file
-    from ..report import build_report
-    from . import keys as wkeys
-    from . import paths as wpaths
-    from .lock import hold_out_dir
-    from .progress import emit
-    from .report_meta import cache_meta
-    from .tasks import build_report_staged
-
-    out_dir = _out(out)
-    st = load_study(study)
-    study_name = Path(study).stem if str(study).endswith(".toml") else str(study)
-    if report_dir is None:
-        report_dir = wpaths.default_report_dir(study_name)
-    meta = {"study": study_name, "out_dir": str(out_dir), "package_version": __version__}
-    # the cache keys let the report find failure records and samples.nc (stability, animation)
-    meta["study_file"] = str(study_file(st))
-    meta["keys"] = {l: {"spinup": k.spinup, "saltation": k.saltation, "analysis": k.analysis}
-                    for l, k in wkeys.study_keys(st).items()}
-    with hold_out_dir(out_dir, wait=wait, log=emit):
-        runs = wpaths.analysis_paths(study, out_dir)
-        return build_report_staged(build_report, study_name, runs, Path(report_dir),
-                                   cache_meta(meta))
 
 
 def _print_summary(summary) -> None:

@@ -24,9 +24,6 @@ from ..solver.simulation import (TIME_EPS, IterationInterval, Simulation, Specif
                                  WallTimeInterval)
 from . import archives
 
-__all__ = ["Recorder", "Schedule", "SaltationResult", "run_saltation", "save_checkpoint",
-           "load_checkpoint", "Interrupted", "add_checkpoints"]
-
 GROUPS = ("series", "plane", "sample")
 
 
@@ -61,20 +58,17 @@ class Recorder:
         out: dict[str, np.ndarray] = {}
         for g in self.times:
             t, vals = self.stacked(g)
-            out[f"rec:{g}:__times__"] = t
-            for k, v in vals.items():
-                out[f"rec:{g}:{k}"] = v
+            out.update({f"rec:{g}:__times__": t, **{f"rec:{g}:{k}": v for k, v in vals.items()}})
         return out
 
     @classmethod
     def restore(cls, flat: dict[str, np.ndarray], groups: tuple[str, ...] = GROUPS) -> "Recorder":
         r = cls(groups)
         for g in groups:
-            r.times[g] = [float(x) for x in flat.get(f"rec:{g}:__times__", [])]
             prefix = f"rec:{g}:"
-            for k, v in flat.items():
-                if k.startswith(prefix) and k != f"rec:{g}:__times__":
-                    r.values[g][k[len(prefix):]] = list(v)
+            r.times[g] = [float(x) for x in flat.get(prefix + "__times__", [])]
+            r.values[g] = {k[len(prefix):]: list(v) for k, v in flat.items()
+                           if k.startswith(prefix) and k != prefix + "__times__"}
         return r
 
 
@@ -103,10 +97,8 @@ class Schedule:
                 by_time.setdefault(key, set()).add(group)
 
         put(multiples(0.0, s.series_interval, dur), "series")
-        if f.outputs.animation:
-            put(multiples(0.0, s.plane_interval, dur), "plane")
-        else:
-            put(multiples(s.start, s.plane_interval, s.end), "plane")
+        first, last = (0.0, dur) if f.outputs.animation else (s.start, s.end)
+        put(multiples(first, s.plane_interval, last), "plane")
         put([s.start + i * s.interval for i in range(s.count)], "sample")
         by_time.setdefault(round(dur, 12), set())  # run to the end even if nothing is recorded
         events = sorted((t, frozenset(g)) for t, g in by_time.items() if t <= dur + TIME_EPS)
@@ -126,21 +118,16 @@ def save_checkpoint(path: Path, model_ckpt: dict[str, Any], sim_ckpt: dict[str, 
                     meta: dict[str, Any]) -> None:
     """Write a model and a simulation checkpoint (callback arrays as arrays, the rest as JSON) and
     ``meta`` to ``path`` atomically."""
-    arrays: dict[str, np.ndarray] = {}
-    kinds: dict[str, str] = {}
-    for k, v in model_ckpt.items():
-        kind = archives.scalar_kind(v)
-        kinds[k] = kind or "array"
-        arrays[f"model:{k}"] = np.asarray("" if v is None else v)
-    sim = {k: v for k, v in sim_ckpt.items() if k != "callbacks"}
-    sim["callbacks"] = {}
-    for name, state in sim_ckpt.get("callbacks", {}).items():
-        sim["callbacks"][name] = []
-        for k, v in state.items():
-            arrays[f"cb:{name}:{k}"] = np.asarray(v)
-            sim["callbacks"][name].append(k)
+    kinds = {k: archives.scalar_kind(v) or "array" for k, v in model_ckpt.items()}
+    arrays = {f"model:{k}": np.asarray("" if v is None else v) for k, v in model_ckpt.items()}
+    callbacks = sim_ckpt.get("callbacks", {})
+    arrays.update({f"cb:{name}:{k}": np.asarray(v) for name, state in callbacks.items()
+                   for k, v in state.items()})
+    sim = {**{k: v for k, v in sim_ckpt.items() if k != "callbacks"},
+           "callbacks": {name: list(state) for name, state in callbacks.items()}}
     meta = dict(meta, model_kinds=kinds, source_key=SOURCE_KEY, simulation=sim)
     arrays["meta"] = np.asarray(json.dumps(meta))
+
     def write(tmp: Path) -> None:
         with open(tmp, "wb") as fh:   # a file, not a name: np.savez would append ".npz" to it
             np.savez(fh, **arrays)
@@ -161,14 +148,33 @@ def load_checkpoint(path: Path) -> tuple[dict[str, Any], dict[str, Any], dict[st
         return None
     if meta.get("source_key") != SOURCE_KEY or "simulation" not in meta:
         return None
-    conv = {"bool": lambda a: bool(a), "int": lambda a: int(a), "float": lambda a: float(a),
-            "str": lambda a: str(a), "none": lambda a: None, "array": lambda a: np.ascontiguousarray(a)}
+    conv = {**archives.SCALAR_FROM, "array": np.ascontiguousarray}
     model_ckpt = {k[len("model:"):]: conv[meta["model_kinds"][k[len("model:"):]]](v)
                   for k, v in flat.items() if k.startswith("model:")}
     sim = dict(meta.pop("simulation"))
     sim["callbacks"] = {name: {k: flat[f"cb:{name}:{k}"] for k in names}
                         for name, names in sim.get("callbacks", {}).items()}
     return model_ckpt, sim, meta
+
+
+def resume(scene: Scene, path: Path, saltation: bool, restart: dict[str, Any] | None = None):
+    """(model, simulation checkpoint, wall time so far [s]): resumed from the checkpoint at
+    ``path`` if it is valid, else a new model of ``scene`` (from ``restart``; saltation activated)
+    with (None, 0)."""
+    from ..solver.model import Model
+
+    loaded = load_checkpoint(path)
+    if loaded is not None:
+        model_ckpt, sim_ckpt, meta = loaded
+        return (Model.from_scene(scene, saltation=saltation, restart=model_ckpt), sim_ckpt,
+                float(meta["wall_time_s"]))
+    model = Model.from_scene(scene, saltation=saltation, restart=restart)
+    if saltation:
+        if scene.spinup_fidelity is not None:
+            from ..solver.tiling import project_restart
+            project_restart(model)   # a tiled flow is divergence-free only once projected
+        model.activate_saltation()
+    return model, None, 0.0
 
 
 def add_checkpoints(sim: Simulation, path: Path, interval: float,
@@ -202,9 +208,13 @@ class SaltationResult:
 
 class SaltationRecords:
     """The saltation run's records, a Simulation callback per group on the merged record times of
-    ``Schedule`` (values from ``solver.diagnostics.records``)."""
+    ``Schedule`` (values from ``solver.diagnostics.records``); called, it records the series, and
+    its state is checkpointed with that callback."""
 
     def __init__(self, scene: Scene, model, n_released: int):
+        from ..solver.diagnostics import records
+
+        self.records = records
         self.scene, self.model, self.n_released = scene, model, n_released
         self.recorder = Recorder()
         self.z_plane = archives.plane_heights(scene)
@@ -215,29 +225,19 @@ class SaltationRecords:
         self.last = (math.nan, math.nan)
         self.sim: Simulation | None = None
 
-    def series(self, sim: Simulation) -> None:
-        from ..solver.diagnostics import records
-
+    def __call__(self, sim: Simulation) -> None:
         if sim.last_step is not None:
             self.last = (float(sim.last_step.dt), float(sim.last_step.max_cfl))
-        self.recorder.add("series", sim.event_time, records.series(self.model, self.z_ref, self.n_released,
-                                                          *self.last))
+        self.recorder.add("series", sim.event_time, self.records.series(
+            self.model, self.z_ref, self.n_released, *self.last))
 
     def plane(self, sim: Simulation) -> None:
-        from ..solver.diagnostics import records
-
-        self.recorder.add("plane", sim.event_time, records.planes(self.model, self.z_plane))
+        self.recorder.add("plane", sim.event_time, self.records.planes(self.model, self.z_plane))
 
     def sample(self, sim: Simulation) -> None:
-        from ..solver.diagnostics import records
+        self.recorder.add("sample", sim.event_time,
+                          self.records.sample(self.model, self.d_edges, full=self.full))
 
-        rec = records.sample(self.model, self.d_edges, full=self.full)
-        missing = [k for k in archives.GRAIN_PROFILES if k not in rec]
-        if missing:
-            raise KeyError(f"grain_profiles() lacks {missing} required by samples.nc")
-        self.recorder.add("sample", sim.event_time, rec)
-
-    # the records' state, saved with the simulation (under the series callback's name)
     def checkpoint(self) -> dict[str, np.ndarray]:
         out = self.recorder.checkpoint()
         step = self.sim.last_step if self.sim is not None else None
@@ -252,45 +252,16 @@ class SaltationRecords:
             self.last = (float(last[0]), float(last[1]))
 
 
-class _SeriesCallback:
-    """The series group's callback, which carries the records' state."""
-
-    def __init__(self, records: SaltationRecords):
-        self.records = records
-
-    def __call__(self, sim: Simulation) -> None:
-        self.records.series(sim)
-
-    def checkpoint(self) -> dict[str, np.ndarray]:
-        return self.records.checkpoint()
-
-    def restore(self, data: dict[str, np.ndarray]) -> None:
-        self.records.restore(data)
-
-
 def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                   progress: Callable[[float, float], None] | None = None,
                   checkpoint_interval: float | None = None,
                   interrupt_after_steps: int | None = None) -> SaltationResult:
     """Activate saltation on the spun-up flow ``restart`` and run it, recording on schedule;
     resumes from a valid ``checkpoint_path`` (``interrupt_after_steps``: add_checkpoints)."""
-    from ..solver.model import Model
-
     interval = (scene.fidelity.checkpoint_interval_wall if checkpoint_interval is None
                 else checkpoint_interval)
     schedule = Schedule.from_scene(scene)
-    loaded = load_checkpoint(checkpoint_path)
-    if loaded is not None:
-        ckpt, sim_ckpt, meta = loaded
-        model = Model.from_scene(scene, saltation=True, restart=ckpt)
-        wall_before = float(meta["wall_time_s"])
-    else:
-        model = Model.from_scene(scene, saltation=True, restart=restart)
-        if scene.spinup_fidelity is not None:
-            from ..solver.tiling import project_restart
-            project_restart(model)   # a tiled flow is divergence-free only once projected
-        model.activate_saltation()
-        sim_ckpt, wall_before = None, 0.0
+    model, sim_ckpt, wall_before = resume(scene, checkpoint_path, True, restart)
     t_act = float(model.t_activation)
     # what activation released (the component rounds scene.n_initial)
     n_released = int(model.components[0].n_initial)
@@ -299,8 +270,7 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
                      dt_fixed=scene.fidelity.saltation_dt_fixed)
     recs = SaltationRecords(scene, model, n_released)
     recs.sim = sim
-    for group, call in (("series", _SeriesCallback(recs)), ("plane", recs.plane),
-                        ("sample", recs.sample)):
+    for group, call in (("series", recs), ("plane", recs.plane), ("sample", recs.sample)):
         sim.add_callback(group, call, SpecifiedTimes(schedule.times(group)))
     if progress is not None:
         sim.add_callback("progress", lambda s: progress(s.t, s.stop_time), IterationInterval(1))

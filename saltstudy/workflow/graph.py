@@ -1,16 +1,11 @@
 """The dask graph of a study and its execution (docs/USAGE.md, "On a cluster").
 
-Per run: spin-up -> saltation -> analysis; one report task over all runs. The graph is keyed by
-cache key, so runs with an equal spin-up key share one spin-up task.
-
-Locally, dask's threaded scheduler runs ``workers`` tasks at once (default 1: on 2 cores one flow
-step on 2 numba threads is 1.74x faster than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow
---no-big``), each with cores // workers numba threads. With ``scheduler=ADDRESS`` a
-``dask.distributed`` Client runs them; workers must run the same checkout (tasks carry
-``SOURCE_KEY``), see the same out dir, and compile the kernels once per host (:func:`warm_workers`).
-
-A failed task is recorded (``task.json``) and its dependents skipped; the other runs go on, except
-after a full disk (``faults.DiskFull``), when a local run starts no further task.
+Per run: spin-up -> saltation -> analysis; one report task over all runs, keyed by cache key, so
+runs with an equal spin-up key share one spin-up task. Locally, dask's threaded scheduler runs
+``workers`` tasks at once (default 1: on 2 cores one flow step on 2 numba threads is 1.74x faster
+than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow --no-big``), each with cores // workers
+numba threads. A failed task is recorded (``task.json``) and its dependents skipped; the other
+runs go on, except after a full disk (``faults.DiskFull``), when a local run starts no further task.
 """
 from __future__ import annotations
 
@@ -21,25 +16,24 @@ from pathlib import Path
 from typing import Any
 
 from .._identity import SOURCE_KEY, __version__
-from ..config import Scene, Study, study_file
+from ..config import Scene, Study
 from ..faults import DiskFull
 from ..ncio import is_complete
 from . import keys as K
 from .paths import (default_report_dir, output_path, read_runs_file, runs_file, study_dir, task_dir,
                     write_json_atomic)
 from .progress import ProgressDisplay, TaskRef, emit
+from .report_meta import study_meta
 from .lock import hold_out_dir
 from .tasks import (analysis_task, continuation_task, report_done, report_task, saltation_task,
                     spinup_task, tidy_leftovers)
 from .warmup import ensure_warm
 
-__all__ = ["Outcome", "StudySummary", "build_graph", "run_study", "run_case", "run_scene", "warm_for"]
-
 
 @dataclass
 class Outcome:
     """What one task did: ``computed``, ``cached`` (complete output found), ``failed`` or
-    ``skipped`` (an input failed, or the report package is absent)."""
+    ``skipped`` (an input failed, or a full disk stopped a local run)."""
     task: str
     key: str
     labels: list[str]
@@ -51,13 +45,6 @@ class Outcome:
     @property
     def ok(self) -> bool:
         return self.status in ("computed", "cached")
-
-
-def _limit_numba_threads(n: int | None) -> None:
-    if n:
-        import numba
-
-        numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
 
 
 class _DiskFullStop:
@@ -87,51 +74,27 @@ def _call(task: str, key: str, labels: list[str], out_path: Path, fn, *args, **k
             _DiskFullStop.error = str(exc)
         return Outcome(task, key, labels, "failed", None, f"{type(exc).__name__}: {exc}", wall)
     wall = time.perf_counter() - t0
-    if path is None:
-        return Outcome(task, key, labels, "skipped", None, "report package not available", wall)
     emit(f"[done] {name} in {wall:.1f} s")
     return Outcome(task, key, labels, "computed", str(path), None, wall)
 
 
-def _spinup(scene: Scene, key: str, labels: list[str], out_dir: Path, source_key: str,
-            numba_threads: int | None) -> Outcome:
-    _limit_numba_threads(numba_threads)
-    return _call("spinup", key, labels, output_path(out_dir, "spinup", key),
-                 spinup_task, scene, out_dir, source_key)
+#: the folder of each task's archive (a staggered start's link is a spin-up archive)
+_FOLDER = {"continuation": "spinup"}
 
 
-def _continuation(scene: Scene, key: str, parent: Outcome, labels: list[str], out_dir: Path,
-                  source_key: str, numba_threads: int | None) -> Outcome:
-    if not parent.ok:
-        return Outcome("continuation", key, labels, "skipped", error="spin-up failed")
-    _limit_numba_threads(numba_threads)
-    return _call("continuation", key, labels, output_path(out_dir, "spinup", key),
-                 continuation_task, scene, Path(parent.path), out_dir, key, source_key)
+def _node(task: str, key: str, labels: list[str], out_dir: Path, numba_threads: int | None, fn,
+          *args) -> Outcome:
+    """``fn(*args)`` as one task of the graph, each Outcome among ``args`` handed over as its
+    archive; skipped if one of those failed."""
+    failed = [a.task for a in args if isinstance(a, Outcome) and not a.ok]
+    if failed:
+        return Outcome(task, key, labels, "skipped", error=f"{' and '.join(failed)} failed")
+    if numba_threads:
+        import numba
 
-
-def _start(scene: Scene, rk: "K.RunKeys", spin: Outcome, out_dir: Path, source_key: str,
-           numba_threads: int | None) -> Outcome:
-    """The archive a run starts from, walking its staggered links in order (a single run)."""
-    out = spin
-    for key in rk.links:
-        out = _continuation(scene, key, out, [rk.label], out_dir, source_key, numba_threads)
-    return out
-
-
-def _saltation(scene: Scene, key: str, spin: Outcome, out_dir: Path, source_key: str,
-               numba_threads: int | None) -> Outcome:
-    if not spin.ok:
-        return Outcome("saltation", key, [scene.label], "skipped", error="spin-up failed")
-    _limit_numba_threads(numba_threads)
-    return _call("saltation", key, [scene.label], output_path(out_dir, "saltation", key),
-                 saltation_task, scene, Path(spin.path), out_dir, source_key)
-
-
-def _analysis(label: str, key: str, spin: Outcome, salt: Outcome, out_dir: Path) -> Outcome:
-    if not (spin.ok and salt.ok):
-        return Outcome("analysis", key, [label], "skipped", error="saltation or spin-up failed")
-    return _call("analysis", key, [label], output_path(out_dir, "analysis", key),
-                 analysis_task, Path(salt.path), Path(spin.path), out_dir, key)
+        numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
+    return _call(task, key, labels, output_path(out_dir, _FOLDER.get(task, task), key), fn,
+                 *(Path(a.path) if isinstance(a, Outcome) else a for a in args))
 
 
 def _report(study: Study, analyses: list[tuple[str, Outcome]], out_dir: Path, report_dir: Path,
@@ -143,7 +106,7 @@ def _report(study: Study, analyses: list[tuple[str, Outcome]], out_dir: Path, re
     if report_done(out_dir, rkey, report_dir):
         return Outcome("report", rkey, [study.name], "cached", str(report_dir))
     return _call("report", rkey, [study.name], Path(report_dir), report_task, study, runs, out_dir,
-                 report_dir, rkey, meta, emit)
+                 report_dir, rkey, meta)
 
 
 def run_case(rk: "K.RunKeys", out_dir: Path, wait: bool = False) -> list[Outcome]:
@@ -151,11 +114,16 @@ def run_case(rk: "K.RunKeys", out_dir: Path, wait: bool = False) -> list[Outcome
     :func:`run_study`; returns [spin-up, saltation, analysis]."""
     with hold_out_dir(out_dir, wait=wait, log=emit):
         _tidy(out_dir, [rk])
-        scene = rk.scene
-        sp = _spinup(scene, rk.spinup, [rk.label], out_dir, SOURCE_KEY, None)
-        st = _start(scene, rk, sp, out_dir, SOURCE_KEY, None)
-        sa = _saltation(scene, rk.saltation, st, out_dir, SOURCE_KEY, None)
-        an = _analysis(rk.label, rk.analysis, st, sa, out_dir)
+        scene, labels = rk.scene, [rk.label]
+        sp = st = _node("spinup", rk.spinup, labels, out_dir, None, spinup_task, scene, out_dir,
+                        SOURCE_KEY)
+        for link in rk.links:     # a staggered start: its continuation links in order
+            st = _node("continuation", link, labels, out_dir, None, continuation_task, scene, st,
+                       out_dir, link, SOURCE_KEY)
+        sa = _node("saltation", rk.saltation, labels, out_dir, None, saltation_task, scene, st,
+                   out_dir, SOURCE_KEY)
+        an = _node("analysis", rk.analysis, labels, out_dir, None, analysis_task, sa, st, out_dir,
+                   rk.analysis)
     return [sp, sa, an]
 
 
@@ -188,6 +156,7 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
     out_dir = Path(out_dir)
     report_dir = Path(report_dir) if report_dir else default_report_dir(study.name)
     runs = K.study_keys(study, root)
+    node = dask.delayed(_node, pure=False)
     spin_nodes, salt_nodes, an_nodes, finals = {}, {}, {}, {}   # dask.delayed by key or name
     refs: list[TaskRef] = []
     analyses = []
@@ -196,27 +165,29 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
         sharing.setdefault(rk.spinup, []).append(label)
     for label, rk in runs.items():
         if rk.spinup not in spin_nodes:
-            spin_nodes[rk.spinup] = dask.delayed(_spinup, pure=False)(
-                rk.scene, rk.spinup, sharing[rk.spinup], out_dir, SOURCE_KEY, numba_threads,
-                dask_key_name=f"spinup-{rk.spinup}")
+            spin_nodes[rk.spinup] = node(
+                "spinup", rk.spinup, sharing[rk.spinup], out_dir, numba_threads, spinup_task,
+                rk.scene, out_dir, SOURCE_KEY, dask_key_name=f"spinup-{rk.spinup}")
             refs.append(TaskRef(f"spinup {'+'.join(sharing[rk.spinup])}",
                                 task_dir(out_dir, "spinup", rk.spinup)))
         sp = spin_nodes[rk.spinup]
         # a staggered start: the chain of continuation links, each shared by the cases after it
         for link in rk.links:
             if link not in spin_nodes:
-                spin_nodes[link] = dask.delayed(_continuation, pure=False)(
-                    rk.scene, link, sp, [rk.label], out_dir, SOURCE_KEY, numba_threads,
-                    dask_key_name=f"continuation-{link}")
+                spin_nodes[link] = node(
+                    "continuation", link, [rk.label], out_dir, numba_threads, continuation_task,
+                    rk.scene, sp, out_dir, link, SOURCE_KEY, dask_key_name=f"continuation-{link}")
                 refs.append(TaskRef(f"continuation {rk.label}", task_dir(out_dir, "spinup", link)))
             sp = spin_nodes[link]
         # scenes of the same physics under two labels share one run (its key leaves names out)
         if rk.saltation not in salt_nodes:
-            salt_nodes[rk.saltation] = dask.delayed(_saltation, pure=False)(
-                rk.scene, rk.saltation, sp, out_dir, SOURCE_KEY, numba_threads,
+            salt_nodes[rk.saltation] = node(
+                "saltation", rk.saltation, [label], out_dir, numba_threads, saltation_task,
+                rk.scene, sp, out_dir, SOURCE_KEY,
                 dask_key_name=f"saltation-{rk.saltation}-{label}")
-            an_nodes[rk.analysis] = dask.delayed(_analysis, pure=False)(
-                label, rk.analysis, sp, salt_nodes[rk.saltation], out_dir,
+            an_nodes[rk.analysis] = node(
+                "analysis", rk.analysis, [label], out_dir, None, analysis_task,
+                salt_nodes[rk.saltation], sp, out_dir, rk.analysis,
                 dask_key_name=f"analysis-{rk.analysis}-{label}")
             refs.append(TaskRef(f"saltation {label}", task_dir(out_dir, "saltation", rk.saltation)))
         sa, an = salt_nodes[rk.saltation], an_nodes[rk.analysis]
@@ -231,13 +202,9 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
                 | {(t, getattr(r, t)) for r in runs.values() for t in ("saltation", "analysis")})
     cached = sum(is_complete(output_path(out_dir, t, key)) for t, key in distinct)
     if study.report:
-        sfile = study_file(study)
-        meta = {"study": study.name, "out_dir": str(out_dir), "package_version": __version__,
-                "study_file": str(sfile) if sfile is not None else None,
-                "source_key": SOURCE_KEY, "run_started": run_started,
-                "tasks_from_cache": cached, "tasks_total": len(distinct),
-                "keys": {l: {"spinup": r.spinup, "saltation": r.saltation, "analysis": r.analysis}
-                         for l, r in runs.items()}}
+        meta = {**study_meta(study, study.name, out_dir, runs), "source_key": SOURCE_KEY,
+                "run_started": run_started, "tasks_from_cache": cached,
+                "tasks_total": len(distinct)}
         finals["report"] = dask.delayed(_report, pure=False)(study, analyses, out_dir, report_dir,
                                                              meta, dask_key_name=f"report-{study.name}")
     return StudyPlan(study, runs, finals, refs, report_dir)
@@ -358,15 +325,6 @@ def _tidy(out_dir: Path, runs, study_name: str | None = None) -> None:
             tidy_leftovers(d, None)
 
 
-def _lost_worker(exc: BaseException) -> str:
-    """The error of a task whose worker died (killed, out of memory, its node lost)."""
-    text = f"{type(exc).__name__}: {exc}"
-    if type(exc).__name__ == "KilledWorker":
-        text += (" (the workers running it died: killed, out of memory or their node lost; rerun "
-                 "the command: a spin-up or saltation run resumes from its last checkpoint)")
-    return text
-
-
 def run_study(study: Study, out_dir: Path, workers: int = 1, scheduler: str | None = None,
               quiet: bool = False, report_dir: Path | None = None, root: Path | None = None,
               started: float | None = None, wait: bool = False) -> StudySummary:
@@ -413,9 +371,13 @@ def _run_study(study: Study, out_dir: Path, workers: int, scheduler: str | None,
                     try:
                         results[n] = f.result()
                     except Exception as exc:  # a worker died (killed, out of memory, ...)
-                        task = n.split(":")[0]
-                        results[n] = Outcome(task, "?", [n.split(":")[-1]], "failed",
-                                             error=_lost_worker(exc))
+                        error = f"{type(exc).__name__}: {exc}"
+                        if type(exc).__name__ == "KilledWorker":
+                            error += (" (the workers running it died: killed, out of memory or "
+                                      "their node lost; rerun the command: a spin-up or saltation "
+                                      "run resumes from its last checkpoint)")
+                        results[n] = Outcome(n.split(":")[0], "?", [n.split(":")[-1]], "failed",
+                                             error=error)
     try:
         _record_runs(out_dir, plan, results)
     except OSError as exc:   # a full disk: the archives are what counts, the record is a summary

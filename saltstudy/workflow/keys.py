@@ -10,18 +10,13 @@ is one run in any study) and ``checkpoint_interval_wall`` (resume is bit for bit
 from __future__ import annotations
 
 import hashlib
-import json
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 from .._identity import SOURCE_KEY, __version__
-from ..config import Scene, Study, study_runs
-
-__all__ = ["ARCHIVE_FORMAT", "KEY_LENGTH", "hash_json", "spinup_key", "continuation_key",
-           "start_keys", "saltation_key", "analysis_key", "report_key", "RunKeys", "run_keys",
-           "study_keys", "saltation_slice", "area_source_key"]
+from ..config import Scene, Study, content_hash, study_runs
 
 #: bump when spinup.nc / samples.nc change layout, so old archives are not mistaken for new ones
 ARCHIVE_FORMAT = 2
@@ -29,8 +24,7 @@ KEY_LENGTH = 20
 
 
 def hash_json(data: Any) -> str:
-    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode()).hexdigest()[:KEY_LENGTH]
+    return content_hash(data, KEY_LENGTH)
 
 
 @lru_cache(maxsize=None)
@@ -45,10 +39,8 @@ def area_source_key(area: str) -> str:
 
 
 def _code(extra: dict[str, str] | None = None) -> dict[str, Any]:
-    d: dict[str, Any] = {"version": __version__, "source": SOURCE_KEY, "archive_format": ARCHIVE_FORMAT}
-    if extra:
-        d.update(extra)
-    return d
+    return {"version": __version__, "source": SOURCE_KEY, "archive_format": ARCHIVE_FORMAT,
+            **(extra or {})}
 
 
 def spinup_key(scene: Scene) -> str:
@@ -72,12 +64,9 @@ def start_keys(scene: Scene) -> list[str]:
 
 def saltation_slice(scene: Scene) -> dict[str, Any]:
     """The whole resolved scene minus what cannot change the samples (see module docstring)."""
-    case = scene.case.model_dump(mode="json")
-    for k in ("description", "name"):
-        case.pop(k, None)
-    fid = scene.fidelity.model_dump(mode="json")
-    for k in ("description", "checkpoint_interval_wall", "name"):
-        fid.pop(k, None)
+    case = scene.case.model_dump(mode="json", exclude={"description", "name"})
+    fid = scene.fidelity.model_dump(mode="json",
+                                    exclude={"description", "checkpoint_interval_wall", "name"})
     if fid.get("saltation_dt_fixed") is None:
         # absent and None mean the same adaptive step: only a set value may change the key
         fid.pop("saltation_dt_fixed", None)

@@ -1,12 +1,7 @@
-"""Who may write where: one process holds an out dir, one process at a time computes a task.
-
-``run-all``, ``run`` and ``figures`` take ``<out>/saltstudy.lock``; a second one refuses, naming
-the holder, or with ``--wait`` waits and then finds the work in the cache. Each task takes
-``<task dir>/task.lock`` while it computes; another process reaching it waits, then returns its
-archive. The lock is ``flock`` on the file, so it goes with its process however it ends; the file
-holds the holder's record (JSON). Where ``flock`` is not shared between hosts (NFS without
-locking), the holder touches the file every :data:`HEARTBEAT_S` s and another host's record is
-honoured until untouched for :data:`STALE_AFTER` s (this host's, while its pid lives).
+"""Who may write where: one process holds an out dir, one process at a time computes a task
+(docs/USAGE.md, "Faults"). The lock is ``flock`` on the file, which holds the holder's record
+(JSON); where ``flock`` is not shared between hosts, the holder touches the file every
+:data:`HEARTBEAT_S` s and another host's record counts until untouched for :data:`STALE_AFTER` s.
 """
 from __future__ import annotations
 
@@ -22,8 +17,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
-__all__ = ["LOCK_NAME", "TASK_LOCK_NAME", "Busy", "DirLock", "hold_out_dir", "claim_task",
-           "read_holder", "describe_holder", "record_alive", "pid_alive", "HEARTBEAT_S"]
+from .paths import read_json
 
 LOCK_NAME = "saltstudy.lock"
 TASK_LOCK_NAME = "task.lock"
@@ -62,14 +56,7 @@ def _record(what: str) -> dict[str, Any]:
 
 def read_holder(path: Path) -> dict[str, Any] | None:
     """The record in a lock file, or None (no file, or empty or unreadable)."""
-    try:
-        text = Path(path).read_text()
-    except OSError:
-        return None
-    try:
-        rec = json.loads(text)
-    except ValueError:
-        return None
+    rec = read_json(path)
     return rec if isinstance(rec, dict) else None
 
 
@@ -112,21 +99,17 @@ class DirLock:
         #: [s] how long :meth:`acquire` waited for another holder
         self.waited_s = 0.0
 
-    @property
-    def held(self) -> bool:
-        return self._fd is not None
-
     def _try_once(self) -> tuple[bool, dict[str, Any] | None]:
         """(acquired, the holder's record: {} if unreadable; None if the file was replaced
         meanwhile: try again at once)."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        got = False
         try:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
                 shared_locks = True
             except BlockingIOError:
-                os.close(fd)
                 return False, self._holder_record() or {}
             except OSError as exc:
                 if exc.errno not in (errno.ENOLCK, errno.EOPNOTSUPP, errno.EINVAL):
@@ -137,26 +120,19 @@ class DirLock:
             except FileNotFoundError:
                 same = False
             if not same:                  # released (removed) between our open and our lock
-                os.close(fd)
                 return False, None
             old = read_holder(self.path)
             if old and old.get("pid") != os.getpid() and (
                     not shared_locks or old.get("host") != platform.node()) \
                     and record_alive(old, self.path):
-                os.close(fd)
                 return False, old
-        except BaseException:
-            try:
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, json.dumps(_record(self.what)).encode(), 0)
+            self._fd, self.taken_over, got = fd, old or None, True
+            return True, None
+        finally:
+            if not got:
                 os.close(fd)
-            except OSError:
-                pass
-            raise
-        rec = _record(self.what)
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, json.dumps(rec).encode(), 0)
-        self._fd = fd
-        self.taken_over = old or None
-        return True, None
 
     def _holder_record(self) -> dict[str, Any] | None:
         """The holder's record; it writes it just after taking the lock, so give it a moment."""
@@ -171,7 +147,7 @@ class DirLock:
                 timeout: float | None = None) -> "DirLock":
         """Take the lock; if another live process holds it, raise :class:`Busy`, or with ``wait``
         call ``on_wait(holder)`` once and poll until it is free (``timeout`` s at most)."""
-        if self.held:
+        if self._fd is not None:
             raise RuntimeError(f"{self.path}: already held by this object")
         t0 = time.monotonic()
         told = False
@@ -213,20 +189,12 @@ class DirLock:
             fd, self._fd = self._fd, None
             os.close(fd)
 
-    def __enter__(self) -> "DirLock":
-        if not self.held:
-            self.acquire()
-        return self
-
-    def __exit__(self, *exc: Any) -> None:
-        self.release()
-
 
 class _Held:
     """This process's counted hold on an out dir (the command line and the run it starts)."""
 
     def __init__(self, lock: DirLock):
-        self.lock, self.count = lock, 0
+        self.lock, self.count = lock, 1
 
     def __enter__(self) -> DirLock:
         return self.lock
@@ -245,6 +213,12 @@ _HELD: dict[str, _Held] = {}
 _HELD_LOCK = threading.Lock()
 
 
+def _waiting(log: Callable[[str], None] | None, what: str):
+    """The ``on_wait`` of :meth:`DirLock.acquire` that logs ``[wait] <what> <holder>; waiting``."""
+    return None if log is None else (
+        lambda holder: log(f"[wait] {what} {describe_holder(holder or {})}; waiting for it"))
+
+
 def hold_out_dir(out_dir: Path, wait: bool = False, log: Callable[[str], None] | None = None,
                  timeout: float | None = None) -> _Held:
     """Take ``<out>/saltstudy.lock`` (refuse with :class:`Busy`, or wait) for a ``with`` block; a
@@ -256,18 +230,12 @@ def hold_out_dir(out_dir: Path, wait: bool = False, log: Callable[[str], None] |
             held.count += 1
             return held
     lock = DirLock(path, f"out dir {out_dir}")
-
-    def waiting(holder: dict[str, Any] | None) -> None:
-        if log is not None:
-            log(f"[wait] out dir {out_dir} is in use by {describe_holder(holder or {})}; "
-                "waiting for it to finish")
-
-    lock.acquire(wait=wait, on_wait=waiting, timeout=timeout)
+    lock.acquire(wait=wait, on_wait=_waiting(log, f"out dir {out_dir} is in use by"),
+                 timeout=timeout)
     if lock.taken_over and log is not None:
         log(f"[lock] taking over {lock.path}: it was held by {describe_holder(lock.taken_over)}, "
             "which is gone")
     held = _Held(lock)
-    held.count = 1
     with _HELD_LOCK:
         _HELD[str(path)] = held
     return held
@@ -275,11 +243,5 @@ def hold_out_dir(out_dir: Path, wait: bool = False, log: Callable[[str], None] |
 
 def claim_task(directory: Path, name: str, log: Callable[[str], None] | None = None) -> DirLock:
     """Take ``<task dir>/task.lock``, waiting for another process that computes the task."""
-    lock = DirLock(Path(directory) / TASK_LOCK_NAME, name)
-
-    def waiting(holder: dict[str, Any] | None) -> None:
-        if log is not None:
-            log(f"[wait] {name} is being computed by {describe_holder(holder or {})}; waiting "
-                "for it")
-
-    return lock.acquire(wait=True, on_wait=waiting)
+    return DirLock(Path(directory) / TASK_LOCK_NAME, name).acquire(
+        wait=True, on_wait=_waiting(log, f"{name} is being computed by"))

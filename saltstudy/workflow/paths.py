@@ -19,10 +19,6 @@ from pathlib import Path
 from ..config import Study, load_study, project_root
 from ..faults import write_atomic
 
-__all__ = ["default_out_dir", "task_dir", "output_path", "OUTPUT_NAMES", "study_dir", "runs_file",
-           "analysis_paths", "default_report_dir", "read_runs_file", "write_json_atomic",
-           "read_task_json", "read_checkpoint_meta"]
-
 #: the archive each task writes into its directory
 OUTPUT_NAMES = {"spinup": "spinup.nc", "saltation": "samples.nc", "analysis": "analysis.nc",
                 "report": "task.json"}
@@ -31,9 +27,7 @@ OUTPUT_NAMES = {"spinup": "spinup.nc", "saltation": "samples.nc", "analysis": "a
 def default_out_dir() -> Path:
     """The cache directory: ``$SALTSTUDY_OUT``, else ``<project root>/.saltstudy-cache``."""
     env = os.environ.get("SALTSTUDY_OUT")
-    if env:
-        return Path(env).expanduser()
-    return project_root() / ".saltstudy-cache"
+    return Path(env).expanduser() if env else project_root() / ".saltstudy-cache"
 
 
 def default_report_dir(study_name: str) -> Path:
@@ -58,28 +52,31 @@ def runs_file(out_dir: Path, study_name: str) -> Path:
     return study_dir(out_dir, study_name) / "runs.json"
 
 
-def read_runs_file(out_dir: Path, study_name: str) -> dict:
-    """The study's record of last completed keys per label (empty if none or unreadable)."""
+def read_json(path: Path) -> dict | None:
+    """A JSON file's content; None if absent or unreadable (being replaced, or cut short)."""
     try:
-        return json.loads(runs_file(out_dir, study_name).read_text())
-    except (OSError, ValueError):
-        return {}
-
-
-def read_task_json(directory: Path) -> dict | None:
-    try:
-        return json.loads((Path(directory) / "task.json").read_text())
+        return json.loads(Path(path).read_text())
     except (OSError, ValueError):
         return None
 
 
-def read_checkpoint_meta(directory: Path) -> dict | None:
-    """The meta of a task directory's ``checkpoint.npz``; None if absent or unreadable."""
+def read_runs_file(out_dir: Path, study_name: str) -> dict:
+    """The study's record of last completed keys per label (empty if none or unreadable)."""
+    return read_json(runs_file(out_dir, study_name)) or {}
+
+
+def read_task_json(directory: Path) -> dict | None:
+    return read_json(Path(directory) / "task.json")
+
+
+def checkpoint_time(directory: Path) -> float | None:
+    """The time [s since activation] a saltation task directory's ``checkpoint.npz`` resumes
+    from; None if absent, unreadable or not recorded (a spin-up's)."""
     import numpy as np
 
     try:
         with np.load(Path(directory) / "checkpoint.npz", allow_pickle=False) as z:
-            return json.loads(str(z["meta"]))
+            return float(json.loads(str(z["meta"]))["t_since_activation"])
     except Exception:
         return None
 

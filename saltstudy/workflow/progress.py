@@ -3,7 +3,6 @@ polls the files, which work alike with threads, processes and a cluster, and sur
 """
 from __future__ import annotations
 
-import json
 import os
 import platform
 import sys
@@ -14,10 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .lock import pid_alive
-from .paths import write_json_atomic
-
-__all__ = ["ProgressFile", "read_progress", "is_stale", "writer_gone", "ProgressDisplay", "TaskRef",
-           "format_duration", "emit"]
+from .paths import read_json, write_json_atomic
 
 PROGRESS_NAME = "progress.json"
 #: [s] a "running" file not updated for this long belongs to a process that died (the slowest
@@ -74,26 +70,20 @@ class ProgressFile:
 
 
 def read_progress(task_dir: Path) -> dict | None:
-    try:
-        return json.loads((Path(task_dir) / PROGRESS_NAME).read_text())
-    except (OSError, ValueError):
-        return None
+    return read_json(Path(task_dir) / PROGRESS_NAME)
 
 
 def writer_gone(p: dict) -> bool:
     """True if the record (progress.json or task.json) was written on this host by a process that
     has exited; another host's record falls back on the STALE_AFTER clock."""
     pid = p.get("pid")
-    if not isinstance(pid, int) or p.get("host") != platform.node():
-        return False
-    return not pid_alive(pid)
+    return isinstance(pid, int) and p.get("host") == platform.node() and not pid_alive(pid)
 
 
 def is_stale(p: dict, now: float | None = None) -> bool:
     """True if a progress record's writer died (gone from this host, or silent STALE_AFTER s)."""
-    if writer_gone(p):
-        return True
-    return (time.time() if now is None else now) - p.get("updated", 0.0) > STALE_AFTER
+    quiet_for = (time.time() if now is None else now) - p.get("updated", 0.0)
+    return writer_gone(p) or quiet_for > STALE_AFTER
 
 
 def eta(p: dict, now: float | None = None) -> float | None:

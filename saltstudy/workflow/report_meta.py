@@ -9,9 +9,19 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .paths import output_path, read_checkpoint_meta, read_task_json, task_dir
+from .._identity import __version__
+from ..config import study_file
+from .paths import checkpoint_time, output_path, read_task_json, task_dir
 
-__all__ = ["cache_meta"]
+
+def study_meta(study, name: str, out_dir: Path, runs: dict) -> dict[str, Any]:
+    """The report's meta of a study's runs (``keys.RunKeys`` by label) in the cache ``out_dir``:
+    the cache keys let the report find failure records and samples.nc (stability, animation)."""
+    sfile = study_file(study)
+    return {"study": name, "out_dir": str(out_dir), "package_version": __version__,
+            "study_file": str(sfile) if sfile is not None else None,
+            "keys": {label: {t: getattr(rk, t) for t in ("spinup", "saltation", "analysis")}
+                     for label, rk in runs.items()}}
 
 
 def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
@@ -26,8 +36,6 @@ def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
     samples = dict(meta.get("samples") or {})
     made_by: set[str] = set()
     for label, k in keys.items():
-        if not isinstance(k, dict):
-            continue
         for task in ("spinup", "saltation", "analysis"):
             key = k.get(task)
             if not key:
@@ -38,31 +46,16 @@ def cache_meta(meta: dict[str, Any] | None) -> dict[str, Any]:
             if tj.get("state") == "failed" and label not in failures:
                 failures[label] = f"{task}: {tj.get('error', 'failed')}"
         skey = k.get("saltation")
-        ck = _checkpoint(out_dir, skey) if skey else None
-        if ck is not None:
-            checkpoints[label] = ck
-        if skey and label not in samples:
-            p = Path(output_path(out_dir, "saltation", skey))
-            if p.is_file():
-                samples[label] = str(p)
-    if failures:
-        meta["failures"] = failures
-    if samples:
-        meta["samples"] = samples
-    if checkpoints:
-        meta["checkpoints"] = checkpoints
+        if skey:
+            d, samples_nc = task_dir(out_dir, "saltation", skey), output_path(out_dir, "saltation", skey)
+            if (d / "checkpoint.npz").is_file():   # a stopped run's, kept to resume from
+                checkpoints[label] = {"path": str(d / "checkpoint.npz"),
+                                      "t_since_activation": checkpoint_time(d)}
+            if label not in samples and samples_nc.is_file():
+                samples[label] = str(samples_nc)
+    meta.update({k: v for k, v in (("failures", failures), ("samples", samples),
+                                   ("checkpoints", checkpoints)) if v})
     if not meta.get("source_key") and made_by:
         meta["source_key"] = made_by.pop() if len(made_by) == 1 else sorted(made_by)
     return meta
 
-
-def _checkpoint(out_dir: Path, key: str) -> dict[str, Any] | None:
-    """{"path", "t_since_activation"} of a saltation run's kept checkpoint, or None."""
-    p = Path(task_dir(out_dir, "saltation", key)) / "checkpoint.npz"
-    if not p.is_file():
-        return None
-    try:
-        t = float(read_checkpoint_meta(p.parent).get("t_since_activation"))
-    except Exception:   # unreadable, or no time recorded
-        t = None
-    return {"path": str(p), "t_since_activation": t}

@@ -12,16 +12,12 @@ from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from ..config import Study
 from ..ncio import is_complete
 from . import keys as K
 from .lock import LOCK_NAME, describe_holder, read_holder, record_alive
-from .paths import output_path, read_checkpoint_meta, read_runs_file, read_task_json, task_dir
+from .paths import checkpoint_time, output_path, read_runs_file, read_task_json, task_dir
 from .progress import eta, format_duration, is_stale, read_progress, writer_gone
-
-__all__ = ["StatusRow", "study_status", "format_status", "out_dir_state"]
 
 TASKS = ("spinup", "saltation", "analysis")
 
@@ -33,14 +29,6 @@ class StatusRow:
     state: str
     key: str
     detail: str = ""
-
-
-def _checkpoint_time(d: Path) -> float | None:
-    meta = read_checkpoint_meta(d)
-    try:   # saltation: time since activation; spin-up: time since its start
-        return float(meta.get("t_since_activation", meta.get("t_spinup", np.nan)))
-    except Exception:
-        return None
 
 
 def _running(d: Path, tj: dict) -> tuple[str, str]:
@@ -76,8 +64,8 @@ def _state(out_dir: Path, task: str, key: str, old_key: str | None) -> tuple[str
         return live   # a running task writes checkpoints as it goes
     if task in ("spinup", "saltation") and (d / "checkpoint.npz").is_file():
         # interrupted or failed, but a rerun resumes from the checkpoint
-        t = _checkpoint_time(d)
-        where = f" at t = {t:.3g} s" if t is not None and t == t else ""
+        t = checkpoint_time(d)
+        where = f" at t = {t:.3g} s" if t is not None else ""
         why = (f" (stopped by {tj['error']})" if tj.get("state") == "failed"
                else " (its process died)" if live is not None else "")
         return "partial", f"checkpoint to resume from{where}{why}"
@@ -115,16 +103,15 @@ def study_status(study: Study, out_dir: Path, root: Path | None = None) -> list[
         d = task_dir(out_dir, "report", rkey)
         tj = read_task_json(d) or {}
         if tj.get("state") == "done" and Path(tj.get("report_dir", "")).is_dir():
-            rows.append(StatusRow("(all)", "report", "done", rkey, tj["report_dir"]))
+            state, detail = "done", tj["report_dir"]
         elif tj.get("state") == "running":
             state, detail = _running(d, tj)
-            rows.append(StatusRow("(all)", "report", state, rkey, detail))
         elif tj.get("state") == "failed":
-            rows.append(StatusRow("(all)", "report", "failed", rkey, str(tj.get("error", ""))))
+            state, detail = "failed", str(tj.get("error", ""))
         else:
             old = read_runs_file(out_dir, study.name).get("report", {})
-            st = "stale" if old.get("key") else "missing"
-            rows.append(StatusRow("(all)", "report", st, rkey, old.get("dir", "")))
+            state, detail = ("stale" if old.get("key") else "missing"), old.get("dir", "")
+        rows.append(StatusRow("(all)", "report", state, rkey, detail))
     return rows
 
 

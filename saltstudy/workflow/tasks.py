@@ -21,16 +21,13 @@ import numpy as np
 from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study
 from ..faults import disk_full, point
-from ..ncio import NC_LOCK, is_complete, open_dataset, write_dataset
+from ..ncio import is_complete, open_dataset, read_attrs, write_dataset
 from . import archives, keys
-from .driver import add_checkpoints, load_checkpoint, run_saltation
+from .driver import add_checkpoints, resume, run_saltation
 from .paths import output_path, read_task_json, task_dir, write_json_atomic
 from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
 from .progress import ProgressFile, emit
 from .report_meta import cache_meta
-
-__all__ = ["spinup_task", "saltation_task", "analysis_task", "report_task", "read_attrs",
-           "write_task_json", "read_task_json", "report_done", "check_source_key", "SourceMismatch"]
 
 
 class SourceMismatch(RuntimeError):
@@ -52,25 +49,15 @@ def write_task_json(directory: Path, **fields: Any) -> None:
     write_json_atomic(Path(directory) / "task.json", d)
 
 
-def read_attrs(path: Path) -> dict[str, Any]:
-    """Global attributes of an archive without loading its variables."""
-    import xarray as xr
-
-    with NC_LOCK:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
-            return dict(ds.attrs)
-
-
 class _Running:
     """Context: the task's directory claimed (``lock.claim_task``), its leftovers tidied, task.json
     saying running, then done or failed. ``output``: the archive, or a function telling whether
     the task is done; ``done`` is True if another process completed it while this one waited."""
 
-    def __init__(self, directory: Path, task: str, output: Path | Callable[[], bool] | None = None,
+    def __init__(self, directory: Path, task: str, output: Path | Callable[[], bool],
                  **fields: Any):
         self.directory, self.task, self.fields = directory, task, fields
-        self.finished = ((lambda: is_complete(output)) if isinstance(output, Path)
-                         else output if output is not None else (lambda: False))
+        self.finished = (lambda: is_complete(output)) if isinstance(output, Path) else output
         self.t0 = time.perf_counter()
         self.done = False
         self._lock = None
@@ -145,12 +132,15 @@ class ProfileSamples:
         self.model, self.window, self.every = model, window, window / 20.0
         self.samples: deque[tuple[float, dict[str, np.ndarray]]] = deque()
 
-    def __call__(self, sim) -> None:
+    def _sample(self, t: float) -> None:
         from ..solver.diagnostics.flow import flow_profiles
 
+        self.samples.append((t, {k: np.array(v) for k, v in flow_profiles(self.model).items()}))
+
+    def __call__(self, sim) -> None:
         t = float(self.model.t)
         if not self.samples or t - self.samples[-1][0] >= self.every - 1e-12:
-            self.samples.append((t, {k: np.array(v) for k, v in flow_profiles(self.model).items()}))
+            self._sample(t)
             while self.samples and self.samples[0][0] < t - self.window - 1e-9:
                 self.samples.popleft()
 
@@ -170,11 +160,8 @@ class ProfileSamples:
     def window_mean(self, t_end: float) -> tuple[dict[str, np.ndarray], tuple[float, float, int]]:
         """The profiles' mean over the window ending at ``t_end``, and (first time, last time,
         count) of its samples."""
-        from ..solver.diagnostics.flow import flow_profiles
-
         if not self.samples or self.samples[-1][0] < t_end - 1e-12:
-            self.samples.append((t_end, {k: np.array(v) for k, v in
-                                         flow_profiles(self.model).items()}))
+            self._sample(t_end)
         use = [(t, p) for t, p in self.samples if t >= t_end - self.window - 1e-9]
         mean = {k: np.mean([p[k] for _, p in use], axis=0) for k in use[-1][1]}
         return mean, (min(t for t, _ in use), t_end, len(use))
@@ -194,7 +181,6 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
     if is_complete(path):
         return path
     check_source_key(source_key)
-    from ..solver.model import Model
     from ..solver.simulation import IterationInterval, TimeInterval
     from ..solver.spinup import record_interval, spinup_simulation
 
@@ -208,14 +194,7 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
             return path
         t0 = time.perf_counter()
         sp = scene.fidelity.spinup
-        loaded = load_checkpoint(ckpt_path)
-        if loaded is not None:
-            model_ckpt, sim_ckpt, meta = loaded
-            model = Model.from_scene(scene, saltation=False, restart=model_ckpt)
-            wall_before = float(meta["wall_time_s"])
-        else:
-            model = Model.from_scene(scene, saltation=False)
-            sim_ckpt, wall_before = None, 0.0
+        model, sim_ckpt, wall_before = resume(scene, ckpt_path, False)
         sim, steadiness = spinup_simulation(model)
         # the profiles are sampled at the records after the first (at t = 0 the flow is the
         # initial perturbed log law)
@@ -300,8 +279,6 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
         model = Model.from_scene(scene, saltation=False, restart=restart)
         prog = ProgressFile(d, "spinup", scene.label, "continuation")
         prog.target = duration
-        history = {k[:-5] if k.endswith("_hist") else k: np.asarray(parent[k].values)
-                   for k in ("u_star_hist", "tke_hist", "u_drive_hist")}
         t_hist = np.asarray(parent["time_hist"].values)
         t_start = float(model.t)
         rec = _ContinuationRecord(model, t_start - float(t_hist[-1]) if t_hist.size else t_start)
@@ -318,8 +295,8 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
             t_end = float(model.t)
         finally:
             model.close()
-        hist = {"t": np.concatenate([t_hist, rec.t]),
-                **{k: np.concatenate([history[k], rec.series[k]]) for k in rec.series}}
+        hist = {"t": np.concatenate([t_hist, rec.t]), **{
+            k: np.concatenate([parent[f"{k}_hist"].values, v]) for k, v in rec.series.items()}}
         profiles = {src: np.asarray(parent[dst].values)
                     for src, dst in archives.PROFILE_NAMES.items()}
         wall = time.perf_counter() - t0
@@ -327,9 +304,8 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
             scene, grid, ckpt, profiles, hist, converged=bool(parent.attrs.get("converged", 0)),
             reason=f"{parent.attrs.get('spinup_reason', '')}; continued {duration:g} s",
             u_drive=u_drive, t_end=t_end, wall_time_s=wall, key=key,
-            profile_window=(float(parent.attrs["profile_window_start"]),
-                            float(parent.attrs["profile_window_end"]),
-                            int(parent.attrs["profile_window_samples"])))
+            profile_window=tuple(parent.attrs[f"profile_window_{k}"]
+                                 for k in ("start", "end", "samples")))
         write_dataset(ds, path)
         prog.write(duration, "done")
     return path
@@ -401,18 +377,14 @@ def report_done(out_dir: Path, key: str, report_dir: Path) -> bool:
 
 
 def report_task(study: Study, runs: dict[str, Path | None], out_dir: Path, report_dir: Path,
-                key: str, meta: dict[str, Any] | None = None,
-                log: Callable[[str], None] = print) -> Path | None:
-    """``saltstudy.report.build_report`` over all runs -> ``report_dir``; None if the report
-    package is not installed in this checkout. Marker: ``<out>/report/<key>/task.json``."""
+                key: str, meta: dict[str, Any] | None = None) -> Path:
+    """``saltstudy.report.build_report`` over all runs -> ``report_dir``. Marker:
+    ``<out>/report/<key>/task.json``."""
+    from ..report import build_report
+
     d = task_dir(out_dir, "report", key)
     if report_done(out_dir, key, report_dir):
         return Path(report_dir)
-    try:
-        from ..report import build_report
-    except ImportError as exc:
-        log(f"report: skipped (saltstudy.report.build_report not available: {exc})")
-        return None
     with _Running(d, "report", lambda: report_done(out_dir, key, report_dir), key=key,
                   study=study.name, report_dir=str(report_dir),
                   inputs={k: (str(v) if v else None) for k, v in runs.items()}) as run:

@@ -1,12 +1,8 @@
-"""Compile the numba kernels in a subprocess before a study's solver work.
-
-Kernels compiled in the running process differ at round-off (~1e-13 after seconds of flow) from
-the same kernels loaded from numba's cache, and turbulence makes that another realization
-(docs/USAGE.md, "The cache, reruns and resumes"). With the warm-up every solver task loads from
-the cache, so a rerun or resumed run repeats the first run. For every distinct set of code paths
-among the pending scenes, a child runs one shrunk to the smoke grid (:func:`warm_scene`); a marker
-in the cache directory, keyed by that set and the sources' paths and time stamps (numba's cache
-index), makes it a no-op afterwards. ``SALTSTUDY_NO_WARMUP=1`` skips it.
+"""Compile the numba kernels in a subprocess before a study's solver work, so that every task
+loads them from numba's cache and reruns and resumes repeat the first run (docs/USAGE.md, "The
+cache, reruns and resumes"): one child per distinct set of code paths among the pending scenes,
+each shrunk to the smoke grid (:func:`warm_scene`); a marker keyed by that set and the sources'
+paths and time stamps (numba's cache index) makes it a no-op afterwards.
 """
 from __future__ import annotations
 
@@ -18,10 +14,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .._identity import numerical_sources
 from ..config import Fidelity, Scene
 from ..faults import FAULT_ENV
-
-__all__ = ["warm_scene", "signature", "ensure_warm"]
 
 #: the smoke grid's horizontal size and level count (workflows/fidelities/smoke.toml)
 _GRID = {"Lx": 2.4, "Ly": 1.6, "nx": 16, "ny": 12, "nz": 16, "dz_top": None}
@@ -61,10 +56,7 @@ def signature(scene: Scene) -> str:
 
 def _source_stamps() -> list[tuple[str, int, int]]:
     """(path, mtime in ns, size) of the sources numba compiles: what its cache index checks."""
-    pkg = Path(__file__).resolve().parents[1]
-    files = [pkg / "_jit.py"] + sorted((pkg / "physics").rglob("*.py")) + \
-        sorted((pkg / "solver").rglob("*.py"))
-    return [(str(f), f.stat().st_mtime_ns, f.stat().st_size) for f in files]
+    return [(str(f), f.stat().st_mtime_ns, f.stat().st_size) for f in numerical_sources()]
 
 
 def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
@@ -77,7 +69,7 @@ def _marker(sigs: list[str], marker_dir: Path | None) -> Path | None:
     return Path(marker_dir) / f"{h}.json"
 
 
-def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -> bool:
+def ensure_warm(scenes: list[Scene], log=lambda _: None, marker_dir: Path | None = None) -> bool:
     """Warm the numba cache for ``scenes`` in a child process unless done (markers in
     ``marker_dir``, default ``$NUMBA_CACHE_DIR/warmup``); True if a child ran. A failing child is
     reported and ignored: the tasks then compile in-process."""
@@ -89,9 +81,8 @@ def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -
     marker = _marker(list(reps), marker_dir)
     if marker is None or marker.exists():
         return False
-    if log is not None:
-        log(f"[warm-up] numba kernels for {len(reps)} code path(s), in a child process "
-            "(so that every run loads them from the cache: reruns and resumes repeat it)")
+    log(f"[warm-up] numba kernels for {len(reps)} code path(s), in a child process "
+        "(so that every run loads them from the cache: reruns and resumes repeat it)")
     with tempfile.TemporaryDirectory(prefix="saltstudy-warmup-") as tmp:
         spec = Path(tmp) / "scenes.json"
         spec.write_text(json.dumps([warm_scene(s).model_dump(mode="json") for s in reps.values()]))
@@ -100,9 +91,8 @@ def ensure_warm(scenes: list[Scene], log=None, marker_dir: Path | None = None) -
         proc = subprocess.run([sys.executable, "-m", "saltstudy.workflow.warmup", str(spec), tmp],
                               capture_output=True, text=True, env=env)
     if proc.returncode != 0:
-        if log is not None:
-            tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
-            log("[warm-up] failed (the tasks compile in-process instead): " + " | ".join(tail))
+        tail = (proc.stderr or proc.stdout).strip().splitlines()[-3:]
+        log("[warm-up] failed (the tasks compile in-process instead): " + " | ".join(tail))
         return True
     marker.parent.mkdir(parents=True, exist_ok=True)
     marker.write_text(json.dumps({"signatures": sorted(reps),
