@@ -24,8 +24,9 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .data import RunData, case_number_of, load_runs
+from .plotting import save_figure
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
-from .tables import fmt, st_below_one_height
+from .tables import figure_html, fmt, html_table, md_table, st_below_one_height, write_json
 
 __all__ = ["CONV_STATS", "ConvergenceResult", "convergence_analysis", "convergence_by_case",
            "build_convergence_report", "ladder_summary", "sampled_extent", "seed_noise"]
@@ -56,7 +57,6 @@ class ConvergenceResult:
     rungs: list[dict[str, Any]]                # ordered coarse -> fine
     finest: str | None                         # the reference rung (see module docstring)
     cheapest: dict[str, dict[str, str | None]]  # stat -> {"10%": label, "25%": label}
-    data: dict[str, np.ndarray]
     named_reference: bool = False              # a sensitivity study: rungs are not a sequence
     seed_groups: list[list[str]] = field(default_factory=list)  # runs differing only in the seed
     on_ladder: list[str] = field(default_factory=list)   # the declared rungs (not extra scenes)
@@ -106,11 +106,8 @@ def _paper_z_m(case: int | None) -> float:
 def _error_bar(r: RunData, stat: str) -> float:
     """Half the difference between the statistic over the two halves of the sampling window
     (analysis ``<stat>_halves``): the noise of one window. NaN where not recorded."""
-    ds = getattr(r, "ds", None)
-    name = f"{stat}_halves"
-    if ds is None or name not in ds.variables:
-        return math.nan
-    a = np.asarray(ds[name].values, dtype=np.float64)
+    v = r.var(f"{stat}_halves")
+    a = np.asarray(v.values if v is not None else [], dtype=np.float64)
     return float(abs(a[1] - a[0]) / 2.0) if a.size == 2 and np.isfinite(a).all() else math.nan
 
 
@@ -145,14 +142,10 @@ def _seed(r: RunData) -> object:
 
 
 def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[str]]]:
-    """The seeds' scatter per statistic, as a relative variance per unit sampled extent.
-
-    Runs sharing every setting but the seed are realizations of one run; their sample variance
-    over their squared mean, times the sampled extent E (:func:`sampled_extent`), is pooled over
-    the groups. A run of extent E' then has the bar |value| sqrt(pooled / E'): the variance of a
-    space-time average falls as 1/E once the window and box hold many correlation lengths. That
-    fails for boxes a few streamers wide (smoke, quick) and keeps the repeated run's parcel noise.
-    Returns ({stat: pooled relative variance x extent}, [labels of each group])."""
+    """({stat: the seeds' relative variance x sampled extent, pooled}, [labels of each group of
+    runs alike but for the seed]) (docs/ARCHITECTURE.md, "analysis.nc"). The variance of a
+    space-time average falls as 1/extent only once the window and box hold many correlation
+    lengths: not in boxes a few streamers wide (smoke, quick)."""
     groups: dict[str, dict[str, RunData]] = {}
     for r in runs.values():
         k = _replicate_key(r)
@@ -196,14 +189,11 @@ def _value(r: RunData, stat: str) -> float:
 def _grid_of(r: RunData) -> dict[str, float]:
     """The rung's cost knobs read from its archive: horizontal spacing, first-level thickness [m]
     and real grains per parcel."""
-    dz1 = math.nan
-    ds = getattr(r, "ds", None)
-    if ds is not None and "z_w" in ds.coords and ds["z_w"].size > 1:
-        dz1 = float(ds["z_w"].values[1] - ds["z_w"].values[0])
-    elif ds is not None and "z" in ds.coords and ds["z"].size:
-        dz1 = 2.0 * float(ds["z"].values[0])       # the first level's centre is half its thickness
+    z_w, z = r.var("z_w"), r.var("z")
+    dz1 = (float(z_w[1] - z_w[0]) if z_w is not None and z_w.size > 1 else
+           2.0 * float(z[0]) if z is not None and z.size else math.nan)  # a centre: half its level
     # a level's thickness is a difference of stretched heights: 0.010000000000000021 is 1 cm
-    dz1 = float(f"{dz1:.10g}") if math.isfinite(dz1) else dz1
+    dz1 = float(f"{dz1:.10g}")
     return {"dx": r.attr("dx"), "dy": r.attr("dy"), "dz_bottom": dz1, "Q": r.attr("Q")}
 
 
@@ -283,13 +273,9 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
                   and _resolves(row, s, th)]
             ok.sort(key=lambda row: row["wall_time_s"] if math.isfinite(row["wall_time_s"]) else math.inf)
             cheapest[s][f"{th:.0%}"] = ok[0]["label"] if ok else None
-    data = {"wall_time_s": np.array([row["wall_time_s"] for row in rungs], float)}
-    for s in CONV_STATS:
-        data[f"err_finest_{s}"] = np.array([row["err_finest"][s] for row in rungs], float)
-        data[f"err_paper_{s}"] = np.array([row["err_paper"][s] for row in rungs], float)
     # a reference that is the top of the declared ladder is its finest rung, not a base of variants
     named = finest is not None and finest.label == reference and not (order and order[-1] == reference)
-    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data, named, seed_groups,
+    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, named, seed_groups,
                              [row["label"] for row in rungs if row["label"] in on_ladder])
 
 
@@ -311,16 +297,15 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
     ax1, ax2 = fig.subplots(1, 2, sharex=True)
     fig.suptitle("Error against wall-clock time (spin-up + saltation)"
                  + (f", case {case}" if case is not None else ""))
-    t = res.data["wall_time_s"]
-    labels = [row["label"] for row in res.rungs]
-    not_finest = np.array([l != res.finest for l in labels])
+    t = np.array([row["wall_time_s"] for row in res.rungs], float)
+    not_finest = np.array([row["label"] != res.finest for row in res.rungs])
     markers = "osD^v<>PX*"
     floor = 1e-4   # an error of exactly 0 (inside the paper's range) is drawn here, hollow, unjoined
     for i, s in enumerate(CONV_STATS):
         lab, col, mk = CONV_STATS[s][0], _STAT_COLORS[s], markers[i % len(markers)]
         noise = np.array([row["within_noise"][s] is True for row in res.rungs])
-        for ax, key, keep in ((ax1, "err_finest_", not_finest), (ax2, "err_paper_", np.ones_like(not_finest))):
-            e = res.data[key + s]
+        for ax, key, keep in ((ax1, "err_finest", not_finest), (ax2, "err_paper", True)):
+            e = np.array([row[key][s] for row in res.rungs], float)
             ok = np.isfinite(e) & np.isfinite(t) & keep
             pos = ok & (e > 1e-9)      # below: round-off, shown as 0
             zero = ok & (e <= 1e-9)
@@ -453,15 +438,15 @@ def _summary_figure(results: dict[int | None, ConvergenceResult]) -> Figure:
 
 def _knobs(row: dict[str, Any]) -> str:
     """Δx, first level, grains per parcel of a rung, as one short cell."""
-    dx, dz, q = row["dx"], row["dz_bottom"], row["Q"]
-    return (f"{fmt(dx)} m / {dz * 100:.3g} cm / {fmt(q)}" if math.isfinite(dz) else
-            f"{fmt(dx)} m / — / {fmt(q)}")
+    dz = f"{row['dz_bottom'] * 100:.3g} cm" if math.isfinite(row["dz_bottom"]) else "—"
+    return f"{fmt(row['dx'])} m / {dz} / {fmt(row['Q'])}"
 
 
-_KNOBS_HEAD = "Δx / first level / grains per parcel"
-_RUNG_HEADS = ("rung", "fidelity", _KNOBS_HEAD, "status", "wall time [s]", "of which spin-up [s]")
-_CHEAPEST_NOTE = ("among rungs whose own error bar is no wider than the threshold: a noisier run "
-                  "agrees by chance")
+_RUNG_HEADS = ["rung", "fidelity", "Δx / first level / grains per parcel", "status",
+               "wall time [s]", "of which spin-up [s]"]
+_CHEAPEST_HEADS = ["statistic", "within 10 %", "within 25 %"]
+_CHEAPEST_NOTE = ("Cheapest rung within 10 % / 25 % of the reference (among rungs whose own error "
+                  "bar is no wider than the threshold: a noisier run agrees by chance)")
 
 
 def _rung_cells(res: ConvergenceResult) -> list[list[str]]:
@@ -473,19 +458,13 @@ def _rung_cells(res: ConvergenceResult) -> list[list[str]]:
                for s in CONV_STATS] for row in res.rungs]
 
 
-def _cheapest_cells(res: ConvergenceResult) -> list[tuple[str, str, str]]:
-    return [(CONV_STATS[s][0], res.cheapest[s]["10%"] or "none", res.cheapest[s]["25%"] or "none")
+def _cheapest_cells(res: ConvergenceResult) -> list[list[str]]:
+    return [[CONV_STATS[s][0], res.cheapest[s]["10%"] or "none", res.cheapest[s]["25%"] or "none"]
             for s in CONV_STATS]
 
 
-def _tables_md(res: ConvergenceResult) -> str:
-    heads = list(_RUNG_HEADS) + [f"{CONV_STATS[s][0]} (vs reference / paper)" for s in CONV_STATS]
-    lines = ["| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
-    lines += ["| " + " | ".join(cells) + " |" for cells in _rung_cells(res)]
-    lines += ["", f"Cheapest rung within 10 % / 25 % of the reference ({_CHEAPEST_NOTE}):", "",
-              "| statistic | within 10 % | within 25 % |", "|---|---|---|"]
-    lines += ["| " + " | ".join(c) + " |" for c in _cheapest_cells(res)]
-    return "\n".join(lines)
+def _heads() -> list[str]:
+    return _RUNG_HEADS + [f"{CONV_STATS[s][0]} (vs reference / paper)" for s in CONV_STATS]
 
 
 def _resolves(row: dict[str, Any], s: str, threshold: float) -> bool:
@@ -504,37 +483,6 @@ def _pm(v: float, eb: float) -> str:
 
 def _p(v: float) -> str:
     return f"{v:.1%}" if math.isfinite(v) else "n/a"
-
-
-def _html_rows(rows, cell: str = "td") -> str:
-    return "".join("<tr>" + "".join(f"<{cell}>{html.escape(c)}</{cell}>" for c in r) + "</tr>"
-                   for r in rows)
-
-
-def _tables_html(res: ConvergenceResult) -> str:
-    heads = "".join(f"<th>{html.escape(h)}</th>" for h in _RUNG_HEADS) + "".join(
-        f"<th>{html.escape(CONV_STATS[s][0])}<br><small>value (vs reference / paper)</small></th>"
-        for s in CONV_STATS)
-    return (f"<table><thead><tr>{heads}</tr></thead><tbody>{_html_rows(_rung_cells(res))}"
-            "</tbody></table><h4>Cheapest rung within 10 % / 25 % of the reference</h4>"
-            f"<p>{_CHEAPEST_NOTE[0].upper() + _CHEAPEST_NOTE[1:]}.</p><table><thead>"
-            + _html_rows([("statistic", "within 10 %", "within 25 %")], "th")
-            + f"</thead><tbody>{_html_rows(_cheapest_cells(res))}</tbody></table>")
-
-
-def _payload_rows(res: ConvergenceResult) -> list[dict[str, Any]]:
-    per_stat = ("values", "error_bar", "half_window_bar", "seed_bar", "err_finest", "err_paper")
-    rows = []
-    for row in res.rungs:
-        d = {k: v for k, v in row.items() if k not in per_stat + ("within_noise",)}
-        d.update({k: (row[k] if math.isfinite(row[k]) else None)
-                  for k in ("wall_time_s", "spinup_wall_time_s", "dx", "dy", "dz_bottom", "Q",
-                            "sampled_extent_s_m2")})
-        d["reference"] = res.finest
-        d.update({k: {s: (x if math.isfinite(x) else None) for s, x in row[k].items()} for k in per_stat})
-        d["within_noise"] = row["within_noise"]
-        rows.append(d)
-    return rows
 
 
 def _seed_sentence(res: ConvergenceResult) -> str:
@@ -572,44 +520,36 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     figures = {_stem(case, primary): _figure(r, case) for case, r in results.items()}
     if not any(r.named_reference for r in results.values()):
         figures["convergence_summary"] = _summary_figure(results)
-    files = []
-    for stem, fig in figures.items():
-        for ext in ("png", "pdf"):
-            files.append(report_dir / f"{stem}.{ext}")
-            fig.savefig(files[-1], dpi=130)
+    files = [f for stem, fig in figures.items() for f in save_figure(fig, report_dir, stem, 130)]
     md = ["# Error against run time", "", NOISE_NOTE, ""]
     page = []
     summary_html = ""
     if "convergence_summary" in figures:
         md += ["![the ladder at a glance](convergence_summary.png)", ""]
-        summary_html = ("<figure><a href='convergence_summary.pdf'><img src='convergence_summary.png' "
-                        "alt='the ladder at a glance: median error against wall time'></a>"
-                        "<figcaption>The ladder at a glance: per rung, the median over the statistics "
-                        "of the relative difference from the reference rung and of the two runs' "
-                        "noise (a), and the share of statistics within 10 % and 25 % of it (b)."
-                        "</figcaption></figure>")
+        summary_html = figure_html(
+            "convergence_summary", "the ladder at a glance: median error against wall time",
+            "The ladder at a glance: per rung, the median over the statistics of the relative "
+            "difference from the reference rung and of the two runs' noise (a), and the share of "
+            "statistics within 10 % and 25 % of it (b).")
     for case, r in results.items():
         head = f"Case {case}" if case is not None else "Runs without a case number"
-        md += [f"## {head}", "", f"Reference rung: {r.finest}. {_seed_sentence(r)}", "", _tables_md(r), ""]
+        md += [f"## {head}", "", f"Reference rung: {r.finest}. {_seed_sentence(r)}", "",
+               *md_table(_heads(), _rung_cells(r)), "", f"{_CHEAPEST_NOTE}:", "",
+               *md_table(_CHEAPEST_HEADS, _cheapest_cells(r)), ""]
         stem = _stem(case, primary)
-        fig_html = ("" if case == primary else
-                    f"<figure><a href='{stem}.pdf'><img src='{stem}.png' "
-                    f"alt='error against run time, {html.escape(head)}'></a></figure>")
-        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "") + fig_html
-                    + f"<p>{html.escape(_seed_sentence(r))}</p>" + _tables_html(r))
+        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "")
+                    + ("" if case == primary else figure_html(stem, f"error against run time, {head}"))
+                    + f"<p>{html.escape(_seed_sentence(r))}</p>" + html_table(_heads(), _rung_cells(r))
+                    + f"<h4>{html.escape(_CHEAPEST_NOTE)}</h4>"
+                    + html_table(_CHEAPEST_HEADS, _cheapest_cells(r)))
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
-    payload = {**(provenance or {}), "primary_case": primary, "finest": res.finest, "reference": res.finest,
-               "cheapest": res.cheapest,
-               "error_bar": NOISE_NOTE,
-               "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
-                                     "seed_replicates": r.seed_groups,
-                                     "ladder_summary": [{k: (v if not isinstance(v, float) or math.isfinite(v)
-                                                             else None) for k, v in row.items()}
-                                                        for row in ladder_summary(r)]}
-                         for case, r in results.items()},
-               "rungs": [row for r in results.values() for row in _payload_rows(r)]}
-    (report_dir / "convergence.json").write_text(json.dumps(payload, indent=2, allow_nan=False) + "\n",
-                                                  encoding="utf-8")
+    write_json(report_dir / "convergence.json", {
+        **(provenance or {}), "primary_case": primary, "finest": res.finest,
+        "reference": res.finest, "cheapest": res.cheapest, "error_bar": NOISE_NOTE,
+        "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
+                              "seed_replicates": r.seed_groups, "ladder_summary": ladder_summary(r)}
+                  for case, r in results.items()},
+        "rungs": [{**row, "reference": r.finest} for r in results.values() for row in r.rungs]})
     files += [report_dir / "convergence.md", report_dir / "convergence.json"]
     return {"result": res, "results": results, "html": "".join(page), "summary_html": summary_html,
             "files": files}

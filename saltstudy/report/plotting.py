@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -19,7 +20,7 @@ from .reference import CASES_WIND, paper_table2
 __all__ = ["FigureResult", "WIND_COLORS", "SOIL_COLORS", "MARKERS", "OWN_COLORS", "case_color",
            "fmt_um", "case_label", "has_stress_u_star", "u_star_stress", "new_figure", "plain_log",
            "add_legend", "add_notes", "nothing_to_draw", "lacks", "empty_axes", "u_star_ratio",
-           "is_200um", "paper_u_star_ratio"]
+           "is_200um", "paper_u_star_ratio", "save_figure"]
 
 
 @dataclass
@@ -80,6 +81,15 @@ def new_figure(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6), **kw) -> tuple[F
     fig = Figure(figsize=size, layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
     return fig, axes
+
+
+def save_figure(fig: Figure, folder: Path, stem: str, dpi: float,
+                formats=("png", "pdf")) -> list[Path]:
+    """Write ``fig`` as ``folder/stem.<format>`` in each format; returns the files."""
+    files = [Path(folder) / f"{stem}.{ext}" for ext in formats]
+    for f in files:
+        fig.savefig(f, dpi=dpi)
+    return files
 
 
 def plain_log(ax, axis: str = "x", subs: tuple[float, ...] | None = None) -> None:

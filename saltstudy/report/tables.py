@@ -7,8 +7,11 @@ saltation (report/saltation.py) is a row saying so; values the paper does not gi
 from __future__ import annotations
 
 import html
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 
@@ -18,7 +21,7 @@ from .saltation import NO_SALTATION, saltation_state
 
 __all__ = ["Cell", "model_departures", "table2_rows", "scalar_results", "table2_markdown", "table2_html",
            "table2_dataset", "results_markdown", "results_html", "st_below_one_height", "fmt",
-           "rel_diff"]
+           "rel_diff", "md_table", "html_table", "figure_html", "write_json"]
 
 
 def fmt(v: float | None, digits: int = 3) -> str:
@@ -37,6 +40,47 @@ def rel_diff(computed: float, ref: float) -> float:
 
 def _pct(v: float) -> str:
     return f"{v:+.0%}" if math.isfinite(v) else "—"
+
+
+def md_table(heads: list[str], rows) -> list[str]:
+    """The lines of a markdown table of text cells."""
+    def line(cells) -> str:
+        return "| " + " | ".join(cells) + " |"
+    return [line(heads), "|" + "---|" * len(heads)] + [line(r) for r in rows]
+
+
+def html_table(heads: list[str], rows, cls: Callable[[int, int], str] = lambda i, j: "") -> str:
+    """An HTML table of text cells (escaped); ``cls(i, j)``: the class of row i's cell j (i = -1:
+    the header), "" for none."""
+    def cell(tag: str, text: str, c: str) -> str:
+        return f"<{tag}{f' class={c!r}' if c else ''}>{html.escape(text)}</{tag}>"
+    head = "".join(cell("th", h, cls(-1, j)) for j, h in enumerate(heads))
+    body = "".join("<tr>" + "".join(cell("td", c, cls(i, j)) for j, c in enumerate(r)) + "</tr>"
+                   for i, r in enumerate(rows))
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def figure_html(stem: str, alt: str, caption: str = "") -> str:
+    """A figure of the page: ``stem``.png, linked to ``stem``.pdf."""
+    cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
+    return (f"<figure><a href='{stem}.pdf'><img src='{stem}.png' alt='{html.escape(alt)}'></a>"
+            f"{cap}</figure>")
+
+
+def _json_safe(obj: Any) -> Any:
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    return obj
+
+
+def write_json(path: Path, data: Any) -> None:
+    """``data`` as JSON in ``path``, every non-finite number as null."""
+    Path(path).write_text(json.dumps(_json_safe(data), indent=2, allow_nan=False) + "\n",
+                          encoding="utf-8")
 
 
 @dataclass
@@ -167,25 +211,13 @@ def _no_saltation(row: dict) -> bool:
     return row["status"] == "ok" and row["saltation"].status == NO_SALTATION
 
 
-def _no_saltation_text(row: dict) -> str:
-    return f"{NO_SALTATION}: {row['saltation'].reason}"
-
-
 def st_below_one_height(run: RunData) -> float:
-    """Lowest z/z_m in (0, 1] above which St < 1 everywhere up to z_m; NaN if undefined."""
-    p = profile(run, "St")
-    if p is None:
+    """Lowest z/z_m in (0, 1] above which St < 1 everywhere up to z_m; the lowest level inside
+    if St < 1 everywhere, NaN if undefined."""
+    p, zm = profile(run, "St"), run.scalar("z_m")
+    if p is None or not (math.isfinite(zm) and zm > 0):
         return math.nan
-    return st_height(p[0], p[1], run.scalar("z_m"))
-
-
-def st_height(z: np.ndarray, st: np.ndarray, zm: float) -> float:
-    """Lowest z/z_m in (0, 1] above which the profile ``st`` at heights ``z`` [m] stays below 1
-    up to z_m [m]; the lowest level inside if St < 1 everywhere, NaN if undefined."""
-    if not (math.isfinite(zm) and zm > 0):
-        return math.nan
-    zeta = np.asarray(z, dtype=float) / zm
-    st = np.asarray(st, dtype=float)
+    zeta, st = p[0] / zm, p[1]
     inside = (zeta > 0) & (zeta <= 1.0) & np.isfinite(st)
     if not inside.any():
         return math.nan
@@ -268,10 +300,21 @@ def scalar_results(ctx: ReportContext) -> list[dict]:
 # rendering
 # ------------------------------------------------------------------------------------------------
 def table2_markdown(ctx: ReportContext) -> str:
-    rows = table2_rows(ctx)
-    heads = ["run"]
-    for _, pkey, lab, unit in TABLE2_COLUMNS:
-        heads.append(f"{lab} [{unit}]")
+    heads = ["run"] + [f"{lab} [{unit}]" for _, _, lab, unit in TABLE2_COLUMNS]
+    cells = []
+    for row in table2_rows(ctx):
+        if row["status"] != "ok" or _no_saltation(row):
+            # u*s, u*t: escaped, or their asterisks would open emphasis
+            why = (f"*{row['status']}*" if row["status"] != "ok" else
+                   f"**{NO_SALTATION}**: " + row["saltation"].reason.replace("*", "\\*"))
+            cells.append([row["name"], why] + [""] * (len(heads) - 2))
+            continue
+        cells.append([row["name"]])
+        for var, pkey, _, _ in TABLE2_COLUMNS:
+            c = row["cells"][var]
+            paper = pkey and row["paper_case"] is not None
+            cells[-1].append(_computed(c) + (f" / {fmt(c.paper)}" if paper else "")
+                             + (f" ({_pct(c.rel)})" if paper and math.isfinite(c.rel) else ""))
     lines = [f"# Table 2 — computed beside {PAPER_LABEL}", "",
              f"Study `{ctx.study}`. One row per run. Each cell: computed / paper (relative "
              "difference); the paper's value only beside a run that is one of its cases "
@@ -291,27 +334,7 @@ def table2_markdown(ctx: ReportContext) -> str:
              "and swings for more than a minute, and the `reduced` study's ten 30-s windows read "
              "+11 % on average (−7 to +19 %, reports/reduced/FINDINGS.md); `quick`'s 12-s window "
              "reads within about ±40 %. " + _start_text(ctx) + " " + _departures_text(ctx), "",
-             "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
-    for row in rows:
-        if row["status"] != "ok":
-            lines.append(f"| {row['name']} | " + " | ".join([f"*{row['status']}*"] + [""] * (len(heads) - 2)) + " |")
-            continue
-        if _no_saltation(row):
-            # u*s, u*t: escaped, or their asterisks would open emphasis
-            why = row["saltation"].reason.replace("*", "\\*")
-            lines.append(f"| {row['name']} | " + " | ".join(
-                [f"**{NO_SALTATION}**: {why}"] + [""] * (len(heads) - 2)) + " |")
-            continue
-        cells = [row["name"]]
-        for var, pkey, _, _ in TABLE2_COLUMNS:
-            c = row["cells"][var]
-            s = _computed(c)
-            if pkey and row["paper_case"] is not None:
-                s += f" / {fmt(c.paper)}"
-                if math.isfinite(c.rel):
-                    s += f" ({_pct(c.rel)})"
-            cells.append(s)
-        lines.append("| " + " | ".join(cells) + " |")
+             *md_table(heads, cells)]
     lines += ["", f"## Results stated in the text — computed vs {PAPER_LABEL}", "",
               results_markdown(ctx)]
     return "\n".join(lines) + "\n"
@@ -358,13 +381,13 @@ def table2_dataset(ctx: ReportContext):
                              "model": _departures_text(ctx)})
 
 
+_RESULT_HEADS = ["quantity", "computed", "paper", "difference", "unit", "how computed"]
+_RESULT_KEYS = ("quantity", "computed", "paper", "difference", "unit", "how")
+
+
 def results_markdown(ctx: ReportContext) -> str:
-    lines = ["| quantity | computed | paper | difference | unit | how computed |",
-             "|---|---|---|---|---|---|"]
-    for r in scalar_results(ctx):
-        lines.append(f"| {r['quantity']} | {r['computed']} | {r['paper']} | {r['difference']} | "
-                     f"{r['unit']} | {r['how']} |")
-    return "\n".join(lines)
+    return "\n".join(md_table(_RESULT_HEADS, [[r[k] for k in _RESULT_KEYS]
+                                              for r in scalar_results(ctx)]))
 
 
 def _no_result_html(row: dict, span: int, no_saltation: str, out: list[str]) -> bool:
@@ -396,7 +419,7 @@ def table2_html(ctx: ReportContext) -> str:
         own = "<span class='se'> (own case)</span>" \
             if row["paper_case"] is None and row["status"] == "ok" else ""
         out.append(f"<tr><td class='run'>{e(row['name'])}{own}</td>")
-        if _no_result_html(row, 3 * len(cols), _no_saltation_text(row), out):
+        if _no_result_html(row, 3 * len(cols), f"{NO_SALTATION}: {row['saltation'].reason}", out):
             continue
         for var, _, _, _ in cols:
             c = row["cells"][var]
@@ -422,12 +445,5 @@ def table2_html(ctx: ReportContext) -> str:
 
 
 def results_html(ctx: ReportContext) -> str:
-    e = html.escape
-    out = ["<table><thead><tr><th>quantity</th><th>computed</th><th class='ref'>paper</th>"
-           "<th>difference</th><th>unit</th><th>how computed</th></tr></thead><tbody>"]
-    for r in scalar_results(ctx):
-        out.append(f"<tr><td>{e(r['quantity'])}</td><td>{e(r['computed'])}</td>"
-                   f"<td class='ref'>{e(r['paper'])}</td><td>{e(r['difference'])}</td>"
-                   f"<td>{e(r['unit'])}</td><td class='how'>{e(r['how'])}</td></tr>")
-    out.append("</tbody></table>")
-    return "".join(out)
+    return html_table(_RESULT_HEADS, [[r[k] for k in _RESULT_KEYS] for r in scalar_results(ctx)],
+                      lambda i, j: {2: "ref", 5: "how" if i >= 0 else ""}.get(j, ""))
