@@ -13,9 +13,11 @@ from typing import Any
 from .data import ReportContext, case_number_of, load_runs
 from .figures import CAPTIONS, error_figure, make_figures
 from .reference import PAPER_LABEL
-from .tables import results_html, table2_html, table2_markdown
+from .plotting import save_figure
 from .saltation import NO_SALTATION
-from .summary import build_summary, finish_wall_time, run_key, write_summary
+from .summary import build_summary, finish_wall_time, run_key
+from .tables import (figure_html, html_table, results_html, table2_html, table2_markdown,
+                     write_json)
 
 __all__ = ["build_report"]
 
@@ -78,12 +80,9 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     for name, res in results.items():
         fig_notes[name] = res.notes
         try:
-            for ext in formats:
-                res.fig.savefig(report_dir / f"{name}.{ext}", dpi=dpi)
+            save_figure(res.fig, report_dir, name, dpi, formats)
         except Exception as exc:  # a figure that cannot be rendered is replaced by its error
-            fail = error_figure(name, exc)
-            for ext in formats:
-                fail.savefig(report_dir / f"{name}.{ext}", dpi=dpi)
+            save_figure(error_figure(name, exc), report_dir, name, dpi, formats)
             fig_notes[name] = res.notes + [f"error: {type(exc).__name__}: {exc}"]
 
     # ---- tables, summary ----------------------------------------------------------------------
@@ -107,8 +106,8 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                         "<p>Relative difference of each statistic from the reference rung and error "
                         "against the paper, versus the wall-clock time of the run (spin-up + saltation). Reference "
                         f"rung: <b>{html.escape(str(conv['result'].finest))}</b> (the study's "
-                        "<code>reference</code> fidelity, else the finest rung).</p><figure><a href='convergence.pdf'><img src='convergence.png' "
-                        "alt='error against run time'></a></figure>" + conv["html"])
+                        "<code>reference</code> fidelity, else the finest rung).</p>"
+                        + figure_html("convergence", "error against run time") + conv["html"])
     if "stability" in wanted or meta.get("failures") or meta.get("has_scenes") \
             or (_has_scenes(ctx) and not _is_ladder(ctx)):
         from .stability import build_stability_report
@@ -148,7 +147,7 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                            "; written by hand from this report's numbers.</p><pre class='findings'>"
                            + html.escape(findings.read_text(encoding="utf-8")) + "</pre>")
     finish_wall_time(summary, meta, report_dir / "summary.json")
-    write_summary(ctx, report_dir / "summary.json", summary)
+    write_json(report_dir / "summary.json", summary)
     index.write_text(_index(ctx, summary, fig_notes, t2, rs, sections, anim_html), encoding="utf-8")
     return index
 
@@ -261,18 +260,16 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
     if anim_html:
         parts.append(anim_html)
     parts.append("<h2 id='runs'>Runs and wall time</h2><p>Solver time per run: its spin-up + its "
-                 "saltation run (a spin-up shared by several runs appears in each of them).</p>"
-                 "<table><thead><tr><th>run</th><th>case</th>"
-                 "<th>fidelity</th><th>status</th><th>solver time</th><th>archive</th></tr></thead><tbody>")
+                 "saltation run (a spin-up shared by several runs appears in each of them).</p>")
+    cells, bad = [], []
     for r in ctx.runs.values():
         salt = (summary.get("cases", {}).get(run_key(r), {}) or {}).get("saltation") or {}
         status = r.status + (f", {salt['status']}" if r.ok and salt.get("status") == NO_SALTATION else "")
-        parts.append(f"<tr><td>{e(r.label)}</td><td>{'' if r.case is None else r.case}</td>"
-                     f"<td>{e(str(r.fidelity or '—'))}</td>"
-                     f"<td class='{'' if r.ok and status == r.status else 'bad'}'>{e(status)}</td>"
-                     f"<td>{_fmt_s(r.wall_time_s)}</td>"
-                     f"<td style='text-align:left'>{e(str(r.path) if r.path else '—')}</td></tr>")
-    parts.append("</tbody></table>")
+        cells.append([r.label, "" if r.case is None else str(r.case), str(r.fidelity or "—"), status,
+                      _fmt_s(r.wall_time_s), str(r.path) if r.path else "—"])
+        bad.append(not r.ok or status != r.status)
+    parts.append(html_table(["run", "case", "fidelity", "status", "solver time", "archive"], cells,
+                            lambda i, j: "bad" if i >= 0 and j == 3 and bad[i] else ""))
     cfg = _study_config(meta)
     parts.append("<h2 id='config'>Study configuration</h2>")
     parts.append(f"<pre>{e(json.dumps(cfg, indent=2) if not isinstance(cfg, str) else cfg)}</pre>"

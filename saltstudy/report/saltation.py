@@ -109,12 +109,7 @@ class SaltationState:
     n_parcels_end: float = math.nan        # last record of the run [1]
 
     def to_json(self) -> dict:
-        d = asdict(self)
-        for k, v in d.items():
-            if isinstance(v, float) and not math.isfinite(v):
-                d[k] = None
-        d["units"] = dict(STATE_UNITS)
-        return d
+        return {**asdict(self), "units": dict(STATE_UNITS)}
 
 
 def _g(v: float) -> str:
