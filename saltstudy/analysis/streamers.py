@@ -6,57 +6,44 @@ correlation and spectrum is an FFT on the full domain of each plane's deviation 
 
 Parcel-count noise (beyond the paper)
     A column of area ``A = dx dy`` holds ``N = C_p A / w`` parcels of ``w`` grains (samples.nc
-    ``Q``: the case's Q times ``q_multiplier``), Poisson given the pattern: white noise of
-    variance ``s^2 = mean(C_p) w / A`` (:func:`poisson_noise_variance`), ``s^2`` in every non-zero
-    2-D mode and a floor ``s^2 dy`` per two-sided mode of the spanwise spectrum. It is not
-    estimated from the high-wavenumber band: streamers 2.5-6 cells wide put real power there.
-    The paper's estimate carried its own parcels' noise (the case's Q on 0.1 m columns, ~20
-    parcels per column in case 2), ``s_paper^2 = mean(C_p) Q / A_paper``. **lambda_x, lambda_y,
-    S_c and R_cu carry the paper's noise level**: ``s^2 - s_paper^2`` is removed from each plane,
-    so parcel weight and column size are pure cost knobs. Beside them: ``*_noise_free`` (all of
-    ``s^2`` removed), ``*_raw`` (none) and ``*_paper_count`` (:func:`count_noise_variance`: the
-    noise of the paper's 2,000 parcels per m2, [28]). Parcels ejected together travel together,
-    raising the count variance at the clusters' scale by a factor F that the counts cannot tell
-    from a 2-4 cell pattern; F = 1 is removed. ``C_p_small_scale_over_poisson``
-    (:func:`small_scale_power` over ``s^2``, wavelengths under 4 cells both ways) bounds F from
-    above: 1.5-1.7 in the reduced study, 1.9-2.5 on the smoke study's tiny grid.
+    ``Q``), Poisson given the pattern: white noise of variance ``s^2 = mean(C_p) w / A``
+    (:func:`poisson_noise_variance`), ``s^2`` in every non-zero 2-D mode; not estimated from the
+    high wavenumbers, where streamers 2.5-6 cells wide put real power. The paper's estimate
+    carried its own parcels' noise, ``s_paper^2 = mean(C_p) Q / A_paper`` (~20 parcels per 0.1 m
+    column in case 2). **lambda_x, lambda_y, S_c and R_cu carry the paper's noise level**:
+    ``s^2 - s_paper^2`` is removed from each plane, so parcel weight and column size are pure cost
+    knobs. Beside them: ``*_noise_free`` (all of ``s^2`` removed), ``*_raw`` (none) and
+    ``*_paper_count`` (:func:`count_noise_variance`: the paper's 2,000 parcels per m2, [28]).
+    Parcels ejected together raise the variance at 2-4 cells by a factor F the counts cannot
+    tell from a pattern; ``C_p_small_scale_over_poisson`` (:func:`small_scale_power` over
+    ``s^2``) bounds F from above: 1.5-1.7 in the reduced study, 1.9-2.5 in the smoke study.
 
 lambda_x, lambda_y (section 4.1 [46], Table 2)
-    Twice the first lag at which the time-averaged spatial autocorrelation drops below 0.4
-    (:func:`autocorrelation_2d`, :func:`core_length`; linear interpolation; NaN if it stays
-    above to half the domain). The autocovariance is averaged over the planes after the noise
-    and normalised by its zero lag (a plane's corrected variance is a small difference at ~1
-    parcel per column).
+    Twice the first lag at which the spatial autocorrelation drops below 0.4 (:func:`core_length`;
+    NaN if it stays above): the autocovariance after the noise is averaged over the planes, then
+    normalised (a plane's corrected variance is a small difference at ~1 parcel per column).
 
 delta_y (section 4.1 [46], [49], Fig. 10; which reading and why: docs/STREAMERS.md)
-    The spanwise spectrum (the 2-D one averaged over kx), a one-sided density in ky [cycles m-1],
-    with ``N_BLOCKS`` contiguous time blocks for its error (:func:`spanwise_spectrum_blocks`),
-    read three ways by :func:`spanwise_spacing`. A spectral peak (:func:`_prominent_maximum`) is
+    The spanwise spectrum with ``N_BLOCKS`` contiguous time blocks for its error
+    (:func:`spanwise_spectrum_blocks`), read three ways by :func:`spanwise_spacing`. A peak is
     an interior local maximum (modes ``2 <= m < M``) standing ``PEAK_N_SE`` standard errors above
-    its base, the higher of its two valley floors (topographic prominence); the relative block
-    variance is pooled over ``PEAK_POOL_MODES`` modes either side (a periodogram scatters in
-    proportion to its mean), errors of the raw spectrum. Under ``MIN_BLOCKS`` blocks a peak must
-    stand ``PEAK_FALLBACK_MARGIN`` above its base. The highest accepted peak wins, refined by a
-    parabola. Measured on Poisson parcel counts:
+    its base, the higher of its two valley floors; the relative block variance is pooled over
+    ``PEAK_POOL_MODES`` modes either side; under ``MIN_BLOCKS`` blocks a peak must stand
+    ``PEAK_FALLBACK_MARGIN`` above its base. Measured on Poisson parcel counts (64 x 48 to
+    64 x 150 columns, 20-300 planes, 1.25-20 parcels per column):
 
-    * density reading, PEAK_N_SE = 4.5: a false peak in 1 record of 400 (64 x 48 columns, 20 or
-      300 planes, 1.25 or 20 parcels per column); a lattice of streaks 2.5-6 cells apart (64 x
-      60, intensity s.d. 11 % of the mean, 1.25 parcels per column, 100 planes) found in 34 of
-      40 (4.0 standard errors: 10 false peaks in 400; 5.0: 25 of 40 found);
-    * false peaks on pure noise: premultiplied none of 1200 (64 x 48; 20, 100, 300 planes) and
-      none of 400 (64 x 150); density 8 of 1200 and 6 of 400. A faint lattice (3-6 cells, s.d.
-      5 %, 64 x 60, 100 planes, 1.25 parcels per column) is found in 72 of 80 by the density
-      and 26 of 80 by the premultiplied reading (white noise rises as ky there);
-    * correlation minimum (errors pooled over ``PEAK_POOL_MODES`` lags): false in none of 1200
-      and 1 of 400 (one lag's own 7 degrees of freedom would let 3 and 4 pass); the faint
-      lattice in 1 of 80: the least sensitive reading.
+    * false peaks on pure noise: premultiplied 0 of 1600, density 14 of 1600 (at 4.0 standard
+      errors 10 in 400), correlation 1 of 1600;
+    * a lattice of streaks 2.5-6 cells apart (s.d. 11 % of the mean) found by the density in
+      34 of 40 (25 of 40 at 5.0 standard errors); a faint one (3-6 cells, s.d. 5 %) by the
+      density in 72 of 80, the premultiplied reading in 26 of 80, the correlation in 1 of 80.
 
 Streamer lifetime and speed (beyond the paper; Baas and Sherman 2005, quoted in [46]: 0.5-1 s,
 3.6 m s-1)
-    :func:`space_time_correlation`: the peak ``R*(tau)`` over spatial lags of the correlation of
-    ``C_p'(t)`` with ``C_p'(t + tau)`` and its position ``(X*, Y*)``. ``streamer_speed``: the
-    slope through the origin of X* against tau over the lags with ``R* >= 1/e``;
-    ``streamer_lifetime``: the lag where R* first drops below 1/e (interpolated).
+    From the peak ``R*(tau)`` over spatial lags of corr(C_p'(t), C_p'(t + tau)) at ``(X*, Y*)``
+    (:func:`space_time_correlation`): ``streamer_speed`` the slope through the origin of X*
+    against tau over the lags with ``R* >= 1/e``, ``streamer_lifetime`` the lag where R* first
+    drops below 1/e (interpolated).
 """
 from __future__ import annotations
 

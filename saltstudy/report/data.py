@@ -8,41 +8,16 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from ..ncio import open_dataset
 
-__all__ = ["RunData", "ReportContext", "load_runs", "to_si", "case_number_of",
-           "is_plain_case_label", "paper_case_of"]
-
-# non-SI units an archive might carry -> (factor to SI, SI unit)
-_TO_SI = {"um": (1e-6, "m"), "µm": (1e-6, "m"), "micron": (1e-6, "m"), "mm": (1e-3, "m"),
-          "cm": (1e-2, "m"), "km": (1e3, "m"), "min": (60.0, "s"), "h": (3600.0, "s"),
-          "ms": (1e-3, "s"), "g m-1 s-1": (1e-3, "kg m-1 s-1"), "%": (1e-2, "1"),
-          "percent": (1e-2, "1"), "-": (1.0, "1"), "": (1.0, "1"), "m/s": (1.0, "m s-1"),
-          "1": (1.0, "1")}
+__all__ = ["RunData", "ReportContext", "load_runs", "case_number_of", "paper_case_of"]
 
 _CASE_RE = re.compile(r"^case(\d+)(?:@(.+))?$")
-
-
-def to_si(value: float, units: str | None) -> tuple[float, str]:
-    """Convert ``value`` in ``units`` to SI (a small table of the units an archive may use)."""
-    if units is None:
-        return value, "1"
-    u = units.strip()
-    if u in _TO_SI:
-        f, si = _TO_SI[u]
-        return value * f, si
-    return value, u
-
-
-def is_plain_case_label(label: str) -> bool:
-    """``caseNN``: a case of Table 2 run as is (not a ladder rung, not a scene)."""
-    m = _CASE_RE.match(label)
-    return bool(m) and m.group(2) is None
 
 
 def case_number_of(label: str) -> int | None:
@@ -116,7 +91,9 @@ class RunData:
 
     @property
     def plain_case(self) -> bool:
-        return is_plain_case_label(self.label)
+        """``caseNN``: a case of Table 2 run as is (not a ladder rung, not a scene)."""
+        m = _CASE_RE.match(self.label)
+        return bool(m) and m.group(2) is None
 
     @property
     def paper_case(self) -> int | None:
@@ -129,19 +106,10 @@ class RunData:
                 return n
         return case_number_of(self.label)
 
-    # -- access ------------------------------------------------------------------------------
     def scalar(self, name: str) -> float:
-        """A 0-d variable in SI units; NaN if absent or the run is missing."""
-        if self.ds is None or name not in self.ds.variables:
-            return math.nan
-        v = self.ds[name]
-        if v.ndim != 0:
-            return math.nan
-        try:
-            val = float(v.values)
-        except (TypeError, ValueError):
-            return math.nan
-        return to_si(val, v.attrs.get("units"))[0]
+        """A 0-d variable (SI units, as every analysis.nc); NaN if absent or the run is missing."""
+        v = self.var(name)
+        return float(v.values) if v is not None and v.ndim == 0 else math.nan
 
     def attr(self, name: str, default: float = math.nan) -> float:
         if self.ds is None:
@@ -232,9 +200,6 @@ class ReportContext:
         the study holds no run of case ``n``."""
         r = self.by_case(n)
         return f"case {n}: {r.status}" if r is not None and not r.ok else None
-
-    def present(self, cases: Iterable[int]) -> list[RunData]:
-        return [r for r in map(self.by_case, cases) if r is not None and r.ok]
 
     def scatter_runs(self) -> list[RunData]:
         """Runs for the scatter figures (3, 4, 8, 13): every case (one per number) plus any

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..analysis.schema import SPEC
-from .data import ReportContext, RunData, to_si
+from .data import ReportContext, RunData
 from .saltation import n_parcels_per_m2_at_Q, saltation_state
 
 __all__ = ["machine_info", "run_scalars", "build_summary", "run_key", "task_times",
@@ -40,7 +40,8 @@ def machine_info() -> dict[str, Any]:
 
 
 def run_scalars(run: RunData) -> tuple[dict[str, float], dict[str, str]]:
-    """All 0-d numeric variables of the archive in SI units, and their units."""
+    """All 0-d numeric variables of the archive (SI units, as every analysis.nc), and their
+    units."""
     vals: dict[str, float] = {}
     units: dict[str, str] = {}
     if run.ds is None:
@@ -48,10 +49,8 @@ def run_scalars(run: RunData) -> tuple[dict[str, float], dict[str, str]]:
     for name, var in run.ds.data_vars.items():
         if var.ndim != 0 or var.dtype.kind not in "fiub":
             continue
-        spec_units = SPEC.get(str(name), ("1", ""))[0]
-        v, u = to_si(float(var.values), var.attrs.get("units", spec_units))
-        vals[str(name)] = v
-        units[str(name)] = u or spec_units
+        vals[str(name)] = float(var.values)
+        units[str(name)] = var.attrs.get("units") or SPEC.get(str(name), ("1", ""))[0]
     return vals, units
 
 
