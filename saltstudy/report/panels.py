@@ -1,10 +1,8 @@
-"""Which run fills each place of a per-case figure: the paper's case, or the study's nearest one.
-
-Figs. 6, 7, 10, 11 and 12 hold a panel of cases 1–6 (u*s varies, µ1 = 200 µm) and one of cases
-2, 7–10 (µ1 varies); Figs. 2, 5 and 9 look for their cases by u*s at the case's µ1.
-:func:`panel_runs` gives each place the study's own run of that case when it has usable data,
-else the nearest run along the figure's parameter, labelled with the case it stands in for
-(:meth:`PanelRun.stand_in`), else nothing (no empty frame).
+"""Which run fills each place of a per-case figure (:func:`panel_runs`): the study's own run of
+the paper's case when it has usable data, else the nearest run along the figure's parameter,
+labelled with the case it stands in for (:meth:`PanelRun.stand_in`), else nothing (no empty
+frame). Figs. 6, 7, 10, 11 and 12 hold a panel of cases 1–6 (u*s varies, µ1 = 200 µm) and one of
+cases 2, 7–10 (µ1 varies, :func:`wind_and_soil`); Figs. 2, 5 and 9 look for their cases by u*s.
 
 **Who may stand in.** One run per case number (``by_case``'s) and every run without one, each at
 most once per figure, and only if it holds the parameter the figure keeps fixed within
@@ -26,10 +24,10 @@ from dataclasses import dataclass
 from typing import Callable, Iterable, Sequence
 
 from .data import ReportContext, RunData
-from .reference import paper_table2
+from .reference import CASES_SOIL, CASES_WIND, paper_table2
 
 __all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "paper_parameters",
-           "nearest_runs", "panel_runs"]
+           "nearest_runs", "panel_runs", "wind_and_soil"]
 
 #: the figure varies u*s (Fig. 9 rows, panels (a) of Figs. 6, 7, 10–12)
 BY_U_STAR_S = "u*s"
@@ -158,3 +156,11 @@ def panel_runs(ctx: ReportContext, slots: Sequence[int], by: str,
     open_slots = [n for n in slots if n not in own]
     chosen = {**own, **nearest_runs(open_slots, cands, by)}
     return Panel([PanelRun(n, chosen[n], by, n not in own) for n in slots if n in chosen], notes)
+
+
+def wind_and_soil(ctx: ReportContext, usable: Callable[[RunData], str | None]
+                  ) -> list[tuple[Panel, tuple[int, ...], bool, str]]:
+    """[(panel, its paper cases, whether µ1 varies, its name)] of the two panels of Figs. 6, 7,
+    10, 11 and 12."""
+    return [(panel_runs(ctx, CASES_WIND, BY_U_STAR_S, usable), CASES_WIND, False, "cases 1–6"),
+            (panel_runs(ctx, CASES_SOIL, BY_MU1, usable), CASES_SOIL, True, "cases 2, 7–10")]

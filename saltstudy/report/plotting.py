@@ -124,10 +124,14 @@ def add_notes(ax, notes: list[str], loc: str = "lower right") -> None:
             color="firebrick", bbox=dict(boxstyle="round", fc="white", ec="firebrick", alpha=0.85))
 
 
-def nothing_to_draw(fig: Figure, message: str) -> None:
-    """A figure none of whose places the study can fill says why in words, without a frame."""
-    fig.text(0.5, 0.5, message, ha="center", va="center", fontsize=11, color="firebrick",
-             wrap=True)
+def nothing_to_draw(res: FigureResult, message: str) -> FigureResult:
+    """A figure none of whose places the study can fill says why in words (and its notes),
+    without a frame."""
+    for ax in list(res.fig.axes):
+        ax.remove()
+    res.fig.text(0.5, 0.5, "\n".join([message] + res.notes), ha="center", va="center",
+                 fontsize=11, color="firebrick", wrap=True)
+    return res
 
 
 def lacks(*names: str) -> Callable[[RunData], str | None]:

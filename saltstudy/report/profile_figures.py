@@ -10,10 +10,10 @@ import numpy as np
 from matplotlib import colormaps
 
 from .data import ReportContext, RunData, profile
-from .panels import BY_MU1, BY_U_STAR_S, panel_runs
+from .panels import BY_U_STAR_S, panel_runs, wind_and_soil
 from .plotting import (FigureResult, add_legend, add_notes, case_color, case_label, fmt_um,
                        has_stress_u_star, new_figure, nothing_to_draw, plain_log, u_star_stress)
-from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_results
+from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
 
 __all__ = ["fig02", "fig05", "fig06", "fig07", "fig11", "fig12", "FIG2_PROFILES", "FIG5_PANELS"]
 
@@ -40,14 +40,10 @@ def fig02(ctx: ReportContext) -> FigureResult:
 
     panel = panel_runs(ctx, (2,), BY_U_STAR_S, usable)
     fig, axes = new_figure(2, 1, size=(10, 4.8), sharey=True)
-    res = FigureResult(fig)
-    res.notes.extend(panel.notes)
+    res = FigureResult(fig, notes=list(panel.notes))
     if not panel.runs:
-        for ax in axes.ravel():
-            ax.remove()
-        nothing_to_draw(fig, "Fig. 2: no run of this study at µ1 = 200 µm has wind or stress "
-                              "profiles" + ("\n" + "\n".join(panel.notes) if panel.notes else ""))
-        return res
+        return nothing_to_draw(res, "Fig. 2: no run of this study at µ1 = 200 µm has wind or "
+                                    "stress profiles")
     place = panel.runs[0]
     r = place.run
     ax_u, ax_f = axes[0]
@@ -129,16 +125,12 @@ def fig05(ctx: ReportContext) -> FigureResult:
     chosen = {place.paper_case: place for place in panel.runs}
     drawn = [(letter, um, chosen[n]) for letter, um, n in FIG5_PANELS if n in chosen]
     fig, axes = new_figure(max(1, len(drawn)), 1, size=(max(6.0, 0.5 + 4.2 * len(drawn)), 4.8))
-    res = FigureResult(fig)
-    res.notes.extend(panel.notes)
+    res = FigureResult(fig, notes=list(panel.notes))
     fig.suptitle("Fig. 5 — grain-size distribution in the saltation layer (by height band)"
                  + ("\n" if len(drawn) < 3 else " ") + "vs the bed")
     if not drawn:
-        axes[0, 0].remove()
-        nothing_to_draw(fig, "no run of this study at µ1 = 90, 200 or 400 µm (±10 %) has size "
-                              "distributions in the air and the bed"
-                         + ("\n" + "\n".join(panel.notes) if panel.notes else ""))
-        return res
+        return nothing_to_draw(res, "no run of this study at µ1 = 90, 200 or 400 µm (±10 %) has "
+                                    "size distributions in the air and the bed")
     for ax, (letter, um, place) in zip(axes[0], drawn):
         r = place.run
         title = f"({letter}) µ1 = {um} µm: {case_label(r)}"
@@ -206,22 +198,16 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
             return "z_m undefined (no saltation?)"
         return needs(r) if needs is not None else None
 
-    groups = []
-    for cases, by, soil, ptitle in ((CASES_WIND, BY_U_STAR_S, False, "(a) cases 1–6: various u*s"),
-                                    (CASES_SOIL, BY_MU1, True, "(b) cases 2, 7–10: various µ1")):
-        groups.append((panel_runs(ctx, cases, by, usable), soil, ptitle))
+    groups = wind_and_soil(ctx, usable)
     drawn = [g for g in groups if g[0].runs]
     fig, axes = new_figure(max(1, len(drawn)), 1, size=(5.5 * max(1, len(drawn)), 5.0), sharey=True)
-    res = FigureResult(fig)
+    res = FigureResult(fig, notes=[n for g in groups for n in g[0].notes])
     fig.suptitle(title)
-    for panel, _, _ in groups:
-        res.notes.extend(panel.notes)
     if not drawn:
-        axes[0, 0].remove()
-        nothing_to_draw(fig, f"no run of this study has {var} against z/z_m")
-        return res
-    for ax, (panel, soil, ptitle) in zip(axes[0], drawn):
-        prefix = ptitle[:3]
+        return nothing_to_draw(res, f"no run of this study has {var} against z/z_m")
+    for ax, (panel, _, soil, name) in zip(axes[0], drawn):
+        prefix = "(b)" if soil else "(a)"
+        ptitle = f"{prefix} {name}: various {'µ1' if soil else 'u*s'}"
         gap_notes: list[str] = []
         for place in panel.runs:
             r = place.run

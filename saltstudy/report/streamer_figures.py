@@ -9,10 +9,10 @@ import math
 import numpy as np
 
 from .data import ReportContext
-from .panels import BY_MU1, BY_U_STAR_S, panel_runs
+from .panels import BY_U_STAR_S, panel_runs, wind_and_soil
 from .plotting import (FigureResult, add_legend, add_notes, case_color, case_label, lacks,
                        new_figure, nothing_to_draw, plain_log)
-from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_table2
+from .reference import PAPER_COLOR, PAPER_LABEL, paper_table2
 
 __all__ = ["fig09", "fig10", "FIG9_CASES", "premultiplied_over_variance"]
 
@@ -29,14 +29,10 @@ def fig09(ctx: ReportContext) -> FigureResult:
     w = 11.0
     h = len(rows) * (w / 2) * (ly / lx) * 0.95 + 1.0
     fig, axes = new_figure(2, max(1, len(rows)), size=(w, min(max(h, 3.5), 14.0)))
-    res = FigureResult(fig)
-    res.notes.extend(panel.notes)
+    res = FigureResult(fig, notes=list(panel.notes))
     fig.suptitle("Fig. 9 — snapshots: (a) C_p / C_pmax and (b) u / u_max at z = 0.1 m")
     if not rows:
-        for ax in axes.ravel():
-            ax.remove()
-        nothing_to_draw(fig, "no run of this study at µ1 = 200 µm has C_p and u snapshots")
-        return res
+        return nothing_to_draw(res, "no run of this study at µ1 = 200 µm has C_p and u snapshots")
     for row, place in enumerate(rows):
         r = place.run
         for col, (var, lab, cmap) in enumerate((("C_p_snapshot", r"$C_p / C_{p,max}$", "YlOrBr"),
@@ -100,21 +96,14 @@ def fig10(ctx: ReportContext) -> FigureResult:
     """ky S(ky) over the variance against log wavelength (area 1 against ln wavelength): top
     row cases 1–6, bottom row cases 2, 7–10, filled by ``panels.py``."""
     table = paper_table2()
-    groups = [(panel_runs(ctx, cases, by, lacks("S_c", "S_u")), cases, soil, rtitle)
-              for cases, by, soil, rtitle in ((CASES_WIND, BY_U_STAR_S, False, "cases 1–6"),
-                                              (CASES_SOIL, BY_MU1, True, "cases 2, 7–10"))]
+    groups = wind_and_soil(ctx, lacks("S_c", "S_u"))
     drawn = [g for g in groups if g[0].runs]
     fig, axes = new_figure(2, max(1, len(drawn)), size=(11, 0.5 + 4.0 * max(1, len(drawn))))
-    res = FigureResult(fig)
+    res = FigureResult(fig, notes=[n for g in groups for n in g[0].notes])
     fig.suptitle("Fig. 10 — premultiplied spanwise spectra of (a) C_p and (b) u at z = 0.1 m, "
                  "averaged in x and t")
-    for panel, _, _, _ in groups:
-        res.notes.extend(panel.notes)
     if not drawn:
-        for ax in axes.ravel():
-            ax.remove()
-        nothing_to_draw(fig, "no run of this study has spanwise spectra of C_p and u")
-        return res
+        return nothing_to_draw(res, "no run of this study has spanwise spectra of C_p and u")
     for row, (panel, cases, soil, rtitle) in enumerate(drawn):
         for col, (var, dvar, vlab) in enumerate((("S_c", "delta_y", "C_p"), ("S_u", "delta_y_u", "u"))):
             ax = axes[row, col]
