@@ -34,12 +34,9 @@ from . import (balance, correlation, flux, layer, profiles, series, sizes, stoke
                streamer_statistics, streamers)
 from .reading import (LAZY_VARIABLES, Rows, as_arrays, attr_float, frame_of, read_archive,
                       rescale_spinup_profiles)
-from .schema import (HALF_STATISTICS, MAX_LAG_S, REQUIRED_COORDS, REQUIRED_VARIABLES,
-                     SAMPLE_VARIABLES_USED, SPEC, U_PLANE_HEIGHT, Variables, to_dataset)
+from .schema import HALF_STATISTICS, SAMPLE_VARIABLES_USED, SPEC, Variables, to_dataset
 
-__all__ = ["analyse_case", "analyse_datasets", "half_window_statistics", "HALF_STATISTICS", "SPEC",
-           "REQUIRED_VARIABLES", "REQUIRED_COORDS", "MAX_LAG_S", "U_PLANE_HEIGHT",
-           "SAMPLE_VARIABLES_USED", "rescale_spinup_profiles"]
+__all__ = ["analyse_case", "analyse_datasets", "half_window_statistics"]
 
 log = logging.getLogger(__name__)
 

@@ -17,21 +17,18 @@ z_m (section 3.2 [37])
     in ``ln tau_p`` (tau_p decays exponentially; linearly if either value is not positive). NaN
     if tau_p is below the threshold at the lowest level or never drops below it.
 
-tau_p(0): the grain-borne share of the momentum flux at the bed (section 3.2 [40], Fig. 6)
-    The paper: "At the surface, tau_p increases with u*s, to reach about 50% of the above flow
-    momentum flux in case 6" (Fig. 6: tau_p / (rho u*s^2), lowest point its 0-1 cm cell; u*s
-    the stress at 2 m, [33]). A layer mean depends on the layer's thickness where the profile
-    is steep, so ``tau_p_bed`` (:func:`bed_value`) is ``A`` of the exponential ``A exp(-z/H)``
-    (after Owen 1964) whose exact *layer means* fit eq. 10's values over the layers with their
-    top at or below ``BED_FIT_FRACTION`` z_m (about 1.5 e-folding heights, the same depth of air
-    on any grid; at least two layers). A profile steeper near the bed than the fit reads low,
-    but alike on a 1 cm and a 2 cm first level (within ~3 % for two-exponential profiles with a
-    5-20 mm near-bed part, where the lowest layer means differ by 15-20 %).
+tau_p(0): the grain-borne share of the momentum flux at the bed (section 3.2 [40], Fig. 6: "about
+50% of the above flow momentum flux in case 6", its lowest point the 0-1 cm cell)
+    A layer mean depends on the layer's thickness where the profile is steep, so ``tau_p_bed``
+    (:func:`bed_value`) is ``A`` of the exponential ``A exp(-z/H)`` (after Owen 1964) whose exact
+    *layer means* fit eq. 10's over the layers with their top at or below ``BED_FIT_FRACTION`` z_m
+    (~1.5 e-folding heights on any grid; at least two layers): within ~3 % on a 1 cm and a 2 cm
+    first level for two-exponential profiles whose lowest layer means differ by 15-20 %.
     ``tau_p_surface_fraction = tau_p_bed / (rho u*^2)``, u* the stress at the reference height
     (carried to the bed for the pressure-gradient drive); ``tau_p_paper_cell_fraction``: the
-    fit's mean over the paper's 0-1 cm cell (0.87 of the bed value at H = 3.5 cm). Without a
-    profile shape (:func:`budget_bed_fraction`): in a steady, uniform layer the total stress is
-    the same at every height, so ``tau_p(0) / tau_total = 1 - tau_air(0) / tau_total``.
+    fit's mean over the paper's 0-1 cm cell. By the budget (:func:`budget_bed_fraction`): a steady
+    layer's total stress is the same at every height, so ``tau_p(0) / tau_total = 1 - tau_air(0) /
+    tau_total``.
 
 G, G_tot (eq. 11, section 3.2 [41]-[42])
     ``G(z) = <pmu>/(Lx Ly dz)`` [kg m-2 s-1]; ``G_tot = sum_k G_k dz_k`` [kg m-1 s-1];

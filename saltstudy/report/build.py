@@ -7,6 +7,7 @@ from __future__ import annotations
 import html
 import json
 import math
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -51,11 +52,8 @@ _SECTIONS = {"findings": "Findings", "convergence": "Convergence", "stability": 
 
 
 def _is_ladder(ctx: ReportContext) -> bool:
-    by_case: dict[int, int] = {}
-    for label, r in ctx.runs.items():
-        if "@" in label and case_number_of(label) is not None:
-            by_case[case_number_of(label)] = by_case.get(case_number_of(label), 0) + 1
-    return any(v >= 2 for v in by_case.values())
+    rungs = Counter(case_number_of(label) for label in ctx.runs if "@" in label)
+    return any(n >= 2 for case, n in rungs.items() if case is not None)
 
 
 def _has_scenes(ctx: ReportContext) -> bool:
@@ -117,7 +115,7 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
             provenance=provenance)
         sections.append("<h2 id='stability'>Stability of the scenes</h2>" + stab["html"])
 
-    law = _study_field(meta, "flux_law")
+    law = (meta.get("study_config") or {}).get("flux_law")
     if law:
         from .fluxlaw import build_fluxlaw_report
         fl = build_fluxlaw_report(ctx.runs, report_dir, law)
@@ -128,7 +126,8 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     if anim_label:
         from .animation import make_animation
         r = ctx.runs.get(anim_label)
-        sp = (meta.get("samples") or {}).get(anim_label) or _samples_attr(r)
+        sp = ((meta.get("samples") or {}).get(anim_label)
+              or (r.ds.attrs.get("samples_path") if r is not None and r.ok else None))
         gif = make_animation(report_dir / "cp_animation.gif", r.path if r else None, sp,
                              title=f"{anim_label}: C_p / C_p,max",
                              max_frames=int(meta.get("animation_frames", 30)))
@@ -150,31 +149,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     write_json(report_dir / "summary.json", summary)
     index.write_text(_index(ctx, summary, fig_notes, t2, rs, sections, anim_html), encoding="utf-8")
     return index
-
-
-def _study_config(meta: dict[str, Any]) -> Any:
-    """The study's configuration (``meta["study_config"]``: a dict, its JSON, or other text)."""
-    cfg = meta.get("study_config")
-    if isinstance(cfg, str):
-        try:
-            return json.loads(cfg)
-        except ValueError:
-            pass
-    return cfg
-
-
-def _study_field(meta: dict[str, Any], name: str) -> Any:
-    """A field of the study's configuration, None when it is not a dict."""
-    cfg = _study_config(meta)
-    return cfg.get(name) if isinstance(cfg, dict) else None
-
-
-def _samples_attr(run) -> str | None:
-    """The samples.nc the analysis recorded it was made from (attribute ``samples_path``)."""
-    if run is None or run.ds is None:
-        return None
-    p = run.ds.attrs.get("samples_path")
-    return str(p) if p and Path(str(p)).is_file() else None
 
 
 def _pick_animation(ctx: ReportContext) -> str | None:
@@ -226,16 +200,15 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              f"saltation intermittency</i>, J. Geophys. Res. Atmos. 118. Computed values are drawn in "
              f"colour; the paper's numbers, where it gives them, in grey and labelled "
              f"“{PAPER_LABEL}”. {n_ok} of {len(ctx.runs)} runs have an analysis archive.</p>",
-             "<table class='meta'>",
-             f"<tr><th>study</th><td>{e(ctx.study)}</td></tr>",
-             f"<tr><th>fidelity</th><td>{e(str(summary['fidelity']))}</td></tr>",
-             f"<tr><th>package version</th><td>{e(str(summary['package_version']))}</td></tr>",
-             f"<tr><th>wall time, start to end</th><td>{_fmt_s(summary['total_wall_time_s'])}"
-             f"{started}{_resumed_note(summary)}</td></tr>",
-             f"<tr><th>sum of task times</th><td>{_fmt_s(summary['task_time_sum_s'])} "
-             f"({split}; a shared spin-up counted once)</td></tr>",
-             f"<tr><th>machine</th><td>{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})</td></tr>",
-             "</table>",
+             "<table class='meta'>" + "".join(f"<tr><th>{k}</th><td>{v}</td></tr>" for k, v in (
+                 ("study", e(ctx.study)), ("fidelity", e(str(summary["fidelity"]))),
+                 ("package version", e(str(summary["package_version"]))),
+                 ("wall time, start to end", _fmt_s(summary["total_wall_time_s"]) + started
+                  + _resumed_note(summary)),
+                 ("sum of task times", f"{_fmt_s(summary['task_time_sum_s'])} ({split}; a shared "
+                                       "spin-up counted once)"),
+                 ("machine", f"{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})")))
+             + "</table>",
              "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
              "<a href='#runs'>Runs and wall time</a> · <a href='#config'>Configuration</a> · "
              "<a href='summary.json'>summary.json</a> · <a href='table2.md'>table2.md</a>"
@@ -270,10 +243,10 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
         bad.append(not r.ok or status != r.status)
     parts.append(html_table(["run", "case", "fidelity", "status", "solver time", "archive"], cells,
                             lambda i, j: "bad" if i >= 0 and j == 3 and bad[i] else ""))
-    cfg = _study_config(meta)
-    parts.append("<h2 id='config'>Study configuration</h2>")
-    parts.append(f"<pre>{e(json.dumps(cfg, indent=2) if not isinstance(cfg, str) else cfg)}</pre>"
-                 if cfg is not None else "<p>not provided</p>")
+    cfg = meta.get("study_config")
+    parts.append("<h2 id='config'>Study configuration</h2>"
+                 + (f"<pre>{e(json.dumps(cfg, indent=2))}</pre>" if cfg is not None else
+                    "<p>not provided</p>"))
     parts.append("<p style='font-size:.8em;color:#777'>Fig. 2: u_ref is ⟨u⟩ at 2 m as in the paper, or, "
                  "if the domain is too shallow, at half the undamped depth (where the solver holds u*); "
                  "the height used is drawn on the figure.</p>")
