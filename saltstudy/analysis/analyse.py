@@ -3,20 +3,10 @@
 :func:`analyse_case` (the workflow task, ``saltstudy analyse``) reads the archives only and
 writes atomically through :mod:`saltstudy.ncio`; degenerate input (no grains, one sample, tiny
 grids, missing optional variables) gives NaN, never an exception. :func:`analyse_datasets`
-runs the statistics in the order their coupled definitions need:
-
-1. the wind profiles and ``u*`` from the stress at ``z_ref_eff = min(forcing.z_ref,
-   (Lz - damping)/2)`` (``u_star_s_stress``; carried to the bed for the pressure-gradient drive);
-2. tau_p and ``z_m`` against ``rho u*^2`` with that stress ``u*``; the log-law fit over
-   ``[max(0.3 m, z_m), (Lz-damping)/2]`` then gives ``u_star_s, z0s``;
-3. ``tau_p`` at the bed from the exponential fitted to the layers below ``0.25 z_m``, over
-   ``rho u*^2`` with the stress ``u*`` of step 1 (``tau_p_surface_fraction``, flux module), and
-   the momentum balance at the bed from the air's budget;
-4. the particle-free spin-up's profiles and fit;
-5. the mass flux and sigma_G; the size distributions and the Stokes numbers;
-6. the streamers, then R_cu, which removes the same parcel-count noise;
-7. the series; the layer's anatomy, the balance at the bed from the impact record (set beside
-   the air's of step 3) and the impact record.
+runs the statistics in the order their coupled definitions need: the stress ``u*`` at
+``z_ref_eff`` first, z_m against ``rho u*^2`` with it, the log-law fit above z_m, tau_p at the
+bed and the air's budget at the bed with the same ``u*``; the streamers before R_cu, which
+removes the same parcel-count noise; the air's balance at the bed before the impact record's.
 """
 from __future__ import annotations
 

@@ -5,17 +5,15 @@ the air, tau_g(0), and takes from it the vertical momentum that carries their we
 the small part the air's drag carries). Their ratio is the bed friction coefficient
 mu_b = tau_g(0) / (M g) (Bagnold 1956; Pähtz & Durán 2018, Phys. Rev. Fluids 3, 104302).
 
-* From the impact record (``bed_px``, ``bed_pz`` of samples.nc: the cumulative streamwise momentum
-  the grains gave the bed, impacts minus launches, and the vertical momentum the bed gave them,
-  splash_kernels ``EN_*``): over the sampling window, tau_g(0) = d(bed_px) / (A dt),
-  F_z = d(bed_pz) / (A dt) and mu_b = d(bed_px) / d(bed_pz); its error from the scatter of the
-  same ratio over contiguous blocks of the window.
+* From the impact record (samples.nc's cumulative ``bed_px``, streamwise momentum the grains gave
+  the bed, impacts minus launches, and ``bed_pz``, vertical momentum the bed gave them): over the
+  sampling window tau_g(0) = d(bed_px) / (A dt), mu_b = d(bed_px) / d(bed_pz); its error from
+  contiguous blocks of the window.
 * From the air's budget: tau_g(0) = rho (u*^2 - tau_air(0) - dP/dt), the total stress at the
-  reference height less the bulk law's stress on the bed and less the rate at which the air below
-  the reference height gains streamwise momentum, P = int_0^z_ref <u> dz (zero in a steady layer;
-  over a 30 s window of a small box it is not, and it is measured from the 3-D samples' mean
-  profiles: ``column_momentum_rate``); M the airborne mass of the 3-D samples:
-  mu_b = tau_g(0) / (M g); its error from the scatter of the per-sample values.
+  reference height less the bulk law's on the bed and less the air's gain of momentum below
+  it, P = int_0^z_ref <u> dz (zero in a steady layer, not over a 30 s window of a small box:
+  ``column_momentum_rate``); mu_b = tau_g(0) / (M g), M the airborne mass of the 3-D samples;
+  its error from the per-sample values.
 
 In a steady layer that leaks no momentum the two tau_g(0) agree, and so do the two mu_b within
 the air's share of the weight; the count of grains then follows the fluid stress left on the bed:

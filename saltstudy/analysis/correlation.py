@@ -1,23 +1,17 @@
 """Correlation between the grain concentration C_p and the streamwise wind u (paper eq. 12).
 
 R_cu(z) (section 4.2 [50], Fig. 11)
-    ``R_cu(z) = <C_p' u'(z)> / (sqrt<C_p'^2> sqrt<u'(z)^2>)`` with ``<>`` the average over x, y and
-    the 3-D sample times and the primes deviations from that time-space mean (section 2.4 [29]).
-    C_p is ``C_p_s(time, x, y)`` (C_p at the 3-D sample times), u the cell-centred
-    ``u(time, x, y, z)``. Accumulated sample by sample (float64) so the 3-D field is never
-    copied. NaN at levels where either variance vanishes.
-    ``noise``: a white-noise variance of C_p to take out of ``<C_p'^2>`` (the Poisson
-    parcel-count noise of the run beyond the paper's own, :mod:`saltstudy.analysis.streamers`):
-    it is uncorrelated with u, so it lowers |R_cu| by sqrt(1 - noise/<C_p'^2>) and nothing
-    else.
-``R_cu_upper``
-    The mean of R_cu over the levels with ``0.6 z_m <= z <= z_m`` (the upper saltation layer,
-    where the paper finds a constant value).
+    ``R_cu(z) = <C_p' u'(z)> / (sqrt<C_p'^2> sqrt<u'(z)^2>)``, ``<>`` the average over x, y and
+    the 3-D sample times (section 2.4 [29]), C_p the samples' ``C_p_s``, u the cell-centred ``u``;
+    accumulated sample by sample so the 3-D field is never copied; NaN where a variance vanishes.
+    ``noise``: the white parcel-count noise of the run beyond the paper's
+    (:mod:`saltstudy.analysis.streamers`), taken out of ``<C_p'^2>``: uncorrelated with u, it
+    lowers |R_cu| by sqrt(1 - noise/<C_p'^2>) and nothing else.
+``R_cu_upper``: the mean over ``0.6 z_m <= z <= z_m``, where the paper finds a constant value.
 R_cu_lag(lag_t, z_plane) (beyond eq. 12; the paper's remark in [51])
-    Correlation of C_p(t) with the *past* wind ``u(t - tau)`` at the same point, at the plane
-    heights, from the 2-D planes (``C_p``, ``u_plane``, every ``plane_interval``). Means and
-    variances are the time-space ones over all planes; for a lag tau = k dt the covariance is
-    averaged over all pairs (t, t - tau) inside the record. Lag 0 is eq. 12 at the plane heights.
+    Correlation of C_p(t) with the past wind ``u(t - tau)`` at the plane heights, from the 2-D
+    planes; means and variances over all planes, the covariance over all pairs (t, t - tau)
+    inside the record. Lag 0 is eq. 12 at the plane heights.
 """
 from __future__ import annotations
 

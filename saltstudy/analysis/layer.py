@@ -96,6 +96,16 @@ def _median_of(hist: np.ndarray, edges: np.ndarray) -> float:
     return float(edges[i] + f * (edges[i + 1] - edges[i]))
 
 
+#: the dimension of each distribution of :func:`impact_statistics`, and its scalars
+IMPACT_DIMS = {"impact_speed_pdf": ("v_imp",), "replacement_by_speed": ("v_imp",),
+               "impacts_by_speed": ("v_imp",), "impact_angle_pdf": ("impact_angle",),
+               "hop_time_pdf": ("hop_time",), "hop_length_pdf": ("hop_length",)}
+IMPACT_SCALARS = ("impact_speed_mean", "impact_speed_median", "impact_angle_mean",
+                  "replacement_mean", "rebound_fraction", "ejecta_per_impact", "hop_time_mean",
+                  "hop_time_median", "hop_length_mean", "hop_length_median",
+                  "hop_height_ballistic_median")
+
+
 def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hist,
                       v_edges: np.ndarray, angle_edges: np.ndarray, t_edges: np.ndarray,
                       l_edges: np.ndarray, g: float = 9.81) -> dict[str, object]:
@@ -103,18 +113,11 @@ def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hi
     of samples.nc (first axis: the samples). Scalars NaN and arrays NaN where nothing was
     recorded."""
     nv = max(v_edges.size - 1, 0)
-    out: dict[str, object] = {
-        "impact_speed_pdf": np.full(nv, np.nan),
-        "impact_angle_pdf": np.full(max(angle_edges.size - 1, 0), np.nan),
-        "replacement_by_speed": np.full(nv, np.nan), "impacts_by_speed": np.zeros(nv),
-        "impact_speed_mean": math.nan, "impact_speed_median": math.nan,
-        "impact_angle_mean": math.nan, "replacement_mean": math.nan,
-        "rebound_fraction": math.nan, "ejecta_per_impact": math.nan,
-        "hop_time_mean": math.nan, "hop_time_median": math.nan, "hop_length_mean": math.nan,
-        "hop_length_median": math.nan, "hop_height_ballistic_median": math.nan,
-        "hop_time_pdf": np.full(max(t_edges.size - 1, 0), np.nan),
-        "hop_length_pdf": np.full(max(l_edges.size - 1, 0), np.nan),
-    }
+    edges = {"v_imp": v_edges, "impact_angle": angle_edges, "hop_time": t_edges, "hop_length": l_edges}
+    out: dict[str, object] = {name: np.full(max(edges[dims[0]].size - 1, 0), np.nan)
+                              for name, dims in IMPACT_DIMS.items()}
+    out["impacts_by_speed"] = np.zeros(nv)
+    out.update(dict.fromkeys(IMPACT_SCALARS, math.nan))
     if nv == 0:     # an archive without the impact record
         return out
     H = window_counts(impact_hist)
@@ -151,12 +154,6 @@ def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hi
 
 
 # ---- the statistics of one case ----
-#: the dimension of each distribution of :func:`impact_statistics` (the others are scalars)
-IMPACT_DIMS = {"impact_speed_pdf": ("v_imp",), "replacement_by_speed": ("v_imp",),
-               "impacts_by_speed": ("v_imp",), "impact_angle_pdf": ("impact_angle",),
-               "hop_time_pdf": ("hop_time",), "hop_length_pdf": ("hop_length",)}
-
-
 def anatomy_statistics(fr: Frame, s: dict) -> tuple[np.ndarray, Variables]:
     """(band edges, variables): the band anatomy of the case's layer, the first cell's share of
     the airborne grains and the grains per m2 (at the case's Q) above it."""

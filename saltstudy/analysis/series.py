@@ -3,20 +3,14 @@
 Paper section 3.1 [31], Fig. 1: after release the number of grains rises (splash), overshoots,
 and relaxes to a statistical equilibrium.
 
-* ``n_parcels_mean``: mean of ``n_parcels`` over the *sampling window* ``[t0, t1]`` (the first
-  and last 3-D sample times, when the run is meant to be in equilibrium) - the plateau.
-* ``n_parcels_peak``: the maximum of the raw series; ``overshoot_ratio = peak / plateau``.
-* ``t_equilibrium``: the series is smoothed by a centred running mean over ``RUNNING_WINDOW_S``
-  seconds (truncated at the ends). If that smoothed series overshoots (its maximum exceeds the
-  plateau by more than ``EQ_TOLERANCE``), t_equilibrium is the first time *after its maximum* at
-  which it comes back within ``EQ_TOLERANCE`` (10 %) of the plateau; otherwise (a monotonic
-  rise) the first time it comes within 10 % of the plateau. NaN if never.
-* ``E_splash_over_E_impact``: ratio of the increments over the sampling window of the
-  cumulative kinetic energy of rebounding + ejected grains and of impacting grains (the whole
-  record when the window has no extent).
-* ``u_star_s_stress_series``: u* of the window-mean stress at the reference height from the
-  drive's high-rate record ``u_star_ref``, with its error from 10-s blocks
-  (:func:`block_mean_stress_u_star`).
+* ``n_parcels_mean``: the plateau, mean of ``n_parcels`` over the sampling window ``[t0, t1]``;
+  ``n_parcels_peak``: the raw series' maximum; ``overshoot_ratio = peak / plateau``.
+* ``t_equilibrium``: the first time the series, smoothed by a centred running mean over
+  ``RUNNING_WINDOW_S``, comes within ``EQ_TOLERANCE`` of the plateau (after its maximum if that
+  exceeds the plateau by more than the tolerance); NaN if never.
+* ``E_splash_over_E_impact``: the increments over the window of the cumulative kinetic energy
+  of rebounding + ejected grains over that of impacting ones (the whole record for an empty window).
+* ``u_star_s_stress_series``: :func:`block_mean_stress_u_star` of the drive's record ``u_star_ref``.
 """
 from __future__ import annotations
 

@@ -97,11 +97,16 @@ def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
                            ) -> ConcentrationReadings:
     """lambda_x, lambda_y, S_c and delta_y of the window's C_p planes ``C_w`` (section 4.1 [46],
     [49]), with the noise readings beside them (module docstring)."""
-    nx, ny, dy = fr.nx, fr.ny, fr.dy
+    nx, ny = fr.nx, fr.ny
     n_planes = int(C_w.shape[0]) if C_w is not None else 0
     area = noise.cell_area
     removed = np.zeros(n_planes)
-    n_col = n_col_paper = small_ratio = math.nan
+    n_col = n_col_paper = small_ratio = noise_frac = math.nan
+    ac = snap_c = np.full((nx, ny), np.nan)
+    lams = dict.fromkeys(("", "_raw", "_noise_free", "_paper_count"), (math.nan, math.nan))
+    spacing_c = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
+    ky = np.arange(ny // 2 + 1) / fr.Ly if ny else np.zeros(0)
+    S_c = S_c_se = np.full(ky.size, np.nan)
     if C_w is not None and n_planes and nx >= 2 and ny >= 2:
         dev_c, var_c = streamers.deviation_planes(C_w)
         noise_run = noise.run(C_w)
@@ -117,38 +122,27 @@ def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
         if has.any() and np.all(poisson > 0):
             small_ratio = float(np.mean(streamers.small_scale_power(dev_c[has]) / poisson))
         del dev_c
-        ac, lam_x, lam_y = _lambdas(fr, C_w, removed)
         # S_c carries the paper's parcel noise; each reading's error is the run's own
-        ky, S_c, S_c_se, spacing_c = streamers.spanwise_spacing(C_w, dy, noise=removed)
-        _, lam_x_raw, lam_y_raw = _lambdas(fr, C_w, None)
-        _, lam_x_free, lam_y_free = _lambdas(fr, C_w, noise_run)
+        ky, S_c, S_c_se, spacing_c = streamers.spanwise_spacing(C_w, fr.dy, noise=removed)
         # the paper's field held its own count of parcels (2,000 per m2 at Q, [28]), not the
         # run's: with that relative noise the reading sees a field as noisy as the paper's
         at_count = noise_run - streamers.count_noise_variance(
             C_w, paper_grid.PAPER_PARCELS_PER_M2, streamers.PAPER_CELL_AREA)
-        _, lam_x_count, lam_y_count = _lambdas(fr, C_w, at_count)
+        for suffix, taken_out in (("", removed), ("_raw", None), ("_noise_free", noise_run),
+                                  ("_paper_count", at_count)):
+            ac_k, *lams[suffix] = _lambdas(fr, C_w, taken_out)
+            ac = ac_k if not suffix else ac
         snap_c = np.asarray(C_w[-1], dtype=np.float64)
-    else:
-        ac = np.full((nx, ny), np.nan)
-        lam_x = lam_y = lam_x_raw = lam_y_raw = noise_frac = math.nan
-        spacing_c = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
-        lam_x_free = lam_y_free = lam_x_count = lam_y_count = math.nan
-        ky = np.arange(ny // 2 + 1) / fr.Ly if ny else np.zeros(0)
-        S_c = S_c_se = np.full(ky.size, np.nan)
-        snap_c = np.full((nx, ny), np.nan)
     noise_def = noise.definition()
     V = Variables()
-    V.put("lambda_x", (), lam_x, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
-          noise_removed=noise_def)
-    V.put("lambda_y", (), lam_y, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
-          noise_removed=noise_def)
+    for i, name in enumerate(("lambda_x", "lambda_y")):
+        V.put(name, (), lams[""][i],
+              definition="2 x lag where the autocorrelation of C_p drops below 0.4",
+              noise_removed=noise_def)
     _put_spacing(V, "delta_y", spacing_c)
-    V.put("lambda_x_raw", (), lam_x_raw)
-    V.put("lambda_y_raw", (), lam_y_raw)
-    V.put("lambda_x_noise_free", (), lam_x_free)
-    V.put("lambda_y_noise_free", (), lam_y_free)
-    V.put("lambda_x_paper_count", (), lam_x_count)
-    V.put("lambda_y_paper_count", (), lam_y_count)
+    for suffix in ("_raw", "_noise_free", "_paper_count"):
+        V.put(f"lambda_x{suffix}", (), lams[suffix][0])
+        V.put(f"lambda_y{suffix}", (), lams[suffix][1])
     V.put("C_p_noise_fraction", (), noise_frac,
           definition="saltstudy.analysis.streamers.poisson_noise_variance")
     V.put("C_p_parcels_per_column", (), n_col, definition="mean(C_p) dx dy / w")
