@@ -52,7 +52,7 @@ from .reading import PLANE_CHUNK, Frame
 from .schema import Variables
 
 __all__ = ["tau_p_profile", "mass_flux_profile", "total_flux", "first_drop_height", "z_m_from_tau",
-           "flux_height", "sigma_series", "window_mask", "Z_M_FRACTION",
+           "flux_height", "sigma_series", "Z_M_FRACTION",
            "FLUX_FRACTION", "decay_height", "pooled_mean_std", "bed_value", "BedValue",
            "BED_FIT_FRACTION", "budget_bed_fraction", "GrainProfiles", "grain_profiles",
            "bed_share_statistics", "mass_flux_statistics"]
@@ -255,18 +255,12 @@ def decay_height(z: np.ndarray, G: np.ndarray, z_top: float, min_points: int = 3
     return float(-1.0 / slope) if slope < 0 else math.nan
 
 
-def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
-    """Boolean mask of ``t0 <= t <= t1`` (with a small tolerance)."""
-    t = np.asarray(t, dtype=np.float64)
-    eps = 1e-9 * max(1.0, abs(t1))
-    return (t >= t0 - eps) & (t <= t1 + eps)
-
-
 def sigma_series(t: np.ndarray, G_tot: np.ndarray, t0: float, t1: float) -> tuple[float, float]:
     """(mean, population standard deviation) of the total flux over ``t0 <= t <= t1``: the
     paper's sigma_G (module docstring); NaN with fewer than two finite values."""
-    G_tot = np.asarray(G_tot, dtype=np.float64)
-    sel = window_mask(t, t0, t1) & np.isfinite(G_tot)
+    G_tot, t = np.asarray(G_tot, dtype=np.float64), np.asarray(t, dtype=np.float64)
+    eps = 1e-9 * max(1.0, abs(t1))
+    sel = (t >= t0 - eps) & (t <= t1 + eps) & np.isfinite(G_tot)
     if sel.sum() < 2:
         return (float(G_tot[sel].mean()) if sel.any() else math.nan), math.nan
     return float(G_tot[sel].mean()), float(G_tot[sel].std())

@@ -33,11 +33,6 @@ def band_edges_for(z_w: np.ndarray) -> np.ndarray:
     return np.array([0.0, top1, max(0.05, top1), float(z_w[-1])])
 
 
-def _band_index(z: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """The band of each layer (by its centre z)."""
-    return np.clip(np.searchsorted(edges, z, side="right") - 1, 0, edges.size - 2)
-
-
 def band_anatomy(z: np.ndarray, z_w: np.ndarray, pn, pm, pmu, pmuf, Q_case: float, area: float
                  ) -> dict[str, np.ndarray]:
     """Per band (module doc), means over the samples; the layer sums are (samples, nz)."""
@@ -48,7 +43,7 @@ def band_anatomy(z: np.ndarray, z_w: np.ndarray, pn, pm, pmu, pmuf, Q_case: floa
     out["band_edges"] = edges
     if pn is None or pm is None or pmu is None:
         return out
-    band = _band_index(z, edges)
+    band = np.clip(np.searchsorted(edges, z, side="right") - 1, 0, nb - 1)   # by the layer's centre
 
     def per_band(a):
         a = np.asarray(a, dtype=np.float64)

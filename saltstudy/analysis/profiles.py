@@ -19,7 +19,7 @@ from .reading import Frame, time_mean
 from .schema import Variables
 
 __all__ = ["LogFit", "faces_to_centres", "log_law_fit", "fit_range", "stress_u_star",
-           "interp_at", "FIT_Z_FLOOR", "MIN_FIT_POINTS", "WindProfiles", "wind_profiles",
+           "FIT_Z_FLOOR", "MIN_FIT_POINTS", "WindProfiles", "wind_profiles",
            "case_fit_range", "log_law_statistics", "spinup_reference"]
 
 #: lowest height of the log-law fit [m]: the paper finds the log law "above about z = 0.30 m"
@@ -79,20 +79,14 @@ def log_law_fit(z: np.ndarray, u: np.ndarray, z_min: float, z_max: float, kappa:
                   float(z_max))
 
 
-def interp_at(z: np.ndarray, f: np.ndarray, z0: float) -> float:
-    """Linear interpolation of ``f(z)`` at ``z0``; NaN outside the range or for NaN input."""
-    z = np.asarray(z, dtype=np.float64)
-    f = np.asarray(f, dtype=np.float64)
-    ok = np.isfinite(f)
-    if ok.sum() < 1 or not math.isfinite(z0) or z0 < z[ok].min() or z0 > z[ok].max():
-        return math.nan
-    return float(np.interp(z0, z[ok], f[ok]))
-
-
 def stress_u_star(z: np.ndarray, uw: np.ndarray, z_ref: float) -> float:
-    """``u* = sqrt|<u'w'>(z_ref)|`` (paper section 3.1 [33]); ``uw`` kinematic [m2 s-2]."""
-    v = interp_at(z, uw, z_ref)
-    return math.sqrt(abs(v)) if math.isfinite(v) else math.nan
+    """``u* = sqrt|<u'w'>(z_ref)|`` (paper section 3.1 [33]), ``uw`` kinematic [m2 s-2] linearly
+    interpolated; NaN outside its finite levels."""
+    z, uw = np.asarray(z, dtype=np.float64), np.asarray(uw, dtype=np.float64)
+    ok = np.isfinite(uw)
+    if ok.sum() < 1 or not math.isfinite(z_ref) or z_ref < z[ok].min() or z_ref > z[ok].max():
+        return math.nan
+    return math.sqrt(abs(float(np.interp(z_ref, z[ok], uw[ok]))))
 
 
 # ---- the statistics of one case ----

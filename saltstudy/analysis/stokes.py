@@ -40,7 +40,7 @@ import numpy as np
 from .reading import Frame, time_mean, time_sum
 from .schema import Variables
 
-__all__ = ["drag_rate", "fluid_grain_covariance", "eps_drag", "eps_sgs_fluct", "eps_total",
+__all__ = ["drag_rate", "fluid_grain_covariance", "eps_drag", "eps_sgs_fluct",
            "eddy_time", "mass_mean_diameter", "response_time", "stokes_number",
            "stokes_statistics"]
 
@@ -80,10 +80,6 @@ def eps_sgs_fluct(sgs_transfer: np.ndarray, uw_sgs_c: np.ndarray, u_mean: np.nda
     u = np.asarray(u_mean, dtype=np.float64)
     dudz = np.gradient(u, z) if z.size >= 2 else np.zeros_like(u)
     return np.asarray(sgs_transfer, dtype=np.float64) + np.asarray(uw_sgs_c, dtype=np.float64) * dudz
-
-
-def eps_total(e_drag: np.ndarray, e_sgs: np.ndarray) -> np.ndarray:
-    return np.asarray(e_drag, dtype=np.float64) + np.asarray(e_sgs, dtype=np.float64)
 
 
 def eddy_time(tke_res: np.ndarray, eps_tot: np.ndarray) -> np.ndarray:
@@ -126,7 +122,7 @@ def stokes_statistics(fr: Frame, s: dict, hist_z: np.ndarray, u_mean: np.ndarray
                                     time_sum(s.get("pmu"), nz))
     e_drag = eps_drag(beta, tke_res, cov_fp)
     e_sgs_f = eps_sgs_fluct(time_mean(s.get("sgs_transfer"), nz), uw_sgs_c, u_mean, fr.z)
-    eps_tot = eps_total(e_drag, e_sgs_f)
+    eps_tot = e_drag + e_sgs_f
     T_eps = eddy_time(tke_res, eps_tot)
     V = Variables()
     V.put("d_mass_mean", ("z",), d_mass)

@@ -266,12 +266,6 @@ def _valley_floors(S: np.ndarray, m: int) -> tuple[int, int]:
     return int(left[np.argmin(S[left])]), int(right[np.argmin(S[right])])
 
 
-def _prominence_base(S: np.ndarray, m: int) -> int:
-    """Index of the higher of the two valley floors of mode m (:func:`_valley_floors`)."""
-    kl, kr = _valley_floors(S, m)
-    return kl if S[kl] >= S[kr] else kr
-
-
 def _relative_block_variance(S: np.ndarray, blocks: np.ndarray | None) -> np.ndarray | None:
     """Squared relative standard error of each mode of ``S`` from the scatter of the block
     spectra it is the mean of; None with fewer than ``MIN_BLOCKS`` usable blocks."""
@@ -298,7 +292,8 @@ def _prominent_maximum(F: np.ndarray, scale: np.ndarray, rel2: np.ndarray | None
     for m in range(2, M):
         if not (F[m] > F[m - 1] and F[m] >= F[m + 1]):
             continue
-        kb = _prominence_base(F, m)
+        kl, kr = _valley_floors(F, m)
+        kb = kl if F[kl] >= F[kr] else kr        # the higher floor: topographic prominence
         base = F[kb]
         if rel2 is not None:
             r2 = rel2[max(1, m - pool): min(M, m + pool) + 1]

@@ -17,11 +17,6 @@ from ..ncio import NC_LOCK
 
 __all__ = ["find_cp_stack", "make_animation"]
 
-def _stack_of(ds: xr.Dataset) -> xr.DataArray | None:
-    names = sorted((n for n in ds.data_vars if str(n).startswith("C_p")), key=lambda n: n != "C_p")
-    return next((ds[n] for n in names if ds[n].ndim == 3 and {"x", "y"} <= set(ds[n].dims)), None)
-
-
 def find_cp_stack(analysis: str | Path | None, samples: str | Path | None = None,
                   max_frames: int = 60) -> tuple[np.ndarray, np.ndarray, tuple[float, float]] | None:
     """(frames (t, x, y), times, (Lx, Ly)) or None if no stack exists."""
@@ -31,7 +26,10 @@ def find_cp_stack(analysis: str | Path | None, samples: str | Path | None = None
         try:
             with NC_LOCK:
                 with xr.open_dataset(path, engine="netcdf4") as ds:
-                    v = _stack_of(ds)
+                    names = sorted((n for n in ds.data_vars if str(n).startswith("C_p")),
+                                   key=lambda n: n != "C_p")
+                    v = next((ds[n] for n in names if ds[n].ndim == 3
+                              and {"x", "y"} <= set(ds[n].dims)), None)
                     if v is None:
                         continue
                     tdim = next(d for d in v.dims if d not in ("x", "y"))

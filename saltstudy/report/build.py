@@ -56,10 +56,6 @@ def _is_ladder(ctx: ReportContext) -> bool:
     return any(n >= 2 for case, n in rungs.items() if case is not None)
 
 
-def _has_scenes(ctx: ReportContext) -> bool:
-    return any(case_number_of(l) is None for l in ctx.runs)
-
-
 def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir: str | Path,
                  meta: dict[str, Any] | None = None) -> Path:
     """Build the report of ``study_name`` from ``runs`` (label -> analysis.nc path or None) into
@@ -107,7 +103,7 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                         "<code>reference</code> fidelity, else the finest rung).</p>"
                         + figure_html("convergence", "error against run time") + conv["html"])
     if "stability" in wanted or meta.get("failures") or meta.get("has_scenes") \
-            or (_has_scenes(ctx) and not _is_ladder(ctx)):
+            or (any(case_number_of(l) is None for l in ctx.runs) and not _is_ladder(ctx)):
         from .stability import build_stability_report
         stab = build_stability_report(
             ctx.runs, report_dir, failures=meta.get("failures"), samples=meta.get("samples"),
@@ -122,7 +118,8 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
         sections.append("<h2 id='fluxlaw'>Total flux against a measured flux law</h2>" + fl["html"])
 
     anim_html = ""
-    anim_label = meta.get("animation_label") or _pick_animation(ctx)
+    first = [ctx.by_case(1), ctx.by_case(2)] + list(ctx.runs.values())
+    anim_label = meta.get("animation_label") or next((r.label for r in first if r and r.ok), None)
     if anim_label:
         from .animation import make_animation
         r = ctx.runs.get(anim_label)
@@ -149,14 +146,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     write_json(report_dir / "summary.json", summary)
     index.write_text(_index(ctx, summary, fig_notes, t2, rs, sections, anim_html), encoding="utf-8")
     return index
-
-
-def _pick_animation(ctx: ReportContext) -> str | None:
-    for n in (1, 2):
-        r = ctx.by_case(n)
-        if r is not None and r.ok:
-            return r.label
-    return next((l for l, r in ctx.runs.items() if r.ok), None)
 
 
 def _page(title: str, body: str) -> str:

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from .data import RunData, case_number_of, load_runs
+from .data import RunData, load_runs
 from .plotting import save_figure
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
 from .tables import figure_html, fmt, html_table, md_table, st_below_one_height, write_json
@@ -80,8 +80,12 @@ def _paper_error(stat: str, value: float, case: int | None, mu1: float = math.na
         name, applies = _STATED[key]
         ref = float(paper_results().get(name, math.nan))
         return abs(value - ref) / ref if applies(case, mu1) and math.isfinite(ref) else math.nan
-    if key == "fig4":       # z_m on the paper's line for cases 1-6, at the paper's u*s
-        ref = _paper_z_m(case)
+    if key == "fig4":       # z_m on the paper's Fig. 4 line: linear in u*s over cases 1-6
+        if case is None or not 1 <= case <= 6:
+            return math.nan
+        lo, hi = paper_results().get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan])
+        u, u1, u6 = (paper_table2().get(c, {}).get("u_star_s", math.nan) for c in (case, 1, 6))
+        ref = lo + (hi - lo) * (u - u1) / (u6 - u1)
         return abs(value - ref) / ref if math.isfinite(ref) else math.nan
     if key == "range":
         lo, hi = paper_results().get("fig13_sigmaG_over_Gtot", [math.nan, math.nan])
@@ -91,16 +95,6 @@ def _paper_error(stat: str, value: float, case: int | None, mu1: float = math.na
         return abs(value - b) / b
     ref = paper_table2().get(case or -1, {}).get(key, math.nan)
     return abs(value - ref) / abs(ref) if math.isfinite(ref) and ref != 0 else math.nan
-
-
-def _paper_z_m(case: int | None) -> float:
-    """z_m on the paper's Fig. 4 line (cases 1-6: linear in u*s between its end points)."""
-    if case is None or not 1 <= case <= 6:
-        return math.nan
-    lo, hi = paper_results().get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan])
-    t2 = paper_table2()
-    u, u1, u6 = (t2.get(c, {}).get("u_star_s", math.nan) for c in (case, 1, 6))
-    return lo + (hi - lo) * (u - u1) / (u6 - u1)
 
 
 def _error_bar(r: RunData, stat: str) -> float:
@@ -137,10 +131,6 @@ def _replicate_key(r: RunData) -> str | None:
     return json.dumps(sc, sort_keys=True, default=str)
 
 
-def _seed(r: RunData) -> object:
-    return r.scene.get("case", {}).get("seed") if isinstance(r.scene, dict) else None
-
-
 def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[str]]]:
     """({stat: the seeds' relative variance x sampled extent, pooled}, [labels of each group of
     runs alike but for the seed]) (docs/ARCHITECTURE.md, "analysis.nc"). The variance of a
@@ -152,7 +142,7 @@ def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[st
         if k is not None:
             # one run per seed: a run listed twice (e.g. an archive kept under two labels) is the
             # same realization and would shrink the scatter
-            groups.setdefault(k, {}).setdefault(json.dumps(_seed(r), default=str), r)
+            groups.setdefault(k, {}).setdefault(json.dumps(r.scene["case"].get("seed"), default=str), r)
     reps = [list(g.values()) for g in groups.values() if len(g) >= 2]
     pooled: dict[str, float] = {}
     for s in CONV_STATS:
@@ -197,10 +187,6 @@ def _grid_of(r: RunData) -> dict[str, float]:
     return {"dx": r.attr("dx"), "dy": r.attr("dy"), "dz_bottom": dz1, "Q": r.attr("Q")}
 
 
-def _case_of(r: RunData) -> int | None:
-    return r.case if r.case is not None else case_number_of(r.label)
-
-
 def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None,
                         reference: str | None = None) -> dict[int | None, ConvergenceResult]:
     """:func:`convergence_analysis` for each case's runs, primary case first (most rungs, then the
@@ -208,7 +194,7 @@ def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None
     same fidelity (the label's part after ``@``)."""
     groups: dict[int | None, dict[str, RunData]] = {}
     for label, r in runs.items():
-        groups.setdefault(_case_of(r), {})[label] = r
+        groups.setdefault(r.case, {})[label] = r
     ref_rung = reference.split("@", 1)[1] if reference and "@" in reference else None
     out: dict[int | None, ConvergenceResult] = {}
     for case in sorted(groups, key=lambda c: (-len(groups[c]), c if c is not None else -1)):
@@ -237,7 +223,7 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
     pooled, seed_groups = seed_noise(runs)
     rungs = []
     for r in ranked:
-        row: dict[str, Any] = {"label": r.label, "case": _case_of(r), "fidelity": r.fidelity,
+        row: dict[str, Any] = {"label": r.label, "case": r.case, "fidelity": r.fidelity,
                                "status": r.status, "wall_time_s": r.wall_time_s, **_grid_of(r),
                                "spinup_wall_time_s": r.attr("spinup_wall_time_s"),
                                "sampled_extent_s_m2": sampled_extent(r),

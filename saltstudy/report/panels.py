@@ -26,8 +26,7 @@ from typing import Callable, Iterable, Sequence
 from .data import ReportContext, RunData
 from .reference import CASES_SOIL, CASES_WIND, paper_table2
 
-__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "paper_parameters",
-           "nearest_runs", "panel_runs", "wind_and_soil"]
+__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "nearest_runs", "panel_runs", "wind_and_soil"]
 
 #: the figure varies u*s (Fig. 9 rows, panels (a) of Figs. 6, 7, 10–12)
 BY_U_STAR_S = "u*s"
@@ -68,12 +67,6 @@ class Panel:
     notes: list[str]
 
 
-def paper_parameters(n: int) -> tuple[float, float]:
-    """(u*s [m s-1], µ1 [m]) of the paper's case ``n`` (Table 2)."""
-    row = paper_table2().get(n, {})
-    return float(row.get("u_star_s", math.nan)), float(row.get("mu1_um", math.nan)) * 1e-6
-
-
 def _log_distance(a: float, b: float) -> float:
     if not (math.isfinite(a) and math.isfinite(b) and a > 0 and b > 0):
         return math.nan
@@ -91,7 +84,8 @@ def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
     pairs = []
     cands = list(candidates)
     for place, n in enumerate(slots):
-        paper = paper_parameters(n)
+        row = paper_table2().get(n, {})      # (u*s [m s-1], µ1 [m]) of the paper's case
+        paper = (float(row.get("u_star_s", math.nan)), float(row.get("mu1_um", math.nan)) * 1e-6)
         for j, r in enumerate(cands):
             mine = (r.u_star_s_target, r.mu1)
             d_held = _log_distance(mine[held], paper[held])

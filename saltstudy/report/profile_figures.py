@@ -19,13 +19,6 @@ __all__ = ["fig02", "fig05", "fig06", "fig07", "fig11", "fig12", "FIG2_PROFILES"
 
 
 # ---- Fig 2 ----
-def _interp_log(z: np.ndarray, v: np.ndarray, z0: float) -> float:
-    ok = np.isfinite(v) & (z > 0)
-    if ok.sum() < 2:
-        return math.nan
-    return float(np.interp(np.log(z0), np.log(z[ok]), v[ok]))
-
-
 #: the wind and stress profiles of Fig. 2, with saltation and without (the spin-up)
 FIG2_PROFILES = ("u_mean", "uw_flux", "u_mean_spinup", "uw_flux_spinup")
 
@@ -58,7 +51,8 @@ def fig02(ctx: ReportContext) -> FigureResult:
         pu = profile(r, uname)
         if pu is not None:
             z, u = pu
-            uref = _interp_log(z, u, zref)
+            ok = np.isfinite(u) & (z > 0)
+            uref = float(np.interp(np.log(zref), np.log(z[ok]), u[ok])) if ok.sum() >= 2 else math.nan
             if math.isfinite(uref) and uref != 0:
                 ax_u.plot(u / uref, z, color=col, ls=ls, lw=1.5, label=lab)
                 res.data[f"{uname}_norm"] = u / uref

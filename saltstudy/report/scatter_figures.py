@@ -130,12 +130,6 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
     ax.grid(alpha=0.3, which="both")
 
 
-def _law_range(res: FigureResult) -> np.ndarray:
-    xs = res.data.get("x_ratio", np.array([]))
-    hi = max(4.5, float(np.nanmax(xs)) * 1.1) if xs.size else 4.5
-    return np.linspace(1.0, hi, 200)
-
-
 def _ref_threshold(ctx: ReportContext) -> tuple[float, RunData | None]:
     """u*t, and the run it came from, for the laws at mu1 = 200 um (case 2 first, then 1-6)."""
     for n in (2, 1, 3, 4, 5, 6):
@@ -155,7 +149,8 @@ def _draw_laws(ctx, ax, laws: dict, res: FigureResult, d: float) -> None:
     if not math.isfinite(ut) or src is None:
         res.notes.append("semi-empirical laws not drawn: no u*t for µ1 = 200 µm")
         return
-    ratio = _law_range(res)
+    xs = res.data.get("x_ratio", np.array([]))
+    ratio = np.linspace(1.0, max(4.5, float(np.nanmax(xs)) * 1.1) if xs.size else 4.5, 200)
     q = dict(d=d, rho=src.rho, rho_p=src.attr("rho_p", 2650.0), g=src.attr("g", 9.81),
              z0=src.attr("z0", 1e-5), nu=src.attr("nu", 1.5e-5))
     styles = ["-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1))]

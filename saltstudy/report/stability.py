@@ -158,13 +158,6 @@ def _open_samples(path: Path) -> xr.Dataset | None:
         return None
 
 
-def _scene_time(r: RunData) -> tuple[float | None, float | None]:
-    """(dt_max, saltation_dt_fixed) of the run's fidelity, from the archive's case_json."""
-    fid = (r.scene or {}).get("fidelity") or {}
-    t = fid.get("time") or {}
-    return t.get("dt_max"), fid.get("saltation_dt_fixed") or t.get("dt_fixed")
-
-
 def _samples_of(runs: dict[str, RunData],
                 samples: dict[str, str | Path | None] | None) -> dict[str, xr.Dataset | None]:
     """Each run's samples.nc (the table's variables only), opened once."""
@@ -210,7 +203,9 @@ def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = N
         if sds is not None:
             _from_ds(sds, row, "samples.nc")
             if r.scene:
-                _health(sds, row, *_scene_time(r))
+                fid = r.scene.get("fidelity") or {}
+                t = fid.get("time") or {}
+                _health(sds, row, t.get("dt_max"), fid.get("saltation_dt_fixed") or t.get("dt_fixed"))
         _column_stress(r.ds, row)
         if math.isfinite(r.wall_time_s):
             row["wall_time_s"] = r.wall_time_s

@@ -11,6 +11,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .._identity import __version__
 from ..analysis.schema import SPEC
 from .data import ReportContext, RunData
 from .saltation import n_parcels_per_m2_at_Q, saltation_state
@@ -104,7 +105,7 @@ def build_summary(ctx: ReportContext) -> dict[str, Any]:
     return {
         "study": ctx.study,
         "fidelity": meta.get("fidelity") or (fids[0] if len(fids) == 1 else fids or None),
-        "package_version": meta.get("package_version") or _package_version(),
+        "package_version": meta.get("package_version") or __version__,
         "total_wall_time_s": None,
         "task_time_sum_s": float(sum(tt.values())),
         "task_times_s": tt,
@@ -142,6 +143,3 @@ def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Pa
                 summary[k] = old.get(k)
 
 
-def _package_version() -> str:
-    from .._identity import __version__
-    return __version__

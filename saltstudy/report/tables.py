@@ -20,7 +20,7 @@ from .reference import CASES_WIND, PAPER_LABEL, TABLE2_COLUMNS, paper_results, p
 from .saltation import NO_SALTATION, saltation_state
 
 __all__ = ["Cell", "model_departures", "table2_rows", "scalar_results", "table2_markdown", "table2_html",
-           "table2_dataset", "results_markdown", "results_html", "st_below_one_height", "fmt",
+           "table2_dataset", "results_html", "st_below_one_height", "fmt",
            "rel_diff", "md_table", "html_table", "figure_html", "write_json"]
 
 
@@ -178,21 +178,14 @@ def _computed(c: Cell) -> str:
     return fmt(c.computed) + (f" ± {fmt(c.se, 2)}" if math.isfinite(c.se) else "")
 
 
-def _row_order(ctx: ReportContext) -> list[RunData]:
-    """Every run of the study once: those labelled as a paper case (``caseNN``, ``caseNN@rung``)
-    by case number, a ladder's rungs in the study's order; then the others in the study's order."""
-    runs = list(ctx.runs.values())
-    cased = [r for r in runs if case_number_of(r.label) is not None]
-    return sorted(cased, key=lambda r: case_number_of(r.label)) + \
-        [r for r in runs if case_number_of(r.label) is None]
-
-
 def table2_rows(ctx: ReportContext) -> list[dict]:
     """One row per run, named by its label (a plain case: "case N"), the paper's values beside
     a run that is one of its cases unchanged (``RunData.paper_case``)."""
     table = paper_table2()
     rows = []
-    for r in _row_order(ctx):
+    # the runs labelled as a paper case (caseNN, caseNN@rung) by case number, a ladder's rungs
+    # in the study's order; then the others in the study's order
+    for r in sorted(ctx.runs.values(), key=lambda r: (case_number_of(r.label) or math.inf)):
         n = r.paper_case
         name = f"case {r.case}" if r.plain_case and r.case is not None else r.label
         row = {"name": name, "case": r.case, "label": r.label, "paper_case": n, "status": r.status,
@@ -336,7 +329,7 @@ def table2_markdown(ctx: ReportContext) -> str:
              "reads within about ±40 %. " + _start_text(ctx) + " " + _departures_text(ctx), "",
              *md_table(heads, cells)]
     lines += ["", f"## Results stated in the text — computed vs {PAPER_LABEL}", "",
-              results_markdown(ctx)]
+              *md_table(_RESULT_HEADS, [[r[k] for k in _RESULT_KEYS] for r in scalar_results(ctx)])]
     return "\n".join(lines) + "\n"
 
 
@@ -383,11 +376,6 @@ def table2_dataset(ctx: ReportContext):
 
 _RESULT_HEADS = ["quantity", "computed", "paper", "difference", "unit", "how computed"]
 _RESULT_KEYS = ("quantity", "computed", "paper", "difference", "unit", "how")
-
-
-def results_markdown(ctx: ReportContext) -> str:
-    return "\n".join(md_table(_RESULT_HEADS, [[r[k] for k in _RESULT_KEYS]
-                                              for r in scalar_results(ctx)]))
 
 
 def _no_result_html(row: dict, span: int, no_saltation: str, out: list[str]) -> bool:
