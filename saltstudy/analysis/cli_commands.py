@@ -29,7 +29,8 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(2)
         if case_dir is not None:
             samples = samples or case_dir / "samples.nc"
-            spinup = spinup or (case_dir / "spinup.nc" if (case_dir / "spinup.nc").is_file() else None)
+            found = case_dir / "spinup.nc"
+            spinup = spinup or (found if found.is_file() else None)
         for path in (samples, spinup):
             if path is not None and not path.is_file():
                 typer.echo(f"error: {path}: no such file", err=True)

@@ -108,7 +108,8 @@ def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hi
     of samples.nc (first axis: the samples). Scalars NaN and arrays NaN where nothing was
     recorded."""
     nv = max(v_edges.size - 1, 0)
-    edges = {"v_imp": v_edges, "impact_angle": angle_edges, "hop_time": t_edges, "hop_length": l_edges}
+    edges = {"v_imp": v_edges, "impact_angle": angle_edges, "hop_time": t_edges,
+             "hop_length": l_edges}
     out: dict[str, object] = {name: np.full(max(edges[dims[0]].size - 1, 0), np.nan)
                               for name, dims in IMPACT_DIMS.items()}
     out["impacts_by_speed"] = np.zeros(nv)

@@ -196,7 +196,7 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
                   + _resumed_note(summary)),
                  ("sum of task times", f"{_fmt_s(summary['task_time_sum_s'])} ({split}; a shared "
                                        "spin-up counted once)"),
-                 ("machine", f"{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})")))
+                 ("machine", f"{m['cores']} cores, {e(m['processor'])} ({e(m['platform'])})")))
              + "</table>",
              "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
              "<a href='#runs'>Runs and wall time</a> · <a href='#config'>Configuration</a> · "
@@ -227,8 +227,8 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
     for r in ctx.runs.values():
         salt = (summary.get("cases", {}).get(run_key(r), {}) or {}).get("saltation") or {}
         status = r.status + (f", {salt['status']}" if r.ok and salt.get("status") == NO_SALTATION else "")
-        cells.append([r.label, "" if r.case is None else str(r.case), str(r.fidelity or "—"), status,
-                      _fmt_s(r.wall_time_s), str(r.path) if r.path else "—"])
+        cells.append([r.label, "" if r.case is None else str(r.case), str(r.fidelity or "—"),
+                      status, _fmt_s(r.wall_time_s), str(r.path) if r.path else "—"])
         bad.append(not r.ok or status != r.status)
     parts.append(html_table(["run", "case", "fidelity", "status", "solver time", "archive"], cells,
                             lambda i, j: "bad" if i >= 0 and j == 3 and bad[i] else ""))

@@ -142,7 +142,8 @@ def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[st
         if k is not None:
             # one run per seed: a run listed twice (e.g. an archive kept under two labels) is the
             # same realization and would shrink the scatter
-            groups.setdefault(k, {}).setdefault(json.dumps(r.scene["case"].get("seed"), default=str), r)
+            seed = json.dumps(r.scene["case"].get("seed"), default=str)
+            groups.setdefault(k, {}).setdefault(seed, r)
     reps = [list(g.values()) for g in groups.values() if len(g) >= 2]
     pooled: dict[str, float] = {}
     for s in CONV_STATS:
@@ -524,8 +525,10 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
                *md_table(_CHEAPEST_HEADS, _cheapest_cells(r)), ""]
         stem = _stem(case, primary)
         page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "")
-                    + ("" if case == primary else figure_html(stem, f"error against run time, {head}"))
-                    + f"<p>{html.escape(_seed_sentence(r))}</p>" + html_table(_heads(), _rung_cells(r))
+                    + ("" if case == primary else
+                       figure_html(stem, f"error against run time, {head}"))
+                    + f"<p>{html.escape(_seed_sentence(r))}</p>"
+                    + html_table(_heads(), _rung_cells(r))
                     + f"<h4>{html.escape(_CHEAPEST_NOTE)}</h4>"
                     + html_table(_CHEAPEST_HEADS, _cheapest_cells(r)))
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")

@@ -17,7 +17,8 @@ from .profile_figures import fig02, fig05, fig06, fig07, fig11, fig12
 from .scatter_figures import fig01, fig03, fig04, fig08, fig13
 from .streamer_figures import fig09, fig10
 
-__all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "error_figure", "fig01", "fig02", "fig03", "fig04", "fig05", "fig06", "fig07", "fig08",
+__all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "error_figure", "fig01", "fig02",
+           "fig03", "fig04", "fig05", "fig06", "fig07", "fig08",
            "fig09", "fig10", "fig11", "fig12", "fig13"]
 
 FIGURES: dict[str, Callable[[ReportContext], FigureResult]] = {f.__name__: f for f in (

@@ -89,8 +89,8 @@ def build_fluxlaw_report(runs: dict, report_dir: Path, law: str) -> dict[str, An
     ax.legend(fontsize=8)
     fig.tight_layout()
     save_figure(fig, report_dir, "fluxlaw", 110)
-    table = html_table(heads, cells, lambda i, j: "bad" if i >= 0 and j == 4 and not rows[i]["within"]
-                       else "")
+    table = html_table(heads, cells,
+                       lambda i, j: "bad" if i >= 0 and j == 4 and not rows[i]["within"] else "")
     return {"rows": rows, "html": f"<p>G_tot of each run against {html.escape(cite)}, at the u* of "
             "the run's own stress at the reference height.</p>"
             + figure_html("fluxlaw", "flux against the law") + table}

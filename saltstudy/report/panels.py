@@ -26,7 +26,8 @@ from typing import Callable, Iterable, Sequence
 from .data import ReportContext, RunData
 from .reference import CASES_SOIL, CASES_WIND, paper_table2
 
-__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "nearest_runs", "panel_runs", "wind_and_soil"]
+__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "nearest_runs",
+           "panel_runs", "wind_and_soil"]
 
 #: the figure varies u*s (Fig. 9 rows, panels (a) of Figs. 6, 7, 10–12)
 BY_U_STAR_S = "u*s"

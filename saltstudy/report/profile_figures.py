@@ -52,7 +52,8 @@ def fig02(ctx: ReportContext) -> FigureResult:
         if pu is not None:
             z, u = pu
             ok = np.isfinite(u) & (z > 0)
-            uref = float(np.interp(np.log(zref), np.log(z[ok]), u[ok])) if ok.sum() >= 2 else math.nan
+            uref = (float(np.interp(np.log(zref), np.log(z[ok]), u[ok])) if ok.sum() >= 2
+                    else math.nan)
             if math.isfinite(uref) and uref != 0:
                 ax_u.plot(u / uref, z, color=col, ls=ls, lw=1.5, label=lab)
                 res.data[f"{uname}_norm"] = u / uref

@@ -102,7 +102,8 @@ def _health(ds: xr.Dataset | None, out: dict[str, Any], dt_max: float | None,
               if k in ds.variables}
     lm, pb = series.get("loading_max"), series.get("parcel_balance")
     if lm is not None and np.isfinite(lm).any():
-        _put(out, "loading_max", float(np.nanmax(lm)), "samples.nc: max over the run of loading_max")
+        _put(out, "loading_max", float(np.nanmax(lm)),
+             "samples.nc: max over the run of loading_max")
         # the overshoot of the first seconds loads the cells most; the second half is the
         # layer near its equilibrium
         late = lm[lm.size // 2:]
@@ -112,7 +113,8 @@ def _health(ds: xr.Dataset | None, out: dict[str, Any], dt_max: float | None,
         _put(out, "dt_over_tau_c", float(np.nanmax(r)),
              "samples.nc: max over the run of (allowed step) / tau_c_min")
     if pb is not None and np.isfinite(pb).any():
-        _put(out, "parcel_balance", float(np.nanmax(np.abs(pb))), "samples.nc: max |parcel_balance|")
+        _put(out, "parcel_balance", float(np.nanmax(np.abs(pb))),
+             "samples.nc: max |parcel_balance|")
     fields = [v for v in ("u", "v", "w", "e") if v in ds.variables]
     series = [v for v in ("dt_courant", "u_star_ref", "G_tot_series") if v in ds.variables]
     if fields or series:
@@ -205,7 +207,8 @@ def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = N
             if r.scene:
                 fid = r.scene.get("fidelity") or {}
                 t = fid.get("time") or {}
-                _health(sds, row, t.get("dt_max"), fid.get("saltation_dt_fixed") or t.get("dt_fixed"))
+                dt_fixed = fid.get("saltation_dt_fixed") or t.get("dt_fixed")
+                _health(sds, row, t.get("dt_max"), dt_fixed)
         _column_stress(r.ds, row)
         if math.isfinite(r.wall_time_s):
             row["wall_time_s"] = r.wall_time_s
