@@ -109,7 +109,7 @@ def sampled_extent(r: RunData) -> float:
     """The run's sampled duration x horizontal box area [s m2], read from its scene: the number of
     roughly independent pieces of turbulence a window average holds grows with it. NaN if the
     archive does not say."""
-    fid = r.scene.get("fidelity", {}) if isinstance(r.scene, dict) else {}
+    fid = r.scene.get("fidelity") or {}
     smp, grid = fid.get("sampling") or {}, fid.get("grid") or {}
     try:
         dur = float(smp["interval"]) * (int(smp["count"]) - 1)
@@ -122,7 +122,7 @@ def sampled_extent(r: RunData) -> float:
 def _replicate_key(r: RunData) -> str | None:
     """The run's configuration without its seed and names: equal keys and different seeds make
     two realizations of one run."""
-    if not r.ok or not isinstance(r.scene, dict) or "case" not in r.scene or "fidelity" not in r.scene:
+    if not r.ok or "case" not in r.scene or "fidelity" not in r.scene:
         return None
     sc = copy.deepcopy(r.scene)
     sc.pop("label", None)
@@ -155,13 +155,6 @@ def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[st
                 acc.append(float(np.var(v, ddof=1)) / v.mean() ** 2 * ext)
         pooled[s] = float(np.mean(acc)) if acc else math.nan
     return pooled, [sorted(r.label for r in g) for g in reps]
-
-
-def _seed_bar(r: RunData, v: float, pooled: float) -> float:
-    ext = sampled_extent(r)
-    if not (math.isfinite(pooled) and math.isfinite(ext) and math.isfinite(v)):
-        return math.nan
-    return abs(v) * math.sqrt(pooled / ext)
 
 
 def _noise(bars: tuple[float, ...]) -> float:
@@ -206,6 +199,11 @@ def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None
     return out
 
 
+def _time_key(t: float) -> float:
+    """A wall time to sort by, an unknown one last."""
+    return t if math.isfinite(t) else math.inf
+
+
 def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = None,
                          reference: str | None = None) -> ConvergenceResult:
     present = [r for r in runs.values() if r.ok]
@@ -213,8 +211,7 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         ranked = [runs[l] for l in order if l in runs]
         ranked += [r for r in runs.values() if r.label not in order]
     else:
-        ranked = sorted(runs.values(), key=lambda r: (not math.isfinite(r.wall_time_s),
-                                                      r.wall_time_s if math.isfinite(r.wall_time_s) else 0))
+        ranked = sorted(runs.values(), key=lambda r: _time_key(r.wall_time_s))
     finest = runs[reference] if reference in runs and runs[reference].ok else None
     if finest is None and order:
         finest = next((runs[l] for l in reversed(order) if l in runs and runs[l].ok), None)
@@ -222,6 +219,13 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         timed = [r for r in present if math.isfinite(r.wall_time_s)]
         finest = max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
     pooled, seed_groups = seed_noise(runs)
+
+    def bars(run: RunData, s: str, v: float) -> tuple[float, float]:
+        # the half windows' bar; the seeds', |value| sqrt(pooled / extent) (NaN where unknown)
+        sb = abs(v) * math.sqrt(pooled[s] / sampled_extent(run))
+        return _error_bar(run, s), sb if math.isfinite(sb) else math.nan
+    ref_bar = {s: _noise(bars(finest, s, _value(finest, s))) if finest is not None else math.nan
+               for s in CONV_STATS}
     rungs = []
     for r in ranked:
         row: dict[str, Any] = {"label": r.label, "case": r.case, "fidelity": r.fidelity,
@@ -238,11 +242,9 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
             row["err_finest"][s] = (abs(v - f) / abs(f)) if math.isfinite(v) and math.isfinite(f) and f != 0 \
                 else math.nan
             row["err_paper"][s] = _paper_error(s, v, case, r.mu1 if r.ok else math.nan)
-            hw, sb = _error_bar(r, s), _seed_bar(r, v, pooled[s])
-            row["half_window_bar"][s], row["seed_bar"][s] = hw, sb
+            row["half_window_bar"][s], row["seed_bar"][s] = hw, sb = bars(r, s, v)
             eb = row["error_bar"][s] = _noise((hw, sb))
-            ebf = (_noise((_error_bar(finest, s), _seed_bar(finest, f, pooled[s])))
-                   if finest is not None else math.nan)
+            ebf = ref_bar[s]
             # a difference from the reference inside the two runs' combined noise is not one
             noise = math.hypot(eb, ebf) if math.isfinite(eb) and math.isfinite(ebf) else math.nan
             row["within_noise"][s] = (bool(abs(v - f) <= noise) if math.isfinite(noise)
@@ -258,7 +260,7 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
             ok = [row for row in rungs if row["label"] in on_ladder and row["status"] == "ok"
                   and math.isfinite(row["err_finest"][s]) and row["err_finest"][s] <= th
                   and _resolves(row, s, th)]
-            ok.sort(key=lambda row: row["wall_time_s"] if math.isfinite(row["wall_time_s"]) else math.inf)
+            ok.sort(key=lambda row: _time_key(row["wall_time_s"]))
             cheapest[s][f"{th:.0%}"] = ok[0]["label"] if ok else None
     # a reference that is the top of the declared ladder is its finest rung, not a base of variants
     named = finest is not None and finest.label == reference and not (order and order[-1] == reference)

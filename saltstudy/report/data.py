@@ -66,13 +66,6 @@ def paper_case_of(case: dict) -> Any:
     return int(mine["number"]) if _same(mine, paper) else None
 
 
-def _finite(x: Any) -> bool:
-    try:
-        return math.isfinite(float(x))
-    except (TypeError, ValueError):
-        return False
-
-
 @dataclass
 class RunData:
     """One run: its label, case number, archive and what was read from it."""
@@ -165,7 +158,7 @@ class RunData:
         zr = float(self.scene.get("case", {}).get("forcing", {}).get("z_ref", 2.0))
         z = min(2.0, zr)
         why = "2 m (paper)"
-        if _finite(lz) and 0.5 * (lz - damp) < z:
+        if math.isfinite(lz) and 0.5 * (lz - damp) < z:
             z = 0.5 * (lz - damp)
             why = f"{z:.2g} m: highest height below half the undamped depth (domain {lz:g} m)"
         return z, why
@@ -191,7 +184,7 @@ class ReportContext:
             return next((r for r in scenes if r.ok), scenes[0] if scenes else None)
         present = [r for r in rungs if r.ok]
         if present:
-            timed = [r for r in present if _finite(r.wall_time_s)]
+            timed = [r for r in present if math.isfinite(r.wall_time_s)]
             return max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
         return rungs[-1]
 
@@ -221,29 +214,20 @@ class ReportContext:
 
 def _load_one(label: str, path: Path | None, case_hint: int | None) -> RunData:
     case = case_hint if case_hint is not None else case_number_of(label)
-    if path is None:
-        return RunData(label, case, None, status="no archive")
-    path = Path(path)
-    if not path.is_file():
+    path = Path(path) if path is not None else None
+    if path is None or not path.is_file():
         return RunData(label, case, path, status="no archive")
     try:
         ds = open_dataset(path)
     except Exception as exc:  # unreadable/corrupt: drawn as missing, reason kept
         return RunData(label, case, path, status=f"unreadable ({type(exc).__name__})")
-    try:
-        scene = json.loads(ds.attrs.get("case_json", "{}") or "{}")
-    except (TypeError, ValueError):
-        scene = {}
+    scene = json.loads(ds.attrs.get("case_json") or "{}")
     if case is None:
         c = ds.attrs.get("case_number", scene.get("case", {}).get("number"))
-        case = int(c) if c is not None and _finite(c) else None
+        case = int(c) if c is not None else None
     fid = ds.attrs.get("fidelity") or scene.get("fidelity", {}).get("name")
-    try:
-        wall = float(ds.attrs.get("wall_time_s", math.nan))
-    except (TypeError, ValueError):
-        wall = math.nan
     return RunData(label, case, path, ds=ds, fidelity=str(fid) if fid else None,
-                   wall_time_s=wall, scene=scene)
+                   wall_time_s=float(ds.attrs.get("wall_time_s", math.nan)), scene=scene)
 
 
 def load_runs(runs: dict[str, str | Path | None], meta: dict[str, Any] | None = None
@@ -263,7 +247,7 @@ def load_runs(runs: dict[str, str | Path | None], meta: dict[str, Any] | None = 
         r = _load_one(label, path, int(hint) if hint is not None else None)
         if label in fids and fids[label]:
             r.fidelity = str(fids[label])
-        if label in walls and _finite(walls[label]):
+        if label in walls and math.isfinite(walls[label]):
             r.wall_time_s = float(walls[label])
         out[label] = r
     return out
