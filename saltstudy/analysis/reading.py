@@ -107,19 +107,16 @@ def attr_float(attrs: dict[str, Any], key: str, default: float = math.nan) -> fl
 
 
 def case_info(attrs: dict[str, Any]) -> dict[str, Any]:
-    """Pieces of the resolved scene (global attribute ``case_json``) the analysis needs."""
-    try:
-        scene = json.loads(attrs.get("case_json", "{}") or "{}")
-    except (TypeError, ValueError):
-        scene = {}
-    case = scene.get("case", scene) if isinstance(scene, dict) else {}
-    fid = scene.get("fidelity", {}) if isinstance(scene, dict) else {}
-    grid = fid.get("grid", {}) if isinstance(fid, dict) else {}
+    """Pieces of the resolved scene (global attribute ``case_json``: a scene, or a case alone)
+    the analysis needs."""
+    scene = json.loads(attrs.get("case_json") or "{}")
+    case, fid = scene.get("case", scene), scene.get("fidelity", {})
+    grid = fid.get("grid", {})
     Lz = attr_float(attrs, "Lz", float(grid.get("Lz", math.nan)))
     damping = grid.get("damping_depth")
     if damping is None:
         damping = attr_float(attrs, "damping_depth", min(3.0, 0.5 * Lz) if math.isfinite(Lz) else 0.0)
-    forcing = case.get("forcing", {}) if isinstance(case, dict) else {}
+    forcing = case.get("forcing", {})
     drive = str(forcing.get("drive", "top"))
     if drive == "pressure_gradient":
         damping = 0.0  # the model builds no damping layer with this drive
@@ -130,12 +127,11 @@ def case_info(attrs: dict[str, Any]) -> dict[str, Any]:
         "H": Lz if drive == "pressure_gradient" and math.isfinite(Lz) else None,
         "damping_depth": float(damping),
         "z_ref": float(forcing.get("z_ref", 2.0)),
-        "soil": case.get("soil") if isinstance(case, dict) else None,
-        "threshold": case.get("threshold", {}) if isinstance(case, dict) else {},
-        "air": case.get("air", {}) if isinstance(case, dict) else {},
+        "soil": case.get("soil"),
+        "threshold": case.get("threshold", {}),
         # parcels are q_multiplier x heavier than the case's Q (a cost knob); 1 when unknown
-        "q_multiplier": float(fid.get("q_multiplier", 1.0)) if isinstance(fid, dict) else 1.0,
-        "Q_case": attr_float(case.get("particles", {}) if isinstance(case, dict) else {}, "Q"),
+        "q_multiplier": float(fid.get("q_multiplier", 1.0)),
+        "Q_case": attr_float(case.get("particles", {}), "Q"),
     }
 
 

@@ -251,36 +251,31 @@ def scalar_results(ctx: ReportContext) -> list[dict]:
         """A run whose statistics are of saltation (report/saltation.py)."""
         return r is not None and r.ok and saltation_state(r).status != NO_SALTATION
 
-    zms = [ctx.by_case(n).scalar("z_m") for n in CASES_WIND if result(ctx.by_case(n))]
-    zms = [z for z in zms if math.isfinite(z)]
-    z1 = ctx.by_case(1).scalar("z_m") if result(ctx.by_case(1)) else math.nan
-    z6 = ctx.by_case(6).scalar("z_m") if result(ctx.by_case(6)) else math.nan
-    add("z_m, case 1 – case 6", [z1, z6], ref.get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan]), "m",
-        f"z_m of case 1 and case 6 (cases 1–6 present with z_m: {len(zms)})")
-    sg = [r.scalar("sigma_G_over_G_tot") for r in ctx.scatter_runs() if result(r)]
-    sg = [v for v in sg if math.isfinite(v)]
+    def value(n: int, name: str) -> float:
+        r = ctx.by_case(n)
+        return r.scalar(name) if result(r) else math.nan
+
+    n_zm = sum(math.isfinite(value(n, "z_m")) for n in CASES_WIND)
+    add("z_m, case 1 – case 6", [value(1, "z_m"), value(6, "z_m")],
+        ref.get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan]), "m",
+        f"z_m of case 1 and case 6 (cases 1–6 present with z_m: {n_zm})")
+    sg = [v for r in ctx.scatter_runs()
+          if result(r) and math.isfinite(v := r.scalar("sigma_G_over_G_tot"))]
     add("σG/G_tot, range over cases", [min(sg), max(sg)] if sg else [math.nan, math.nan],
         ref.get("fig13_sigmaG_over_Gtot", [math.nan, math.nan]), "1",
         f"min and max over the {len(sg)} runs with a value")
-    r6 = ctx.by_case(6)
-    add("τp surface fraction, case 6",
-        r6.scalar("tau_p_surface_fraction") if result(r6) else math.nan,
+    add("τp surface fraction, case 6", value(6, "tau_p_surface_fraction"),
         ref.get("fig6_taup_surface_fraction_case6", math.nan), "1",
         "τp at the bed (exponential fit of the lowest layers) / ρu*² at the reference height "
         "(analysis scalar tau_p_surface_fraction)")
-    rc = [(n, ctx.by_case(n).scalar("R_cu_upper")) for n in CASES_WIND if result(ctx.by_case(n))]
-    rc = [(n, v) for n, v in rc if math.isfinite(v)]
+    rc = [(n, v) for n in CASES_WIND if math.isfinite(v := value(n, "R_cu_upper"))]
     add("R_cu in the upper layer (z ≥ 0.6 z_m), mean of cases 1–6",
         float(np.mean([v for _, v in rc])) if rc else math.nan,
         ref.get("fig11_Rcu_upper_layer", math.nan), "1",
         "mean of R_cu_upper over cases " + (", ".join(str(n) for n, _ in rc) or "none")
         + (f"; per case {', '.join(f'{v:.2f}' for _, v in rc)}" if rc else ""))
-    hs = []
-    for r in ctx.scatter_runs():
-        if result(r) and math.isfinite(r.mu1) and r.mu1 >= 200e-6 - 1e-9:
-            h = st_below_one_height(r)
-            if math.isfinite(h):
-                hs.append((r, h))
+    hs = [(r, h) for r in ctx.scatter_runs() if result(r) and r.mu1 >= 200e-6 - 1e-9
+          and math.isfinite(h := st_below_one_height(r))]
     add("height above which St < 1 (µ1 ≥ 200 µm), largest over cases",
         max(h for _, h in hs) if hs else math.nan,
         ref.get("fig12_St_below_1_above_z_over_zm", math.nan), "z/z_m",
