@@ -136,7 +136,6 @@ def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarr
     return out
 
 
-# ---- the statistics of one case ----
 def air_budget_statistics(fr: Frame, s: dict, uw_w: np.ndarray | None, u0_stress: float
                           ) -> Variables:
     """The balance at the bed from the air's budget: ``uw_w`` the total momentum flux of each

@@ -288,7 +288,6 @@ def pooled_mean_std(chunks) -> tuple[float, float]:
     return mean, math.sqrt(m2 / n)
 
 
-# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class GrainProfiles:
     """The grains' momentum and mass flux over the sampling window, and the saltation height."""

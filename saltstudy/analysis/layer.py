@@ -149,7 +149,6 @@ def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hi
     return out
 
 
-# ---- the statistics of one case ----
 def anatomy_statistics(fr: Frame, s: dict) -> tuple[np.ndarray, Variables]:
     """(band edges, variables): the band anatomy of the case's layer, the first cell's share of
     the airborne grains and the grains per m2 (at the case's Q) above it."""

@@ -89,7 +89,6 @@ def stress_u_star(z: np.ndarray, uw: np.ndarray, z_ref: float) -> float:
     return math.sqrt(abs(float(np.interp(z_ref, z[ok], uw[ok]))))
 
 
-# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class WindProfiles:
     """The wind with grains over the sampling window (cell centres unless said)."""

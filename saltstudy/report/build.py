@@ -66,7 +66,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     report_dir.mkdir(parents=True, exist_ok=True)
     ctx = ReportContext(study_name, load_runs(runs, meta), meta)
 
-    # ---- figures ------------------------------------------------------------------------------
     results = make_figures(ctx)
     fig_notes: dict[str, list[str]] = {}
     formats = tuple(meta.get("figure_formats") or ("png", "pdf"))
@@ -79,7 +78,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
             save_figure(error_figure(name, exc), report_dir, name, dpi, formats)
             fig_notes[name] = res.notes + [f"error: {type(exc).__name__}: {exc}"]
 
-    # ---- tables, summary ----------------------------------------------------------------------
     (report_dir / "table2.md").write_text(table2_markdown(ctx), encoding="utf-8")
     t2 = table2_html(ctx)
     rs = results_html(ctx)
@@ -88,7 +86,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                                          f"<h2>Results stated in the text</h2>{rs}"), encoding="utf-8")
     summary = build_summary(ctx)      # written last, when the elapsed wall time is known
 
-    # ---- optional sections --------------------------------------------------------------------
     wanted = set(meta.get("reports") or [])
     provenance = {k: meta.get(k) for k in ("study", "package_version", "commit", "source_key")}
     sections: list[str] = []
@@ -132,7 +129,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
             anim_html = (f"<h2 id='animation'>Animation of C_p ({html.escape(anim_label)})</h2>"
                          "<figure><img src='cp_animation.gif' alt='C_p animation'></figure>")
 
-    # ---- index.html ---------------------------------------------------------------------------
     index = report_dir / "index.html"
     findings = report_dir / FINDINGS_FILE
     if findings.is_file():

@@ -30,7 +30,6 @@ class FigureResult:
     notes: list[str] = field(default_factory=list)
 
 
-# ---- helpers ----
 WIND_COLORS = {n: c for n, c in zip(CASES_WIND, ("#1b9e77", "#66a61e", "#e6ab02", "#d95f02",
                                                     "#e7298a", "#7570b3"))}
 SOIL_COLORS = {2: "#66a61e", 7: "#a6761d", 8: "#e41a1c", 9: "#377eb8", 10: "#222222"}

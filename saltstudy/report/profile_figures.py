@@ -18,7 +18,6 @@ from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
 __all__ = ["fig02", "fig05", "fig06", "fig07", "fig11", "fig12", "FIG2_PROFILES", "FIG5_PANELS"]
 
 
-# ---- Fig 2 ----
 #: the wind and stress profiles of Fig. 2, with saltation and without (the spin-up)
 FIG2_PROFILES = ("u_mean", "uw_flux", "u_mean_spinup", "uw_flux_spinup")
 
@@ -103,7 +102,6 @@ def fig02(ctx: ReportContext) -> FigureResult:
     return res
 
 
-# ---- Fig 5 ----
 #: the paper's Fig. 5 panels: (letter, grain size µ1 [µm], the paper's case drawn)
 FIG5_PANELS = (("a", 90, 7), ("b", 200, 2), ("c", 400, 10))
 
@@ -161,7 +159,6 @@ def fig05(ctx: ReportContext) -> FigureResult:
     return res
 
 
-# ---- profile figures: 6, 7, 11, 12 ----
 #: the profile variables as the figures write them
 _SYMBOL = {"tau_p": "τp", "G": "⟨G⟩", "R_cu": "R_cu", "St": "St"}
 

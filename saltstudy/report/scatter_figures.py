@@ -20,7 +20,6 @@ from .saltation import (NO_SALTATION, PAPER_PARCELS_PER_M2, PAPER_PARCELS_SOURCE
 __all__ = ["fig01", "fig03", "fig04", "fig08", "fig13"]
 
 
-# ---- Fig 1 ----
 def fig01(ctx: ReportContext) -> FigureResult:
     """Airborne parcels per m² of bed against time since activation, every case at its own Q
     (report/saltation.py), beside the paper's ≈ 2,000 per m² that all its cases hold ([28], [31])."""
@@ -87,7 +86,6 @@ def fig01(ctx: ReportContext) -> FigureResult:
     return res
 
 
-# ---- scatter figures: 3, 4, 8, 13 ----
 def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
     """Computed ``var`` vs u*s/u*t for every run, dots; 200 um cases circles, others squares."""
     xs, ys = [], []

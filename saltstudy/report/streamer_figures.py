@@ -17,7 +17,6 @@ from .reference import PAPER_COLOR, PAPER_LABEL, paper_table2
 __all__ = ["fig09", "fig10", "FIG9_CASES", "premultiplied_over_variance"]
 
 
-# ---- Fig 9 ----
 def fig09(ctx: ReportContext) -> FigureResult:
     """A row per paper case 1, 4, 6: the study's run of the case or its nearest by u*s at
     µ1 = 200 µm (``panels.py``); a row the study cannot fill is left out."""
@@ -67,7 +66,6 @@ def fig09(ctx: ReportContext) -> FigureResult:
 FIG9_CASES = (1, 4, 6)
 
 
-# ---- Fig 10 ----
 def premultiplied_over_variance(ky: np.ndarray, S: np.ndarray, Ly: float, dy: float
                                 ) -> tuple[np.ndarray, np.ndarray]:
     """(wavelength [m], ky S(ky) / variance) of a one-sided spanwise density ``S`` [variance m]

@@ -284,9 +284,6 @@ def scalar_results(ctx: ReportContext) -> list[dict]:
     return rows
 
 
-# ------------------------------------------------------------------------------------------------
-# rendering
-# ------------------------------------------------------------------------------------------------
 def table2_markdown(ctx: ReportContext) -> str:
     heads = ["run"] + [f"{lab} [{unit}]" for _, _, lab, unit in TABLE2_COLUMNS]
     cells = []
