@@ -68,12 +68,10 @@ def _put_spacing(V: Variables, field: str, spacing: streamers.SpanwiseSpacing) -
     # beside it so that what the choice does to each case can be seen
     V.put(field, (), spacing.chosen, reading="premultiplied",
           definition="saltstudy.analysis.streamers.premultiplied_peak; docs/STREAMERS.md")
-    V.put(f"{field}_premultiplied", (), spacing.premultiplied,
-          definition="saltstudy.analysis.streamers.premultiplied_peak")
-    V.put(f"{field}_density", (), spacing.density,
-          definition="saltstudy.analysis.streamers.spectral_peak")
-    V.put(f"{field}_correlation", (), spacing.correlation,
-          definition="saltstudy.analysis.streamers.correlation_minimum")
+    for reading, func in (("premultiplied", "premultiplied_peak"), ("density", "spectral_peak"),
+                          ("correlation", "correlation_minimum")):
+        V.put(f"{field}_{reading}", (), getattr(spacing, reading),
+              definition=f"saltstudy.analysis.streamers.{func}")
 
 
 def _lambdas(fr: Frame, planes: np.ndarray, noise: np.ndarray | None
@@ -84,19 +82,11 @@ def _lambdas(fr: Frame, planes: np.ndarray, noise: np.ndarray | None
             streamers.core_length(ac[fr.nx // 2, :], fr.dy))
 
 
-@dataclass(frozen=True, eq=False)
-class ConcentrationReadings:
-    #: spanwise wavenumbers of S_c (and S_u) [cycles m-1]
-    ky: np.ndarray
-    #: per-plane noise variance removed to leave the paper's
-    removed: np.ndarray
-    variables: Variables
-
-
 def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
-                           ) -> ConcentrationReadings:
-    """lambda_x, lambda_y, S_c and delta_y of the window's C_p planes ``C_w`` (section 4.1 [46],
-    [49]), with the noise readings beside them (module docstring)."""
+                           ) -> tuple[np.ndarray, np.ndarray, Variables]:
+    """(ky [cycles m-1] of S_c, the per-plane noise variance removed to leave the paper's,
+    variables): lambda_x, lambda_y, S_c and delta_y of the window's C_p planes ``C_w`` (section
+    4.1 [46], [49]), with the noise readings beside them (module docstring)."""
     nx, ny = fr.nx, fr.ny
     n_planes = int(C_w.shape[0]) if C_w is not None else 0
     area = noise.cell_area
@@ -153,7 +143,7 @@ def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
     V.put("S_c", ("ky",), S_c)
     V.put("S_c_stderr", ("ky",), S_c_se)
     V.put("C_p_snapshot", ("x", "y"), snap_c)
-    return ConcentrationReadings(ky, removed, V)
+    return ky, removed, V
 
 
 def _u_plane(fr: Frame, s: dict):
@@ -205,25 +195,15 @@ def above_first_cell_readings(fr: Frame, s: dict, noise: ParcelNoise) -> Variabl
     return V
 
 
-@dataclass(frozen=True, eq=False)
-class SpaceTimeReadings:
-    #: the time lags of the planes up to MAX_LAG_S [s]
-    lag_t: np.ndarray
-    variables: Variables
-
-
-def space_time_readings(fr: Frame, C_w: np.ndarray | None) -> SpaceTimeReadings:
-    """The peak of the space-time correlation of C_p over lags 0 to ``MAX_LAG_S`` at the planes'
-    spacing, and the streamers' speed and lifetime from it."""
+def space_time_readings(fr: Frame, C_w: np.ndarray | None) -> tuple[np.ndarray, Variables]:
+    """(the lags [s], variables): the peak of the space-time correlation of C_p over lags 0 to
+    ``MAX_LAG_S`` at the planes' spacing, and the streamers' speed and lifetime from it."""
     nx, ny = fr.nx, fr.ny
     tp_w = fr.t_plane[fr.plane_mask] if fr.t_plane.size else fr.t_plane
     dtp = float(np.median(np.diff(tp_w))) if tp_w.size >= 2 else math.nan
     K = int(min(tp_w.size - 1, math.floor(MAX_LAG_S / dtp + 1e-9))) if math.isfinite(dtp) and dtp > 0 else 0
-    K = max(K, 0)
     lag_t = np.arange(K + 1) * (dtp if math.isfinite(dtp) else 0.0)
-    st_peak = np.full(K + 1, np.nan)
-    st_x = np.full(K + 1, np.nan)
-    st_y = np.full(K + 1, np.nan)
+    st_peak, st_x, st_y = (np.full(K + 1, np.nan) for _ in range(3))
     speed = lifetime = math.nan
     if C_w is not None and K >= 1 and nx >= 2 and ny >= 2:
         st = streamers.space_time_correlation(C_w, dtp, fr.dx, fr.dy, max_lag_s=K * dtp + 0.5 * dtp)
@@ -236,7 +216,7 @@ def space_time_readings(fr: Frame, C_w: np.ndarray | None) -> SpaceTimeReadings:
     V.put("C_p_st_y", ("lag_t",), st_y)
     V.put("streamer_speed", (), speed)
     V.put("streamer_lifetime", (), lifetime)
-    return SpaceTimeReadings(lag_t, V)
+    return lag_t, V
 
 
 def lagged_wind_correlation(fr: Frame, s: dict, C_w: np.ndarray | None, n_lags: int,
@@ -271,11 +251,11 @@ def streamer_statistics(fr: Frame, s: dict) -> StreamerStatistics:
     V = Variables()
     V.put("n_planes", (), int(C_w.shape[0]) if C_w is not None else 0)
     V.put("n_samples", (), fr.n_t)
-    conc = concentration_readings(fr, C_w, noise)
-    V.merge(conc.variables)
-    V.merge(streak_readings(fr, s, conc.ky.size))
+    ky, removed, conc = concentration_readings(fr, C_w, noise)
+    V.merge(conc)
+    V.merge(streak_readings(fr, s, ky.size))
     V.merge(above_first_cell_readings(fr, s, noise))
-    st = space_time_readings(fr, C_w)
-    V.merge(st.variables)
-    V.merge(lagged_wind_correlation(fr, s, C_w, st.lag_t.size, conc.removed))
-    return StreamerStatistics(conc.ky, st.lag_t, noise, V)
+    lag_t, st = space_time_readings(fr, C_w)
+    V.merge(st)
+    V.merge(lagged_wind_correlation(fr, s, C_w, lag_t.size, removed))
+    return StreamerStatistics(ky, lag_t, noise, V)
