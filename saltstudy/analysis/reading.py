@@ -53,16 +53,10 @@ def read_archive(path: str | Path, keep: tuple[str, ...] | None,
     the ``lazy`` ones become :class:`LazyVar` handles."""
     with NC_LOCK:
         with xr.open_dataset(path, engine="netcdf4") as ds:
-            attrs = dict(ds.attrs)
             coords = {k: np.asarray(ds[k].values) for k in ds.coords}
-            names = [v for v in ds.data_vars if keep is None or v in keep]
-            data: dict[str, Any] = {}
-            for v in names:
-                if v in lazy:
-                    data[v] = LazyVar(path, v, ds[v].shape)
-                else:
-                    data[v] = np.asarray(ds[v].values)
-    return attrs, coords, data
+            data = {v: LazyVar(path, v, ds[v].shape) if v in lazy else np.asarray(ds[v].values)
+                    for v in ds.data_vars if keep is None or v in keep}
+            return dict(ds.attrs), coords, data
 
 
 class Rows:
@@ -262,20 +256,15 @@ def frame_of(attrs: dict[str, Any], coords: dict[str, np.ndarray]) -> Frame:
 
     # sampling window: from the first to the last 3-D sample; one sample -> to the end of the run
     if n_t:
-        t0 = float(t_sample[0])
-        t1 = float(t_sample[-1])
+        t0, t1 = float(t_sample[0]), float(t_sample[-1])
         if t1 <= t0:
             t1 = float(max(t_series.max() if t_series.size else t0,
                            t_plane.max() if t_plane.size else t0))
     else:
-        t0, t1 = (float(t_series[0]) if t_series.size else 0.0), (
-            float(t_series[-1]) if t_series.size else 0.0)
+        t0, t1 = (float(t_series[0]), float(t_series[-1])) if t_series.size else (0.0, 0.0)
     # planes restricted to the sampling window (t >= first 3-D sample)
-    plane_mask = np.ones(t_plane.size, bool)
-    if t_plane.size and n_t:
-        m = t_plane >= t0 - 1e-9
-        if m.any():
-            plane_mask = m
+    in_window = t_plane >= t0 - 1e-9
+    plane_mask = in_window if n_t and in_window.any() else np.ones(t_plane.size, bool)
 
     return Frame(
         attrs=attrs, coords=coords, info=info,
