@@ -357,10 +357,9 @@ def mass_flux_statistics(fr: Frame, s: dict, G: np.ndarray, z_m: float,
     V.put("z_m_flux995", (), flux_height(fr.z_w, G))
     V.put("G_decay_height", (), decay_height(fr.z, G, z_m))
     G_series = s.get("G_tot_series")
-    if G_series is not None and fr.t_series.size == G_series.size:
-        g_mean, sigma_G = sigma_series(fr.t_series, G_series, fr.t0, fr.t1)
-    else:
-        g_mean, sigma_G = math.nan, math.nan
+    g_mean, sigma_G = (sigma_series(fr.t_series, G_series, fr.t0, fr.t1)
+                       if G_series is not None and fr.t_series.size == G_series.size
+                       else (math.nan, math.nan))
     V.put("G_tot_window_mean", (), g_mean)
     V.put("sigma_G", (), sigma_G, definition="std over the sampling window of the total-flux "
           "series G_tot_series (see saltstudy.analysis.flux)")
@@ -368,12 +367,11 @@ def mass_flux_statistics(fr: Frame, s: dict, G: np.ndarray, z_m: float,
           if g_mean and math.isfinite(g_mean) and g_mean > 0 else math.nan)
     G_col = s.get("G_col")
     pmask = fr.plane_mask
-    if G_col is not None and G_col.ndim == 3 and G_col.shape[0] == pmask.size and pmask.any():
-        idx = np.flatnonzero(pmask)
-        m_loc, s_loc = pooled_mean_std(
-            G_col[idx[i:i + PLANE_CHUNK]] for i in range(0, idx.size, PLANE_CHUNK))
-    else:
-        s_loc, m_loc = math.nan, math.nan
+    idx = np.flatnonzero(pmask)
+    m_loc, s_loc = (pooled_mean_std(G_col[idx[i:i + PLANE_CHUNK]]
+                                    for i in range(0, idx.size, PLANE_CHUNK))
+                    if G_col is not None and G_col.ndim == 3 and G_col.shape[0] == pmask.size
+                    and pmask.any() else (math.nan, math.nan))
     V.put("sigma_G_local", (), s_loc)
     V.put("sigma_G_local_over_mean", (), s_loc / m_loc
           if m_loc and math.isfinite(m_loc) and m_loc > 0 else math.nan)
