@@ -30,7 +30,6 @@ def fig01(ctx: ReportContext) -> FigureResult:
     res = FigureResult(fig)
     ax.set_title("Fig. 1 — airborne parcels per m² of bed, each case at its own Q", fontsize=10)
     drawn: list[str] = []
-    means: list[float] = []
     for r in runs:
         if not r.has("n_parcels"):
             res.notes.append(f"{r.label}: no n_parcels series")
@@ -43,8 +42,7 @@ def fig01(ctx: ReportContext) -> FigureResult:
             continue
         name = f"case {r.case}" if r.case is not None and r.plain_case else r.label
         m = n_parcels_per_m2_at_Q(r)
-        state = saltation_state(r)
-        tail = f", {NO_SALTATION}" if state.status == NO_SALTATION else ""
+        tail = f", {NO_SALTATION}" if saltation_state(r).status == NO_SALTATION else ""
         # a case of one's own gets a colour of its own: it may share a paper case's number
         col = case_color(r.paper_case) if r.paper_case is not None else \
             OWN_COLORS[sum(1 for d in drawn if ctx.runs[d].paper_case is None) % len(OWN_COLORS)]
@@ -52,14 +50,12 @@ def fig01(ctx: ReportContext) -> FigureResult:
                 label=f"{name}: mean {m:.3g} m⁻²{tail}")
         res.data[f"t_{r.label}"] = t
         res.data[f"per_m2_{r.label}"] = y
+        res.data[f"mean_per_m2_{r.label}"] = np.array([m])
         drawn.append(r.label)
-        means.append(m)
     if not drawn:
         res.notes.extend(f"{r.label}: {r.status}" for r in ctx.runs.values() if not r.ok)
         empty_axes(ax, "\n".join(res.notes) or "no run with an n_parcels series")
         return res
-    for label, m in zip(drawn, means):
-        res.data[f"mean_per_m2_{label}"] = np.array([m])
     ref = paper_results()
     per_m2 = PAPER_PARCELS_PER_M2
     if math.isfinite(per_m2):
@@ -120,24 +116,16 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
     if others:  # a legend entry, not a box over the data
         ax.plot([], [], ls="none", label="µ1 ≠ 200 µm: " + ", ".join(
             f"case {k} {v}" for k, v in others.items()))
-    for n in range(1, 11):
-        note = ctx.missing_note(n)
-        if note and ctx.by_case(n) is not None:
-            res.notes.append(note)
+    res.notes += [note for n in range(1, 11) if (note := ctx.missing_note(n))]
     ax.set_xlabel(r"$u_{*s}/u_{*t}$ [-], $u_{*s}$ from the total stress at $z_{ref}$")
     ax.grid(alpha=0.3, which="both")
 
 
 def _ref_threshold(ctx: ReportContext) -> tuple[float, RunData | None]:
     """u*t, and the run it came from, for the laws at mu1 = 200 um (case 2 first, then 1-6)."""
-    for n in (2, 1, 3, 4, 5, 6):
-        r = ctx.by_case(n)
-        if r is not None and r.ok and math.isfinite(r.scalar("u_star_t")):
-            return r.scalar("u_star_t"), r
-    for r in ctx.runs.values():
-        if r.ok and is_200um(r) and math.isfinite(r.scalar("u_star_t")):
-            return r.scalar("u_star_t"), r
-    return math.nan, None
+    runs = [ctx.by_case(n) for n in (2, 1, 3, 4, 5, 6)] + [r for r in ctx.runs.values() if is_200um(r)]
+    r = next((r for r in runs if r is not None and r.ok and math.isfinite(r.scalar("u_star_t"))), None)
+    return (r.scalar("u_star_t"), r) if r is not None else (math.nan, None)
 
 
 def _draw_laws(ctx, ax, laws: dict, res: FigureResult, d: float) -> None:
