@@ -177,8 +177,7 @@ def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = N
                    expect_blowup: set[str] | frozenset[str] = frozenset(),
                    opened: dict[str, xr.Dataset | None] | None = None) -> list[dict[str, Any]]:
     """One row per run; ``opened`` (label -> samples dataset) saves reopening what the caller has."""
-    failures = failures or {}
-    checkpoints = checkpoints or {}
+    failures, checkpoints = failures or {}, checkpoints or {}
     opened = _samples_of(runs, samples) if opened is None else opened
     rows = []
     for label, r in runs.items():

@@ -21,17 +21,13 @@ __all__ = ["machine_info", "run_scalars", "build_summary", "run_key", "task_time
 
 
 def machine_info() -> dict[str, Any]:
-    proc = ""
     try:
         with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
-            for line in fh:
-                if line.lower().startswith("model name"):
-                    proc = line.split(":", 1)[1].strip()
-                    break
+            proc = next((line.split(":", 1)[1].strip() for line in fh
+                         if line.lower().startswith("model name")), "")
     except OSError:
-        pass
-    if not proc:
-        proc = platform.processor() or platform.machine()
+        proc = ""
+    proc = proc or platform.processor() or platform.machine()
     try:
         cores = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
@@ -45,9 +41,7 @@ def run_scalars(run: RunData) -> tuple[dict[str, float], dict[str, str]]:
     units."""
     vals: dict[str, float] = {}
     units: dict[str, str] = {}
-    if run.ds is None:
-        return vals, units
-    for name, var in run.ds.data_vars.items():
+    for name, var in (run.ds.data_vars.items() if run.ds is not None else ()):
         if var.ndim != 0 or var.dtype.kind not in "fiub":
             continue
         vals[str(name)] = float(var.values)

@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..analysis.paper_grid import PAPER, PAPER_FIRST_LAYER
 from .data import ReportContext, RunData, case_number_of, profile
 from .reference import CASES_WIND, PAPER_LABEL, TABLE2_COLUMNS, paper_results, paper_table2
 from .saltation import NO_SALTATION, saltation_state
@@ -91,11 +92,6 @@ class Cell:
     se: float = math.nan          # standard error of the computed value, where the analysis gives one
 
 
-#: the paper's grid (Dupont et al. 2013, section 2.4): first level and horizontal spacing [m]
-PAPER_DZ_BOTTOM = 0.01
-PAPER_DX = 0.10
-
-
 def model_departures(scene: dict) -> list[str]:
     """Where a run's model and cost depart from the paper's description, in words, from the run's
     resolved scene (``{"case": ..., "fidelity": ...}`` as archived). Physics first, then cost."""
@@ -129,14 +125,11 @@ def model_departures(scene: dict) -> list[str]:
         out.append("a column relaxation force over the first seconds of saltation")
     grid = fid.get("grid", {}) or {}
     dz0 = grid.get("dz_bottom")
-    if dz0 is not None and dz0 > PAPER_DZ_BOTTOM * 1.001:
+    if dz0 is not None and dz0 > PAPER_FIRST_LAYER * 1.001:
         # z_m +24-38 % and G_tot +29-63 % from 2 cm to 1 cm in cases 2 and 6 (reports/investigations/grid-rungs)
         out.append(f"a first level of {100 * dz0:g} cm (the paper's: 1 cm)")
-    try:
-        dx = float(grid["Lx"]) / float(grid["nx"])
-    except (KeyError, TypeError, ValueError, ZeroDivisionError):
-        dx = math.nan
-    if math.isfinite(dx) and dx > PAPER_DX * 1.001:
+    dx = float(grid.get("Lx", math.nan)) / float(grid.get("nx", math.nan))
+    if math.isfinite(dx) and dx > PAPER["setup"]["dx_m"] * 1.001:
         out.append(f"a horizontal spacing of {dx:.3g} m (the paper's: 0.10 m)")
     # the paper's text is silent on the scheme; its model, ARPS 5.1.5, advects momentum with
     # fourth-order quadratically conservative differences (Xue et al. 2000)
