@@ -322,10 +322,7 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
         ax.grid(alpha=0.3, which="both")
     # one key for both panels (a statistic has the same colour and marker in each), below them:
     # inside, fourteen entries hid the rungs that cost about the same
-    handles: dict[str, Any] = {}
-    for ax in (ax1, ax2):
-        for h, lab in zip(*ax.get_legend_handles_labels()):
-            handles.setdefault(lab, h)
+    handles = {lab: h for ax in (ax1, ax2) for h, lab in zip(*ax.get_legend_handles_labels())}
     if handles:
         fig.legend(list(handles.values()), list(handles.keys()), loc="outside lower center",
                    ncol=min(7, len(handles)), fontsize=8)

@@ -112,7 +112,7 @@ def fig05(ctx: ReportContext) -> FigureResult:
     within ``panels.HELD_TOLERANCE`` of its µ1 fills it (the paper's case, else the nearest in
     target u*s, which changes how high and how unevenly the sizes are lifted); else left out."""
     def usable(r: RunData) -> str | None:
-        return None if r.has("psd_air", "psd_bed", "d_bin") else "no size distribution"
+        return None if r.has("psd_air", "psd_bed", "d_bin", "z_band_edges") else "no size distribution"
 
     panel = panel_runs(ctx, tuple(n for _, _, n in FIG5_PANELS), BY_U_STAR_S, usable)
     chosen = {place.paper_case: place for place in panel.runs}
@@ -132,19 +132,11 @@ def fig05(ctx: ReportContext) -> FigureResult:
         ax.set_title(title, loc="left", fontsize=9)
         d = np.asarray(r.ds["d_bin"].values, float) * 1e6
         bed = np.asarray(r.ds["psd_bed"].values, float)
-        air = np.asarray(r.ds["psd_air"].values, float)
-        air_dims = r.ds["psd_air"].dims
-        if air_dims[0] == "d_bin":
-            air = air.T
-        zb = r.ds[r.ds["psd_air"].dims[0] if air_dims[0] != "d_bin" else air_dims[1]].values
-        edges = r.ds["z_band_edges"].values if "z_band_edges" in r.ds else None
-        cmap = colormaps["plasma"]
+        air = np.asarray(r.ds["psd_air"].transpose("z_band", "d_bin").values, float)
+        edges = r.ds["z_band_edges"].values
         for i in range(air.shape[0]):
-            if edges is not None and len(edges) == air.shape[0] + 1:
-                lab = f"air, z = {edges[i] * 100:.0f}–{edges[i + 1] * 100:.0f} cm"
-            else:
-                lab = f"air, z ≈ {zb[i] * 100:.0f} cm"
-            ax.plot(d, air[i], color=cmap(i / max(1, air.shape[0])), lw=1.4, marker=".", label=lab)
+            ax.plot(d, air[i], color=colormaps["plasma"](i / max(1, air.shape[0])), lw=1.4,
+                    marker=".", label=f"air, z = {edges[i] * 100:.0f}–{edges[i + 1] * 100:.0f} cm")
         ax.plot(d, bed, color="k", lw=2.5, label=f"bed (soil), µ1 = {fmt_um(r.mu1)}")
         res.data[f"psd_air_{place.key}"] = air
         res.data[f"psd_bed_{place.key}"] = bed
