@@ -12,7 +12,8 @@ from matplotlib import colormaps
 from .data import ReportContext, RunData, profile
 from .panels import BY_U_STAR_S, panel_runs, wind_and_soil
 from .plotting import (FigureResult, add_legend, add_notes, case_color, case_label, fmt_um,
-                       has_stress_u_star, new_figure, nothing_to_draw, plain_log, u_star_stress)
+                       has_stress_u_star, lacks, new_figure, nothing_to_draw, plain_log,
+                       u_star_stress)
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
 
 __all__ = ["fig02", "fig05", "fig06", "fig07", "fig11", "fig12", "FIG2_PROFILES", "FIG5_PANELS"]
@@ -43,7 +44,6 @@ def fig02(ctx: ReportContext) -> FigureResult:
                  + case_label(r, place=place))
     zref, why = r.z_ref()
     zm = r.scalar("z_m")
-    ztop = np.nan
     styles = (("u_mean", "uw_flux", "with saltation", "k", "-"),
               ("u_mean_spinup", "uw_flux_spinup", "without saltation (spin-up)", "tab:blue", "--"))
     for uname, fname, lab, col, ls in styles:
@@ -57,7 +57,6 @@ def fig02(ctx: ReportContext) -> FigureResult:
                 ax_u.plot(u / uref, z, color=col, ls=ls, lw=1.5, label=lab)
                 res.data[f"{uname}_norm"] = u / uref
                 res.data["z"] = z
-                ztop = np.nanmax(z)
             else:
                 res.notes.append(f"{uname}: u_ref undefined")
         else:
@@ -87,16 +86,15 @@ def fig02(ctx: ReportContext) -> FigureResult:
         for ax in (ax_u, ax_f):
             ax.axhspan(lz - damp, lz, facecolor="none", edgecolor="0.6", hatch="//", lw=0,
                        label=f"Rayleigh damping layer (z > {lz - damp:g} m)")
-    zs = res.data.get("z")
-    if zs is not None:
-        ax_u.set_ylim(max(1e-3, 0.5 * float(np.nanmin(zs))), 1.2 * ztop)
+    if "z" in res.data:
+        ax_u.set_ylim(max(1e-3, 0.5 * float(np.nanmin(res.data["z"]))), 1.2 * np.nanmax(res.data["z"]))
     ax_u.set_xlabel(r"$\langle u\rangle / u_{ref}$ [-]")
     ax_u.set_ylabel("z [m]")
     ax_u.set_title("(a)", loc="left")
     ax_f.set_xlabel(r"$\langle u'w'\rangle$ (resolved + SGS) [m² s⁻²]")
     ax_f.set_title("(b)", loc="left")
-    add_legend(ax_u, fontsize=7.5, loc="best", framealpha=0.9)
-    add_legend(ax_f, fontsize=7.5, loc="best", framealpha=0.9)
+    for ax in (ax_u, ax_f):
+        add_legend(ax, fontsize=7.5, loc="best", framealpha=0.9)
     add_notes(ax_f, res.notes)
     res.data["u_ref_height"] = np.array([zref])
     return res
@@ -111,10 +109,8 @@ def fig05(ctx: ReportContext) -> FigureResult:
     size of the paper (µ1 = 90, 200, 400 µm: its cases 7, 2, 10). A panel is a soil: only a run
     within ``panels.HELD_TOLERANCE`` of its µ1 fills it (the paper's case, else the nearest in
     target u*s, which changes how high and how unevenly the sizes are lifted); else left out."""
-    def usable(r: RunData) -> str | None:
-        return None if r.has("psd_air", "psd_bed", "d_bin", "z_band_edges") else "no size distribution"
-
-    panel = panel_runs(ctx, tuple(n for _, _, n in FIG5_PANELS), BY_U_STAR_S, usable)
+    panel = panel_runs(ctx, tuple(n for _, _, n in FIG5_PANELS), BY_U_STAR_S,
+                       lacks("psd_air", "psd_bed", "d_bin", "z_band_edges"))
     chosen = {place.paper_case: place for place in panel.runs}
     drawn = [(letter, um, chosen[n]) for letter, um, n in FIG5_PANELS if n in chosen]
     fig, axes = new_figure(max(1, len(drawn)), 1, size=(max(6.0, 0.5 + 4.2 * len(drawn)), 4.8))
@@ -159,13 +155,8 @@ def _log_gaps(x: np.ndarray) -> np.ndarray:
     """Indices of the levels whose value is finite and ≤ 0 with a positive value below and
     above them: a log axis cannot draw them, so the line breaks there and a positive level
     above may stand alone as a single dot (τp of a coarse grid changes sign above z_m)."""
-    pos = np.isfinite(x) & (x > 0)
-    if pos.sum() < 2:
-        return np.array([], dtype=int)
-    first, last = np.flatnonzero(pos)[[0, -1]]
-    bad = np.isfinite(x) & (x <= 0)
-    idx = np.flatnonzero(bad)
-    return idx[(idx > first) & (idx < last)]
+    pos, idx = np.flatnonzero(np.isfinite(x) & (x > 0)), np.flatnonzero(np.isfinite(x) & (x <= 0))
+    return idx[(idx > pos[0]) & (idx < pos[-1])] if pos.size >= 2 else idx[:0]
 
 
 def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,

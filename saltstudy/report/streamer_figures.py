@@ -22,9 +22,8 @@ def fig09(ctx: ReportContext) -> FigureResult:
     µ1 = 200 µm (``panels.py``); a row the study cannot fill is left out."""
     panel = panel_runs(ctx, FIG9_CASES, BY_U_STAR_S, lacks("C_p_snapshot", "u_snapshot"))
     rows = panel.runs
-    ref = rows[0].run if rows else None     # the aspect of the first drawn run
-    lx = ref.attr("Lx", 20.0) if ref else 20.0
-    ly = ref.attr("Ly", 15.0) if ref else 15.0
+    # the aspect of the first drawn run
+    lx, ly = (rows[0].run.attr("Lx", 20.0), rows[0].run.attr("Ly", 15.0)) if rows else (20.0, 15.0)
     w = 11.0
     h = len(rows) * (w / 2) * (ly / lx) * 0.95 + 1.0
     fig, axes = new_figure(2, max(1, len(rows)), size=(w, min(max(h, 3.5), 14.0)))
