@@ -49,9 +49,7 @@ def bed_exchange(t: np.ndarray, bed_px: np.ndarray | None, bed_pz: np.ndarray | 
            "mu_b_se": math.nan}
     if bed_px is None or bed_pz is None:
         return out
-    t = np.asarray(t, dtype=np.float64)
-    px = np.asarray(bed_px, dtype=np.float64)
-    pz = np.asarray(bed_pz, dtype=np.float64)
+    t, px, pz = (np.asarray(v, dtype=np.float64) for v in (t, bed_px, bed_pz))
     ok = np.isfinite(t) & np.isfinite(px) & np.isfinite(pz)
     t, px, pz = t[ok], px[ok], pz[ok]
     if t.size < 2 or not (t1 > t0) or area <= 0:
@@ -93,9 +91,7 @@ def column_momentum_rate(t: np.ndarray, u_mean: np.ndarray | None, z_w: np.ndarr
     fewer than three samples."""
     if u_mean is None:
         return math.nan
-    u = np.asarray(u_mean, dtype=np.float64)
-    t = np.asarray(t, dtype=np.float64)
-    zw = np.asarray(z_w, dtype=np.float64)
+    u, t, zw = (np.asarray(v, dtype=np.float64) for v in (u_mean, t, z_w))
     if u.ndim != 2 or u.shape[0] != t.size or u.shape[1] != zw.size - 1 or t.size < 3:
         return math.nan
     P = u @ layer_weights(zw, zw[0], z_top)

@@ -69,8 +69,7 @@ def upper_mean(z: np.ndarray, R: np.ndarray, z_m: float, frac: float = UPPER_FRA
     """Mean of R over ``frac z_m <= z <= z_m``; NaN if no finite level there."""
     if not (math.isfinite(z_m) and z_m > 0):
         return math.nan
-    z = np.asarray(z, dtype=np.float64)
-    R = np.asarray(R, dtype=np.float64)
+    z, R = (np.asarray(v, dtype=np.float64) for v in (z, R))
     sel = (z >= frac * z_m) & (z <= z_m) & np.isfinite(R)
     return float(R[sel].mean()) if sel.any() else math.nan
 
@@ -78,8 +77,7 @@ def upper_mean(z: np.ndarray, R: np.ndarray, z_m: float, frac: float = UPPER_FRA
 def lagged_correlation(C: np.ndarray, u: np.ndarray, max_lag: int, noise: float = 0.0) -> np.ndarray:
     """R(k, j) = corr(C(t), u(t - k, plane j)) for k = 0..max_lag; ``u (nt, nx, ny, nzp)``;
     ``noise`` taken out of the variance of C as in :func:`correlation_profile`."""
-    C = np.asarray(C, dtype=np.float64)
-    u = np.asarray(u, dtype=np.float64)
+    C, u = (np.asarray(v, dtype=np.float64) for v in (C, u))
     nt = C.shape[0]
     nzp = u.shape[-1]
     out = np.full((max_lag + 1, nzp), np.nan)

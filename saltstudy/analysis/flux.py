@@ -116,8 +116,7 @@ def bed_value(z_w: np.ndarray, layer_mean: np.ndarray, z_top: float = math.nan,
     from the bed whose top face is at or below ``z_top`` (at least ``min_layers``; the lowest
     ``min_layers`` when ``z_top`` is NaN). Two layers determine the exponential exactly. NaN
     with fewer positive layers from the bed than ``min_layers``."""
-    z_w = np.asarray(z_w, dtype=np.float64)
-    f = np.asarray(layer_mean, dtype=np.float64)
+    z_w, f = (np.asarray(v, dtype=np.float64) for v in (z_w, layer_mean))
     nan = BedValue(math.nan, math.nan, 0)
     n_pos = 0
     while n_pos < f.size and np.isfinite(f[n_pos]) and f[n_pos] > 0:
@@ -196,8 +195,7 @@ def first_drop_height(z: np.ndarray, f: np.ndarray, threshold: float) -> float:
     """Lowest height where ``f`` (on levels ``z``, ``f(z[0]) >= threshold``) falls below
     ``threshold``: interpolated in ln f where both values are positive (exact for an exponential),
     else linearly; NaN when undefined."""
-    z = np.asarray(z, dtype=np.float64)
-    f = np.asarray(f, dtype=np.float64)
+    z, f = (np.asarray(v, dtype=np.float64) for v in (z, f))
     if not (math.isfinite(threshold) and threshold > 0) or f.size == 0 or not np.isfinite(f[0]):
         return math.nan
     if f[0] < threshold:
@@ -244,8 +242,7 @@ def flux_height(z_w: np.ndarray, G: np.ndarray, fraction: float = FLUX_FRACTION)
 def decay_height(z: np.ndarray, G: np.ndarray, z_top: float, min_points: int = 3) -> float:
     """e-folding height H of ``G ~ exp(-z/H)`` (section 3.2 [41]): regression of ln G on z for
     ``z <= z_top``, G > 0; NaN with fewer than ``min_points`` levels or a non-decaying fit."""
-    z = np.asarray(z, dtype=np.float64)
-    G = np.asarray(G, dtype=np.float64)
+    z, G = (np.asarray(v, dtype=np.float64) for v in (z, G))
     if not math.isfinite(z_top):
         return math.nan
     sel = (z <= z_top) & np.isfinite(G) & (G > 0)

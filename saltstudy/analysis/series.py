@@ -30,8 +30,7 @@ EQ_TOLERANCE = 0.10
 
 def running_mean(t: np.ndarray, x: np.ndarray, window_s: float) -> np.ndarray:
     """Centred running mean over ``window_s`` seconds (by index, from the median spacing)."""
-    t = np.asarray(t, dtype=np.float64)
-    x = np.asarray(x, dtype=np.float64)
+    t, x = (np.asarray(v, dtype=np.float64) for v in (t, x))
     if x.size < 2:
         return x.copy()
     dt = float(np.median(np.diff(t)))
@@ -50,8 +49,7 @@ def running_mean(t: np.ndarray, x: np.ndarray, window_s: float) -> np.ndarray:
 def overshoot_stats(t: np.ndarray, n: np.ndarray, t0: float, t1: float,
                     window_s: float = RUNNING_WINDOW_S, tol: float = EQ_TOLERANCE) -> dict[str, float]:
     """n_parcels_peak, n_parcels_mean, overshoot_ratio, t_equilibrium (module docstring)."""
-    t = np.asarray(t, dtype=np.float64)
-    n = np.asarray(n, dtype=np.float64)
+    t, n = (np.asarray(v, dtype=np.float64) for v in (t, n))
     out = dict(n_parcels_peak=math.nan, n_parcels_mean=math.nan, overshoot_ratio=math.nan,
                t_equilibrium=math.nan)
     ok = np.isfinite(n)
@@ -63,15 +61,12 @@ def overshoot_stats(t: np.ndarray, n: np.ndarray, t0: float, t1: float,
     if not sel.any():
         sel = ok & (t >= t0 - eps)
     plateau = float(n[sel].mean()) if sel.any() else math.nan
-    out["n_parcels_peak"] = peak
-    out["n_parcels_mean"] = plateau
+    out.update(n_parcels_peak=peak, n_parcels_mean=plateau)
     if math.isfinite(plateau) and plateau > 0:
         out["overshoot_ratio"] = peak / plateau
         rm = running_mean(t, n, window_s)
         close = np.abs(rm - plateau) <= tol * plateau
-        start = 0
-        if np.nanmax(rm) > (1.0 + tol) * plateau:
-            start = int(np.nanargmax(rm))
+        start = int(np.nanargmax(rm)) if np.nanmax(rm) > (1.0 + tol) * plateau else 0
         idx = np.flatnonzero(close[start:])
         if idx.size:
             out["t_equilibrium"] = float(t[start + idx[0]])
@@ -80,9 +75,7 @@ def overshoot_stats(t: np.ndarray, n: np.ndarray, t0: float, t1: float,
 
 def increment_ratio(t: np.ndarray, num: np.ndarray, den: np.ndarray, t0: float, t1: float) -> float:
     """(num(t1) - num(t0)) / (den(t1) - den(t0)) for cumulative series; whole record if t1 <= t0."""
-    t = np.asarray(t, dtype=np.float64)
-    num = np.asarray(num, dtype=np.float64)
-    den = np.asarray(den, dtype=np.float64)
+    t, num, den = (np.asarray(v, dtype=np.float64) for v in (t, num, den))
     ok = np.isfinite(num) & np.isfinite(den)
     if ok.sum() < 1:
         return math.nan
@@ -106,8 +99,7 @@ def block_mean_stress_u_star(t: np.ndarray, u_star: np.ndarray, t0: float, t1: f
     carried to u* (se_u = se_tau / (2 u*)); the number of blocks). The blocks see the swings
     shorter than the window, not the slower ones that make two realizations differ. NaN with
     fewer than two blocks."""
-    t = np.asarray(t, dtype=np.float64)
-    u = np.asarray(u_star, dtype=np.float64)
+    t, u = (np.asarray(v, dtype=np.float64) for v in (t, u_star))
     ok = np.isfinite(t) & np.isfinite(u) & (t >= t0) & (t <= t1)
     if ok.sum() < 2 or not t1 > t0:
         return math.nan, math.nan, 0

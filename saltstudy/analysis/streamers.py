@@ -318,8 +318,7 @@ def spectral_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None = Non
     delta_y; criterion in the module docstring); NaN when there is none. ``blocks`` (nb, nky):
     the block spectra S is the mean of (from :func:`spanwise_spectrum_blocks`, with the noise
     left in); with fewer than ``MIN_BLOCKS`` of them the fallback margin applies."""
-    ky = np.asarray(ky, dtype=np.float64)
-    S = np.asarray(S, dtype=np.float64)
+    ky, S = (np.asarray(v, dtype=np.float64) for v in (ky, S))
     M = S.size - 1
     if M < 3 or not np.all(np.isfinite(S[1:])) or not np.any(S[1:] > 0):
         return math.nan
@@ -379,8 +378,7 @@ def spanwise_autocovariance(ky: np.ndarray, S: np.ndarray, dy: float
     """(lag [m], C(lag)) of the spanwise autocovariance whose one-sided density ``S`` is (the
     inverse of :func:`spanwise_spectrum_blocks`): ``C(j dy) = sum_m S_m dky cos(2 pi ky_m j dy)``
     for j = 0 .. ny//2, ny = Ly/dy. ``S`` may be (nky,) or (nb, nky) (then C is (nb, nlag))."""
-    ky = np.asarray(ky, dtype=np.float64)
-    S = np.asarray(S, dtype=np.float64)
+    ky, S = (np.asarray(v, dtype=np.float64) for v in (ky, S))
     dky = float(ky[1] - ky[0])
     ny = int(round(1.0 / (dky * dy)))
     lag = np.arange(ny // 2 + 1) * dy
@@ -401,8 +399,7 @@ def correlation_minimum(ky: np.ndarray, S: np.ndarray, dy: float,
     and pooled over ``pool`` lags on either side; with fewer than ``MIN_BLOCKS`` blocks a rise of
     ``fallback_rise`` in correlation units). It need not be negative: a red background lifts the
     whole correlation without moving the alternation. Refined by a parabola."""
-    ky = np.asarray(ky, dtype=np.float64)
-    S = np.asarray(S, dtype=np.float64)
+    ky, S = (np.asarray(v, dtype=np.float64) for v in (ky, S))
     if S.size < 4 or not np.all(np.isfinite(S)):
         return math.nan
     lag, C = spanwise_autocovariance(ky, S, dy)

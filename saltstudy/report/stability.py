@@ -1,9 +1,6 @@
-"""Stability report for a study of extreme scenes: did each run complete, and how close to the edge.
-
-Per scene (``STABILITY_COLUMNS``): completed / blew up as expected / failed (with the solver's
-diagnostic and the checkpoint kept), finiteness, the step's limiting constraint
-(solver/diagnostics/health.py), mass loading and stiffness, balance errors, CFL, velocity ranges,
-E_splash/E_impact, wall time; from the analysis archive and ``samples.nc``, "n/a" if not found.
+"""Stability report for a study of extreme scenes: did each run complete (a failure with the
+solver's diagnostic and the checkpoint kept), and how close to the edge (``STABILITY_COLUMNS``,
+from the analysis archive and ``samples.nc``; "n/a" if not found).
 
 Column stress residual. In a steady, horizontally homogeneous layer driven from above with no
 pressure gradient, the total stress tau(z) = -rho <u'w'> (resolved + SGS) + tau_p (grains) is the
@@ -183,17 +180,13 @@ def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = N
     for label, r in runs.items():
         row: dict[str, Any] = {"label": label}
         blew = label in failures and "SolverBlowUp" in str(failures[label])
+        row["status"] = ("failed" if label in failures else "completed" if r.ok else
+                         f"no result ({r.status})")
         if label in expect_blowup:
             row["expected"] = "blow-up"
             row["status"] = ("blew up as expected" if blew else
                              "failed (not by a blow-up)" if label in failures else
                              "completed: the expected blow-up did not happen")
-        elif label in failures:
-            row["status"] = "failed"
-        elif r.ok:
-            row["status"] = "completed"
-        else:
-            row["status"] = f"no result ({r.status})"
         if label in failures:
             row["error"] = str(failures[label])
             row["finite"] = False if blew else None
