@@ -379,10 +379,10 @@ def _summary_figure(results: dict[int | None, ConvergenceResult]) -> Figure:
     fig.suptitle("The ladder at a glance: typical difference from the reference rung against wall-clock time")
     colors = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
     for i, (case, res) in enumerate(results.items()):
-        rows = [r for r in ladder_summary(res) if math.isfinite(r["wall_time_s"])]
+        rows = sorted((r for r in ladder_summary(res) if math.isfinite(r["wall_time_s"])),
+                      key=lambda r: r["wall_time_s"])
         if not rows:
             continue
-        rows.sort(key=lambda r: r["wall_time_s"])
         col = colors[i % len(colors)]
         name = f"case {case}" if case is not None else "no case"
         t = np.array([r["wall_time_s"] for r in rows])

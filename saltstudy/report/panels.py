@@ -110,15 +110,8 @@ def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
 
 def _pool(ctx: ReportContext) -> list[RunData]:
     """The runs that may stand in: one per case number (``by_case``'s), every run without one."""
-    out: list[RunData] = []
-    seen: set[int] = set()
-    for r in ctx.runs.values():
-        rep = ctx.by_case(r.case) if r.case is not None else r
-        if rep is None or id(rep) in seen:
-            continue
-        seen.add(id(rep))
-        out.append(rep)
-    return out
+    reps = (ctx.by_case(r.case) if r.case is not None else r for r in ctx.runs.values())
+    return list({id(rep): rep for rep in reps if rep is not None}.values())
 
 
 def panel_runs(ctx: ReportContext, slots: Sequence[int], by: str,
@@ -134,17 +127,9 @@ def panel_runs(ctx: ReportContext, slots: Sequence[int], by: str,
             return r.status
         return usable(r) if usable is not None else None
 
-    own: dict[int, RunData] = {}
-    notes: list[str] = []
-    for n in slots:
-        r = ctx.by_case(n)
-        if r is None:
-            continue
-        why = why_not(r)
-        if why is None:
-            own[n] = r
-        else:
-            notes.append(f"case {n}: {why}")
+    held = {n: r for n in slots if (r := ctx.by_case(n)) is not None}
+    own = {n: r for n, r in held.items() if why_not(r) is None}
+    notes = [f"case {n}: {why_not(r)}" for n, r in held.items() if n not in own]
     taken = {id(r) for r in own.values()}
     # a case the study holds but cannot draw does not stand in for another either
     cands = [r for r in _pool(ctx) if id(r) not in taken and why_not(r) is None]

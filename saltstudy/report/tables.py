@@ -141,11 +141,7 @@ def model_departures(scene: dict) -> list[str]:
 
 def _departures_text(ctx: ReportContext) -> str:
     """One sentence on the departures the study's runs share (the first run's, if they differ)."""
-    seen: list[str] = []
-    for run in ctx.runs.values():
-        for d in model_departures(run.scene):
-            if d not in seen:
-                seen.append(d)
+    seen = list(dict.fromkeys(d for run in ctx.runs.values() for d in model_departures(run.scene)))
     if not seen:
         return "Model as the paper describes it."
     return "Departures from the paper's model, in some or all runs: " + "; ".join(seen) + "."
