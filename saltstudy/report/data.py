@@ -138,10 +138,8 @@ class RunData:
     def mu1(self) -> float:
         """Median diameter of the dominant soil mode [m] (from the archive's resolved scene)."""
         modes = self.scene.get("case", {}).get("soil", {}).get("modes") or []
-        if modes:
-            dominant = max(modes, key=lambda m: m.get("mass_fraction", 1.0))
-            return float(dominant.get("mu", math.nan))
-        return math.nan
+        dominant = max(modes, key=lambda m: m.get("mass_fraction", 1.0)) if modes else {}
+        return float(dominant.get("mu", math.nan))
 
     def damping_depth(self) -> float:
         """Depth of the Rayleigh layer of the run [m] (none with the pressure-gradient drive)."""
@@ -198,17 +196,10 @@ class ReportContext:
         """Runs for the scatter figures (3, 4, 8, 13): every case (one per number) plus any
         other run with an archive (scenes), labelled by their label."""
         out: list[RunData] = []
-        seen: set[int] = set()
         for r in self.runs.values():
-            if r.case is not None and case_number_of(r.label) is not None:
-                if r.case in seen:
-                    continue
-                rr = self.by_case(r.case)
-                seen.add(r.case)
-                if rr is not None and rr.ok:
-                    out.append(rr)
-            elif r.ok:
-                out.append(r)
+            rep = self.by_case(r.case) if case_number_of(r.label) is not None else r
+            if rep is not None and rep.ok and all(rep is not o for o in out):
+                out.append(rep)
         return out
 
 

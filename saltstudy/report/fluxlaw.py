@@ -1,12 +1,9 @@
 """A study's total flux against a measured flux law, each run at its own friction velocity.
 
-A guardrail independent of the paper: the wind-tunnel law of Creyssels et al. (2009, J. Fluid Mech.
-625) for 242 um grains of 2500 kg m^-3, Q = 1.38 (rho/g)(u*^2 - 0.206^2), with its flux e-folding
-height of ~1 cm. Each run is read at the u* of its own stress at the reference height
-(``u_star_s_stress``: the wind the grains actually had, whatever the drive's target), so the
-comparison tests the grain layer, not the u* controller. A study asks for it with
-``flux_law = "creyssels2009"``; the section lists G_tot, the law at that u*, their ratio (within
-``TOLERANCE`` or not) and G's e-folding height beside the measured one, and draws G_tot(u*).
+A guardrail independent of the paper (``FLUX_LAWS``: the wind-tunnel law of Creyssels et al.
+2009, with its flux e-folding height of ~1 cm), asked for by a study's ``flux_law``. Each run is
+read at the u* of its own stress at the reference height (``u_star_s_stress``: the wind the grains
+had, whatever the drive's target), so the comparison tests the grain layer, not the controller.
 """
 from __future__ import annotations
 
@@ -43,8 +40,7 @@ def flux_law_rows(runs: dict, law: str) -> list[dict[str, Any]]:
     for label, r in runs.items():
         if not r.ok:
             continue
-        us = r.scalar("u_star_s_stress")
-        g = r.scalar("G_tot")
+        us, g = r.scalar("u_star_s_stress"), r.scalar("G_tot")
         q = float(func(us)) if math.isfinite(us) else math.nan
         ratio = g / q if (math.isfinite(g) and q > 0) else math.nan
         rows.append({"label": label, "u_star_stress": us, "G_tot": g, "law": q, "ratio": ratio,

@@ -110,12 +110,10 @@ def saltation_state(run: RunData) -> SaltationState:
         return SaltationState(UNDEFINED, run.status)
     us, ut = run.u_star_s_target, run.scalar("u_star_t")
     released, mean = n_parcels_released(run), run.scalar("n_parcels_mean")
-    end = math.nan
     series = run.var("n_parcels")
-    if series is not None and series.size:
-        vals = np.asarray(series.values, dtype=float)
-        vals = vals[np.isfinite(vals)]
-        end = float(vals[-1]) if vals.size else math.nan
+    vals = np.asarray(series.values if series is not None else [], dtype=float)
+    vals = vals[np.isfinite(vals)]
+    end = float(vals[-1]) if vals.size else math.nan
     nums = dict(u_star_s=us, u_star_t=ut, n_parcels_released=released, n_parcels_mean=mean,
                 n_parcels_end=end)
     below = math.isfinite(us) and math.isfinite(ut) and us < ut
