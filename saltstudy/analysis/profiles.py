@@ -52,14 +52,9 @@ def fit_range(z_m: float, Lz: float, damping_depth: float,
     grains' layer; ``z_max = (Lz - damping_depth) / 2`` for the top drive (above it the lid and
     the Rayleigh layer bend the profile), ``Lz / 3`` for the pressure gradient (outer-layer
     effects grow above the local-equilibrium profile of the linear stress)."""
-    z_lo = float(z_floor)
-    if z_m is not None and math.isfinite(z_m):
-        z_lo = max(z_lo, float(z_m))
-    if drive == "pressure_gradient":
-        z_hi = float(Lz) / 3.0
-    else:
-        z_hi = 0.5 * (float(Lz) - float(damping_depth))
-    return z_lo, z_hi
+    z_lo = float(z_floor) if z_m is None or not math.isfinite(z_m) else max(z_floor, float(z_m))
+    return float(z_lo), (float(Lz) / 3.0 if drive == "pressure_gradient"
+                         else 0.5 * (float(Lz) - float(damping_depth)))
 
 
 def log_law_fit(z: np.ndarray, u: np.ndarray, z_min: float, z_max: float, kappa: float,
