@@ -36,14 +36,10 @@ def fig09(ctx: ReportContext) -> FigureResult:
         for col, (var, lab, cmap) in enumerate((("C_p_snapshot", r"$C_p / C_{p,max}$", "YlOrBr"),
                                                 ("u_snapshot", r"$u / u_{max}$", "viridis"))):
             ax = axes[row, col]
-            v = r.var(var)
-            arr = np.asarray(v.values, float)
-            if v.dims == ("y", "x"):
-                arr = arr.T
+            arr = np.asarray(r.ds[var].transpose("x", "y").values, float)
             vmax = np.nanmax(np.abs(arr))
             arr = arr / vmax if vmax > 0 else arr
-            x = np.asarray(r.ds["x"].values, float) if "x" in r.ds else np.arange(arr.shape[0])
-            y = np.asarray(r.ds["y"].values, float) if "y" in r.ds else np.arange(arr.shape[1])
+            x, y = (np.asarray(r.ds[c].values, float) for c in ("x", "y"))
             dx = x[1] - x[0] if x.size > 1 else 1.0
             dy = y[1] - y[0] if y.size > 1 else 1.0
             im = ax.imshow(arr.T, origin="lower", cmap=cmap, aspect="equal",
@@ -116,10 +112,10 @@ def fig10(ctx: ReportContext) -> FigureResult:
                 if math.isfinite(dyv):
                     ax.axvline(dyv, color=c, lw=0.8, ls=":")
             if col == 0:  # the paper's delta_y (from C_p spectra, Table 2) as grey triangles
-                pv = [(n, table.get(n, {}).get("delta_y_m", math.nan)) for n in cases]
-                pv = [(n, v) for n, v in pv if math.isfinite(v)]
+                pv = [v for n in cases
+                      if math.isfinite(v := table.get(n, {}).get("delta_y_m", math.nan))]
                 if pv:
-                    ax.plot([v for _, v in pv], [0.0] * len(pv), marker="^", ms=9, ls="none",
+                    ax.plot(pv, [0.0] * len(pv), marker="^", ms=9, ls="none",
                             color=PAPER_COLOR, transform=ax.get_xaxis_transform(), clip_on=False,
                             label=f"{PAPER_LABEL}: δy (Table 2)")
             ax.set_xscale("log")
