@@ -69,8 +69,7 @@ def make_animation(out_path: str | Path, analysis: str | Path | None, samples: s
     im = ax.imshow(frames[0].T / vmax, origin="lower", extent=(0, lx, 0, ly), cmap="YlOrBr",
                    vmin=0, vmax=1, aspect="equal")
     fig.colorbar(im, cax=cax, label="C_p / C_p,max (whole movie)")
-    ax.set_xlabel("x [m] (wind →)")
-    ax.set_ylabel("y [m]")
+    ax.set(xlabel="x [m] (wind →)", ylabel="y [m]")
     ttl = ax.set_title(title)
 
     def update(i):

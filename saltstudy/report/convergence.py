@@ -311,12 +311,10 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
                 ax.plot(t[zero], np.full(zero.sum(), floor), marker=mk, mfc="none", color=col, ls="none",
                         label=None if pos.any() else f"{lab} (0)")
     for ax in (ax1, ax2):
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        ax.set(xscale="log", yscale="log", xlabel="wall-clock time of the run [s]")
         if not ax.lines:           # nothing finite to draw (e.g. only a missing run): fixed limits
             ax.set_xlim(1.0, 1e4)
             ax.set_ylim(1e-4, 2.0)
-        ax.set_xlabel("wall-clock time of the run [s]")
         ax.axhline(0.10, color="0.5", ls=":", lw=1)
         ax.axhline(0.25, color="0.5", ls="--", lw=1)
         ax.grid(alpha=0.3, which="both")
@@ -406,16 +404,14 @@ def _summary_figure(results: dict[int | None, ConvergenceResult]) -> Figure:
                             ha="right", va="center")
     for y in (0.10, 0.25):
         ax1.axhline(y, color="0.5", ls=":" if y < 0.2 else "--", lw=1)
-    ax1.set_yscale("log")
-    ax1.set_ylabel("|relative difference from the reference| [-]")
+    ax1.set(yscale="log", ylabel="|relative difference from the reference| [-]")
     ax1.set_title("(a) median over the statistics; dotted: the two runs' median noise",
                   loc="left", fontsize=9)
     ax2.set_ylim(-0.03, 1.03)
     ax2.set_ylabel("share of the statistics [-]")
     ax2.set_title("(b) statistics within 10 % / 25 % of the reference", loc="left", fontsize=9)
     for ax in (ax1, ax2):
-        ax.set_xscale("log")
-        ax.set_xlabel("wall-clock time of the run [s] (spin-up + saltation)")
+        ax.set(xscale="log", xlabel="wall-clock time of the run [s] (spin-up + saltation)")
         ax.grid(alpha=0.3, which="both")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)

@@ -79,8 +79,7 @@ def build_fluxlaw_report(runs: dict, report_dir: Path, law: str) -> dict[str, An
     ax.plot(us_data, 1e3 * np.asarray(q_data), "s", mfc="none", color="0.4", label="measured")
     ax.plot([r["u_star_stress"] for r in rows], [1e3 * r["G_tot"] for r in rows], "o",
             color="tab:red", label="this study")
-    ax.set_xlabel("u* [m s⁻¹] (runs: their stress at z_ref)")
-    ax.set_ylabel("G_tot [g m⁻¹ s⁻¹]")
+    ax.set(xlabel="u* [m s⁻¹] (runs: their stress at z_ref)", ylabel="G_tot [g m⁻¹ s⁻¹]")
     ax.set_title(cite.split(":")[0], fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()

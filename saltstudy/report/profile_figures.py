@@ -88,8 +88,7 @@ def fig02(ctx: ReportContext) -> FigureResult:
                        label=f"Rayleigh damping layer (z > {lz - damp:g} m)")
     if "z" in res.data:
         ax_u.set_ylim(max(1e-3, 0.5 * float(np.nanmin(res.data["z"]))), 1.2 * np.nanmax(res.data["z"]))
-    ax_u.set_xlabel(r"$\langle u\rangle / u_{ref}$ [-]")
-    ax_u.set_ylabel("z [m]")
+    ax_u.set(xlabel=r"$\langle u\rangle / u_{ref}$ [-]", ylabel="z [m]")
     ax_u.set_title("(a)", loc="left")
     ax_f.set_xlabel(r"$\langle u'w'\rangle$ (resolved + SGS) [m² s⁻²]")
     ax_f.set_title("(b)", loc="left")
@@ -140,8 +139,7 @@ def fig05(ctx: ReportContext) -> FigureResult:
         # a size range of a decade or less (µ1/2.5 to 2.5 µ1 or narrower): powers of ten alone
         # label it in scientific notation, and 1-2-5 steps may leave a single label
         plain_log(ax, "x", subs=(1.0, 1.5, 2.0, 3.0, 5.0, 7.0))
-        ax.set_xlabel("grain diameter d [µm]")
-        ax.set_ylabel("mass fraction per size bin [-]")
+        ax.set(xlabel="grain diameter d [µm]", ylabel="mass fraction per size bin [-]")
         ax.grid(alpha=0.3, which="both")
         add_legend(ax, fontsize=7)
     return res

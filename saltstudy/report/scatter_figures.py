@@ -71,8 +71,8 @@ def fig01(ctx: ReportContext) -> FigureResult:
     elif teq:   # said, not drawn: a line past the runs' end would squeeze them to the left
         ax.plot([], [], ls="none", label=f"{PAPER_LABEL}: equilibrium after ≈{teq:g} s (case 2), "
                                          f"past these runs' {t_end:g} s")
-    ax.set_xlabel("time since saltation activation t [s]")
-    ax.set_ylabel("airborne parcels (of the case's Q) per m² [m⁻²]")
+    ax.set(xlabel="time since saltation activation t [s]",
+           ylabel="airborne parcels (of the case's Q) per m² [m⁻²]")
     ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)

@@ -232,13 +232,10 @@ def _figure(series: dict[str, xr.Dataset]):
         ax1.plot(t, ds["dt_diffusion"].values, color=c, lw=1.2, label=label)
         ax1.plot(t, ds["dt_courant"].values, color=c, lw=0.8, ls=":")
         ax2.plot(t, ds["loading_max"].values, color=c, lw=1.0, label=label)
-    ax1.set_yscale("log")
-    ax1.set_xlabel("time since activation [s]")
-    ax1.set_ylabel("allowed step [s]")
+    ax1.set(yscale="log", xlabel="time since activation [s]", ylabel="allowed step [s]")
     ax1.set_title("(a) diffusion limit (solid), Courant limit (dotted)")
-    ax2.set_yscale("log")
-    ax2.set_xlabel("time since activation [s]")
-    ax2.set_ylabel("largest grain / air mass in a cell [-]")
+    ax2.set(yscale="log", xlabel="time since activation [s]",
+            ylabel="largest grain / air mass in a cell [-]")
     ax2.set_title("(b) mass loading of the most loaded cell")
     ax2.legend(fontsize=7, loc="upper right")
     return fig

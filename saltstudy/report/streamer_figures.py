@@ -120,8 +120,8 @@ def fig10(ctx: ReportContext) -> FigureResult:
                             label=f"{PAPER_LABEL}: δy (Table 2)")
             ax.set_xscale("log")
             plain_log(ax, "x")
-            ax.set_xlabel(r"spanwise wavelength $1/k_y$ [m]")
-            ax.set_ylabel(f"$k_y S_{{{vlab}}}(k_y) / \\sigma_{{{vlab}}}^2$ [-]")
+            ax.set(xlabel=r"spanwise wavelength $1/k_y$ [m]",
+                   ylabel=f"$k_y S_{{{vlab}}}(k_y) / \\sigma_{{{vlab}}}^2$ [-]")
             ax.set_title(f"({'ab'[col]}) {vlab}, {rtitle}  (dotted: computed δy)", loc="left",
                          fontsize=9)
             ax.grid(alpha=0.3, which="both")
