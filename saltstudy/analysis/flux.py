@@ -1,8 +1,7 @@
 """Grain momentum flux tau_p (eq. 10), saltation height z_m, mass flux G (eq. 11), G_tot, sigma_G.
 
-Inputs: the Q-weighted layer sums recorded at each 3-D sample (``samples.nc``, over the grains
-whose centre lies between ``z_w[k]`` and ``z_w[k+1]``): ``pm = sum Q m_p``, ``pmu = sum Q m_p
-u_p``, ``pmw``, ``pmuw = sum Q m_p u_p w_p``.
+Inputs: the Q-weighted layer sums of each 3-D sample (``samples.nc``, the grains whose centre
+lies between ``z_w[k]`` and ``z_w[k+1]``): ``pm = sum Q m_p``, ``pmu``, ``pmw``, ``pmuw``.
 
 tau_p (eq. 10, section 3.2 [37])
     ``tau_p(z) = < Q/(Lx Ly dz) sum_p m_p u'_p w'_p >``, primes the deviations from the
@@ -14,8 +13,7 @@ tau_p (eq. 10, section 3.2 [37])
 
 z_m (section 3.2 [37])
     Where tau_p, going up from the bed, first drops below 0.1 % of ``rho u*s^2``, interpolated
-    in ``ln tau_p`` (tau_p decays exponentially; linearly if either value is not positive). NaN
-    if tau_p is below the threshold at the lowest level or never drops below it.
+    in ``ln tau_p`` (tau_p decays exponentially); NaN if it starts below or never drops below.
 
 tau_p(0): the grain-borne share of the momentum flux at the bed (section 3.2 [40], Fig. 6: "about
 50% of the above flow momentum flux in case 6", its lowest point the 0-1 cm cell)
@@ -36,9 +34,8 @@ G, G_tot (eq. 11, section 3.2 [41]-[42])
 
 sigma_G (section 4.3 [55])
     "sigma_G = sqrt(<G_tot'^2>)" of "the instantaneous flux" (the prime lost in the typeset
-    text): the standard deviation over the sampling window of the domain's total flux
-    ``G_tot_series``, a temporal variability (beside Fig. 1's particle number). The spread of
-    the local column flux, the streamer contrast at the grid scale, is ``sigma_G_local``.
+    text): the standard deviation over the sampling window of ``G_tot_series``, a temporal
+    variability. The spread of the local column flux (the streamers' contrast) is ``sigma_G_local``.
 """
 from __future__ import annotations
 

@@ -64,12 +64,8 @@ def band_anatomy(z: np.ndarray, z_w: np.ndarray, pn, pm, pmu, pmuf, Q_case: floa
 def window_counts(cumulative) -> np.ndarray | None:
     """Counts over the sampling window from cumulative counts at the samples (last minus first),
     or None if there are fewer than two samples."""
-    if cumulative is None:
-        return None
-    a = np.asarray(cumulative, dtype=np.float64)
-    if a.ndim < 1 or a.shape[0] < 2:
-        return None
-    return a[-1] - a[0]
+    a = None if cumulative is None else np.asarray(cumulative, dtype=np.float64)
+    return a[-1] - a[0] if a is not None and a.ndim >= 1 and a.shape[0] >= 2 else None
 
 
 def _mean_of(hist: np.ndarray, edges: np.ndarray) -> float:
@@ -174,9 +170,7 @@ def impact_record_statistics(fr: Frame, s: dict) -> tuple[dict[str, np.ndarray],
     # the impact record's bins are the archive's coordinates (their lower edges, equal widths)
     def edges(name):
         lo = np.asarray(fr.coords.get(name, np.zeros(0)), dtype=np.float64)
-        if lo.size < 2:
-            return np.zeros(1)
-        return np.append(lo, lo[-1] + (lo[1] - lo[0]))
+        return np.append(lo, lo[-1] + (lo[1] - lo[0])) if lo.size >= 2 else np.zeros(1)
 
     bins = {k: edges(k) for k in ("v_imp", "impact_angle", "hop_time", "hop_length")}
     imp = impact_statistics(s.get("impact_hist"), s.get("impact_outcomes"), s.get("hop_time_hist"),

@@ -313,8 +313,7 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
     for ax in (ax1, ax2):
         ax.set(xscale="log", yscale="log", xlabel="wall-clock time of the run [s]")
         if not ax.lines:           # nothing finite to draw (e.g. only a missing run): fixed limits
-            ax.set_xlim(1.0, 1e4)
-            ax.set_ylim(1e-4, 2.0)
+            ax.set(xlim=(1.0, 1e4), ylim=(1e-4, 2.0))
         ax.axhline(0.10, color="0.5", ls=":", lw=1)
         ax.axhline(0.25, color="0.5", ls="--", lw=1)
         ax.grid(alpha=0.3, which="both")
