@@ -39,8 +39,6 @@ OWN_COLORS = ("#17becf", "#bcbd22", "#8c564b", "#9467bd", "#ff7f0e", "#1f77b4")
 
 
 def case_color(n: int | None, soil: bool = False) -> str:
-    if n is None:
-        return "0.3"
     if soil and n in SOIL_COLORS:
         return SOIL_COLORS[n]
     return WIND_COLORS.get(n, SOIL_COLORS.get(n, "0.3"))

@@ -95,9 +95,7 @@ class SaltationState:
 
 def _g(v: float) -> str:
     """A count: whole above 100, three significant digits below."""
-    if not math.isfinite(v):
-        return "?"
-    return f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}"
+    return "?" if not math.isfinite(v) else f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}"
 
 
 def _ms(v: float) -> str:

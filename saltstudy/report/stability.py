@@ -242,12 +242,11 @@ def _figure(series: dict[str, xr.Dataset]):
 
 
 def _cell(row: dict, key: str) -> str:
-    if key in ("status", "limiting_step"):
-        return str(row.get(key) or "n/a")
-    if key == "finite":
-        v = row.get("finite")
-        return "n/a" if v is None else ("yes" if v else "no")
     v = row.get(key)
+    if key == "finite":
+        return "n/a" if v is None else ("yes" if v else "no")
+    if key in ("status", "limiting_step"):
+        return str(v or "n/a")
     return fmt(v) if isinstance(v, (int, float)) and math.isfinite(v) else "n/a"
 
 

@@ -343,11 +343,12 @@ def table2_dataset(ctx: ReportContext):
     data["paper_case"] = column([-1 if r["paper_case"] is None else r["paper_case"] for r in rows],
                                 "1", "the paper's case the run is, unchanged (-1: a case of one's own)",
                                 int)
-    data["status"] = column([r["status"] for r in rows], "1", "the run's archive: ok, or why not", str)
-    data["saltation"] = column([r["saltation"].status for r in rows], "1",
-                               "whether the run holds saltation (report/saltation.py)", str)
-    data["saltation_reason"] = column([r["saltation"].reason for r in rows], "1",
-                                      "the numbers that decide it", str)
+    for name, values, long_name in (
+            ("status", [r["status"] for r in rows], "the run's archive: ok, or why not"),
+            ("saltation", [r["saltation"].status for r in rows],
+             "whether the run holds saltation (report/saltation.py)"),
+            ("saltation_reason", [r["saltation"].reason for r in rows], "the numbers that decide it")):
+        data[name] = column(values, "1", long_name, str)
     return xr.Dataset(data, coords={"run": ("run", run, {"long_name": "the run's label"}),
                                     "name": ("run", [r["name"] for r in rows],
                                              {"long_name": "the row's name in the report"})},
