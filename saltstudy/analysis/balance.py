@@ -54,8 +54,7 @@ def bed_exchange(t: np.ndarray, bed_px: np.ndarray | None, bed_pz: np.ndarray | 
     t, px, pz = t[ok], px[ok], pz[ok]
     if t.size < 2 or not (t1 > t0) or area <= 0:
         return out
-    t0 = max(t0, float(t[0]))
-    t1 = min(t1, float(t[-1]))
+    t0, t1 = max(t0, float(t[0])), min(t1, float(t[-1]))
     if not t1 > t0:
         return out
     dpx = _at(t, px, t1) - _at(t, px, t0)
@@ -66,11 +65,8 @@ def bed_exchange(t: np.ndarray, bed_px: np.ndarray | None, bed_pz: np.ndarray | 
     if dpz > 0:
         out["mu_b"] = dpx / dpz
     edges = np.linspace(t0, t1, n_blocks + 1)
-    mus = []
-    for a, b in zip(edges[:-1], edges[1:]):
-        z = _at(t, pz, b) - _at(t, pz, a)
-        if z > 0:
-            mus.append((_at(t, px, b) - _at(t, px, a)) / z)
+    mus = [(_at(t, px, b) - _at(t, px, a)) / dz for a, b in zip(edges[:-1], edges[1:])
+           if (dz := _at(t, pz, b) - _at(t, pz, a)) > 0]
     if len(mus) >= 2:
         out["mu_b_se"] = float(np.std(mus, ddof=1) / math.sqrt(len(mus)))
     return out
@@ -111,8 +107,7 @@ def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarr
            "mu_b_budget": math.nan, "mu_b_budget_se": math.nan}
     if uw_bed is None or mass_per_m2 is None or not (tau_total_kin > 0):
         return out
-    uw = np.asarray(uw_bed, dtype=np.float64).ravel()
-    m = np.asarray(mass_per_m2, dtype=np.float64).ravel()
+    uw, m = (np.asarray(v, dtype=np.float64).ravel() for v in (uw_bed, mass_per_m2))
     if uw.size != m.size or uw.size == 0:
         return out
     ok = np.isfinite(uw) & np.isfinite(m)

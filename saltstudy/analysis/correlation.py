@@ -39,9 +39,7 @@ def correlation_profile(C: np.ndarray, u: np.ndarray, noise: float = 0.0) -> np.
         return np.full(nz, np.nan)
     n = 0
     s_c = s_cc = 0.0
-    s_u = np.zeros(nz)
-    s_uu = np.zeros(nz)
-    s_cu = np.zeros(nz)
+    s_u, s_uu, s_cu = np.zeros(nz), np.zeros(nz), np.zeros(nz)
     for t in range(nt):
         c = np.asarray(C[t], dtype=np.float64).ravel()
         uu = np.asarray(u[t], dtype=np.float64).reshape(-1, nz)
@@ -52,8 +50,7 @@ def correlation_profile(C: np.ndarray, u: np.ndarray, noise: float = 0.0) -> np.
         s_uu += np.einsum("ik,ik->k", uu, uu)
         s_cu += c @ uu
     # shift-free formulas in float64; u is O(10) m s-1 and its variance O(0.1-1): fine
-    mc = s_c / n
-    mu = s_u / n
+    mc, mu = s_c / n, s_u / n
     var_c = s_cc / n - mc * mc - noise
     var_u = s_uu / n - mu * mu
     cov = s_cu / n - mc * mu
