@@ -108,9 +108,8 @@ def wind_profiles(fr: Frame, s: dict) -> WindProfiles:
     """The mean wind, momentum flux and TKE profiles with grains and the stress u* (section 3.1)."""
     nz = fr.nz
     u_mean = time_mean(s.get("u_mean"), nz)
-    uw_w = None
-    if s.get("uw_res") is not None and s.get("uw_sgs") is not None:
-        uw_w = s["uw_res"].astype(np.float64) + s["uw_sgs"].astype(np.float64)
+    uw_w = (s["uw_res"].astype(np.float64) + s["uw_sgs"].astype(np.float64)
+            if s.get("uw_res") is not None and s.get("uw_sgs") is not None else None)
     uw_mean_w = time_mean(uw_w, nz + 1)
     uw_flux = faces_to_centres(uw_mean_w)
     uw_sgs_c = faces_to_centres(time_mean(s.get("uw_sgs"), nz + 1))

@@ -137,16 +137,12 @@ def small_scale_power(dev: np.ndarray) -> np.ndarray:
     such mode. A diagnostic of the noise beside its Poisson value, not a noise estimate."""
     dev = np.asarray(dev, dtype=np.float64)
     nt, nx, ny = dev.shape
-    kx = np.abs(np.fft.fftfreq(nx))
-    ky = np.abs(np.fft.fftfreq(ny))
+    kx, ky = np.abs(np.fft.fftfreq(nx)), np.abs(np.fft.fftfreq(ny))
     corner = (kx[:, None] >= SMALL_SCALE_K) & (ky[None, :] >= SMALL_SCALE_K)
     if nt == 0 or not corner.any():
         return np.zeros(nt)
-    out = np.empty(nt)
-    for t in range(nt):
-        P = np.abs(np.fft.fft2(dev[t])) ** 2 / (nx * ny)
-        out[t] = P[corner].mean()
-    return out
+    return np.array([(np.abs(np.fft.fft2(dev[t])) ** 2 / (nx * ny))[corner].mean()
+                     for t in range(nt)])
 
 
 def centred_lags(n: int, d: float) -> np.ndarray:
