@@ -193,9 +193,8 @@ def first_drop_height(z: np.ndarray, f: np.ndarray, threshold: float) -> float:
     ``threshold``: interpolated in ln f where both values are positive (exact for an exponential),
     else linearly; NaN when undefined."""
     z, f = (np.asarray(v, dtype=np.float64) for v in (z, f))
-    if not (math.isfinite(threshold) and threshold > 0) or f.size == 0 or not np.isfinite(f[0]):
-        return math.nan
-    if f[0] < threshold:
+    if (not (math.isfinite(threshold) and threshold > 0) or f.size == 0 or not np.isfinite(f[0])
+            or f[0] < threshold):
         return math.nan
     for k in range(1, f.size):
         if not np.isfinite(f[k]):
@@ -240,8 +239,6 @@ def decay_height(z: np.ndarray, G: np.ndarray, z_top: float, min_points: int = 3
     """e-folding height H of ``G ~ exp(-z/H)`` (section 3.2 [41]): regression of ln G on z for
     ``z <= z_top``, G > 0; NaN with fewer than ``min_points`` levels or a non-decaying fit."""
     z, G = (np.asarray(v, dtype=np.float64) for v in (z, G))
-    if not math.isfinite(z_top):
-        return math.nan
     sel = (z <= z_top) & np.isfinite(G) & (G > 0)
     if sel.sum() < min_points:
         return math.nan

@@ -125,9 +125,8 @@ def series_statistics(fr: Frame, s: dict, G_tot_sample: np.ndarray) -> Variables
 
     def series_var(name):
         a = s.get(name)
-        if a is None or a.shape != t_series.shape:
-            return np.full(t_series.size, np.nan)
-        return a.astype(np.float64)
+        return (a.astype(np.float64) if a is not None and a.shape == t_series.shape
+                else np.full(t_series.size, np.nan))
 
     V = Variables()
     n_par = series_var("n_parcels")
