@@ -158,8 +158,7 @@ def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[st
 
 
 def _noise(bars: tuple[float, ...]) -> float:
-    finite = [b for b in bars if math.isfinite(b)]
-    return max(finite) if finite else math.nan
+    return max((b for b in bars if math.isfinite(b)), default=math.nan)
 
 
 def _value(r: RunData, stat: str) -> float:
@@ -453,9 +452,7 @@ def _resolves(row: dict[str, Any], s: str, threshold: float) -> bool:
     bar is wider than the threshold (relative to its value) lands within it by chance, and a run
     with no bar cannot show it; such a rung is never named the cheapest."""
     v, eb = row["values"][s], row["error_bar"][s]
-    if not (math.isfinite(v) and math.isfinite(eb)) or v == 0:
-        return False
-    return eb / abs(v) <= threshold
+    return math.isfinite(v) and math.isfinite(eb) and v != 0 and eb / abs(v) <= threshold
 
 
 def _pm(v: float, eb: float) -> str:

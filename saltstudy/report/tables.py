@@ -34,9 +34,8 @@ def fmt(v: float | None, digits: int = 3) -> str:
 
 
 def rel_diff(computed: float, ref: float) -> float:
-    if not (math.isfinite(computed) and math.isfinite(ref)) or ref == 0:
-        return math.nan
-    return (computed - ref) / ref
+    ok = math.isfinite(computed) and math.isfinite(ref) and ref != 0
+    return (computed - ref) / ref if ok else math.nan
 
 
 def _pct(v: float) -> str:
