@@ -31,15 +31,19 @@ LAZY_VARIABLES = ("u", "G_col", "u_plane")
 PLANE_CHUNK = 256
 
 
-class LazyVar:
-    """A variable of an archive whose slices are read on indexing (each read under NC_LOCK)."""
-
-    def __init__(self, path: str | Path, name: str, shape: tuple[int, ...]):
-        self.path, self.name, self.shape = str(path), name, tuple(shape)
+class _Shaped:
+    shape: tuple[int, ...]
 
     @property
     def ndim(self) -> int:
         return len(self.shape)
+
+
+class LazyVar(_Shaped):
+    """A variable of an archive whose slices are read on indexing (each read under NC_LOCK)."""
+
+    def __init__(self, path: str | Path, name: str, shape: tuple[int, ...]):
+        self.path, self.name, self.shape = str(path), name, tuple(shape)
 
     def __getitem__(self, key) -> np.ndarray:
         with NC_LOCK:
@@ -59,16 +63,12 @@ def read_archive(path: str | Path, keep: tuple[str, ...] | None,
             return dict(ds.attrs), coords, data
 
 
-class Rows:
+class Rows(_Shaped):
     """Rows ``start:stop`` of an array or a lazy variable (first axis), indexed like a whole one."""
 
     def __init__(self, base, start: int, stop: int):
         self.base, self.start, self.stop = base, int(start), int(stop)
         self.shape = (self.stop - self.start,) + tuple(base.shape[1:])
-
-    @property
-    def ndim(self) -> int:
-        return len(self.shape)
 
     def __getitem__(self, key):
         k0, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())

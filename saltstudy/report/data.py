@@ -116,9 +116,7 @@ class RunData:
         return self.ds is not None and all(n in self.ds.variables for n in names)
 
     def var(self, name: str) -> xr.DataArray | None:
-        if self.ds is None or name not in self.ds.variables:
-            return None
-        return self.ds[name]
+        return self.ds[name] if self.has(name) else None
 
     @property
     def rho(self) -> float:

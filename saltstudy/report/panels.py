@@ -55,9 +55,8 @@ class PanelRun:
     def key(self) -> str:
         """The name of the run's data in ``FigureResult.data``: ``caseN`` for the paper's case,
         ``<label>_for_caseN`` for a substitute."""
-        if not self.substitute:
-            return f"case{self.paper_case}"
-        return f"{self.run.label}_for_case{self.paper_case}"
+        return (f"{self.run.label}_for_case{self.paper_case}" if self.substitute
+                else f"case{self.paper_case}")
 
 
 @dataclass
@@ -79,8 +78,6 @@ def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
     """Assign each paper case of ``slots`` at most one of ``candidates`` (each candidate at most
     once), nearest first along ``by`` (module docstring: distance, eligibility and ties).
     Returns ``{paper case: run}`` for the cases that got one."""
-    if by not in (BY_U_STAR_S, BY_MU1):
-        raise ValueError(f"by must be {BY_U_STAR_S!r} or {BY_MU1!r}, not {by!r}")
     vary, held = (0, 1) if by == BY_U_STAR_S else (1, 0)
     pairs = []
     cands = list(candidates)
