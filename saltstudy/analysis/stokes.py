@@ -80,9 +80,7 @@ def mass_mean_diameter(hist: np.ndarray, d_bin: np.ndarray) -> np.ndarray:
     """Mass-weighted mean diameter per level from counts ``hist (nz, nbin)`` [m]."""
     h = np.nan_to_num(np.asarray(hist, dtype=np.float64))
     d = np.asarray(d_bin, dtype=np.float64)
-    m3 = h @ d ** 3
-    m4 = h @ d ** 4
-    return _nan_div(m4, m3)
+    return _nan_div(h @ d ** 4, h @ d ** 3)
 
 
 def response_time(d: np.ndarray, rho_p: float, rho: float, nu: float) -> np.ndarray:

@@ -84,9 +84,8 @@ def build_summary(ctx: ReportContext) -> dict[str, Any]:
         vals, u = run_scalars(run)
         units.update(u)
         entry: dict[str, Any] = {"label": run.label, "case_number": run.case, "status": run.status,
-                                 "fidelity": run.fidelity,
-                                 "archive": str(run.path) if run.path else None,
-                                 "wall_time_s": run.wall_time_s}
+                                 "fidelity": run.fidelity, "wall_time_s": run.wall_time_s,
+                                 "archive": str(run.path) if run.path else None}
         entry.update(vals)
         # present in every entry, null when undefined: the run's grains in the paper's terms
         entry["n_parcels_per_m2_at_Q"] = n_parcels_per_m2_at_Q(run) if run.ok else None
