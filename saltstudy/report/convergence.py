@@ -4,11 +4,9 @@ Per statistic (``CONV_STATS``) and rung: its value ± the larger of two noise es
 (``NOISE_NOTE``); the relative difference from the reference rung (the study's ``reference``
 fidelity, else the finest: the declared order's last, else the largest wall time) and, where the
 paper gives a value, from the paper (:func:`_paper_error`); both against the rung's wall time
-(spin-up + saltation). The table names the cheapest rung within 10 % and 25 % of the reference
-among the rungs whose own bar is no wider than the threshold (:func:`_resolves`). ``N_air``
-(mean parcel count x Q) compares across parcel weights. Each case is compared with its own run
-at the reference fidelity; ``convergence.png`` draws the case with the most rungs, each other
-case ``convergence_caseNN.png``, ``convergence_summary.png`` every ladder at once.
+(spin-up + saltation); the cheapest rung within 10 % and 25 % of the reference among those
+whose own bar is no wider than the threshold (:func:`_resolves`). ``N_air`` (mean parcel count x
+Q) compares across parcel weights. Each case is compared with its own run at that fidelity.
 """
 from __future__ import annotations
 
