@@ -87,7 +87,8 @@ def fig02(ctx: ReportContext) -> FigureResult:
             ax.axhspan(lz - damp, lz, facecolor="none", edgecolor="0.6", hatch="//", lw=0,
                        label=f"Rayleigh damping layer (z > {lz - damp:g} m)")
     if "z" in res.data:
-        ax_u.set_ylim(max(1e-3, 0.5 * float(np.nanmin(res.data["z"]))), 1.2 * np.nanmax(res.data["z"]))
+        zs = res.data["z"]
+        ax_u.set_ylim(max(1e-3, 0.5 * float(np.nanmin(zs))), 1.2 * np.nanmax(zs))
     ax_u.set(xlabel=r"$\langle u\rangle / u_{ref}$ [-]", ylabel="z [m]")
     ax_u.set_title("(a)", loc="left")
     ax_f.set_xlabel(r"$\langle u'w'\rangle$ (resolved + SGS) [m² s⁻²]")

@@ -123,8 +123,10 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
 
 def _ref_threshold(ctx: ReportContext) -> tuple[float, RunData | None]:
     """u*t, and the run it came from, for the laws at mu1 = 200 um (case 2 first, then 1-6)."""
-    runs = [ctx.by_case(n) for n in (2, 1, 3, 4, 5, 6)] + [r for r in ctx.runs.values() if is_200um(r)]
-    r = next((r for r in runs if r is not None and r.ok and math.isfinite(r.scalar("u_star_t"))), None)
+    runs = [ctx.by_case(n) for n in (2, 1, 3, 4, 5, 6)]
+    runs += [r for r in ctx.runs.values() if is_200um(r)]
+    r = next((r for r in runs if r is not None and r.ok and math.isfinite(r.scalar("u_star_t"))),
+             None)
     return (r.scalar("u_star_t"), r) if r is not None else (math.nan, None)
 
 

@@ -346,7 +346,8 @@ def table2_dataset(ctx: ReportContext):
             ("status", [r["status"] for r in rows], "the run's archive: ok, or why not"),
             ("saltation", [r["saltation"].status for r in rows],
              "whether the run holds saltation (report/saltation.py)"),
-            ("saltation_reason", [r["saltation"].reason for r in rows], "the numbers that decide it")):
+            ("saltation_reason", [r["saltation"].reason for r in rows],
+             "the numbers that decide it")):
         data[name] = column(values, "1", long_name, str)
     return xr.Dataset(data, coords={"run": ("run", run, {"long_name": "the run's label"}),
                                     "name": ("run", [r["name"] for r in rows],
