@@ -17,6 +17,7 @@ from ..ncio import NC_LOCK
 
 __all__ = ["find_cp_stack", "make_animation"]
 
+
 def find_cp_stack(analysis: str | Path | None, samples: str | Path | None = None,
                   max_frames: int = 60) -> tuple[np.ndarray, np.ndarray, tuple] | None:
     """(frames (t, x, y), times, (Lx, Ly)) or None if no stack exists."""

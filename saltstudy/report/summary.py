@@ -134,5 +134,3 @@ def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Pa
             for k in ("total_wall_time_s", "run_started", "run_finished", "tasks_from_cache",
                       "tasks_total"):
                 summary[k] = old.get(k)
-
-
