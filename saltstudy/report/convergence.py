@@ -109,11 +109,8 @@ def sampled_extent(r: RunData) -> float:
     archive does not say."""
     fid = r.scene.get("fidelity") or {}
     smp, grid = fid.get("sampling") or {}, fid.get("grid") or {}
-    try:
-        dur = float(smp["interval"]) * (int(smp["count"]) - 1)
-        area = float(grid["Lx"]) * float(grid["Ly"])
-    except (KeyError, TypeError, ValueError):
-        return math.nan
+    dur = float(smp.get("interval", math.nan)) * (float(smp.get("count", math.nan)) - 1)
+    area = float(grid.get("Lx", math.nan)) * float(grid.get("Ly", math.nan))
     return dur * area if dur > 0 and area > 0 else math.nan
 
 

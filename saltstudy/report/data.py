@@ -226,10 +226,8 @@ def load_runs(runs: dict[str, str | Path | None], meta: dict[str, Any] | None = 
     Runs already read (all :class:`RunData`) are returned as they are."""
     if runs and all(isinstance(v, RunData) for v in runs.values()):
         return dict(runs)  # type: ignore[arg-type]
-    meta = meta or {}
-    cases = meta.get("case_numbers") or {}
-    fids = meta.get("fidelities") or {}
-    walls = meta.get("wall_times") or {}
+    cases, fids, walls = ((meta or {}).get(k) or {}
+                          for k in ("case_numbers", "fidelities", "wall_times"))
     out: dict[str, RunData] = {}
     for label, path in runs.items():
         hint = cases.get(label)

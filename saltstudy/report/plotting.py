@@ -105,10 +105,9 @@ def plain_log(ax, axis: str = "x", subs: tuple[float, ...] | None = None) -> Non
 def add_legend(ax, below: bool = False, **kw) -> None:
     """below: under the axes, for scatter plots whose points may fall anywhere (a legend inside
     hid case 10's point in Fig. 4)."""
-    handles, labels = ax.get_legend_handles_labels()
-    if handles:
-        if below:
-            kw.update(loc="upper center", bbox_to_anchor=(0.5, -0.14))
+    if below:
+        kw.update(loc="upper center", bbox_to_anchor=(0.5, -0.14))
+    if ax.get_legend_handles_labels()[0]:
         ax.legend(**kw)
 
 
