@@ -46,21 +46,19 @@ class LazyVar(_Shaped):
         self.path, self.name, self.shape = str(path), name, tuple(shape)
 
     def __getitem__(self, key) -> np.ndarray:
-        with NC_LOCK:
-            with xr.open_dataset(self.path, engine="netcdf4") as ds:
-                return np.asarray(ds[self.name][key].values)
+        with NC_LOCK, xr.open_dataset(self.path, engine="netcdf4") as ds:
+            return np.asarray(ds[self.name][key].values)
 
 
 def read_archive(path: str | Path, keep: tuple[str, ...] | None,
                  lazy: tuple[str, ...] = ()) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
     """(attrs, coords, variables) of an archive, reading only ``keep`` variables (all if None);
     the ``lazy`` ones become :class:`LazyVar` handles."""
-    with NC_LOCK:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
-            coords = {k: np.asarray(ds[k].values) for k in ds.coords}
-            data = {v: LazyVar(path, v, ds[v].shape) if v in lazy else np.asarray(ds[v].values)
-                    for v in ds.data_vars if keep is None or v in keep}
-            return dict(ds.attrs), coords, data
+    with NC_LOCK, xr.open_dataset(path, engine="netcdf4") as ds:
+        coords = {k: np.asarray(ds[k].values) for k in ds.coords}
+        data = {v: LazyVar(path, v, ds[v].shape) if v in lazy else np.asarray(ds[v].values)
+                for v in ds.data_vars if keep is None or v in keep}
+        return dict(ds.attrs), coords, data
 
 
 class Rows(_Shaped):

@@ -25,22 +25,21 @@ def find_cp_stack(analysis: str | Path | None, samples: str | Path | None = None
         if not path or not Path(path).is_file():
             continue
         try:
-            with NC_LOCK:
-                with xr.open_dataset(path, engine="netcdf4") as ds:
-                    names = sorted((n for n in ds.data_vars if str(n).startswith("C_p")),
-                                   key=lambda n: n != "C_p")
-                    v = next((ds[n] for n in names if ds[n].ndim == 3
-                              and {"x", "y"} <= set(ds[n].dims)), None)
-                    if v is None:
-                        continue
-                    tdim = next(d for d in v.dims if d not in ("x", "y"))
-                    nt = v.sizes[tdim]
-                    idx = np.unique(np.linspace(0, nt - 1, min(nt, max_frames)).round().astype(int))
-                    sub = v.isel({tdim: idx}).transpose(tdim, "x", "y").load()
-                    t = ds[tdim].values[idx] if tdim in ds.coords else idx.astype(float)
-                    lx = float(ds.attrs.get("Lx", ds["x"].values[-1] * 2 if "x" in ds else 1.0))
-                    ly = float(ds.attrs.get("Ly", ds["y"].values[-1] * 2 if "y" in ds else 1.0))
-                    return np.asarray(sub.values, float), np.asarray(t, float), (lx, ly)
+            with NC_LOCK, xr.open_dataset(path, engine="netcdf4") as ds:
+                names = sorted((n for n in ds.data_vars if str(n).startswith("C_p")),
+                               key=lambda n: n != "C_p")
+                v = next((ds[n] for n in names if ds[n].ndim == 3
+                          and {"x", "y"} <= set(ds[n].dims)), None)
+                if v is None:
+                    continue
+                tdim = next(d for d in v.dims if d not in ("x", "y"))
+                nt = v.sizes[tdim]
+                idx = np.unique(np.linspace(0, nt - 1, min(nt, max_frames)).round().astype(int))
+                sub = v.isel({tdim: idx}).transpose(tdim, "x", "y").load()
+                t = ds[tdim].values[idx] if tdim in ds.coords else idx.astype(float)
+                lx = float(ds.attrs.get("Lx", ds["x"].values[-1] * 2 if "x" in ds else 1.0))
+                ly = float(ds.attrs.get("Ly", ds["y"].values[-1] * 2 if "y" in ds else 1.0))
+                return np.asarray(sub.values, float), np.asarray(t, float), (lx, ly)
         except Exception:
             continue
     return None

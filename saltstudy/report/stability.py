@@ -148,11 +148,10 @@ def _open_samples(path: Path) -> xr.Dataset | None:
             "dt_diffusion", "dt_grains", "loading_max", "tau_c_min", "parcel_balance", "u_star_ref",
             "G_tot_series")
     try:
-        with NC_LOCK:
-            with xr.open_dataset(path, engine="netcdf4") as ds:
-                sub = ds[[v for v in keep if v in ds.variables]].load()
-                sub.attrs = dict(ds.attrs)
-                return sub
+        with NC_LOCK, xr.open_dataset(path, engine="netcdf4") as ds:
+            sub = ds[[v for v in keep if v in ds.variables]].load()
+            sub.attrs = dict(ds.attrs)
+            return sub
     except Exception:
         return None
 
@@ -160,12 +159,9 @@ def _open_samples(path: Path) -> xr.Dataset | None:
 def _samples_of(runs: dict[str, RunData],
                 samples: dict[str, str | Path | None] | None) -> dict[str, xr.Dataset | None]:
     """Each run's samples.nc (the table's variables only), opened once."""
-    out = {}
-    for label, r in runs.items():
-        sp = (samples or {}).get(label) or (r.ds.attrs.get("samples_path") if r.ds is not None else None)
-        if sp and Path(sp).is_file():
-            out[label] = _open_samples(Path(sp))
-    return out
+    paths = {label: (samples or {}).get(label) or (r.ds.attrs.get("samples_path") if r.ok else None)
+             for label, r in runs.items()}
+    return {label: _open_samples(Path(p)) for label, p in paths.items() if p and Path(p).is_file()}
 
 
 def stability_rows(runs: dict[str, RunData], failures: dict[str, str] | None = None,
