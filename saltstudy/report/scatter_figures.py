@@ -95,10 +95,8 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
         if not (math.isfinite(x) and math.isfinite(y)):
             res.notes.append(f"{r.label}: {var} or u*s(z_ref)/u*t undefined")
             continue
-        if r.case is not None and r.plain_case or (r.case is not None and "@" in r.label):
-            group = "200" if is_200um(r) else "other"
-        else:
-            group = "scene"
+        group = (("200" if is_200um(r) else "other")
+                 if r.case is not None and (r.plain_case or "@" in r.label) else "scene")
         col = case_color(r.case, soil=not is_200um(r))
         lab = {"200": "this study, µ1 = 200 µm (cases 1–6)", "other": "this study, µ1 ≠ 200 µm (cases 7–10)",
                "scene": "this study, other scenes"}[group]
