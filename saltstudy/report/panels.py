@@ -88,9 +88,8 @@ def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
             mine = (r.u_star_s_target, r.mu1)
             d_held = _log_distance(mine[held], paper[held])
             d_vary = _log_distance(mine[vary], paper[vary])
-            if not (math.isfinite(d_vary) and math.isfinite(d_held)):
-                continue
-            if abs(mine[held] / paper[held] - 1.0) > tolerance:
+            if (not (math.isfinite(d_vary) and math.isfinite(d_held))
+                    or abs(mine[held] / paper[held] - 1.0) > tolerance):
                 continue
             case_rank = (0, r.case) if r.case is not None else (1, 0)
             pairs.append(((d_vary, d_held, place, case_rank, r.label), n, j))
@@ -98,10 +97,9 @@ def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
     out: dict[int, RunData] = {}
     used: set[int] = set()
     for _, n, j in pairs:
-        if n in out or j in used:
-            continue
-        out[n] = cands[j]
-        used.add(j)
+        if n not in out and j not in used:
+            out[n] = cands[j]
+            used.add(j)
     return out
 
 

@@ -40,11 +40,9 @@ def paper_table2() -> dict[int, dict[str, float]]:
     """Table 2 by case number. A value the paper does not give ("-") is NaN."""
     out: dict[int, dict[str, float]] = {}
     for row in PAPER.get("table2", []):
-        r = {k: float(v) for k, v in row.items() if isinstance(v, (int, float))}
-        for _, key, _, _ in TABLE2_COLUMNS:
-            if key is not None:
-                r.setdefault(key, math.nan)
-        out[int(row["case"])] = r
+        missing = {key: math.nan for _, key, _, _ in TABLE2_COLUMNS if key}
+        out[int(row["case"])] = {**missing, **{k: float(v) for k, v in row.items()
+                                               if isinstance(v, (int, float))}}
     return out
 
 
