@@ -76,8 +76,7 @@ def u_star_stress(r: RunData) -> float:
 
 def new_figure(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6), **kw) -> tuple[Figure, np.ndarray]:
     fig = Figure(figsize=size, layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
-    return fig, axes
+    return fig, fig.subplots(nrows, ncols, squeeze=False, **kw)
 
 
 def save_figure(fig: Figure, folder: Path, stem: str, dpi: float,
@@ -140,8 +139,7 @@ def lacks(*names: str) -> Callable[[RunData], str | None]:
 def empty_axes(ax, message: str) -> None:
     ax.text(0.5, 0.5, message, transform=ax.transAxes, ha="center", va="center", fontsize=11,
             color="firebrick")
-    ax.set_xticks([])
-    ax.set_yticks([])
+    ax.set(xticks=[], yticks=[])
 
 
 def u_star_ratio(r: RunData) -> float:
