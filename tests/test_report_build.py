@@ -115,17 +115,6 @@ def test_summary_wall_time_is_elapsed_and_tasks_are_summed_once(tmp_path):
     assert s2["total_wall_time_s"] == s["total_wall_time_s"] and s2["run_started"] == s["run_started"]
 
 
-def test_summary_converts_to_si(tmp_path):
-    ds = make_analysis_dataset(2)
-    ds["z_m"] = ((), float(ds["z_m"].values) * 100.0, {"units": "cm"})
-    p = write_dataset(ds, tmp_path / "a.nc")
-    from saltstudy.report.data import ReportContext, load_runs
-    from saltstudy.report.summary import build_summary
-    s = build_summary(ReportContext("x", load_runs({"case02": p})))
-    assert s["units"]["z_m"] == "m"
-    assert s["cases"]["2"]["z_m"] == pytest.approx(float(ds["z_m"].values) / 100.0)
-
-
 def test_table2_beside_paper(full_report):
     runs, out, _ = full_report
     md = (out / "table2.md").read_text()

@@ -1,6 +1,7 @@
 """Each figure is drawn from the archives: change an archive value and the drawn data change."""
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 import shutil
@@ -10,13 +11,28 @@ import pytest
 
 from report_fixtures import make_analysis_dataset, modify_archive, write_analysis, write_study
 from saltstudy.report.data import ReportContext, load_runs
-from saltstudy.report.figures import FIGURES, figure_data_digest, make_figures
+from saltstudy.report.figures import FIGURES, make_figures
 
 
 @pytest.fixture(scope="module")
 def study(tmp_path_factory):
     root = tmp_path_factory.mktemp("fig")
     return root, write_study(root / "a")
+
+
+def figure_data_digest(fig) -> str:
+    """SHA-256 of every data array drawn on ``fig`` (lines, collections, images): whether the
+    plotted data changed, without comparing image bytes."""
+    h = hashlib.sha256()
+    for ax in fig.axes:
+        for ln in ax.get_lines():
+            h.update(np.ascontiguousarray(ln.get_xydata(), dtype=float).tobytes())
+        for c in ax.collections:
+            off = c.get_offsets()
+            h.update(np.ascontiguousarray(np.asarray(off, dtype=float)).tobytes())
+        for im in ax.get_images():
+            h.update(np.ascontiguousarray(np.asarray(im.get_array(), dtype=float)).tobytes())
+    return h.hexdigest()
 
 
 def _ctx(runs):

@@ -3,20 +3,10 @@
 :func:`analyse_case` (the workflow task, ``saltstudy analyse``) reads the archives only and
 writes atomically through :mod:`saltstudy.ncio`; degenerate input (no grains, one sample, tiny
 grids, missing optional variables) gives NaN, never an exception. :func:`analyse_datasets`
-runs the statistics in the order their coupled definitions need:
-
-1. the wind profiles and ``u*`` from the stress at ``z_ref_eff = min(forcing.z_ref,
-   (Lz - damping)/2)`` (``u_star_s_stress``; carried to the bed for the pressure-gradient drive);
-2. tau_p and ``z_m`` against ``rho u*^2`` with that stress ``u*``; the log-law fit over
-   ``[max(0.3 m, z_m), (Lz-damping)/2]`` then gives ``u_star_s, z0s``;
-3. ``tau_p`` at the bed from the exponential fitted to the layers below ``0.25 z_m``, over
-   ``rho u*^2`` with the stress ``u*`` of step 1 (``tau_p_surface_fraction``, flux module), and
-   the momentum balance at the bed from the air's budget;
-4. the particle-free spin-up's profiles and fit;
-5. the mass flux and sigma_G; the size distributions and the Stokes numbers;
-6. the streamers, then R_cu, which removes the same parcel-count noise;
-7. the series; the layer's anatomy, the balance at the bed from the impact record (set beside
-   the air's of step 3) and the impact record.
+runs the statistics in the order their coupled definitions need: the stress ``u*`` at
+``z_ref_eff`` first, z_m against ``rho u*^2`` with it, the log-law fit above z_m, tau_p at the
+bed and the air's budget at the bed with the same ``u*``; the streamers before R_cu, which
+removes the same parcel-count noise; the air's balance at the bed before the impact record's.
 """
 from __future__ import annotations
 
@@ -34,12 +24,9 @@ from . import (balance, correlation, flux, layer, profiles, series, sizes, stoke
                streamer_statistics, streamers)
 from .reading import (LAZY_VARIABLES, Rows, as_arrays, attr_float, frame_of, read_archive,
                       rescale_spinup_profiles)
-from .schema import (HALF_STATISTICS, MAX_LAG_S, REQUIRED_COORDS, REQUIRED_VARIABLES,
-                     SAMPLE_VARIABLES_USED, SPEC, U_PLANE_HEIGHT, Variables, to_dataset)
+from .schema import HALF_STATISTICS, SAMPLE_VARIABLES_USED, SPEC, Variables, to_dataset
 
-__all__ = ["analyse_case", "analyse_datasets", "half_window_statistics", "HALF_STATISTICS", "SPEC",
-           "REQUIRED_VARIABLES", "REQUIRED_COORDS", "MAX_LAG_S", "U_PLANE_HEIGHT",
-           "SAMPLE_VARIABLES_USED", "rescale_spinup_profiles"]
+__all__ = ["analyse_case", "analyse_datasets", "half_window_statistics"]
 
 log = logging.getLogger(__name__)
 
@@ -69,16 +56,16 @@ def analyse_case(samples_path: str | Path, spinup_path: str | Path | None, out_p
             vals, dims=("half",), attrs={"units": units, "long_name": f"{name} over the first and "
                                          "the second half of the sampling window (its 3-D samples "
                                          "split in two; planes and series with them)"})
+    from .._identity import __version__
     attrs = {k: v for k, v in s_attrs.items() if k != "saltstudy_complete"}
-    wt = wall_time_s if wall_time_s is not None else attr_float(s_attrs, "wall_time_s")
-    attrs["wall_time_s"] = float(wt)
-    attrs["samples_path"] = str(samples_path)
-    attrs["spinup_path"] = str(spinup_path) if spinup_path is not None else ""
+    attrs.update(wall_time_s=float(wall_time_s if wall_time_s is not None
+                                   else attr_float(s_attrs, "wall_time_s")),
+                 samples_path=str(samples_path),
+                 spinup_path=str(spinup_path) if spinup_path is not None else "")
     if "converged" in sp_attrs:
         attrs["spinup_converged"] = int(bool(sp_attrs["converged"]))
-    from .._identity import __version__
-    attrs["analysis_version"] = __version__
-    attrs["analysis_seconds"] = float(_time.perf_counter() - t_start)
+    attrs.update(analysis_version=__version__,
+                 analysis_seconds=float(_time.perf_counter() - t_start))
     ds.attrs = attrs
     return write_dataset(ds, out_path)
 
@@ -96,12 +83,10 @@ def half_kind(name: str, v: Any, n_sample: int, n_plane: int, n_series: int) -> 
     "plane" (its planes), "series" or "whole" (kept whole). The lists above name the known
     ones; any other goes by the length of its first axis when that is one time axis's alone (a
     series cut as if it were samples would make every half-window statistic NaN), else samples."""
-    if name in _WHOLE_VARIABLES:
-        return "whole"
-    if name in _SERIES_VARIABLES:
-        return "series"
-    if name in _PLANE_VARIABLES:
-        return "plane"
+    for kind, names in (("whole", _WHOLE_VARIABLES), ("series", _SERIES_VARIABLES),
+                        ("plane", _PLANE_VARIABLES)):
+        if name in names:
+            return kind
     shape = getattr(v, "shape", ())
     if not shape:
         return "whole"
@@ -130,9 +115,7 @@ def half_window_statistics(attrs: dict[str, Any], coords: dict[str, np.ndarray],
     for (a, b) in ((0, h), (h, t_s.size)):
         pa, pb = ((0, int(np.searchsorted(t_p, split))) if a == 0
                   else (int(np.searchsorted(t_p, split)), t_p.size))
-        c = dict(coords)
-        c["time"] = t_s[a:b]
-        c["time_plane"] = t_p[pa:pb]
+        c = {**coords, "time": t_s[a:b], "time_plane": t_p[pa:pb]}
         sub: dict[str, Any] = {}
         for name, v in s.items():
             kind = "whole" if v is None else half_kind(name, v, t_s.size, t_p.size, n_series)
@@ -148,10 +131,8 @@ def half_window_statistics(attrs: dict[str, Any], coords: dict[str, np.ndarray],
             log.warning("half-window analysis failed: %s", exc)
             ds = None
         for k in HALF_STATISTICS:
-            val = math.nan
-            if ds is not None and k in ds.variables and ds[k].ndim == 0:
-                val = float(ds[k].values)
-            out[k].append(val)
+            out[k].append(float(ds[k].values) if ds is not None and k in ds.variables
+                          and ds[k].ndim == 0 else math.nan)
     return {k: np.asarray(v, dtype=np.float64) for k, v in out.items()}
 
 

@@ -5,17 +5,15 @@ the air, tau_g(0), and takes from it the vertical momentum that carries their we
 the small part the air's drag carries). Their ratio is the bed friction coefficient
 mu_b = tau_g(0) / (M g) (Bagnold 1956; Pähtz & Durán 2018, Phys. Rev. Fluids 3, 104302).
 
-* From the impact record (``bed_px``, ``bed_pz`` of samples.nc: the cumulative streamwise momentum
-  the grains gave the bed, impacts minus launches, and the vertical momentum the bed gave them,
-  splash_kernels ``EN_*``): over the sampling window, tau_g(0) = d(bed_px) / (A dt),
-  F_z = d(bed_pz) / (A dt) and mu_b = d(bed_px) / d(bed_pz); its error from the scatter of the
-  same ratio over contiguous blocks of the window.
+* From the impact record (samples.nc's cumulative ``bed_px``, streamwise momentum the grains gave
+  the bed, impacts minus launches, and ``bed_pz``, vertical momentum the bed gave them): over the
+  sampling window tau_g(0) = d(bed_px) / (A dt), mu_b = d(bed_px) / d(bed_pz); its error from
+  contiguous blocks of the window.
 * From the air's budget: tau_g(0) = rho (u*^2 - tau_air(0) - dP/dt), the total stress at the
-  reference height less the bulk law's stress on the bed and less the rate at which the air below
-  the reference height gains streamwise momentum, P = int_0^z_ref <u> dz (zero in a steady layer;
-  over a 30 s window of a small box it is not, and it is measured from the 3-D samples' mean
-  profiles: ``column_momentum_rate``); M the airborne mass of the 3-D samples:
-  mu_b = tau_g(0) / (M g); its error from the scatter of the per-sample values.
+  reference height less the bulk law's on the bed and less the air's gain of momentum below
+  it, P = int_0^z_ref <u> dz (zero in a steady layer, not over a 30 s window of a small box:
+  ``column_momentum_rate``); mu_b = tau_g(0) / (M g), M the airborne mass of the 3-D samples;
+  its error from the per-sample values.
 
 In a steady layer that leaks no momentum the two tau_g(0) agree, and so do the two mu_b within
 the air's share of the weight; the count of grains then follows the fluid stress left on the bed:
@@ -51,15 +49,12 @@ def bed_exchange(t: np.ndarray, bed_px: np.ndarray | None, bed_pz: np.ndarray | 
            "mu_b_se": math.nan}
     if bed_px is None or bed_pz is None:
         return out
-    t = np.asarray(t, dtype=np.float64)
-    px = np.asarray(bed_px, dtype=np.float64)
-    pz = np.asarray(bed_pz, dtype=np.float64)
+    t, px, pz = (np.asarray(v, dtype=np.float64) for v in (t, bed_px, bed_pz))
     ok = np.isfinite(t) & np.isfinite(px) & np.isfinite(pz)
     t, px, pz = t[ok], px[ok], pz[ok]
     if t.size < 2 or not (t1 > t0) or area <= 0:
         return out
-    t0 = max(t0, float(t[0]))
-    t1 = min(t1, float(t[-1]))
+    t0, t1 = max(t0, float(t[0])), min(t1, float(t[-1]))
     if not t1 > t0:
         return out
     dpx = _at(t, px, t1) - _at(t, px, t0)
@@ -70,11 +65,8 @@ def bed_exchange(t: np.ndarray, bed_px: np.ndarray | None, bed_pz: np.ndarray | 
     if dpz > 0:
         out["mu_b"] = dpx / dpz
     edges = np.linspace(t0, t1, n_blocks + 1)
-    mus = []
-    for a, b in zip(edges[:-1], edges[1:]):
-        z = _at(t, pz, b) - _at(t, pz, a)
-        if z > 0:
-            mus.append((_at(t, px, b) - _at(t, px, a)) / z)
+    mus = [(_at(t, px, b) - _at(t, px, a)) / dz for a, b in zip(edges[:-1], edges[1:])
+           if (dz := _at(t, pz, b) - _at(t, pz, a)) > 0]
     if len(mus) >= 2:
         out["mu_b_se"] = float(np.std(mus, ddof=1) / math.sqrt(len(mus)))
     return out
@@ -95,9 +87,7 @@ def column_momentum_rate(t: np.ndarray, u_mean: np.ndarray | None, z_w: np.ndarr
     fewer than three samples."""
     if u_mean is None:
         return math.nan
-    u = np.asarray(u_mean, dtype=np.float64)
-    t = np.asarray(t, dtype=np.float64)
-    zw = np.asarray(z_w, dtype=np.float64)
+    u, t, zw = (np.asarray(v, dtype=np.float64) for v in (u_mean, t, z_w))
     if u.ndim != 2 or u.shape[0] != t.size or u.shape[1] != zw.size - 1 or t.size < 3:
         return math.nan
     P = u @ layer_weights(zw, zw[0], z_top)
@@ -117,8 +107,7 @@ def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarr
            "mu_b_budget": math.nan, "mu_b_budget_se": math.nan}
     if uw_bed is None or mass_per_m2 is None or not (tau_total_kin > 0):
         return out
-    uw = np.asarray(uw_bed, dtype=np.float64).ravel()
-    m = np.asarray(mass_per_m2, dtype=np.float64).ravel()
+    uw, m = (np.asarray(v, dtype=np.float64).ravel() for v in (uw_bed, mass_per_m2))
     if uw.size != m.size or uw.size == 0:
         return out
     ok = np.isfinite(uw) & np.isfinite(m)
@@ -138,7 +127,6 @@ def budget_friction(rho: float, g: float, tau_total_kin: float, uw_bed: np.ndarr
     return out
 
 
-# ---- the statistics of one case ----
 def air_budget_statistics(fr: Frame, s: dict, uw_w: np.ndarray | None, u0_stress: float
                           ) -> Variables:
     """The balance at the bed from the air's budget: ``uw_w`` the total momentum flux of each

@@ -24,20 +24,20 @@ def register(app: typer.Typer) -> None:
         """Statistics of one case (u*s, z0s, z_m, tau_p, G, sigma_G, lambda_x/y, delta_y, R_cu, St, ...)."""
         from .analyse import analyse_case
 
-        if case_dir is not None:
-            if not case_dir.is_dir():
-                typer.echo(f"error: {case_dir}: not a directory", err=True)
-                raise typer.Exit(2)
-            samples = samples or case_dir / "samples.nc"
-            if spinup is None and (case_dir / "spinup.nc").is_file():
-                spinup = case_dir / "spinup.nc"
-        if samples is None:
-            typer.echo("error: give a run directory or --samples PATH", err=True)
+        if case_dir is not None and not case_dir.is_dir():
+            typer.echo(f"error: {case_dir}: not a directory", err=True)
             raise typer.Exit(2)
+        if case_dir is not None:
+            samples = samples or case_dir / "samples.nc"
+            found = case_dir / "spinup.nc"
+            spinup = spinup or (found if found.is_file() else None)
         for path in (samples, spinup):
             if path is not None and not path.is_file():
                 typer.echo(f"error: {path}: no such file", err=True)
                 raise typer.Exit(2)
+        if samples is None:
+            typer.echo("error: give a run directory or --samples PATH", err=True)
+            raise typer.Exit(2)
         out = out or samples.with_name("analysis.nc")
         try:
             path = analyse_case(samples, spinup, out, wall_time_s=wall_time)
@@ -46,12 +46,8 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(1)
         from ..ncio import open_dataset
         ds = open_dataset(path)
-
-        def fmt(name: str) -> str:
-            return f"{name} = {float(ds[name]):.4g} {ds[name].attrs.get('units', '')}" \
-                if name in ds else f"{name}: -"
-
         typer.echo(f"wrote {path}")
         for name in ("u_star_s", "z0s", "z_m", "G_tot", "sigma_G_over_G_tot", "lambda_x", "lambda_y",
                      "delta_y", "R_cu_upper", "u_star_t"):
-            typer.echo("  " + fmt(name))
+            typer.echo(f"  {name} = {float(ds[name]):.4g} {ds[name].attrs.get('units', '')}"
+                       if name in ds else f"  {name}: -")

@@ -1,23 +1,17 @@
 """Correlation between the grain concentration C_p and the streamwise wind u (paper eq. 12).
 
 R_cu(z) (section 4.2 [50], Fig. 11)
-    ``R_cu(z) = <C_p' u'(z)> / (sqrt<C_p'^2> sqrt<u'(z)^2>)`` with ``<>`` the average over x, y and
-    the 3-D sample times and the primes deviations from that time-space mean (section 2.4 [29]).
-    C_p is ``C_p_s(time, x, y)`` (C_p at the 3-D sample times), u the cell-centred
-    ``u(time, x, y, z)``. Accumulated sample by sample (float64) so the 3-D field is never
-    copied. NaN at levels where either variance vanishes.
-    ``noise``: a white-noise variance of C_p to take out of ``<C_p'^2>`` (the Poisson
-    parcel-count noise of the run beyond the paper's own, :mod:`saltstudy.analysis.streamers`):
-    it is uncorrelated with u, so it lowers |R_cu| by sqrt(1 - noise/<C_p'^2>) and nothing
-    else.
-``R_cu_upper``
-    The mean of R_cu over the levels with ``0.6 z_m <= z <= z_m`` (the upper saltation layer,
-    where the paper finds a constant value).
+    ``R_cu(z) = <C_p' u'(z)> / (sqrt<C_p'^2> sqrt<u'(z)^2>)``, ``<>`` the average over x, y and
+    the 3-D sample times (section 2.4 [29]), C_p the samples' ``C_p_s``, u the cell-centred ``u``;
+    accumulated sample by sample so the 3-D field is never copied; NaN where a variance vanishes.
+    ``noise``: the white parcel-count noise of the run beyond the paper's
+    (:mod:`saltstudy.analysis.streamers`), taken out of ``<C_p'^2>``: uncorrelated with u, it
+    lowers |R_cu| by sqrt(1 - noise/<C_p'^2>) and nothing else.
+``R_cu_upper``: the mean over ``0.6 z_m <= z <= z_m``, where the paper finds a constant value.
 R_cu_lag(lag_t, z_plane) (beyond eq. 12; the paper's remark in [51])
-    Correlation of C_p(t) with the *past* wind ``u(t - tau)`` at the same point, at the plane
-    heights, from the 2-D planes (``C_p``, ``u_plane``, every ``plane_interval``). Means and
-    variances are the time-space ones over all planes; for a lag tau = k dt the covariance is
-    averaged over all pairs (t, t - tau) inside the record. Lag 0 is eq. 12 at the plane heights.
+    Correlation of C_p(t) with the past wind ``u(t - tau)`` at the plane heights, from the 2-D
+    planes; means and variances over all planes, the covariance over all pairs (t, t - tau)
+    inside the record. Lag 0 is eq. 12 at the plane heights.
 """
 from __future__ import annotations
 
@@ -45,9 +39,7 @@ def correlation_profile(C: np.ndarray, u: np.ndarray, noise: float = 0.0) -> np.
         return np.full(nz, np.nan)
     n = 0
     s_c = s_cc = 0.0
-    s_u = np.zeros(nz)
-    s_uu = np.zeros(nz)
-    s_cu = np.zeros(nz)
+    s_u, s_uu, s_cu = np.zeros(nz), np.zeros(nz), np.zeros(nz)
     for t in range(nt):
         c = np.asarray(C[t], dtype=np.float64).ravel()
         uu = np.asarray(u[t], dtype=np.float64).reshape(-1, nz)
@@ -58,8 +50,7 @@ def correlation_profile(C: np.ndarray, u: np.ndarray, noise: float = 0.0) -> np.
         s_uu += np.einsum("ik,ik->k", uu, uu)
         s_cu += c @ uu
     # shift-free formulas in float64; u is O(10) m s-1 and its variance O(0.1-1): fine
-    mc = s_c / n
-    mu = s_u / n
+    mc, mu = s_c / n, s_u / n
     var_c = s_cc / n - mc * mc - noise
     var_u = s_uu / n - mu * mu
     cov = s_cu / n - mc * mu
@@ -75,8 +66,7 @@ def upper_mean(z: np.ndarray, R: np.ndarray, z_m: float, frac: float = UPPER_FRA
     """Mean of R over ``frac z_m <= z <= z_m``; NaN if no finite level there."""
     if not (math.isfinite(z_m) and z_m > 0):
         return math.nan
-    z = np.asarray(z, dtype=np.float64)
-    R = np.asarray(R, dtype=np.float64)
+    z, R = (np.asarray(v, dtype=np.float64) for v in (z, R))
     sel = (z >= frac * z_m) & (z <= z_m) & np.isfinite(R)
     return float(R[sel].mean()) if sel.any() else math.nan
 
@@ -84,8 +74,7 @@ def upper_mean(z: np.ndarray, R: np.ndarray, z_m: float, frac: float = UPPER_FRA
 def lagged_correlation(C: np.ndarray, u: np.ndarray, max_lag: int, noise: float = 0.0) -> np.ndarray:
     """R(k, j) = corr(C(t), u(t - k, plane j)) for k = 0..max_lag; ``u (nt, nx, ny, nzp)``;
     ``noise`` taken out of the variance of C as in :func:`correlation_profile`."""
-    C = np.asarray(C, dtype=np.float64)
-    u = np.asarray(u, dtype=np.float64)
+    C, u = (np.asarray(v, dtype=np.float64) for v in (C, u))
     nt = C.shape[0]
     nzp = u.shape[-1]
     out = np.full((max_lag + 1, nzp), np.nan)

@@ -1,8 +1,7 @@
 """Grain momentum flux tau_p (eq. 10), saltation height z_m, mass flux G (eq. 11), G_tot, sigma_G.
 
-Inputs: the Q-weighted layer sums recorded at each 3-D sample (``samples.nc``, over the grains
-whose centre lies between ``z_w[k]`` and ``z_w[k+1]``): ``pm = sum Q m_p``, ``pmu = sum Q m_p
-u_p``, ``pmw``, ``pmuw = sum Q m_p u_p w_p``.
+Inputs: the Q-weighted layer sums of each 3-D sample (``samples.nc``, the grains whose centre
+lies between ``z_w[k]`` and ``z_w[k+1]``): ``pm = sum Q m_p``, ``pmu``, ``pmw``, ``pmuw``.
 
 tau_p (eq. 10, section 3.2 [37])
     ``tau_p(z) = < Q/(Lx Ly dz) sum_p m_p u'_p w'_p >``, primes the deviations from the
@@ -14,24 +13,20 @@ tau_p (eq. 10, section 3.2 [37])
 
 z_m (section 3.2 [37])
     Where tau_p, going up from the bed, first drops below 0.1 % of ``rho u*s^2``, interpolated
-    in ``ln tau_p`` (tau_p decays exponentially; linearly if either value is not positive). NaN
-    if tau_p is below the threshold at the lowest level or never drops below it.
+    in ``ln tau_p`` (tau_p decays exponentially); NaN if it starts below or never drops below.
 
-tau_p(0): the grain-borne share of the momentum flux at the bed (section 3.2 [40], Fig. 6)
-    The paper: "At the surface, tau_p increases with u*s, to reach about 50% of the above flow
-    momentum flux in case 6" (Fig. 6: tau_p / (rho u*s^2), lowest point its 0-1 cm cell; u*s
-    the stress at 2 m, [33]). A layer mean depends on the layer's thickness where the profile
-    is steep, so ``tau_p_bed`` (:func:`bed_value`) is ``A`` of the exponential ``A exp(-z/H)``
-    (after Owen 1964) whose exact *layer means* fit eq. 10's values over the layers with their
-    top at or below ``BED_FIT_FRACTION`` z_m (about 1.5 e-folding heights, the same depth of air
-    on any grid; at least two layers). A profile steeper near the bed than the fit reads low,
-    but alike on a 1 cm and a 2 cm first level (within ~3 % for two-exponential profiles with a
-    5-20 mm near-bed part, where the lowest layer means differ by 15-20 %).
+tau_p(0): the grain-borne share of the momentum flux at the bed (section 3.2 [40], Fig. 6: "about
+50% of the above flow momentum flux in case 6", its lowest point the 0-1 cm cell)
+    A layer mean depends on the layer's thickness where the profile is steep, so ``tau_p_bed``
+    (:func:`bed_value`) is ``A`` of the exponential ``A exp(-z/H)`` (after Owen 1964) whose exact
+    *layer means* fit eq. 10's over the layers with their top at or below ``BED_FIT_FRACTION`` z_m
+    (~1.5 e-folding heights on any grid; at least two layers): within ~3 % on a 1 cm and a 2 cm
+    first level for two-exponential profiles whose lowest layer means differ by 15-20 %.
     ``tau_p_surface_fraction = tau_p_bed / (rho u*^2)``, u* the stress at the reference height
     (carried to the bed for the pressure-gradient drive); ``tau_p_paper_cell_fraction``: the
-    fit's mean over the paper's 0-1 cm cell (0.87 of the bed value at H = 3.5 cm). Without a
-    profile shape (:func:`budget_bed_fraction`): in a steady, uniform layer the total stress is
-    the same at every height, so ``tau_p(0) / tau_total = 1 - tau_air(0) / tau_total``.
+    fit's mean over the paper's 0-1 cm cell. By the budget (:func:`budget_bed_fraction`): a steady
+    layer's total stress is the same at every height, so ``tau_p(0) / tau_total = 1 - tau_air(0) /
+    tau_total``.
 
 G, G_tot (eq. 11, section 3.2 [41]-[42])
     ``G(z) = <pmu>/(Lx Ly dz)`` [kg m-2 s-1]; ``G_tot = sum_k G_k dz_k`` [kg m-1 s-1];
@@ -39,9 +34,8 @@ G, G_tot (eq. 11, section 3.2 [41]-[42])
 
 sigma_G (section 4.3 [55])
     "sigma_G = sqrt(<G_tot'^2>)" of "the instantaneous flux" (the prime lost in the typeset
-    text): the standard deviation over the sampling window of the domain's total flux
-    ``G_tot_series``, a temporal variability (beside Fig. 1's particle number). The spread of
-    the local column flux, the streamer contrast at the grid scale, is ``sigma_G_local``.
+    text): the standard deviation over the sampling window of ``G_tot_series``, a temporal
+    variability. The spread of the local column flux (the streamers' contrast) is ``sigma_G_local``.
 """
 from __future__ import annotations
 
@@ -55,7 +49,7 @@ from .reading import PLANE_CHUNK, Frame
 from .schema import Variables
 
 __all__ = ["tau_p_profile", "mass_flux_profile", "total_flux", "first_drop_height", "z_m_from_tau",
-           "flux_height", "sigma_series", "window_mask", "Z_M_FRACTION",
+           "flux_height", "sigma_series", "Z_M_FRACTION",
            "FLUX_FRACTION", "decay_height", "pooled_mean_std", "bed_value", "BedValue",
            "BED_FIT_FRACTION", "budget_bed_fraction", "GrainProfiles", "grain_profiles",
            "bed_share_statistics", "mass_flux_statistics"]
@@ -119,8 +113,7 @@ def bed_value(z_w: np.ndarray, layer_mean: np.ndarray, z_top: float = math.nan,
     from the bed whose top face is at or below ``z_top`` (at least ``min_layers``; the lowest
     ``min_layers`` when ``z_top`` is NaN). Two layers determine the exponential exactly. NaN
     with fewer positive layers from the bed than ``min_layers``."""
-    z_w = np.asarray(z_w, dtype=np.float64)
-    f = np.asarray(layer_mean, dtype=np.float64)
+    z_w, f = (np.asarray(v, dtype=np.float64) for v in (z_w, layer_mean))
     nan = BedValue(math.nan, math.nan, 0)
     n_pos = 0
     while n_pos < f.size and np.isfinite(f[n_pos]) and f[n_pos] > 0:
@@ -199,11 +192,9 @@ def first_drop_height(z: np.ndarray, f: np.ndarray, threshold: float) -> float:
     """Lowest height where ``f`` (on levels ``z``, ``f(z[0]) >= threshold``) falls below
     ``threshold``: interpolated in ln f where both values are positive (exact for an exponential),
     else linearly; NaN when undefined."""
-    z = np.asarray(z, dtype=np.float64)
-    f = np.asarray(f, dtype=np.float64)
-    if not (math.isfinite(threshold) and threshold > 0) or f.size == 0 or not np.isfinite(f[0]):
-        return math.nan
-    if f[0] < threshold:
+    z, f = (np.asarray(v, dtype=np.float64) for v in (z, f))
+    if (not (math.isfinite(threshold) and threshold > 0) or f.size == 0 or not np.isfinite(f[0])
+            or f[0] < threshold):
         return math.nan
     for k in range(1, f.size):
         if not np.isfinite(f[k]):
@@ -247,10 +238,7 @@ def flux_height(z_w: np.ndarray, G: np.ndarray, fraction: float = FLUX_FRACTION)
 def decay_height(z: np.ndarray, G: np.ndarray, z_top: float, min_points: int = 3) -> float:
     """e-folding height H of ``G ~ exp(-z/H)`` (section 3.2 [41]): regression of ln G on z for
     ``z <= z_top``, G > 0; NaN with fewer than ``min_points`` levels or a non-decaying fit."""
-    z = np.asarray(z, dtype=np.float64)
-    G = np.asarray(G, dtype=np.float64)
-    if not math.isfinite(z_top):
-        return math.nan
+    z, G = (np.asarray(v, dtype=np.float64) for v in (z, G))
     sel = (z <= z_top) & np.isfinite(G) & (G > 0)
     if sel.sum() < min_points:
         return math.nan
@@ -258,18 +246,12 @@ def decay_height(z: np.ndarray, G: np.ndarray, z_top: float, min_points: int = 3
     return float(-1.0 / slope) if slope < 0 else math.nan
 
 
-def window_mask(t: np.ndarray, t0: float, t1: float) -> np.ndarray:
-    """Boolean mask of ``t0 <= t <= t1`` (with a small tolerance)."""
-    t = np.asarray(t, dtype=np.float64)
-    eps = 1e-9 * max(1.0, abs(t1))
-    return (t >= t0 - eps) & (t <= t1 + eps)
-
-
 def sigma_series(t: np.ndarray, G_tot: np.ndarray, t0: float, t1: float) -> tuple[float, float]:
     """(mean, population standard deviation) of the total flux over ``t0 <= t <= t1``: the
     paper's sigma_G (module docstring); NaN with fewer than two finite values."""
-    G_tot = np.asarray(G_tot, dtype=np.float64)
-    sel = window_mask(t, t0, t1) & np.isfinite(G_tot)
+    G_tot, t = np.asarray(G_tot, dtype=np.float64), np.asarray(t, dtype=np.float64)
+    eps = 1e-9 * max(1.0, abs(t1))
+    sel = (t >= t0 - eps) & (t <= t1 + eps) & np.isfinite(G_tot)
     if sel.sum() < 2:
         return (float(G_tot[sel].mean()) if sel.any() else math.nan), math.nan
     return float(G_tot[sel].mean()), float(G_tot[sel].std())
@@ -297,7 +279,6 @@ def pooled_mean_std(chunks) -> tuple[float, float]:
     return mean, math.sqrt(m2 / n)
 
 
-# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class GrainProfiles:
     """The grains' momentum and mass flux over the sampling window, and the saltation height."""
@@ -367,10 +348,9 @@ def mass_flux_statistics(fr: Frame, s: dict, G: np.ndarray, z_m: float,
     V.put("z_m_flux995", (), flux_height(fr.z_w, G))
     V.put("G_decay_height", (), decay_height(fr.z, G, z_m))
     G_series = s.get("G_tot_series")
-    if G_series is not None and fr.t_series.size == G_series.size:
-        g_mean, sigma_G = sigma_series(fr.t_series, G_series, fr.t0, fr.t1)
-    else:
-        g_mean, sigma_G = math.nan, math.nan
+    g_mean, sigma_G = (sigma_series(fr.t_series, G_series, fr.t0, fr.t1)
+                       if G_series is not None and fr.t_series.size == G_series.size
+                       else (math.nan, math.nan))
     V.put("G_tot_window_mean", (), g_mean)
     V.put("sigma_G", (), sigma_G, definition="std over the sampling window of the total-flux "
           "series G_tot_series (see saltstudy.analysis.flux)")
@@ -378,12 +358,11 @@ def mass_flux_statistics(fr: Frame, s: dict, G: np.ndarray, z_m: float,
           if g_mean and math.isfinite(g_mean) and g_mean > 0 else math.nan)
     G_col = s.get("G_col")
     pmask = fr.plane_mask
-    if G_col is not None and G_col.ndim == 3 and G_col.shape[0] == pmask.size and pmask.any():
-        idx = np.flatnonzero(pmask)
-        m_loc, s_loc = pooled_mean_std(
-            G_col[idx[i:i + PLANE_CHUNK]] for i in range(0, idx.size, PLANE_CHUNK))
-    else:
-        s_loc, m_loc = math.nan, math.nan
+    idx = np.flatnonzero(pmask)
+    m_loc, s_loc = (pooled_mean_std(G_col[idx[i:i + PLANE_CHUNK]]
+                                    for i in range(0, idx.size, PLANE_CHUNK))
+                    if G_col is not None and G_col.ndim == 3 and G_col.shape[0] == pmask.size
+                    and pmask.any() else (math.nan, math.nan))
     V.put("sigma_G_local", (), s_loc)
     V.put("sigma_G_local_over_mean", (), s_loc / m_loc
           if m_loc and math.isfinite(m_loc) and m_loc > 0 else math.nan)

@@ -33,11 +33,6 @@ def band_edges_for(z_w: np.ndarray) -> np.ndarray:
     return np.array([0.0, top1, max(0.05, top1), float(z_w[-1])])
 
 
-def _band_index(z: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """The band of each layer (by its centre z)."""
-    return np.clip(np.searchsorted(edges, z, side="right") - 1, 0, edges.size - 2)
-
-
 def band_anatomy(z: np.ndarray, z_w: np.ndarray, pn, pm, pmu, pmuf, Q_case: float, area: float
                  ) -> dict[str, np.ndarray]:
     """Per band (module doc), means over the samples; the layer sums are (samples, nz)."""
@@ -48,7 +43,7 @@ def band_anatomy(z: np.ndarray, z_w: np.ndarray, pn, pm, pmu, pmuf, Q_case: floa
     out["band_edges"] = edges
     if pn is None or pm is None or pmu is None:
         return out
-    band = _band_index(z, edges)
+    band = np.clip(np.searchsorted(edges, z, side="right") - 1, 0, nb - 1)   # by the layer's centre
 
     def per_band(a):
         a = np.asarray(a, dtype=np.float64)
@@ -69,12 +64,8 @@ def band_anatomy(z: np.ndarray, z_w: np.ndarray, pn, pm, pmu, pmuf, Q_case: floa
 def window_counts(cumulative) -> np.ndarray | None:
     """Counts over the sampling window from cumulative counts at the samples (last minus first),
     or None if there are fewer than two samples."""
-    if cumulative is None:
-        return None
-    a = np.asarray(cumulative, dtype=np.float64)
-    if a.ndim < 1 or a.shape[0] < 2:
-        return None
-    return a[-1] - a[0]
+    a = None if cumulative is None else np.asarray(cumulative, dtype=np.float64)
+    return a[-1] - a[0] if a is not None and a.ndim >= 1 and a.shape[0] >= 2 else None
 
 
 def _mean_of(hist: np.ndarray, edges: np.ndarray) -> float:
@@ -96,6 +87,16 @@ def _median_of(hist: np.ndarray, edges: np.ndarray) -> float:
     return float(edges[i] + f * (edges[i + 1] - edges[i]))
 
 
+#: the dimension of each distribution of :func:`impact_statistics`, and its scalars
+IMPACT_DIMS = {"impact_speed_pdf": ("v_imp",), "replacement_by_speed": ("v_imp",),
+               "impacts_by_speed": ("v_imp",), "impact_angle_pdf": ("impact_angle",),
+               "hop_time_pdf": ("hop_time",), "hop_length_pdf": ("hop_length",)}
+IMPACT_SCALARS = ("impact_speed_mean", "impact_speed_median", "impact_angle_mean",
+                  "replacement_mean", "rebound_fraction", "ejecta_per_impact", "hop_time_mean",
+                  "hop_time_median", "hop_length_mean", "hop_length_median",
+                  "hop_height_ballistic_median")
+
+
 def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hist,
                       v_edges: np.ndarray, angle_edges: np.ndarray, t_edges: np.ndarray,
                       l_edges: np.ndarray, g: float = 9.81) -> dict[str, object]:
@@ -103,18 +104,12 @@ def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hi
     of samples.nc (first axis: the samples). Scalars NaN and arrays NaN where nothing was
     recorded."""
     nv = max(v_edges.size - 1, 0)
-    out: dict[str, object] = {
-        "impact_speed_pdf": np.full(nv, np.nan),
-        "impact_angle_pdf": np.full(max(angle_edges.size - 1, 0), np.nan),
-        "replacement_by_speed": np.full(nv, np.nan), "impacts_by_speed": np.zeros(nv),
-        "impact_speed_mean": math.nan, "impact_speed_median": math.nan,
-        "impact_angle_mean": math.nan, "replacement_mean": math.nan,
-        "rebound_fraction": math.nan, "ejecta_per_impact": math.nan,
-        "hop_time_mean": math.nan, "hop_time_median": math.nan, "hop_length_mean": math.nan,
-        "hop_length_median": math.nan, "hop_height_ballistic_median": math.nan,
-        "hop_time_pdf": np.full(max(t_edges.size - 1, 0), np.nan),
-        "hop_length_pdf": np.full(max(l_edges.size - 1, 0), np.nan),
-    }
+    edges = {"v_imp": v_edges, "impact_angle": angle_edges, "hop_time": t_edges,
+             "hop_length": l_edges}
+    out: dict[str, object] = {name: np.full(max(edges[dims[0]].size - 1, 0), np.nan)
+                              for name, dims in IMPACT_DIMS.items()}
+    out["impacts_by_speed"] = np.zeros(nv)
+    out.update(dict.fromkeys(IMPACT_SCALARS, math.nan))
     if nv == 0:     # an archive without the impact record
         return out
     H = window_counts(impact_hist)
@@ -150,13 +145,6 @@ def impact_statistics(impact_hist, impact_outcomes, hop_time_hist, hop_length_hi
     return out
 
 
-# ---- the statistics of one case ----
-#: the dimension of each distribution of :func:`impact_statistics` (the others are scalars)
-IMPACT_DIMS = {"impact_speed_pdf": ("v_imp",), "replacement_by_speed": ("v_imp",),
-               "impacts_by_speed": ("v_imp",), "impact_angle_pdf": ("impact_angle",),
-               "hop_time_pdf": ("hop_time",), "hop_length_pdf": ("hop_length",)}
-
-
 def anatomy_statistics(fr: Frame, s: dict) -> tuple[np.ndarray, Variables]:
     """(band edges, variables): the band anatomy of the case's layer, the first cell's share of
     the airborne grains and the grains per m2 (at the case's Q) above it."""
@@ -182,9 +170,7 @@ def impact_record_statistics(fr: Frame, s: dict) -> tuple[dict[str, np.ndarray],
     # the impact record's bins are the archive's coordinates (their lower edges, equal widths)
     def edges(name):
         lo = np.asarray(fr.coords.get(name, np.zeros(0)), dtype=np.float64)
-        if lo.size < 2:
-            return np.zeros(1)
-        return np.append(lo, lo[-1] + (lo[1] - lo[0]))
+        return np.append(lo, lo[-1] + (lo[1] - lo[0])) if lo.size >= 2 else np.zeros(1)
 
     bins = {k: edges(k) for k in ("v_imp", "impact_angle", "hop_time", "hop_length")}
     imp = impact_statistics(s.get("impact_hist"), s.get("impact_outcomes"), s.get("hop_time_hist"),

@@ -19,7 +19,7 @@ from .reading import Frame, time_mean
 from .schema import Variables
 
 __all__ = ["LogFit", "faces_to_centres", "log_law_fit", "fit_range", "stress_u_star",
-           "interp_at", "FIT_Z_FLOOR", "MIN_FIT_POINTS", "WindProfiles", "wind_profiles",
+           "FIT_Z_FLOOR", "MIN_FIT_POINTS", "WindProfiles", "wind_profiles",
            "case_fit_range", "log_law_statistics", "spinup_reference"]
 
 #: lowest height of the log-law fit [m]: the paper finds the log law "above about z = 0.30 m"
@@ -52,14 +52,9 @@ def fit_range(z_m: float, Lz: float, damping_depth: float,
     grains' layer; ``z_max = (Lz - damping_depth) / 2`` for the top drive (above it the lid and
     the Rayleigh layer bend the profile), ``Lz / 3`` for the pressure gradient (outer-layer
     effects grow above the local-equilibrium profile of the linear stress)."""
-    z_lo = float(z_floor)
-    if z_m is not None and math.isfinite(z_m):
-        z_lo = max(z_lo, float(z_m))
-    if drive == "pressure_gradient":
-        z_hi = float(Lz) / 3.0
-    else:
-        z_hi = 0.5 * (float(Lz) - float(damping_depth))
-    return z_lo, z_hi
+    z_lo = float(z_floor) if z_m is None or not math.isfinite(z_m) else max(z_floor, float(z_m))
+    return float(z_lo), (float(Lz) / 3.0 if drive == "pressure_gradient"
+                         else 0.5 * (float(Lz) - float(damping_depth)))
 
 
 def log_law_fit(z: np.ndarray, u: np.ndarray, z_min: float, z_max: float, kappa: float,
@@ -79,23 +74,16 @@ def log_law_fit(z: np.ndarray, u: np.ndarray, z_min: float, z_max: float, kappa:
                   float(z_max))
 
 
-def interp_at(z: np.ndarray, f: np.ndarray, z0: float) -> float:
-    """Linear interpolation of ``f(z)`` at ``z0``; NaN outside the range or for NaN input."""
-    z = np.asarray(z, dtype=np.float64)
-    f = np.asarray(f, dtype=np.float64)
-    ok = np.isfinite(f)
-    if ok.sum() < 1 or not math.isfinite(z0) or z0 < z[ok].min() or z0 > z[ok].max():
-        return math.nan
-    return float(np.interp(z0, z[ok], f[ok]))
-
-
 def stress_u_star(z: np.ndarray, uw: np.ndarray, z_ref: float) -> float:
-    """``u* = sqrt|<u'w'>(z_ref)|`` (paper section 3.1 [33]); ``uw`` kinematic [m2 s-2]."""
-    v = interp_at(z, uw, z_ref)
-    return math.sqrt(abs(v)) if math.isfinite(v) else math.nan
+    """``u* = sqrt|<u'w'>(z_ref)|`` (paper section 3.1 [33]), ``uw`` kinematic [m2 s-2] linearly
+    interpolated; NaN outside its finite levels."""
+    z, uw = np.asarray(z, dtype=np.float64), np.asarray(uw, dtype=np.float64)
+    ok = np.isfinite(uw)
+    if ok.sum() < 1 or not math.isfinite(z_ref) or z_ref < z[ok].min() or z_ref > z[ok].max():
+        return math.nan
+    return math.sqrt(abs(float(np.interp(z_ref, z[ok], uw[ok]))))
 
 
-# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class WindProfiles:
     """The wind with grains over the sampling window (cell centres unless said)."""
@@ -120,9 +108,8 @@ def wind_profiles(fr: Frame, s: dict) -> WindProfiles:
     """The mean wind, momentum flux and TKE profiles with grains and the stress u* (section 3.1)."""
     nz = fr.nz
     u_mean = time_mean(s.get("u_mean"), nz)
-    uw_w = None
-    if s.get("uw_res") is not None and s.get("uw_sgs") is not None:
-        uw_w = s["uw_res"].astype(np.float64) + s["uw_sgs"].astype(np.float64)
+    uw_w = (s["uw_res"].astype(np.float64) + s["uw_sgs"].astype(np.float64)
+            if s.get("uw_res") is not None and s.get("uw_sgs") is not None else None)
     uw_mean_w = time_mean(uw_w, nz + 1)
     uw_flux = faces_to_centres(uw_mean_w)
     uw_sgs_c = faces_to_centres(time_mean(s.get("uw_sgs"), nz + 1))

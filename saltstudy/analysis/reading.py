@@ -31,50 +31,42 @@ LAZY_VARIABLES = ("u", "G_col", "u_plane")
 PLANE_CHUNK = 256
 
 
-class LazyVar:
-    """A variable of an archive whose slices are read on indexing (each read under NC_LOCK)."""
-
-    def __init__(self, path: str | Path, name: str, shape: tuple[int, ...]):
-        self.path, self.name, self.shape = str(path), name, tuple(shape)
+class _Shaped:
+    shape: tuple[int, ...]
 
     @property
     def ndim(self) -> int:
         return len(self.shape)
 
+
+class LazyVar(_Shaped):
+    """A variable of an archive whose slices are read on indexing (each read under NC_LOCK)."""
+
+    def __init__(self, path: str | Path, name: str, shape: tuple[int, ...]):
+        self.path, self.name, self.shape = str(path), name, tuple(shape)
+
     def __getitem__(self, key) -> np.ndarray:
-        with NC_LOCK:
-            with xr.open_dataset(self.path, engine="netcdf4") as ds:
-                return np.asarray(ds[self.name][key].values)
+        with NC_LOCK, xr.open_dataset(self.path, engine="netcdf4") as ds:
+            return np.asarray(ds[self.name][key].values)
 
 
 def read_archive(path: str | Path, keep: tuple[str, ...] | None,
                  lazy: tuple[str, ...] = ()) -> tuple[dict[str, Any], dict[str, Any], dict[str, Any]]:
     """(attrs, coords, variables) of an archive, reading only ``keep`` variables (all if None);
     the ``lazy`` ones become :class:`LazyVar` handles."""
-    with NC_LOCK:
-        with xr.open_dataset(path, engine="netcdf4") as ds:
-            attrs = dict(ds.attrs)
-            coords = {k: np.asarray(ds[k].values) for k in ds.coords}
-            names = [v for v in ds.data_vars if keep is None or v in keep]
-            data: dict[str, Any] = {}
-            for v in names:
-                if v in lazy:
-                    data[v] = LazyVar(path, v, ds[v].shape)
-                else:
-                    data[v] = np.asarray(ds[v].values)
-    return attrs, coords, data
+    with NC_LOCK, xr.open_dataset(path, engine="netcdf4") as ds:
+        coords = {k: np.asarray(ds[k].values) for k in ds.coords}
+        data = {v: LazyVar(path, v, ds[v].shape) if v in lazy else np.asarray(ds[v].values)
+                for v in ds.data_vars if keep is None or v in keep}
+        return dict(ds.attrs), coords, data
 
 
-class Rows:
+class Rows(_Shaped):
     """Rows ``start:stop`` of an array or a lazy variable (first axis), indexed like a whole one."""
 
     def __init__(self, base, start: int, stop: int):
         self.base, self.start, self.stop = base, int(start), int(stop)
         self.shape = (self.stop - self.start,) + tuple(base.shape[1:])
-
-    @property
-    def ndim(self) -> int:
-        return len(self.shape)
 
     def __getitem__(self, key):
         k0, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
@@ -107,19 +99,16 @@ def attr_float(attrs: dict[str, Any], key: str, default: float = math.nan) -> fl
 
 
 def case_info(attrs: dict[str, Any]) -> dict[str, Any]:
-    """Pieces of the resolved scene (global attribute ``case_json``) the analysis needs."""
-    try:
-        scene = json.loads(attrs.get("case_json", "{}") or "{}")
-    except (TypeError, ValueError):
-        scene = {}
-    case = scene.get("case", scene) if isinstance(scene, dict) else {}
-    fid = scene.get("fidelity", {}) if isinstance(scene, dict) else {}
-    grid = fid.get("grid", {}) if isinstance(fid, dict) else {}
+    """Pieces of the resolved scene (global attribute ``case_json``: a scene, or a case alone)
+    the analysis needs."""
+    scene = json.loads(attrs.get("case_json") or "{}")
+    case, fid = scene.get("case", scene), scene.get("fidelity", {})
+    grid = fid.get("grid", {})
     Lz = attr_float(attrs, "Lz", float(grid.get("Lz", math.nan)))
     damping = grid.get("damping_depth")
     if damping is None:
         damping = attr_float(attrs, "damping_depth", min(3.0, 0.5 * Lz) if math.isfinite(Lz) else 0.0)
-    forcing = case.get("forcing", {}) if isinstance(case, dict) else {}
+    forcing = case.get("forcing", {})
     drive = str(forcing.get("drive", "top"))
     if drive == "pressure_gradient":
         damping = 0.0  # the model builds no damping layer with this drive
@@ -130,12 +119,11 @@ def case_info(attrs: dict[str, Any]) -> dict[str, Any]:
         "H": Lz if drive == "pressure_gradient" and math.isfinite(Lz) else None,
         "damping_depth": float(damping),
         "z_ref": float(forcing.get("z_ref", 2.0)),
-        "soil": case.get("soil") if isinstance(case, dict) else None,
-        "threshold": case.get("threshold", {}) if isinstance(case, dict) else {},
-        "air": case.get("air", {}) if isinstance(case, dict) else {},
+        "soil": case.get("soil"),
+        "threshold": case.get("threshold", {}),
         # parcels are q_multiplier x heavier than the case's Q (a cost knob); 1 when unknown
-        "q_multiplier": float(fid.get("q_multiplier", 1.0)) if isinstance(fid, dict) else 1.0,
-        "Q_case": attr_float(case.get("particles", {}) if isinstance(case, dict) else {}, "Q"),
+        "q_multiplier": float(fid.get("q_multiplier", 1.0)),
+        "Q_case": attr_float(case.get("particles", {}), "Q"),
     }
 
 
@@ -266,20 +254,15 @@ def frame_of(attrs: dict[str, Any], coords: dict[str, np.ndarray]) -> Frame:
 
     # sampling window: from the first to the last 3-D sample; one sample -> to the end of the run
     if n_t:
-        t0 = float(t_sample[0])
-        t1 = float(t_sample[-1])
+        t0, t1 = float(t_sample[0]), float(t_sample[-1])
         if t1 <= t0:
             t1 = float(max(t_series.max() if t_series.size else t0,
                            t_plane.max() if t_plane.size else t0))
     else:
-        t0, t1 = (float(t_series[0]) if t_series.size else 0.0), (
-            float(t_series[-1]) if t_series.size else 0.0)
+        t0, t1 = (float(t_series[0]), float(t_series[-1])) if t_series.size else (0.0, 0.0)
     # planes restricted to the sampling window (t >= first 3-D sample)
-    plane_mask = np.ones(t_plane.size, bool)
-    if t_plane.size and n_t:
-        m = t_plane >= t0 - 1e-9
-        if m.any():
-            plane_mask = m
+    in_window = t_plane >= t0 - 1e-9
+    plane_mask = in_window if n_t and in_window.any() else np.ones(t_plane.size, bool)
 
     return Frame(
         attrs=attrs, coords=coords, info=info,

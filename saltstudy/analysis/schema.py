@@ -1,8 +1,7 @@
-"""The contract of ``analysis.nc``: ``SPEC``, each variable's and coordinate's ``(units,
-long_name)``; ``REQUIRED_VARIABLES``/``REQUIRED_COORDS``, what docs/ARCHITECTURE.md promises the
-report; ``SAMPLE_VARIABLES_USED``, the samples.nc variables read; ``HALF_STATISTICS``, also
-written over each half of the sampling window. :func:`to_dataset` takes every variable's units
-and long name from ``SPEC``, so a variable missing from it cannot be written.
+"""The contract of ``analysis.nc`` (docs/ARCHITECTURE.md): ``SPEC``, each variable's and
+coordinate's ``(units, long_name)``, from which :func:`to_dataset` takes them (a variable missing
+from it cannot be written); ``SAMPLE_VARIABLES_USED``, the samples.nc variables read;
+``HALF_STATISTICS``, also written over each half of the sampling window.
 """
 from __future__ import annotations
 
@@ -11,8 +10,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-__all__ = ["SPEC", "REQUIRED_VARIABLES", "REQUIRED_COORDS", "SAMPLE_VARIABLES_USED", "MAX_LAG_S",
-           "U_PLANE_HEIGHT", "HALF_STATISTICS", "Variables", "to_dataset"]
+__all__ = ["SPEC", "SAMPLE_VARIABLES_USED", "MAX_LAG_S", "U_PLANE_HEIGHT", "HALF_STATISTICS",
+           "Variables", "to_dataset"]
 
 #: the largest time lag of R_cu_lag and of the space-time correlation of C_p [s]
 MAX_LAG_S = 5.0
@@ -241,19 +240,6 @@ SPEC: dict[str, tuple[str, str]] = {
     "u_snapshot": ("m s-1", "u at the 0.1 m plane of the last plane"),
     "R_cu_lag": ("1", "correlation of C_p(t) with the past wind u(t - lag_t) at the plane heights"),
 }
-
-#: variables of analysis.nc the contract (ARCHITECTURE.md) requires
-REQUIRED_VARIABLES = (
-    "u_star_s", "z0s", "u_star_0", "z0_0", "z_m", "z_m_flux995", "G_tot", "sigma_G",
-    "sigma_G_over_G_tot", "lambda_x", "lambda_y", "delta_y", "delta_y_u", "u_star_t",
-    "tau_p_surface_fraction", "R_cu_upper", "n_parcels_mean", "n_parcels_peak", "overshoot_ratio",
-    "t_equilibrium", "streamer_lifetime", "streamer_speed", "E_splash_over_E_impact", "fit_z_min",
-    "fit_z_max", "u_mean", "u_mean_spinup", "uw_flux", "uw_flux_spinup", "tke", "tau_p", "G",
-    "R_cu", "St", "T_p", "T_eps", "eps_tot", "n_parcels", "G_tot_series", "S_c", "S_u",
-    "C_p_autocorr", "psd_air", "psd_bed", "C_p_snapshot", "u_snapshot", "R_cu_lag", "z_band_edges",
-)
-REQUIRED_COORDS = ("z", "time", "time_sample", "time_plane", "ky", "lag_x", "lag_y", "lag_t",
-                   "z_plane", "d_bin", "z_band", "x", "y")
 
 #: the variables of samples.nc the analysis reads (the others are never loaded)
 SAMPLE_VARIABLES_USED = (

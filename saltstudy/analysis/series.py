@@ -3,20 +3,14 @@
 Paper section 3.1 [31], Fig. 1: after release the number of grains rises (splash), overshoots,
 and relaxes to a statistical equilibrium.
 
-* ``n_parcels_mean``: mean of ``n_parcels`` over the *sampling window* ``[t0, t1]`` (the first
-  and last 3-D sample times, when the run is meant to be in equilibrium) - the plateau.
-* ``n_parcels_peak``: the maximum of the raw series; ``overshoot_ratio = peak / plateau``.
-* ``t_equilibrium``: the series is smoothed by a centred running mean over ``RUNNING_WINDOW_S``
-  seconds (truncated at the ends). If that smoothed series overshoots (its maximum exceeds the
-  plateau by more than ``EQ_TOLERANCE``), t_equilibrium is the first time *after its maximum* at
-  which it comes back within ``EQ_TOLERANCE`` (10 %) of the plateau; otherwise (a monotonic
-  rise) the first time it comes within 10 % of the plateau. NaN if never.
-* ``E_splash_over_E_impact``: ratio of the increments over the sampling window of the
-  cumulative kinetic energy of rebounding + ejected grains and of impacting grains (the whole
-  record when the window has no extent).
-* ``u_star_s_stress_series``: u* of the window-mean stress at the reference height from the
-  drive's high-rate record ``u_star_ref``, with its error from 10-s blocks
-  (:func:`block_mean_stress_u_star`).
+* ``n_parcels_mean``: the plateau, mean of ``n_parcels`` over the sampling window ``[t0, t1]``;
+  ``n_parcels_peak``: the raw series' maximum; ``overshoot_ratio = peak / plateau``.
+* ``t_equilibrium``: the first time the series, smoothed by a centred running mean over
+  ``RUNNING_WINDOW_S``, comes within ``EQ_TOLERANCE`` of the plateau (after its maximum if that
+  exceeds the plateau by more than the tolerance); NaN if never.
+* ``E_splash_over_E_impact``: the increments over the window of the cumulative kinetic energy
+  of rebounding + ejected grains over that of impacting ones (the whole record for an empty window).
+* ``u_star_s_stress_series``: :func:`block_mean_stress_u_star` of the drive's record ``u_star_ref``.
 """
 from __future__ import annotations
 
@@ -36,8 +30,7 @@ EQ_TOLERANCE = 0.10
 
 def running_mean(t: np.ndarray, x: np.ndarray, window_s: float) -> np.ndarray:
     """Centred running mean over ``window_s`` seconds (by index, from the median spacing)."""
-    t = np.asarray(t, dtype=np.float64)
-    x = np.asarray(x, dtype=np.float64)
+    t, x = (np.asarray(v, dtype=np.float64) for v in (t, x))
     if x.size < 2:
         return x.copy()
     dt = float(np.median(np.diff(t)))
@@ -56,8 +49,7 @@ def running_mean(t: np.ndarray, x: np.ndarray, window_s: float) -> np.ndarray:
 def overshoot_stats(t: np.ndarray, n: np.ndarray, t0: float, t1: float,
                     window_s: float = RUNNING_WINDOW_S, tol: float = EQ_TOLERANCE) -> dict[str, float]:
     """n_parcels_peak, n_parcels_mean, overshoot_ratio, t_equilibrium (module docstring)."""
-    t = np.asarray(t, dtype=np.float64)
-    n = np.asarray(n, dtype=np.float64)
+    t, n = (np.asarray(v, dtype=np.float64) for v in (t, n))
     out = dict(n_parcels_peak=math.nan, n_parcels_mean=math.nan, overshoot_ratio=math.nan,
                t_equilibrium=math.nan)
     ok = np.isfinite(n)
@@ -69,15 +61,12 @@ def overshoot_stats(t: np.ndarray, n: np.ndarray, t0: float, t1: float,
     if not sel.any():
         sel = ok & (t >= t0 - eps)
     plateau = float(n[sel].mean()) if sel.any() else math.nan
-    out["n_parcels_peak"] = peak
-    out["n_parcels_mean"] = plateau
+    out.update(n_parcels_peak=peak, n_parcels_mean=plateau)
     if math.isfinite(plateau) and plateau > 0:
         out["overshoot_ratio"] = peak / plateau
         rm = running_mean(t, n, window_s)
         close = np.abs(rm - plateau) <= tol * plateau
-        start = 0
-        if np.nanmax(rm) > (1.0 + tol) * plateau:
-            start = int(np.nanargmax(rm))
+        start = int(np.nanargmax(rm)) if np.nanmax(rm) > (1.0 + tol) * plateau else 0
         idx = np.flatnonzero(close[start:])
         if idx.size:
             out["t_equilibrium"] = float(t[start + idx[0]])
@@ -86,9 +75,7 @@ def overshoot_stats(t: np.ndarray, n: np.ndarray, t0: float, t1: float,
 
 def increment_ratio(t: np.ndarray, num: np.ndarray, den: np.ndarray, t0: float, t1: float) -> float:
     """(num(t1) - num(t0)) / (den(t1) - den(t0)) for cumulative series; whole record if t1 <= t0."""
-    t = np.asarray(t, dtype=np.float64)
-    num = np.asarray(num, dtype=np.float64)
-    den = np.asarray(den, dtype=np.float64)
+    t, num, den = (np.asarray(v, dtype=np.float64) for v in (t, num, den))
     ok = np.isfinite(num) & np.isfinite(den)
     if ok.sum() < 1:
         return math.nan
@@ -112,8 +99,7 @@ def block_mean_stress_u_star(t: np.ndarray, u_star: np.ndarray, t0: float, t1: f
     carried to u* (se_u = se_tau / (2 u*)); the number of blocks). The blocks see the swings
     shorter than the window, not the slower ones that make two realizations differ. NaN with
     fewer than two blocks."""
-    t = np.asarray(t, dtype=np.float64)
-    u = np.asarray(u_star, dtype=np.float64)
+    t, u = (np.asarray(v, dtype=np.float64) for v in (t, u_star))
     ok = np.isfinite(t) & np.isfinite(u) & (t >= t0) & (t <= t1)
     if ok.sum() < 2 or not t1 > t0:
         return math.nan, math.nan, 0
@@ -139,9 +125,8 @@ def series_statistics(fr: Frame, s: dict, G_tot_sample: np.ndarray) -> Variables
 
     def series_var(name):
         a = s.get(name)
-        if a is None or a.shape != t_series.shape:
-            return np.full(t_series.size, np.nan)
-        return a.astype(np.float64)
+        return (a.astype(np.float64) if a is not None and a.shape == t_series.shape
+                else np.full(t_series.size, np.nan))
 
     V = Variables()
     n_par = series_var("n_parcels")

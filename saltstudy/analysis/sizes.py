@@ -67,7 +67,6 @@ def bed_mass_fractions(soil_dict: dict | None, edges: np.ndarray) -> tuple[np.nd
     return (f / tot if tot > 0 else np.full(f.size, np.nan)), "saltstudy.physics.soil.bin_mass_fractions"
 
 
-# ---- the statistics of one case ----
 @dataclass(frozen=True, eq=False)
 class SizeStatistics:
     #: Q-weighted grain counts per layer and diameter bin, summed over the samples (nz, d_bin)

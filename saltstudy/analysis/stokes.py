@@ -10,28 +10,19 @@ resolved-scale wind velocity variance"), so ``<u_i'u_i'> = 2 tke_res`` (resolved
 time mean at the level) in the first factor and in T_eps.
 
 Drag term, from the layer sums of ``samples.nc`` summed over the sample times (``P_*``):
+``eps_drag = beta (2 tke_res - <u_i'u_pi'>)`` with ``beta(z) = <pdrag>/(rho Lx Ly dz)`` [s-1]
+(``pdrag = sum Q m_p f(Re_p)/T_p`` per layer: the horizontal mean of the paper's ``<Q/V_cell sum
+m_p f/(rho T_p)>``) and the mass-weighted fluid-grain covariance ``<u_i'u_pi'> = P_(uf.up)/P_m -
+(P_uf/P_m)(P_u/P_m)``: only the streamwise mean products are removed, the lateral and vertical
+means being ~0 in a horizontally homogeneous flow (the Eulerian mean <u> cancels exactly).
 
-* ``beta(z) = <pdrag>/(rho Lx Ly dz)`` [s-1], with ``pdrag = sum Q m_p f(Re_p)/T_p`` per layer:
-  the horizontal mean of the paper's ``<Q/V_cell sum m_p f/(rho T_p)>``;
-* ``<u_i'u_pi'>``: the fluid-grain velocity covariance, mass-weighted over the grains of the
-  level, ``P_(uf.up)/P_m - (P_uf/P_m)(P_u/P_m)``. Only the streamwise mean products are
-  removed: the recorded sums hold the mass-weighted streamwise fluid velocity at the grains
-  (``pmuf``) but not the lateral and vertical ones, whose means are ~0 in a horizontally
-  homogeneous flow. (The result does not depend on the Eulerian mean <u>: with the grain-mean
-  U_p the Eulerian part cancels exactly.)
-* ``eps_drag = beta (2 tke_res - <u_i'u_pi'>)``.
+SGS term: ``sgs_transfer`` in samples.nc is ``-<tau_ij S_ij>`` with the *total* velocity; its
+mean-flow part ``-uw_sgs d<u>/dz`` is energy the SGS take from the *mean* flow, so
+``eps_sgs = -<tau_ij' S_ij'> = sgs_transfer + uw_sgs d<u>/dz`` (centred differences on the
+stretched levels). ``eps_tot = eps_drag + eps_sgs``; T_eps and St are NaN where it is not positive.
 
-SGS term: ``sgs_transfer`` in samples.nc is ``-<tau_ij S_ij>`` with the *total* velocity. Its
-mean-flow part ``-2 <tau_13> <S_13> = -uw_sgs d<u>/dz`` is energy passed from the *mean* flow to
-the SGS, not from the resolved fluctuations, so
-``eps_sgs = -<tau_ij' S_ij'> = sgs_transfer + uw_sgs d<u>/dz`` (uw_sgs from the faces to the
-centres, d<u>/dz by centred differences on the stretched levels).
-
-``eps_tot = eps_drag + eps_sgs``; T_eps and St are NaN where eps_tot is not positive.
-
-T_p(z) = rho_p d^2/(18 rho nu) (section 4.2 [52]) with d the *mass-weighted mean diameter* of
-the grains at that level over the sampling window, from ``size_hist`` (grain counts per diameter
-bin): ``d = sum n d^4 / sum n d^3`` with d the bin centre. NaN at levels without grains.
+T_p(z) = rho_p d^2/(18 rho nu) (section 4.2 [52]), d the mass-weighted mean diameter of the grains
+at that level over the window from ``size_hist``: ``d = sum n d^4 / sum n d^3`` (bin centres).
 """
 from __future__ import annotations
 
@@ -40,14 +31,13 @@ import numpy as np
 from .reading import Frame, time_mean, time_sum
 from .schema import Variables
 
-__all__ = ["drag_rate", "fluid_grain_covariance", "eps_drag", "eps_sgs_fluct", "eps_total",
+__all__ = ["drag_rate", "fluid_grain_covariance", "eps_drag", "eps_sgs_fluct",
            "eddy_time", "mass_mean_diameter", "response_time", "stokes_number",
            "stokes_statistics"]
 
 
 def _nan_div(a, b):
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
+    a, b = (np.asarray(v, dtype=np.float64) for v in (a, b))
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(b > 0, a / np.where(b > 0, b, 1.0), np.nan)
 
@@ -76,14 +66,9 @@ def eps_drag(beta: np.ndarray, tke_res: np.ndarray, cov_fp: np.ndarray) -> np.nd
 def eps_sgs_fluct(sgs_transfer: np.ndarray, uw_sgs_c: np.ndarray, u_mean: np.ndarray,
                   z: np.ndarray) -> np.ndarray:
     """-<tau_ij' S_ij'> = sgs_transfer + uw_sgs d<u>/dz [m2 s-3] (module docstring)."""
-    z = np.asarray(z, dtype=np.float64)
-    u = np.asarray(u_mean, dtype=np.float64)
+    z, u = (np.asarray(v, dtype=np.float64) for v in (z, u_mean))
     dudz = np.gradient(u, z) if z.size >= 2 else np.zeros_like(u)
     return np.asarray(sgs_transfer, dtype=np.float64) + np.asarray(uw_sgs_c, dtype=np.float64) * dudz
-
-
-def eps_total(e_drag: np.ndarray, e_sgs: np.ndarray) -> np.ndarray:
-    return np.asarray(e_drag, dtype=np.float64) + np.asarray(e_sgs, dtype=np.float64)
 
 
 def eddy_time(tke_res: np.ndarray, eps_tot: np.ndarray) -> np.ndarray:
@@ -95,9 +80,7 @@ def mass_mean_diameter(hist: np.ndarray, d_bin: np.ndarray) -> np.ndarray:
     """Mass-weighted mean diameter per level from counts ``hist (nz, nbin)`` [m]."""
     h = np.nan_to_num(np.asarray(hist, dtype=np.float64))
     d = np.asarray(d_bin, dtype=np.float64)
-    m3 = h @ d ** 3
-    m4 = h @ d ** 4
-    return _nan_div(m4, m3)
+    return _nan_div(h @ d ** 4, h @ d ** 3)
 
 
 def response_time(d: np.ndarray, rho_p: float, rho: float, nu: float) -> np.ndarray:
@@ -126,7 +109,7 @@ def stokes_statistics(fr: Frame, s: dict, hist_z: np.ndarray, u_mean: np.ndarray
                                     time_sum(s.get("pmu"), nz))
     e_drag = eps_drag(beta, tke_res, cov_fp)
     e_sgs_f = eps_sgs_fluct(time_mean(s.get("sgs_transfer"), nz), uw_sgs_c, u_mean, fr.z)
-    eps_tot = eps_total(e_drag, e_sgs_f)
+    eps_tot = e_drag + e_sgs_f
     T_eps = eddy_time(tke_res, eps_tot)
     V = Variables()
     V.put("d_mass_mean", ("z",), d_mass)

@@ -68,12 +68,10 @@ def _put_spacing(V: Variables, field: str, spacing: streamers.SpanwiseSpacing) -
     # beside it so that what the choice does to each case can be seen
     V.put(field, (), spacing.chosen, reading="premultiplied",
           definition="saltstudy.analysis.streamers.premultiplied_peak; docs/STREAMERS.md")
-    V.put(f"{field}_premultiplied", (), spacing.premultiplied,
-          definition="saltstudy.analysis.streamers.premultiplied_peak")
-    V.put(f"{field}_density", (), spacing.density,
-          definition="saltstudy.analysis.streamers.spectral_peak")
-    V.put(f"{field}_correlation", (), spacing.correlation,
-          definition="saltstudy.analysis.streamers.correlation_minimum")
+    for reading, func in (("premultiplied", "premultiplied_peak"), ("density", "spectral_peak"),
+                          ("correlation", "correlation_minimum")):
+        V.put(f"{field}_{reading}", (), getattr(spacing, reading),
+              definition=f"saltstudy.analysis.streamers.{func}")
 
 
 def _lambdas(fr: Frame, planes: np.ndarray, noise: np.ndarray | None
@@ -84,24 +82,21 @@ def _lambdas(fr: Frame, planes: np.ndarray, noise: np.ndarray | None
             streamers.core_length(ac[fr.nx // 2, :], fr.dy))
 
 
-@dataclass(frozen=True, eq=False)
-class ConcentrationReadings:
-    #: spanwise wavenumbers of S_c (and S_u) [cycles m-1]
-    ky: np.ndarray
-    #: per-plane noise variance removed to leave the paper's
-    removed: np.ndarray
-    variables: Variables
-
-
 def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
-                           ) -> ConcentrationReadings:
-    """lambda_x, lambda_y, S_c and delta_y of the window's C_p planes ``C_w`` (section 4.1 [46],
-    [49]), with the noise readings beside them (module docstring)."""
-    nx, ny, dy = fr.nx, fr.ny, fr.dy
+                           ) -> tuple[np.ndarray, np.ndarray, Variables]:
+    """(ky [cycles m-1] of S_c, the per-plane noise variance removed to leave the paper's,
+    variables): lambda_x, lambda_y, S_c and delta_y of the window's C_p planes ``C_w`` (section
+    4.1 [46], [49]), with the noise readings beside them (module docstring)."""
+    nx, ny = fr.nx, fr.ny
     n_planes = int(C_w.shape[0]) if C_w is not None else 0
     area = noise.cell_area
     removed = np.zeros(n_planes)
-    n_col = n_col_paper = small_ratio = math.nan
+    n_col = n_col_paper = small_ratio = noise_frac = math.nan
+    ac = snap_c = np.full((nx, ny), np.nan)
+    lams = dict.fromkeys(("", "_raw", "_noise_free", "_paper_count"), (math.nan, math.nan))
+    spacing_c = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
+    ky = np.arange(ny // 2 + 1) / fr.Ly if ny else np.zeros(0)
+    S_c = S_c_se = np.full(ky.size, np.nan)
     if C_w is not None and n_planes and nx >= 2 and ny >= 2:
         dev_c, var_c = streamers.deviation_planes(C_w)
         noise_run = noise.run(C_w)
@@ -117,38 +112,27 @@ def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
         if has.any() and np.all(poisson > 0):
             small_ratio = float(np.mean(streamers.small_scale_power(dev_c[has]) / poisson))
         del dev_c
-        ac, lam_x, lam_y = _lambdas(fr, C_w, removed)
         # S_c carries the paper's parcel noise; each reading's error is the run's own
-        ky, S_c, S_c_se, spacing_c = streamers.spanwise_spacing(C_w, dy, noise=removed)
-        _, lam_x_raw, lam_y_raw = _lambdas(fr, C_w, None)
-        _, lam_x_free, lam_y_free = _lambdas(fr, C_w, noise_run)
+        ky, S_c, S_c_se, spacing_c = streamers.spanwise_spacing(C_w, fr.dy, noise=removed)
         # the paper's field held its own count of parcels (2,000 per m2 at Q, [28]), not the
         # run's: with that relative noise the reading sees a field as noisy as the paper's
         at_count = noise_run - streamers.count_noise_variance(
             C_w, paper_grid.PAPER_PARCELS_PER_M2, streamers.PAPER_CELL_AREA)
-        _, lam_x_count, lam_y_count = _lambdas(fr, C_w, at_count)
+        for suffix, taken_out in (("", removed), ("_raw", None), ("_noise_free", noise_run),
+                                  ("_paper_count", at_count)):
+            ac_k, *lams[suffix] = _lambdas(fr, C_w, taken_out)
+            ac = ac_k if not suffix else ac
         snap_c = np.asarray(C_w[-1], dtype=np.float64)
-    else:
-        ac = np.full((nx, ny), np.nan)
-        lam_x = lam_y = lam_x_raw = lam_y_raw = noise_frac = math.nan
-        spacing_c = streamers.SpanwiseSpacing(math.nan, math.nan, math.nan)
-        lam_x_free = lam_y_free = lam_x_count = lam_y_count = math.nan
-        ky = np.arange(ny // 2 + 1) / fr.Ly if ny else np.zeros(0)
-        S_c = S_c_se = np.full(ky.size, np.nan)
-        snap_c = np.full((nx, ny), np.nan)
     noise_def = noise.definition()
     V = Variables()
-    V.put("lambda_x", (), lam_x, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
-          noise_removed=noise_def)
-    V.put("lambda_y", (), lam_y, definition="2 x lag where the autocorrelation of C_p drops below 0.4",
-          noise_removed=noise_def)
+    for i, name in enumerate(("lambda_x", "lambda_y")):
+        V.put(name, (), lams[""][i],
+              definition="2 x lag where the autocorrelation of C_p drops below 0.4",
+              noise_removed=noise_def)
     _put_spacing(V, "delta_y", spacing_c)
-    V.put("lambda_x_raw", (), lam_x_raw)
-    V.put("lambda_y_raw", (), lam_y_raw)
-    V.put("lambda_x_noise_free", (), lam_x_free)
-    V.put("lambda_y_noise_free", (), lam_y_free)
-    V.put("lambda_x_paper_count", (), lam_x_count)
-    V.put("lambda_y_paper_count", (), lam_y_count)
+    for suffix in ("_raw", "_noise_free", "_paper_count"):
+        V.put(f"lambda_x{suffix}", (), lams[suffix][0])
+        V.put(f"lambda_y{suffix}", (), lams[suffix][1])
     V.put("C_p_noise_fraction", (), noise_frac,
           definition="saltstudy.analysis.streamers.poisson_noise_variance")
     V.put("C_p_parcels_per_column", (), n_col, definition="mean(C_p) dx dy / w")
@@ -159,7 +143,7 @@ def concentration_readings(fr: Frame, C_w: np.ndarray | None, noise: ParcelNoise
     V.put("S_c", ("ky",), S_c)
     V.put("S_c_stderr", ("ky",), S_c_se)
     V.put("C_p_snapshot", ("x", "y"), snap_c)
-    return ConcentrationReadings(ky, removed, V)
+    return ky, removed, V
 
 
 def _u_plane(fr: Frame, s: dict):
@@ -211,25 +195,15 @@ def above_first_cell_readings(fr: Frame, s: dict, noise: ParcelNoise) -> Variabl
     return V
 
 
-@dataclass(frozen=True, eq=False)
-class SpaceTimeReadings:
-    #: the time lags of the planes up to MAX_LAG_S [s]
-    lag_t: np.ndarray
-    variables: Variables
-
-
-def space_time_readings(fr: Frame, C_w: np.ndarray | None) -> SpaceTimeReadings:
-    """The peak of the space-time correlation of C_p over lags 0 to ``MAX_LAG_S`` at the planes'
-    spacing, and the streamers' speed and lifetime from it."""
+def space_time_readings(fr: Frame, C_w: np.ndarray | None) -> tuple[np.ndarray, Variables]:
+    """(the lags [s], variables): the peak of the space-time correlation of C_p over lags 0 to
+    ``MAX_LAG_S`` at the planes' spacing, and the streamers' speed and lifetime from it."""
     nx, ny = fr.nx, fr.ny
     tp_w = fr.t_plane[fr.plane_mask] if fr.t_plane.size else fr.t_plane
     dtp = float(np.median(np.diff(tp_w))) if tp_w.size >= 2 else math.nan
     K = int(min(tp_w.size - 1, math.floor(MAX_LAG_S / dtp + 1e-9))) if math.isfinite(dtp) and dtp > 0 else 0
-    K = max(K, 0)
     lag_t = np.arange(K + 1) * (dtp if math.isfinite(dtp) else 0.0)
-    st_peak = np.full(K + 1, np.nan)
-    st_x = np.full(K + 1, np.nan)
-    st_y = np.full(K + 1, np.nan)
+    st_peak, st_x, st_y = (np.full(K + 1, np.nan) for _ in range(3))
     speed = lifetime = math.nan
     if C_w is not None and K >= 1 and nx >= 2 and ny >= 2:
         st = streamers.space_time_correlation(C_w, dtp, fr.dx, fr.dy, max_lag_s=K * dtp + 0.5 * dtp)
@@ -242,7 +216,7 @@ def space_time_readings(fr: Frame, C_w: np.ndarray | None) -> SpaceTimeReadings:
     V.put("C_p_st_y", ("lag_t",), st_y)
     V.put("streamer_speed", (), speed)
     V.put("streamer_lifetime", (), lifetime)
-    return SpaceTimeReadings(lag_t, V)
+    return lag_t, V
 
 
 def lagged_wind_correlation(fr: Frame, s: dict, C_w: np.ndarray | None, n_lags: int,
@@ -277,11 +251,11 @@ def streamer_statistics(fr: Frame, s: dict) -> StreamerStatistics:
     V = Variables()
     V.put("n_planes", (), int(C_w.shape[0]) if C_w is not None else 0)
     V.put("n_samples", (), fr.n_t)
-    conc = concentration_readings(fr, C_w, noise)
-    V.merge(conc.variables)
-    V.merge(streak_readings(fr, s, conc.ky.size))
+    ky, removed, conc = concentration_readings(fr, C_w, noise)
+    V.merge(conc)
+    V.merge(streak_readings(fr, s, ky.size))
     V.merge(above_first_cell_readings(fr, s, noise))
-    st = space_time_readings(fr, C_w)
-    V.merge(st.variables)
-    V.merge(lagged_wind_correlation(fr, s, C_w, st.lag_t.size, conc.removed))
-    return StreamerStatistics(conc.ky, st.lag_t, noise, V)
+    lag_t, st = space_time_readings(fr, C_w)
+    V.merge(st)
+    V.merge(lagged_wind_correlation(fr, s, C_w, lag_t.size, removed))
+    return StreamerStatistics(ky, lag_t, noise, V)

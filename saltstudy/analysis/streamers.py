@@ -6,57 +6,44 @@ correlation and spectrum is an FFT on the full domain of each plane's deviation 
 
 Parcel-count noise (beyond the paper)
     A column of area ``A = dx dy`` holds ``N = C_p A / w`` parcels of ``w`` grains (samples.nc
-    ``Q``: the case's Q times ``q_multiplier``), Poisson given the pattern: white noise of
-    variance ``s^2 = mean(C_p) w / A`` (:func:`poisson_noise_variance`), ``s^2`` in every non-zero
-    2-D mode and a floor ``s^2 dy`` per two-sided mode of the spanwise spectrum. It is not
-    estimated from the high-wavenumber band: streamers 2.5-6 cells wide put real power there.
-    The paper's estimate carried its own parcels' noise (the case's Q on 0.1 m columns, ~20
-    parcels per column in case 2), ``s_paper^2 = mean(C_p) Q / A_paper``. **lambda_x, lambda_y,
-    S_c and R_cu carry the paper's noise level**: ``s^2 - s_paper^2`` is removed from each plane,
-    so parcel weight and column size are pure cost knobs. Beside them: ``*_noise_free`` (all of
-    ``s^2`` removed), ``*_raw`` (none) and ``*_paper_count`` (:func:`count_noise_variance`: the
-    noise of the paper's 2,000 parcels per m2, [28]). Parcels ejected together travel together,
-    raising the count variance at the clusters' scale by a factor F that the counts cannot tell
-    from a 2-4 cell pattern; F = 1 is removed. ``C_p_small_scale_over_poisson``
-    (:func:`small_scale_power` over ``s^2``, wavelengths under 4 cells both ways) bounds F from
-    above: 1.5-1.7 in the reduced study, 1.9-2.5 on the smoke study's tiny grid.
+    ``Q``), Poisson given the pattern: white noise of variance ``s^2 = mean(C_p) w / A``
+    (:func:`poisson_noise_variance`), ``s^2`` in every non-zero 2-D mode; not estimated from the
+    high wavenumbers, where streamers 2.5-6 cells wide put real power. The paper's estimate
+    carried its own parcels' noise, ``s_paper^2 = mean(C_p) Q / A_paper`` (~20 parcels per 0.1 m
+    column in case 2). **lambda_x, lambda_y, S_c and R_cu carry the paper's noise level**:
+    ``s^2 - s_paper^2`` is removed from each plane, so parcel weight and column size are pure cost
+    knobs. Beside them: ``*_noise_free`` (all of ``s^2`` removed), ``*_raw`` (none) and
+    ``*_paper_count`` (:func:`count_noise_variance`: the paper's 2,000 parcels per m2, [28]).
+    Parcels ejected together raise the variance at 2-4 cells by a factor F the counts cannot
+    tell from a pattern; ``C_p_small_scale_over_poisson`` (:func:`small_scale_power` over
+    ``s^2``) bounds F from above: 1.5-1.7 in the reduced study, 1.9-2.5 in the smoke study.
 
 lambda_x, lambda_y (section 4.1 [46], Table 2)
-    Twice the first lag at which the time-averaged spatial autocorrelation drops below 0.4
-    (:func:`autocorrelation_2d`, :func:`core_length`; linear interpolation; NaN if it stays
-    above to half the domain). The autocovariance is averaged over the planes after the noise
-    and normalised by its zero lag (a plane's corrected variance is a small difference at ~1
-    parcel per column).
+    Twice the first lag at which the spatial autocorrelation drops below 0.4 (:func:`core_length`;
+    NaN if it stays above): the autocovariance after the noise is averaged over the planes, then
+    normalised (a plane's corrected variance is a small difference at ~1 parcel per column).
 
 delta_y (section 4.1 [46], [49], Fig. 10; which reading and why: docs/STREAMERS.md)
-    The spanwise spectrum (the 2-D one averaged over kx), a one-sided density in ky [cycles m-1],
-    with ``N_BLOCKS`` contiguous time blocks for its error (:func:`spanwise_spectrum_blocks`),
-    read three ways by :func:`spanwise_spacing`. A spectral peak (:func:`_prominent_maximum`) is
+    The spanwise spectrum with ``N_BLOCKS`` contiguous time blocks for its error
+    (:func:`spanwise_spectrum_blocks`), read three ways by :func:`spanwise_spacing`. A peak is
     an interior local maximum (modes ``2 <= m < M``) standing ``PEAK_N_SE`` standard errors above
-    its base, the higher of its two valley floors (topographic prominence); the relative block
-    variance is pooled over ``PEAK_POOL_MODES`` modes either side (a periodogram scatters in
-    proportion to its mean), errors of the raw spectrum. Under ``MIN_BLOCKS`` blocks a peak must
-    stand ``PEAK_FALLBACK_MARGIN`` above its base. The highest accepted peak wins, refined by a
-    parabola. Measured on Poisson parcel counts:
+    its base, the higher of its two valley floors; the relative block variance is pooled over
+    ``PEAK_POOL_MODES`` modes either side; under ``MIN_BLOCKS`` blocks a peak must stand
+    ``PEAK_FALLBACK_MARGIN`` above its base. Measured on Poisson parcel counts (64 x 48 to
+    64 x 150 columns, 20-300 planes, 1.25-20 parcels per column):
 
-    * density reading, PEAK_N_SE = 4.5: a false peak in 1 record of 400 (64 x 48 columns, 20 or
-      300 planes, 1.25 or 20 parcels per column); a lattice of streaks 2.5-6 cells apart (64 x
-      60, intensity s.d. 11 % of the mean, 1.25 parcels per column, 100 planes) found in 34 of
-      40 (4.0 standard errors: 10 false peaks in 400; 5.0: 25 of 40 found);
-    * false peaks on pure noise: premultiplied none of 1200 (64 x 48; 20, 100, 300 planes) and
-      none of 400 (64 x 150); density 8 of 1200 and 6 of 400. A faint lattice (3-6 cells, s.d.
-      5 %, 64 x 60, 100 planes, 1.25 parcels per column) is found in 72 of 80 by the density
-      and 26 of 80 by the premultiplied reading (white noise rises as ky there);
-    * correlation minimum (errors pooled over ``PEAK_POOL_MODES`` lags): false in none of 1200
-      and 1 of 400 (one lag's own 7 degrees of freedom would let 3 and 4 pass); the faint
-      lattice in 1 of 80: the least sensitive reading.
+    * false peaks on pure noise: premultiplied 0 of 1600, density 14 of 1600 (at 4.0 standard
+      errors 10 in 400), correlation 1 of 1600;
+    * a lattice of streaks 2.5-6 cells apart (s.d. 11 % of the mean) found by the density in
+      34 of 40 (25 of 40 at 5.0 standard errors); a faint one (3-6 cells, s.d. 5 %) by the
+      density in 72 of 80, the premultiplied reading in 26 of 80, the correlation in 1 of 80.
 
 Streamer lifetime and speed (beyond the paper; Baas and Sherman 2005, quoted in [46]: 0.5-1 s,
 3.6 m s-1)
-    :func:`space_time_correlation`: the peak ``R*(tau)`` over spatial lags of the correlation of
-    ``C_p'(t)`` with ``C_p'(t + tau)`` and its position ``(X*, Y*)``. ``streamer_speed``: the
-    slope through the origin of X* against tau over the lags with ``R* >= 1/e``;
-    ``streamer_lifetime``: the lag where R* first drops below 1/e (interpolated).
+    From the peak ``R*(tau)`` over spatial lags of corr(C_p'(t), C_p'(t + tau)) at ``(X*, Y*)``
+    (:func:`space_time_correlation`): ``streamer_speed`` the slope through the origin of X*
+    against tau over the lags with ``R* >= 1/e``, ``streamer_lifetime`` the lag where R* first
+    drops below 1/e (interpolated).
 """
 from __future__ import annotations
 
@@ -150,16 +137,12 @@ def small_scale_power(dev: np.ndarray) -> np.ndarray:
     such mode. A diagnostic of the noise beside its Poisson value, not a noise estimate."""
     dev = np.asarray(dev, dtype=np.float64)
     nt, nx, ny = dev.shape
-    kx = np.abs(np.fft.fftfreq(nx))
-    ky = np.abs(np.fft.fftfreq(ny))
+    kx, ky = np.abs(np.fft.fftfreq(nx)), np.abs(np.fft.fftfreq(ny))
     corner = (kx[:, None] >= SMALL_SCALE_K) & (ky[None, :] >= SMALL_SCALE_K)
     if nt == 0 or not corner.any():
         return np.zeros(nt)
-    out = np.empty(nt)
-    for t in range(nt):
-        P = np.abs(np.fft.fft2(dev[t])) ** 2 / (nx * ny)
-        out[t] = P[corner].mean()
-    return out
+    return np.array([(np.abs(np.fft.fft2(dev[t])) ** 2 / (nx * ny))[corner].mean()
+                     for t in range(nt)])
 
 
 def centred_lags(n: int, d: float) -> np.ndarray:
@@ -279,12 +262,6 @@ def _valley_floors(S: np.ndarray, m: int) -> tuple[int, int]:
     return int(left[np.argmin(S[left])]), int(right[np.argmin(S[right])])
 
 
-def _prominence_base(S: np.ndarray, m: int) -> int:
-    """Index of the higher of the two valley floors of mode m (:func:`_valley_floors`)."""
-    kl, kr = _valley_floors(S, m)
-    return kl if S[kl] >= S[kr] else kr
-
-
 def _relative_block_variance(S: np.ndarray, blocks: np.ndarray | None) -> np.ndarray | None:
     """Squared relative standard error of each mode of ``S`` from the scatter of the block
     spectra it is the mean of; None with fewer than ``MIN_BLOCKS`` usable blocks."""
@@ -311,7 +288,8 @@ def _prominent_maximum(F: np.ndarray, scale: np.ndarray, rel2: np.ndarray | None
     for m in range(2, M):
         if not (F[m] > F[m - 1] and F[m] >= F[m + 1]):
             continue
-        kb = _prominence_base(F, m)
+        kl, kr = _valley_floors(F, m)
+        kb = kl if F[kl] >= F[kr] else kr        # the higher floor: topographic prominence
         base = F[kb]
         if rel2 is not None:
             r2 = rel2[max(1, m - pool): min(M, m + pool) + 1]
@@ -336,8 +314,7 @@ def spectral_peak(ky: np.ndarray, S: np.ndarray, blocks: np.ndarray | None = Non
     delta_y; criterion in the module docstring); NaN when there is none. ``blocks`` (nb, nky):
     the block spectra S is the mean of (from :func:`spanwise_spectrum_blocks`, with the noise
     left in); with fewer than ``MIN_BLOCKS`` of them the fallback margin applies."""
-    ky = np.asarray(ky, dtype=np.float64)
-    S = np.asarray(S, dtype=np.float64)
+    ky, S = (np.asarray(v, dtype=np.float64) for v in (ky, S))
     M = S.size - 1
     if M < 3 or not np.all(np.isfinite(S[1:])) or not np.any(S[1:] > 0):
         return math.nan
@@ -397,8 +374,7 @@ def spanwise_autocovariance(ky: np.ndarray, S: np.ndarray, dy: float
     """(lag [m], C(lag)) of the spanwise autocovariance whose one-sided density ``S`` is (the
     inverse of :func:`spanwise_spectrum_blocks`): ``C(j dy) = sum_m S_m dky cos(2 pi ky_m j dy)``
     for j = 0 .. ny//2, ny = Ly/dy. ``S`` may be (nky,) or (nb, nky) (then C is (nb, nlag))."""
-    ky = np.asarray(ky, dtype=np.float64)
-    S = np.asarray(S, dtype=np.float64)
+    ky, S = (np.asarray(v, dtype=np.float64) for v in (ky, S))
     dky = float(ky[1] - ky[0])
     ny = int(round(1.0 / (dky * dy)))
     lag = np.arange(ny // 2 + 1) * dy
@@ -419,8 +395,7 @@ def correlation_minimum(ky: np.ndarray, S: np.ndarray, dy: float,
     and pooled over ``pool`` lags on either side; with fewer than ``MIN_BLOCKS`` blocks a rise of
     ``fallback_rise`` in correlation units). It need not be negative: a red background lifts the
     whole correlation without moving the alternation. Refined by a parabola."""
-    ky = np.asarray(ky, dtype=np.float64)
-    S = np.asarray(S, dtype=np.float64)
+    ky, S = (np.asarray(v, dtype=np.float64) for v in (ky, S))
     if S.size < 4 or not np.all(np.isfinite(S)):
         return math.nan
     lag, C = spanwise_autocovariance(ky, S, dy)

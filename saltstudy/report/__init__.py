@@ -4,15 +4,11 @@ stability reports, from analysis archives only (see build.py).
 ``build_report`` is imported lazily so that ``import saltstudy.report`` (the CLI does it) does not
 load matplotlib.
 """
-from __future__ import annotations
-
-_LAZY = {"build_report": "build", "build_convergence_report": "convergence",
-         "build_stability_report": "stability", "make_animation": "animation"}
-__all__ = list(_LAZY)
+__all__ = ["build_report"]
 
 
 def __getattr__(name: str):
-    if name not in _LAZY:
+    if name != "build_report":
         raise AttributeError(name)
-    from importlib import import_module
-    return getattr(import_module(f".{_LAZY[name]}", __name__), name)
+    from .build import build_report
+    return build_report

@@ -1,8 +1,8 @@
 """A small GIF of C_p over time for one run.
 
-Source: a C_p plane stack (a variable with a time dimension and x, y) in the analysis archive if the
-analysis stored one, else the ``C_p`` planes of ``samples.nc`` if its path is given. Frames are
-subsampled to at most ``max_frames`` and large planes are coarsened, so the file stays small.
+Source: the first archive holding a C_p plane stack (a ``C_p...`` variable on time, x, y; ``C_p``
+first): the analysis, else ``samples.nc``. Frames are subsampled to at most ``max_frames`` and
+large planes are coarsened, so the file stays small.
 """
 from __future__ import annotations
 
@@ -17,39 +17,29 @@ from ..ncio import NC_LOCK
 
 __all__ = ["find_cp_stack", "make_animation"]
 
-_CANDIDATES = ("C_p_planes", "C_p_stack", "C_p_series", "C_p_movie", "C_p", "C_p_s")
-
-
-def _stack_of(ds: xr.Dataset) -> xr.DataArray | None:
-    names = list(_CANDIDATES) + [n for n in ds.data_vars if str(n).startswith("C_p") and n not in _CANDIDATES]
-    for n in names:
-        if n in ds.variables:
-            v = ds[n]
-            if v.ndim == 3 and {"x", "y"} <= set(v.dims):
-                return v
-    return None
-
 
 def find_cp_stack(analysis: str | Path | None, samples: str | Path | None = None,
-                  max_frames: int = 60) -> tuple[np.ndarray, np.ndarray, tuple[float, float], str] | None:
-    """(frames (t, x, y), times, (Lx, Ly), source) or None if no stack exists."""
-    for path, src in ((analysis, "analysis.nc"), (samples, "samples.nc")):
+                  max_frames: int = 60) -> tuple[np.ndarray, np.ndarray, tuple] | None:
+    """(frames (t, x, y), times, (Lx, Ly)) or None if no stack exists."""
+    for path in (analysis, samples):
         if not path or not Path(path).is_file():
             continue
         try:
-            with NC_LOCK:
-                with xr.open_dataset(path, engine="netcdf4") as ds:
-                    v = _stack_of(ds)
-                    if v is None:
-                        continue
-                    tdim = next(d for d in v.dims if d not in ("x", "y"))
-                    nt = v.sizes[tdim]
-                    idx = np.unique(np.linspace(0, nt - 1, min(nt, max_frames)).round().astype(int))
-                    sub = v.isel({tdim: idx}).transpose(tdim, "x", "y").load()
-                    t = ds[tdim].values[idx] if tdim in ds.coords else idx.astype(float)
-                    lx = float(ds.attrs.get("Lx", ds["x"].values[-1] * 2 if "x" in ds else 1.0))
-                    ly = float(ds.attrs.get("Ly", ds["y"].values[-1] * 2 if "y" in ds else 1.0))
-                    return np.asarray(sub.values, float), np.asarray(t, float), (lx, ly), f"{src}:{v.name}"
+            with NC_LOCK, xr.open_dataset(path, engine="netcdf4") as ds:
+                names = sorted((n for n in ds.data_vars if str(n).startswith("C_p")),
+                               key=lambda n: n != "C_p")
+                v = next((ds[n] for n in names if ds[n].ndim == 3
+                          and {"x", "y"} <= set(ds[n].dims)), None)
+                if v is None:
+                    continue
+                tdim = next(d for d in v.dims if d not in ("x", "y"))
+                nt = v.sizes[tdim]
+                idx = np.unique(np.linspace(0, nt - 1, min(nt, max_frames)).round().astype(int))
+                sub = v.isel({tdim: idx}).transpose(tdim, "x", "y").load()
+                t = ds[tdim].values[idx] if tdim in ds.coords else idx.astype(float)
+                lx = float(ds.attrs.get("Lx", ds["x"].values[-1] * 2 if "x" in ds else 1.0))
+                ly = float(ds.attrs.get("Ly", ds["y"].values[-1] * 2 if "y" in ds else 1.0))
+                return np.asarray(sub.values, float), np.asarray(t, float), (lx, ly)
         except Exception:
             continue
     return None
@@ -66,14 +56,11 @@ def _coarsen(a: np.ndarray, max_px: int) -> np.ndarray:
 def make_animation(out_path: str | Path, analysis: str | Path | None, samples: str | Path | None = None,
                    title: str = "", max_frames: int = 30, max_px: int = 100, fps: int = 8) -> Path | None:
     """Write a GIF of C_p / C_pmax; return its path, or None if no C_p stack or no pillow."""
-    try:
-        from matplotlib.animation import FuncAnimation, PillowWriter
-    except ImportError:  # pragma: no cover - matplotlib always has them
-        return None
+    from matplotlib.animation import FuncAnimation, PillowWriter
     found = find_cp_stack(analysis, samples, max_frames)
     if found is None:
         return None
-    frames, times, (lx, ly), src = found
+    frames, times, (lx, ly) = found
     frames = _coarsen(frames, max_px)
     vmax = float(np.nanmax(frames)) or 1.0
     fig = Figure(figsize=(5.0, 4.2 * ly / lx + 1.0), dpi=60)
@@ -82,8 +69,7 @@ def make_animation(out_path: str | Path, analysis: str | Path | None, samples: s
     im = ax.imshow(frames[0].T / vmax, origin="lower", extent=(0, lx, 0, ly), cmap="YlOrBr",
                    vmin=0, vmax=1, aspect="equal")
     fig.colorbar(im, cax=cax, label="C_p / C_p,max (whole movie)")
-    ax.set_xlabel("x [m] (wind →)")
-    ax.set_ylabel("y [m]")
+    ax.set(xlabel="x [m] (wind →)", ylabel="y [m]")
     ttl = ax.set_title(title)
 
     def update(i):

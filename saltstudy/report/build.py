@@ -7,15 +7,18 @@ from __future__ import annotations
 import html
 import json
 import math
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
 from .data import ReportContext, case_number_of, load_runs
 from .figures import CAPTIONS, error_figure, make_figures
 from .reference import PAPER_LABEL
-from .tables import results_html, table2_html, table2_markdown
+from .plotting import save_figure
 from .saltation import NO_SALTATION
-from .summary import build_summary, finish_wall_time, run_key, write_summary
+from .summary import build_summary, finish_wall_time, run_key
+from .tables import (figure_html, html_table, results_html, table2_html, table2_markdown,
+                     write_json)
 
 __all__ = ["build_report"]
 
@@ -49,15 +52,8 @@ _SECTIONS = {"findings": "Findings", "convergence": "Convergence", "stability": 
 
 
 def _is_ladder(ctx: ReportContext) -> bool:
-    by_case: dict[int, int] = {}
-    for label, r in ctx.runs.items():
-        if "@" in label and case_number_of(label) is not None:
-            by_case[case_number_of(label)] = by_case.get(case_number_of(label), 0) + 1
-    return any(v >= 2 for v in by_case.values())
-
-
-def _has_scenes(ctx: ReportContext) -> bool:
-    return any(case_number_of(l) is None for l in ctx.runs)
+    rungs = Counter(case_number_of(label) for label in ctx.runs if "@" in label)
+    return any(n >= 2 for case, n in rungs.items() if case is not None)
 
 
 def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir: str | Path,
@@ -70,7 +66,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     report_dir.mkdir(parents=True, exist_ok=True)
     ctx = ReportContext(study_name, load_runs(runs, meta), meta)
 
-    # ---- figures ------------------------------------------------------------------------------
     results = make_figures(ctx)
     fig_notes: dict[str, list[str]] = {}
     formats = tuple(meta.get("figure_formats") or ("png", "pdf"))
@@ -78,15 +73,11 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     for name, res in results.items():
         fig_notes[name] = res.notes
         try:
-            for ext in formats:
-                res.fig.savefig(report_dir / f"{name}.{ext}", dpi=dpi)
+            save_figure(res.fig, report_dir, name, dpi, formats)
         except Exception as exc:  # a figure that cannot be rendered is replaced by its error
-            fail = error_figure(name, exc)
-            for ext in formats:
-                fail.savefig(report_dir / f"{name}.{ext}", dpi=dpi)
+            save_figure(error_figure(name, exc), report_dir, name, dpi, formats)
             fig_notes[name] = res.notes + [f"error: {type(exc).__name__}: {exc}"]
 
-    # ---- tables, summary ----------------------------------------------------------------------
     (report_dir / "table2.md").write_text(table2_markdown(ctx), encoding="utf-8")
     t2 = table2_html(ctx)
     rs = results_html(ctx)
@@ -95,7 +86,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                                          f"<h2>Results stated in the text</h2>{rs}"), encoding="utf-8")
     summary = build_summary(ctx)      # written last, when the elapsed wall time is known
 
-    # ---- optional sections --------------------------------------------------------------------
     wanted = set(meta.get("reports") or [])
     provenance = {k: meta.get(k) for k in ("study", "package_version", "commit", "source_key")}
     sections: list[str] = []
@@ -107,10 +97,10 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                         "<p>Relative difference of each statistic from the reference rung and error "
                         "against the paper, versus the wall-clock time of the run (spin-up + saltation). Reference "
                         f"rung: <b>{html.escape(str(conv['result'].finest))}</b> (the study's "
-                        "<code>reference</code> fidelity, else the finest rung).</p><figure><a href='convergence.pdf'><img src='convergence.png' "
-                        "alt='error against run time'></a></figure>" + conv["html"])
+                        "<code>reference</code> fidelity, else the finest rung).</p>"
+                        + figure_html("convergence", "error against run time") + conv["html"])
     if "stability" in wanted or meta.get("failures") or meta.get("has_scenes") \
-            or (_has_scenes(ctx) and not _is_ladder(ctx)):
+            or (any(case_number_of(l) is None for l in ctx.runs) and not _is_ladder(ctx)):
         from .stability import build_stability_report
         stab = build_stability_report(
             ctx.runs, report_dir, failures=meta.get("failures"), samples=meta.get("samples"),
@@ -118,18 +108,20 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
             provenance=provenance)
         sections.append("<h2 id='stability'>Stability of the scenes</h2>" + stab["html"])
 
-    law = _study_field(meta, "flux_law")
+    law = (meta.get("study_config") or {}).get("flux_law")
     if law:
         from .fluxlaw import build_fluxlaw_report
         fl = build_fluxlaw_report(ctx.runs, report_dir, law)
         sections.append("<h2 id='fluxlaw'>Total flux against a measured flux law</h2>" + fl["html"])
 
     anim_html = ""
-    anim_label = meta.get("animation_label") or _pick_animation(ctx)
+    first = [ctx.by_case(1), ctx.by_case(2)] + list(ctx.runs.values())
+    anim_label = meta.get("animation_label") or next((r.label for r in first if r and r.ok), None)
     if anim_label:
         from .animation import make_animation
         r = ctx.runs.get(anim_label)
-        sp = (meta.get("samples") or {}).get(anim_label) or _samples_attr(r)
+        sp = ((meta.get("samples") or {}).get(anim_label)
+              or (r.ds.attrs.get("samples_path") if r is not None and r.ok else None))
         gif = make_animation(report_dir / "cp_animation.gif", r.path if r else None, sp,
                              title=f"{anim_label}: C_p / C_p,max",
                              max_frames=int(meta.get("animation_frames", 30)))
@@ -137,7 +129,6 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
             anim_html = (f"<h2 id='animation'>Animation of C_p ({html.escape(anim_label)})</h2>"
                          "<figure><img src='cp_animation.gif' alt='C_p animation'></figure>")
 
-    # ---- index.html ---------------------------------------------------------------------------
     index = report_dir / "index.html"
     findings = report_dir / FINDINGS_FILE
     if findings.is_file():
@@ -148,42 +139,9 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
                            "; written by hand from this report's numbers.</p><pre class='findings'>"
                            + html.escape(findings.read_text(encoding="utf-8")) + "</pre>")
     finish_wall_time(summary, meta, report_dir / "summary.json")
-    write_summary(ctx, report_dir / "summary.json", summary)
+    write_json(report_dir / "summary.json", summary)
     index.write_text(_index(ctx, summary, fig_notes, t2, rs, sections, anim_html), encoding="utf-8")
     return index
-
-
-def _study_config(meta: dict[str, Any]) -> Any:
-    """The study's configuration (``meta["study_config"]``: a dict, its JSON, or other text)."""
-    cfg = meta.get("study_config")
-    if isinstance(cfg, str):
-        try:
-            return json.loads(cfg)
-        except ValueError:
-            pass
-    return cfg
-
-
-def _study_field(meta: dict[str, Any], name: str) -> Any:
-    """A field of the study's configuration, None when it is not a dict."""
-    cfg = _study_config(meta)
-    return cfg.get(name) if isinstance(cfg, dict) else None
-
-
-def _samples_attr(run) -> str | None:
-    """The samples.nc the analysis recorded it was made from (attribute ``samples_path``)."""
-    if run is None or run.ds is None:
-        return None
-    p = run.ds.attrs.get("samples_path")
-    return str(p) if p and Path(str(p)).is_file() else None
-
-
-def _pick_animation(ctx: ReportContext) -> str | None:
-    for n in (1, 2):
-        r = ctx.by_case(n)
-        if r is not None and r.ok:
-            return r.label
-    return next((l for l, r in ctx.runs.items() if r.ok), None)
 
 
 def _page(title: str, body: str) -> str:
@@ -227,16 +185,15 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
              f"saltation intermittency</i>, J. Geophys. Res. Atmos. 118. Computed values are drawn in "
              f"colour; the paper's numbers, where it gives them, in grey and labelled "
              f"“{PAPER_LABEL}”. {n_ok} of {len(ctx.runs)} runs have an analysis archive.</p>",
-             "<table class='meta'>",
-             f"<tr><th>study</th><td>{e(ctx.study)}</td></tr>",
-             f"<tr><th>fidelity</th><td>{e(str(summary['fidelity']))}</td></tr>",
-             f"<tr><th>package version</th><td>{e(str(summary['package_version']))}</td></tr>",
-             f"<tr><th>wall time, start to end</th><td>{_fmt_s(summary['total_wall_time_s'])}"
-             f"{started}{_resumed_note(summary)}</td></tr>",
-             f"<tr><th>sum of task times</th><td>{_fmt_s(summary['task_time_sum_s'])} "
-             f"({split}; a shared spin-up counted once)</td></tr>",
-             f"<tr><th>machine</th><td>{e(str(m['cores']))} cores, {e(m['processor'])} ({e(m['platform'])})</td></tr>",
-             "</table>",
+             "<table class='meta'>" + "".join(f"<tr><th>{k}</th><td>{v}</td></tr>" for k, v in (
+                 ("study", e(ctx.study)), ("fidelity", e(str(summary["fidelity"]))),
+                 ("package version", e(str(summary["package_version"]))),
+                 ("wall time, start to end", _fmt_s(summary["total_wall_time_s"]) + started
+                  + _resumed_note(summary)),
+                 ("sum of task times", f"{_fmt_s(summary['task_time_sum_s'])} ({split}; a shared "
+                                       "spin-up counted once)"),
+                 ("machine", f"{m['cores']} cores, {e(m['processor'])} ({e(m['platform'])})")))
+             + "</table>",
              "<p><a href='#tables'>Table 2</a> · <a href='#figures'>Figures</a> · "
              "<a href='#runs'>Runs and wall time</a> · <a href='#config'>Configuration</a> · "
              "<a href='summary.json'>summary.json</a> · <a href='table2.md'>table2.md</a>"
@@ -261,22 +218,20 @@ def _index(ctx, summary, fig_notes, t2, rs, sections, anim_html) -> str:
     if anim_html:
         parts.append(anim_html)
     parts.append("<h2 id='runs'>Runs and wall time</h2><p>Solver time per run: its spin-up + its "
-                 "saltation run (a spin-up shared by several runs appears in each of them).</p>"
-                 "<table><thead><tr><th>run</th><th>case</th>"
-                 "<th>fidelity</th><th>status</th><th>solver time</th><th>archive</th></tr></thead><tbody>")
+                 "saltation run (a spin-up shared by several runs appears in each of them).</p>")
+    cells, bad = [], []
     for r in ctx.runs.values():
         salt = (summary.get("cases", {}).get(run_key(r), {}) or {}).get("saltation") or {}
         status = r.status + (f", {salt['status']}" if r.ok and salt.get("status") == NO_SALTATION else "")
-        parts.append(f"<tr><td>{e(r.label)}</td><td>{'' if r.case is None else r.case}</td>"
-                     f"<td>{e(str(r.fidelity or '—'))}</td>"
-                     f"<td class='{'' if r.ok and status == r.status else 'bad'}'>{e(status)}</td>"
-                     f"<td>{_fmt_s(r.wall_time_s)}</td>"
-                     f"<td style='text-align:left'>{e(str(r.path) if r.path else '—')}</td></tr>")
-    parts.append("</tbody></table>")
-    cfg = _study_config(meta)
-    parts.append("<h2 id='config'>Study configuration</h2>")
-    parts.append(f"<pre>{e(json.dumps(cfg, indent=2) if not isinstance(cfg, str) else cfg)}</pre>"
-                 if cfg is not None else "<p>not provided</p>")
+        cells.append([r.label, "" if r.case is None else str(r.case), str(r.fidelity or "—"),
+                      status, _fmt_s(r.wall_time_s), str(r.path) if r.path else "—"])
+        bad.append(not r.ok or status != r.status)
+    parts.append(html_table(["run", "case", "fidelity", "status", "solver time", "archive"], cells,
+                            lambda i, j: "bad" if i >= 0 and j == 3 and bad[i] else ""))
+    cfg = meta.get("study_config")
+    parts.append("<h2 id='config'>Study configuration</h2>"
+                 + (f"<pre>{e(json.dumps(cfg, indent=2))}</pre>" if cfg is not None else
+                    "<p>not provided</p>"))
     parts.append("<p style='font-size:.8em;color:#777'>Fig. 2: u_ref is ⟨u⟩ at 2 m as in the paper, or, "
                  "if the domain is too shallow, at half the undamped depth (where the solver holds u*); "
                  "the height used is drawn on the figure.</p>")

@@ -4,11 +4,9 @@ Per statistic (``CONV_STATS``) and rung: its value ± the larger of two noise es
 (``NOISE_NOTE``); the relative difference from the reference rung (the study's ``reference``
 fidelity, else the finest: the declared order's last, else the largest wall time) and, where the
 paper gives a value, from the paper (:func:`_paper_error`); both against the rung's wall time
-(spin-up + saltation). The table names the cheapest rung within 10 % and 25 % of the reference
-among the rungs whose own bar is no wider than the threshold (:func:`_resolves`). ``N_air``
-(mean parcel count x Q) compares across parcel weights. Each case is compared with its own run
-at the reference fidelity; ``convergence.png`` draws the case with the most rungs, each other
-case ``convergence_caseNN.png``, ``convergence_summary.png`` every ladder at once.
+(spin-up + saltation); the cheapest rung within 10 % and 25 % of the reference among those
+whose own bar is no wider than the threshold (:func:`_resolves`). ``N_air`` (mean parcel count x
+Q) compares across parcel weights. Each case is compared with its own run at that fidelity.
 """
 from __future__ import annotations
 
@@ -23,9 +21,10 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from .data import RunData, case_number_of, load_runs
+from .data import RunData, load_runs
+from .plotting import save_figure
 from .reference import PAPER_COLOR, PAPER_LABEL, paper_results, paper_table2
-from .tables import fmt, st_below_one_height
+from .tables import figure_html, fmt, html_table, md_table, st_below_one_height, write_json
 
 __all__ = ["CONV_STATS", "ConvergenceResult", "convergence_analysis", "convergence_by_case",
            "build_convergence_report", "ladder_summary", "sampled_extent", "seed_noise"]
@@ -56,7 +55,6 @@ class ConvergenceResult:
     rungs: list[dict[str, Any]]                # ordered coarse -> fine
     finest: str | None                         # the reference rung (see module docstring)
     cheapest: dict[str, dict[str, str | None]]  # stat -> {"10%": label, "25%": label}
-    data: dict[str, np.ndarray]
     named_reference: bool = False              # a sensitivity study: rungs are not a sequence
     seed_groups: list[list[str]] = field(default_factory=list)  # runs differing only in the seed
     on_ladder: list[str] = field(default_factory=list)   # the declared rungs (not extra scenes)
@@ -80,8 +78,12 @@ def _paper_error(stat: str, value: float, case: int | None, mu1: float = math.na
         name, applies = _STATED[key]
         ref = float(paper_results().get(name, math.nan))
         return abs(value - ref) / ref if applies(case, mu1) and math.isfinite(ref) else math.nan
-    if key == "fig4":       # z_m on the paper's line for cases 1-6, at the paper's u*s
-        ref = _paper_z_m(case)
+    if key == "fig4":       # z_m on the paper's Fig. 4 line: linear in u*s over cases 1-6
+        if case is None or not 1 <= case <= 6:
+            return math.nan
+        lo, hi = paper_results().get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan])
+        u, u1, u6 = (paper_table2().get(c, {}).get("u_star_s", math.nan) for c in (case, 1, 6))
+        ref = lo + (hi - lo) * (u - u1) / (u6 - u1)
         return abs(value - ref) / ref if math.isfinite(ref) else math.nan
     if key == "range":
         lo, hi = paper_results().get("fig13_sigmaG_over_Gtot", [math.nan, math.nan])
@@ -93,24 +95,11 @@ def _paper_error(stat: str, value: float, case: int | None, mu1: float = math.na
     return abs(value - ref) / abs(ref) if math.isfinite(ref) and ref != 0 else math.nan
 
 
-def _paper_z_m(case: int | None) -> float:
-    """z_m on the paper's Fig. 4 line (cases 1-6: linear in u*s between its end points)."""
-    if case is None or not 1 <= case <= 6:
-        return math.nan
-    lo, hi = paper_results().get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan])
-    t2 = paper_table2()
-    u, u1, u6 = (t2.get(c, {}).get("u_star_s", math.nan) for c in (case, 1, 6))
-    return lo + (hi - lo) * (u - u1) / (u6 - u1)
-
-
 def _error_bar(r: RunData, stat: str) -> float:
     """Half the difference between the statistic over the two halves of the sampling window
     (analysis ``<stat>_halves``): the noise of one window. NaN where not recorded."""
-    ds = getattr(r, "ds", None)
-    name = f"{stat}_halves"
-    if ds is None or name not in ds.variables:
-        return math.nan
-    a = np.asarray(ds[name].values, dtype=np.float64)
+    v = r.var(f"{stat}_halves")
+    a = np.asarray(v.values if v is not None else [], dtype=np.float64)
     return float(abs(a[1] - a[0]) / 2.0) if a.size == 2 and np.isfinite(a).all() else math.nan
 
 
@@ -118,20 +107,17 @@ def sampled_extent(r: RunData) -> float:
     """The run's sampled duration x horizontal box area [s m2], read from its scene: the number of
     roughly independent pieces of turbulence a window average holds grows with it. NaN if the
     archive does not say."""
-    fid = r.scene.get("fidelity", {}) if isinstance(r.scene, dict) else {}
+    fid = r.scene.get("fidelity") or {}
     smp, grid = fid.get("sampling") or {}, fid.get("grid") or {}
-    try:
-        dur = float(smp["interval"]) * (int(smp["count"]) - 1)
-        area = float(grid["Lx"]) * float(grid["Ly"])
-    except (KeyError, TypeError, ValueError):
-        return math.nan
+    dur = float(smp.get("interval", math.nan)) * (float(smp.get("count", math.nan)) - 1)
+    area = float(grid.get("Lx", math.nan)) * float(grid.get("Ly", math.nan))
     return dur * area if dur > 0 and area > 0 else math.nan
 
 
 def _replicate_key(r: RunData) -> str | None:
     """The run's configuration without its seed and names: equal keys and different seeds make
     two realizations of one run."""
-    if not r.ok or not isinstance(r.scene, dict) or "case" not in r.scene or "fidelity" not in r.scene:
+    if not r.ok or "case" not in r.scene or "fidelity" not in r.scene:
         return None
     sc = copy.deepcopy(r.scene)
     sc.pop("label", None)
@@ -140,26 +126,19 @@ def _replicate_key(r: RunData) -> str | None:
     return json.dumps(sc, sort_keys=True, default=str)
 
 
-def _seed(r: RunData) -> object:
-    return r.scene.get("case", {}).get("seed") if isinstance(r.scene, dict) else None
-
-
 def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[str]]]:
-    """The seeds' scatter per statistic, as a relative variance per unit sampled extent.
-
-    Runs sharing every setting but the seed are realizations of one run; their sample variance
-    over their squared mean, times the sampled extent E (:func:`sampled_extent`), is pooled over
-    the groups. A run of extent E' then has the bar |value| sqrt(pooled / E'): the variance of a
-    space-time average falls as 1/E once the window and box hold many correlation lengths. That
-    fails for boxes a few streamers wide (smoke, quick) and keeps the repeated run's parcel noise.
-    Returns ({stat: pooled relative variance x extent}, [labels of each group])."""
+    """({stat: the seeds' relative variance x sampled extent, pooled}, [labels of each group of
+    runs alike but for the seed]) (docs/ARCHITECTURE.md, "analysis.nc"). The variance of a
+    space-time average falls as 1/extent only once the window and box hold many correlation
+    lengths: not in boxes a few streamers wide (smoke, quick)."""
     groups: dict[str, dict[str, RunData]] = {}
     for r in runs.values():
         k = _replicate_key(r)
         if k is not None:
             # one run per seed: a run listed twice (e.g. an archive kept under two labels) is the
             # same realization and would shrink the scatter
-            groups.setdefault(k, {}).setdefault(json.dumps(_seed(r), default=str), r)
+            seed = json.dumps(r.scene["case"].get("seed"), default=str)
+            groups.setdefault(k, {}).setdefault(seed, r)
     reps = [list(g.values()) for g in groups.values() if len(g) >= 2]
     pooled: dict[str, float] = {}
     for s in CONV_STATS:
@@ -173,16 +152,8 @@ def seed_noise(runs: dict[str, RunData]) -> tuple[dict[str, float], list[list[st
     return pooled, [sorted(r.label for r in g) for g in reps]
 
 
-def _seed_bar(r: RunData, v: float, pooled: float) -> float:
-    ext = sampled_extent(r)
-    if not (math.isfinite(pooled) and math.isfinite(ext) and math.isfinite(v)):
-        return math.nan
-    return abs(v) * math.sqrt(pooled / ext)
-
-
 def _noise(bars: tuple[float, ...]) -> float:
-    finite = [b for b in bars if math.isfinite(b)]
-    return max(finite) if finite else math.nan
+    return max((b for b in bars if math.isfinite(b)), default=math.nan)
 
 
 def _value(r: RunData, stat: str) -> float:
@@ -196,19 +167,12 @@ def _value(r: RunData, stat: str) -> float:
 def _grid_of(r: RunData) -> dict[str, float]:
     """The rung's cost knobs read from its archive: horizontal spacing, first-level thickness [m]
     and real grains per parcel."""
-    dz1 = math.nan
-    ds = getattr(r, "ds", None)
-    if ds is not None and "z_w" in ds.coords and ds["z_w"].size > 1:
-        dz1 = float(ds["z_w"].values[1] - ds["z_w"].values[0])
-    elif ds is not None and "z" in ds.coords and ds["z"].size:
-        dz1 = 2.0 * float(ds["z"].values[0])       # the first level's centre is half its thickness
+    z_w, z = r.var("z_w"), r.var("z")
+    dz1 = (float(z_w[1] - z_w[0]) if z_w is not None and z_w.size > 1 else
+           2.0 * float(z[0]) if z is not None and z.size else math.nan)  # a centre: half its level
     # a level's thickness is a difference of stretched heights: 0.010000000000000021 is 1 cm
-    dz1 = float(f"{dz1:.10g}") if math.isfinite(dz1) else dz1
+    dz1 = float(f"{dz1:.10g}")
     return {"dx": r.attr("dx"), "dy": r.attr("dy"), "dz_bottom": dz1, "Q": r.attr("Q")}
-
-
-def _case_of(r: RunData) -> int | None:
-    return r.case if r.case is not None else case_number_of(r.label)
 
 
 def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None,
@@ -218,7 +182,7 @@ def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None
     same fidelity (the label's part after ``@``)."""
     groups: dict[int | None, dict[str, RunData]] = {}
     for label, r in runs.items():
-        groups.setdefault(_case_of(r), {})[label] = r
+        groups.setdefault(r.case, {})[label] = r
     ref_rung = reference.split("@", 1)[1] if reference and "@" in reference else None
     out: dict[int | None, ConvergenceResult] = {}
     for case in sorted(groups, key=lambda c: (-len(groups[c]), c if c is not None else -1)):
@@ -229,6 +193,11 @@ def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None
     return out
 
 
+def _time_key(t: float) -> float:
+    """A wall time to sort by, an unknown one last."""
+    return t if math.isfinite(t) else math.inf
+
+
 def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = None,
                          reference: str | None = None) -> ConvergenceResult:
     present = [r for r in runs.values() if r.ok]
@@ -236,8 +205,7 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         ranked = [runs[l] for l in order if l in runs]
         ranked += [r for r in runs.values() if r.label not in order]
     else:
-        ranked = sorted(runs.values(), key=lambda r: (not math.isfinite(r.wall_time_s),
-                                                      r.wall_time_s if math.isfinite(r.wall_time_s) else 0))
+        ranked = sorted(runs.values(), key=lambda r: _time_key(r.wall_time_s))
     finest = runs[reference] if reference in runs and runs[reference].ok else None
     if finest is None and order:
         finest = next((runs[l] for l in reversed(order) if l in runs and runs[l].ok), None)
@@ -245,9 +213,16 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         timed = [r for r in present if math.isfinite(r.wall_time_s)]
         finest = max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
     pooled, seed_groups = seed_noise(runs)
+
+    def bars(run: RunData, s: str, v: float) -> tuple[float, float]:
+        # the half windows' bar; the seeds', |value| sqrt(pooled / extent) (NaN where unknown)
+        sb = abs(v) * math.sqrt(pooled[s] / sampled_extent(run))
+        return _error_bar(run, s), sb if math.isfinite(sb) else math.nan
+    ref_bar = {s: _noise(bars(finest, s, _value(finest, s))) if finest is not None else math.nan
+               for s in CONV_STATS}
     rungs = []
     for r in ranked:
-        row: dict[str, Any] = {"label": r.label, "case": _case_of(r), "fidelity": r.fidelity,
+        row: dict[str, Any] = {"label": r.label, "case": r.case, "fidelity": r.fidelity,
                                "status": r.status, "wall_time_s": r.wall_time_s, **_grid_of(r),
                                "spinup_wall_time_s": r.attr("spinup_wall_time_s"),
                                "sampled_extent_s_m2": sampled_extent(r),
@@ -261,11 +236,9 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
             row["err_finest"][s] = (abs(v - f) / abs(f)) if math.isfinite(v) and math.isfinite(f) and f != 0 \
                 else math.nan
             row["err_paper"][s] = _paper_error(s, v, case, r.mu1 if r.ok else math.nan)
-            hw, sb = _error_bar(r, s), _seed_bar(r, v, pooled[s])
-            row["half_window_bar"][s], row["seed_bar"][s] = hw, sb
+            row["half_window_bar"][s], row["seed_bar"][s] = hw, sb = bars(r, s, v)
             eb = row["error_bar"][s] = _noise((hw, sb))
-            ebf = (_noise((_error_bar(finest, s), _seed_bar(finest, f, pooled[s])))
-                   if finest is not None else math.nan)
+            ebf = ref_bar[s]
             # a difference from the reference inside the two runs' combined noise is not one
             noise = math.hypot(eb, ebf) if math.isfinite(eb) and math.isfinite(ebf) else math.nan
             row["within_noise"][s] = (bool(abs(v - f) <= noise) if math.isfinite(noise)
@@ -281,15 +254,11 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
             ok = [row for row in rungs if row["label"] in on_ladder and row["status"] == "ok"
                   and math.isfinite(row["err_finest"][s]) and row["err_finest"][s] <= th
                   and _resolves(row, s, th)]
-            ok.sort(key=lambda row: row["wall_time_s"] if math.isfinite(row["wall_time_s"]) else math.inf)
+            ok.sort(key=lambda row: _time_key(row["wall_time_s"]))
             cheapest[s][f"{th:.0%}"] = ok[0]["label"] if ok else None
-    data = {"wall_time_s": np.array([row["wall_time_s"] for row in rungs], float)}
-    for s in CONV_STATS:
-        data[f"err_finest_{s}"] = np.array([row["err_finest"][s] for row in rungs], float)
-        data[f"err_paper_{s}"] = np.array([row["err_paper"][s] for row in rungs], float)
     # a reference that is the top of the declared ladder is its finest rung, not a base of variants
     named = finest is not None and finest.label == reference and not (order and order[-1] == reference)
-    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, data, named, seed_groups,
+    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, named, seed_groups,
                              [row["label"] for row in rungs if row["label"] in on_ladder])
 
 
@@ -311,16 +280,15 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
     ax1, ax2 = fig.subplots(1, 2, sharex=True)
     fig.suptitle("Error against wall-clock time (spin-up + saltation)"
                  + (f", case {case}" if case is not None else ""))
-    t = res.data["wall_time_s"]
-    labels = [row["label"] for row in res.rungs]
-    not_finest = np.array([l != res.finest for l in labels])
+    t = np.array([row["wall_time_s"] for row in res.rungs], float)
+    not_finest = np.array([row["label"] != res.finest for row in res.rungs])
     markers = "osD^v<>PX*"
     floor = 1e-4   # an error of exactly 0 (inside the paper's range) is drawn here, hollow, unjoined
     for i, s in enumerate(CONV_STATS):
         lab, col, mk = CONV_STATS[s][0], _STAT_COLORS[s], markers[i % len(markers)]
         noise = np.array([row["within_noise"][s] is True for row in res.rungs])
-        for ax, key, keep in ((ax1, "err_finest_", not_finest), (ax2, "err_paper_", np.ones_like(not_finest))):
-            e = res.data[key + s]
+        for ax, key, keep in ((ax1, "err_finest", not_finest), (ax2, "err_paper", True)):
+            e = np.array([row[key][s] for row in res.rungs], float)
             ok = np.isfinite(e) & np.isfinite(t) & keep
             pos = ok & (e > 1e-9)      # below: round-off, shown as 0
             zero = ok & (e <= 1e-9)
@@ -337,21 +305,15 @@ def _figure(res: ConvergenceResult, case: int | None) -> Figure:
                 ax.plot(t[zero], np.full(zero.sum(), floor), marker=mk, mfc="none", color=col, ls="none",
                         label=None if pos.any() else f"{lab} (0)")
     for ax in (ax1, ax2):
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        ax.set(xscale="log", yscale="log", xlabel="wall-clock time of the run [s]")
         if not ax.lines:           # nothing finite to draw (e.g. only a missing run): fixed limits
-            ax.set_xlim(1.0, 1e4)
-            ax.set_ylim(1e-4, 2.0)
-        ax.set_xlabel("wall-clock time of the run [s]")
+            ax.set(xlim=(1.0, 1e4), ylim=(1e-4, 2.0))
         ax.axhline(0.10, color="0.5", ls=":", lw=1)
         ax.axhline(0.25, color="0.5", ls="--", lw=1)
         ax.grid(alpha=0.3, which="both")
     # one key for both panels (a statistic has the same colour and marker in each), below them:
     # inside, fourteen entries hid the rungs that cost about the same
-    handles: dict[str, Any] = {}
-    for ax in (ax1, ax2):
-        for h, lab in zip(*ax.get_legend_handles_labels()):
-            handles.setdefault(lab, h)
+    handles = {lab: h for ax in (ax1, ax2) for h, lab in zip(*ax.get_legend_handles_labels())}
     if handles:
         fig.legend(list(handles.values()), list(handles.keys()), loc="outside lower center",
                    ncol=min(7, len(handles)), fontsize=8)
@@ -408,10 +370,10 @@ def _summary_figure(results: dict[int | None, ConvergenceResult]) -> Figure:
     fig.suptitle("The ladder at a glance: typical difference from the reference rung against wall-clock time")
     colors = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b")
     for i, (case, res) in enumerate(results.items()):
-        rows = [r for r in ladder_summary(res) if math.isfinite(r["wall_time_s"])]
+        rows = sorted((r for r in ladder_summary(res) if math.isfinite(r["wall_time_s"])),
+                      key=lambda r: r["wall_time_s"])
         if not rows:
             continue
-        rows.sort(key=lambda r: r["wall_time_s"])
         col = colors[i % len(colors)]
         name = f"case {case}" if case is not None else "no case"
         t = np.array([r["wall_time_s"] for r in rows])
@@ -435,16 +397,14 @@ def _summary_figure(results: dict[int | None, ConvergenceResult]) -> Figure:
                             ha="right", va="center")
     for y in (0.10, 0.25):
         ax1.axhline(y, color="0.5", ls=":" if y < 0.2 else "--", lw=1)
-    ax1.set_yscale("log")
-    ax1.set_ylabel("|relative difference from the reference| [-]")
+    ax1.set(yscale="log", ylabel="|relative difference from the reference| [-]")
     ax1.set_title("(a) median over the statistics; dotted: the two runs' median noise",
                   loc="left", fontsize=9)
     ax2.set_ylim(-0.03, 1.03)
     ax2.set_ylabel("share of the statistics [-]")
     ax2.set_title("(b) statistics within 10 % / 25 % of the reference", loc="left", fontsize=9)
     for ax in (ax1, ax2):
-        ax.set_xscale("log")
-        ax.set_xlabel("wall-clock time of the run [s] (spin-up + saltation)")
+        ax.set(xscale="log", xlabel="wall-clock time of the run [s] (spin-up + saltation)")
         ax.grid(alpha=0.3, which="both")
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7)
@@ -453,15 +413,15 @@ def _summary_figure(results: dict[int | None, ConvergenceResult]) -> Figure:
 
 def _knobs(row: dict[str, Any]) -> str:
     """Δx, first level, grains per parcel of a rung, as one short cell."""
-    dx, dz, q = row["dx"], row["dz_bottom"], row["Q"]
-    return (f"{fmt(dx)} m / {dz * 100:.3g} cm / {fmt(q)}" if math.isfinite(dz) else
-            f"{fmt(dx)} m / — / {fmt(q)}")
+    dz = f"{row['dz_bottom'] * 100:.3g} cm" if math.isfinite(row["dz_bottom"]) else "—"
+    return f"{fmt(row['dx'])} m / {dz} / {fmt(row['Q'])}"
 
 
-_KNOBS_HEAD = "Δx / first level / grains per parcel"
-_RUNG_HEADS = ("rung", "fidelity", _KNOBS_HEAD, "status", "wall time [s]", "of which spin-up [s]")
-_CHEAPEST_NOTE = ("among rungs whose own error bar is no wider than the threshold: a noisier run "
-                  "agrees by chance")
+_RUNG_HEADS = ["rung", "fidelity", "Δx / first level / grains per parcel", "status",
+               "wall time [s]", "of which spin-up [s]"]
+_CHEAPEST_HEADS = ["statistic", "within 10 %", "within 25 %"]
+_CHEAPEST_NOTE = ("Cheapest rung within 10 % / 25 % of the reference (among rungs whose own error "
+                  "bar is no wider than the threshold: a noisier run agrees by chance)")
 
 
 def _rung_cells(res: ConvergenceResult) -> list[list[str]]:
@@ -473,19 +433,13 @@ def _rung_cells(res: ConvergenceResult) -> list[list[str]]:
                for s in CONV_STATS] for row in res.rungs]
 
 
-def _cheapest_cells(res: ConvergenceResult) -> list[tuple[str, str, str]]:
-    return [(CONV_STATS[s][0], res.cheapest[s]["10%"] or "none", res.cheapest[s]["25%"] or "none")
+def _cheapest_cells(res: ConvergenceResult) -> list[list[str]]:
+    return [[CONV_STATS[s][0], res.cheapest[s]["10%"] or "none", res.cheapest[s]["25%"] or "none"]
             for s in CONV_STATS]
 
 
-def _tables_md(res: ConvergenceResult) -> str:
-    heads = list(_RUNG_HEADS) + [f"{CONV_STATS[s][0]} (vs reference / paper)" for s in CONV_STATS]
-    lines = ["| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
-    lines += ["| " + " | ".join(cells) + " |" for cells in _rung_cells(res)]
-    lines += ["", f"Cheapest rung within 10 % / 25 % of the reference ({_CHEAPEST_NOTE}):", "",
-              "| statistic | within 10 % | within 25 % |", "|---|---|---|"]
-    lines += ["| " + " | ".join(c) + " |" for c in _cheapest_cells(res)]
-    return "\n".join(lines)
+def _heads() -> list[str]:
+    return _RUNG_HEADS + [f"{CONV_STATS[s][0]} (vs reference / paper)" for s in CONV_STATS]
 
 
 def _resolves(row: dict[str, Any], s: str, threshold: float) -> bool:
@@ -493,9 +447,7 @@ def _resolves(row: dict[str, Any], s: str, threshold: float) -> bool:
     bar is wider than the threshold (relative to its value) lands within it by chance, and a run
     with no bar cannot show it; such a rung is never named the cheapest."""
     v, eb = row["values"][s], row["error_bar"][s]
-    if not (math.isfinite(v) and math.isfinite(eb)) or v == 0:
-        return False
-    return eb / abs(v) <= threshold
+    return math.isfinite(v) and math.isfinite(eb) and v != 0 and eb / abs(v) <= threshold
 
 
 def _pm(v: float, eb: float) -> str:
@@ -504,37 +456,6 @@ def _pm(v: float, eb: float) -> str:
 
 def _p(v: float) -> str:
     return f"{v:.1%}" if math.isfinite(v) else "n/a"
-
-
-def _html_rows(rows, cell: str = "td") -> str:
-    return "".join("<tr>" + "".join(f"<{cell}>{html.escape(c)}</{cell}>" for c in r) + "</tr>"
-                   for r in rows)
-
-
-def _tables_html(res: ConvergenceResult) -> str:
-    heads = "".join(f"<th>{html.escape(h)}</th>" for h in _RUNG_HEADS) + "".join(
-        f"<th>{html.escape(CONV_STATS[s][0])}<br><small>value (vs reference / paper)</small></th>"
-        for s in CONV_STATS)
-    return (f"<table><thead><tr>{heads}</tr></thead><tbody>{_html_rows(_rung_cells(res))}"
-            "</tbody></table><h4>Cheapest rung within 10 % / 25 % of the reference</h4>"
-            f"<p>{_CHEAPEST_NOTE[0].upper() + _CHEAPEST_NOTE[1:]}.</p><table><thead>"
-            + _html_rows([("statistic", "within 10 %", "within 25 %")], "th")
-            + f"</thead><tbody>{_html_rows(_cheapest_cells(res))}</tbody></table>")
-
-
-def _payload_rows(res: ConvergenceResult) -> list[dict[str, Any]]:
-    per_stat = ("values", "error_bar", "half_window_bar", "seed_bar", "err_finest", "err_paper")
-    rows = []
-    for row in res.rungs:
-        d = {k: v for k, v in row.items() if k not in per_stat + ("within_noise",)}
-        d.update({k: (row[k] if math.isfinite(row[k]) else None)
-                  for k in ("wall_time_s", "spinup_wall_time_s", "dx", "dy", "dz_bottom", "Q",
-                            "sampled_extent_s_m2")})
-        d["reference"] = res.finest
-        d.update({k: {s: (x if math.isfinite(x) else None) for s, x in row[k].items()} for k in per_stat})
-        d["within_noise"] = row["within_noise"]
-        rows.append(d)
-    return rows
 
 
 def _seed_sentence(res: ConvergenceResult) -> str:
@@ -572,44 +493,38 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
     figures = {_stem(case, primary): _figure(r, case) for case, r in results.items()}
     if not any(r.named_reference for r in results.values()):
         figures["convergence_summary"] = _summary_figure(results)
-    files = []
-    for stem, fig in figures.items():
-        for ext in ("png", "pdf"):
-            files.append(report_dir / f"{stem}.{ext}")
-            fig.savefig(files[-1], dpi=130)
+    files = [f for stem, fig in figures.items() for f in save_figure(fig, report_dir, stem, 130)]
     md = ["# Error against run time", "", NOISE_NOTE, ""]
     page = []
     summary_html = ""
     if "convergence_summary" in figures:
         md += ["![the ladder at a glance](convergence_summary.png)", ""]
-        summary_html = ("<figure><a href='convergence_summary.pdf'><img src='convergence_summary.png' "
-                        "alt='the ladder at a glance: median error against wall time'></a>"
-                        "<figcaption>The ladder at a glance: per rung, the median over the statistics "
-                        "of the relative difference from the reference rung and of the two runs' "
-                        "noise (a), and the share of statistics within 10 % and 25 % of it (b)."
-                        "</figcaption></figure>")
+        summary_html = figure_html(
+            "convergence_summary", "the ladder at a glance: median error against wall time",
+            "The ladder at a glance: per rung, the median over the statistics of the relative "
+            "difference from the reference rung and of the two runs' noise (a), and the share of "
+            "statistics within 10 % and 25 % of it (b).")
     for case, r in results.items():
         head = f"Case {case}" if case is not None else "Runs without a case number"
-        md += [f"## {head}", "", f"Reference rung: {r.finest}. {_seed_sentence(r)}", "", _tables_md(r), ""]
+        md += [f"## {head}", "", f"Reference rung: {r.finest}. {_seed_sentence(r)}", "",
+               *md_table(_heads(), _rung_cells(r)), "", f"{_CHEAPEST_NOTE}:", "",
+               *md_table(_CHEAPEST_HEADS, _cheapest_cells(r)), ""]
         stem = _stem(case, primary)
-        fig_html = ("" if case == primary else
-                    f"<figure><a href='{stem}.pdf'><img src='{stem}.png' "
-                    f"alt='error against run time, {html.escape(head)}'></a></figure>")
-        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "") + fig_html
-                    + f"<p>{html.escape(_seed_sentence(r))}</p>" + _tables_html(r))
+        page.append((f"<h3>{html.escape(head)}</h3>" if len(results) > 1 else "")
+                    + ("" if case == primary else
+                       figure_html(stem, f"error against run time, {head}"))
+                    + f"<p>{html.escape(_seed_sentence(r))}</p>"
+                    + html_table(_heads(), _rung_cells(r))
+                    + f"<h4>{html.escape(_CHEAPEST_NOTE)}</h4>"
+                    + html_table(_CHEAPEST_HEADS, _cheapest_cells(r)))
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
-    payload = {**(provenance or {}), "primary_case": primary, "finest": res.finest, "reference": res.finest,
-               "cheapest": res.cheapest,
-               "error_bar": NOISE_NOTE,
-               "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
-                                     "seed_replicates": r.seed_groups,
-                                     "ladder_summary": [{k: (v if not isinstance(v, float) or math.isfinite(v)
-                                                             else None) for k, v in row.items()}
-                                                        for row in ladder_summary(r)]}
-                         for case, r in results.items()},
-               "rungs": [row for r in results.values() for row in _payload_rows(r)]}
-    (report_dir / "convergence.json").write_text(json.dumps(payload, indent=2, allow_nan=False) + "\n",
-                                                  encoding="utf-8")
+    write_json(report_dir / "convergence.json", {
+        **(provenance or {}), "primary_case": primary, "finest": res.finest,
+        "reference": res.finest, "cheapest": res.cheapest, "error_bar": NOISE_NOTE,
+        "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
+                              "seed_replicates": r.seed_groups, "ladder_summary": ladder_summary(r)}
+                  for case, r in results.items()},
+        "rungs": [{**row, "reference": r.finest} for r in results.values() for row in r.rungs]})
     files += [report_dir / "convergence.md", report_dir / "convergence.json"]
     return {"result": res, "results": results, "html": "".join(page), "summary_html": summary_html,
             "files": files}

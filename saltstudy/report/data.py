@@ -8,41 +8,16 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 import xarray as xr
 
 from ..ncio import open_dataset
 
-__all__ = ["RunData", "ReportContext", "load_runs", "to_si", "case_number_of",
-           "is_plain_case_label", "paper_case_of"]
-
-# non-SI units an archive might carry -> (factor to SI, SI unit)
-_TO_SI = {"um": (1e-6, "m"), "µm": (1e-6, "m"), "micron": (1e-6, "m"), "mm": (1e-3, "m"),
-          "cm": (1e-2, "m"), "km": (1e3, "m"), "min": (60.0, "s"), "h": (3600.0, "s"),
-          "ms": (1e-3, "s"), "g m-1 s-1": (1e-3, "kg m-1 s-1"), "%": (1e-2, "1"),
-          "percent": (1e-2, "1"), "-": (1.0, "1"), "": (1.0, "1"), "m/s": (1.0, "m s-1"),
-          "1": (1.0, "1")}
+__all__ = ["RunData", "ReportContext", "load_runs", "case_number_of", "paper_case_of"]
 
 _CASE_RE = re.compile(r"^case(\d+)(?:@(.+))?$")
-
-
-def to_si(value: float, units: str | None) -> tuple[float, str]:
-    """Convert ``value`` in ``units`` to SI (a small table of the units an archive may use)."""
-    if units is None:
-        return value, "1"
-    u = units.strip()
-    if u in _TO_SI:
-        f, si = _TO_SI[u]
-        return value * f, si
-    return value, u
-
-
-def is_plain_case_label(label: str) -> bool:
-    """``caseNN``: a case of Table 2 run as is (not a ladder rung, not a scene)."""
-    m = _CASE_RE.match(label)
-    return bool(m) and m.group(2) is None
 
 
 def case_number_of(label: str) -> int | None:
@@ -91,13 +66,6 @@ def paper_case_of(case: dict) -> Any:
     return int(mine["number"]) if _same(mine, paper) else None
 
 
-def _finite(x: Any) -> bool:
-    try:
-        return math.isfinite(float(x))
-    except (TypeError, ValueError):
-        return False
-
-
 @dataclass
 class RunData:
     """One run: its label, case number, archive and what was read from it."""
@@ -116,7 +84,9 @@ class RunData:
 
     @property
     def plain_case(self) -> bool:
-        return is_plain_case_label(self.label)
+        """``caseNN``: a case of Table 2 run as is (not a ladder rung, not a scene)."""
+        m = _CASE_RE.match(self.label)
+        return bool(m) and m.group(2) is None
 
     @property
     def paper_case(self) -> int | None:
@@ -129,19 +99,10 @@ class RunData:
                 return n
         return case_number_of(self.label)
 
-    # -- access ------------------------------------------------------------------------------
     def scalar(self, name: str) -> float:
-        """A 0-d variable in SI units; NaN if absent or the run is missing."""
-        if self.ds is None or name not in self.ds.variables:
-            return math.nan
-        v = self.ds[name]
-        if v.ndim != 0:
-            return math.nan
-        try:
-            val = float(v.values)
-        except (TypeError, ValueError):
-            return math.nan
-        return to_si(val, v.attrs.get("units"))[0]
+        """A 0-d variable (SI units, as every analysis.nc); NaN if absent or the run is missing."""
+        v = self.var(name)
+        return float(v.values) if v is not None and v.ndim == 0 else math.nan
 
     def attr(self, name: str, default: float = math.nan) -> float:
         if self.ds is None:
@@ -155,9 +116,7 @@ class RunData:
         return self.ds is not None and all(n in self.ds.variables for n in names)
 
     def var(self, name: str) -> xr.DataArray | None:
-        if self.ds is None or name not in self.ds.variables:
-            return None
-        return self.ds[name]
+        return self.ds[name] if self.has(name) else None
 
     @property
     def rho(self) -> float:
@@ -177,10 +136,8 @@ class RunData:
     def mu1(self) -> float:
         """Median diameter of the dominant soil mode [m] (from the archive's resolved scene)."""
         modes = self.scene.get("case", {}).get("soil", {}).get("modes") or []
-        if modes:
-            dominant = max(modes, key=lambda m: m.get("mass_fraction", 1.0))
-            return float(dominant.get("mu", math.nan))
-        return math.nan
+        dominant = max(modes, key=lambda m: m.get("mass_fraction", 1.0)) if modes else {}
+        return float(dominant.get("mu", math.nan))
 
     def damping_depth(self) -> float:
         """Depth of the Rayleigh layer of the run [m] (none with the pressure-gradient drive)."""
@@ -197,7 +154,7 @@ class RunData:
         zr = float(self.scene.get("case", {}).get("forcing", {}).get("z_ref", 2.0))
         z = min(2.0, zr)
         why = "2 m (paper)"
-        if _finite(lz) and 0.5 * (lz - damp) < z:
+        if math.isfinite(lz) and 0.5 * (lz - damp) < z:
             z = 0.5 * (lz - damp)
             why = f"{z:.2g} m: highest height below half the undamped depth (domain {lz:g} m)"
         return z, why
@@ -223,7 +180,7 @@ class ReportContext:
             return next((r for r in scenes if r.ok), scenes[0] if scenes else None)
         present = [r for r in rungs if r.ok]
         if present:
-            timed = [r for r in present if _finite(r.wall_time_s)]
+            timed = [r for r in present if math.isfinite(r.wall_time_s)]
             return max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
         return rungs[-1]
 
@@ -233,52 +190,33 @@ class ReportContext:
         r = self.by_case(n)
         return f"case {n}: {r.status}" if r is not None and not r.ok else None
 
-    def present(self, cases: Iterable[int]) -> list[RunData]:
-        return [r for r in map(self.by_case, cases) if r is not None and r.ok]
-
     def scatter_runs(self) -> list[RunData]:
         """Runs for the scatter figures (3, 4, 8, 13): every case (one per number) plus any
         other run with an archive (scenes), labelled by their label."""
         out: list[RunData] = []
-        seen: set[int] = set()
         for r in self.runs.values():
-            if r.case is not None and case_number_of(r.label) is not None:
-                if r.case in seen:
-                    continue
-                rr = self.by_case(r.case)
-                seen.add(r.case)
-                if rr is not None and rr.ok:
-                    out.append(rr)
-            elif r.ok:
-                out.append(r)
+            rep = self.by_case(r.case) if case_number_of(r.label) is not None else r
+            if rep is not None and rep.ok and all(rep is not o for o in out):
+                out.append(rep)
         return out
 
 
 def _load_one(label: str, path: Path | None, case_hint: int | None) -> RunData:
     case = case_hint if case_hint is not None else case_number_of(label)
-    if path is None:
-        return RunData(label, case, None, status="no archive")
-    path = Path(path)
-    if not path.is_file():
+    path = Path(path) if path is not None else None
+    if path is None or not path.is_file():
         return RunData(label, case, path, status="no archive")
     try:
         ds = open_dataset(path)
     except Exception as exc:  # unreadable/corrupt: drawn as missing, reason kept
         return RunData(label, case, path, status=f"unreadable ({type(exc).__name__})")
-    try:
-        scene = json.loads(ds.attrs.get("case_json", "{}") or "{}")
-    except (TypeError, ValueError):
-        scene = {}
+    scene = json.loads(ds.attrs.get("case_json") or "{}")
     if case is None:
         c = ds.attrs.get("case_number", scene.get("case", {}).get("number"))
-        case = int(c) if c is not None and _finite(c) else None
+        case = int(c) if c is not None else None
     fid = ds.attrs.get("fidelity") or scene.get("fidelity", {}).get("name")
-    try:
-        wall = float(ds.attrs.get("wall_time_s", math.nan))
-    except (TypeError, ValueError):
-        wall = math.nan
     return RunData(label, case, path, ds=ds, fidelity=str(fid) if fid else None,
-                   wall_time_s=wall, scene=scene)
+                   wall_time_s=float(ds.attrs.get("wall_time_s", math.nan)), scene=scene)
 
 
 def load_runs(runs: dict[str, str | Path | None], meta: dict[str, Any] | None = None
@@ -288,17 +226,15 @@ def load_runs(runs: dict[str, str | Path | None], meta: dict[str, Any] | None = 
     Runs already read (all :class:`RunData`) are returned as they are."""
     if runs and all(isinstance(v, RunData) for v in runs.values()):
         return dict(runs)  # type: ignore[arg-type]
-    meta = meta or {}
-    cases = meta.get("case_numbers") or {}
-    fids = meta.get("fidelities") or {}
-    walls = meta.get("wall_times") or {}
+    cases, fids, walls = ((meta or {}).get(k) or {}
+                          for k in ("case_numbers", "fidelities", "wall_times"))
     out: dict[str, RunData] = {}
     for label, path in runs.items():
         hint = cases.get(label)
         r = _load_one(label, path, int(hint) if hint is not None else None)
         if label in fids and fids[label]:
             r.fidelity = str(fids[label])
-        if label in walls and _finite(walls[label]):
+        if label in walls and math.isfinite(walls[label]):
             r.wall_time_s = float(walls[label])
         out[label] = r
     return out

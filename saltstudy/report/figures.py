@@ -7,10 +7,8 @@ safe in worker threads), the arrays it plotted (``data``) and its notes. The fig
 """
 from __future__ import annotations
 
-import hashlib
 from typing import Callable
 
-import numpy as np
 from matplotlib.figure import Figure
 
 from .data import ReportContext
@@ -19,8 +17,8 @@ from .profile_figures import fig02, fig05, fig06, fig07, fig11, fig12
 from .scatter_figures import fig01, fig03, fig04, fig08, fig13
 from .streamer_figures import fig09, fig10
 
-__all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "figure_data_digest",
-           "error_figure", "fig01", "fig02", "fig03", "fig04", "fig05", "fig06", "fig07", "fig08",
+__all__ = ["FigureResult", "FIGURES", "CAPTIONS", "make_figures", "error_figure", "fig01", "fig02",
+           "fig03", "fig04", "fig05", "fig06", "fig07", "fig08",
            "fig09", "fig10", "fig11", "fig12", "fig13"]
 
 FIGURES: dict[str, Callable[[ReportContext], FigureResult]] = {f.__name__: f for f in (
@@ -73,18 +71,3 @@ def make_figures(ctx: ReportContext, names=None) -> dict[str, FigureResult]:
         except Exception as exc:  # report the failure on the figure itself
             out[name] = FigureResult(error_figure(name, exc), notes=[f"error: {type(exc).__name__}: {exc}"])
     return out
-
-
-def figure_data_digest(fig: Figure) -> str:
-    """SHA-256 of every data array drawn on ``fig`` (lines, collections, images), so a test can
-    tell whether the plotted data changed without comparing image bytes."""
-    h = hashlib.sha256()
-    for ax in fig.axes:
-        for ln in ax.get_lines():
-            h.update(np.ascontiguousarray(ln.get_xydata(), dtype=float).tobytes())
-        for c in ax.collections:
-            off = c.get_offsets()
-            h.update(np.ascontiguousarray(np.asarray(off, dtype=float)).tobytes())
-        for im in ax.get_images():
-            h.update(np.ascontiguousarray(np.asarray(im.get_array(), dtype=float)).tobytes())
-    return h.hexdigest()

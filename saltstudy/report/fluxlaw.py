@@ -1,17 +1,13 @@
 """A study's total flux against a measured flux law, each run at its own friction velocity.
 
-A guardrail independent of the paper: the wind-tunnel law of Creyssels et al. (2009, J. Fluid Mech.
-625) for 242 um grains of 2500 kg m^-3, Q = 1.38 (rho/g)(u*^2 - 0.206^2), with its flux e-folding
-height of ~1 cm. Each run is read at the u* of its own stress at the reference height
-(``u_star_s_stress``: the wind the grains actually had, whatever the drive's target), so the
-comparison tests the grain layer, not the u* controller. A study asks for it with
-``flux_law = "creyssels2009"``; the section lists G_tot, the law at that u*, their ratio (within
-``TOLERANCE`` or not) and G's e-folding height beside the measured one, and draws G_tot(u*).
+A guardrail independent of the paper (``FLUX_LAWS``: the wind-tunnel law of Creyssels et al.
+2009, with its flux e-folding height of ~1 cm), asked for by a study's ``flux_law``. Each run is
+read at the u* of its own stress at the reference height (``u_star_s_stress``: the wind the grains
+had, whatever the drive's target), so the comparison tests the grain layer, not the controller.
 """
 from __future__ import annotations
 
 import html
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -20,7 +16,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..physics import laws
-from .tables import fmt
+from .plotting import save_figure
+from .tables import figure_html, fmt, html_table, md_table, write_json
 
 __all__ = ["FLUX_LAWS", "TOLERANCE", "flux_law_rows", "build_fluxlaw_report"]
 
@@ -43,8 +40,7 @@ def flux_law_rows(runs: dict, law: str) -> list[dict[str, Any]]:
     for label, r in runs.items():
         if not r.ok:
             continue
-        us = r.scalar("u_star_s_stress")
-        g = r.scalar("G_tot")
+        us, g = r.scalar("u_star_s_stress"), r.scalar("G_tot")
         q = float(func(us)) if math.isfinite(us) else math.nan
         ratio = g / q if (math.isfinite(g) and q > 0) else math.nan
         rows.append({"label": label, "u_star_stress": us, "G_tot": g, "law": q, "ratio": ratio,
@@ -61,43 +57,35 @@ def build_fluxlaw_report(runs: dict, report_dir: Path, law: str) -> dict[str, An
     func, us_data, q_data, h_data, cite = FLUX_LAWS[law]
     rows = flux_law_rows(runs, law)
     report_dir = Path(report_dir)
-    (report_dir / "fluxlaw.json").write_text(json.dumps(
-        {"law": law, "citation": cite, "tolerance": TOLERANCE, "decay_height_measured_m": h_data,
-         "rows": rows}, indent=1, default=float), encoding="utf-8")
-    head = ("| run | u* (stress at z_ref) [m/s] | G_tot [g/m/s] | law at that u* [g/m/s] | "
-            f"G_tot / law (within ±{TOLERANCE:.0%}) | G e-folding height [cm] (measured {100 * h_data:g}) |")
+    write_json(report_dir / "fluxlaw.json", {"law": law, "citation": cite, "tolerance": TOLERANCE,
+                                             "decay_height_measured_m": h_data, "rows": rows})
+    heads = ["run", "u* (stress at z_ref) [m/s]", "G_tot [g/m/s]", "law at that u* [g/m/s]",
+             f"G_tot / law (within ±{TOLERANCE:.0%})",
+             f"G e-folding height [cm] (measured {100 * h_data:g})"]
     cells = [[r["label"], fmt(r["u_star_stress"]), fmt(1e3 * r["G_tot"]), fmt(1e3 * r["law"]),
-              fmt(r["ratio"]), fmt(100 * r["G_decay_height"])] for r in rows]
-    lines = [f"G_tot against {cite}.", "", head, "|---|---|---|---|---|---|"]
-    lines += ["| " + " | ".join(c[:4] + [f"{c[4]} {'yes' if r['within'] else 'NO'}"] + c[5:]) + " |"
-              for r, c in zip(rows, cells)]
+              f"{fmt(r['ratio'])} {'yes' if r['within'] else 'NO'}", fmt(100 * r["G_decay_height"])]
+             for r in rows]
+    lines = [f"G_tot against {cite}.", "", *md_table(heads, cells)]
     (report_dir / "fluxlaw.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
 
     fig = Figure(figsize=(5.5, 4.0))
     ax = fig.add_subplot()
     u = np.linspace(0.2, max([0.75] + [r["u_star_stress"] for r in rows
                                        if math.isfinite(r["u_star_stress"])]), 100)
-    ax.plot(u, 1e3 * np.asarray(func(u)), color="0.5", label="law")
-    ax.fill_between(u, 1e3 * (1 - TOLERANCE) * np.asarray(func(u)),
-                    1e3 * (1 + TOLERANCE) * np.asarray(func(u)), color="0.9", label=f"±{TOLERANCE:.0%}")
+    law_u = 1e3 * np.asarray(func(u))
+    ax.plot(u, law_u, color="0.5", label="law")
+    ax.fill_between(u, (1 - TOLERANCE) * law_u, (1 + TOLERANCE) * law_u, color="0.9",
+                    label=f"±{TOLERANCE:.0%}")
     ax.plot(us_data, 1e3 * np.asarray(q_data), "s", mfc="none", color="0.4", label="measured")
     ax.plot([r["u_star_stress"] for r in rows], [1e3 * r["G_tot"] for r in rows], "o",
             color="tab:red", label="this study")
-    ax.set_xlabel("u* [m s⁻¹] (runs: their stress at z_ref)")
-    ax.set_ylabel("G_tot [g m⁻¹ s⁻¹]")
+    ax.set(xlabel="u* [m s⁻¹] (runs: their stress at z_ref)", ylabel="G_tot [g m⁻¹ s⁻¹]")
     ax.set_title(cite.split(":")[0], fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    for ext in ("png", "pdf"):
-        fig.savefig(report_dir / f"fluxlaw.{ext}", dpi=110)
-
-    e = html.escape
-    body = ["<table><tr>" + "".join(f"<th>{e(h)}</th>" for h in head.strip("|").split("|")) + "</tr>"]
-    for r, c in zip(rows, cells):
-        cls = ["" if i != 4 or r["within"] else " class='bad'" for i in range(len(c))]
-        body.append("<tr>" + "".join(f"<td{k}>{e(x)}</td>" for k, x in zip(cls, c)) + "</tr>")
-    body.append("</table>")
-    out = (f"<p>G_tot of each run against {e(cite)}, at the u* of the run's own stress at the "
-           "reference height.</p><figure><a href='fluxlaw.pdf'><img src='fluxlaw.png' "
-           "alt='flux against the law'></a></figure>" + "".join(body))
-    return {"rows": rows, "html": out}
+    save_figure(fig, report_dir, "fluxlaw", 110)
+    table = html_table(heads, cells,
+                       lambda i, j: "bad" if i >= 0 and j == 4 and not rows[i]["within"] else "")
+    return {"rows": rows, "html": f"<p>G_tot of each run against {html.escape(cite)}, at the u* of "
+            "the run's own stress at the reference height.</p>"
+            + figure_html("fluxlaw", "flux against the law") + table}

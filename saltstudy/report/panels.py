@@ -1,10 +1,8 @@
-"""Which run fills each place of a per-case figure: the paper's case, or the study's nearest one.
-
-Figs. 6, 7, 10, 11 and 12 hold a panel of cases 1–6 (u*s varies, µ1 = 200 µm) and one of cases
-2, 7–10 (µ1 varies); Figs. 2, 5 and 9 look for their cases by u*s at the case's µ1.
-:func:`panel_runs` gives each place the study's own run of that case when it has usable data,
-else the nearest run along the figure's parameter, labelled with the case it stands in for
-(:meth:`PanelRun.stand_in`), else nothing (no empty frame).
+"""Which run fills each place of a per-case figure (:func:`panel_runs`): the study's own run of
+the paper's case when it has usable data, else the nearest run along the figure's parameter,
+labelled with the case it stands in for (:meth:`PanelRun.stand_in`), else nothing (no empty
+frame). Figs. 6, 7, 10, 11 and 12 hold a panel of cases 1–6 (u*s varies, µ1 = 200 µm) and one of
+cases 2, 7–10 (µ1 varies, :func:`wind_and_soil`); Figs. 2, 5 and 9 look for their cases by u*s.
 
 **Who may stand in.** One run per case number (``by_case``'s) and every run without one, each at
 most once per figure, and only if it holds the parameter the figure keeps fixed within
@@ -26,10 +24,10 @@ from dataclasses import dataclass
 from typing import Callable, Iterable, Sequence
 
 from .data import ReportContext, RunData
-from .reference import paper_table2
+from .reference import CASES_SOIL, CASES_WIND, paper_table2
 
-__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "paper_parameters",
-           "nearest_runs", "panel_runs"]
+__all__ = ["BY_U_STAR_S", "BY_MU1", "HELD_TOLERANCE", "PanelRun", "Panel", "nearest_runs",
+           "panel_runs", "wind_and_soil"]
 
 #: the figure varies u*s (Fig. 9 rows, panels (a) of Figs. 6, 7, 10–12)
 BY_U_STAR_S = "u*s"
@@ -57,9 +55,8 @@ class PanelRun:
     def key(self) -> str:
         """The name of the run's data in ``FigureResult.data``: ``caseN`` for the paper's case,
         ``<label>_for_caseN`` for a substitute."""
-        if not self.substitute:
-            return f"case{self.paper_case}"
-        return f"{self.run.label}_for_case{self.paper_case}"
+        return (f"{self.run.label}_for_case{self.paper_case}" if self.substitute
+                else f"case{self.paper_case}")
 
 
 @dataclass
@@ -68,12 +65,6 @@ class Panel:
     the study's own runs that could not be drawn (no archive, a quantity missing)."""
     runs: list[PanelRun]
     notes: list[str]
-
-
-def paper_parameters(n: int) -> tuple[float, float]:
-    """(u*s [m s-1], µ1 [m]) of the paper's case ``n`` (Table 2)."""
-    row = paper_table2().get(n, {})
-    return float(row.get("u_star_s", math.nan)), float(row.get("mu1_um", math.nan)) * 1e-6
 
 
 def _log_distance(a: float, b: float) -> float:
@@ -87,20 +78,18 @@ def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
     """Assign each paper case of ``slots`` at most one of ``candidates`` (each candidate at most
     once), nearest first along ``by`` (module docstring: distance, eligibility and ties).
     Returns ``{paper case: run}`` for the cases that got one."""
-    if by not in (BY_U_STAR_S, BY_MU1):
-        raise ValueError(f"by must be {BY_U_STAR_S!r} or {BY_MU1!r}, not {by!r}")
     vary, held = (0, 1) if by == BY_U_STAR_S else (1, 0)
     pairs = []
     cands = list(candidates)
     for place, n in enumerate(slots):
-        paper = paper_parameters(n)
+        row = paper_table2().get(n, {})      # (u*s [m s-1], µ1 [m]) of the paper's case
+        paper = (float(row.get("u_star_s", math.nan)), float(row.get("mu1_um", math.nan)) * 1e-6)
         for j, r in enumerate(cands):
             mine = (r.u_star_s_target, r.mu1)
             d_held = _log_distance(mine[held], paper[held])
             d_vary = _log_distance(mine[vary], paper[vary])
-            if not (math.isfinite(d_vary) and math.isfinite(d_held)):
-                continue
-            if abs(mine[held] / paper[held] - 1.0) > tolerance:
+            if (not (math.isfinite(d_vary) and math.isfinite(d_held))
+                    or abs(mine[held] / paper[held] - 1.0) > tolerance):
                 continue
             case_rank = (0, r.case) if r.case is not None else (1, 0)
             pairs.append(((d_vary, d_held, place, case_rank, r.label), n, j))
@@ -108,24 +97,16 @@ def nearest_runs(slots: Sequence[int], candidates: Iterable[RunData], by: str,
     out: dict[int, RunData] = {}
     used: set[int] = set()
     for _, n, j in pairs:
-        if n in out or j in used:
-            continue
-        out[n] = cands[j]
-        used.add(j)
+        if n not in out and j not in used:
+            out[n] = cands[j]
+            used.add(j)
     return out
 
 
 def _pool(ctx: ReportContext) -> list[RunData]:
     """The runs that may stand in: one per case number (``by_case``'s), every run without one."""
-    out: list[RunData] = []
-    seen: set[int] = set()
-    for r in ctx.runs.values():
-        rep = ctx.by_case(r.case) if r.case is not None else r
-        if rep is None or id(rep) in seen:
-            continue
-        seen.add(id(rep))
-        out.append(rep)
-    return out
+    reps = (ctx.by_case(r.case) if r.case is not None else r for r in ctx.runs.values())
+    return list({id(rep): rep for rep in reps if rep is not None}.values())
 
 
 def panel_runs(ctx: ReportContext, slots: Sequence[int], by: str,
@@ -141,20 +122,20 @@ def panel_runs(ctx: ReportContext, slots: Sequence[int], by: str,
             return r.status
         return usable(r) if usable is not None else None
 
-    own: dict[int, RunData] = {}
-    notes: list[str] = []
-    for n in slots:
-        r = ctx.by_case(n)
-        if r is None:
-            continue
-        why = why_not(r)
-        if why is None:
-            own[n] = r
-        else:
-            notes.append(f"case {n}: {why}")
+    held = {n: r for n in slots if (r := ctx.by_case(n)) is not None}
+    own = {n: r for n, r in held.items() if why_not(r) is None}
+    notes = [f"case {n}: {why_not(r)}" for n, r in held.items() if n not in own]
     taken = {id(r) for r in own.values()}
     # a case the study holds but cannot draw does not stand in for another either
     cands = [r for r in _pool(ctx) if id(r) not in taken and why_not(r) is None]
     open_slots = [n for n in slots if n not in own]
     chosen = {**own, **nearest_runs(open_slots, cands, by)}
     return Panel([PanelRun(n, chosen[n], by, n not in own) for n in slots if n in chosen], notes)
+
+
+def wind_and_soil(ctx: ReportContext, usable: Callable[[RunData], str | None]
+                  ) -> list[tuple[Panel, tuple[int, ...], bool, str]]:
+    """[(panel, its paper cases, whether µ1 varies, its name)] of the two panels of Figs. 6, 7,
+    10, 11 and 12."""
+    return [(panel_runs(ctx, CASES_WIND, BY_U_STAR_S, usable), CASES_WIND, False, "cases 1–6"),
+            (panel_runs(ctx, CASES_SOIL, BY_MU1, usable), CASES_SOIL, True, "cases 2, 7–10")]

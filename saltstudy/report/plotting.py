@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -19,7 +20,7 @@ from .reference import CASES_WIND, paper_table2
 __all__ = ["FigureResult", "WIND_COLORS", "SOIL_COLORS", "MARKERS", "OWN_COLORS", "case_color",
            "fmt_um", "case_label", "has_stress_u_star", "u_star_stress", "new_figure", "plain_log",
            "add_legend", "add_notes", "nothing_to_draw", "lacks", "empty_axes", "u_star_ratio",
-           "is_200um", "paper_u_star_ratio"]
+           "is_200um", "paper_u_star_ratio", "save_figure"]
 
 
 @dataclass
@@ -29,7 +30,6 @@ class FigureResult:
     notes: list[str] = field(default_factory=list)
 
 
-# ---- helpers ----
 WIND_COLORS = {n: c for n, c in zip(CASES_WIND, ("#1b9e77", "#66a61e", "#e6ab02", "#d95f02",
                                                     "#e7298a", "#7570b3"))}
 SOIL_COLORS = {2: "#66a61e", 7: "#a6761d", 8: "#e41a1c", 9: "#377eb8", 10: "#222222"}
@@ -39,8 +39,6 @@ OWN_COLORS = ("#17becf", "#bcbd22", "#8c564b", "#9467bd", "#ff7f0e", "#1f77b4")
 
 
 def case_color(n: int | None, soil: bool = False) -> str:
-    if n is None:
-        return "0.3"
     if soil and n in SOIL_COLORS:
         return SOIL_COLORS[n]
     return WIND_COLORS.get(n, SOIL_COLORS.get(n, "0.3"))
@@ -78,8 +76,16 @@ def u_star_stress(r: RunData) -> float:
 
 def new_figure(ncols: int = 1, nrows: int = 1, size=(6.4, 4.6), **kw) -> tuple[Figure, np.ndarray]:
     fig = Figure(figsize=size, layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
-    return fig, axes
+    return fig, fig.subplots(nrows, ncols, squeeze=False, **kw)
+
+
+def save_figure(fig: Figure, folder: Path, stem: str, dpi: float,
+                formats=("png", "pdf")) -> list[Path]:
+    """Write ``fig`` as ``folder/stem.<format>`` in each format; returns the files."""
+    files = [Path(folder) / f"{stem}.{ext}" for ext in formats]
+    for f in files:
+        fig.savefig(f, dpi=dpi)
+    return files
 
 
 def plain_log(ax, axis: str = "x", subs: tuple[float, ...] | None = None) -> None:
@@ -98,10 +104,9 @@ def plain_log(ax, axis: str = "x", subs: tuple[float, ...] | None = None) -> Non
 def add_legend(ax, below: bool = False, **kw) -> None:
     """below: under the axes, for scatter plots whose points may fall anywhere (a legend inside
     hid case 10's point in Fig. 4)."""
-    handles, labels = ax.get_legend_handles_labels()
-    if handles:
-        if below:
-            kw.update(loc="upper center", bbox_to_anchor=(0.5, -0.14))
+    if below:
+        kw.update(loc="upper center", bbox_to_anchor=(0.5, -0.14))
+    if ax.get_legend_handles_labels()[0]:
         ax.legend(**kw)
 
 
@@ -114,10 +119,14 @@ def add_notes(ax, notes: list[str], loc: str = "lower right") -> None:
             color="firebrick", bbox=dict(boxstyle="round", fc="white", ec="firebrick", alpha=0.85))
 
 
-def nothing_to_draw(fig: Figure, message: str) -> None:
-    """A figure none of whose places the study can fill says why in words, without a frame."""
-    fig.text(0.5, 0.5, message, ha="center", va="center", fontsize=11, color="firebrick",
-             wrap=True)
+def nothing_to_draw(res: FigureResult, message: str) -> FigureResult:
+    """A figure none of whose places the study can fill says why in words (and its notes),
+    without a frame."""
+    for ax in list(res.fig.axes):
+        ax.remove()
+    res.fig.text(0.5, 0.5, "\n".join([message] + res.notes), ha="center", va="center",
+                 fontsize=11, color="firebrick", wrap=True)
+    return res
 
 
 def lacks(*names: str) -> Callable[[RunData], str | None]:
@@ -130,8 +139,7 @@ def lacks(*names: str) -> Callable[[RunData], str | None]:
 def empty_axes(ax, message: str) -> None:
     ax.text(0.5, 0.5, message, transform=ax.transAxes, ha="center", va="center", fontsize=11,
             color="firebrick")
-    ax.set_xticks([])
-    ax.set_yticks([])
+    ax.set(xticks=[], yticks=[])
 
 
 def u_star_ratio(r: RunData) -> float:

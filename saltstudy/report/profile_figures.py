@@ -10,20 +10,13 @@ import numpy as np
 from matplotlib import colormaps
 
 from .data import ReportContext, RunData, profile
-from .panels import BY_MU1, BY_U_STAR_S, panel_runs
+from .panels import BY_U_STAR_S, panel_runs, wind_and_soil
 from .plotting import (FigureResult, add_legend, add_notes, case_color, case_label, fmt_um,
-                       has_stress_u_star, new_figure, nothing_to_draw, plain_log, u_star_stress)
-from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_results
+                       has_stress_u_star, lacks, new_figure, nothing_to_draw, plain_log,
+                       u_star_stress)
+from .reference import PAPER_COLOR, PAPER_LABEL, paper_results
 
 __all__ = ["fig02", "fig05", "fig06", "fig07", "fig11", "fig12", "FIG2_PROFILES", "FIG5_PANELS"]
-
-
-# ---- Fig 2 ----
-def _interp_log(z: np.ndarray, v: np.ndarray, z0: float) -> float:
-    ok = np.isfinite(v) & (z > 0)
-    if ok.sum() < 2:
-        return math.nan
-    return float(np.interp(np.log(z0), np.log(z[ok]), v[ok]))
 
 
 #: the wind and stress profiles of Fig. 2, with saltation and without (the spin-up)
@@ -40,14 +33,10 @@ def fig02(ctx: ReportContext) -> FigureResult:
 
     panel = panel_runs(ctx, (2,), BY_U_STAR_S, usable)
     fig, axes = new_figure(2, 1, size=(10, 4.8), sharey=True)
-    res = FigureResult(fig)
-    res.notes.extend(panel.notes)
+    res = FigureResult(fig, notes=list(panel.notes))
     if not panel.runs:
-        for ax in axes.ravel():
-            ax.remove()
-        nothing_to_draw(fig, "Fig. 2: no run of this study at µ1 = 200 µm has wind or stress "
-                              "profiles" + ("\n" + "\n".join(panel.notes) if panel.notes else ""))
-        return res
+        return nothing_to_draw(res, "Fig. 2: no run of this study at µ1 = 200 µm has wind or "
+                                    "stress profiles")
     place = panel.runs[0]
     r = place.run
     ax_u, ax_f = axes[0]
@@ -55,19 +44,19 @@ def fig02(ctx: ReportContext) -> FigureResult:
                  + case_label(r, place=place))
     zref, why = r.z_ref()
     zm = r.scalar("z_m")
-    ztop = np.nan
     styles = (("u_mean", "uw_flux", "with saltation", "k", "-"),
               ("u_mean_spinup", "uw_flux_spinup", "without saltation (spin-up)", "tab:blue", "--"))
     for uname, fname, lab, col, ls in styles:
         pu = profile(r, uname)
         if pu is not None:
             z, u = pu
-            uref = _interp_log(z, u, zref)
+            ok = np.isfinite(u) & (z > 0)
+            uref = (float(np.interp(np.log(zref), np.log(z[ok]), u[ok])) if ok.sum() >= 2
+                    else math.nan)
             if math.isfinite(uref) and uref != 0:
                 ax_u.plot(u / uref, z, color=col, ls=ls, lw=1.5, label=lab)
                 res.data[f"{uname}_norm"] = u / uref
                 res.data["z"] = z
-                ztop = np.nanmax(z)
             else:
                 res.notes.append(f"{uname}: u_ref undefined")
         else:
@@ -97,22 +86,20 @@ def fig02(ctx: ReportContext) -> FigureResult:
         for ax in (ax_u, ax_f):
             ax.axhspan(lz - damp, lz, facecolor="none", edgecolor="0.6", hatch="//", lw=0,
                        label=f"Rayleigh damping layer (z > {lz - damp:g} m)")
-    zs = res.data.get("z")
-    if zs is not None:
-        ax_u.set_ylim(max(1e-3, 0.5 * float(np.nanmin(zs))), 1.2 * ztop)
-    ax_u.set_xlabel(r"$\langle u\rangle / u_{ref}$ [-]")
-    ax_u.set_ylabel("z [m]")
+    if "z" in res.data:
+        zs = res.data["z"]
+        ax_u.set_ylim(max(1e-3, 0.5 * float(np.nanmin(zs))), 1.2 * np.nanmax(zs))
+    ax_u.set(xlabel=r"$\langle u\rangle / u_{ref}$ [-]", ylabel="z [m]")
     ax_u.set_title("(a)", loc="left")
     ax_f.set_xlabel(r"$\langle u'w'\rangle$ (resolved + SGS) [m² s⁻²]")
     ax_f.set_title("(b)", loc="left")
-    add_legend(ax_u, fontsize=7.5, loc="best", framealpha=0.9)
-    add_legend(ax_f, fontsize=7.5, loc="best", framealpha=0.9)
+    for ax in (ax_u, ax_f):
+        add_legend(ax, fontsize=7.5, loc="best", framealpha=0.9)
     add_notes(ax_f, res.notes)
     res.data["u_ref_height"] = np.array([zref])
     return res
 
 
-# ---- Fig 5 ----
 #: the paper's Fig. 5 panels: (letter, grain size µ1 [µm], the paper's case drawn)
 FIG5_PANELS = (("a", 90, 7), ("b", 200, 2), ("c", 400, 10))
 
@@ -122,23 +109,17 @@ def fig05(ctx: ReportContext) -> FigureResult:
     size of the paper (µ1 = 90, 200, 400 µm: its cases 7, 2, 10). A panel is a soil: only a run
     within ``panels.HELD_TOLERANCE`` of its µ1 fills it (the paper's case, else the nearest in
     target u*s, which changes how high and how unevenly the sizes are lifted); else left out."""
-    def usable(r: RunData) -> str | None:
-        return None if r.has("psd_air", "psd_bed", "d_bin") else "no size distribution"
-
-    panel = panel_runs(ctx, tuple(n for _, _, n in FIG5_PANELS), BY_U_STAR_S, usable)
+    panel = panel_runs(ctx, tuple(n for _, _, n in FIG5_PANELS), BY_U_STAR_S,
+                       lacks("psd_air", "psd_bed", "d_bin", "z_band_edges"))
     chosen = {place.paper_case: place for place in panel.runs}
     drawn = [(letter, um, chosen[n]) for letter, um, n in FIG5_PANELS if n in chosen]
     fig, axes = new_figure(max(1, len(drawn)), 1, size=(max(6.0, 0.5 + 4.2 * len(drawn)), 4.8))
-    res = FigureResult(fig)
-    res.notes.extend(panel.notes)
+    res = FigureResult(fig, notes=list(panel.notes))
     fig.suptitle("Fig. 5 — grain-size distribution in the saltation layer (by height band)"
                  + ("\n" if len(drawn) < 3 else " ") + "vs the bed")
     if not drawn:
-        axes[0, 0].remove()
-        nothing_to_draw(fig, "no run of this study at µ1 = 90, 200 or 400 µm (±10 %) has size "
-                              "distributions in the air and the bed"
-                         + ("\n" + "\n".join(panel.notes) if panel.notes else ""))
-        return res
+        return nothing_to_draw(res, "no run of this study at µ1 = 90, 200 or 400 µm (±10 %) has "
+                                    "size distributions in the air and the bed")
     for ax, (letter, um, place) in zip(axes[0], drawn):
         r = place.run
         title = f"({letter}) µ1 = {um} µm: {case_label(r)}"
@@ -147,19 +128,11 @@ def fig05(ctx: ReportContext) -> FigureResult:
         ax.set_title(title, loc="left", fontsize=9)
         d = np.asarray(r.ds["d_bin"].values, float) * 1e6
         bed = np.asarray(r.ds["psd_bed"].values, float)
-        air = np.asarray(r.ds["psd_air"].values, float)
-        air_dims = r.ds["psd_air"].dims
-        if air_dims[0] == "d_bin":
-            air = air.T
-        zb = r.ds[r.ds["psd_air"].dims[0] if air_dims[0] != "d_bin" else air_dims[1]].values
-        edges = r.ds["z_band_edges"].values if "z_band_edges" in r.ds else None
-        cmap = colormaps["plasma"]
+        air = np.asarray(r.ds["psd_air"].transpose("z_band", "d_bin").values, float)
+        edges = r.ds["z_band_edges"].values
         for i in range(air.shape[0]):
-            if edges is not None and len(edges) == air.shape[0] + 1:
-                lab = f"air, z = {edges[i] * 100:.0f}–{edges[i + 1] * 100:.0f} cm"
-            else:
-                lab = f"air, z ≈ {zb[i] * 100:.0f} cm"
-            ax.plot(d, air[i], color=cmap(i / max(1, air.shape[0])), lw=1.4, marker=".", label=lab)
+            ax.plot(d, air[i], color=colormaps["plasma"](i / max(1, air.shape[0])), lw=1.4,
+                    marker=".", label=f"air, z = {edges[i] * 100:.0f}–{edges[i + 1] * 100:.0f} cm")
         ax.plot(d, bed, color="k", lw=2.5, label=f"bed (soil), µ1 = {fmt_um(r.mu1)}")
         res.data[f"psd_air_{place.key}"] = air
         res.data[f"psd_bed_{place.key}"] = bed
@@ -167,14 +140,12 @@ def fig05(ctx: ReportContext) -> FigureResult:
         # a size range of a decade or less (µ1/2.5 to 2.5 µ1 or narrower): powers of ten alone
         # label it in scientific notation, and 1-2-5 steps may leave a single label
         plain_log(ax, "x", subs=(1.0, 1.5, 2.0, 3.0, 5.0, 7.0))
-        ax.set_xlabel("grain diameter d [µm]")
-        ax.set_ylabel("mass fraction per size bin [-]")
+        ax.set(xlabel="grain diameter d [µm]", ylabel="mass fraction per size bin [-]")
         ax.grid(alpha=0.3, which="both")
         add_legend(ax, fontsize=7)
     return res
 
 
-# ---- profile figures: 6, 7, 11, 12 ----
 #: the profile variables as the figures write them
 _SYMBOL = {"tau_p": "τp", "G": "⟨G⟩", "R_cu": "R_cu", "St": "St"}
 
@@ -183,13 +154,8 @@ def _log_gaps(x: np.ndarray) -> np.ndarray:
     """Indices of the levels whose value is finite and ≤ 0 with a positive value below and
     above them: a log axis cannot draw them, so the line breaks there and a positive level
     above may stand alone as a single dot (τp of a coarse grid changes sign above z_m)."""
-    pos = np.isfinite(x) & (x > 0)
-    if pos.sum() < 2:
-        return np.array([], dtype=int)
-    first, last = np.flatnonzero(pos)[[0, -1]]
-    bad = np.isfinite(x) & (x <= 0)
-    idx = np.flatnonzero(bad)
-    return idx[(idx > first) & (idx < last)]
+    pos, idx = np.flatnonzero(np.isfinite(x) & (x > 0)), np.flatnonzero(np.isfinite(x) & (x <= 0))
+    return idx[(idx > pos[0]) & (idx < pos[-1])] if pos.size >= 2 else idx[:0]
 
 
 def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
@@ -206,22 +172,16 @@ def _profiles(ctx: ReportContext, var: str, title: str, xlabel: str,
             return "z_m undefined (no saltation?)"
         return needs(r) if needs is not None else None
 
-    groups = []
-    for cases, by, soil, ptitle in ((CASES_WIND, BY_U_STAR_S, False, "(a) cases 1–6: various u*s"),
-                                    (CASES_SOIL, BY_MU1, True, "(b) cases 2, 7–10: various µ1")):
-        groups.append((panel_runs(ctx, cases, by, usable), soil, ptitle))
+    groups = wind_and_soil(ctx, usable)
     drawn = [g for g in groups if g[0].runs]
     fig, axes = new_figure(max(1, len(drawn)), 1, size=(5.5 * max(1, len(drawn)), 5.0), sharey=True)
-    res = FigureResult(fig)
+    res = FigureResult(fig, notes=[n for g in groups for n in g[0].notes])
     fig.suptitle(title)
-    for panel, _, _ in groups:
-        res.notes.extend(panel.notes)
     if not drawn:
-        axes[0, 0].remove()
-        nothing_to_draw(fig, f"no run of this study has {var} against z/z_m")
-        return res
-    for ax, (panel, soil, ptitle) in zip(axes[0], drawn):
-        prefix = ptitle[:3]
+        return nothing_to_draw(res, f"no run of this study has {var} against z/z_m")
+    for ax, (panel, _, soil, name) in zip(axes[0], drawn):
+        prefix = "(b)" if soil else "(a)"
+        ptitle = f"{prefix} {name}: various {'µ1' if soil else 'u*s'}"
         gap_notes: list[str] = []
         for place in panel.runs:
             r = place.run

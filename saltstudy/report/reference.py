@@ -8,7 +8,7 @@ from typing import Any
 
 from ..analysis.paper_grid import PAPER
 
-__all__ = ["paper", "paper_table2", "paper_results", "PAPER_LABEL", "PAPER_COLOR",
+__all__ = ["paper_table2", "paper_results", "PAPER_LABEL", "PAPER_COLOR",
            "CASES_WIND", "CASES_SOIL", "TABLE2_COLUMNS"]
 
 PAPER_LABEL = "Dupont et al. 2013"
@@ -36,23 +36,16 @@ TABLE2_COLUMNS = (
 )
 
 
-def paper() -> dict[str, Any]:
-    """The whole reference file as a dict."""
-    return PAPER
-
-
 def paper_table2() -> dict[int, dict[str, float]]:
     """Table 2 by case number. A value the paper does not give ("-") is NaN."""
     out: dict[int, dict[str, float]] = {}
-    for row in paper().get("table2", []):
-        r = {k: float(v) for k, v in row.items() if isinstance(v, (int, float))}
-        for _, key, _, _ in TABLE2_COLUMNS:
-            if key is not None:
-                r.setdefault(key, math.nan)
-        out[int(row["case"])] = r
+    for row in PAPER.get("table2", []):
+        missing = {key: math.nan for _, key, _, _ in TABLE2_COLUMNS if key}
+        out[int(row["case"])] = {**missing, **{k: float(v) for k, v in row.items()
+                                               if isinstance(v, (int, float))}}
     return out
 
 
 def paper_results() -> dict[str, Any]:
     """The [results] section (statements in the text, by figure)."""
-    return dict(paper().get("results", {}))
+    return dict(PAPER.get("results", {}))

@@ -41,37 +41,22 @@ STATE_UNITS = {"u_star_s": "m s-1", "u_star_t": "m s-1", "n_parcels_released": "
 
 
 def _case(run: RunData) -> dict:
-    c = run.scene.get("case", {}) if isinstance(run.scene, dict) else {}
-    return c if isinstance(c, dict) else {}
+    return run.scene.get("case") or {}
 
 
 def q_multiplier(run: RunData) -> float:
     """M [1]: the run's parcels hold M times the case's Q grains. From the archive's parcel weight
     (attribute ``Q``) over the case's Q, else the fidelity's ``q_multiplier``, else 1."""
-    q_run = run.attr("Q")
-    q_case = (_case(run).get("particles", {}) or {}).get("Q")
-    try:
-        q_case = float(q_case)
-    except (TypeError, ValueError):
-        q_case = math.nan
+    q_run, q_case = run.attr("Q"), float((_case(run).get("particles") or {}).get("Q", math.nan))
     if math.isfinite(q_run) and math.isfinite(q_case) and q_run > 0 and q_case > 0:
         return q_run / q_case
-    fid = run.scene.get("fidelity", {}) if isinstance(run.scene, dict) else {}
-    try:
-        return float((fid or {}).get("q_multiplier", 1.0))
-    except (TypeError, ValueError):
-        return 1.0
+    return float((run.scene.get("fidelity") or {}).get("q_multiplier", 1.0))
 
 
 def bed_area(run: RunData) -> float:
     """Lx Ly [m²] of the run's domain (archive attributes, else the archived grid); NaN if unknown."""
-    lx, ly = run.attr("Lx"), run.attr("Ly")
-    if not (math.isfinite(lx) and math.isfinite(ly)):
-        grid = (run.scene.get("fidelity", {}) or {}).get("grid", {}) if isinstance(run.scene, dict) else {}
-        try:
-            lx, ly = float(grid["Lx"]), float(grid["Ly"])
-        except (KeyError, TypeError, ValueError):
-            return math.nan
+    grid = (run.scene.get("fidelity") or {}).get("grid") or {}
+    lx, ly = (run.attr(k, float(grid.get(k, math.nan))) for k in ("Lx", "Ly"))
     return lx * ly if lx > 0 and ly > 0 else math.nan
 
 
@@ -88,12 +73,8 @@ def n_parcels_per_m2_at_Q(run: RunData) -> float:
 def n_parcels_released(run: RunData) -> float:
     """Parcels released at activation [1]: the case's ``n_initial`` per 300 m², scaled to the
     bed and divided by M (``config.Scene.n_initial``); NaN if the area is unknown."""
-    n0 = (_case(run).get("particles", {}) or {}).get("n_initial", 10_000)
-    area = bed_area(run)
-    try:
-        n = float(n0) * area / PAPER_AREA_M2 / q_multiplier(run)
-    except (TypeError, ValueError, ZeroDivisionError):
-        return math.nan
+    n0 = float((_case(run).get("particles") or {}).get("n_initial", 10_000))
+    n = n0 * bed_area(run) / PAPER_AREA_M2 / q_multiplier(run)
     return float(max(1, round(n))) if math.isfinite(n) else math.nan
 
 
@@ -109,19 +90,12 @@ class SaltationState:
     n_parcels_end: float = math.nan        # last record of the run [1]
 
     def to_json(self) -> dict:
-        d = asdict(self)
-        for k, v in d.items():
-            if isinstance(v, float) and not math.isfinite(v):
-                d[k] = None
-        d["units"] = dict(STATE_UNITS)
-        return d
+        return {**asdict(self), "units": dict(STATE_UNITS)}
 
 
 def _g(v: float) -> str:
     """A count: whole above 100, three significant digits below."""
-    if not math.isfinite(v):
-        return "?"
-    return f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}"
+    return "?" if not math.isfinite(v) else f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}"
 
 
 def _ms(v: float) -> str:
@@ -134,12 +108,10 @@ def saltation_state(run: RunData) -> SaltationState:
         return SaltationState(UNDEFINED, run.status)
     us, ut = run.u_star_s_target, run.scalar("u_star_t")
     released, mean = n_parcels_released(run), run.scalar("n_parcels_mean")
-    end = math.nan
     series = run.var("n_parcels")
-    if series is not None and series.size:
-        vals = np.asarray(series.values, dtype=float)
-        vals = vals[np.isfinite(vals)]
-        end = float(vals[-1]) if vals.size else math.nan
+    vals = np.asarray(series.values if series is not None else [], dtype=float)
+    vals = vals[np.isfinite(vals)]
+    end = float(vals[-1]) if vals.size else math.nan
     nums = dict(u_star_s=us, u_star_t=ut, n_parcels_released=released, n_parcels_mean=mean,
                 n_parcels_end=end)
     below = math.isfinite(us) and math.isfinite(ut) and us < ut

@@ -20,7 +20,6 @@ from .saltation import (NO_SALTATION, PAPER_PARCELS_PER_M2, PAPER_PARCELS_SOURCE
 __all__ = ["fig01", "fig03", "fig04", "fig08", "fig13"]
 
 
-# ---- Fig 1 ----
 def fig01(ctx: ReportContext) -> FigureResult:
     """Airborne parcels per m² of bed against time since activation, every case at its own Q
     (report/saltation.py), beside the paper's ≈ 2,000 per m² that all its cases hold ([28], [31])."""
@@ -31,7 +30,6 @@ def fig01(ctx: ReportContext) -> FigureResult:
     res = FigureResult(fig)
     ax.set_title("Fig. 1 — airborne parcels per m² of bed, each case at its own Q", fontsize=10)
     drawn: list[str] = []
-    means: list[float] = []
     for r in runs:
         if not r.has("n_parcels"):
             res.notes.append(f"{r.label}: no n_parcels series")
@@ -44,8 +42,7 @@ def fig01(ctx: ReportContext) -> FigureResult:
             continue
         name = f"case {r.case}" if r.case is not None and r.plain_case else r.label
         m = n_parcels_per_m2_at_Q(r)
-        state = saltation_state(r)
-        tail = f", {NO_SALTATION}" if state.status == NO_SALTATION else ""
+        tail = f", {NO_SALTATION}" if saltation_state(r).status == NO_SALTATION else ""
         # a case of one's own gets a colour of its own: it may share a paper case's number
         col = case_color(r.paper_case) if r.paper_case is not None else \
             OWN_COLORS[sum(1 for d in drawn if ctx.runs[d].paper_case is None) % len(OWN_COLORS)]
@@ -53,14 +50,12 @@ def fig01(ctx: ReportContext) -> FigureResult:
                 label=f"{name}: mean {m:.3g} m⁻²{tail}")
         res.data[f"t_{r.label}"] = t
         res.data[f"per_m2_{r.label}"] = y
+        res.data[f"mean_per_m2_{r.label}"] = np.array([m])
         drawn.append(r.label)
-        means.append(m)
     if not drawn:
         res.notes.extend(f"{r.label}: {r.status}" for r in ctx.runs.values() if not r.ok)
         empty_axes(ax, "\n".join(res.notes) or "no run with an n_parcels series")
         return res
-    for label, m in zip(drawn, means):
-        res.data[f"mean_per_m2_{label}"] = np.array([m])
     ref = paper_results()
     per_m2 = PAPER_PARCELS_PER_M2
     if math.isfinite(per_m2):
@@ -76,8 +71,8 @@ def fig01(ctx: ReportContext) -> FigureResult:
     elif teq:   # said, not drawn: a line past the runs' end would squeeze them to the left
         ax.plot([], [], ls="none", label=f"{PAPER_LABEL}: equilibrium after ≈{teq:g} s (case 2), "
                                          f"past these runs' {t_end:g} s")
-    ax.set_xlabel("time since saltation activation t [s]")
-    ax.set_ylabel("airborne parcels (of the case's Q) per m² [m⁻²]")
+    ax.set(xlabel="time since saltation activation t [s]",
+           ylabel="airborne parcels (of the case's Q) per m² [m⁻²]")
     ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4))
     ax.set_xlim(left=0)
     ax.set_ylim(bottom=0)
@@ -87,7 +82,6 @@ def fig01(ctx: ReportContext) -> FigureResult:
     return res
 
 
-# ---- scatter figures: 3, 4, 8, 13 ----
 def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
     """Computed ``var`` vs u*s/u*t for every run, dots; 200 um cases circles, others squares."""
     xs, ys = [], []
@@ -101,10 +95,8 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
         if not (math.isfinite(x) and math.isfinite(y)):
             res.notes.append(f"{r.label}: {var} or u*s(z_ref)/u*t undefined")
             continue
-        if r.case is not None and r.plain_case or (r.case is not None and "@" in r.label):
-            group = "200" if is_200um(r) else "other"
-        else:
-            group = "scene"
+        group = (("200" if is_200um(r) else "other")
+                 if r.case is not None and (r.plain_case or "@" in r.label) else "scene")
         col = case_color(r.case, soil=not is_200um(r))
         lab = {"200": "this study, µ1 = 200 µm (cases 1–6)", "other": "this study, µ1 ≠ 200 µm (cases 7–10)",
                "scene": "this study, other scenes"}[group]
@@ -122,30 +114,18 @@ def _scatter(ctx: ReportContext, ax, var: str, res: FigureResult) -> None:
     if others:  # a legend entry, not a box over the data
         ax.plot([], [], ls="none", label="µ1 ≠ 200 µm: " + ", ".join(
             f"case {k} {v}" for k, v in others.items()))
-    for n in range(1, 11):
-        note = ctx.missing_note(n)
-        if note and ctx.by_case(n) is not None:
-            res.notes.append(note)
+    res.notes += [note for n in range(1, 11) if (note := ctx.missing_note(n))]
     ax.set_xlabel(r"$u_{*s}/u_{*t}$ [-], $u_{*s}$ from the total stress at $z_{ref}$")
     ax.grid(alpha=0.3, which="both")
 
 
-def _law_range(res: FigureResult) -> np.ndarray:
-    xs = res.data.get("x_ratio", np.array([]))
-    hi = max(4.5, float(np.nanmax(xs)) * 1.1) if xs.size else 4.5
-    return np.linspace(1.0, hi, 200)
-
-
 def _ref_threshold(ctx: ReportContext) -> tuple[float, RunData | None]:
     """u*t, and the run it came from, for the laws at mu1 = 200 um (case 2 first, then 1-6)."""
-    for n in (2, 1, 3, 4, 5, 6):
-        r = ctx.by_case(n)
-        if r is not None and r.ok and math.isfinite(r.scalar("u_star_t")):
-            return r.scalar("u_star_t"), r
-    for r in ctx.runs.values():
-        if r.ok and is_200um(r) and math.isfinite(r.scalar("u_star_t")):
-            return r.scalar("u_star_t"), r
-    return math.nan, None
+    runs = [ctx.by_case(n) for n in (2, 1, 3, 4, 5, 6)]
+    runs += [r for r in ctx.runs.values() if is_200um(r)]
+    r = next((r for r in runs if r is not None and r.ok and math.isfinite(r.scalar("u_star_t"))),
+             None)
+    return (r.scalar("u_star_t"), r) if r is not None else (math.nan, None)
 
 
 def _draw_laws(ctx, ax, laws: dict, res: FigureResult, d: float) -> None:
@@ -155,7 +135,8 @@ def _draw_laws(ctx, ax, laws: dict, res: FigureResult, d: float) -> None:
     if not math.isfinite(ut) or src is None:
         res.notes.append("semi-empirical laws not drawn: no u*t for µ1 = 200 µm")
         return
-    ratio = _law_range(res)
+    xs = res.data.get("x_ratio", np.array([]))
+    ratio = np.linspace(1.0, max(4.5, float(np.nanmax(xs)) * 1.1) if xs.size else 4.5, 200)
     q = dict(d=d, rho=src.rho, rho_p=src.attr("rho_p", 2650.0), g=src.attr("g", 9.81),
              z0=src.attr("z0", 1e-5), nu=src.attr("nu", 1.5e-5))
     styles = ["-", "--", "-.", ":", (0, (5, 1)), (0, (3, 1, 1, 1, 1, 1))]

@@ -9,47 +9,37 @@ import math
 import numpy as np
 
 from .data import ReportContext
-from .panels import BY_MU1, BY_U_STAR_S, panel_runs
+from .panels import BY_U_STAR_S, panel_runs, wind_and_soil
 from .plotting import (FigureResult, add_legend, add_notes, case_color, case_label, lacks,
                        new_figure, nothing_to_draw, plain_log)
-from .reference import CASES_SOIL, CASES_WIND, PAPER_COLOR, PAPER_LABEL, paper_table2
+from .reference import PAPER_COLOR, PAPER_LABEL, paper_table2
 
 __all__ = ["fig09", "fig10", "FIG9_CASES", "premultiplied_over_variance"]
 
 
-# ---- Fig 9 ----
 def fig09(ctx: ReportContext) -> FigureResult:
     """A row per paper case 1, 4, 6: the study's run of the case or its nearest by u*s at
     µ1 = 200 µm (``panels.py``); a row the study cannot fill is left out."""
     panel = panel_runs(ctx, FIG9_CASES, BY_U_STAR_S, lacks("C_p_snapshot", "u_snapshot"))
     rows = panel.runs
-    ref = rows[0].run if rows else None     # the aspect of the first drawn run
-    lx = ref.attr("Lx", 20.0) if ref else 20.0
-    ly = ref.attr("Ly", 15.0) if ref else 15.0
+    # the aspect of the first drawn run
+    lx, ly = (rows[0].run.attr("Lx", 20.0), rows[0].run.attr("Ly", 15.0)) if rows else (20.0, 15.0)
     w = 11.0
     h = len(rows) * (w / 2) * (ly / lx) * 0.95 + 1.0
     fig, axes = new_figure(2, max(1, len(rows)), size=(w, min(max(h, 3.5), 14.0)))
-    res = FigureResult(fig)
-    res.notes.extend(panel.notes)
+    res = FigureResult(fig, notes=list(panel.notes))
     fig.suptitle("Fig. 9 — snapshots: (a) C_p / C_pmax and (b) u / u_max at z = 0.1 m")
     if not rows:
-        for ax in axes.ravel():
-            ax.remove()
-        nothing_to_draw(fig, "no run of this study at µ1 = 200 µm has C_p and u snapshots")
-        return res
+        return nothing_to_draw(res, "no run of this study at µ1 = 200 µm has C_p and u snapshots")
     for row, place in enumerate(rows):
         r = place.run
         for col, (var, lab, cmap) in enumerate((("C_p_snapshot", r"$C_p / C_{p,max}$", "YlOrBr"),
                                                 ("u_snapshot", r"$u / u_{max}$", "viridis"))):
             ax = axes[row, col]
-            v = r.var(var)
-            arr = np.asarray(v.values, float)
-            if v.dims == ("y", "x"):
-                arr = arr.T
+            arr = np.asarray(r.ds[var].transpose("x", "y").values, float)
             vmax = np.nanmax(np.abs(arr))
             arr = arr / vmax if vmax > 0 else arr
-            x = np.asarray(r.ds["x"].values, float) if "x" in r.ds else np.arange(arr.shape[0])
-            y = np.asarray(r.ds["y"].values, float) if "y" in r.ds else np.arange(arr.shape[1])
+            x, y = (np.asarray(r.ds[c].values, float) for c in ("x", "y"))
             dx = x[1] - x[0] if x.size > 1 else 1.0
             dy = y[1] - y[0] if y.size > 1 else 1.0
             im = ax.imshow(arr.T, origin="lower", cmap=cmap, aspect="equal",
@@ -71,7 +61,6 @@ def fig09(ctx: ReportContext) -> FigureResult:
 FIG9_CASES = (1, 4, 6)
 
 
-# ---- Fig 10 ----
 def premultiplied_over_variance(ky: np.ndarray, S: np.ndarray, Ly: float, dy: float
                                 ) -> tuple[np.ndarray, np.ndarray]:
     """(wavelength [m], ky S(ky) / variance) of a one-sided spanwise density ``S`` [variance m]
@@ -100,21 +89,14 @@ def fig10(ctx: ReportContext) -> FigureResult:
     """ky S(ky) over the variance against log wavelength (area 1 against ln wavelength): top
     row cases 1–6, bottom row cases 2, 7–10, filled by ``panels.py``."""
     table = paper_table2()
-    groups = [(panel_runs(ctx, cases, by, lacks("S_c", "S_u")), cases, soil, rtitle)
-              for cases, by, soil, rtitle in ((CASES_WIND, BY_U_STAR_S, False, "cases 1–6"),
-                                              (CASES_SOIL, BY_MU1, True, "cases 2, 7–10"))]
+    groups = wind_and_soil(ctx, lacks("S_c", "S_u"))
     drawn = [g for g in groups if g[0].runs]
     fig, axes = new_figure(2, max(1, len(drawn)), size=(11, 0.5 + 4.0 * max(1, len(drawn))))
-    res = FigureResult(fig)
+    res = FigureResult(fig, notes=[n for g in groups for n in g[0].notes])
     fig.suptitle("Fig. 10 — premultiplied spanwise spectra of (a) C_p and (b) u at z = 0.1 m, "
                  "averaged in x and t")
-    for panel, _, _, _ in groups:
-        res.notes.extend(panel.notes)
     if not drawn:
-        for ax in axes.ravel():
-            ax.remove()
-        nothing_to_draw(fig, "no run of this study has spanwise spectra of C_p and u")
-        return res
+        return nothing_to_draw(res, "no run of this study has spanwise spectra of C_p and u")
     for row, (panel, cases, soil, rtitle) in enumerate(drawn):
         for col, (var, dvar, vlab) in enumerate((("S_c", "delta_y", "C_p"), ("S_u", "delta_y_u", "u"))):
             ax = axes[row, col]
@@ -130,16 +112,16 @@ def fig10(ctx: ReportContext) -> FigureResult:
                 if math.isfinite(dyv):
                     ax.axvline(dyv, color=c, lw=0.8, ls=":")
             if col == 0:  # the paper's delta_y (from C_p spectra, Table 2) as grey triangles
-                pv = [(n, table.get(n, {}).get("delta_y_m", math.nan)) for n in cases]
-                pv = [(n, v) for n, v in pv if math.isfinite(v)]
+                pv = [v for n in cases
+                      if math.isfinite(v := table.get(n, {}).get("delta_y_m", math.nan))]
                 if pv:
-                    ax.plot([v for _, v in pv], [0.0] * len(pv), marker="^", ms=9, ls="none",
+                    ax.plot(pv, [0.0] * len(pv), marker="^", ms=9, ls="none",
                             color=PAPER_COLOR, transform=ax.get_xaxis_transform(), clip_on=False,
                             label=f"{PAPER_LABEL}: δy (Table 2)")
             ax.set_xscale("log")
             plain_log(ax, "x")
-            ax.set_xlabel(r"spanwise wavelength $1/k_y$ [m]")
-            ax.set_ylabel(f"$k_y S_{{{vlab}}}(k_y) / \\sigma_{{{vlab}}}^2$ [-]")
+            ax.set(xlabel=r"spanwise wavelength $1/k_y$ [m]",
+                   ylabel=f"$k_y S_{{{vlab}}}(k_y) / \\sigma_{{{vlab}}}^2$ [-]")
             ax.set_title(f"({'ab'[col]}) {vlab}, {rtitle}  (dotted: computed δy)", loc="left",
                          fontsize=9)
             ax.grid(alpha=0.3, which="both")

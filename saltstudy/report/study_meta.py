@@ -1,7 +1,5 @@
-"""Fill the report's ``meta`` from the study configuration: ``case_numbers``, ``fidelities``,
-``study_config``, ``fidelity``, ``order``, ``reference`` (from the study file, ``meta["study_file"]``,
-else ``workflows/<study>.toml``, if it exists), and the checkout's ``commit``. What the cache records about the runs
-(failures, samples, checkpoints, the archives' source key) comes from the workflow
+"""Fill the report's ``meta`` from the study file (``meta["study_file"]``, else the study's name)
+and the checkout's ``commit``; what the cache records about the runs comes from the workflow
 (``workflow/report_meta.py``), which passes it in ``meta``.
 """
 from __future__ import annotations
@@ -13,12 +11,9 @@ __all__ = ["enrich_meta", "study_meta"]
 
 
 def study_meta(study_ref: str) -> dict[str, Any]:
-    """case_numbers, fidelities, study_config, fidelity, order, reference from the study file
-    (``study_ref``: a study's name, or the path of its file).
-
-    ``reference`` is the label of the run at the study's ``reference`` fidelity (None when the
-    study names none: the convergence report then compares with the last rung). {} if no file.
-    """
+    """The report's meta from the study file (``study_ref``: a study's name or its file's path);
+    ``reference``: the label of the run at the study's ``reference`` fidelity (None when the study
+    names none: the convergence report compares with the last rung). {} if no file."""
     try:
         from ..config import load_study, study_runs
         study = load_study(study_ref)
@@ -26,13 +21,11 @@ def study_meta(study_ref: str) -> dict[str, Any]:
     except Exception:
         return {}
     ladder = list(study.fidelities) or ([study.fidelity] if study.fidelity else [])
-    order = []
-    if len(ladder) > 1:  # declared ladder order, coarse -> fine as listed in the study file
-        for fname in ladder:
-            order += [r.label for r in runs if r.label.endswith(f"@{fname}")]
-    reference = None
-    if study.reference:
-        reference = next((r.label for r in runs if r.label.endswith(f"@{study.reference}")), None)
+    # the declared ladder's order, coarse -> fine as listed in the study file
+    order = ([r.label for f in ladder for r in runs if r.label.endswith(f"@{f}")]
+             if len(ladder) > 1 else [])
+    reference = (next((r.label for r in runs if r.label.endswith(f"@{study.reference}")), None)
+                 if study.reference else None)
     return {
         "case_numbers": {r.label: r.scene.case.number for r in runs},
         "fidelities": {r.label: r.scene.fidelity.name for r in runs},

@@ -1,12 +1,5 @@
-"""``summary.json``: every scalar of every run's analysis.nc in SI units, plus machine and costs.
-
-Top level: study, fidelity, package_version, total_wall_time_s (start to end of the run-all
-that built the report), task_time_sum_s and task_times_s (a shared spin-up counted once),
-run_started/run_finished (ISO 8601, UTC), tasks_from_cache/tasks_total, machine, units (of each
-scalar name) and cases: a plain case keyed by its number as a string, any other run by its
-label, each with its scalars, ``n_parcels_per_m2_at_Q`` and ``saltation``
-(report/saltation.py). NaN is written as null. Details: docs/ARCHITECTURE.md (``summary.json``).
-"""
+"""``summary.json``: every scalar of every run's analysis.nc in SI units, plus machine and costs;
+its fields: docs/ARCHITECTURE.md (``summary.json``)."""
 from __future__ import annotations
 
 import datetime as _dt
@@ -18,26 +11,23 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .._identity import __version__
 from ..analysis.schema import SPEC
-from .data import ReportContext, RunData, to_si
+from .data import ReportContext, RunData
 from .saltation import n_parcels_per_m2_at_Q, saltation_state
 
-__all__ = ["machine_info", "run_scalars", "build_summary", "write_summary", "run_key",
-           "task_times", "finish_wall_time"]
+__all__ = ["machine_info", "run_scalars", "build_summary", "run_key", "task_times",
+           "finish_wall_time"]
 
 
 def machine_info() -> dict[str, Any]:
-    proc = ""
     try:
         with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
-            for line in fh:
-                if line.lower().startswith("model name"):
-                    proc = line.split(":", 1)[1].strip()
-                    break
+            proc = next((line.split(":", 1)[1].strip() for line in fh
+                         if line.lower().startswith("model name")), "")
     except OSError:
-        pass
-    if not proc:
-        proc = platform.processor() or platform.machine()
+        proc = ""
+    proc = proc or platform.processor() or platform.machine()
     try:
         cores = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
@@ -46,23 +36,16 @@ def machine_info() -> dict[str, Any]:
             "platform": platform.platform(), "python": platform.python_version()}
 
 
-def _clean(v: float) -> float | None:
-    return float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None
-
-
-def run_scalars(run: RunData) -> tuple[dict[str, float | None], dict[str, str]]:
-    """All 0-d numeric variables of the archive in SI units, and their units."""
-    vals: dict[str, float | None] = {}
+def run_scalars(run: RunData) -> tuple[dict[str, float], dict[str, str]]:
+    """All 0-d numeric variables of the archive (SI units, as every analysis.nc), and their
+    units."""
+    vals: dict[str, float] = {}
     units: dict[str, str] = {}
-    if run.ds is None:
-        return vals, units
-    for name, var in run.ds.data_vars.items():
+    for name, var in (run.ds.data_vars.items() if run.ds is not None else ()):
         if var.ndim != 0 or var.dtype.kind not in "fiub":
             continue
-        spec_units = SPEC.get(str(name), ("1", ""))[0]
-        v, u = to_si(float(var.values), var.attrs.get("units", spec_units))
-        vals[str(name)] = _clean(v)
-        units[str(name)] = u or spec_units
+        vals[str(name)] = float(var.values)
+        units[str(name)] = var.attrs.get("units") or SPEC.get(str(name), ("1", ""))[0]
     return vals, units
 
 
@@ -101,12 +84,11 @@ def build_summary(ctx: ReportContext) -> dict[str, Any]:
         vals, u = run_scalars(run)
         units.update(u)
         entry: dict[str, Any] = {"label": run.label, "case_number": run.case, "status": run.status,
-                                 "fidelity": run.fidelity,
-                                 "archive": str(run.path) if run.path else None,
-                                 "wall_time_s": _clean(run.wall_time_s)}
+                                 "fidelity": run.fidelity, "wall_time_s": run.wall_time_s,
+                                 "archive": str(run.path) if run.path else None}
         entry.update(vals)
         # present in every entry, null when undefined: the run's grains in the paper's terms
-        entry["n_parcels_per_m2_at_Q"] = _clean(n_parcels_per_m2_at_Q(run)) if run.ok else None
+        entry["n_parcels_per_m2_at_Q"] = n_parcels_per_m2_at_Q(run) if run.ok else None
         entry.setdefault("airborne_mass_per_m2", None)
         entry["saltation"] = saltation_state(run).to_json()
         cases[run_key(run)] = entry
@@ -116,7 +98,7 @@ def build_summary(ctx: ReportContext) -> dict[str, Any]:
     return {
         "study": ctx.study,
         "fidelity": meta.get("fidelity") or (fids[0] if len(fids) == 1 else fids or None),
-        "package_version": meta.get("package_version") or _package_version(),
+        "package_version": meta.get("package_version") or __version__,
         "total_wall_time_s": None,
         "task_time_sum_s": float(sum(tt.values())),
         "task_times_s": tt,
@@ -134,18 +116,16 @@ def _iso(epoch: float) -> str:
     return _dt.datetime.fromtimestamp(epoch, _dt.timezone.utc).isoformat(timespec="seconds")
 
 
-def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Path | None = None,
-                     now: float | None = None) -> dict[str, Any]:
+def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Path) -> None:
     """Set ``total_wall_time_s`` and ``run_finished``: now − ``meta["run_started"]`` when the
     report is built by a run; else carried over from ``previous`` (the summary.json being
     replaced) if that holds one; else left null."""
     started = meta.get("run_started")
     if isinstance(started, (int, float)) and math.isfinite(started):
-        now = time.time() if now is None else now
+        now = time.time()
         summary["total_wall_time_s"] = max(0.0, now - float(started))
         summary["run_finished"] = _iso(now)
-        return summary
-    if previous is not None and previous.is_file():
+    elif previous.is_file():
         try:
             old = json.loads(previous.read_text(encoding="utf-8"))
         except (OSError, ValueError):
@@ -154,17 +134,3 @@ def finish_wall_time(summary: dict[str, Any], meta: dict[str, Any], previous: Pa
             for k in ("total_wall_time_s", "run_started", "run_finished", "tasks_from_cache",
                       "tasks_total"):
                 summary[k] = old.get(k)
-    return summary
-
-
-def _package_version() -> str:
-    from .._identity import __version__
-    return __version__
-
-
-def write_summary(ctx: ReportContext, path: Path, data: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Write ``data`` (default: :func:`build_summary` with the wall time finished) to ``path``."""
-    if data is None:
-        data = finish_wall_time(build_summary(ctx), ctx.meta, Path(path))
-    path.write_text(json.dumps(data, indent=2, sort_keys=False, allow_nan=False) + "\n", encoding="utf-8")
-    return data

@@ -7,18 +7,22 @@ saltation (report/saltation.py) is a row saying so; values the paper does not gi
 from __future__ import annotations
 
 import html
+import json
 import math
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
 
 import numpy as np
 
+from ..analysis.paper_grid import PAPER, PAPER_FIRST_LAYER
 from .data import ReportContext, RunData, case_number_of, profile
 from .reference import CASES_WIND, PAPER_LABEL, TABLE2_COLUMNS, paper_results, paper_table2
 from .saltation import NO_SALTATION, saltation_state
 
 __all__ = ["Cell", "model_departures", "table2_rows", "scalar_results", "table2_markdown", "table2_html",
-           "table2_dataset", "results_markdown", "results_html", "st_below_one_height", "fmt",
-           "rel_diff"]
+           "table2_dataset", "results_html", "st_below_one_height", "fmt",
+           "rel_diff", "md_table", "html_table", "figure_html", "write_json"]
 
 
 def fmt(v: float | None, digits: int = 3) -> str:
@@ -30,13 +34,53 @@ def fmt(v: float | None, digits: int = 3) -> str:
 
 
 def rel_diff(computed: float, ref: float) -> float:
-    if not (math.isfinite(computed) and math.isfinite(ref)) or ref == 0:
-        return math.nan
-    return (computed - ref) / ref
+    ok = math.isfinite(computed) and math.isfinite(ref) and ref != 0
+    return (computed - ref) / ref if ok else math.nan
 
 
 def _pct(v: float) -> str:
     return f"{v:+.0%}" if math.isfinite(v) else "—"
+
+
+def md_table(heads: list[str], rows) -> list[str]:
+    """The lines of a markdown table of text cells."""
+    def line(cells) -> str:
+        return "| " + " | ".join(cells) + " |"
+    return [line(heads), "|" + "---|" * len(heads)] + [line(r) for r in rows]
+
+
+def html_table(heads: list[str], rows, cls: Callable[[int, int], str] = lambda i, j: "") -> str:
+    """An HTML table of text cells (escaped); ``cls(i, j)``: the class of row i's cell j (i = -1:
+    the header), "" for none."""
+    def cell(tag: str, text: str, c: str) -> str:
+        return f"<{tag}{f' class={c!r}' if c else ''}>{html.escape(text)}</{tag}>"
+    head = "".join(cell("th", h, cls(-1, j)) for j, h in enumerate(heads))
+    body = "".join("<tr>" + "".join(cell("td", c, cls(i, j)) for j, c in enumerate(r)) + "</tr>"
+                   for i, r in enumerate(rows))
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def figure_html(stem: str, alt: str, caption: str = "") -> str:
+    """A figure of the page: ``stem``.png, linked to ``stem``.pdf."""
+    cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
+    return (f"<figure><a href='{stem}.pdf'><img src='{stem}.png' alt='{html.escape(alt)}'></a>"
+            f"{cap}</figure>")
+
+
+def _json_safe(obj: Any) -> Any:
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    return obj
+
+
+def write_json(path: Path, data: Any) -> None:
+    """``data`` as JSON in ``path``, every non-finite number as null."""
+    Path(path).write_text(json.dumps(_json_safe(data), indent=2, allow_nan=False) + "\n",
+                          encoding="utf-8")
 
 
 @dataclass
@@ -45,11 +89,6 @@ class Cell:
     paper: float
     rel: float
     se: float = math.nan          # standard error of the computed value, where the analysis gives one
-
-
-#: the paper's grid (Dupont et al. 2013, section 2.4): first level and horizontal spacing [m]
-PAPER_DZ_BOTTOM = 0.01
-PAPER_DX = 0.10
 
 
 def model_departures(scene: dict) -> list[str]:
@@ -85,14 +124,11 @@ def model_departures(scene: dict) -> list[str]:
         out.append("a column relaxation force over the first seconds of saltation")
     grid = fid.get("grid", {}) or {}
     dz0 = grid.get("dz_bottom")
-    if dz0 is not None and dz0 > PAPER_DZ_BOTTOM * 1.001:
+    if dz0 is not None and dz0 > PAPER_FIRST_LAYER * 1.001:
         # z_m +24-38 % and G_tot +29-63 % from 2 cm to 1 cm in cases 2 and 6 (reports/investigations/grid-rungs)
         out.append(f"a first level of {100 * dz0:g} cm (the paper's: 1 cm)")
-    try:
-        dx = float(grid["Lx"]) / float(grid["nx"])
-    except (KeyError, TypeError, ValueError, ZeroDivisionError):
-        dx = math.nan
-    if math.isfinite(dx) and dx > PAPER_DX * 1.001:
+    dx = float(grid.get("Lx", math.nan)) / float(grid.get("nx", math.nan))
+    if math.isfinite(dx) and dx > PAPER["setup"]["dx_m"] * 1.001:
         out.append(f"a horizontal spacing of {dx:.3g} m (the paper's: 0.10 m)")
     # the paper's text is silent on the scheme; its model, ARPS 5.1.5, advects momentum with
     # fourth-order quadratically conservative differences (Xue et al. 2000)
@@ -104,11 +140,7 @@ def model_departures(scene: dict) -> list[str]:
 
 def _departures_text(ctx: ReportContext) -> str:
     """One sentence on the departures the study's runs share (the first run's, if they differ)."""
-    seen: list[str] = []
-    for run in ctx.runs.values():
-        for d in model_departures(run.scene):
-            if d not in seen:
-                seen.append(d)
+    seen = list(dict.fromkeys(d for run in ctx.runs.values() for d in model_departures(run.scene)))
     if not seen:
         return "Model as the paper describes it."
     return "Departures from the paper's model, in some or all runs: " + "; ".join(seen) + "."
@@ -134,21 +166,14 @@ def _computed(c: Cell) -> str:
     return fmt(c.computed) + (f" ± {fmt(c.se, 2)}" if math.isfinite(c.se) else "")
 
 
-def _row_order(ctx: ReportContext) -> list[RunData]:
-    """Every run of the study once: those labelled as a paper case (``caseNN``, ``caseNN@rung``)
-    by case number, a ladder's rungs in the study's order; then the others in the study's order."""
-    runs = list(ctx.runs.values())
-    cased = [r for r in runs if case_number_of(r.label) is not None]
-    return sorted(cased, key=lambda r: case_number_of(r.label)) + \
-        [r for r in runs if case_number_of(r.label) is None]
-
-
 def table2_rows(ctx: ReportContext) -> list[dict]:
     """One row per run, named by its label (a plain case: "case N"), the paper's values beside
     a run that is one of its cases unchanged (``RunData.paper_case``)."""
     table = paper_table2()
     rows = []
-    for r in _row_order(ctx):
+    # the runs labelled as a paper case (caseNN, caseNN@rung) by case number, a ladder's rungs
+    # in the study's order; then the others in the study's order
+    for r in sorted(ctx.runs.values(), key=lambda r: (case_number_of(r.label) or math.inf)):
         n = r.paper_case
         name = f"case {r.case}" if r.plain_case and r.case is not None else r.label
         row = {"name": name, "case": r.case, "label": r.label, "paper_case": n, "status": r.status,
@@ -167,25 +192,13 @@ def _no_saltation(row: dict) -> bool:
     return row["status"] == "ok" and row["saltation"].status == NO_SALTATION
 
 
-def _no_saltation_text(row: dict) -> str:
-    return f"{NO_SALTATION}: {row['saltation'].reason}"
-
-
 def st_below_one_height(run: RunData) -> float:
-    """Lowest z/z_m in (0, 1] above which St < 1 everywhere up to z_m; NaN if undefined."""
-    p = profile(run, "St")
-    if p is None:
+    """Lowest z/z_m in (0, 1] above which St < 1 everywhere up to z_m; the lowest level inside
+    if St < 1 everywhere, NaN if undefined."""
+    p, zm = profile(run, "St"), run.scalar("z_m")
+    if p is None or not (math.isfinite(zm) and zm > 0):
         return math.nan
-    return st_height(p[0], p[1], run.scalar("z_m"))
-
-
-def st_height(z: np.ndarray, st: np.ndarray, zm: float) -> float:
-    """Lowest z/z_m in (0, 1] above which the profile ``st`` at heights ``z`` [m] stays below 1
-    up to z_m [m]; the lowest level inside if St < 1 everywhere, NaN if undefined."""
-    if not (math.isfinite(zm) and zm > 0):
-        return math.nan
-    zeta = np.asarray(z, dtype=float) / zm
-    st = np.asarray(st, dtype=float)
+    zeta, st = p[0] / zm, p[1]
     inside = (zeta > 0) & (zeta <= 1.0) & np.isfinite(st)
     if not inside.any():
         return math.nan
@@ -226,36 +239,31 @@ def scalar_results(ctx: ReportContext) -> list[dict]:
         """A run whose statistics are of saltation (report/saltation.py)."""
         return r is not None and r.ok and saltation_state(r).status != NO_SALTATION
 
-    zms = [ctx.by_case(n).scalar("z_m") for n in CASES_WIND if result(ctx.by_case(n))]
-    zms = [z for z in zms if math.isfinite(z)]
-    z1 = ctx.by_case(1).scalar("z_m") if result(ctx.by_case(1)) else math.nan
-    z6 = ctx.by_case(6).scalar("z_m") if result(ctx.by_case(6)) else math.nan
-    add("z_m, case 1 – case 6", [z1, z6], ref.get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan]), "m",
-        f"z_m of case 1 and case 6 (cases 1–6 present with z_m: {len(zms)})")
-    sg = [r.scalar("sigma_G_over_G_tot") for r in ctx.scatter_runs() if result(r)]
-    sg = [v for v in sg if math.isfinite(v)]
+    def value(n: int, name: str) -> float:
+        r = ctx.by_case(n)
+        return r.scalar(name) if result(r) else math.nan
+
+    n_zm = sum(math.isfinite(value(n, "z_m")) for n in CASES_WIND)
+    add("z_m, case 1 – case 6", [value(1, "z_m"), value(6, "z_m")],
+        ref.get("fig4_zm_cases_1_to_6_m", [math.nan, math.nan]), "m",
+        f"z_m of case 1 and case 6 (cases 1–6 present with z_m: {n_zm})")
+    sg = [v for r in ctx.scatter_runs()
+          if result(r) and math.isfinite(v := r.scalar("sigma_G_over_G_tot"))]
     add("σG/G_tot, range over cases", [min(sg), max(sg)] if sg else [math.nan, math.nan],
         ref.get("fig13_sigmaG_over_Gtot", [math.nan, math.nan]), "1",
         f"min and max over the {len(sg)} runs with a value")
-    r6 = ctx.by_case(6)
-    add("τp surface fraction, case 6",
-        r6.scalar("tau_p_surface_fraction") if result(r6) else math.nan,
+    add("τp surface fraction, case 6", value(6, "tau_p_surface_fraction"),
         ref.get("fig6_taup_surface_fraction_case6", math.nan), "1",
         "τp at the bed (exponential fit of the lowest layers) / ρu*² at the reference height "
         "(analysis scalar tau_p_surface_fraction)")
-    rc = [(n, ctx.by_case(n).scalar("R_cu_upper")) for n in CASES_WIND if result(ctx.by_case(n))]
-    rc = [(n, v) for n, v in rc if math.isfinite(v)]
+    rc = [(n, v) for n in CASES_WIND if math.isfinite(v := value(n, "R_cu_upper"))]
     add("R_cu in the upper layer (z ≥ 0.6 z_m), mean of cases 1–6",
         float(np.mean([v for _, v in rc])) if rc else math.nan,
         ref.get("fig11_Rcu_upper_layer", math.nan), "1",
         "mean of R_cu_upper over cases " + (", ".join(str(n) for n, _ in rc) or "none")
         + (f"; per case {', '.join(f'{v:.2f}' for _, v in rc)}" if rc else ""))
-    hs = []
-    for r in ctx.scatter_runs():
-        if result(r) and math.isfinite(r.mu1) and r.mu1 >= 200e-6 - 1e-9:
-            h = st_below_one_height(r)
-            if math.isfinite(h):
-                hs.append((r, h))
+    hs = [(r, h) for r in ctx.scatter_runs() if result(r) and r.mu1 >= 200e-6 - 1e-9
+          and math.isfinite(h := st_below_one_height(r))]
     add("height above which St < 1 (µ1 ≥ 200 µm), largest over cases",
         max(h for _, h in hs) if hs else math.nan,
         ref.get("fig12_St_below_1_above_z_over_zm", math.nan), "z/z_m",
@@ -264,14 +272,22 @@ def scalar_results(ctx: ReportContext) -> list[dict]:
     return rows
 
 
-# ------------------------------------------------------------------------------------------------
-# rendering
-# ------------------------------------------------------------------------------------------------
 def table2_markdown(ctx: ReportContext) -> str:
-    rows = table2_rows(ctx)
-    heads = ["run"]
-    for _, pkey, lab, unit in TABLE2_COLUMNS:
-        heads.append(f"{lab} [{unit}]")
+    heads = ["run"] + [f"{lab} [{unit}]" for _, _, lab, unit in TABLE2_COLUMNS]
+    cells = []
+    for row in table2_rows(ctx):
+        if row["status"] != "ok" or _no_saltation(row):
+            # u*s, u*t: escaped, or their asterisks would open emphasis
+            why = (f"*{row['status']}*" if row["status"] != "ok" else
+                   f"**{NO_SALTATION}**: " + row["saltation"].reason.replace("*", "\\*"))
+            cells.append([row["name"], why] + [""] * (len(heads) - 2))
+            continue
+        cells.append([row["name"]])
+        for var, pkey, _, _ in TABLE2_COLUMNS:
+            c = row["cells"][var]
+            paper = pkey and row["paper_case"] is not None
+            cells[-1].append(_computed(c) + (f" / {fmt(c.paper)}" if paper else "")
+                             + (f" ({_pct(c.rel)})" if paper and math.isfinite(c.rel) else ""))
     lines = [f"# Table 2 — computed beside {PAPER_LABEL}", "",
              f"Study `{ctx.study}`. One row per run. Each cell: computed / paper (relative "
              "difference); the paper's value only beside a run that is one of its cases "
@@ -291,29 +307,9 @@ def table2_markdown(ctx: ReportContext) -> str:
              "and swings for more than a minute, and the `reduced` study's ten 30-s windows read "
              "+11 % on average (−7 to +19 %, reports/reduced/FINDINGS.md); `quick`'s 12-s window "
              "reads within about ±40 %. " + _start_text(ctx) + " " + _departures_text(ctx), "",
-             "| " + " | ".join(heads) + " |", "|" + "---|" * len(heads)]
-    for row in rows:
-        if row["status"] != "ok":
-            lines.append(f"| {row['name']} | " + " | ".join([f"*{row['status']}*"] + [""] * (len(heads) - 2)) + " |")
-            continue
-        if _no_saltation(row):
-            # u*s, u*t: escaped, or their asterisks would open emphasis
-            why = row["saltation"].reason.replace("*", "\\*")
-            lines.append(f"| {row['name']} | " + " | ".join(
-                [f"**{NO_SALTATION}**: {why}"] + [""] * (len(heads) - 2)) + " |")
-            continue
-        cells = [row["name"]]
-        for var, pkey, _, _ in TABLE2_COLUMNS:
-            c = row["cells"][var]
-            s = _computed(c)
-            if pkey and row["paper_case"] is not None:
-                s += f" / {fmt(c.paper)}"
-                if math.isfinite(c.rel):
-                    s += f" ({_pct(c.rel)})"
-            cells.append(s)
-        lines.append("| " + " | ".join(cells) + " |")
+             *md_table(heads, cells)]
     lines += ["", f"## Results stated in the text — computed vs {PAPER_LABEL}", "",
-              results_markdown(ctx)]
+              *md_table(_RESULT_HEADS, [[r[k] for k in _RESULT_KEYS] for r in scalar_results(ctx)])]
     return "\n".join(lines) + "\n"
 
 
@@ -346,11 +342,13 @@ def table2_dataset(ctx: ReportContext):
     data["paper_case"] = column([-1 if r["paper_case"] is None else r["paper_case"] for r in rows],
                                 "1", "the paper's case the run is, unchanged (-1: a case of one's own)",
                                 int)
-    data["status"] = column([r["status"] for r in rows], "1", "the run's archive: ok, or why not", str)
-    data["saltation"] = column([r["saltation"].status for r in rows], "1",
-                               "whether the run holds saltation (report/saltation.py)", str)
-    data["saltation_reason"] = column([r["saltation"].reason for r in rows], "1",
-                                      "the numbers that decide it", str)
+    for name, values, long_name in (
+            ("status", [r["status"] for r in rows], "the run's archive: ok, or why not"),
+            ("saltation", [r["saltation"].status for r in rows],
+             "whether the run holds saltation (report/saltation.py)"),
+            ("saltation_reason", [r["saltation"].reason for r in rows],
+             "the numbers that decide it")):
+        data[name] = column(values, "1", long_name, str)
     return xr.Dataset(data, coords={"run": ("run", run, {"long_name": "the run's label"}),
                                     "name": ("run", [r["name"] for r in rows],
                                              {"long_name": "the row's name in the report"})},
@@ -358,13 +356,8 @@ def table2_dataset(ctx: ReportContext):
                              "model": _departures_text(ctx)})
 
 
-def results_markdown(ctx: ReportContext) -> str:
-    lines = ["| quantity | computed | paper | difference | unit | how computed |",
-             "|---|---|---|---|---|---|"]
-    for r in scalar_results(ctx):
-        lines.append(f"| {r['quantity']} | {r['computed']} | {r['paper']} | {r['difference']} | "
-                     f"{r['unit']} | {r['how']} |")
-    return "\n".join(lines)
+_RESULT_HEADS = ["quantity", "computed", "paper", "difference", "unit", "how computed"]
+_RESULT_KEYS = ("quantity", "computed", "paper", "difference", "unit", "how")
 
 
 def _no_result_html(row: dict, span: int, no_saltation: str, out: list[str]) -> bool:
@@ -396,7 +389,7 @@ def table2_html(ctx: ReportContext) -> str:
         own = "<span class='se'> (own case)</span>" \
             if row["paper_case"] is None and row["status"] == "ok" else ""
         out.append(f"<tr><td class='run'>{e(row['name'])}{own}</td>")
-        if _no_result_html(row, 3 * len(cols), _no_saltation_text(row), out):
+        if _no_result_html(row, 3 * len(cols), f"{NO_SALTATION}: {row['saltation'].reason}", out):
             continue
         for var, _, _, _ in cols:
             c = row["cells"][var]
@@ -422,12 +415,5 @@ def table2_html(ctx: ReportContext) -> str:
 
 
 def results_html(ctx: ReportContext) -> str:
-    e = html.escape
-    out = ["<table><thead><tr><th>quantity</th><th>computed</th><th class='ref'>paper</th>"
-           "<th>difference</th><th>unit</th><th>how computed</th></tr></thead><tbody>"]
-    for r in scalar_results(ctx):
-        out.append(f"<tr><td>{e(r['quantity'])}</td><td>{e(r['computed'])}</td>"
-                   f"<td class='ref'>{e(r['paper'])}</td><td>{e(r['difference'])}</td>"
-                   f"<td>{e(r['unit'])}</td><td class='how'>{e(r['how'])}</td></tr>")
-    out.append("</tbody></table>")
-    return "".join(out)
+    return html_table(_RESULT_HEADS, [[r[k] for k in _RESULT_KEYS] for r in scalar_results(ctx)],
+                      lambda i, j: {2: "ref", 5: "how" if i >= 0 else ""}.get(j, ""))
