@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from solver_helpers import make_stepper, random_velocity, stretched_grid
-from saltstudy.solver.flow.advection import advection_tendencies, scalar_advection
+from solver_helpers import (advection_tendencies, make_stepper, random_velocity, scalar_advection,
+                            stretched_grid)
 from saltstudy.solver.flow.pressure import PressureSolver
 
 
