@@ -85,11 +85,18 @@ class SpinUp(Frozen):
     stagger: float = Field(
         0.0, ge=0, le=60.0, description="[s] case n starts from the spin-up continued "
         "(n - 1) x stagger more seconds, spreading the cases over its slow swings; 0: from its end")
+    tiled_from: str | None = Field(
+        None, description="a fidelity whose spin-up (and stagger) this grid starts from, tiled in "
+        "x and y at the same spacing and interpolated in z (solver/tiling.py): a start for a grid "
+        "whose own spin-up cannot be afforded; None: this fidelity's own spin-up")
 
     @model_validator(mode="after")
     def _order(self) -> "SpinUp":
         if self.t_min > self.t_max:
             raise ValueError("t_min must not exceed t_max")
+        if self.tiled_from is not None and self.stagger > 0:
+            raise ValueError("stagger: a start tiled from another fidelity's spin-up is not "
+                             "staggered (its links would run on the source's grid); use 0")
         return self
 
 

@@ -124,7 +124,16 @@ def resolve_scene(case: Case, fidelity: Fidelity, label: str | None = None) -> S
         fid = fidelity.model_dump()
         fid["q_multiplier"] = parcel_weight(case, fidelity.parcels_per_m2)
         fidelity = validate_model(Fidelity, fid, f"fidelity '{fidelity.name}'")
-    return Scene(label=label or case.label, case=case, fidelity=fidelity)
+    source = fidelity.spinup.tiled_from
+    spinup_fidelity = None
+    if source is not None:
+        spinup_fidelity = load_fidelity(source)
+        if spinup_fidelity.spinup.tiled_from is not None:
+            raise ConfigError(f"fidelity '{fidelity.name}': spinup.tiled_from = '{source}' is "
+                              f"itself tiled from '{spinup_fidelity.spinup.tiled_from}'; name "
+                              "a fidelity with a spin-up of its own")
+    return Scene(label=label or case.label, case=case, fidelity=fidelity,
+                 spinup_fidelity=spinup_fidelity)
 
 
 def airborne_counts() -> tuple[dict[int, float], str]:

@@ -77,6 +77,8 @@ class Scene(Frozen):
     label: str
     case: Case
     fidelity: Fidelity
+    #: the fidelity named by ``fidelity.spinup.tiled_from``, whose spin-up this scene starts from
+    spinup_fidelity: Fidelity | None = None
 
     @property
     def Q(self) -> float:
@@ -96,12 +98,16 @@ class Scene(Frozen):
         return self.fidelity.grid.damping_depth if self.case.forcing.drive == "top" else 0.0
 
     def spinup_scene(self) -> "Scene":
-        """The scene the spin-up runs: this one, at ``fidelity.spinup.u_star_ref`` if set."""
-        u_ref = self.fidelity.spinup.u_star_ref
+        """The scene the spin-up runs: this one (or this case at ``spinup_fidelity``), at that
+        fidelity's ``spinup.u_star_ref`` if set."""
+        scene = self
+        if self.spinup_fidelity is not None:
+            scene = Scene(label=self.label, case=self.case, fidelity=self.spinup_fidelity)
+        u_ref = scene.fidelity.spinup.u_star_ref
         if u_ref is None or u_ref == self.case.forcing.u_star_s:
-            return self
+            return scene
         forcing = self.case.forcing.model_copy(update={"u_star_s": float(u_ref)})
-        return self.model_copy(update={"case": self.case.model_copy(update={"forcing": forcing})})
+        return scene.model_copy(update={"case": self.case.model_copy(update={"forcing": forcing})})
 
     @property
     def spinup_scale(self) -> float:
@@ -110,7 +116,8 @@ class Scene(Frozen):
 
     def spinup_slice(self) -> dict[str, Any]:
         """What determines the particle-free spin-up (cases sharing it share one spin-up)."""
-        c, f = self.spinup_scene().case, self.fidelity
+        sp = self.spinup_scene()
+        c, f = sp.case, sp.fidelity
         return {
             "air": c.air.model_dump(mode="json"),
             "surface": c.surface.model_dump(mode="json"),

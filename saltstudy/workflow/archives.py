@@ -282,11 +282,20 @@ def _history_vars(history: dict[str, np.ndarray]) -> dict[str, xr.Variable]:
 
 def start_restart(ds: xr.Dataset, scene: Scene) -> dict[str, Any]:
     """The restart a saltation run of ``scene`` starts from: spinup.nc's, rescaled to the case's
-    u*s when the spin-up ran at another u* (solver.similarity)."""
+    u*s when the spin-up ran at another u* (solver.similarity), and tiled onto the scene's grid
+    when it ran on ``scene.spinup_fidelity``'s (solver.tiling; project it before the first step)."""
     from ..solver.similarity import rescale_restart
 
     u_spin = float(ds.attrs.get("u_star_target", scene.case.forcing.u_star_s))
-    return rescale_restart(restart_from_dataset(ds), scene.case.forcing.u_star_s / u_spin)
+    restart = rescale_restart(restart_from_dataset(ds), scene.case.forcing.u_star_s / u_spin)
+    if scene.spinup_fidelity is None:
+        return restart
+    from ..solver.grid import Grid
+    from ..solver.tiling import tile_restart
+    source = scene.spinup_scene()
+    src, dst = Grid.from_spec(source.fidelity.grid), Grid.from_spec(scene.fidelity.grid)
+    return tile_restart(restart, src, dst, src.Lz - source.damping_depth,
+                        scene.case.forcing.u_star_s, scene.case.air.kappa)
 
 
 def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:

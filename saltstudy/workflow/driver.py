@@ -286,6 +286,9 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
         wall_before = float(meta["wall_time_s"])
     else:
         model = Model.from_scene(scene, saltation=True, restart=restart)
+        if scene.spinup_fidelity is not None:
+            from ..solver.tiling import project_restart
+            project_restart(model)   # a tiled flow is divergence-free only once projected
         model.activate_saltation()
         sim_ckpt, wall_before = None, 0.0
     t_act = float(model.t_activation)
