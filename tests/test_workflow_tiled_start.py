@@ -56,6 +56,10 @@ def test_the_tiled_grid_shares_the_source_spinup_and_runs_its_own_saltation(home
     kp, kw = keys.run_keys(plain.label, plain), keys.run_keys(wide.label, wide)
     assert kw.spinup == kp.spinup
     assert kw.saltation != kp.saltation and kw.analysis != kp.analysis
+    # an untiled scene's keys do not carry the knob, so caches written without it stay valid
+    assert "tiled_from" not in keys.saltation_slice(plain)["fidelity"]["spinup"]
+    assert "tiled_from" not in plain.spinup_slice()["spinup"]
+    assert keys.saltation_slice(wide)["fidelity"]["spinup"]["tiled_from"] == "smoke"
 
 
 @pytest.mark.parametrize("name, needle", [

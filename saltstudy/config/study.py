@@ -127,7 +127,7 @@ class Scene(Frozen):
             "grid": f.grid.model_dump(mode="json"),
             "time": f.time.model_dump(mode="json"),
             # where a case starts along the shared spin-up is the start's, not the spin-up's
-            "spinup": f.spinup.model_dump(mode="json", exclude={"stagger"}),
+            "spinup": f.spinup.model_dump(mode="json", exclude={"stagger", "tiled_from"}),
         }
 
     @property

@@ -81,6 +81,8 @@ def saltation_slice(scene: Scene) -> dict[str, Any]:
     if fid.get("saltation_dt_fixed") is None:
         # absent and None mean the same adaptive step: only a set value may change the key
         fid.pop("saltation_dt_fixed", None)
+    if fid["spinup"].get("tiled_from") is None:
+        fid["spinup"].pop("tiled_from", None)
     return {"case": case, "fidelity": fid}
 
 
