@@ -34,6 +34,17 @@ def offsets(run: Path, window: int) -> None:
         j = int(np.argmin(abs(z - h)))
         print(f"  z = {z[j]:5.2f} m " + " ".join(f"{(U[a:a + window, j].mean() - S[j]) / us:7.2f}"
                                               for a in starts))
+    # the column above 2 m that the storage reads, below the Rayleigh layer: its mean offset and
+    # the roughness a log law with that offset has over the spin-up's bed
+    run = json.loads(ds.attrs["case_json"])
+    top = float(ds.attrs["Lz"]) - float(run["fidelity"]["grid"]["damping_depth"])
+    sel = (z >= 2.0) & (z <= top)
+    dz = np.diff(ds["z_w"].values)[sel]
+    z0, kappa = float(run["case"]["surface"]["z0"]), float(run["case"]["air"]["kappa"])
+    means = [float(((U[a:a + window, :].mean(axis=0) - S)[sel] * dz).sum() / dz.sum() / us)
+             for a in starts]
+    print(f"  2-{top:g} m " + " ".join(f"{m:7.2f}" for m in means) + "   (dz-weighted mean)")
+    print("  z0s [mm]   " + " ".join(f"{1e3 * z0 * np.exp(-kappa * m):7.3f}" for m in means))
 
 
 if __name__ == "__main__":
