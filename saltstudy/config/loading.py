@@ -137,21 +137,37 @@ def airborne_counts() -> tuple[dict[int, float], str]:
     return {int(k): float(v) for k, v in data["count_at_Q"].items()}, str(data["source"])
 
 
-def parcel_weight(case: Case, parcels_per_m2: float) -> float:
-    """The multiple of the case's Q leaving about ``parcels_per_m2`` airborne per m2 [1]; a
-    ConfigError for a case whose physics differs from its numbered file's (no measured count)."""
-    counts, source = airborne_counts()
-    where = "fidelity.parcels_per_m2"
-    if case.number not in counts:
-        raise ConfigError(f"{where}: no airborne count for case {case.number} ({source} holds "
-                          f"cases {sorted(counts)}); give the fidelity a q_multiplier instead")
+def _measured(case: Case, what: str, values: dict[int, float], source: str, where: str,
+              instead: str) -> float:
+    """A stock case's value from a table the model measured; a ConfigError naming ``where`` for
+    a case not in it or whose physics differs from its numbered file's."""
+    if case.number not in values:
+        raise ConfigError(f"{where}: no {what} for case {case.number} ({source} holds cases "
+                          f"{sorted(values)}); {instead}")
     physics = {"name", "description", "seed"}
     stock = load_case(case.number).model_dump(mode="json", exclude=physics)
     if case.model_dump(mode="json", exclude=physics) != stock:
         raise ConfigError(f"{where}: case {case.number}'s physics differs from "
-                          f"cases/case{case.number:02d}.toml, for which the airborne count was "
-                          "measured; give the fidelity a q_multiplier instead")
-    return counts[case.number] / parcels_per_m2
+                          f"cases/case{case.number:02d}.toml, for which the {what} was measured; "
+                          f"{instead}")
+    return values[case.number]
+
+
+def parcel_weight(case: Case, parcels_per_m2: float) -> float:
+    """The multiple of the case's Q leaving about ``parcels_per_m2`` airborne per m2 [1]."""
+    counts, source = airborne_counts()
+    return _measured(case, "airborne count", counts, source, "fidelity.parcels_per_m2",
+                     "give the fidelity a q_multiplier instead") / parcels_per_m2
+
+
+def equilibrium_roughness(case: Case) -> float:
+    """z0s [m] the model's column settles to over the case's saltating bed
+    (data/equilibrium_roughness.toml), for ``spinup.equilibrium_roughness``."""
+    text = resources.files("saltstudy").joinpath("data/equilibrium_roughness.toml").read_text("utf-8")
+    data = tomllib.loads(text)
+    values = {int(k): float(v) for k, v in data.get("z0s", {}).items()}
+    return _measured(case, "equilibrium roughness", values, str(data["source"]),
+                     "fidelity.spinup.equilibrium_roughness", "leave it false for this case")
 
 
 def _scene_case(study: Study, scene: SceneSpec, root: Path | None) -> Case:

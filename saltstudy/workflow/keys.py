@@ -70,8 +70,9 @@ def saltation_slice(scene: Scene) -> dict[str, Any]:
     if fid.get("saltation_dt_fixed") is None:
         # absent and None mean the same adaptive step: only a set value may change the key
         fid.pop("saltation_dt_fixed", None)
-    if fid["spinup"].get("tiled_from") is None:
-        fid["spinup"].pop("tiled_from", None)
+    for name, unset in (("tiled_from", None), ("equilibrium_roughness", False)):
+        if fid["spinup"].get(name) == unset:   # keys of scenes that leave them unset stay as they were
+            fid["spinup"].pop(name, None)
     return {"case": case, "fidelity": fid}
 
 
