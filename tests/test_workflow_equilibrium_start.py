@@ -76,10 +76,16 @@ def test_the_knob_keeps_the_shared_spinup_and_the_keys_of_runs_without_it():
     assert "equilibrium_roughness" not in keys.saltation_slice(off)["fidelity"]["spinup"]
 
 
-def test_a_case_the_model_has_not_measured_is_refused_naming_the_field():
-    altered = _scene(2, splash={"a_ej": 0.5})
-    with pytest.raises(ConfigError, match="fidelity.spinup.equilibrium_roughness"):
-        equilibrium_roughness(altered.case)
+def test_the_roughness_follows_the_physics_not_the_number(monkeypatch):
+    """A case renumbered to take another case's start keeps its own z0s; other physics, or a
+    case not measured, is refused with the field named."""
+    import saltstudy.config.loading as loading
+    monkeypatch.setattr(loading, "roughness_table", lambda: ({1: 4.0e-4}, "a test table"))
+    assert equilibrium_roughness(load_case(1)) == 4.0e-4
+    assert equilibrium_roughness(load_case(1, overrides={"number": 4})) == 4.0e-4
+    for case in (load_case(2), load_case(1, overrides={"splash": {"a_ej": 0.05}})):
+        with pytest.raises(ConfigError, match="fidelity.spinup.equilibrium_roughness.*a test table"):
+            equilibrium_roughness(case)
 
 
 def test_every_measured_roughness_lies_above_the_bed_and_below_the_first_level():

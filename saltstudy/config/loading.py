@@ -137,37 +137,44 @@ def airborne_counts() -> tuple[dict[int, float], str]:
     return {int(k): float(v) for k, v in data["count_at_Q"].items()}, str(data["source"])
 
 
-def _measured(case: Case, what: str, values: dict[int, float], source: str, where: str,
-              instead: str) -> float:
-    """A stock case's value from a table the model measured; a ConfigError naming ``where`` for
-    a case not in it or whose physics differs from its numbered file's."""
-    if case.number not in values:
-        raise ConfigError(f"{where}: no {what} for case {case.number} ({source} holds cases "
-                          f"{sorted(values)}); {instead}")
+def parcel_weight(case: Case, parcels_per_m2: float) -> float:
+    """The multiple of the case's Q leaving about ``parcels_per_m2`` airborne per m2 [1]; a
+    ConfigError for a case whose physics differs from its numbered file's (no measured count)."""
+    counts, source = airborne_counts()
+    where = "fidelity.parcels_per_m2"
+    if case.number not in counts:
+        raise ConfigError(f"{where}: no airborne count for case {case.number} ({source} holds "
+                          f"cases {sorted(counts)}); give the fidelity a q_multiplier instead")
     physics = {"name", "description", "seed"}
     stock = load_case(case.number).model_dump(mode="json", exclude=physics)
     if case.model_dump(mode="json", exclude=physics) != stock:
         raise ConfigError(f"{where}: case {case.number}'s physics differs from "
-                          f"cases/case{case.number:02d}.toml, for which the {what} was measured; "
-                          f"{instead}")
-    return values[case.number]
+                          f"cases/case{case.number:02d}.toml, for which the airborne count was "
+                          "measured; give the fidelity a q_multiplier instead")
+    return counts[case.number] / parcels_per_m2
 
 
-def parcel_weight(case: Case, parcels_per_m2: float) -> float:
-    """The multiple of the case's Q leaving about ``parcels_per_m2`` airborne per m2 [1]."""
-    counts, source = airborne_counts()
-    return _measured(case, "airborne count", counts, source, "fidelity.parcels_per_m2",
-                     "give the fidelity a q_multiplier instead") / parcels_per_m2
+def roughness_table() -> tuple[dict[int, float], str]:
+    """z0s [m] per stock case and its source (data/equilibrium_roughness.toml)."""
+    text = resources.files("saltstudy").joinpath("data/equilibrium_roughness.toml").read_text("utf-8")
+    data = tomllib.loads(text)
+    return {int(k): float(v) for k, v in data.get("z0s", {}).items()}, str(data["source"])
 
 
 def equilibrium_roughness(case: Case) -> float:
-    """z0s [m] the model's column settles to over the case's saltating bed
-    (data/equilibrium_roughness.toml), for ``spinup.equilibrium_roughness``."""
-    text = resources.files("saltstudy").joinpath("data/equilibrium_roughness.toml").read_text("utf-8")
-    data = tomllib.loads(text)
-    values = {int(k): float(v) for k, v in data.get("z0s", {}).items()}
-    return _measured(case, "equilibrium roughness", values, str(data["source"]),
-                     "fidelity.spinup.equilibrium_roughness", "leave it false for this case")
+    """z0s [m] the model's column settled to over a saltating bed of ``case``'s physics
+    (data/equilibrium_roughness.toml, measured per stock case), for
+    ``spinup.equilibrium_roughness``; matched on the physics, so a case renumbered only to take
+    another start keeps its own."""
+    values, source = roughness_table()
+    other = {"name", "description", "seed", "number"}
+    mine = case.model_dump(mode="json", exclude=other)
+    for n, z0s in values.items():
+        if load_case(n).model_dump(mode="json", exclude=other) == mine:
+            return z0s
+    raise ConfigError(f"fidelity.spinup.equilibrium_roughness: no roughness measured for the "
+                      f"physics of case {case.number} ({source}; it holds stock cases "
+                      f"{sorted(values)}); leave it false for this case")
 
 
 def _scene_case(study: Study, scene: SceneSpec, root: Path | None) -> Case:
