@@ -68,12 +68,17 @@ def test_the_start_is_the_similarity_start_lowered_by_the_log_law_shift(tmp_path
         assert np.array_equal(a[k], b[k]), k
 
 
-def test_the_knob_keeps_the_shared_spinup_and_the_keys_of_runs_without_it():
+def test_the_knob_keeps_the_shared_spinup_and_the_keys_of_runs_without_it(monkeypatch):
+    import saltstudy.config.loading as loading
+    monkeypatch.setattr(loading, "roughness_table", lambda: ({2: 4.0e-4}, "a test table"))
     on, off = _scene(on=True), _scene(on=False)
     k_on, k_off = keys.run_keys(on.label, on), keys.run_keys(off.label, off)
     assert k_on.spinup == k_off.spinup and k_on.links == k_off.links
     assert k_on.saltation != k_off.saltation
     assert "equilibrium_roughness" not in keys.saltation_slice(off)["fidelity"]["spinup"]
+    # a new measurement of z0s is a new run
+    monkeypatch.setattr(loading, "roughness_table", lambda: ({2: 5.0e-4}, "a test table"))
+    assert keys.run_keys(on.label, on).saltation != k_on.saltation
 
 
 def test_the_roughness_follows_the_physics_not_the_number(monkeypatch):
