@@ -86,3 +86,20 @@ def test_the_command_prints_the_table_and_names_what_is_wrong(tmp_path):
     _archive(tmp_path / "pg.nc", 0.0, drive="pressure_gradient")
     res = runner.invoke(app, ["probe", "column-budget", str(tmp_path / "pg.nc")])
     assert res.exit_code == 2 and "top drive" in res.output
+
+
+def test_a_window_reads_the_volumes_within_it(tmp_path):
+    """Two halves of a uniformly decelerating column close alike; a window holding one volume is
+    refused with the reason."""
+    _, storage = _archive(tmp_path / "samples.nc", 0.004)
+    runner = CliRunner()
+    for a, b in ((12.0, 27.0), (27.0, 42.0)):
+        res = runner.invoke(app, ["probe", "column-budget", str(tmp_path), "--json",
+                                  "--window", str(a), str(b)])
+        assert res.exit_code == 0, res.output
+        r = json.loads(res.output)[0]
+        assert r["window"] == [a, b]
+        assert r["storage"] == pytest.approx(storage / US ** 2, rel=1e-9)
+        assert r["residual"] == pytest.approx(0.0, abs=2e-3)
+    res = runner.invoke(app, ["probe", "column-budget", str(tmp_path), "--window", "12", "13"])
+    assert res.exit_code == 2 and "1 volume(s) in the window" in res.output

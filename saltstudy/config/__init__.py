@@ -13,7 +13,7 @@ from .case import (Air, Case, Closure, Forcing, Particles, Physics, Soil, SoilMo
                    Threshold)
 from .fidelity import Fidelity, GridSpec, Outputs, Relaxation, Sampling, SpinUp, TimeStepping
 from .files import ConfigError, case_path, list_case_numbers, project_root, read_toml
-from .loading import (airborne_counts, load_case, load_fidelity, load_study, parcel_weight,
+from .loading import (airborne_counts, equilibrium_roughness, load_case, load_fidelity, load_study, parcel_weight,
                       resolve_scene, study_fidelity_folder, study_file, study_runs, validate_file)
 from .study import RunSpec, Scene, SceneSpec, Study
 
@@ -23,5 +23,5 @@ __all__ = [
     "Fidelity", "SceneSpec", "Study", "Scene", "RunSpec", "ConfigError", "Frozen", "content_hash",
     "project_root", "read_toml", "load_case", "load_fidelity", "load_study", "resolve_scene", "case_path",
     "list_case_numbers", "deep_merge", "PAPER_AREA_M2", "study_runs", "study_file",
-    "study_fidelity_folder", "validate_model", "validate_file", "airborne_counts", "parcel_weight",
+    "study_fidelity_folder", "validate_model", "validate_file", "airborne_counts", "equilibrium_roughness", "parcel_weight",
 ]

@@ -87,6 +87,11 @@ class SpinUp(Frozen):
         None, description="a fidelity whose spin-up (and stagger) this grid starts from, tiled in "
         "x and y at the same spacing and interpolated in z (solver/tiling.py): a start for a grid "
         "whose own spin-up cannot be afforded; None: this fidelity's own spin-up")
+    equilibrium_roughness: bool = Field(
+        False, description="start saltation with the mean wind lowered at every level by "
+        "(u*s / kappa) ln(z0s / z0), z0s the case's saltation-equilibrium roughness the model "
+        "measured (data/equilibrium_roughness.toml): the column starts at the level it settles "
+        "to over the saltating bed instead of the smooth bed's (docs/USAGE.md)")
 
     @model_validator(mode="after")
     def _order(self) -> "SpinUp":

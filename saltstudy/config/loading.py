@@ -154,6 +154,29 @@ def parcel_weight(case: Case, parcels_per_m2: float) -> float:
     return counts[case.number] / parcels_per_m2
 
 
+def roughness_table() -> tuple[dict[int, float], str]:
+    """z0s [m] per stock case and its source (data/equilibrium_roughness.toml)."""
+    text = resources.files("saltstudy").joinpath("data/equilibrium_roughness.toml").read_text("utf-8")
+    data = tomllib.loads(text)
+    return {int(k): float(v) for k, v in data.get("z0s", {}).items()}, str(data["source"])
+
+
+def equilibrium_roughness(case: Case) -> float:
+    """z0s [m] the model's column settled to over a saltating bed of ``case``'s physics
+    (data/equilibrium_roughness.toml, measured per stock case), for
+    ``spinup.equilibrium_roughness``; matched on the physics, so a case renumbered only to take
+    another start keeps its own."""
+    values, source = roughness_table()
+    other = {"name", "description", "seed", "number"}
+    mine = case.model_dump(mode="json", exclude=other)
+    for n, z0s in values.items():
+        if load_case(n).model_dump(mode="json", exclude=other) == mine:
+            return z0s
+    raise ConfigError(f"fidelity.spinup.equilibrium_roughness: no roughness measured for the "
+                      f"physics of case {case.number} ({source}; it holds stock cases "
+                      f"{sorted(values)}); leave it false for this case")
+
+
 def _scene_case(study: Study, scene: SceneSpec, root: Path | None) -> Case:
     """The case of a study's scene, overrides applied; errors name ``scenes.<label>.case`` or
     ``.overrides``."""

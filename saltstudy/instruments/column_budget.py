@@ -26,9 +26,11 @@ def column_momentum(u_mean: np.ndarray, z_w: np.ndarray, z_ref: float) -> np.nda
     return np.asarray(u_mean, dtype=np.float64) @ layer_weights(z_w, z_ref, z_w[-1])
 
 
-def column_budget(samples: Path, block_s: float = BLOCK_S) -> dict:
-    """The budget of the column above z_ref over the sampling window (module doc), stresses over
-    u*s^2; ValueError for an archive without these records or not driven from the top."""
+def column_budget(samples: Path, block_s: float = BLOCK_S,
+                  window: tuple[float, float] | None = None) -> dict:
+    """The budget of the column above z_ref over the sampling window, or over the volumes within
+    ``window`` (start, end) [s after activation] (module doc), stresses over u*s^2; ValueError for
+    an archive without these records, not driven from the top, or with < 2 volumes in it."""
     from ..ncio import open_dataset
     from ..solver.flow.damping import rayleigh_profile
 
@@ -50,8 +52,11 @@ def column_budget(samples: Path, block_s: float = BLOCK_S) -> dict:
     target = us_t * us_t
     ts, us, ud, t, z_c, z_w, um = (ds[n].values for n in ("time_series", "u_star_ref", "u_drive",
                                                           "time", "z", "z_w", "u_mean"))
+    if window is not None:
+        keep = (t >= window[0] - 1e-9) & (t <= window[1] + 1e-9)
+        t, um = t[keep], um[keep]
     if t.size < 2:
-        raise ValueError(f"{samples}: {t.size} volume(s): the storage needs two")
+        raise ValueError(f"{samples}: {t.size} volume(s) in the window: the storage needs two")
     t0, t1 = float(t[0]), float(t[-1])
     f = rayleigh_profile(z_c, Lz, float(grid["damping_depth"]), float(grid["damping_timescale"]))
     M = (f * np.diff(z_w) * (np.interp(t, ts, ud)[:, None] - um)).sum(axis=1)
@@ -102,7 +107,10 @@ def register_column_budget(probe_app) -> None:
     @probe_app.command("column-budget")
     def column_budget_cmd(paths: list[Path] = typer.Argument(
             ..., help="saltation archives (samples.nc) or the directories holding them"),
-            as_json: bool = typer.Option(False, "--json", help="one JSON list")) -> None:
+            as_json: bool = typer.Option(False, "--json", help="one JSON list"),
+            window: tuple[float, float] | None = typer.Option(
+                None, "--window", help="START END [s after activation]: the volumes "
+                "within it (default: the whole sampling window)")) -> None:
         """The x-momentum budget of the column above 2 m: why the stress there reads as it does."""
         rows = []
         for path in paths:
@@ -110,7 +118,7 @@ def register_column_budget(probe_app) -> None:
             try:
                 if not samples.is_file():
                     raise ValueError(f"{samples}: no such file")
-                rows.append(column_budget(samples))
+                rows.append(column_budget(samples, window=window))
             except (OSError, ValueError) as exc:
                 fail(str(exc))
         typer.echo(json.dumps(rows) if as_json else format_column_budget(rows))

@@ -120,6 +120,9 @@ def model_departures(scene: dict) -> list[str]:
                    "(the paper's rule for its Q, [28]; the count at Q from data/airborne_counts.toml)")
     elif q != 1.0:
         out.append(f"parcels {q:g}x heavier than the paper's Q")
+    if (fid.get("spinup", {}) or {}).get("equilibrium_roughness"):
+        out.append("saltation started on the particle-free flow lowered to the level the model's "
+                   "saltating column settles to (its own z0s, data/equilibrium_roughness.toml)")
     if ((fid.get("relaxation", {}) or {}).get("gain", 0.0) or 0.0) > 0:
         out.append("a column relaxation force over the first seconds of saltation")
     grid = fid.get("grid", {}) or {}

@@ -41,3 +41,17 @@ def rescale_restart(ck: dict[str, Any], a: float) -> dict[str, Any]:
             out[k] = np.asarray(v, dtype=np.float64) * factor if isinstance(v, np.ndarray) \
                 else float(v) * factor
     return out
+
+
+def shift_restart(ck: dict[str, Any], du: float) -> dict[str, Any]:
+    """The restart ``ck`` with its streamwise wind and drive target lowered by ``du`` [m s^-1].
+
+    Over a rougher bed (z0s > z0) the same stress holds the same shear with the mean wind lower by
+    du = (u*s / kappa) ln(z0s / z0) at every height of the log layer; lowering u and u_drive alike
+    leaves the Rayleigh layer's force, the turbulence and the divergence as they were."""
+    if not math.isfinite(du):
+        raise ValueError(f"shift_restart: the shift must be finite (got {du!r})")
+    out = dict(ck)
+    out["u"] = np.asarray(ck["u"], dtype=np.float64) - du
+    out["u_drive"] = float(ck["u_drive"]) - du
+    return out

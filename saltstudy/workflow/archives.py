@@ -8,6 +8,7 @@ attributes, kinds in ``restart_manifest``), so :func:`restart_from_dataset` rebu
 from __future__ import annotations
 
 import json
+import math
 import re
 from typing import Any
 
@@ -258,20 +259,28 @@ def _history_vars(history: dict[str, np.ndarray]) -> dict[str, xr.Variable]:
 
 def start_restart(ds: xr.Dataset, scene: Scene) -> dict[str, Any]:
     """The restart a saltation run of ``scene`` starts from: spinup.nc's, rescaled to the case's
-    u*s when the spin-up ran at another u* (solver.similarity), and tiled onto the scene's grid
-    when it ran on ``scene.spinup_fidelity``'s (solver.tiling; project it before the first step)."""
+    u*s when the spin-up ran at another u* (solver.similarity), tiled onto the scene's grid when
+    it ran on ``scene.spinup_fidelity``'s (solver.tiling; project it before the first step), and
+    lowered to the level of the saltating column with ``spinup.equilibrium_roughness``."""
     from ..solver.similarity import rescale_restart
 
-    u_spin = float(ds.attrs.get("u_star_target", scene.case.forcing.u_star_s))
-    restart = rescale_restart(restart_from_dataset(ds), scene.case.forcing.u_star_s / u_spin)
-    if scene.spinup_fidelity is None:
-        return restart
-    from ..solver.grid import Grid
-    from ..solver.tiling import tile_restart
-    source = scene.spinup_scene()
-    src, dst = Grid.from_spec(source.fidelity.grid), Grid.from_spec(scene.fidelity.grid)
-    return tile_restart(restart, src, dst, src.Lz - source.damping_depth,
-                        scene.case.forcing.u_star_s, scene.case.air.kappa)
+    case = scene.case
+    u_spin = float(ds.attrs.get("u_star_target", case.forcing.u_star_s))
+    restart = rescale_restart(restart_from_dataset(ds), case.forcing.u_star_s / u_spin)
+    if scene.spinup_fidelity is not None:
+        from ..solver.grid import Grid
+        from ..solver.tiling import tile_restart
+        source = scene.spinup_scene()
+        src, dst = Grid.from_spec(source.fidelity.grid), Grid.from_spec(scene.fidelity.grid)
+        restart = tile_restart(restart, src, dst, src.Lz - source.damping_depth,
+                               case.forcing.u_star_s, case.air.kappa)
+    if scene.fidelity.spinup.equilibrium_roughness:
+        from ..config import equilibrium_roughness
+        from ..solver.similarity import shift_restart
+        z0s = equilibrium_roughness(case)
+        restart = shift_restart(restart, case.forcing.u_star_s / case.air.kappa
+                                * math.log(z0s / case.surface.z0))
+    return restart
 
 
 def restart_from_dataset(ds: xr.Dataset) -> dict[str, Any]:

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from .._identity import SOURCE_KEY, __version__
-from ..config import Scene, Study, content_hash, study_runs
+from ..config import Scene, Study, content_hash, equilibrium_roughness, study_runs
 
 #: bump when spinup.nc / samples.nc change layout, so old archives are not mistaken for new ones
 ARCHIVE_FORMAT = 2
@@ -70,8 +70,12 @@ def saltation_slice(scene: Scene) -> dict[str, Any]:
     if fid.get("saltation_dt_fixed") is None:
         # absent and None mean the same adaptive step: only a set value may change the key
         fid.pop("saltation_dt_fixed", None)
-    if fid["spinup"].get("tiled_from") is None:
-        fid["spinup"].pop("tiled_from", None)
+    for name, unset in (("tiled_from", None), ("equilibrium_roughness", False)):
+        if fid["spinup"].get(name) == unset:   # keys of scenes that leave them unset stay as they were
+            fid["spinup"].pop(name, None)
+    if fid["spinup"].get("equilibrium_roughness"):
+        # the start depends on the measured z0s: a new measurement is a new run
+        fid["spinup"]["equilibrium_roughness"] = equilibrium_roughness(scene.case)
     return {"case": case, "fidelity": fid}
 
 
