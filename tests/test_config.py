@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from saltstudy.cli import app
-from saltstudy.config import (Case, ConfigError, Fidelity, content_hash, list_case_numbers, load_case,
+from saltstudy.config import (Case, ConfigError, content_hash, list_case_numbers, load_case,
                               load_fidelity, load_study, project_root, resolve_scene, study_runs)
 
 # Table 2 of Dupont et al. (2013): u*s [m/s], mu1 [um], Q. Reference values for the check only.

@@ -1,7 +1,6 @@
 """Grain equation of motion (paper eqs. 3-4): terminal velocity, relaxation, periodic wrap."""
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import pytest
