@@ -13,8 +13,8 @@ from .case import (Air, Case, Closure, Forcing, Particles, Physics, Soil, SoilMo
                    Threshold)
 from .fidelity import Fidelity, GridSpec, Outputs, Relaxation, Sampling, SpinUp, TimeStepping
 from .files import ConfigError, case_path, list_case_numbers, project_root, read_toml
-from .loading import (airborne_counts, equilibrium_roughness, load_case, load_fidelity, load_study, parcel_weight,
-                      resolve_scene, study_fidelity_folder, study_file, study_runs, validate_file)
+from .loading import (airborne_counts, equilibrium_roughness, load_case, load_fidelity, load_study,
+                      parcel_weight, resolve_scene, study_fidelity_folder, study_file, study_runs, validate_file)
 from .study import RunSpec, Scene, SceneSpec, Study
 
 __all__ = [
@@ -23,5 +23,6 @@ __all__ = [
     "Fidelity", "SceneSpec", "Study", "Scene", "RunSpec", "ConfigError", "Frozen", "content_hash",
     "project_root", "read_toml", "load_case", "load_fidelity", "load_study", "resolve_scene", "case_path",
     "list_case_numbers", "deep_merge", "PAPER_AREA_M2", "study_runs", "study_file",
-    "study_fidelity_folder", "validate_model", "validate_file", "airborne_counts", "equilibrium_roughness", "parcel_weight",
+    "study_fidelity_folder", "validate_model", "validate_file", "airborne_counts",
+    "equilibrium_roughness", "parcel_weight",
 ]

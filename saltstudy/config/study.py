@@ -121,7 +121,8 @@ class Scene(Frozen):
                for k in ("air", "surface", "closure", "forcing")},
             **{k: getattr(f, k).model_dump(mode="json") for k in ("grid", "time")}, "seed": c.seed,
             # where a case starts along the shared spin-up is the start's, not the spin-up's
-            "spinup": f.spinup.model_dump(mode="json", exclude={"stagger", "tiled_from", "equilibrium_roughness"}),
+            "spinup": f.spinup.model_dump(mode="json", exclude={"stagger", "tiled_from",
+                                                                "equilibrium_roughness"}),
         }
 
     @property
