@@ -40,7 +40,9 @@ def test_each_departure_is_named_by_its_config_field():
     assert "dynamic" in text
     assert "splash.impact_speed" in text
     assert f"{load_fidelity('reduced').q_multiplier:g}x heavier" in text
-    assert "relaxation" in text
+    assert "lowered to the level" in text and "relaxation" not in text
+    relaxed = " ".join(model_departures(_scene({}, fidelity="reduced-relaxed")))
+    assert "relaxation" in relaxed and "lowered to the level" not in relaxed
 
 
 def test_the_reduced_grid_is_named_and_the_fine_rungs_is_not():

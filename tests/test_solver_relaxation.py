@@ -140,6 +140,6 @@ def test_model_restart_with_relaxation_is_bit_for_bit():
 
 def test_paper_fidelity_runs_without_it_and_laptop_fidelities_stop_it_before_sampling():
     assert load_fidelity("paper").relaxation.gain == 0.0
-    for name in ("quick", "reduced", "stability/reduced-short-maxcfl"):
+    for name in ("quick", "reduced-relaxed", "stability/reduced-short-maxcfl"):
         f = load_fidelity(name)
         assert 0 < f.relaxation.until <= f.sampling.start

@@ -70,45 +70,47 @@ def test_the_start_is_the_similarity_start_lowered_by_the_log_law_shift(tmp_path
 
 def test_the_knob_keeps_the_shared_spinup_and_the_keys_of_runs_without_it(monkeypatch):
     import saltstudy.config.loading as loading
-    monkeypatch.setattr(loading, "roughness_table", lambda: ({2: 4.0e-4}, "a test table"))
+    monkeypatch.setattr(loading, "roughness_table", lambda: ({2: 4.0e-4}, 0.016, "a test table"))
     on, off = _scene(on=True), _scene(on=False)
     k_on, k_off = keys.run_keys(on.label, on), keys.run_keys(off.label, off)
     assert k_on.spinup == k_off.spinup and k_on.links == k_off.links
     assert k_on.saltation != k_off.saltation
     assert "equilibrium_roughness" not in keys.saltation_slice(off)["fidelity"]["spinup"]
     # a new measurement of z0s is a new run
-    monkeypatch.setattr(loading, "roughness_table", lambda: ({2: 5.0e-4}, "a test table"))
+    monkeypatch.setattr(loading, "roughness_table", lambda: ({2: 5.0e-4}, 0.016, "a test table"))
     assert keys.run_keys(on.label, on).saltation != k_on.saltation
 
 
 def test_the_roughness_follows_the_physics_not_the_number(monkeypatch):
-    """A case renumbered to take another case's start keeps its own z0s; other physics, or a
-    case not measured, is refused with the field named."""
+    """A case renumbered to take another case's start keeps its own z0s; other physics takes
+    Charnock's form C u*s^2/g, never below the bed's z0."""
     import saltstudy.config.loading as loading
-    monkeypatch.setattr(loading, "roughness_table", lambda: ({1: 4.0e-4}, "a test table"))
+    monkeypatch.setattr(loading, "roughness_table", lambda: ({1: 4.0e-4}, 0.02, "a test table"))
     assert equilibrium_roughness(load_case(1)) == 4.0e-4
     assert equilibrium_roughness(load_case(1, overrides={"number": 4})) == 4.0e-4
     for case in (load_case(2), load_case(1, overrides={"splash": {"a_ej": 0.05}})):
-        with pytest.raises(ConfigError, match="fidelity.spinup.equilibrium_roughness.*a test table"):
-            equilibrium_roughness(case)
+        u = case.forcing.u_star_s
+        assert equilibrium_roughness(case) == pytest.approx(0.02 * u * u / 9.81, rel=1e-12)
+    calm = load_case(2, overrides={"forcing": {"u_star_s": 0.01}})
+    assert equilibrium_roughness(calm) == calm.surface.z0
 
 
-def test_every_measured_roughness_lies_above_the_bed_and_below_the_first_level():
-    values = {n: equilibrium_roughness(load_case(n)) for n in range(1, 11)
-              if _measured(n)}
-    for n, z0s in values.items():
+def test_a_roughness_reaching_the_first_level_is_refused_with_the_field_named():
+    fid = load_fidelity("reduced").model_dump()
+    fid["spinup"]["equilibrium_roughness"] = True
+    from saltstudy.config import Fidelity
+    fid = Fidelity.model_validate(fid)
+    gale = load_case(6, overrides={"forcing": {"u_star_s": 2.5}})   # C u*s^2/g ~ 1 cm
+    with pytest.raises(ConfigError, match="fidelity.spinup.equilibrium_roughness.*first level"):
+        resolve_scene(gale, fid)
+    resolve_scene(load_case(6), fid)   # 2 mm, below the 5 mm level
+
+
+def test_every_stock_roughness_lies_above_the_bed_and_below_the_first_level():
+    z1 = Grid.from_spec(load_fidelity("reduced").grid).z_c[0]
+    for n in range(1, 11):
         case = load_case(n)
-        z1 = Grid.from_spec(load_fidelity("reduced").grid).z_c[0]
-        assert case.surface.z0 < z0s < z1, (n, z0s)
-
-
-def _measured(n: int) -> bool:
-    try:
-        equilibrium_roughness(load_case(n))
-    except ConfigError as exc:
-        assert "fidelity.spinup.equilibrium_roughness" in str(exc)
-        return False
-    return True
+        assert case.surface.z0 < equilibrium_roughness(case) < z1, n
 
 
 def test_table_2_names_the_start():

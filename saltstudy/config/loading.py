@@ -126,8 +126,10 @@ def resolve_scene(case: Case, fidelity: Fidelity, label: str | None = None) -> S
             raise ConfigError(f"fidelity '{fidelity.name}': spinup.tiled_from = '{source}' is "
                               f"itself tiled from '{spinup_fidelity.spinup.tiled_from}'; name "
                               "a fidelity with a spin-up of its own")
-    return Scene(label=label or case.label, case=case, fidelity=fidelity,
-                 spinup_fidelity=spinup_fidelity)
+    scene = Scene(label=label or case.label, case=case, fidelity=fidelity,
+                  spinup_fidelity=spinup_fidelity)
+    check_equilibrium_roughness(scene)
+    return scene
 
 
 def airborne_counts() -> tuple[dict[int, float], str]:
@@ -154,27 +156,45 @@ def parcel_weight(case: Case, parcels_per_m2: float) -> float:
     return counts[case.number] / parcels_per_m2
 
 
-def roughness_table() -> tuple[dict[int, float], str]:
-    """z0s [m] per stock case and its source (data/equilibrium_roughness.toml)."""
+def roughness_table() -> tuple[dict[int, float], float, str]:
+    """z0s [m] per stock case, the Charnock constant C [1] for other physics, and their source
+    (data/equilibrium_roughness.toml)."""
     text = resources.files("saltstudy").joinpath("data/equilibrium_roughness.toml").read_text("utf-8")
     data = tomllib.loads(text)
-    return {int(k): float(v) for k, v in data.get("z0s", {}).items()}, str(data["source"])
+    return ({int(k): float(v) for k, v in data.get("z0s", {}).items()},
+            float(data["charnock_c"]), str(data["source"]))
 
 
 def equilibrium_roughness(case: Case) -> float:
-    """z0s [m] the model's column settled to over a saltating bed of ``case``'s physics
-    (data/equilibrium_roughness.toml, measured per stock case), for
-    ``spinup.equilibrium_roughness``; matched on the physics, so a case renumbered only to take
-    another start keeps its own."""
-    values, source = roughness_table()
+    """z0s [m] of the mean wind the model's column settles to over a saltating bed of ``case``'s
+    physics, for ``spinup.equilibrium_roughness``: the value read from the case's own runs
+    (data/equilibrium_roughness.toml) when its physics is a stock case's that has one (matched on
+    the physics, so a case renumbered only to take another start keeps its own), else Charnock's
+    form C u*s^2 / g with the model's own C from the same file; never below the bed's z0 (below
+    the fluid threshold there is no saltation layer to lower the wind)."""
+    values, charnock_c, _ = roughness_table()
     other = {"name", "description", "seed", "number"}
     mine = case.model_dump(mode="json", exclude=other)
     for n, z0s in values.items():
         if load_case(n).model_dump(mode="json", exclude=other) == mine:
             return z0s
-    raise ConfigError(f"fidelity.spinup.equilibrium_roughness: no roughness measured for the "
-                      f"physics of case {case.number} ({source}; it holds stock cases "
-                      f"{sorted(values)}); leave it false for this case")
+    u = case.forcing.u_star_s
+    return max(charnock_c * u * u / case.air.g, case.surface.z0)
+
+
+def check_equilibrium_roughness(scene: Scene) -> None:
+    """A start lowered by (u*s / kappa) ln(z0s / z0) must leave the first level's wind positive:
+    a ConfigError naming the field when z0s reaches the first level's height."""
+    if not scene.fidelity.spinup.equilibrium_roughness:
+        return
+    z0s = equilibrium_roughness(scene.case)
+    z1 = 0.5 * scene.fidelity.grid.dz_bottom
+    if z0s >= z1:
+        raise ConfigError(f"fidelity.spinup.equilibrium_roughness: z0s = {z0s:.2e} m for "
+                          f"{scene.label} (u*s = {scene.case.forcing.u_star_s} m/s) reaches the "
+                          f"first level (z = {z1:g} m), where the lowered wind would reverse; "
+                          "leave it false for this case (the column relaxation then speeds the "
+                          "approach to the equilibrium)")
 
 
 def _scene_case(study: Study, scene: SceneSpec, root: Path | None) -> Case:

@@ -16,6 +16,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..analysis.paper_grid import PAPER, PAPER_FIRST_LAYER
+from ..config import roughness_table
 from .data import ReportContext, RunData, case_number_of, profile
 from .reference import CASES_WIND, PAPER_LABEL, TABLE2_COLUMNS, paper_results, paper_table2
 from .saltation import NO_SALTATION, saltation_state
@@ -121,8 +122,11 @@ def model_departures(scene: dict) -> list[str]:
     elif q != 1.0:
         out.append(f"parcels {q:g}x heavier than the paper's Q")
     if (fid.get("spinup", {}) or {}).get("equilibrium_roughness"):
+        read = ", ".join(str(n) for n in sorted(roughness_table()[0]))
         out.append("saltation started on the particle-free flow lowered to the level the model's "
-                   "saltating column settles to (its own z0s, data/equilibrium_roughness.toml)")
+                   f"saltating column settles to (z0s read from the model's own runs for cases "
+                   f"{read}, Charnock's form with the model's C otherwise; "
+                   "data/equilibrium_roughness.toml)")
     if ((fid.get("relaxation", {}) or {}).get("gain", 0.0) or 0.0) > 0:
         out.append("a column relaxation force over the first seconds of saltation")
     grid = fid.get("grid", {}) or {}
