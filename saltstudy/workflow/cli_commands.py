@@ -88,7 +88,7 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"{len(todo)} of {3 * len(runs)} run tasks to compute")
             summary = run_study(st, out_dir, workers=workers, scheduler=scheduler, quiet=quiet,
                                 report_dir=report_dir, started=started)
-        _print_summary(summary)
+        _print_summary(summary, st.report)
         if todo and not summary.solver_work and not any(o.status == "failed"
                                                         for o in summary.outcomes):
             typer.echo("no solver work was needed (spin-ups and saltation runs all cached)")
@@ -169,7 +169,7 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"report: {index}")
 
 
-def _print_summary(summary) -> None:
+def _print_summary(summary, report_wanted: bool = True) -> None:
     from collections import Counter
 
     counts = Counter(o.status for o in summary.outcomes)
@@ -186,5 +186,7 @@ def _print_summary(summary) -> None:
                    "completed", err=True)
     if summary.report_dir is not None:
         typer.echo(f"report: {summary.report_dir}")
+    elif not report_wanted:
+        typer.echo("report: none (the study sets report = false)")
     else:
         typer.echo("report: not built (see messages above)")
