@@ -261,7 +261,8 @@ def test_sigkill_mid_saltation_then_rerun_resumes(home, tmp_path):
 
 @pytest.mark.slow
 def test_distributed_local_cluster_equals_threaded(home, tmp_path):
-    """2 worker processes x 1 thread: archives identical to the local threaded run."""
+    """2 worker processes x 1 thread: archives identical to the local threaded run on two workers,
+    whose tasks' numba threads change as the others start and end (workflow/cores.py)."""
     from distributed import LocalCluster
 
     from saltstudy.workflow.graph import run_study
@@ -271,7 +272,8 @@ def test_distributed_local_cluster_equals_threaded(home, tmp_path):
     # `run-all` warms the cache in a child first (workflow/warmup.py) and then loads from it, as
     # the workers below do
     r = subprocess.run([str(Path(sys.executable).parent / "saltstudy"), "run-all", "--study", "two",
-                        "--quiet", "--out", str(tmp_path / "local")], capture_output=True, text=True)
+                        "--quiet", "--workers", "2", "--out", str(tmp_path / "local")],
+                       capture_output=True, text=True)
     assert r.returncode == 0, r.stdout + r.stderr
     st = load_study("two")
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl:
@@ -285,5 +287,5 @@ def test_distributed_local_cluster_equals_threaded(home, tmp_path):
         for key in local:
             x = open_dataset(tmp_path / "local" / task / key / name)
             y = open_dataset(tmp_path / "dist" / task / key / name)
-            # same numba thread count in both (the machine's cores): bit-for-bit
+            # the results do not depend on the numba thread count: bit for bit
             assert_same_data(x, y)

@@ -22,7 +22,7 @@ from ..config import Scene
 from ..faults import write_atomic
 from ..solver.simulation import (TIME_EPS, IterationInterval, Simulation, SpecifiedTimes,
                                  WallTimeInterval)
-from . import archives
+from . import archives, cores
 
 GROUPS = ("series", "plane", "sample")
 
@@ -275,6 +275,7 @@ def run_saltation(scene: Scene, restart: dict[str, Any], checkpoint_path: Path,
     if progress is not None:
         sim.add_callback("progress", lambda s: progress(s.t, s.stop_time), IterationInterval(1))
     t0_wall = time.perf_counter()
+    cores.add_share(sim)
     add_checkpoints(sim, checkpoint_path, interval,
                     meta=lambda: {"wall_time_s": wall_before + time.perf_counter() - t0_wall,
                                   "t_since_activation": sim.t, "n_steps": sim.n_steps},

@@ -4,13 +4,16 @@ Per run: spin-up -> saltation -> analysis; one report task over all runs, keyed 
 runs with an equal spin-up key share one spin-up task. Locally, dask's threaded scheduler runs
 ``workers`` tasks at once (default 1: on 2 cores one flow step on 2 numba threads is 1.74x faster
 than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow --no-big``), each with cores // workers
-numba threads. A failed task is recorded (``task.json``) and its dependents skipped; the other
+numba threads, and a running task takes cores // (tasks running now) as others start and end
+(``workflow/cores.py``): a study's shared spin-up, which every other task waits for, or its last
+saltation run gets every core. A failed task is recorded (``task.json``) and its dependents skipped; the other
 runs go on, except after a full disk (``faults.DiskFull``), when a local run starts no further task.
 """
 from __future__ import annotations
 
 import os
 import time
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +21,7 @@ from typing import Any
 from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study
 from ..faults import DiskFull
+from . import cores
 from ..ncio import is_complete
 from . import keys as K
 from .paths import (default_report_dir, output_path, read_runs_file, runs_file, study_dir, task_dir,
@@ -89,12 +93,12 @@ def _node(task: str, key: str, labels: list[str], out_dir: Path, numba_threads: 
     failed = [a.task for a in args if isinstance(a, Outcome) and not a.ok]
     if failed:
         return Outcome(task, key, labels, "skipped", error=f"{' and '.join(failed)} failed")
-    if numba_threads:
-        import numba
-
-        numba.set_num_threads(max(1, min(numba_threads, numba.config.NUMBA_NUM_THREADS)))
-    return _call(task, key, labels, output_path(out_dir, _FOLDER.get(task, task), key), fn,
-                 *(Path(a.path) if isinstance(a, Outcome) else a for a in args))
+    path = output_path(out_dir, _FOLDER.get(task, task), key)
+    inputs = [Path(a.path) if isinstance(a, Outcome) else a for a in args]
+    if not numba_threads:
+        return _call(task, key, labels, path, fn, *inputs)
+    with cores.running():
+        return _call(task, key, labels, path, fn, *inputs)
 
 
 def _report(study: Study, analyses: list[tuple[str, Outcome]], out_dir: Path, report_dir: Path,
@@ -348,8 +352,8 @@ def _run_study(study: Study, out_dir: Path, workers: int, scheduler: str | None,
                report_dir: Path | None, root: Path | None, started: float) -> StudySummary:
     import dask
 
-    cores = os.cpu_count() or 1
-    numba_threads = max(1, cores // workers) if (scheduler is None and workers > 1) else None
+    n_cores = os.cpu_count() or 1
+    numba_threads = max(1, n_cores // workers) if (scheduler is None and workers > 1) else None
     plan = build_graph(study, out_dir, report_dir, numba_threads, root, run_started=started)
     names = list(plan.graph)
     study_dir(out_dir, study.name).mkdir(parents=True, exist_ok=True)
@@ -358,8 +362,9 @@ def _run_study(study: Study, out_dir: Path, workers: int, scheduler: str | None,
     with ProgressDisplay(plan.task_refs, quiet=quiet):
         if scheduler is None:
             warm_for(plan.runs.values(), out_dir)
-            values = dask.compute(*[plan.graph[n] for n in names], scheduler="threads",
-                                  num_workers=workers)
+            with (cores.sharing() if numba_threads else nullcontext()):
+                values = dask.compute(*[plan.graph[n] for n in names], scheduler="threads",
+                                      num_workers=workers)
             results = dict(zip(names, values))
         else:
             from distributed import Client

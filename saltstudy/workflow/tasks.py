@@ -22,7 +22,7 @@ from .._identity import SOURCE_KEY, __version__
 from ..config import Scene, Study
 from ..faults import disk_full, point
 from ..ncio import is_complete, open_dataset, read_attrs, write_dataset
-from . import archives, keys
+from . import archives, cores, keys
 from .driver import add_checkpoints, resume, run_saltation
 from .paths import output_path, read_task_json, task_dir, write_json_atomic
 from .lock import TASK_LOCK_NAME, Busy, DirLock, claim_task, pid_alive
@@ -204,6 +204,7 @@ def spinup_task(scene: Scene, out_dir: Path, source_key: str | None = None,
         prog = ProgressFile(d, "spinup", scene.label, "spin-up")
         prog.target = sp.t_max
         sim.add_callback("progress", lambda s: prog(s.t, s.stop_time), IterationInterval(1))
+        cores.add_share(sim)
         add_checkpoints(sim, ckpt_path, interval,
                         meta=lambda: {"wall_time_s": wall_before + time.perf_counter() - t0},
                         interrupt_after_steps=interrupt_after_steps)
@@ -284,6 +285,7 @@ def continuation_task(scene: Scene, parent_path: Path, out_dir: Path, key: str,
         rec = _ContinuationRecord(model, t_start - float(t_hist[-1]) if t_hist.size else t_start)
         sim = Simulation(model, stop_time=duration)
         sim.add_callback("record", rec, TimeInterval(1.0, start=1.0, from_last=True))
+        cores.add_share(sim)
         sim.add_callback("progress", lambda s: prog(s.t, s.stop_time), IterationInterval(1))
         try:
             sim.run()
