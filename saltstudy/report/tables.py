@@ -310,9 +310,10 @@ def table2_markdown(ctx: ReportContext) -> str:
              "lag); over a short window the stress at 2 m departs from it by what the column "
              "above 2 m gains or loses (`saltstudy probe column-budget`) and with the box's slow "
              "swings (its bar: the standard error of 10-s block means, which a window of a few "
-             "blocks underrates): after the column relaxation the air above 2 m is out of balance "
-             "and swings for more than a minute, and the `reduced` study's ten 30-s windows read "
-             "+11 % on average (−7 to +19 %, reports/reduced/FINDINGS.md); `quick`'s 12-s window "
+             "blocks underrates): started at the saltating column's level the `reduced` study's "
+             "ten 30-s windows read −2.5 % on average (−13 to +7 %; the column's storage +0.005 "
+             "u*s², a ~0.1 swing either way), after the bed-stress relaxation +11 % (−7 to +19 %, "
+             "the column still draining; reports/reduced/FINDINGS.md); `quick`'s 12-s window "
              "reads within about ±40 %. " + _start_text(ctx) + " " + _departures_text(ctx), "",
              *md_table(heads, cells)]
     lines += ["", f"## Results stated in the text — computed vs {PAPER_LABEL}", "",
