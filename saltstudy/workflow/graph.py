@@ -6,8 +6,9 @@ runs with an equal spin-up key share one spin-up task. Locally, dask's threaded 
 than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow --no-big``), each with cores // workers
 numba threads, and a running task takes cores // (tasks running now) as others start and end
 (``workflow/cores.py``): a study's shared spin-up, which every other task waits for, or its last
-saltation run gets every core. A failed task is recorded (``task.json``) and its dependents skipped; the other
-runs go on, except after a full disk (``faults.DiskFull``), when a local run starts no further task.
+saltation run gets every core. A failed task is recorded (``task.json``) and its dependents
+skipped; the other runs go on, except after a full disk (``faults.DiskFull``), when a local run
+starts no further task.
 """
 from __future__ import annotations
 
