@@ -6,7 +6,7 @@ as one float vector (:func:`splash_constants`, indices ``SP_*``). Conventions th
 
 * Rebound (eq. 6): Bernoulli with P_reb = p_max (1 - exp(-gamma_reb v_imp)).
 * Rebound speed (eq. 7): N(0.6 v_imp, 0.25 v_imp) with negative draws redrawn (P = 0.82 %), so
-  its mean is 0.60564 v_imp (:func:`truncated_normal_moments`).
+  its mean is 0.60564 v_imp (the tests' ``splash_expectations.py`` gives the moments).
 * Vertical launch angles (rebound N(30, 15), ejection N(60, 15) deg) are redrawn outside (0, 180)
   deg (rebound mean 30.83 deg); horizontal angles N(0, 10) deg relative to the impactor's
   direction, never truncated.
@@ -26,10 +26,7 @@ import math
 import numpy as np
 
 from .._jit import jit
-from .soil import draw_diameter, scalar_or_array
-
-#: vertical launch angles outside this open interval [deg] are redrawn
-ANGLE_V_BOUNDS_DEG = (0.0, 180.0)
+from .soil import draw_diameter
 
 #: indices into the splash constants vector (:func:`splash_constants`; angles in radians)
 SP_PMAX, SP_GAMMA, SP_REB_M, SP_REB_S, SP_RAV_M, SP_RAV_S, SP_RAH_M, SP_RAH_S = range(8)
@@ -188,100 +185,3 @@ def splash_impacts(rng, ui, vi, wi, di, sp, cum, mu, lnsig):
             parent[m] = i
             m += 1
     return launch[:m], parent[:m]
-
-
-# ---- Truncated normal ----
-def _phi(x: float) -> float:
-    return 0.0 if math.isinf(x) else math.exp(-0.5 * x * x) / math.sqrt(2.0 * math.pi)
-
-
-def _Phi(x: float) -> float:
-    return 0.5 * math.erfc(-x / math.sqrt(2.0))
-
-
-def truncated_normal_moments(mean: float, std: float, lower: float = -math.inf,
-                             upper: float = math.inf) -> tuple[float, float]:
-    """(mean, standard deviation) of N(mean, std^2) restricted to (lower, upper) (Johnson, Kotz &
-    Balakrishnan 1994, ch. 10)."""
-    if std == 0.0:
-        if not lower < mean < upper:
-            raise ValueError("degenerate normal outside the truncation interval")
-        return float(mean), 0.0
-    a = (lower - mean) / std
-    b = (upper - mean) / std
-    Z = _Phi(b) - _Phi(a)
-    if Z <= 0.0:
-        raise ValueError("truncation interval has zero probability")
-    pa, pb = _phi(a), _phi(b)
-    apa = 0.0 if math.isinf(a) else a * pa
-    bpb = 0.0 if math.isinf(b) else b * pb
-    m = mean + std * (pa - pb) / Z
-    var = std * std * (1.0 + (apa - bpb) / Z - ((pa - pb) / Z) ** 2)
-    return m, math.sqrt(max(var, 0.0))
-
-
-def rebound_speed_ratio_moments(splash) -> tuple[float, float]:
-    """(mean, std) of v_reb / v_imp: N(0.6, 0.25) truncated to > 0 -> (0.60564, 0.24307)."""
-    return truncated_normal_moments(splash.reb_speed_mean, splash.reb_speed_std, 0.0, math.inf)
-
-
-def vertical_angle_moments(mean_deg: float, std_deg: float) -> tuple[float, float]:
-    """(mean, std) [deg] of a vertical launch angle N(mean, std) restricted to ANGLE_V_BOUNDS_DEG."""
-    return truncated_normal_moments(mean_deg, std_deg, *ANGLE_V_BOUNDS_DEG)
-
-
-# ---- Analytic expectations (numpy, vectorised over v_imp; the laws element-wise) ----
-_rebound_probability = np.vectorize(rebound_probability, otypes=[float])
-_ejection_number_mean = np.vectorize(ejection_number_mean, otypes=[float])
-
-
-def mean_rebound_fraction(v_imp, splash):
-    """Expected fraction of impacts that rebound, P_reb(v_imp) of eq. 6 [-]."""
-    return scalar_or_array(_rebound_probability(v_imp, splash.p_reb_max, splash.gamma_reb))
-
-
-def mean_rebound_speed(v_imp, splash):
-    """E[v_reb] [m s^-1] = 0.60564 v_imp (truncated normal of eq. 7)."""
-    return scalar_or_array(rebound_speed_ratio_moments(splash)[0] * np.asarray(v_imp, dtype=float))
-
-
-def std_rebound_speed(v_imp, splash):
-    """Standard deviation of v_reb [m s^-1] = 0.24307 v_imp (truncated normal of eq. 7)."""
-    return scalar_or_array(rebound_speed_ratio_moments(splash)[1] * np.asarray(v_imp, dtype=float))
-
-
-def mean_ejecta_number(v_imp, splash, g: float, d_mean: float):
-    """E[N_ej] = a v_imp / sqrt(g <d_p>) [-] (eq. 8; exact for stochastic rounding)."""
-    return scalar_or_array(_ejection_number_mean(v_imp, splash.a_ej, g, d_mean))
-
-
-def mean_ejecta_speed(v_imp, splash):
-    """E[v_ej] = 0.08 v_imp [m s^-1] (eq. 9)."""
-    return scalar_or_array(splash.ej_speed_mean * np.asarray(v_imp, dtype=float))
-
-
-def mean_splash_energy_terms(v_imp, d_imp, soil, splash, g: float,
-                             ejecta_require_rebound: bool = False):
-    """(rebound, ejecta) expected kinetic energies per impact over the impact's [-]:
-    rebound = P_reb(v) E[r^2], ejecta = N(v) (E_M[d^3] / d_imp^3) 2 c_ej^2 (mass-drawn diameters,
-    exponential speeds). ``ejecta_require_rebound``: ejecta only when the impactor rebounds.
-    """
-    from .soil import mass_weighted_moment
-
-    p = np.asarray(mean_rebound_fraction(v_imp, splash))
-    rm, rs = rebound_speed_ratio_moments(splash)
-    rebound = p * (rm * rm + rs * rs)
-    n_ej = np.asarray(mean_ejecta_number(v_imp, splash, g, soil.mean_diameter))
-    if ejecta_require_rebound:
-        n_ej = n_ej * p
-    mass_ratio = mass_weighted_moment(soil, 3.0) / d_imp ** 3
-    ejecta = n_ej * mass_ratio * 2.0 * splash.ej_speed_mean ** 2
-    return scalar_or_array(rebound), scalar_or_array(ejecta)
-
-
-def mean_splash_energy_ratio(v_imp, d_imp, soil, splash, g: float,
-                             ejecta_require_rebound: bool = False):
-    """E[KE_rebound + KE_ejecta] / KE_impact [-], which the paper (section 2.3, para. 24) keeps
-    <= 1 on average."""
-    reb, ej = mean_splash_energy_terms(v_imp, d_imp, soil, splash, g, ejecta_require_rebound)
-    return scalar_or_array(np.asarray(reb) + np.asarray(ej))

@@ -3,8 +3,8 @@
 Per run: spin-up -> saltation -> analysis; one report task over all runs, keyed by cache key, so
 runs with an equal spin-up key share one spin-up task. Locally, dask's threaded scheduler runs
 ``workers`` tasks at once (default 1: on 2 cores one flow step on 2 numba threads is 1.74x faster
-than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow --no-big``), each with cores // workers
-numba threads, and a running task takes cores // (tasks running now) as others start and end
+than on 1, ``NUMBA_NUM_THREADS=1|2 saltstudy bench flow --no-big``); with more than one, a
+running solver task takes cores // (tasks running now) as others start and end
 (``workflow/cores.py``): a study's shared spin-up, which every other task waits for, or its last
 saltation run gets every core. A failed task is recorded (``task.json``) and its dependents
 skipped; the other runs go on, except after a full disk (``faults.DiskFull``), when a local run
@@ -12,7 +12,6 @@ starts no further task.
 """
 from __future__ import annotations
 
-import os
 import time
 from contextlib import nullcontext
 from dataclasses import dataclass, field
@@ -87,16 +86,17 @@ def _call(task: str, key: str, labels: list[str], out_path: Path, fn, *args, **k
 _FOLDER = {"continuation": "spinup"}
 
 
-def _node(task: str, key: str, labels: list[str], out_dir: Path, numba_threads: int | None, fn,
+def _node(task: str, key: str, labels: list[str], out_dir: Path, share_cores: bool, fn,
           *args) -> Outcome:
     """``fn(*args)`` as one task of the graph, each Outcome among ``args`` handed over as its
-    archive; skipped if one of those failed."""
+    archive; skipped if one of those failed. ``share_cores``: counted among the tasks sharing
+    the cores (``workflow/cores.py``)."""
     failed = [a.task for a in args if isinstance(a, Outcome) and not a.ok]
     if failed:
         return Outcome(task, key, labels, "skipped", error=f"{' and '.join(failed)} failed")
     path = output_path(out_dir, _FOLDER.get(task, task), key)
     inputs = [Path(a.path) if isinstance(a, Outcome) else a for a in args]
-    if not numba_threads:
+    if not share_cores:
         return _call(task, key, labels, path, fn, *inputs)
     with cores.running():
         return _call(task, key, labels, path, fn, *inputs)
@@ -152,7 +152,7 @@ class StudyPlan:
 
 
 def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
-                numba_threads: int | None = None, root: Path | None = None,
+                share_cores: bool = False, root: Path | None = None,
                 run_started: float | None = None) -> StudyPlan:
     """dask.delayed graph of ``study``; raises ConfigError. ``run_started`` (epoch s) is the
     origin of the report's ``total_wall_time_s``."""
@@ -171,7 +171,7 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
     for label, rk in runs.items():
         if rk.spinup not in spin_nodes:
             spin_nodes[rk.spinup] = node(
-                "spinup", rk.spinup, sharing[rk.spinup], out_dir, numba_threads, spinup_task,
+                "spinup", rk.spinup, sharing[rk.spinup], out_dir, share_cores, spinup_task,
                 rk.scene, out_dir, SOURCE_KEY, dask_key_name=f"spinup-{rk.spinup}")
             refs.append(TaskRef(f"spinup {'+'.join(sharing[rk.spinup])}",
                                 task_dir(out_dir, "spinup", rk.spinup)))
@@ -180,14 +180,14 @@ def build_graph(study: Study, out_dir: Path, report_dir: Path | None = None,
         for link in rk.links:
             if link not in spin_nodes:
                 spin_nodes[link] = node(
-                    "continuation", link, [rk.label], out_dir, numba_threads, continuation_task,
+                    "continuation", link, [rk.label], out_dir, share_cores, continuation_task,
                     rk.scene, sp, out_dir, link, SOURCE_KEY, dask_key_name=f"continuation-{link}")
                 refs.append(TaskRef(f"continuation {rk.label}", task_dir(out_dir, "spinup", link)))
             sp = spin_nodes[link]
         # scenes of the same physics under two labels share one run (its key leaves names out)
         if rk.saltation not in salt_nodes:
             salt_nodes[rk.saltation] = node(
-                "saltation", rk.saltation, [label], out_dir, numba_threads, saltation_task,
+                "saltation", rk.saltation, [label], out_dir, share_cores, saltation_task,
                 rk.scene, sp, out_dir, SOURCE_KEY,
                 dask_key_name=f"saltation-{rk.saltation}-{label}")
             an_nodes[rk.analysis] = node(
@@ -353,9 +353,8 @@ def _run_study(study: Study, out_dir: Path, workers: int, scheduler: str | None,
                report_dir: Path | None, root: Path | None, started: float) -> StudySummary:
     import dask
 
-    n_cores = os.cpu_count() or 1
-    numba_threads = max(1, n_cores // workers) if (scheduler is None and workers > 1) else None
-    plan = build_graph(study, out_dir, report_dir, numba_threads, root, run_started=started)
+    share_cores = scheduler is None and workers > 1
+    plan = build_graph(study, out_dir, report_dir, share_cores, root, run_started=started)
     names = list(plan.graph)
     study_dir(out_dir, study.name).mkdir(parents=True, exist_ok=True)
     _tidy(out_dir, plan.runs.values(), study.name)
@@ -363,7 +362,7 @@ def _run_study(study: Study, out_dir: Path, workers: int, scheduler: str | None,
     with ProgressDisplay(plan.task_refs, quiet=quiet):
         if scheduler is None:
             warm_for(plan.runs.values(), out_dir)
-            with (cores.sharing() if numba_threads else nullcontext()):
+            with (cores.sharing() if share_cores else nullcontext()):
                 values = dask.compute(*[plan.graph[n] for n in names], scheduler="threads",
                                       num_workers=workers)
             results = dict(zip(names, values))
