@@ -405,3 +405,17 @@ def test_parcel_weight_needs_the_count_of_the_case_as_it_stands(tmp_path):
         resolve_scene(windier, fid)
     reseeded = load_case(2, overrides={"seed": 7})
     assert resolve_scene(reseeded, fid).fidelity.q_multiplier == resolve_scene(load_case(2), fid).fidelity.q_multiplier
+
+
+def test_a_ladder_table_is_found_beside_the_study_or_named_missing(tmp_path):
+    from saltstudy.config import ladder_table_path
+    root = _own_fidelities_home(tmp_path)
+    study = root / "workflows" / "mine.toml"
+    study.write_text('fidelity = "smoke"\ncases = [2]\nladder_table = "tables/ladder.json"\n')
+    with pytest.raises(ConfigError, match=re.escape("ladder_table: no file ")):
+        load_study("mine", root=root)
+    (root / "workflows" / "tables").mkdir()
+    (root / "workflows" / "tables" / "ladder.json").write_text("{}")
+    st = load_study("mine", root=root)
+    assert ladder_table_path(st) == root / "workflows" / "tables" / "ladder.json"
+    assert st.ladder_table == "tables/ladder.json"     # the study's record keeps what it said

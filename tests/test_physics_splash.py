@@ -10,16 +10,16 @@ from hypothesis import strategies as st
 
 from saltstudy._jit import jit
 from saltstudy.config import Soil, SoilMode, Splash, load_case
-from saltstudy.physics.soil import mass_weighted_moment, soil_arrays
+from saltstudy.physics.soil import soil_arrays
 from saltstudy.physics.splash import (draw_impact, ejecta_number, ejection_number_mean,
                                       ejection_speed, launch_angle, rebound_probability,
                                       rebound_speed, splash_constants, splash_impacts)
 
-from splash_expectations import (mean_ejecta_number, mean_ejecta_speed, mean_rebound_fraction,
-                                 mean_rebound_speed, mean_splash_energy_ratio,
-                                 mean_splash_energy_terms, rebound_speed_ratio_moments,
-                                 std_rebound_speed, truncated_normal_moments,
-                                 vertical_angle_moments)
+from physics_expectations import (mass_weighted_moment, mean_ejecta_number, mean_ejecta_speed,
+                                  mean_rebound_fraction, mean_rebound_speed,
+                                  mean_splash_energy_ratio, mean_splash_energy_terms,
+                                  rebound_speed_ratio_moments, std_rebound_speed,
+                                  truncated_normal_moments, vertical_angle_moments)
 
 SPLASH = Splash()
 SOIL = Soil()

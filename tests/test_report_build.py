@@ -198,6 +198,23 @@ def test_convergence_ladder_study_does_not_crash(tmp_path):
     assert "convergence.png" in index
 
 
+def test_a_study_on_top_of_a_ladder_table_gets_the_ladder_page(tmp_path):
+    """One run and a ladder_table: the convergence page holds the table's rungs below the run,
+    which is their reference."""
+    runs = {f"case02@rung{i}": write_analysis(tmp_path / f"r{i}.nc", 2, bias=b, wall_time_s=w)
+            for i, (b, w) in enumerate(((1.3, 10.0), (1.05, 100.0)))}
+    build_report("low", runs, tmp_path / "low", {"figure_formats": ["png"], "figure_dpi": 40})
+    top = {"case02": write_analysis(tmp_path / "top.nc", 2, bias=1.0, wall_time_s=1000.0)}
+    out = tmp_path / "rep"
+    build_report("top", top, out, {"figure_formats": ["png"], "figure_dpi": 40,
+                                    "ladder_table": str(tmp_path / "low" / "convergence.json")})
+    conv = json.loads((out / "convergence.json").read_text())
+    assert [r["label"] for r in conv["rungs"]] == ["case02@rung0", "case02@rung1", "case02"]
+    assert conv["reference"] == "case02"
+    assert conv["rungs"][0]["err_finest"]["u_star_s"] == pytest.approx(0.30)
+    assert "the study's <code>ladder_table</code>" in (out / "index.html").read_text()
+
+
 def test_scene_study_does_not_crash(tmp_path):
     runs = {"gale": write_analysis(tmp_path / "g.nc", 6, label="gale"), "calm": None}
     out = tmp_path / "rep"

@@ -291,3 +291,59 @@ def test_a_rung_noisier_than_the_threshold_is_not_named_cheapest(ladder, tmp_pat
     rows = {r["label"]: r for r in res.rungs}
     assert rows["case02@lucky"]["err_finest"]["u_star_s"] == pytest.approx(0.05)
     assert res.cheapest["u_star_s"] == {"10%": "case02@mid", "25%": "case02@lucky"}
+
+
+def test_a_table_read_back_with_no_new_run_is_its_own_comparison(tmp_path):
+    """The committed ladder (reports/convergence/convergence.json) re-read as the rungs below no
+    new run gives back its reference, every error and noise verdict and its cheapest rungs."""
+    from pathlib import Path
+
+    from saltstudy.report.convergence import convergence_by_case
+    table = json.loads((Path(__file__).parent.parent / "reports" / "convergence"
+                        / "convergence.json").read_text())
+    res = convergence_by_case({}, prior=table)
+    assert sorted(res) == sorted(int(c) for c in table["cases"])
+    old = {row["label"]: row for row in table["rungs"]}
+    n = 0
+    for case, r in res.items():
+        assert r.finest == table["cases"][str(case)]["reference"]
+        assert r.cheapest == table["cases"][str(case)]["cheapest"]
+        for row in r.rungs:
+            for s, e in row["err_finest"].items():
+                was = old[row["label"]]["err_finest"][s]
+                assert (was is None and np.isnan(e)) or e == was
+                assert row["within_noise"][s] == old[row["label"]]["within_noise"][s]
+                n += was is not None
+    assert n > 200
+
+
+def test_a_run_on_top_of_a_table_is_its_cases_reference(tmp_path):
+    """A study's run tops an earlier table of its case: the table's rungs are compared with it,
+    their own values and bars kept, and the table's seed bar is carried to the new rung."""
+    low = {"case02@coarse": _with_scene(tmp_path, "case02@coarse", 1.30, 10.0, 1),
+           "c2_seed2": _with_scene(tmp_path, "c2_seed2", 1.40, 12.0, 2),
+           "case02@mid": _with_scene(tmp_path, "case02@mid", 1.05, 100.0, 1, duration=60.0)}
+    first = build_convergence_report(low, tmp_path / "rep1", order=["case02@coarse", "case02@mid"])
+    # the top rung samples 4x as long on a quarter of the area: the coarse rung's extent
+    top = _with_scene(tmp_path, "case02@top", 1.00, 1000.0, 1, duration=120.0, ly=1.875)
+    out = build_convergence_report({"case02@top": top}, tmp_path / "rep2",
+                                   prior=tmp_path / "rep1" / "convergence.json")
+    res = out["result"]
+    assert res.finest == "case02@top"
+    assert [r["label"] for r in res.rungs] == ["case02@coarse", "case02@mid", "c2_seed2", "case02@top"]
+    rows = {r["label"]: r for r in res.rungs}
+    assert rows["case02@coarse"]["err_finest"]["u_star_s"] == pytest.approx(0.30)
+    assert rows["case02@mid"]["err_finest"]["lambda_y"] == pytest.approx(0.05)
+    before = {r["label"]: r for r in first["result"].rungs}
+    for key in ("values", "error_bar", "err_paper"):
+        assert rows["case02@mid"][key] == pytest.approx(before["case02@mid"][key], nan_ok=True)
+    rel = before["case02@coarse"]["seed_bar"]["u_star_s"] / before["case02@coarse"]["values"]["u_star_s"]
+    assert np.isfinite(rel) and rel > 0
+    assert rows["case02@top"]["seed_bar"]["u_star_s"] == pytest.approx(
+        rel * rows["case02@top"]["values"]["u_star_s"])
+    assert res.seed_groups == [["c2_seed2", "case02@coarse"]]
+    # the second seed is a row, not a rung one could stop at
+    assert "c2_seed2" not in res.on_ladder and "case02@coarse" in res.on_ladder
+    js = json.loads((tmp_path / "rep2" / "convergence.json").read_text())
+    assert js["ladder_table"]["file"] == "convergence.json"
+    assert js["cases"]["2"]["reference"] == "case02@top"

@@ -13,9 +13,9 @@ from .case import (Air, Case, Closure, Forcing, Particles, Physics, Soil, SoilMo
                    Threshold)
 from .fidelity import Fidelity, GridSpec, Outputs, Relaxation, Sampling, SpinUp, TimeStepping
 from .files import ConfigError, case_path, list_case_numbers, project_root, read_toml
-from .loading import (airborne_counts, equilibrium_roughness, load_case, load_fidelity, load_study,
-                      parcel_weight, resolve_scene, roughness_table, study_fidelity_folder, study_file,
-                      study_runs, validate_file)
+from .loading import (airborne_counts, equilibrium_roughness, ladder_table_path, load_case,
+                      load_fidelity, load_study, parcel_weight, resolve_scene, roughness_table,
+                      study_fidelity_folder, study_file, study_runs, validate_file)
 from .study import RunSpec, Scene, SceneSpec, Study
 
 __all__ = [
@@ -25,5 +25,5 @@ __all__ = [
     "project_root", "read_toml", "load_case", "load_fidelity", "load_study", "resolve_scene", "case_path",
     "list_case_numbers", "deep_merge", "PAPER_AREA_M2", "study_runs", "study_file",
     "study_fidelity_folder", "validate_model", "validate_file", "airborne_counts",
-    "equilibrium_roughness", "roughness_table", "parcel_weight",
+    "equilibrium_roughness", "roughness_table", "parcel_weight", "ladder_table_path",
 ]

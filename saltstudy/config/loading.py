@@ -85,12 +85,23 @@ def load_study(ref: str | Path, root: Path | None = None) -> Study:
         data["scenes"] = [_scene_case_from(path, s) for s in scenes]
     study = validate_model(Study, data, str(path))
     study._file = Path(os.path.abspath(path))
+    table = ladder_table_path(study)
+    if table is not None and not table.is_file():
+        raise ConfigError(f"{path}: ladder_table: no file {table}")
     return study
 
 
 def study_file(study: Study) -> Path | None:
     """The file ``study`` was loaded from (None for a study built in code)."""
     return study._file
+
+
+def ladder_table_path(study: Study) -> Path | None:
+    """The study's ``ladder_table`` made absolute against its file's folder (None if unset)."""
+    if study.ladder_table is None:
+        return None
+    p = Path(study.ladder_table).expanduser()
+    return p if p.is_absolute() or study._file is None else Path(os.path.abspath(study._file.parent / p))
 
 
 def study_fidelity_folder(study: Study) -> Path | None:

@@ -46,6 +46,10 @@ class Study(Frozen):
     report: bool = True
     flux_law: Literal["creyssels2009"] | None = Field(
         None, description="a measured flux law the report compares G_tot with (report/fluxlaw.py)")
+    ladder_table: str | None = Field(
+        None, description="an earlier convergence table (convergence.json, relative to the study "
+        "file's folder) whose rungs this study's runs top: its report compares each case's rungs "
+        "with the study's run of that case (report/convergence.py)")
     # the file load_study read (None for a study built in code), private: its fidelity folder
     _file: Path | None = PrivateAttr(None)
 

@@ -73,21 +73,6 @@ def relaxed_position(x0, target, v0, h, ome_k):
     return x0 + target * h + (v0 - target) * ome_k
 
 
-def stokes_terminal_velocity(d, rho_p, rho, nu, g):
-    """Stokes fall speed w_s = g T_p [m s^-1] (no buoyancy, f = 1); ``d`` [m] may be an array."""
-    w = g * particle_response_time.py_func(np.asarray(d, dtype=float), rho_p, rho, nu)
-    return float(w) if w.ndim == 0 else w
-
-
-def terminal_velocity_residual(w, d, rho_p, rho, nu, g):
-    """F(w) = f(w d / nu) w - g T_p [m s^-1]; zero at the terminal velocity (numpy, vectorised)."""
-    w = np.asarray(w, dtype=float)
-    d = np.asarray(d, dtype=float)
-    re = w * d / nu
-    return clift_factor.py_func(re ** CLIFT_EXPONENT) * w - g * particle_response_time.py_func(
-        d, rho_p, rho, nu)
-
-
 def terminal_velocity(d, rho_p, rho, nu, g, rtol: float = 1e-13, max_iter: int = 100):
     """Terminal fall speed w_t [m s^-1] with the Clift et al. (1978) drag of eq. (4): Newton on
     F(w) = f(w d/nu) w - g T_p from the Stokes speed (F convex increasing, F(w_s) >= 0: monotone,

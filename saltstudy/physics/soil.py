@@ -36,63 +36,12 @@ def scalar_or_array(a):
     return float(a) if np.ndim(a) == 0 else a
 
 
-def mass_density_dlnd(d, soil):
-    """dM/dln d [-] (mass fraction per unit ln d) at diameter(s) ``d`` [m], eq. (5). Integrates to 1."""
-    x = np.log(np.asarray(d, dtype=float))[..., None]
-    m, mu, s = _modes(soil)
-    dens = m / (math.sqrt(2.0 * math.pi) * s) * np.exp(-((x - np.log(mu)) ** 2) / (2.0 * s * s))
-    return scalar_or_array(dens.sum(axis=-1))
-
-
-def number_density_dlnd(d, soil):
-    """dN/dln d [-], the normalised number pdf in ln d of the same soil: mode j weighted by
-    m_j / (mu_j^3 exp(-4.5 ln^2 sigma_j)), centred on its count median."""
-    x = np.log(np.asarray(d, dtype=float))[..., None]
-    m, mu, s = _modes(soil)
-    w = m / (mu ** 3 * np.exp(-4.5 * s * s))
-    w = w / w.sum()
-    cmed = np.log(mu) - 3.0 * s * s
-    dens = w / (math.sqrt(2.0 * math.pi) * s) * np.exp(-((x - cmed) ** 2) / (2.0 * s * s))
-    return scalar_or_array(dens.sum(axis=-1))
-
-
-def count_median(soil) -> float:
-    """Count median diameter [m] of a single-mode soil, mu exp(-3 ln^2 sigma)."""
-    if len(soil.modes) != 1:
-        raise ValueError("count_median is defined here for one mode only")
-    mode = soil.modes[0]
-    return mode.mu * math.exp(-3.0 * math.log(mode.sigma) ** 2)
-
-
 def mass_cdf(d, soil):
     """Mass fraction of grains smaller than ``d`` [m]: sum_j m_j Phi(ln(d/mu_j)/ln sigma_j)."""
     with np.errstate(divide="ignore"):
         x = np.log(np.asarray(d, dtype=float))[..., None]
     m, mu, s = _modes(soil)
     return scalar_or_array((m * norm_cdf((x - np.log(mu)) / s)).sum(axis=-1))
-
-
-def mass_median(soil, rtol: float = 1e-12) -> float:
-    """Mass median diameter [m]: d with mass_cdf(d) = 1/2 (bisection in ln d; = mu for one mode)."""
-    m, mu, s = _modes(soil)
-    if len(m) == 1:
-        return float(mu[0])
-    lo = float(np.min(np.log(mu) - 8.0 * s))
-    hi = float(np.max(np.log(mu) + 8.0 * s))
-    while hi - lo > rtol:
-        mid = 0.5 * (lo + hi)
-        if mass_cdf(math.exp(mid), soil) < 0.5:
-            lo = mid
-        else:
-            hi = mid
-    return math.exp(0.5 * (lo + hi))
-
-
-def mass_weighted_moment(soil, k: float) -> float:
-    """E_M[d^k] = sum_j m_j mu_j^k exp(k^2 ln^2 sigma_j / 2) [m^k], over :func:`sample_diameters`'s
-    draws."""
-    m, mu, s = _modes(soil)
-    return float(np.sum(m * mu ** k * np.exp(0.5 * k * k * s * s)))
 
 
 def soil_arrays(soil) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -127,16 +76,6 @@ def sample_diameters(soil, rng: np.random.Generator, n: int) -> np.ndarray:
     out = np.empty(int(n))
     _draw_diameters(rng, *soil_arrays(soil), out)
     return out
-
-
-def diameter_bins(soil, nbins: int) -> np.ndarray:
-    """``nbins + 1`` log-spaced bin edges [m] from min_j mu_j sigma_j^-4 to max_j mu_j sigma_j^4."""
-    if nbins < 1:
-        raise ValueError("nbins must be >= 1")
-    m, mu, s = _modes(soil)
-    lo = np.min(np.log(mu) - 4.0 * s)
-    hi = np.max(np.log(mu) + 4.0 * s)
-    return np.exp(np.linspace(lo, hi, nbins + 1))
 
 
 def bin_mass_fractions(soil, edges) -> np.ndarray:

@@ -6,7 +6,7 @@ as one float vector (:func:`splash_constants`, indices ``SP_*``). Conventions th
 
 * Rebound (eq. 6): Bernoulli with P_reb = p_max (1 - exp(-gamma_reb v_imp)).
 * Rebound speed (eq. 7): N(0.6 v_imp, 0.25 v_imp) with negative draws redrawn (P = 0.82 %), so
-  its mean is 0.60564 v_imp (the tests' ``splash_expectations.py`` gives the moments).
+  its mean is 0.60564 v_imp (``tests/physics_expectations.py`` gives the moments).
 * Vertical launch angles (rebound N(30, 15), ejection N(60, 15) deg) are redrawn outside (0, 180)
   deg (rebound mean 30.83 deg); horizontal angles N(0, 10) deg relative to the impactor's
   direction, never truncated.

@@ -89,15 +89,20 @@ def build_report(study_name: str, runs: dict[str, str | Path | None], report_dir
     wanted = set(meta.get("reports") or [])
     provenance = {k: meta.get(k) for k in ("study", "package_version", "commit", "source_key")}
     sections: list[str] = []
-    if "convergence" in wanted or _is_ladder(ctx):
+    if "convergence" in wanted or _is_ladder(ctx) or meta.get("ladder_table"):
         from .convergence import build_convergence_report
         conv = build_convergence_report(ctx.runs, report_dir, order=meta.get("order"),
-                                        reference=meta.get("reference"), provenance=provenance)
+                                        reference=meta.get("reference"), provenance=provenance,
+                                        prior=meta.get("ladder_table"))
         sections.append("<h2 id='convergence'>Error against run time</h2>" + conv["summary_html"] +
                         "<p>Relative difference of each statistic from the reference rung and error "
                         "against the paper, versus the wall-clock time of the run (spin-up + saltation). Reference "
                         f"rung: <b>{html.escape(str(conv['result'].finest))}</b> (the study's "
-                        "<code>reference</code> fidelity, else the finest rung).</p>"
+                        "<code>reference</code> fidelity, else the finest rung)"
+                        + (f"; the rungs below this study's runs are those of "
+                           f"<code>{html.escape(Path(meta['ladder_table']).name)}</code>, the "
+                           "study's <code>ladder_table</code>" if meta.get("ladder_table") else "")
+                        + ".</p>"
                         + figure_html("convergence", "error against run time") + conv["html"])
     if "stability" in wanted or meta.get("failures") or meta.get("has_scenes") \
             or (any(case_number_of(l) is None for l in ctx.runs) and not _is_ladder(ctx)):

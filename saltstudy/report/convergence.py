@@ -176,21 +176,52 @@ def _grid_of(r: RunData) -> dict[str, float]:
 
 
 def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None,
-                        reference: str | None = None) -> dict[int | None, ConvergenceResult]:
+                        reference: str | None = None, prior: dict[str, Any] | None = None
+                        ) -> dict[int | None, ConvergenceResult]:
     """:func:`convergence_analysis` for each case's runs, primary case first (most rungs, then the
     lowest case number). ``reference`` names one run; each case is compared with its run at the
-    same fidelity (the label's part after ``@``)."""
+    same fidelity (the label's part after ``@``). ``prior``: an earlier ``convergence.json`` whose
+    rungs of each case this study's runs top (:func:`prior_rungs`)."""
     groups: dict[int | None, dict[str, RunData]] = {}
     for label, r in runs.items():
         groups.setdefault(r.case, {})[label] = r
+    below = prior_rungs(prior) if prior else {}
+    for case in below:
+        groups.setdefault(case, {})
     ref_rung = reference.split("@", 1)[1] if reference and "@" in reference else None
     out: dict[int | None, ConvergenceResult] = {}
-    for case in sorted(groups, key=lambda c: (-len(groups[c]), c if c is not None else -1)):
+    size = {c: len(groups[c]) + (len(below[c][0]) if c in below else 0) for c in groups}
+    for case in sorted(groups, key=lambda c: (-size[c], c if c is not None else -1)):
         grp = groups[case]
         ref = reference if reference in grp else next(
             (l for l in grp if ref_rung is not None and l.endswith("@" + ref_rung)), None)
-        out[case] = convergence_analysis(grp, [l for l in order or () if l in grp] or None, ref)
+        out[case] = convergence_analysis(grp, [l for l in order or () if l in grp] or None, ref,
+                                         below.get(case))
     return out
+
+
+def prior_rungs(table: dict[str, Any]) -> dict[int | None, tuple[list[dict], str | None,
+                                                                   list[list[str]], set[str]]]:
+    """Per case of an earlier ``convergence.json``: (its rungs as measured, coarse -> fine, without
+    the comparison with its reference; that reference; its seed groups; its declared ladder). A
+    rung's value, bars and error against the paper do not depend on the reference."""
+    out: dict[int | None, tuple[list[dict], str | None, list[list[str]], set[str]]] = {}
+    cases = table.get("cases") or {}
+    for row in table.get("rungs") or []:
+        case = row.get("case")
+        meta = cases.get(str(case), {})
+        if case not in out:
+            ref = meta.get("reference")
+            ladder = {x["label"] for x in meta.get("ladder_summary", [])} | {ref}
+            out[case] = ([], ref, [list(g) for g in meta.get("seed_replicates", [])], ladder)
+        out[case][0].append({k: (_floats(v) if isinstance(v, dict) else v) for k, v in row.items()
+                             if k not in ("reference", "err_finest", "within_noise")})
+    return out
+
+
+def _floats(d: dict[str, Any]) -> dict[str, float]:
+    """A table's per-statistic cells as floats (JSON writes NaN as null)."""
+    return {k: math.nan if v is None else float(v) for k, v in d.items()}
 
 
 def _time_key(t: float) -> float:
@@ -198,8 +229,46 @@ def _time_key(t: float) -> float:
     return t if math.isfinite(t) else math.inf
 
 
+def _measure(r: RunData, pooled: dict[str, float]) -> dict[str, Any]:
+    """A rung's row as it stands alone: settings, cost, and per statistic its value, its two noise
+    estimates and the larger of them, and its error against the paper."""
+    ext = sampled_extent(r)
+    row: dict[str, Any] = {"label": r.label, "case": r.case, "fidelity": r.fidelity,
+                           "status": r.status, "wall_time_s": r.wall_time_s, **_grid_of(r),
+                           "spinup_wall_time_s": r.attr("spinup_wall_time_s"),
+                           "sampled_extent_s_m2": ext, "values": {}, "error_bar": {},
+                           "half_window_bar": {}, "seed_bar": {}, "err_paper": {}}
+    for s in CONV_STATS:
+        v = _value(r, s)
+        # the seeds' bar: |value| sqrt(pooled / extent) (NaN where unknown)
+        sb = abs(v) * math.sqrt(pooled[s] / ext)
+        row["values"][s] = v
+        row["half_window_bar"][s], row["seed_bar"][s] = hw, sb = (
+            _error_bar(r, s), sb if math.isfinite(sb) else math.nan)
+        row["error_bar"][s] = _noise((hw, sb))
+        row["err_paper"][s] = _paper_error(s, v, r.case, r.mu1 if r.ok else math.nan)
+    return row
+
+
+def _pooled_of(rows: list[dict[str, Any]]) -> dict[str, float]:
+    """The seeds' pooled relative variance x extent a table's rows were barred with
+    (seed_bar = |value| sqrt(pooled / extent), :func:`seed_noise`)."""
+    out = {}
+    for s in CONV_STATS:
+        est = [(row["seed_bar"][s] / row["values"][s]) ** 2 * row["sampled_extent_s_m2"]
+               for row in rows if math.isfinite(row["seed_bar"].get(s, math.nan))
+               and row["values"].get(s) and math.isfinite(row["sampled_extent_s_m2"] or math.nan)]
+        out[s] = float(np.median(est)) if est else math.nan
+    return out
+
+
 def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = None,
-                         reference: str | None = None) -> ConvergenceResult:
+                         reference: str | None = None,
+                         prior: tuple[list[dict], str | None, list[list[str]], set[str]] | None = None
+                         ) -> ConvergenceResult:
+    """``runs`` compared with the reference (module doc); ``prior``: an earlier table's rungs of
+    this case (:func:`prior_rungs`), which ``runs`` top: the reference is then ``reference``, else
+    the costliest of ``runs``, else the table's own."""
     present = [r for r in runs.values() if r.ok]
     if order:
         ranked = [runs[l] for l in order if l in runs]
@@ -213,53 +282,44 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
         timed = [r for r in present if math.isfinite(r.wall_time_s)]
         finest = max(timed, key=lambda r: r.wall_time_s) if timed else present[-1]
     pooled, seed_groups = seed_noise(runs)
-
-    def bars(run: RunData, s: str, v: float) -> tuple[float, float]:
-        # the half windows' bar; the seeds', |value| sqrt(pooled / extent) (NaN where unknown)
-        sb = abs(v) * math.sqrt(pooled[s] / sampled_extent(run))
-        return _error_bar(run, s), sb if math.isfinite(sb) else math.nan
-    ref_bar = {s: _noise(bars(finest, s, _value(finest, s))) if finest is not None else math.nan
-               for s in CONV_STATS}
-    rungs = []
-    for r in ranked:
-        row: dict[str, Any] = {"label": r.label, "case": r.case, "fidelity": r.fidelity,
-                               "status": r.status, "wall_time_s": r.wall_time_s, **_grid_of(r),
-                               "spinup_wall_time_s": r.attr("spinup_wall_time_s"),
-                               "sampled_extent_s_m2": sampled_extent(r),
-                               "values": {}, "error_bar": {}, "half_window_bar": {}, "seed_bar": {},
-                               "err_finest": {}, "err_paper": {}, "within_noise": {}}
-        case = row["case"]
+    below, ladder = [], set(order) if order else {r.label for r in runs.values()}
+    ref_label = finest.label if finest is not None else None
+    if prior is not None:
+        below = [row for row in prior[0] if row["label"] not in runs]
+        kept = _pooled_of(below)
+        pooled = {s: v if math.isfinite(v) else kept[s] for s, v in pooled.items()}
+        seed_groups = prior[2] + seed_groups
+        ladder |= prior[3]
+        ref_label = ref_label or prior[1]
+    rungs = below + [_measure(r, pooled) for r in ranked]
+    ref = next((row for row in rungs if row["label"] == ref_label), None)
+    for row in rungs:
+        row["err_finest"], row["within_noise"] = {}, {}
         for s in CONV_STATS:
-            v = _value(r, s)
-            f = _value(finest, s) if finest is not None else math.nan
-            row["values"][s] = v
-            row["err_finest"][s] = (abs(v - f) / abs(f)) if math.isfinite(v) and math.isfinite(f) and f != 0 \
-                else math.nan
-            row["err_paper"][s] = _paper_error(s, v, case, r.mu1 if r.ok else math.nan)
-            row["half_window_bar"][s], row["seed_bar"][s] = hw, sb = bars(r, s, v)
-            eb = row["error_bar"][s] = _noise((hw, sb))
-            ebf = ref_bar[s]
+            v, eb = row["values"][s], row["error_bar"][s]
+            f, ebf = (ref["values"][s], ref["error_bar"][s]) if ref is not None else (math.nan,) * 2
+            row["err_finest"][s] = (abs(v - f) / abs(f)) if math.isfinite(v) and math.isfinite(f) \
+                and f != 0 else math.nan
             # a difference from the reference inside the two runs' combined noise is not one
             noise = math.hypot(eb, ebf) if math.isfinite(eb) and math.isfinite(ebf) else math.nan
             row["within_noise"][s] = (bool(abs(v - f) <= noise) if math.isfinite(noise)
                                       and math.isfinite(v) and math.isfinite(f) else None)
-        rungs.append(row)
     # the cheapest rung is read off the declared ladder: a study's extra scenes (a knob's
     # variant, a second seed) are rows to compare, not cheaper ways to the reference
-    on_ladder = set(order) if order else {row["label"] for row in rungs}
     cheapest: dict[str, dict[str, str | None]] = {}
     for s in CONV_STATS:
         cheapest[s] = {}
         for th in THRESHOLDS:
-            ok = [row for row in rungs if row["label"] in on_ladder and row["status"] == "ok"
+            ok = [row for row in rungs if row["label"] in ladder and row["status"] == "ok"
                   and math.isfinite(row["err_finest"][s]) and row["err_finest"][s] <= th
                   and _resolves(row, s, th)]
             ok.sort(key=lambda row: _time_key(row["wall_time_s"]))
             cheapest[s][f"{th:.0%}"] = ok[0]["label"] if ok else None
     # a reference that is the top of the declared ladder is its finest rung, not a base of variants
-    named = finest is not None and finest.label == reference and not (order and order[-1] == reference)
-    return ConvergenceResult(rungs, finest.label if finest else None, cheapest, named, seed_groups,
-                             [row["label"] for row in rungs if row["label"] in on_ladder])
+    named = (prior is None and finest is not None and finest.label == reference
+             and not (order and order[-1] == reference))
+    return ConvergenceResult(rungs, ref_label, cheapest, named, seed_groups,
+                             [row["label"] for row in rungs if row["label"] in ladder])
 
 
 def _rung_name(row: dict[str, Any]) -> str:
@@ -477,17 +537,20 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
                              wall_times: dict[str, float] | None = None,
                              order: list[str] | None = None,
                              reference: str | None = None,
-                             provenance: dict[str, Any] | None = None) -> dict[str, Any]:
+                             provenance: dict[str, Any] | None = None,
+                             prior: str | Path | None = None) -> dict[str, Any]:
     """Write ``convergence.{png,pdf,md,json}`` in ``report_dir`` (with ``convergence_caseNN`` per
     further case and, for a ladder, ``convergence_summary``). ``runs``: label -> analysis path or
     :class:`RunData`; ``fidelities``/``wall_times`` override the archives'; ``order``: the ladder,
     coarse -> fine; ``reference``: the label compared against (default: the finest);
-    ``provenance`` heads ``convergence.json``. Returns {"result" (the primary case's), "results",
+    ``provenance`` heads ``convergence.json``; ``prior``: an earlier ``convergence.json`` whose
+    rungs the runs top (:func:`convergence_by_case`). Returns {"result" (the primary case's), "results",
     "html", "summary_html", "files"}."""
     report_dir = Path(report_dir)
     report_dir.mkdir(parents=True, exist_ok=True)
     loaded = load_runs(runs, {"fidelities": fidelities or {}, "wall_times": wall_times or {}})
-    results = convergence_by_case(loaded, order, reference)
+    table = json.loads(Path(prior).read_text(encoding="utf-8")) if prior else None
+    results = convergence_by_case(loaded, order, reference, table)
     primary = next(iter(results))
     res = results[primary]
     figures = {_stem(case, primary): _figure(r, case) for case, r in results.items()}
@@ -519,7 +582,11 @@ def build_convergence_report(runs: dict[str, str | Path | None] | dict[str, RunD
                     + html_table(_CHEAPEST_HEADS, _cheapest_cells(r)))
     (report_dir / "convergence.md").write_text("\n".join(md), encoding="utf-8")
     write_json(report_dir / "convergence.json", {
-        **(provenance or {}), "primary_case": primary, "finest": res.finest,
+        **(provenance or {}),
+        # where the rungs below the study's runs were measured
+        **({"ladder_table": {"file": Path(prior).name, **{k: table.get(k) for k in (
+            "study", "commit", "source_key")}}} if table else {}),
+        "primary_case": primary, "finest": res.finest,
         "reference": res.finest, "cheapest": res.cheapest, "error_bar": NOISE_NOTE,
         "cases": {str(case): {"reference": r.finest, "cheapest": r.cheapest,
                               "seed_replicates": r.seed_groups, "ladder_summary": ladder_summary(r)}

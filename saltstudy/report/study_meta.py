@@ -15,7 +15,7 @@ def study_meta(study_ref: str) -> dict[str, Any]:
     ``reference``: the label of the run at the study's ``reference`` fidelity (None when the study
     names none: the convergence report compares with the last rung). {} if no file."""
     try:
-        from ..config import load_study, study_runs
+        from ..config import ladder_table_path, load_study, study_runs
         study = load_study(study_ref)
         runs = study_runs(study)
     except Exception:
@@ -35,6 +35,7 @@ def study_meta(study_ref: str) -> dict[str, Any]:
         "reference": reference,
         "has_scenes": bool(study.scenes),
         "expect_blowup": sorted(sc.label for sc in study.scenes if sc.expect == "blow-up"),
+        "ladder_table": str(table) if (table := ladder_table_path(study)) else None,
     }
 
 

@@ -146,6 +146,10 @@ def register(app: typer.Typer) -> None:
         report_dir: Optional[Path] = typer.Option(None, "--report-dir",
                                                   help="where the report goes (default: reports/<study>)"),
         wait: bool = typer.Option(False, "--wait", help=_WAIT_HELP),
+        recorded: bool = typer.Option(
+            False, "--recorded", help="draw from the archives run-all last recorded for each run "
+            "(studies/NAME/runs.json), though the code or configuration has changed since; the "
+            "report names the source keys that made them"),
     ) -> None:
         """Figures 1-13, Table 2 beside the paper, summary.json and index.html from the archives."""
         from ..config import load_study
@@ -164,6 +168,8 @@ def register(app: typer.Typer) -> None:
             fail(str(exc))
         with _hold(out_dir, wait):
             runs = wpaths.analysis_paths(study, out_dir)
+            if recorded:
+                runs, meta["keys"] = wpaths.recorded_analysis_paths(study_name, list(runs), out_dir)
             index = build_report_staged(build_report, study_name, runs, Path(
                 report_dir or wpaths.default_report_dir(study_name)), cache_meta(meta))
         typer.echo(f"report: {index}")

@@ -87,6 +87,19 @@ def write_json_atomic(path: Path, data: dict) -> None:
     write_atomic(path, lambda tmp: tmp.write_text(text), len(text), sync=False)
 
 
+def recorded_analysis_paths(study_name: str, labels: list[str], out_dir: Path
+                            ) -> tuple[dict[str, Path | None], dict[str, dict[str, str]]]:
+    """(label -> analysis.nc, label -> {task: key}) of the runs run-all last completed for
+    ``labels`` (runs.json), whatever code made them; None where none is recorded or complete."""
+    from ..ncio import is_complete
+
+    recorded = read_runs_file(out_dir, study_name).get("labels", {})
+    keys = {label: dict(recorded.get(label, {})) for label in labels}
+    paths = {label: output_path(out_dir, "analysis", k["analysis"]) if k.get("analysis") else None
+             for label, k in keys.items()}
+    return {label: p if p is not None and is_complete(p) else None for label, p in paths.items()}, keys
+
+
 def analysis_paths(study: Study | str | Path, out_dir: Path | None = None) -> dict[str, Path | None]:
     """Label -> analysis.nc of each run of ``study`` for the *current* configuration and code, None
     where missing or incomplete. Raises ConfigError for a bad study or case."""

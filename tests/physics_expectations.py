@@ -1,16 +1,96 @@
-"""The splash laws' analytic expectations (paper eqs. 6-9, physics/splash.py's conventions), which
-the tests hold the kernels' draws to: truncated-normal moments and the per-impact means."""
+"""The laws' analytic expectations that the tests hold the package's draws and solvers to: the
+soil's size distribution (eq. 5), the Stokes and Clift fall speeds (eqs. 3-4), and the splash
+laws' moments (eqs. 6-9, physics/splash.py's conventions)."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from saltstudy.physics.soil import mass_weighted_moment, scalar_or_array
+from saltstudy.physics.drag import CLIFT_EXPONENT, clift_factor, particle_response_time
+from saltstudy.physics.soil import _modes, mass_cdf, scalar_or_array
 from saltstudy.physics.splash import ejection_number_mean, rebound_probability
 
 #: the open interval [deg] outside which physics.splash.launch_angle redraws a vertical angle
 ANGLE_V_BOUNDS_DEG = (0.0, 180.0)
+
+
+# ---- Soil (eq. 5) ----
+def mass_density_dlnd(d, soil):
+    """dM/dln d [-] (mass fraction per unit ln d) at diameter(s) ``d`` [m], eq. (5). Integrates to 1."""
+    x = np.log(np.asarray(d, dtype=float))[..., None]
+    m, mu, s = _modes(soil)
+    dens = m / (math.sqrt(2.0 * math.pi) * s) * np.exp(-((x - np.log(mu)) ** 2) / (2.0 * s * s))
+    return scalar_or_array(dens.sum(axis=-1))
+
+
+def number_density_dlnd(d, soil):
+    """dN/dln d [-], the normalised number pdf in ln d of the same soil: mode j weighted by
+    m_j / (mu_j^3 exp(-4.5 ln^2 sigma_j)), centred on its count median."""
+    x = np.log(np.asarray(d, dtype=float))[..., None]
+    m, mu, s = _modes(soil)
+    w = m / (mu ** 3 * np.exp(-4.5 * s * s))
+    w = w / w.sum()
+    cmed = np.log(mu) - 3.0 * s * s
+    dens = w / (math.sqrt(2.0 * math.pi) * s) * np.exp(-((x - cmed) ** 2) / (2.0 * s * s))
+    return scalar_or_array(dens.sum(axis=-1))
+
+
+def count_median(soil) -> float:
+    """Count median diameter [m] of a single-mode soil, mu exp(-3 ln^2 sigma)."""
+    if len(soil.modes) != 1:
+        raise ValueError("count_median is defined here for one mode only")
+    mode = soil.modes[0]
+    return mode.mu * math.exp(-3.0 * math.log(mode.sigma) ** 2)
+
+
+def mass_median(soil, rtol: float = 1e-12) -> float:
+    """Mass median diameter [m]: d with mass_cdf(d) = 1/2 (bisection in ln d; = mu for one mode)."""
+    m, mu, s = _modes(soil)
+    if len(m) == 1:
+        return float(mu[0])
+    lo = float(np.min(np.log(mu) - 8.0 * s))
+    hi = float(np.max(np.log(mu) + 8.0 * s))
+    while hi - lo > rtol:
+        mid = 0.5 * (lo + hi)
+        if mass_cdf(math.exp(mid), soil) < 0.5:
+            lo = mid
+        else:
+            hi = mid
+    return math.exp(0.5 * (lo + hi))
+
+
+def mass_weighted_moment(soil, k: float) -> float:
+    """E_M[d^k] = sum_j m_j mu_j^k exp(k^2 ln^2 sigma_j / 2) [m^k], over :func:`sample_diameters`'s
+    draws."""
+    m, mu, s = _modes(soil)
+    return float(np.sum(m * mu ** k * np.exp(0.5 * k * k * s * s)))
+
+
+def diameter_bins(soil, nbins: int) -> np.ndarray:
+    """``nbins + 1`` log-spaced bin edges [m] from min_j mu_j sigma_j^-4 to max_j mu_j sigma_j^4."""
+    if nbins < 1:
+        raise ValueError("nbins must be >= 1")
+    m, mu, s = _modes(soil)
+    lo = np.min(np.log(mu) - 4.0 * s)
+    hi = np.max(np.log(mu) + 4.0 * s)
+    return np.exp(np.linspace(lo, hi, nbins + 1))
+
+
+# ---- Fall speed (eqs. 3-4) ----
+def stokes_terminal_velocity(d, rho_p, rho, nu, g):
+    """Stokes fall speed w_s = g T_p [m s^-1] (no buoyancy, f = 1); ``d`` [m] may be an array."""
+    w = g * particle_response_time.py_func(np.asarray(d, dtype=float), rho_p, rho, nu)
+    return float(w) if w.ndim == 0 else w
+
+
+def terminal_velocity_residual(w, d, rho_p, rho, nu, g):
+    """F(w) = f(w d / nu) w - g T_p [m s^-1]; zero at the terminal velocity (numpy, vectorised)."""
+    w = np.asarray(w, dtype=float)
+    d = np.asarray(d, dtype=float)
+    re = w * d / nu
+    return clift_factor.py_func(re ** CLIFT_EXPONENT) * w - g * particle_response_time.py_func(
+        d, rho_p, rho, nu)
 
 
 # ---- Truncated normal ----
