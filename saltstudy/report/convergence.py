@@ -16,7 +16,7 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -190,7 +190,7 @@ def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None
         groups.setdefault(case, {})
     ref_rung = reference.split("@", 1)[1] if reference and "@" in reference else None
     out: dict[int | None, ConvergenceResult] = {}
-    size = {c: len(groups[c]) + (len(below[c][0]) if c in below else 0) for c in groups}
+    size = {c: len(groups[c]) + (len(below[c].rungs) if c in below else 0) for c in groups}
     for case in sorted(groups, key=lambda c: (-size[c], c if c is not None else -1)):
         grp = groups[case]
         ref = reference if reference in grp else next(
@@ -200,28 +200,40 @@ def convergence_by_case(runs: dict[str, RunData], order: list[str] | None = None
     return out
 
 
-def prior_rungs(table: dict[str, Any]) -> dict[int | None, tuple[list[dict], str | None,
-                                                                   list[list[str]], set[str]]]:
-    """Per case of an earlier ``convergence.json``: (its rungs as measured, coarse -> fine, without
-    the comparison with its reference; that reference; its seed groups; its declared ladder). A
-    rung's value, bars and error against the paper do not depend on the reference."""
-    out: dict[int | None, tuple[list[dict], str | None, list[list[str]], set[str]]] = {}
+class PriorCase(NamedTuple):
+    """One case of an earlier ``convergence.json``: its rungs as measured (coarse -> fine, without
+    the comparison with its reference), that reference, its seed groups and its declared ladder."""
+    rungs: list[dict[str, Any]]
+    reference: str | None
+    seed_groups: list[list[str]]
+    ladder: set[str]
+
+
+#: a row's numbers outside the per-statistic cells (JSON writes NaN as null)
+_ROW_NUMBERS = ("wall_time_s", "dx", "dy", "dz_bottom", "Q", "spinup_wall_time_s",
+                "sampled_extent_s_m2")
+
+
+def prior_rungs(table: dict[str, Any]) -> dict[int | None, PriorCase]:
+    """:class:`PriorCase` per case of an earlier ``convergence.json``. A rung's value, bars and
+    error against the paper do not depend on the reference, so they are kept as recorded."""
+    out: dict[int | None, PriorCase] = {}
     cases = table.get("cases") or {}
     for row in table.get("rungs") or []:
         case = row.get("case")
         meta = cases.get(str(case), {})
         if case not in out:
             ref = meta.get("reference")
-            ladder = {x["label"] for x in meta.get("ladder_summary", [])} | {ref}
-            out[case] = ([], ref, [list(g) for g in meta.get("seed_replicates", [])], ladder)
-        out[case][0].append({k: (_floats(v) if isinstance(v, dict) else v) for k, v in row.items()
-                             if k not in ("reference", "err_finest", "within_noise")})
+            out[case] = PriorCase([], ref, [list(g) for g in meta.get("seed_replicates", [])],
+                                  {x["label"] for x in meta.get("ladder_summary", [])} | {ref})
+        kept = {k: v for k, v in row.items() if k not in ("reference", "err_finest", "within_noise")}
+        for k, v in kept.items():
+            if isinstance(v, dict):
+                kept[k] = {s: math.nan if x is None else float(x) for s, x in v.items()}
+            elif k in _ROW_NUMBERS and v is None:
+                kept[k] = math.nan
+        out[case].rungs.append(kept)
     return out
-
-
-def _floats(d: dict[str, Any]) -> dict[str, float]:
-    """A table's per-statistic cells as floats (JSON writes NaN as null)."""
-    return {k: math.nan if v is None else float(v) for k, v in d.items()}
 
 
 def _time_key(t: float) -> float:
@@ -257,15 +269,14 @@ def _pooled_of(rows: list[dict[str, Any]]) -> dict[str, float]:
     for s in CONV_STATS:
         est = [(row["seed_bar"][s] / row["values"][s]) ** 2 * row["sampled_extent_s_m2"]
                for row in rows if math.isfinite(row["seed_bar"].get(s, math.nan))
-               and row["values"].get(s) and math.isfinite(row["sampled_extent_s_m2"] or math.nan)]
+               and row["values"].get(s) and math.isfinite(row["sampled_extent_s_m2"])]
         out[s] = float(np.median(est)) if est else math.nan
     return out
 
 
 def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = None,
                          reference: str | None = None,
-                         prior: tuple[list[dict], str | None, list[list[str]], set[str]] | None = None
-                         ) -> ConvergenceResult:
+                         prior: PriorCase | None = None) -> ConvergenceResult:
     """``runs`` compared with the reference (module doc); ``prior``: an earlier table's rungs of
     this case (:func:`prior_rungs`), which ``runs`` top: the reference is then ``reference``, else
     the costliest of ``runs``, else the table's own."""
@@ -285,12 +296,12 @@ def convergence_analysis(runs: dict[str, RunData], order: list[str] | None = Non
     below, ladder = [], set(order) if order else {r.label for r in runs.values()}
     ref_label = finest.label if finest is not None else None
     if prior is not None:
-        below = [row for row in prior[0] if row["label"] not in runs]
+        below = [row for row in prior.rungs if row["label"] not in runs]
         kept = _pooled_of(below)
         pooled = {s: v if math.isfinite(v) else kept[s] for s, v in pooled.items()}
-        seed_groups = prior[2] + seed_groups
-        ladder |= prior[3]
-        ref_label = ref_label or prior[1]
+        seed_groups = prior.seed_groups + seed_groups
+        ladder |= prior.ladder
+        ref_label = ref_label or prior.reference
     rungs = below + [_measure(r, pooled) for r in ranked]
     ref = next((row for row in rungs if row["label"] == ref_label), None)
     for row in rungs:
