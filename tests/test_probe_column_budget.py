@@ -103,3 +103,44 @@ def test_a_window_reads_the_volumes_within_it(tmp_path):
         assert r["residual"] == pytest.approx(0.0, abs=2e-3)
     res = runner.invoke(app, ["probe", "column-budget", str(tmp_path), "--window", "12", "13"])
     assert res.exit_code == 2 and "1 volume(s) in the window" in res.output
+
+
+def test_a_run_still_going_reads_from_its_checkpoint_as_its_archive_will(tmp_path):
+    """A smoke saltation run stopped between its second and third volume: the budget read from
+    its checkpoint equals the finished archive's over the same two volumes, bit for bit, since a
+    resumed run records what an uninterrupted one does."""
+    import shutil
+
+    from saltstudy.config import load_case, load_fidelity
+    from saltstudy.config.loading import resolve_scene
+    from saltstudy.ncio import open_dataset
+    from saltstudy.workflow import keys
+    from saltstudy.workflow.driver import Interrupted
+    from saltstudy.workflow.paths import task_dir
+    from saltstudy.workflow.tasks import saltation_task, spinup_task
+
+    scene = resolve_scene(load_case(2), load_fidelity("smoke"))
+    a, b = tmp_path / "a", tmp_path / "b"
+    sp = spinup_task(scene, a)
+    full = saltation_task(scene, sp, a)
+    shutil.copytree(sp.parent, b / "spinup" / sp.parent.name)
+    with pytest.raises(Interrupted):
+        saltation_task(scene, b / "spinup" / sp.parent.name / "spinup.nc", b,
+                       interrupt_after_steps=int(open_dataset(full).attrs["n_steps"]) - 3,
+                       checkpoint_interval=1e9)
+    d = task_dir(b, "saltation", keys.saltation_key(scene, keys.spinup_key(scene)))
+    assert not (d / "samples.nc").exists()
+    res = CliRunner().invoke(app, ["probe", "column-budget", str(d), "--json"])
+    assert res.exit_code == 0, res.output
+    live = json.loads(res.output)[0]
+    assert live["window"] == [1.0, 1.5] and live["label"] == "case02"
+    done = column_budget(full, window=(1.0, 1.5))
+    for name in ("u_star_2m", "tau_2m", "M_drive", "storage", "residual", "halves", "z_ref"):
+        assert live[name] == done[name], name
+    # the 0.5-s blocks the stopped run has completed are the finished run's
+    live_blocks = column_budget(d, block_s=0.5)["blocks"]
+    assert [b["t0"] for b in live_blocks[:3]] == [0.0, 0.5, 1.0]
+    assert live_blocks[:3] == column_budget(full, block_s=0.5)["blocks"][:3]
+    (d / "task.json").unlink()
+    res = CliRunner().invoke(app, ["probe", "column-budget", str(d)])
+    assert res.exit_code == 2 and "no saltation task.json" in res.output

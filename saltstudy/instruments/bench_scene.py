@@ -204,21 +204,16 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
     from .revision import alternate
     scene = _scene(case, fidelity, None)
     schemes = tuple(schemes) or (scene.fidelity.time.vertical_diffusion,)
-    source = _scene(case, spinup_from, None) if spinup_from else scene
-    # the workflow's own spin-up archive (returned at once when the cache holds it)
-    sp_path = spinup_task(source, Path(out_dir) if out_dir else default_out_dir())
-    restart = archives.start_restart(open_dataset(sp_path), scene)
     start = "the fidelity's own spin-up"
-    if spinup_from:
-        from ..solver.grid import Grid
-        from ..solver.tiling import tile_restart
-        src, dst = Grid.from_spec(source.fidelity.grid), Grid.from_spec(scene.fidelity.grid)
-        z_keep = src.Lz - source.damping_depth
-        restart = tile_restart(restart, src, dst, z_keep, scene.case.forcing.u_star_s,
-                               scene.case.air.kappa)
-        start = (f"{spinup_from}'s spin-up ({src.nx}x{src.ny}x{src.nz}) tiled "
-                 f"{dst.nx // src.nx}x{dst.ny // src.ny}, interpolated in z below {z_keep:g} m, "
-                 f"log law above (solver/tiling.py)")
+    if spinup_from:   # as a fidelity with spinup.tiled_from: archives.start_restart tiles it
+        scene = scene.model_copy(
+            update={"spinup_fidelity": _scene(case, spinup_from, None).fidelity})
+        src, dst = scene.spinup_fidelity.grid, scene.fidelity.grid
+        start = (f"{spinup_from}'s spin-up ({src.nx}x{src.ny}x{src.nz}) tiled {dst.nx // src.nx}x"
+                 f"{dst.ny // src.ny}, interpolated in z below its Rayleigh layer, log law above")
+    # the workflow's own spin-up archive (returned at once when the cache holds it)
+    sp_path = spinup_task(scene, Path(out_dir) if out_dir else default_out_dir())
+    restart = archives.start_restart(open_dataset(sp_path), scene)
     per = alternate(rounds, schemes, lambda name: _saltation_seconds(
         _with_scheme(scene, name), restart, saltation_seconds, tiled=bool(spinup_from),
         phases=phases))

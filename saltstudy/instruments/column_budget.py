@@ -1,5 +1,6 @@
 """Where the stress at 2 m comes from: the x-momentum budget of the column above z_ref in one
-saltation archive (``saltstudy probe column-budget``; docs/USAGE.md). With the top drive the mean
+saltation archive, or in a run still going, from its checkpoint (``saltstudy probe column-budget``;
+docs/USAGE.md): is a long run's column settled before its window? With the top drive the mean
 x-momentum above z_ref per unit area, P, obeys
 
     dP/dt = M - tau(z_ref),        M = sum_k f_k (u_drive - <u>_k) dz_k,
@@ -26,15 +27,44 @@ def column_momentum(u_mean: np.ndarray, z_w: np.ndarray, z_ref: float) -> np.nda
     return np.asarray(u_mean, dtype=np.float64) @ layer_weights(z_w, z_ref, z_w[-1])
 
 
+def _running_dataset(run_dir: Path):
+    """What the budget reads, as a saltation archive holds it, from a running or stopped saltation
+    task's directory: the records so far in checkpoint.npz, the rest from task.json's scene."""
+    import xarray as xr
+
+    from ..config.fidelity import GridSpec
+    from ..solver.grid import Grid
+    from ..workflow.paths import read_task_json
+
+    tj = read_task_json(run_dir) or {}
+    if tj.get("task") != "saltation" or "config" not in tj:
+        raise ValueError(f"{run_dir}: no samples.nc and no saltation task.json")
+    dims = {"series:__times__": "time_series", "series:u_star_ref": "time_series",
+            "series:u_drive": "time_series", "sample:__times__": "time", "sample:u_mean": "time"}
+    with np.load(run_dir / "checkpoint.npz", allow_pickle=False) as z:
+        rec = {k.split(":rec:")[1]: z[k] for k in z.files if k.split(":rec:")[-1] in dims}
+    run, spec = tj["config"], GridSpec.model_validate(tj["config"]["fidelity"]["grid"])
+    forcing, grid = run["case"]["forcing"], Grid.from_spec(spec)
+    return xr.Dataset(
+        {k.split(":")[1]: ((dims[k], "z") if k == "sample:u_mean" else dims[k], v)
+         for k, v in rec.items() if not k.endswith("__times__")},
+        coords={"time_series": rec.get("series:__times__", []), "z": grid.z_c, "z_w": grid.z_f,
+                "time": rec.get("sample:__times__", [])},
+        attrs={"case_json": json.dumps(run), "Lz": spec.Lz, "label": tj.get("label", ""),
+               "u_star_target": forcing["u_star_s"],   # archives.z_ref_eff with the top drive
+               "z_ref_eff": min(forcing["z_ref"], 0.5 * (spec.Lz - spec.damping_depth))})
+
+
 def column_budget(samples: Path, block_s: float = BLOCK_S,
                   window: tuple[float, float] | None = None) -> dict:
     """The budget of the column above z_ref over the sampling window, or over the volumes within
-    ``window`` (start, end) [s after activation] (module doc), stresses over u*s^2; ValueError for
-    an archive without these records, not driven from the top, or with < 2 volumes in it."""
+    ``window`` (start, end) [s after activation] (module doc), stresses over u*s^2; ``samples``
+    a task's directory: the run's records so far. ValueError for an archive without these
+    records, not driven from the top, or with < 2 volumes in it."""
     from ..ncio import open_dataset
     from ..solver.flow.damping import rayleigh_profile
 
-    ds = open_dataset(samples)
+    ds = _running_dataset(Path(samples)) if Path(samples).is_dir() else open_dataset(samples)
     need = ("u_star_ref", "u_drive", "time_series", "u_mean", "time", "z", "z_w")
     missing = [n for n in need if n not in ds]
     if missing:
@@ -85,16 +115,16 @@ def format_column_budget(rows: list[dict]) -> str:
     lines = ["x-momentum of the column above z_ref over the sampling window, each term over u*s^2",
              "(tau = M + storage + residual; storage = -dP/dt, a decelerating column reads high)",
              "",
-             f"{'run':<10} {'u*s':>6} {'u* 2 m':>7} {'(+%)':>6} {'tau':>6} {'M drive':>8} "
+             f"{'run':<14} {'u*s':>6} {'u* 2 m':>7} {'(+%)':>6} {'tau':>6} {'M drive':>8} "
              f"{'storage':>8} {'resid.':>7}  halves"]
     for r in rows:
         ex = 100.0 * (r["u_star_2m"] / r["u_star_s"] - 1.0)
-        lines.append(f"{r['label'][:10]:<10} {r['u_star_s']:6.3f} {r['u_star_2m']:7.3f} {ex:+6.1f} "
+        lines.append(f"{r['label'][:14]:<14} {r['u_star_s']:6.3f} {r['u_star_2m']:7.3f} {ex:+6.1f} "
                      f"{r['tau_2m']:6.2f} {r['M_drive']:8.2f} {r['storage']:8.2f} "
                      f"{r['residual']:7.2f}  {r['halves'][0]:.3f} / {r['halves'][1]:.3f}")
     lines += ["", "u* at 2 m in 5-s blocks from activation, over u*s:"]
     for r in rows:
-        lines.append(f"{r['label'][:10]:<10} " + " ".join(
+        lines.append(f"{r['label'][:14]:<14} " + " ".join(
             f"{b['u_star_2m'] / r['u_star_s']:.2f}" for b in r["blocks"]))
     return "\n".join(lines)
 
@@ -106,7 +136,8 @@ def register_column_budget(probe_app) -> None:
 
     @probe_app.command("column-budget")
     def column_budget_cmd(paths: list[Path] = typer.Argument(
-            ..., help="saltation archives (samples.nc) or the directories holding them"),
+            ..., help="saltation archives (samples.nc) or the directories holding them; a "
+            "directory with only checkpoint.npz is a run still going: its records so far"),
             as_json: bool = typer.Option(False, "--json", help="one JSON list"),
             window: tuple[float, float] | None = typer.Option(
                 None, "--window", help="START END [s after activation]: the volumes "
@@ -115,9 +146,12 @@ def register_column_budget(probe_app) -> None:
         rows = []
         for path in paths:
             samples = path / "samples.nc" if path.is_dir() else path
+            if not samples.is_file() and (path / "checkpoint.npz").is_file():
+                samples = path
             try:
-                if not samples.is_file():
-                    raise ValueError(f"{samples}: no such file")
+                if not samples.exists():
+                    raise ValueError(f"{samples}: no such file" + (
+                        " (nor a checkpoint yet)" if path.is_dir() else ""))
                 rows.append(column_budget(samples, window=window))
             except (OSError, ValueError) as exc:
                 fail(str(exc))
