@@ -136,3 +136,8 @@ def scalar_advection(grid, s, u, v, w, order: int = 2):
     out = np.empty_like(s)
     _scalar_kernel(s, u, v, w, grid.dx, grid.dy, grid.dz_c, out, _check_order(order))
     return out
+
+
+def lacking_metadata(ds) -> list[str]:
+    """Names of an archive's variables and coordinates without ``units`` or ``long_name``."""
+    return [n for n in ds.variables if not ds[n].attrs.get("units") or not ds[n].attrs.get("long_name")]

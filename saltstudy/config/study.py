@@ -111,11 +111,6 @@ class Scene(Frozen):
         forcing = self.case.forcing.model_copy(update={"u_star_s": float(u_ref)})
         return scene.model_copy(update={"case": self.case.model_copy(update={"forcing": forcing})})
 
-    @property
-    def spinup_scale(self) -> float:
-        """u*s / the spin-up's u* [1]: the similarity factor applied to the spun-up flow."""
-        return self.case.forcing.u_star_s / self.spinup_scene().case.forcing.u_star_s
-
     def spinup_slice(self) -> dict[str, Any]:
         """What determines the particle-free spin-up (cases sharing it share one spin-up)."""
         sp = self.spinup_scene()

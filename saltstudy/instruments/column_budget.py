@@ -1,6 +1,6 @@
 """Where the stress at 2 m comes from: the x-momentum budget of the column above z_ref in one
 saltation archive, or in a run still going, from its checkpoint (``saltstudy probe column-budget``;
-docs/USAGE.md): is a long run's column settled before its window? With the top drive the mean
+docs/USAGE.md): is a long run's column settled while its window fills? With the top drive the mean
 x-momentum above z_ref per unit area, P, obeys
 
     dP/dt = M - tau(z_ref),        M = sum_k f_k (u_drive - <u>_k) dz_k,

@@ -354,9 +354,3 @@ def samples_dataset(scene: Scene, grid, records: dict[str, tuple[np.ndarray, dic
                   "planes_cover": "whole run" if scene.fidelity.outputs.animation
                   else "sampling window [sampling.start, sampling.end]"})
     return xr.Dataset(data, coords=coords, attrs=attrs)
-
-
-def check_metadata(ds: xr.Dataset) -> list[str]:
-    """Names of variables/coordinates lacking ``units`` or ``long_name`` (empty: all good)."""
-    return [n for n in list(ds.variables)
-            if not ds[n].attrs.get("units") or not ds[n].attrs.get("long_name")]
