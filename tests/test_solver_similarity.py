@@ -91,4 +91,5 @@ def test_shared_spinup_key_and_scale():
     q1, q6 = (resolve_scene(load_case(n), load_fidelity("paper")) for n in (1, 6))
     assert load_fidelity("paper").spinup.u_star_ref is None
     assert keys.spinup_key(q1) != keys.spinup_key(q6)
+    assert q6.case.forcing.u_star_s / q6.spinup_scene().case.forcing.u_star_s == 1.0
     assert q6.spinup_scene() is q6

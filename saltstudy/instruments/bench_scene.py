@@ -127,10 +127,10 @@ def _with_scheme(scene, scheme: str):
     return scene.replace(fidelity={"time": {"vertical_diffusion": scheme}})
 
 
-def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False,
-                       phases: bool = False) -> dict:
-    """The first ``seconds`` of ``scene``'s saltation run from ``restart`` (``tiled``: projected
-    first, solver/tiling.py; ``phases``: the grain kernels' ns per parcel-step)."""
+def _saltation_seconds(scene, restart: dict, seconds: float, phases: bool = False) -> dict:
+    """The first ``seconds`` of ``scene``'s saltation run from ``restart`` (projected first when
+    tiled from ``scene.spinup_fidelity``'s spin-up, as the workflow's driver does; ``phases``: the
+    grain kernels' ns per parcel-step)."""
     from contextlib import nullcontext
 
     from .bench_particles import timed_kernels
@@ -140,7 +140,7 @@ def _saltation_seconds(scene, restart: dict, seconds: float, tiled: bool = False
     from ..analysis.series import limiting_step
     from ..solver.diagnostics.health import step_limits
     m = Model.from_scene(scene, saltation=True, restart=restart)
-    if tiled:
+    if scene.spinup_fidelity is not None:
         project_restart(m)
     m.activate_saltation()
     ts = scene.fidelity.time
@@ -215,8 +215,7 @@ def bench_schemes(case: int = 2, fidelity: str = "quick", schemes: tuple[str, ..
     sp_path = spinup_task(scene, Path(out_dir) if out_dir else default_out_dir())
     restart = archives.start_restart(open_dataset(sp_path), scene)
     per = alternate(rounds, schemes, lambda name: _saltation_seconds(
-        _with_scheme(scene, name), restart, saltation_seconds, tiled=bool(spinup_from),
-        phases=phases))
+        _with_scheme(scene, name), restart, saltation_seconds, phases=phases))
     out = {"case": case, "fidelity": fidelity, "saltation_seconds": saltation_seconds,
            "rounds": rounds, "threads": int(numba.get_num_threads()), "spinup": str(sp_path),
            "start": start, "schemes": {}}

@@ -34,6 +34,7 @@ def _running_dataset(run_dir: Path):
 
     from ..config.fidelity import GridSpec
     from ..solver.grid import Grid
+    from ..workflow.archives import z_ref_below
     from ..workflow.paths import read_task_json
 
     tj = read_task_json(run_dir) or {}
@@ -51,8 +52,8 @@ def _running_dataset(run_dir: Path):
         coords={"time_series": rec.get("series:__times__", []), "z": grid.z_c, "z_w": grid.z_f,
                 "time": rec.get("sample:__times__", [])},
         attrs={"case_json": json.dumps(run), "Lz": spec.Lz, "label": tj.get("label", ""),
-               "u_star_target": forcing["u_star_s"],   # archives.z_ref_eff with the top drive
-               "z_ref_eff": min(forcing["z_ref"], 0.5 * (spec.Lz - spec.damping_depth))})
+               "u_star_target": forcing["u_star_s"],   # the budget needs the top drive
+               "z_ref_eff": z_ref_below(forcing["z_ref"], spec.Lz, spec.damping_depth)})
 
 
 def column_budget(samples: Path, block_s: float = BLOCK_S,

@@ -115,8 +115,12 @@ REFERENCE = ("Dupont, S., G. Bergametti, B. Marticorena and S. Simoëns (2013), 
 def z_ref_eff(scene: Scene) -> float:
     """Height where u* is read (ARCHITECTURE.md, Forcing): below the damping layer, if any (the
     model's own ``z_ref``)."""
-    g = scene.fidelity.grid
-    return min(scene.case.forcing.z_ref, 0.5 * (g.Lz - scene.damping_depth))
+    return z_ref_below(scene.case.forcing.z_ref, scene.fidelity.grid.Lz, scene.damping_depth)
+
+
+def z_ref_below(z_ref: float, Lz: float, damping_depth: float) -> float:
+    """:func:`z_ref_eff` from its parts [m]: z_ref, or half the undamped column if that is lower."""
+    return min(z_ref, 0.5 * (Lz - damping_depth))
 
 
 def plane_heights(scene: Scene) -> np.ndarray:
